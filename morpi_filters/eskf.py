@@ -1,0 +1,585 @@
+"""Error-state Kalman filter on filterpy: INS covariance propagation and MoRPI updates.
+
+The filter estimates the error state of :mod:`morpi_filters.error_model`
+(``[dp, dv, eps, b_a, b_g]``, computed minus true) and drives a
+:class:`filterpy.kalman.KalmanFilter` through its per-call overrides: at every
+IMU epoch ``kf.predict(F=Phi_k, Q=Qd_k)`` with a 1-D ``x``; at every detected
+MoRPI step ``kf.update(z, R=R, H=H)``. ``kf.F`` is never touched. filterpy's
+update is the Joseph form ``P = (I - K H) P (I - K H)^T + K R K^T``; the
+filter symmetrizes P after every update and state reset.
+
+MoRPI step pseudo-measurement
+-----------------------------
+MoRPI measures the distance travelled over one period of the periodic path,
+``s_M = G (max f_y - min f_y)^(1/4)``, and places it along the INS heading.
+The filter compares, over the same step, the INS displacement with the MoRPI
+displacement (horizontal, 2 components)::
+
+    z = (p_ins(t_k) - p_ins(t_c)) - s_M u(psi_hat)
+
+where ``t_c`` is the previous step and ``u = (cos psi, sin psi)``. To first
+order, with ``x_g`` the relative gain error (``s_M = (1 + x_g) s + n``) and
+``J = [[0, -1], [1, 0]]``::
+
+    z = (dp(t_k) - dp(t_c))_xy - s u x_g - s J u (eps_z(t_k) + eps_z(t_c)) / 2 - n
+
+The heading error enters through the mean of its two end values (exact for a
+heading error growing linearly over the step, i.e. a constant ``b_gz``). The
+step-start values come from a *clone* of ``dp`` and ``eps`` held in the
+augmented state (stochastic cloning) and reset to the current values after
+each update. The gain error ``x_g`` is a bias shared by every step (a wrong
+gain is not white noise), so it is an augmented constant state by default;
+with ``augment_gain=False`` its variance is added to R as if it were white,
+which is inconsistent over many steps and is offered for comparison only.
+
+R of one step, along and across the step direction::
+
+    var_along = (s sigma_step)^2 + 2 (speed sigma_jitter)^2 [+ (s sigma_gain)^2 without the gain state]
+    var_cross = sigma_cross^2
+
+The jitter term: each peak time is off by ``N(0, sigma_jitter^2)``, so the
+true displacement between the detected peaks differs from ``s`` by
+``speed (j_k - j_c)``. Consecutive steps share one peak, so this error is a
+moving average of order one; treating it as white overstates its effect on a
+long sum of steps (the sum telescopes), a conservative approximation.
+
+Augmented state layout: the 15 core states, then :data:`C_DP` (3),
+:data:`C_EPS` (3) and, with the gain state, :data:`GAIN` (1).
+
+References
+----------
+.. [1] A. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
+   IEEE J. Indoor and Seamless Positioning and Navigation, 2023.
+.. [2] R. Labbe, FilterPy, ``filterpy.kalman.KalmanFilter`` (predict/update overrides, Joseph form).
+.. [3] S. I. Roumeliotis and J. W. Burdick, "Stochastic cloning: a generalized
+   framework for processing relative state measurements", ICRA 2002.
+   doi:10.1109/ROBOT.2002.1014801
+.. [4] Y. Bar-Shalom, X. R. Li and T. Kirubarajan, "Estimation with Applications
+   to Tracking and Navigation", Wiley, 2001, sec. 5.4 (NEES, NIS, chi-square bands).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from filterpy.kalman import KalmanFilter
+from scipy.stats import chi2
+
+from .error_model import DP, EPS, N_STATES, STATE_NAMES
+from .errors import MorpiError
+
+__all__ = [
+    "C_DP", "C_EPS", "GAIN", "AUG_STATE_NAMES", "Measurement", "FilterResult", "StepModel",
+    "initial_covariance", "augment", "augment_covariance", "step_update", "step_z",
+    "run_filter", "propagate_covariance", "nees", "nis", "chi2_band", "simulate_steps",
+]
+
+#: Clone of the position error at the previous step (augmented state).
+C_DP = slice(15, 18)
+#: Clone of the misalignment at the previous step (augmented state).
+C_EPS = slice(18, 21)
+#: Relative Weinberg gain error (augmented constant state).
+GAIN = slice(21, 22)
+#: Names of the augmented states.
+AUG_STATE_NAMES = STATE_NAMES + tuple("c_" + n for n in STATE_NAMES[DP] + STATE_NAMES[EPS]) + ("gain",)
+
+_J = np.array([[0.0, -1.0], [1.0, 0.0]])
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """One measurement update at one epoch.
+
+    Attributes
+    ----------
+    index : int
+        Epoch index; the update follows the prediction into this epoch.
+    z : ndarray, shape (m,) or (runs, m)
+        Measurement (one per Monte Carlo run when 2-D).
+    H : ndarray, shape (m, k)
+    R : ndarray, shape (m, m)
+    reset : ndarray, shape (k, k) or None
+        Linear state reset applied after the update (``x = T x``,
+        ``P = T P T^T``), e.g. re-cloning the step-start states.
+    """
+
+    index: int
+    z: np.ndarray
+    H: np.ndarray
+    R: np.ndarray
+    reset: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class FilterResult:
+    """Output of :func:`run_filter`.
+
+    Attributes
+    ----------
+    times : ndarray, shape (n + 1,)
+        Epoch times [s].
+    x : ndarray, shape (n + 1, k) or (runs, n + 1, k)
+        Posterior error-state estimate per epoch.
+    sigma : ndarray, shape (n + 1, k)
+        Posterior standard deviation per state (sqrt of diag P).
+    P_end : ndarray, shape (k, k)
+        Final covariance.
+    update_index : ndarray of int, shape (u,)
+        Epoch index of each update.
+    innovations : ndarray, shape (u, m) or (runs, u, m)
+        ``z - H x_prior`` per update.
+    S : ndarray, shape (u, m, m)
+        Innovation covariance per update.
+    normalized_innovations : ndarray, shape (u, m) or (runs, u, m)
+        Innovations whitened by ``S``: ``L^-1 y`` with ``S = L L^T``; each
+        component is N(0, 1) for a consistent filter.
+    P : ndarray, shape (len(P_index), k, k) or None
+        Covariances kept at the epochs `P_index`.
+    P_index : ndarray of int
+        Epochs of `P`.
+    state_names : tuple of str
+    """
+
+    times: np.ndarray
+    x: np.ndarray
+    sigma: np.ndarray
+    P_end: np.ndarray
+    update_index: np.ndarray
+    innovations: np.ndarray
+    S: np.ndarray
+    normalized_innovations: np.ndarray
+    P: np.ndarray | None = None
+    P_index: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    state_names: tuple = STATE_NAMES
+
+    @property
+    def horizontal_sigma(self) -> np.ndarray:
+        """Horizontal position 1 sigma ``sqrt(var dp_x + var dp_y)`` [m], shape (n + 1,)."""
+        return np.sqrt(self.sigma[:, 0] ** 2 + self.sigma[:, 1] ** 2)
+
+    @property
+    def nis(self) -> np.ndarray:
+        """Normalized innovation squared per update, shape (u,) or (runs, u)."""
+        return (self.normalized_innovations ** 2).sum(axis=-1)
+
+
+@dataclass(frozen=True)
+class StepModel:
+    """Error model of one MoRPI step (the Weinberg distance of one period).
+
+    Attributes
+    ----------
+    gain_sigma : float
+        1 sigma of the relative gain error (fraction of the gain); a bias shared
+        by every step.
+    augment_gain : bool
+        Estimate the gain error as an augmented constant state (default). When
+        False its variance is added to R of every step (white; inconsistent).
+    jitter_s : float
+        1 sigma of the peak-detection time jitter [s].
+    step_sigma : float
+        1 sigma of the step-to-step (white) relative error of the Weinberg length.
+    cross_sigma_m : float
+        1 sigma of the cross-track error of one step [m].
+    """
+
+    gain_sigma: float = 0.05
+    augment_gain: bool = True
+    jitter_s: float = 0.01
+    step_sigma: float = 0.02
+    cross_sigma_m: float = 0.02
+
+    def __post_init__(self):
+        for name in ("gain_sigma", "jitter_s", "step_sigma", "cross_sigma_m"):
+            v = getattr(self, name)
+            if not np.isfinite(v) or v < 0:
+                raise MorpiError(f"StepModel.{name}: {v!r} must be a finite number >= 0")
+
+    @property
+    def n_states(self) -> int:
+        """Size of the augmented state."""
+        return GAIN.stop if self.augment_gain else C_EPS.stop
+
+
+def initial_covariance(dv0=0.0, ba=0.0, bg=0.0, dp0=0.0, eps0=0.0):
+    """Diagonal initial covariance of the 15 states from 1-sigma values.
+
+    Parameters
+    ----------
+    dv0, ba, bg, dp0, eps0 : float or array_like, shape (3,)
+        1 sigma per axis: initial velocity error [m/s], accelerometer bias
+        [m/s^2], gyro bias [rad/s], initial position error [m], initial
+        misalignment [rad].
+
+    Returns
+    -------
+    P0 : ndarray, shape (15, 15)
+    """
+    from .error_model import BA, BG, DV
+
+    d = np.zeros(N_STATES)
+    for sl, name, v in ((DP, "dp0", dp0), (DV, "dv0", dv0), (EPS, "eps0", eps0), (BA, "ba", ba), (BG, "bg", bg)):
+        v = np.broadcast_to(np.asarray(v, dtype=float), (3,))
+        if not np.all(np.isfinite(v)):
+            raise MorpiError(f"initial_covariance: {name} must be finite, got {v}")
+        d[sl] = v ** 2
+    return np.diag(d)
+
+
+def augment(Phi, Qd, model: StepModel):
+    """Embed core ``Phi, Qd`` into the augmented state (clones and gain constant).
+
+    Parameters
+    ----------
+    Phi, Qd : ndarray, shape (15, 15) or (n, 15, 15)
+    model : StepModel
+
+    Returns
+    -------
+    Phi_a, Qd_a : ndarray, shape (k, k) or (n, k, k), ``k = model.n_states``
+    """
+    k = model.n_states
+    Phi = np.asarray(Phi, dtype=float)
+    Phi_a = np.zeros(Phi.shape[:-2] + (k, k))
+    Phi_a[..., :N_STATES, :N_STATES] = Phi
+    idx = np.arange(N_STATES, k)
+    Phi_a[..., idx, idx] = 1.0
+    Qd_a = np.zeros_like(Phi_a)
+    Qd_a[..., :N_STATES, :N_STATES] = Qd
+    return Phi_a, Qd_a
+
+
+def _clone_reset(k):
+    T = np.eye(k)
+    for c, s in ((C_DP, DP), (C_EPS, EPS)):
+        T[c, :] = 0.0
+        T[c, s] = np.eye(3)
+    return T
+
+
+def augment_covariance(P0, model: StepModel):
+    """Augmented initial covariance: clones equal to their states, gain prior.
+
+    Parameters
+    ----------
+    P0 : ndarray, shape (15, 15)
+    model : StepModel
+
+    Returns
+    -------
+    P0_a : ndarray, shape (k, k)
+    """
+    k = model.n_states
+    P = np.zeros((k, k))
+    P[:N_STATES, :N_STATES] = P0
+    if model.augment_gain:
+        P[GAIN, GAIN] = model.gain_sigma ** 2
+    T = _clone_reset(k)
+    return T @ P @ T.T
+
+
+def step_update(index, length, psi, model: StepModel, speed, z=None):
+    """The MoRPI step pseudo-measurement at one detected step.
+
+    Parameters
+    ----------
+    index : int
+        Epoch of the step's end peak.
+    length : float
+        Step length ``s`` [m] (nominal, or the MoRPI value).
+    psi : float
+        Heading of the step [rad].
+    model : StepModel
+    speed : float
+        Speed along the path [m/s] (jitter term of R).
+    z : array_like, shape (2,) or (runs, 2), optional
+        The measurement (see :func:`step_z`); zeros for a covariance analysis.
+
+    Returns
+    -------
+    Measurement
+        With the clone reset attached.
+    """
+    k = model.n_states
+    u = np.array([np.cos(psi), np.sin(psi)])
+    Ju = _J @ u
+    H = np.zeros((2, k))
+    H[:, DP.start:DP.start + 2] = np.eye(2)
+    H[:, C_DP.start:C_DP.start + 2] = -np.eye(2)
+    H[:, EPS.stop - 1] = -0.5 * length * Ju
+    H[:, C_EPS.stop - 1] = -0.5 * length * Ju
+    var_along = (length * model.step_sigma) ** 2 + 2.0 * (speed * model.jitter_s) ** 2
+    if model.augment_gain:
+        H[:, GAIN.start] = -length * u
+    else:
+        var_along += (length * model.gain_sigma) ** 2
+    R = var_along * np.outer(u, u) + model.cross_sigma_m ** 2 * np.outer(Ju, Ju)
+    z = np.zeros(2) if z is None else np.asarray(z, dtype=float)
+    return Measurement(index=int(index), z=z, H=H, R=R, reset=_clone_reset(k))
+
+
+def step_z(p_ins_end, p_ins_start, length_morpi, psi_hat):
+    """Measurement of one step from an INS and MoRPI: ``dp_ins - s_M u(psi_hat)``.
+
+    Parameters
+    ----------
+    p_ins_end, p_ins_start : array_like, shape (2,) or (runs, 2)
+        INS horizontal positions at the step's end and start peaks [m].
+    length_morpi : float or array_like, shape (runs,)
+        Weinberg step length [m].
+    psi_hat : float or array_like, shape (runs,)
+        Heading of the step from the INS [rad].
+
+    Returns
+    -------
+    z : ndarray, shape (2,) or (runs, 2)
+    """
+    psi_hat = np.asarray(psi_hat, dtype=float)
+    u = np.stack([np.cos(psi_hat), np.sin(psi_hat)], -1)
+    return (np.asarray(p_ins_end, float) - np.asarray(p_ins_start, float)
+            - np.asarray(length_morpi, float)[..., None] * u)
+
+
+def _symmetrize(P):
+    return 0.5 * (P + P.T)
+
+
+def run_filter(Phi, Qd, P0, times, measurements=(), x0=None, keep_P=False):
+    """Run the error-state filter through filterpy.
+
+    Parameters
+    ----------
+    Phi, Qd : ndarray, shape (k, k) or (n, k, k)
+        Transition and process noise of each step (constant when 2-D).
+    P0 : ndarray, shape (k, k)
+    times : array_like, shape (n + 1,)
+        Epoch times [s] (for the result only; the steps are in Phi, Qd).
+    measurements : sequence of Measurement
+        Sorted by `index` (1..n; several per epoch allowed). When any ``z`` is
+        2-D, the estimate is run for every Monte Carlo run at once with the
+        gains of the single covariance recursion (batched over runs); run 0 is
+        also the filterpy state.
+    x0 : ndarray, shape (k,) or (runs, k), optional
+        Initial estimate (zeros by default).
+    keep_P : bool or array_like of int
+        Keep the full covariance at every epoch (True) or at these epochs.
+
+    Returns
+    -------
+    FilterResult
+    """
+    Phi = np.asarray(Phi, dtype=float)
+    Qd = np.asarray(Qd, dtype=float)
+    times = np.asarray(times, dtype=float)
+    n = times.size - 1
+    k = Phi.shape[-1]
+    if Phi.ndim == 3 and Phi.shape[0] != n or Qd.ndim == 3 and Qd.shape[0] != n:
+        raise MorpiError(f"Phi {Phi.shape} / Qd {Qd.shape}: expected one matrix per step ({n} steps)")
+    P0 = np.asarray(P0, dtype=float)
+    if P0.shape != (k, k):
+        raise MorpiError(f"P0: expected shape ({k}, {k}), got {P0.shape}")
+    meas = sorted(measurements, key=lambda m: m.index)
+    if meas and not (1 <= meas[0].index and meas[-1].index <= n):
+        raise MorpiError(f"measurement index out of range 1..{n}")
+    runs = None
+    for m in meas:
+        if np.ndim(m.z) == 2:
+            runs = np.shape(m.z)[0]
+    if x0 is not None and np.ndim(x0) == 2:
+        runs = np.shape(x0)[0]
+    if runs is None:
+        X = np.zeros(k) if x0 is None else np.array(x0, dtype=float)
+    else:
+        X = np.zeros((runs, k)) if x0 is None else np.broadcast_to(np.asarray(x0, float), (runs, k)).copy()
+
+    dim_z = meas[0].H.shape[0] if meas else 1
+    kf = KalmanFilter(dim_x=k, dim_z=dim_z)
+    kf.x = (X if runs is None else X[0]).copy()
+    kf.P = P0.copy()
+
+    if keep_P is True:
+        P_index = np.arange(n + 1)
+    elif keep_P is False or keep_P is None:
+        P_index = np.zeros(0, int)
+    else:
+        P_index = np.unique(np.asarray(keep_P, dtype=int))
+    keep = np.zeros(n + 1, bool)
+    keep[P_index] = True
+    P_store = np.empty((P_index.size, k, k)) if P_index.size else None
+    slot = 0
+
+    xs = np.empty((n + 1,) + X.shape)
+    var = np.empty((n + 1, k))
+    xs[0], var[0] = X, np.diag(kf.P)
+    if keep[0]:
+        P_store[slot] = kf.P
+        slot += 1
+    ys, Ss, ws = [], [], []
+    mi = 0
+    const = Phi.ndim == 2
+    for i in range(n):
+        F_i = Phi if const else Phi[i]
+        Q_i = Qd if Qd.ndim == 2 else Qd[i]
+        kf.predict(F=F_i, Q=Q_i)
+        if runs is not None:
+            X = X @ F_i.T
+        while mi < len(meas) and meas[mi].index == i + 1:
+            m = meas[mi]
+            mi += 1
+            z = np.asarray(m.z, dtype=float)
+            H, R = m.H, m.R
+            if runs is None:
+                y = z - H @ kf.x
+            else:
+                Z = np.broadcast_to(z, (runs, H.shape[0]))
+                y = Z - X @ H.T
+            kf.update(z if runs is None else Z[0], R=R, H=H)
+            kf.P = _symmetrize(kf.P)
+            S = kf.S
+            L = np.linalg.cholesky(S)
+            ys.append(y)
+            Ss.append(S)
+            ws.append(np.linalg.solve(L, y.T).T if runs is not None else np.linalg.solve(L, y))
+            if runs is not None:
+                X = X + y @ kf.K.T
+            if m.reset is not None:
+                T = m.reset
+                kf.x = T @ kf.x
+                kf.P = _symmetrize(T @ kf.P @ T.T)
+                if runs is not None:
+                    X = X @ T.T
+        if runs is None:
+            X = kf.x
+        xs[i + 1], var[i + 1] = X, np.diag(kf.P)
+        if keep[i + 1]:
+            P_store[slot] = kf.P
+            slot += 1
+
+    m_dim = dim_z
+    if runs is None:
+        innov = np.array(ys).reshape(len(ys), m_dim)
+        white = np.array(ws).reshape(len(ws), m_dim)
+        x_out = xs
+    else:
+        innov = np.array(ys).reshape(len(ys), runs, m_dim).transpose(1, 0, 2)
+        white = np.array(ws).reshape(len(ws), runs, m_dim).transpose(1, 0, 2)
+        x_out = xs.transpose(1, 0, 2)
+    names = AUG_STATE_NAMES[:k] if k > N_STATES else STATE_NAMES[:k]
+    return FilterResult(
+        times=times, x=x_out, sigma=np.sqrt(np.clip(var, 0.0, None)), P_end=kf.P.copy(),
+        update_index=np.array([m.index for m in meas], dtype=int),
+        innovations=innov, S=np.array(Ss).reshape(len(Ss), m_dim, m_dim),
+        normalized_innovations=white, P=P_store, P_index=P_index, state_names=names,
+    )
+
+
+def propagate_covariance(Phi, Qd, P0, n):
+    """Covariance of a constant-``Phi`` prediction at epochs ``0..n``, vectorized.
+
+    ``P_k = Phi^k P0 Phi^kT + sum_{j<k} Phi^j Qd Phi^jT``, the closed form of
+    the recursion ``P <- Phi P Phi^T + Qd`` that :func:`run_filter` runs through
+    filterpy. The powers ``Phi^j`` come from ``log2(n)`` batched doublings.
+
+    Parameters
+    ----------
+    Phi, Qd : ndarray, shape (k, k)
+    P0 : ndarray, shape (k, k)
+    n : int
+
+    Returns
+    -------
+    P : ndarray, shape (n + 1, k, k)
+    """
+    Phi = np.asarray(Phi, dtype=float)
+    A = np.eye(Phi.shape[0])[None]
+    step = Phi
+    while A.shape[0] < n + 1:
+        A = np.concatenate([A, A @ step])
+        step = step @ step
+    A = A[: n + 1]
+    At = np.swapaxes(A, -1, -2)
+    terms = A @ Qd @ At
+    Qsum = np.concatenate([np.zeros((1,) + Phi.shape), np.cumsum(terms[:-1], axis=0)])
+    return A @ P0 @ At + Qsum
+
+
+def nees(err, P):
+    """Normalized estimation error squared ``e^T P^-1 e``.
+
+    Parameters
+    ----------
+    err : ndarray, shape (..., n, d)
+        Estimate minus truth of the selected states.
+    P : ndarray, shape (n, d, d)
+        Their covariance per epoch (non-singular).
+
+    Returns
+    -------
+    ndarray, shape (..., n)
+    """
+    L = np.linalg.cholesky(P)
+    w = np.linalg.solve(L, np.moveaxis(err, -1, -1)[..., None])[..., 0]
+    return (w ** 2).sum(axis=-1)
+
+
+def nis(result: FilterResult):
+    """Normalized innovation squared of every update (see :class:`FilterResult`)."""
+    return result.nis
+
+
+def chi2_band(dof, runs, confidence=0.95):
+    """Two-sided band of the run-averaged NEES/NIS of a consistent filter.
+
+    ``runs * mean`` is chi-square with ``runs * dof`` degrees of freedom [4]_.
+
+    Returns
+    -------
+    (lo, hi) : tuple of float
+    """
+    a = (1.0 - confidence) / 2.0
+    return (chi2.ppf(a, runs * dof) / runs, chi2.ppf(1.0 - a, runs * dof) / runs)
+
+
+def simulate_steps(X, step_index, length, psi, model: StepModel, speed, gain, rng):
+    """Synthetic MoRPI step measurements of simulated error-state runs.
+
+    Parameters
+    ----------
+    X : ndarray, shape (runs, n + 1, 15)
+        True error states (e.g. from :func:`error_model.simulate_linear`).
+    step_index : array_like of int, shape (s,)
+        Epochs of the step peaks; the first step starts at epoch 0.
+    length, psi : float
+        Step length [m] and heading [rad].
+    model : StepModel
+    speed : float
+        [m/s].
+    gain : ndarray, shape (runs,)
+        True relative gain error per run.
+    rng : numpy.random.Generator
+
+    Returns
+    -------
+    list of Measurement
+        With ``z`` of shape (runs, 2), ready for :func:`run_filter`.
+    """
+    runs = X.shape[0]
+    out = []
+    prev = 0
+    for idx in step_index:
+        m = step_update(idx, length, psi, model, speed)
+        xa = np.zeros((runs, m.H.shape[1]))
+        xa[:, :N_STATES] = X[:, idx]
+        xa[:, C_DP] = X[:, prev, DP]
+        xa[:, C_EPS] = X[:, prev, EPS]
+        if model.augment_gain:
+            xa[:, GAIN] = gain[:, None]
+        z = xa @ m.H.T
+        if not model.augment_gain:
+            u = np.array([np.cos(psi), np.sin(psi)])
+            z = z - length * gain[:, None] * u
+        lam, V = np.linalg.eigh(m.R)
+        z = z + rng.standard_normal((runs, 2)) @ (V * np.sqrt(np.clip(lam, 0, None))).T
+        out.append(Measurement(index=m.index, z=z, H=m.H, R=m.R, reset=m.reset))
+        prev = idx
+    return out
