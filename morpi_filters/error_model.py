@@ -383,7 +383,7 @@ def discretize(F, G, Q, dt):
     return Discretized(Phi=np.ascontiguousarray(Phi), Qd=Qd)
 
 
-def simulate_linear(F, G, Q, P0, dt, n_steps, runs, rng):
+def simulate_linear(F, G, Q, P0, dt, n_steps, runs, rng, keep=None):
     """Monte Carlo of the linear error model with sampled white noise.
 
     Each run draws ``x0 ~ N(0, P0)`` and integrates ``x_dot = F x + G w``
@@ -401,38 +401,49 @@ def simulate_linear(F, G, Q, P0, dt, n_steps, runs, rng):
     Q : array_like, shape (m, m)
     P0 : array_like, shape (k, k)
         Initial covariance (positive semi-definite).
-    dt : float
-        Step [s], > 0.
+    dt : float or array_like, shape (n_steps,)
+        Step(s) [s], > 0.
     n_steps : int
     runs : int
     rng : numpy.random.Generator
+    keep : array_like of int, optional
+        Epochs (0..n_steps) to return; all by default.
 
     Returns
     -------
-    ndarray, shape (runs, n_steps + 1, k)
-        Error states at ``t = 0, dt, ..., n_steps dt``.
+    ndarray, shape (runs, n_steps + 1, k) or (runs, len(keep), k)
+        Error states at the epochs ``0..n_steps`` (or at `keep`).
     """
     F = np.asarray(F, dtype=float)
     G = np.asarray(G, dtype=float)
     Q = np.asarray(Q, dtype=float)
     k, m = G.shape[-2], G.shape[-1]
-    if dt <= 0:
-        raise MorpiError(f"dt: {dt} must be > 0 [s]")
-    M = np.zeros(np.broadcast_shapes(F.shape[:-2], G.shape[:-2]) + (k + m, k + m))
+    dt = np.asarray(dt, dtype=float)
+    if not np.all(np.isfinite(dt)) or np.any(dt <= 0) or dt.ndim > 1 or (dt.ndim == 1 and dt.size != n_steps):
+        raise MorpiError(f"dt: expected a step > 0 [s] or {n_steps} of them")
+    M = np.zeros(np.broadcast_shapes(F.shape[:-2], G.shape[:-2], dt.shape) + (k + m, k + m))
     M[..., :k, :k] = F
     M[..., :k, k:] = G
-    E = expm(M * dt)
+    E = expm(M * (dt[..., None, None] if dt.ndim else dt))
     Phi, Gam = E[..., :k, :k], E[..., :k, k:]
     # P0 may be singular (zero initial position error): factor by eigenvalues
     lam, V = np.linalg.eigh(np.asarray(P0, dtype=float))
     L0 = V * np.sqrt(np.clip(lam, 0.0, None))
-    lq, Vq = np.linalg.eigh(Q / dt)
+    lq, Vq = np.linalg.eigh(Q)
     Lq = Vq * np.sqrt(np.clip(lq, 0.0, None))
-    X = np.empty((runs, n_steps + 1, k))
-    X[:, 0] = rng.standard_normal((runs, k)) @ L0.T
+    sdt = 1.0 / np.sqrt(np.broadcast_to(dt, (n_steps,)))
+    keep = np.arange(n_steps + 1) if keep is None else np.asarray(keep, dtype=int)
+    slot = np.full(n_steps + 1, -1)
+    slot[keep] = np.arange(keep.size)
+    out = np.empty((runs, keep.size, k))
+    x = rng.standard_normal((runs, k)) @ L0.T
+    if slot[0] >= 0:
+        out[:, slot[0]] = x
     for i in range(n_steps):
         Ph = Phi if Phi.ndim == 2 else Phi[i]
         Ga = Gam if Gam.ndim == 2 else Gam[i]
-        w = rng.standard_normal((runs, m)) @ Lq.T
-        X[:, i + 1] = X[:, i] @ Ph.T + w @ Ga.T
-    return X
+        w = (rng.standard_normal((runs, m)) @ Lq.T) * sdt[i]
+        x = x @ Ph.T + w @ Ga.T
+        if slot[i + 1] >= 0:
+            out[:, slot[i + 1]] = x
+    return out
