@@ -370,6 +370,12 @@ def discretize(F, G, Q, dt):
     lead = np.broadcast_shapes(F.shape[:-2], G.shape[:-2], Q.shape[:-2], dt.shape)
     if len(lead) > 1:
         raise MorpiError("discretize: stacks must share one leading (time) axis")
+    if F.ndim == 2 and G.ndim == 2 and Q.ndim == 2 and dt.ndim == 1:
+        # one model, many steps: exponentiate each distinct step once
+        u, inv = np.unique(dt, return_inverse=True)
+        if u.size < dt.size:
+            D = discretize(F, G, Q, u)
+            return Discretized(Phi=D.Phi[inv], Qd=D.Qd[inv])
     GQGt = G @ Q @ np.swapaxes(G, -1, -2)
     M = np.zeros(lead + (2 * k, 2 * k))
     M[..., :k, :k] = -F
@@ -421,10 +427,14 @@ def simulate_linear(F, G, Q, P0, dt, n_steps, runs, rng, keep=None):
     dt = np.asarray(dt, dtype=float)
     if not np.all(np.isfinite(dt)) or np.any(dt <= 0) or dt.ndim > 1 or (dt.ndim == 1 and dt.size != n_steps):
         raise MorpiError(f"dt: expected a step > 0 [s] or {n_steps} of them")
-    M = np.zeros(np.broadcast_shapes(F.shape[:-2], G.shape[:-2], dt.shape) + (k + m, k + m))
+    dts, inv = (np.unique(dt, return_inverse=True) if F.ndim == 2 and G.ndim == 2 and dt.ndim == 1
+                else (dt, None))
+    M = np.zeros(np.broadcast_shapes(F.shape[:-2], G.shape[:-2], dts.shape) + (k + m, k + m))
     M[..., :k, :k] = F
     M[..., :k, k:] = G
-    E = expm(M * (dt[..., None, None] if dt.ndim else dt))
+    E = expm(M * (dts[..., None, None] if dts.ndim else dts))
+    if inv is not None:
+        E = E[inv]
     Phi, Gam = E[..., :k, :k], E[..., :k, k:]
     # P0 may be singular (zero initial position error): factor by eigenvalues
     lam, V = np.linalg.eigh(np.asarray(P0, dtype=float))

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-__all__ = ["pyplot", "save"]
+__all__ = ["pyplot", "save", "plot_curves"]
 
 
 def pyplot():
@@ -47,6 +47,45 @@ def save(fig, path, dpi: int = 120) -> Path:
 
 # ============================================================================ curves (filter covariance)
 # Closed form, filter sigma, Monte Carlo RMS and field end-point errors on one axis.
+
+_CURVE_PANELS = (("ins3d", "3D INS"), ("ins2d", "2D INS"), ("morpi", "MoRPI-aided INS"))
+
+
+def plot_curves(curves, path):
+    """One figure per case: a panel per method, every error view on the same axes.
+
+    Parameters
+    ----------
+    curves : curves.CaseCurves
+    path : path
+        PNG destination.
+    """
+    import numpy as np
+
+    plt = pyplot()
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4.2), sharex=True)
+    for ax, (key, title) in zip(axes, _CURVE_PANELS):
+        t = curves.times
+        ax.plot(t, curves.sigma[key], color="C0", lw=2, label="filter 1 sigma")
+        ax.plot(t, curves.rms_closed_form[key], color="C1", ls="--", label="closed-form RMS")
+        if key in curves.realisation:
+            ax.plot(t, curves.realisation[key], color="C2", ls=":", label="closed form, one realisation")
+        if key in curves.mc_rms:
+            ax.plot(curves.mc_times, curves.mc_rms[key], color="C3", marker=".", ls="none", ms=3,
+                    label=f"Monte Carlo RMS ({curves.mc_runs} runs)")
+        pts = curves.field.get(key) if curves.field else None
+        if pts:
+            d, e = np.asarray(pts).T
+            ax.plot(d, e, "kx", label="field end points")
+        ax.set_title(title)
+        ax.set_xlabel("time [s]")
+        ax.set_yscale("symlog", linthresh=1e-2)
+        ax.grid(True, alpha=0.3)
+    axes[0].set_ylabel("horizontal position error [m]")
+    axes[0].legend(fontsize=8)
+    fig.suptitle(curves.case.title)
+    fig.tight_layout()
+    return save(fig, path)
 
 
 # ============================================================================ montecarlo and drift

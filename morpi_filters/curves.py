@@ -1,0 +1,482 @@
+"""Covariance curves: closed form, filter sigma, Monte Carlo and field errors side by side.
+
+For each *case* (a parameter file, or one of the paper's IMUs) and each method
+(3D INS, 2D INS, MoRPI-aided INS) this module computes, over time:
+
+* the error-state filter's horizontal 1 sigma (:mod:`morpi_filters.eskf`,
+  covariance propagation at the IMU rate, MoRPI steps as pseudo-measurements);
+* the closed-form RMS: the expectation of the squared paper polynomials for
+  independent zero-mean errors with the given 1-sigma values (process noise
+  not included, as in the paper);
+* the closed-form error of one realisation (the parameters taken as values,
+  as ``morpi assess`` reads them);
+* the Monte Carlo RMS over seeded runs of the linear error model (sampled
+  white noise, :func:`morpi_filters.error_model.simulate_linear`), and for the
+  MoRPI-aided case the RMS of the filter's own estimation error;
+* when a data source is configured, the field recordings' end-point errors at
+  their durations (once the strapdown and step modules are available).
+
+Nominal trajectory and assumptions (the paper's analytical assessment [1]_):
+``C_b^n = I`` and ``f^n = (0, 0, g)``, z-up package convention. As in the
+paper, the heading error is common to every method and the gyro z-bias is
+left out (``keep_bgz=False``): its 1 sigma is set to zero in every case.
+The MoRPI steps are ``STEP_LENGTH_M`` long, one every
+``STEP_LENGTH_M / morpi_speed_mps`` seconds; the relative gain error has
+1 sigma ``dG[0]`` and is estimated as a constant augmented state.
+The parameter file's ``process_noise`` switch adds the white noise of the
+MPU-6500 datasheet to the parameter-file case (the noisier of the two IMUs)
+and the IMU's own noise to each IMU case.
+
+References
+----------
+.. [1] A. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
+   IEEE J. Indoor and Seamless Positioning and Navigation, 2023.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from . import units
+from .error_model import (
+    DP, discretize, noise_coupling, noise_density, paper_trajectory, planar_noise_coupling,
+    planar_noise_density, planar_system_matrix, simulate_linear, system_matrix,
+)
+from .errors import MorpiError
+from .eskf import (
+    StepModel, augment, augment_covariance, initial_covariance, run_filter, simulate_steps, step_update,
+)
+
+__all__ = [
+    "STEP_LENGTH_M", "DEFAULT_TIMES", "CurveCase", "CaseCurves", "case_from_params", "case_from_sensor",
+    "time_grid", "closed_form_mean_square", "closed_form_errors", "compute_curves", "report_curves",
+]
+
+#: Length of one MoRPI step [m]: the 1 m peak-to-peak period of the paper's periodic routes.
+STEP_LENGTH_M = 1.0
+#: Default evaluation times [s]: 0..15 s.
+DEFAULT_TIMES = tuple(float(t) for t in range(16))
+#: IMU sampling step of the filter [s] (100 Hz, the dataset's rate).
+FILTER_DT = 0.01
+#: Step of the Monte Carlo runs [s].
+MC_DT = 0.05
+#: Monte Carlo runs per case and seed of the curves.
+MC_RUNS, MC_SEED = 1000, 20230901
+#: Noise spec used for a parameter file with ``process_noise: true``.
+PARAMS_NOISE_SPEC = units.MPU6500
+
+
+@dataclass(frozen=True)
+class CurveCase:
+    """1-sigma error parameters of one set of curves (SI).
+
+    Attributes
+    ----------
+    name : str
+        Short name (file-name safe).
+    title : str
+    dv0, ba, bg : ndarray, shape (3,)
+        1 sigma of the initial velocity error [m/s], accelerometer bias
+        [m/s^2] and gyro bias [rad/s].
+    g : float
+        Gravity [m/s^2].
+    gain_sigma : float
+        1 sigma of the relative Weinberg gain error.
+    speed : float
+        Speed along the path [m/s].
+    noise : units.SensorSpec or None
+        White noise added to the model (None: no process noise).
+    realisation : tuple of ndarray or None
+        ``(dv0, ba, bg, dG)`` read as one error realisation (parameter file).
+    """
+
+    name: str
+    title: str
+    dv0: np.ndarray
+    ba: np.ndarray
+    bg: np.ndarray
+    g: float
+    gain_sigma: float
+    speed: float
+    noise: units.SensorSpec | None = None
+    realisation: tuple | None = None
+
+
+def _drop_bgz(bg):
+    bg = np.array(bg, dtype=float)
+    bg[2] = 0.0  # z axis: common heading error, left out as in the paper
+    return bg
+
+
+def case_from_params(params, noise_spec=PARAMS_NOISE_SPEC) -> CurveCase:
+    """The case of a parameter file (values read as 1 sigma).
+
+    Parameters
+    ----------
+    params : params.ErrorParams
+    noise_spec : units.SensorSpec
+        Noise used when ``params.process_noise`` is true.
+    """
+    return CurveCase(
+        name="params", title=f"parameter file {params.source}", dv0=np.abs(params.dv0), ba=np.abs(params.ba),
+        bg=_drop_bgz(np.abs(params.bg)), g=params.g, gain_sigma=abs(params.dG[0]), speed=params.morpi_speed_mps,
+        noise=noise_spec if params.process_noise else None,
+        realisation=(params.dv0, params.ba, _drop_bgz(params.bg), params.dG[0]),
+    )
+
+
+def case_from_sensor(spec, params) -> CurveCase:
+    """The case of one IMU: datasheet biases, `params` for the rest.
+
+    Parameters
+    ----------
+    spec : units.SensorSpec
+        Turn-on biases as 1 sigma per axis; its noise when
+        ``params.process_noise`` is true.
+    params : params.ErrorParams
+        Initial velocity error, gravity, gain error, speed.
+    """
+    return CurveCase(
+        name=spec.name.lower().replace("-", ""), title=f"{spec.name} ({spec.phone.upper()})",
+        dv0=np.abs(params.dv0), ba=np.full(3, spec.accel_bias), bg=_drop_bgz(np.full(3, spec.gyro_bias)),
+        g=params.g, gain_sigma=abs(params.dG[0]), speed=params.morpi_speed_mps,
+        noise=spec if params.process_noise else None,
+    )
+
+
+def closed_form_mean_square(case: CurveCase, t, kind):
+    """Expected squared horizontal error of the paper's linearized polynomials.
+
+    ``E[dp_x^2 + dp_y^2]`` for independent zero-mean errors (z-up)::
+
+        3D:    (s_vx^2 + s_vy^2) t^2 + (s_ax^2 + s_ay^2) t^4 / 4 + g^2 (s_gx^2 + s_gy^2) t^6 / 36
+        2D:    (s_vx^2 + s_vy^2) t^2 + (s_ax^2 + s_ay^2) t^4 / 4
+        morpi: (s_G speed t)^2        (distance error = dG x distance travelled)
+
+    Parameters
+    ----------
+    case : CurveCase
+    t : array_like, shape (n,)
+        Times [s].
+    kind : {"ins3d", "ins2d", "morpi"}
+
+    Returns
+    -------
+    ndarray, shape (n,)  [m^2]
+    """
+    # Stands in for symbolic.closed_form_mean_square until that module is available.
+    t = np.asarray(t, dtype=float)
+    sv, sa, sg = case.dv0, case.ba, case.bg
+    base = (sv[0] ** 2 + sv[1] ** 2) * t ** 2 + (sa[0] ** 2 + sa[1] ** 2) * t ** 4 / 4
+    if kind == "ins3d":
+        return base + case.g ** 2 * (sg[0] ** 2 + sg[1] ** 2) * t ** 6 / 36
+    if kind == "ins2d":
+        return base
+    if kind == "morpi":
+        return (case.gain_sigma * case.speed * t) ** 2
+    raise MorpiError(f"kind {kind!r}: expected 'ins3d', 'ins2d' or 'morpi'")
+
+
+def closed_form_errors(dv0, ba, bg, dG, g, speed, t, kind):
+    """Horizontal error of one realisation of the paper's polynomials (z-up, linearized).
+
+    ``dp_x = dv_x t + b_ax t^2/2 + g b_gy t^3/6``,
+    ``dp_y = dv_y t + b_ay t^2/2 - g b_gx t^3/6`` (3D; 2D without the gyro
+    terms); MoRPI: ``|dG| speed t``.
+
+    Returns
+    -------
+    ndarray, shape (n,)  [m]
+    """
+    # Stands in for symbolic.closed_form_errors until that module is available.
+    t = np.asarray(t, dtype=float)
+    if kind == "morpi":
+        return np.abs(dG) * speed * t
+    dx = dv0[0] * t + ba[0] * t ** 2 / 2
+    dy = dv0[1] * t + ba[1] * t ** 2 / 2
+    if kind == "ins3d":
+        dx = dx + g * bg[1] * t ** 3 / 6
+        dy = dy - g * bg[0] * t ** 3 / 6
+    elif kind != "ins2d":
+        raise MorpiError(f"kind {kind!r}: expected 'ins3d', 'ins2d' or 'morpi'")
+    return np.hypot(dx, dy)
+
+
+def time_grid(times, dt, step_period=None):
+    """Epochs of a run: a uniform grid plus the requested times and step times.
+
+    Parameters
+    ----------
+    times : array_like, shape (m,)
+        Requested times [s], >= 0.
+    dt : float
+        Nominal step [s].
+    step_period : float, optional
+        MoRPI step period [s].
+
+    Returns
+    -------
+    grid : ndarray, shape (n + 1,)
+        Sorted, unique, starting at 0.
+    steps : ndarray of int
+        Epoch indices of the MoRPI steps (empty without `step_period`).
+    at : ndarray of int, shape (m,)
+        Epoch index of each requested time.
+    """
+    times = np.asarray(times, dtype=float)
+    T = float(times.max()) if times.size else 0.0
+    parts = [np.arange(0.0, T, dt), [T], times]
+    st = np.zeros(0)
+    if step_period is not None:
+        st = np.arange(1, int(np.floor(T / step_period + 1e-9)) + 1) * step_period
+        parts.append(st)
+    grid = np.unique(np.round(np.concatenate(parts), 9))
+    at = np.searchsorted(grid, np.round(times, 9))
+    steps = np.searchsorted(grid, np.round(st, 9))
+    return grid, steps.astype(int), at.astype(int)
+
+
+@dataclass(frozen=True)
+class CaseCurves:
+    """Every curve of one case, on a dense time grid.
+
+    Attributes
+    ----------
+    case : CurveCase
+    times : ndarray, shape (n,)
+        Dense grid [s].
+    sigma : dict of str -> ndarray, shape (n,)
+        Filter horizontal 1 sigma per method (``ins3d, ins2d, morpi``) [m].
+    rms_closed_form : dict of str -> ndarray, shape (n,)
+        Closed-form RMS per method [m].
+    realisation : dict of str -> ndarray, shape (n,)
+        Closed-form error of one realisation per method [m] (empty when the
+        case has none).
+    mc_times : ndarray, shape (nm,)
+    mc_rms : dict of str -> ndarray, shape (nm,)
+        Monte Carlo RMS of the horizontal error per method [m].
+    mc_runs : int
+    """
+
+    case: CurveCase
+    times: np.ndarray
+    sigma: dict
+    rms_closed_form: dict
+    realisation: dict
+    mc_times: np.ndarray
+    mc_rms: dict
+    mc_runs: int
+    eval_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    eval_index: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    mc_eval_index: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    field: dict = field(default_factory=dict)
+
+    def at_eval_times(self) -> dict:
+        """Every curve at the requested times (grid epochs, no interpolation).
+
+        Returns
+        -------
+        dict
+            ``sigma_<method>_m``, ``rms_closed_form_<method>_m``,
+            ``closed_form_error_<method>_m`` (with a realisation) and
+            ``mc_rms_<method>_m`` (with a Monte Carlo), each shape (m,).
+        """
+        out = {}
+        for k in ("ins3d", "ins2d", "morpi"):
+            out[f"sigma_{k}_m"] = self.sigma[k][self.eval_index]
+            out[f"rms_closed_form_{k}_m"] = self.rms_closed_form[k][self.eval_index]
+            if k in self.realisation:
+                out[f"closed_form_error_{k}_m"] = self.realisation[k][self.eval_index]
+            if k in self.mc_rms:
+                out[f"mc_rms_{k}_m"] = self.mc_rms[k][self.mc_eval_index]
+        return out
+
+
+def _models(case: CurveCase):
+    """Continuous 3D and planar models and initial covariances of a case."""
+    C, f = paper_trajectory(case.g)
+    F3, G3 = system_matrix(C, f), noise_coupling(C)
+    F2, G2 = planar_system_matrix(0.0, np.zeros(2)), planar_noise_coupling(0.0)
+    if case.noise is None:
+        Q3, Q2 = np.zeros((G3.shape[1],) * 2), np.zeros((G2.shape[1],) * 2)
+    else:
+        Q3, Q2 = noise_density(case.noise), planar_noise_density(case.noise)
+    P3 = initial_covariance(case.dv0, case.ba, case.bg)
+    P2 = np.diag(np.r_[0.0, 0.0, case.dv0[:2] ** 2, 0.0, case.ba[:2] ** 2, case.bg[2] ** 2])
+    return (F3, G3, Q3, P3), (F2, G2, Q2, P2)
+
+
+def _steps(grid):
+    # steps of a uniform grid differ in the last bits; rounding to 1e-12 s makes
+    # them equal, so that discretize() exponentiates each distinct step once
+    return np.round(np.diff(grid), 12)
+
+
+def _run_methods(case, grid, steps, model):
+    (F3, G3, Q3, P3), (F2, G2, Q2, P2) = _models(case)
+    dts = _steps(grid)
+    D3, D2 = discretize(F3, G3, Q3, dts), discretize(F2, G2, Q2, dts)
+    out = {
+        "ins3d": run_filter(D3.Phi, D3.Qd, P3, grid),
+        "ins2d": run_filter(D2.Phi, D2.Qd, P2, grid),
+    }
+    Phi_a, Qd_a = augment(D3.Phi, D3.Qd, model)
+    meas = [step_update(i, STEP_LENGTH_M, 0.0, model, case.speed) for i in steps]
+    out["morpi"] = run_filter(Phi_a, Qd_a, augment_covariance(P3, model), grid, meas)
+    return out
+
+
+def _monte_carlo(case, times, model, runs, rng):
+    period = STEP_LENGTH_M / case.speed
+    grid, steps, at = time_grid(times, MC_DT, period)
+    dts = _steps(grid)
+    (F3, G3, Q3, P3), (F2, G2, Q2, P2) = _models(case)
+    n = grid.size - 1
+    rng3, rng2, rngs, rngg = rng.spawn(4)
+    X3 = simulate_linear(F3, G3, Q3, P3, dts, n, runs, rng3)
+    X2 = simulate_linear(F2, G2, Q2, P2, dts, n, runs, rng2)
+    rms = {
+        "ins3d": np.sqrt((X3[..., 0] ** 2 + X3[..., 1] ** 2).mean(axis=0)),
+        "ins2d": np.sqrt((X2[..., 0] ** 2 + X2[..., 1] ** 2).mean(axis=0)),
+    }
+    gain = model.gain_sigma * rngg.standard_normal(runs)
+    meas = simulate_steps(X3, steps, STEP_LENGTH_M, 0.0, model, case.speed, gain, rngs)
+    D3 = discretize(F3, G3, Q3, dts)
+    Phi_a, Qd_a = augment(D3.Phi, D3.Qd, model)
+    r = run_filter(Phi_a, Qd_a, augment_covariance(P3, model), grid, meas)
+    e = r.x[..., DP][..., :2] - X3[..., DP][..., :2]
+    rms["morpi"] = np.sqrt((e ** 2).sum(axis=-1).mean(axis=0))
+    return grid, rms, at
+
+
+def compute_curves(case: CurveCase, times=DEFAULT_TIMES, runs=MC_RUNS, rng=None) -> CaseCurves:
+    """All curves of one case from 0 to the last of `times`.
+
+    Parameters
+    ----------
+    case : CurveCase
+    times : array_like, shape (m,)
+        Requested times [s], >= 0, last > 0; they are epochs of every grid.
+    runs : int
+        Monte Carlo runs (0 skips the Monte Carlo).
+    rng : numpy.random.Generator, optional
+        Seed of the Monte Carlo (default ``MC_SEED``).
+
+    Returns
+    -------
+    CaseCurves
+    """
+    times = np.unique(np.asarray(times, dtype=float))
+    if times.size == 0 or not np.all(np.isfinite(times)) or times.min() < 0 or times.max() <= 0:
+        raise MorpiError(f"times: expected finite times >= 0 s with the last > 0, got {times.tolist()}")
+    rng = np.random.default_rng(MC_SEED) if rng is None else rng
+    model = StepModel(gain_sigma=case.gain_sigma)
+    period = STEP_LENGTH_M / case.speed
+    grid, steps, at = time_grid(times, FILTER_DT, period)
+    res = _run_methods(case, grid, steps, model)
+    sigma = {k: r.horizontal_sigma for k, r in res.items()}
+    rms = {k: np.sqrt(closed_form_mean_square(case, grid, k)) for k in ("ins3d", "ins2d", "morpi")}
+    real = {}
+    if case.realisation is not None:
+        dv0, ba, bg, dG = case.realisation
+        real = {k: closed_form_errors(dv0, ba, bg, dG, case.g, case.speed, grid, k) for k in ("ins3d", "ins2d", "morpi")}
+    mc_t, mc, mc_at = np.zeros(0), {}, np.zeros(0, int)
+    if runs:
+        mc_t, mc, mc_at = _monte_carlo(case, times, model, runs, rng)
+    return CaseCurves(case=case, times=grid, sigma=sigma, rms_closed_form=rms, realisation=real,
+                      mc_times=mc_t, mc_rms=mc, mc_runs=runs, eval_times=times, eval_index=at,
+                      mc_eval_index=mc_at)
+
+
+def _field_points(source):
+    """End-point errors of the field recordings, or the reason they are missing."""
+    if source is None or source.root is None:
+        return {}, "no data source configured"
+    try:
+        from . import strapdown  # noqa: F401
+    except ImportError:
+        return {}, "the strapdown module is not available yet, so no field end points are drawn"
+    return {}, "field end points are not wired in yet"
+
+
+def report_curves(out, *, params_path=None, times=None, source=None):
+    """The ``curves`` report section (``morpi curves``, ``morpi report``).
+
+    Parameters
+    ----------
+    out : path
+        Staging folder to write into (README.md, result.json, PNGs).
+    params_path : path, optional
+        Parameter file (values read as 1 sigma); default the committed one.
+    times : sequence of float, optional
+        Evaluation times [s] (default 0..15 s).
+    source : reporting.DataSource or None
+        Recordings for the field end points.
+
+    Returns
+    -------
+    reporting.SectionSummary
+    """
+    from pathlib import Path
+
+    from . import plots
+    from .params import load_params
+    from .reporting import SectionSummary, fmt, md_table, write_json, write_text
+
+    out = Path(out)
+    params = load_params(params_path)
+    times = np.unique(np.asarray(DEFAULT_TIMES if not times else times, dtype=float))
+    cases = [case_from_params(params), case_from_sensor(units.MPU6500, params), case_from_sensor(units.LSM6DSL, params)]
+    field_pts, field_note = _field_points(source)
+    figures, per_case, rows = [], {}, []
+    for case in cases:
+        cc = replace(compute_curves(case, times), field=field_pts)
+        png = f"curves_{case.name}.png"
+        plots.plot_curves(cc, out / png)
+        figures.append(png)
+        v = cc.at_eval_times()
+        per_case[case.name] = {"title": case.title, "process_noise": case.noise is not None,
+                               "gain_sigma": case.gain_sigma, **v}
+        rows.append([case.title, fmt(times[-1], 1)] + [fmt(v[f"{a}_{k}_m"][-1]) for k in ("ins3d", "ins2d", "morpi")
+                                                      for a in ("sigma", "rms_closed_form", "mc_rms")])
+    main = per_case["params"]
+    result = {
+        "times": times,
+        "sigma_ins3d_m": main["sigma_ins3d_m"],
+        "sigma_ins2d_m": main["sigma_ins2d_m"],
+        "sigma_morpi_m": main["sigma_morpi_m"],
+        "rms_closed_form_ins3d_m": main["rms_closed_form_ins3d_m"],
+        "rms_closed_form_ins2d_m": main["rms_closed_form_ins2d_m"],
+        "rms_closed_form_morpi_m": main["rms_closed_form_morpi_m"],
+        "process_noise": bool(params.process_noise),
+        "params_file": params.source,
+        "step_length_m": STEP_LENGTH_M,
+        "mc_runs": MC_RUNS,
+        "mc_seed": MC_SEED,
+        "cases": per_case,
+        "field": {"note": field_note, "points": field_pts},
+    }
+    write_json(out / "result.json", result)
+    banner = source.banner if source is not None else ""
+    head = ["case", "t [s]", "3D sigma", "3D closed RMS", "3D MC RMS", "2D sigma", "2D closed RMS", "2D MC RMS",
+            "MoRPI sigma", "MoRPI-A closed RMS", "MoRPI-aided MC RMS"]
+    text = (
+        f"{banner}# Covariance curves: closed form, filter sigma, Monte Carlo\n\n"
+        f"Horizontal position error [m] of 3D INS, 2D INS and MoRPI-aided 3D INS on the paper's nominal "
+        f"straight-line trajectory (C = I, f^n = gravity), error parameters read as 1 sigma from "
+        f"`{params.source}`. Process noise: {'on' if params.process_noise else 'off'}. The gyro z bias is left "
+        f"out, as in the paper (common heading error). MoRPI steps of {STEP_LENGTH_M} m every "
+        f"{STEP_LENGTH_M / params.morpi_speed_mps:g} s, gain error 1 sigma {abs(params.dG[0]):g} as a constant "
+        f"augmented state. Monte Carlo: {MC_RUNS} seeded runs of the linear model (seed {MC_SEED}); for "
+        f"MoRPI-aided, the RMS of the filter's own estimation error.\n\n"
+        f"At the last requested time:\n\n" + md_table(head, rows) + "\n"
+        + "".join(f"![{c.title}]({png})\n\n" for c, png in zip(cases, figures))
+        + f"Field recordings: {field_note}.\n"
+    )
+    write_text(out / "README.md", text)
+    summary = (f"Filter sigma vs closed form vs Monte Carlo for 3D/2D INS and MoRPI-aided INS. "
+               f"At {fmt(times[-1], 0)} s (parameter file): 3D {fmt(main['sigma_ins3d_m'][-1])} m, "
+               f"2D {fmt(main['sigma_ins2d_m'][-1])} m, MoRPI-aided {fmt(main['sigma_morpi_m'][-1])} m (1 sigma).")
+    return SectionSummary(name="curves", title="Covariance curves", page="README.md", figures=tuple(figures),
+                          summary=summary, synthetic=bool(source is not None and source.synthetic))

@@ -1,0 +1,107 @@
+"""Tests of the covariance-curves section: contract, closed-form agreement, CLI, bad input."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from morpi_filters import units
+from morpi_filters.cli import main
+from morpi_filters.curves import (
+    DEFAULT_TIMES, case_from_params, case_from_sensor, closed_form_errors, closed_form_mean_square,
+    compute_curves, report_curves, time_grid,
+)
+from morpi_filters.errors import MorpiError
+from morpi_filters.params import params_from_dict
+
+PARAMS = {"dv0_mps": [0.06, 0.03, 0.02], "ba_mps2": [0.08, 0.03, 0.03], "bg_radps": [0.002, 0.003, 0.004],
+          "g_mps2": 9.81, "dG": [0.05, 0.10], "morpi_speed_mps": 0.5}
+
+
+def _write(tmp_path, **over):
+    p = tmp_path / "params.json"
+    p.write_text(json.dumps({**PARAMS, **over}))
+    return p
+
+
+def test_time_grid_contains_requested_and_step_times():
+    grid, steps, at = time_grid([0.0, 2.5, 3.333], 0.01, 0.7)
+    assert grid[0] == 0.0 and grid[-1] == pytest.approx(3.333)
+    assert np.allclose(grid[at], [0.0, 2.5, 3.333])
+    assert np.allclose(grid[steps], 0.7 * np.arange(1, 5))
+    assert np.all(np.diff(grid) > 0)
+
+
+def test_noise_off_sigma_equals_the_closed_form_rms():
+    case = case_from_params(params_from_dict(PARAMS))
+    cc = compute_curves(case, times=[1.0, 5.0, 15.0], runs=0)
+    v = cc.at_eval_times()
+    for k in ("ins3d", "ins2d"):
+        # both are sqrt(E[e^2]) of the same linear model, one from the filterpy
+        # recursion, one from the hand polynomials: rounding only (bar 1e-9)
+        np.testing.assert_allclose(v[f"sigma_{k}_m"], v[f"rms_closed_form_{k}_m"], rtol=1e-9)
+    # MoRPI aiding bounds the error far below the 2D INS at 15 s
+    assert v["sigma_morpi_m"][-1] < 0.5 * v["sigma_ins2d_m"][-1]
+
+
+def test_monte_carlo_rms_agrees_with_sigma():
+    case = case_from_sensor(units.LSM6DSL, params_from_dict({**PARAMS, "process_noise": True}))
+    N = 1000
+    v = compute_curves(case, times=[3.0, 10.0], runs=N, rng=np.random.default_rng(12)).at_eval_times()
+    for k in ("ins3d", "ins2d", "morpi"):
+        ratio = v[f"mc_rms_{k}_m"] ** 2 / v[f"sigma_{k}_m"] ** 2
+        # mean square over N runs of a sum of two Gaussian squares: relative std
+        # at most sqrt(2/N) = 4.5%; bar 4 of those
+        assert np.all(np.abs(ratio - 1) < 4 * np.sqrt(2 / N)), (k, ratio)
+
+
+def test_closed_form_realisation_and_mean_square_by_hand():
+    p = params_from_dict(PARAMS)
+    t = np.array([2.0])
+    e = closed_form_errors(p.dv0, p.ba, p.bg, 0.05, p.g, 0.5, t, "ins3d")
+    dx = 0.06 * 2 + 0.08 * 2 + 9.81 * 0.003 * 8 / 6
+    dy = 0.03 * 2 + 0.03 * 2 - 9.81 * 0.002 * 8 / 6
+    assert e[0] == pytest.approx(np.hypot(dx, dy), rel=1e-14)
+    case = case_from_params(p)
+    assert closed_form_mean_square(case, t, "morpi")[0] == pytest.approx((0.05 * 0.5 * 2) ** 2)
+    with pytest.raises(MorpiError, match="kind"):
+        closed_form_mean_square(case, t, "ins4d")
+
+
+def test_report_contract(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    s = report_curves(out, params_path=_write(tmp_path, process_noise=True), times=[2.0, 6.0])
+    r = json.loads((out / "result.json").read_text())
+    for key in ("times", "sigma_ins3d_m", "sigma_ins2d_m", "sigma_morpi_m",
+                "rms_closed_form_ins3d_m", "rms_closed_form_ins2d_m"):
+        assert len(r[key]) == 2, key
+    assert r["times"] == [2.0, 6.0] and r["process_noise"] is True
+    assert set(r["cases"]) == {"params", "mpu6500", "lsm6dsl"}
+    assert s.name == "curves" and s.page == "README.md" and not s.synthetic
+    for png in s.figures:
+        assert (out / png).stat().st_size > 1000
+    assert "Covariance curves" in (out / "README.md").read_text()
+
+
+def test_default_times_and_cli(tmp_path):
+    assert DEFAULT_TIMES[0] == 0.0 and DEFAULT_TIMES[-1] == 15.0 and len(DEFAULT_TIMES) == 16
+    js = tmp_path / "r.json"
+    rc = main(["curves", "--params", str(_write(tmp_path)), "--out", str(tmp_path / "c"), "--json", str(js)])
+    assert rc == 0
+    r = json.loads(js.read_text())
+    assert r["times"] == list(DEFAULT_TIMES) and r["process_noise"] is False
+    assert r["sigma_ins3d_m"][0] == 0.0
+
+
+def test_bad_parameter_file_is_one_clear_error(tmp_path, capsys):
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({**PARAMS, "process_noise": "yes"}))
+    out = tmp_path / "c"
+    rc = main(["curves", "--params", str(bad), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 2 and "process_noise" in err and len(err.strip().splitlines()) == 1
+    assert not out.exists()
+    with pytest.raises(MorpiError, match="times"):
+        compute_curves(case_from_params(params_from_dict(PARAMS)), times=[0.0])
