@@ -355,7 +355,7 @@ def run_filter(Phi, Qd, P0, times, measurements=(), x0=None, keep_P=False):
     times : array_like, shape (n + 1,)
         Epoch times [s] (for the result only; the steps are in Phi, Qd).
     measurements : sequence of Measurement
-        Sorted by `index` (1..n; several per epoch allowed). When any ``z`` is
+        Indices 1..n (several per epoch allowed), all of one size m. When any ``z`` is
         2-D, the estimate is run for every Monte Carlo run at once with the
         gains of the single covariance recursion (batched over runs); run 0 is
         also the filterpy state.
@@ -393,6 +393,10 @@ def run_filter(Phi, Qd, P0, times, measurements=(), x0=None, keep_P=False):
         X = np.zeros((runs, k)) if x0 is None else np.broadcast_to(np.asarray(x0, float), (runs, k)).copy()
 
     dim_z = meas[0].H.shape[0] if meas else 1
+    for m in meas:
+        if m.H.shape != (dim_z, k) or m.R.shape != (dim_z, dim_z) or np.shape(m.z)[-1] != dim_z:
+            raise MorpiError(f"measurement at epoch {m.index}: expected H ({dim_z}, {k}), R ({dim_z}, {dim_z}) "
+                             f"and z of length {dim_z}, got {m.H.shape}, {m.R.shape}, {np.shape(m.z)}")
     kf = KalmanFilter(dim_x=k, dim_z=dim_z)
     kf.x = (X if runs is None else X[0]).copy()
     kf.P = P0.copy()
@@ -518,7 +522,7 @@ def nees(err, P):
     ndarray, shape (..., n)
     """
     L = np.linalg.cholesky(P)
-    w = np.linalg.solve(L, np.moveaxis(err, -1, -1)[..., None])[..., 0]
+    w = np.linalg.solve(L, np.asarray(err, dtype=float)[..., None])[..., 0]
     return (w ** 2).sum(axis=-1)
 
 
