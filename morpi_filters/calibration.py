@@ -15,15 +15,17 @@ The detector works on the real, non-uniform time stamps:
    the first differences in blocks of ``window_s`` over the first ``noise_s``
    seconds (a trimmed standard deviation, :func:`noise_sigma`; differences
    remove the bias and slow trends), taking the lower quartile of the blocks
-   so that early motion or a disturbance does not inflate it, never below the datasheet white noise of the phone's IMU
-   over the Nyquist band when the phone is known (:mod:`morpi_filters.units`).
+   so that early motion or a disturbance does not inflate it, and never below
+   the datasheet white noise of the phone's IMU over the Nyquist band when
+   the phone is known (:mod:`morpi_filters.units`).
 2. A centred moving window of ``window_s`` seconds (time based, so the number
    of samples per window follows the real sampling) gives a moving standard
    deviation and a moving mean per axis.
 3. A sample is flagged when a gyro axis's moving standard deviation exceeds
    ``k_std`` noise sigmas, or its moving mean departs from the rest level (the
-   median of the quietest block of step 1) by more than ``k_dev`` sigmas, or an accelerometer axis's moving standard
-   deviation exceeds ``k_std`` sigmas and ``accel_floor``. The floor exists
+   median of the quietest block of step 1) by more than ``k_dev`` sigmas, or
+   an accelerometer axis's moving standard deviation exceeds ``k_std`` sigmas
+   and ``accel_floor``. The floor exists
    because the phones' accelerometer channels are low-pass filtered and
    settle during the first seconds (slow drifts of up to ~2 m/s^2 on an S6,
    ~0.2 m/s^2 on an S8, with moving standard deviations up to ~0.05 m/s^2
@@ -32,10 +34,11 @@ The detector works on the real, non-uniform time stamps:
    channels are not filtered and carry most of the detection.
 4. Flagged runs closer than one window are merged. The motion is the first
    run lasting ``sustain_s`` or more and at least a quarter of the longest
-   run (the drive itself lasts tens of seconds, a handling disturbance up to
-   ~2 s in the field recordings); shorter runs before it are brief
-   disturbances (in the field recordings, mostly the tap that starts the
-   recording) and the rest window starts ``guard_s`` after the last of them.
+   run (the drive itself lasts tens of seconds, handling before it a few
+   seconds at most in the field recordings); shorter runs before it are
+   disturbances (in the field recordings, mostly a fraction of a second of
+   jitter from the tap that starts the recording) and the rest window starts
+   ``guard_s`` after the last of them.
 5. The onset is refined from the start of the motion run (up to half a window
    early) to the first sample whose gyro reading departs from the rest mean by
    more than ``k_dev`` sigmas. The rest window ends ``guard_s`` before the
@@ -50,9 +53,8 @@ closed formula [2]_, computed by :func:`normal_gravity`.
 References
 ----------
 .. [1] D. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
-   IEEE Journal of Indoor and Seamless Positioning and Navigation, 2023,
-   doi:10.1109/JISPIN.2023.3286432 (sections "Straight Line Trajectory" and
-   "Periodic Motion").
+   IEEE Journal of Indoor and Seamless Positioning and Navigation, 2023
+   (sections "Straight Line Trajectory" and "Periodic Motion").
 .. [2] National Imagery and Mapping Agency, "Department of Defense World
    Geodetic System 1984", NIMA TR8350.2, 3rd ed., 2000, eq. (4-1) and
    Table 3.4 (normal gravity on the ellipsoid, Somigliana's formula), and
@@ -61,7 +63,7 @@ References
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
@@ -71,7 +73,7 @@ from .units import SENSORS
 
 __all__ = [
     "MODES", "SITE_LATITUDE_DEG", "LOCAL_GRAVITY", "normal_gravity", "RestWindow", "Calibration",
-    "detect_rest", "calibrate", "rest_windows_summary", "RestSummary", "noise_sigma",
+    "detect_rest", "calibrate", "rest_windows_summary", "RestRow", "RestSummary", "noise_sigma",
 ]
 
 #: Calibration modes: raw data, gyro calibration, gyro and accelerometer calibration.
@@ -278,7 +280,8 @@ def _moving_stats(t: np.ndarray, x: np.ndarray, half: float):
 
 def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: float = 1.0,
                 window_s: float = 0.25, noise_s: float | None = None, k_std: float = 4.0, k_dev: float = 6.0,
-                accel_floor: float = 0.1, sustain_s: float = 1.5, guard_s: float = 0.05, min_samples: int = 10) -> RestWindow:
+                accel_floor: float = 0.1, sustain_s: float = 1.5, guard_s: float = 0.05,
+                min_samples: int = 10) -> RestWindow:
     """Find the initial rest period of a recording.
 
     Parameters
@@ -306,8 +309,9 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
         about its noise sigma, so windowed standard deviations reach ~2 sigma
         at rest in the field recordings).
     k_dev : float
-        Motion threshold on the moving mean's departure from the rest level, and on single gyro samples when refining the onset, in noise
-        sigmas (a Gaussian sample exceeds 6 sigma with probability 2e-9).
+        Motion threshold on the moving mean's departure from the rest level,
+        and on single gyro samples when refining the onset, in noise sigmas
+        (a Gaussian sample exceeds 6 sigma with probability 2e-9).
     accel_floor : float
         Lowest accelerometer threshold [m/s^2] (see the module docstring).
     sustain_s : float
@@ -472,15 +476,45 @@ def calibrate(rec: Recording, mode: str, *, window: RestWindow | None = None,
 
 
 @dataclass(frozen=True)
+class RestRow:
+    """The rest window of one recording, as reported.
+
+    Attributes
+    ----------
+    name : str
+        Recording label (``phone/route/split/file``).
+    method : str
+        :attr:`RestWindow.method`, or ``"none"`` when no rest was found.
+    start_s, window_s : float or None
+        Window start after the first sample, and window length [s].
+    motion_s : float or None
+        Motion onset after the first sample [s] (None: none found).
+    gyro_shift : float or None
+        Largest per-axis difference between the gyro bias over the paper's
+        first `max_window_s` seconds and over the detected window [rad/s]:
+        what assuming rest would have cost.
+    note, error : str
+        The window's note; the MorpiError message when no rest was found.
+    """
+
+    name: str
+    method: str
+    start_s: float | None
+    window_s: float | None
+    motion_s: float | None
+    gyro_shift: float | None
+    note: str = ""
+    error: str = ""
+
+
+@dataclass(frozen=True)
 class RestSummary:
     """Which rest window each recording used, for reports.
 
     Attributes
     ----------
-    rows : tuple of dict
-        One per recording: ``name``, ``method``, ``window_s`` (duration),
-        ``motion_s`` (onset after the first sample, or None), ``note``,
-        ``error`` (the MorpiError message when no rest was found, else None).
+    rows : tuple of RestRow
+        One per recording, in input order.
     n_moving_early : int
         Recordings whose sustained motion starts within `max_window_s` of
         their first sample (or that have no rest at all).
@@ -495,13 +529,20 @@ class RestSummary:
     n_disturbed: int
     n_total: int
 
+    def to_json(self) -> dict:
+        """Counts and rows as plain JSON-ready values."""
+        return dict(n_total=self.n_total, n_moving_early=self.n_moving_early, n_disturbed=self.n_disturbed,
+                    rows=[asdict(r) for r in self.rows])
+
     def markdown(self) -> str:
-        """A markdown table of the windows."""
+        """A markdown table of the windows (gyro shift in deg/s)."""
         from .reporting import fmt, md_table
 
-        body = [[r["name"], r["method"], fmt(r["start_s"]), fmt(r["window_s"]), fmt(r["motion_s"]),
-                 r["note"] or r["error"] or ""] for r in self.rows]
-        return md_table(["recording", "window", "start [s]", "length [s]", "motion onset [s]", "note"], body)
+        body = [[r.name, r.method, fmt(r.start_s), fmt(r.window_s), fmt(r.motion_s),
+                 fmt(None if r.gyro_shift is None else math.degrees(r.gyro_shift), 3), r.note or r.error]
+                for r in self.rows]
+        return md_table(["recording", "window", "start [s]", "length [s]", "motion onset [s]",
+                         "first-3 s gyro bias shift [deg/s]", "note"], body)
 
 
 def rest_windows_summary(recordings, *, max_window_s: float = 3.0, **kwargs) -> RestSummary:
@@ -511,7 +552,8 @@ def rest_windows_summary(recordings, *, max_window_s: float = 3.0, **kwargs) -> 
     ----------
     recordings : iterable of Recording
     max_window_s : float
-        Passed to :func:`detect_rest`; also the horizon of ``n_moving_early``.
+        Passed to :func:`detect_rest`; also the horizon of ``n_moving_early``
+        and of the paper's fixed window in ``gyro_shift``.
     **kwargs
         Further :func:`detect_rest` parameters.
 
@@ -526,13 +568,17 @@ def rest_windows_summary(recordings, *, max_window_s: float = 3.0, **kwargs) -> 
         try:
             w = detect_rest(rec, max_window_s=max_window_s, **kwargs)
         except MorpiError as exc:
-            rows.append(dict(name=rec.name, method="none", start_s=None, window_s=None, motion_s=None, note="", error=str(exc)))
+            rows.append(RestRow(name=rec.name, method="none", start_s=None, window_s=None, motion_s=None,
+                                gyro_shift=None, error=str(exc)))
             early += 1
             continue
-        onset = None if w.motion_s is None else w.motion_s - float(rec.time[0])
+        t0 = float(rec.time[0])
+        onset = None if w.motion_s is None else w.motion_s - t0
         if onset is not None and onset <= max_window_s:
             early += 1
         disturbed += w.i0 > 0
-        rows.append(dict(name=rec.name, method=w.method, start_s=w.start_s - float(rec.time[0]),
-                         window_s=w.duration_s, motion_s=onset, note=w.note, error=None))
+        fixed = rec.omega[: int(np.searchsorted(rec.time - t0, max_window_s, side="right"))].mean(axis=0)
+        shift = float(np.abs(fixed - rec.omega[w.i0:w.i1].mean(axis=0)).max())
+        rows.append(RestRow(name=rec.name, method=w.method, start_s=w.start_s - t0, window_s=w.duration_s,
+                            motion_s=onset, gyro_shift=shift, note=w.note))
     return RestSummary(rows=tuple(rows), n_moving_early=early, n_disturbed=disturbed, n_total=total)

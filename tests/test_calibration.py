@@ -152,11 +152,32 @@ def test_normal_gravity_reference_values():
         normal_gravity(91.0)
 
 
+def test_summary_counts_and_shift():
+    rng = np.random.default_rng(19)
+    still, _ = synthetic(rng)
+    early, _ = synthetic(rng, rest_s=1.2)
+    moving, _ = synthetic(rng, rest_s=0.0)
+    summary = rest_windows_summary([still, early, moving])
+    assert (summary.n_total, summary.n_moving_early, summary.n_disturbed) == (3, 2, 0)
+    a, b, c = summary.rows
+    assert a.method == "full" and a.motion_s == pytest.approx(3.5, abs=3 * 0.0125)
+    # Same samples averaged twice (up to the last ~half sample): floating rounding only.
+    assert a.gyro_shift < 1e-3 * SIG_G
+    # With motion from 1.2 s the first 3 s average in the yaw-rate sine (0.6 rad/s amplitude, 0.05 offset):
+    # the shift is of the order of 0.1 rad/s, far above the 4 sigma/sqrt(N) noise bound.
+    assert b.gyro_shift > 0.01
+    assert c.method == "none" and "no initial rest" in c.error
+    js = summary.to_json()
+    assert js["n_total"] == 3 and js["rows"][1]["method"] == "detected"
+    assert summary.markdown().count("\n") == 5
+
+
+@pytest.mark.field
 def test_field_every_recording_gets_a_window(field_root):
     recs = load_catalogue(field_root)
     assert len(recs) == 143
     summary = rest_windows_summary(recs)
-    errors = [r["error"] for r in summary.rows if r["error"]]
+    errors = [r.error for r in summary.rows if r.error]
     assert errors == []
     for rec, row in zip(recs, summary.rows):
         w = detect_rest(rec)
@@ -166,6 +187,8 @@ def test_field_every_recording_gets_a_window(field_root):
         assert rec.omega[w.i0:w.i1].std(axis=0).max() < 0.01, rec.name
         if w.motion_s is not None:
             assert w.end_s < w.motion_s
+    worst = max(summary.rows, key=lambda r: r.gyro_shift)
     print(f"\n{summary.n_moving_early} of {summary.n_total} recordings move within their first 3 s; "
-          f"{summary.n_disturbed} start with a brief disturbance")
+          f"{summary.n_disturbed} start with a brief disturbance; largest first-3 s gyro bias shift "
+          f"{math.degrees(worst.gyro_shift):.2f} deg/s ({worst.name})")
     assert summary.markdown().count("\n") == summary.n_total + 2

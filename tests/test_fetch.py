@@ -279,6 +279,7 @@ def test_checksum_file_round_trip_and_errors(tmp_path, sums):
 
 # ----------------------------------------------------------------------------- committed file
 
+@pytest.mark.field
 def test_committed_checksums_match_the_field_dataset(field_root):
     committed = load_checksums(CHECKSUMS_FILE)
     assert len(committed) == 143
