@@ -79,6 +79,11 @@ __all__ = [
 #: Calibration modes: raw data, gyro calibration, gyro and accelerometer calibration.
 MODES = ("RD", "GC", "GAC")
 
+# Smallest noise sigmas used by the detector, far below any MEMS noise but above the
+# rounding of running sums, for noise-free simulated recordings [rad/s], [m/s^2].
+_GYRO_SIGMA_MIN = 1e-6
+_ACCEL_SIGMA_MIN = 1e-5
+
 #: Latitude of the experiment site, University of Haifa [deg N].
 SITE_LATITUDE_DEG = 32.8
 
@@ -268,6 +273,8 @@ def _block_sigma(t: np.ndarray, x: np.ndarray, span: float, block: float):
 
 def _moving_stats(t: np.ndarray, x: np.ndarray, half: float):
     """Centred time-window mean and std of each column (window [t-half, t+half])."""
+    ref = x[0]
+    x = x - ref    # running sums of small numbers: less cancellation in E[x^2] - E[x]^2
     lo = np.searchsorted(t, t - half, side="left")
     hi = np.searchsorted(t, t + half, side="right")
     c1 = np.vstack([np.zeros((1, x.shape[1])), np.cumsum(x, axis=0)])
@@ -275,7 +282,7 @@ def _moving_stats(t: np.ndarray, x: np.ndarray, half: float):
     cnt = (hi - lo)[:, None].astype(float)
     mean = (c1[hi] - c1[lo]) / cnt
     var = (c2[hi] - c2[lo]) / cnt - mean ** 2
-    return mean, np.sqrt(np.maximum(var, 0.0))
+    return mean + ref, np.sqrt(np.maximum(var, 0.0))
 
 
 def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: float = 1.0,
@@ -347,6 +354,9 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
     span = max_window_s if noise_s is None else noise_s
     sig_g, med_g = _block_sigma(t, rec.omega, span, window_s)
     sig_a, _ = _block_sigma(t, rec.f, span, window_s)
+    # Noise-free (simulated) rests: stay above floating-point rounding.
+    sig_g = np.maximum(sig_g, _GYRO_SIGMA_MIN)
+    sig_a = np.maximum(sig_a, _ACCEL_SIGMA_MIN)
     if rec.phone in SENSORS:
         # Never below the datasheet white noise over the Nyquist band.
         spec = SENSORS[rec.phone]

@@ -192,3 +192,16 @@ def test_field_every_recording_gets_a_window(field_root):
           f"{summary.n_disturbed} start with a brief disturbance; largest first-3 s gyro bias shift "
           f"{math.degrees(worst.gyro_shift):.2f} deg/s ({worst.name})")
     assert summary.markdown().count("\n") == summary.n_total + 2
+
+
+def test_noise_free_recording():
+    # Simulated recordings may carry no noise at all: the exact rest and onset must still come out.
+    n = 1000
+    t = 1.0 + np.cumsum(np.full(n, 0.01))
+    f = np.tile([0.1, 0.2, 9.9], (n, 1))
+    w = np.tile(GYRO_BIAS, (n, 1))
+    w[400:, 2] += 0.3 * np.sin(np.arange(600) * 0.05) + 0.02
+    rec = Recording(time=t, f=f, omega=w, source="clean.csv")
+    win = detect_rest(rec)
+    assert win.method == "full" and win.motion_s == t[400]
+    np.testing.assert_allclose(calibrate(rec, "GC").gyro_bias, GYRO_BIAS, rtol=0, atol=1e-15)

@@ -186,6 +186,35 @@ def test_timeout(tmp_path, sums):
                              r"no answer within 0.5 s")
 
 
+class _ShortBody(http.server.BaseHTTPRequestHandler):
+    """Announces 100000 bytes and sends 1000, then closes the connection."""
+
+    def do_GET(self):
+        self.send_response(200)
+        self.send_header("Content-Length", "100000")
+        self.end_headers()
+        self.wfile.write(b"PK\x03\x04" + bytes(996))
+        self.wfile.flush()
+        self.close_connection = True
+
+    def log_message(self, *args):
+        pass
+
+
+def test_transfer_cut_short(tmp_path, sums):
+    httpd = http.server.HTTPServer(("127.0.0.1", 0), _ShortBody)
+    th = threading.Thread(target=httpd.serve_forever, kwargs=dict(poll_interval=0.02), daemon=True)
+    th.start()
+    try:
+        dest = tmp_path / "d"
+        assert_clean_failure(dest, lambda: fetch_dataset(dest, url=f"http://127.0.0.1:{httpd.server_address[1]}/x.zip",
+                                                         checksums=sums, progress=quiet([]), timeout=5),
+                             r"download truncated")
+    finally:
+        httpd.shutdown()
+        httpd.server_close()
+
+
 @pytest.mark.parametrize("maker, name", [(make_zip, "x.zip"), (make_targz, "x.tar.gz")])
 def test_truncated_archive(server, tmp_path, tree, sums, maker, name):
     srv, base = server
