@@ -132,15 +132,20 @@ def rotvec_to_C(phi) -> np.ndarray:
     # series to t^4: the truncation error is below 1e-17 for t^2 < 1e-8
     a = np.where(small, 1.0 - t2 / 6.0 + t2 * t2 / 120.0, np.sin(ts) / ts)
     b = np.where(small, 0.5 - t2 / 24.0 + t2 * t2 / 720.0, (1.0 - np.cos(ts)) / (ts * ts))
+    # I + a K + b K^2 with K^2 = phi phi^T - t^2 I, written out element by element
     x, y, z = phi[..., 0], phi[..., 1], phi[..., 2]
-    K = np.zeros(phi.shape[:-1] + (3, 3))
-    K[..., 0, 1], K[..., 0, 2] = -z, y
-    K[..., 1, 0], K[..., 1, 2] = z, -x
-    K[..., 2, 0], K[..., 2, 1] = -y, x
-    out = a[..., None, None] * K + b[..., None, None] * (K @ K)
-    out[..., 0, 0] += 1.0
-    out[..., 1, 1] += 1.0
-    out[..., 2, 2] += 1.0
+    out = b[..., None, None] * (phi[..., :, None] * phi[..., None, :])
+    c = 1.0 - b * t2
+    out[..., 0, 0] += c
+    out[..., 1, 1] += c
+    out[..., 2, 2] += c
+    ax, ay, az = a * x, a * y, a * z
+    out[..., 0, 1] -= az
+    out[..., 1, 0] += az
+    out[..., 0, 2] += ay
+    out[..., 2, 0] -= ay
+    out[..., 1, 2] -= ax
+    out[..., 2, 1] += ax
     return out
 
 
@@ -335,7 +340,7 @@ def ins3d(time, f, omega, *, C0=None, v0=None, p0=None, g: float = units.G0) -> 
         np.matmul(Ct[k], E[k], out=Ct[k + 1])
     C = np.swapaxes(Ct, 0, 1)                                   # (B, n, 3, 3)
 
-    a = np.einsum("bnij,bnj->bni", C, fb)
+    a = (C @ fb[..., None])[..., 0]
     a[..., 2] -= g
     v, p = _integrate_translation(time, a, v0b, p0b)
     return InsResult(time=time, position=p.reshape(batch + (n, 3)), velocity=v.reshape(batch + (n, 3)),
