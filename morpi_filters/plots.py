@@ -73,6 +73,9 @@ def plot_curves(curves, path):
         if key in curves.mc_rms:
             ax.plot(curves.mc_times, curves.mc_rms[key], color="C3", marker=".", ls="none", ms=3,
                     label=f"Monte Carlo RMS ({curves.mc_runs} runs)")
+        if key in curves.nl_rms:
+            ax.plot(curves.nl_times[::10], curves.nl_rms[key][::10], color="C4", marker="+", ls="none", ms=5,
+                    label=f"strapdown Monte Carlo RMS ({curves.nl_runs} runs)")
         pts = curves.field.get(key) if curves.field else None
         if pts:
             d, e = np.asarray(pts).T

@@ -105,3 +105,17 @@ def test_bad_parameter_file_is_one_clear_error(tmp_path, capsys):
     assert not out.exists()
     with pytest.raises(MorpiError, match="times"):
         compute_curves(case_from_params(params_from_dict(PARAMS)), times=[0.0])
+
+
+def test_nonlinear_strapdown_monte_carlo_agrees_where_the_model_is_linear():
+    """Small biases (0.2 deg/s, 5 mg): tilt stays < 1 deg over 3 s, the linear model holds."""
+    spec = units.SensorSpec("small", "s8", 0.2 * units.DEG_S, 0.004 * units.DEG_S_SQRT_HZ, 5 * units.MG,
+                            130 * units.UG_SQRT_HZ)
+    case = case_from_sensor(spec, params_from_dict({**PARAMS, "process_noise": True}))
+    N = 400
+    cc = compute_curves(case, times=[1.0, 3.0], runs=0, rng=np.random.default_rng(3), nonlinear_runs=N)
+    v = cc.at_eval_times()
+    for k in ("ins3d", "ins2d"):
+        ratio = v[f"nonlinear_mc_rms_{k}_m"] ** 2 / v[f"sigma_{k}_m"] ** 2
+        # mean square of N runs: relative std <= sqrt(2/N) = 7%; 4 of those
+        assert np.all(np.abs(ratio - 1) < 4 * np.sqrt(2 / N)), (k, ratio)
