@@ -439,15 +439,82 @@ def compute_curves(case: CurveCase, times=DEFAULT_TIMES, runs=MC_RUNS, rng=None,
                       nl_eval_index=nl_at)
 
 
+def _motion_span(time, omega, start, window_s=0.5, factor=10.0, quiet_s=1.0):
+    """Start and end [s] of the first motion after `start` from the gyro's windowed spread.
+
+    A window is active when the std of ``|omega|`` exceeds `factor` times the
+    median std of the windows before `start` (the rest). The motion ends at
+    the first `quiet_s` of inactive windows.
+    """
+    # Stands in for steps.activity_span until that module is available.
+    w = np.linalg.norm(omega, axis=1)
+    edges = np.arange(time[0], time[-1], window_s)
+    idx = np.searchsorted(time, edges)
+    std = np.array([w[i:j].std() if j - i > 1 else 0.0 for i, j in zip(idx, np.r_[idx[1:], time.size])])
+    rest = std[edges + window_s <= start]
+    thr = factor * (np.median(rest) if rest.size else std.min()) + 1e-12
+    active = std > thr
+    k0 = int(np.searchsorted(edges, start - window_s))
+    on = np.flatnonzero(active[k0:])
+    if on.size == 0:
+        return None
+    k = k0 + on[0]
+    t0 = max(float(edges[k]), float(start))
+    quiet = int(round(quiet_s / window_s))
+    j = k
+    while j < active.size and active[j:j + quiet].any():
+        j += 1
+    return t0, float(min(edges[j - 1] + window_s, time[-1]) if j > k else edges[k] + window_s)
+
+
 def _field_points(source):
-    """End-point errors of the field recordings, or the reason they are missing."""
+    """End-point errors of the field INS straight-line runs, or why there are none.
+
+    Each recording of ``s8/line_dataset`` is calibrated (GAC, the paper's best
+    for INS), integrated by the 3D and 2D strapdown from the start to the end
+    of the motion, and compared with the route's end point.
+
+    Returns
+    -------
+    points : dict of str -> list of (duration [s], end-point error [m])
+    note : str
+    """
     if source is None or source.root is None:
-        return {}, "no data source configured"
-    try:
-        from . import strapdown  # noqa: F401
-    except ImportError:
-        return {}, "the strapdown module is not available yet, so no field end points are drawn"
-    return {}, "field end points are not wired in yet"
+        return {}, "no data source configured, so no field end points are drawn"
+    from . import dataset as ds
+    from .calibration import LOCAL_GRAVITY, calibrate
+    from .strapdown import ins2d, ins3d
+
+    entries = [e for e in ds.catalogue(source.root) if e.route == "line_dataset"]
+    if not entries:
+        return {}, f"{source.root}: no straight-line (line_dataset) recordings"
+    truth = ds.route("line_dataset")
+    pts, skipped = {"ins3d": [], "ins2d": []}, 0
+    for e in entries:
+        rec = e.load()
+        try:
+            cal = calibrate(rec, "GAC")
+        except MorpiError:
+            skipped += 1
+            continue
+        crec = cal.apply(rec)
+        span = _motion_span(crec.time, crec.omega, cal.window.end_s)
+        if span is None:
+            skipped += 1
+            continue
+        sl = slice(int(np.searchsorted(crec.time, span[0])), int(np.searchsorted(crec.time, span[1], side="right")))
+        t, f, w = crec.time[sl], crec.f[sl], crec.omega[sl]
+        if t.size < 3:
+            skipped += 1
+            continue
+        for key, res in (("ins3d", ins3d(t, f, w, g=LOCAL_GRAVITY)), ("ins2d", ins2d(t, f, w))):
+            end = np.asarray(res.position)[-1, :2]
+            pts[key].append((float(t[-1] - t[0]), float(np.linalg.norm(end - truth.end_point_m))))
+    note = (f"{len(pts['ins3d'])} straight-line recordings ({truth.distance_m:g} m, GAC calibration, INS from the "
+            f"start to the end of the motion); end-point error against duration"
+            + (f"; {skipped} skipped (no rest or no motion found)" if skipped else "")
+            + ". MoRPI runs are not drawn: the step pipeline is not part of this section yet")
+    return pts, note
 
 
 def report_curves(out, *, params_path=None, times=None, source=None):
@@ -479,7 +546,7 @@ def report_curves(out, *, params_path=None, times=None, source=None):
     times = np.unique(np.asarray(DEFAULT_TIMES if not times else times, dtype=float))
     cases = [case_from_params(params), case_from_sensor(units.MPU6500, params), case_from_sensor(units.LSM6DSL, params)]
     field_pts, field_note = _field_points(source)
-    figures, per_case, rows = [], {}, []
+    figures, per_case, rows, field_rows = [], {}, [], []
     for case in cases:
         cc = replace(compute_curves(case, times), field=field_pts)
         png = f"curves_{case.name}.png"
@@ -488,6 +555,12 @@ def report_curves(out, *, params_path=None, times=None, source=None):
         v = cc.at_eval_times()
         per_case[case.name] = {"title": case.title, "process_noise": case.noise is not None,
                                "gain_sigma": case.gain_sigma, **v}
+        for k, p in field_pts.items():
+            if p:
+                d = float(np.mean([q[0] for q in p]))
+                field_rows.append([case.title, k, len(p), fmt(d), fmt(np.mean([q[1] for q in p])),
+                                   fmt(np.sqrt(np.mean([q[1] ** 2 for q in p]))),
+                                   fmt(np.interp(d, cc.times, cc.sigma[k]))])
         rows.append([case.title, fmt(times[-1], 1)] + [fmt(v[f"{a}_{k}_m"][-1]) if f"{a}_{k}_m" in v else "-"
                                                       for k in ("ins3d", "ins2d", "morpi")
                                                       for a in ("sigma", "rms_closed_form", "mc_rms",
@@ -508,7 +581,7 @@ def report_curves(out, *, params_path=None, times=None, source=None):
         "mc_seed": MC_SEED,
         "nonlinear_mc_runs": NL_RUNS,
         "cases": per_case,
-        "field": {"note": field_note, "points": field_pts},
+        "field": {"note": field_note, "points_duration_s_error_m": field_pts},
     }
     write_json(out / "result.json", result)
     banner = source.banner if source is not None else ""
@@ -528,7 +601,9 @@ def report_curves(out, *, params_path=None, times=None, source=None):
         f"no longer holds (large tilt from the gyro bias).\n\n"
         f"At the last requested time:\n\n" + md_table(head, rows) + "\n"
         + "".join(f"![{c.title}]({png})\n\n" for c, png in zip(cases, figures))
-        + f"Field recordings: {field_note}.\n"
+        + f"Field recordings: {field_note}.\n\n"
+        + (md_table(["case", "method", "runs", "mean duration [s]", "mean end error [m]", "RMS end error [m]",
+                     "filter 1 sigma at the mean duration [m]"], field_rows) if field_rows else "")
     )
     write_text(out / "README.md", text)
     summary = (f"Filter sigma vs closed form vs Monte Carlo for 3D/2D INS and MoRPI-aided INS. "

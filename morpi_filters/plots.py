@@ -79,7 +79,7 @@ def plot_curves(curves, path):
         pts = curves.field.get(key) if curves.field else None
         if pts:
             d, e = np.asarray(pts).T
-            ax.plot(d, e, "kx", label="field end points")
+            ax.plot(d, e, "kx", label="field end points (S8 straight line)")
         ax.set_title(title)
         ax.set_xlabel("time [s]")
         ax.set_yscale("symlog", linthresh=1e-2)

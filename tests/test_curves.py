@@ -119,3 +119,28 @@ def test_nonlinear_strapdown_monte_carlo_agrees_where_the_model_is_linear():
         ratio = v[f"nonlinear_mc_rms_{k}_m"] ** 2 / v[f"sigma_{k}_m"] ** 2
         # mean square of N runs: relative std <= sqrt(2/N) = 7%; 4 of those
         assert np.all(np.abs(ratio - 1) < 4 * np.sqrt(2 / N)), (k, ratio)
+
+
+def test_synthetic_source_banner_and_empty_field(tmp_path):
+    from morpi_filters.reporting import DataSource, SYNTHETIC_BANNER
+
+    out = tmp_path / "out"
+    out.mkdir()
+    s = report_curves(out, params_path=_write(tmp_path), times=[1.0],
+                      source=DataSource(tmp_path / "empty", synthetic=True, seed=0))
+    text = (out / "README.md").read_text()
+    assert text.startswith(SYNTHETIC_BANNER) and s.synthetic
+    assert "no straight-line" in json.loads((out / "result.json").read_text())["field"]["note"]
+
+
+@pytest.mark.field
+def test_field_straight_line_end_points(field_root):
+    from morpi_filters.curves import _field_points
+    from morpi_filters.reporting import DataSource
+
+    pts, note = _field_points(DataSource(field_root))
+    assert len(pts["ins3d"]) == len(pts["ins2d"]) >= 20  # 24 recordings in s8/line_dataset
+    d = np.array(pts["ins3d"])
+    # the paper: 6.3 m in about 5 s; motion spans between 3 and 10 s
+    assert np.all((d[:, 0] > 3) & (d[:, 0] < 10))
+    assert np.all(np.isfinite(d[:, 1])) and np.all(np.array(pts["ins2d"])[:, 1] > 0)
