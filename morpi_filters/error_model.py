@@ -309,6 +309,29 @@ def paper_trajectory(g, n=None):
     return np.broadcast_to(C, (n, 3, 3)).copy(), np.broadcast_to(f, (n, 3)).copy()
 
 
+def _expm(M, max_power=12):
+    """Matrix exponential of one matrix or a stack; a finite series when nilpotent.
+
+    The INS error model without Earth rate is nilpotent (its blocks form a
+    chain dp <- dv <- eps <- b_g, dv <- b_a, so F^5 = 0 and the Van Loan
+    matrix of it vanishes at the 10th power). Its powers then reach exact
+    zeros (structural zeros multiply to exact zeros in floating point) and
+    ``sum_j M^j / j!`` is the exact exponential, 5-10 times cheaper than
+    scipy's Pade approximant on stacks. Any other matrix goes to
+    :func:`scipy.linalg.expm`.
+    """
+    S = np.eye(M.shape[-1]) + M
+    P = M
+    fact = 1.0
+    for j in range(2, max_power + 1):
+        P = P @ M
+        if not P.any():
+            return S
+        fact *= j
+        S = S + P / fact
+    return expm(M)
+
+
 @dataclass(frozen=True)
 class Discretized:
     """Discrete transition and process-noise covariance of one or many steps.
@@ -382,7 +405,7 @@ def discretize(F, G, Q, dt):
     M[..., :k, k:] = GQGt
     M[..., k:, k:] = np.swapaxes(F, -1, -2)
     M = M * (dt[..., None, None] if dt.ndim else dt)
-    E = expm(M)
+    E = _expm(M)
     Phi = np.swapaxes(E[..., k:, k:], -1, -2)
     Qd = Phi @ E[..., :k, k:]
     Qd = 0.5 * (Qd + np.swapaxes(Qd, -1, -2))
@@ -432,7 +455,7 @@ def simulate_linear(F, G, Q, P0, dt, n_steps, runs, rng, keep=None):
     M = np.zeros(np.broadcast_shapes(F.shape[:-2], G.shape[:-2], dts.shape) + (k + m, k + m))
     M[..., :k, :k] = F
     M[..., :k, k:] = G
-    E = expm(M * (dts[..., None, None] if dts.ndim else dts))
+    E = _expm(M * (dts[..., None, None] if dts.ndim else dts))
     if inv is not None:
         E = E[inv]
     Phi, Gam = E[..., :k, :k], E[..., :k, k:]
