@@ -546,7 +546,7 @@ def _mean_square_poly(kind: str, conv_name: str, linearized: bool, keep_bgz: boo
     if linearized:
         # keep monomials of total degree <= 2 in the random variables, i.e. drop
         # terms of dp that are products of two random variables (alpha = g)
-        dp = position_error(conv_name, ins, keep_bgz)
+        dp = position_error(conv_name, ins, keep_bgz)[:2, :]  # horizontal components only
         lin = [sp.Poly(d, *rv) for d in dp]
         lin = [sum((c * sp.prod([x**e for x, e in zip(rv, m)]) for m, c in p.terms() if sum(m) <= 1), sp.Integer(0))
                for p in lin]
