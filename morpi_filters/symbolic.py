@@ -851,6 +851,13 @@ def audit_markdown(result: AuditResult | None = None) -> str:
                  "| conventions reproducing the whole equation |")
         L.append("|---|---|---|---|---|---|")
         L += ["| " + " | ".join(row) + " |" for row in rows]
+    L += ["", "## Terms the paper drops", ""]
+    L += ["The paper keeps the b_gz terms in dp_x and dp_y and drops them from e_3D and e_2D (the heading error is "
+          "common to every method). `keep_bgz=True` in `closed_form_errors` keeps them. Under the reference "
+          "convention the dropped terms of e^2 are:", ""]
+    for ins in ("3d", "2d"):
+        dropped = sp.expand(distance_error_squared(r.reference, ins, True) - distance_error_squared(r.reference, ins, False))
+        L.append(f"- e_{ins.upper()}^2: `{sp.sstr(sp.collect(dropped, symbols().t))}`")
     L += ["", "## Structural findings", ""]
     for key, ok, text in r.notes:
         L.append(f"- `{key}` ({'holds' if ok else 'does not hold'}): {text}")
