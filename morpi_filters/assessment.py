@@ -275,6 +275,8 @@ def report_assessment(out, *, params_path=None, times=None) -> SectionSummary:
     t = _check_times(times)
     S = _symbolic()
     curves = assessment_curves(params, t)
+    src = Path(params.source)
+    shown = "data/assessment_params.json" if src.resolve() == DEFAULT_PARAMS_FILE.resolve() else str(src)
     ours = improvements(params)
     audit = S.audit(CONVENTION)
     audit_md = S.audit_markdown(audit)
@@ -299,7 +301,7 @@ def report_assessment(out, *, params_path=None, times=None) -> SectionSummary:
          "signs -(f^n x) and +C b_g); the b_gz terms are dropped as in the paper (the heading error is common "
          "to all methods). The INS curves come from the derivation, not from the printed eq:error-3d, "
          f"whose signs the [audit](audit.md) found inconsistent ({n_disc} discrepant terms under this convention).",
-         "", f"Parameters: `{params.source}`", "",
+         "", f"Parameters: `{shown}`", "",
          md_table(["", "x", "y", "z"], [
              ["dv0 [m/s]", *(fmt(v, 4) for v in params.dv0)],
              ["b_a [m/s^2]", *(fmt(v, 4) for v in params.ba)],
@@ -336,7 +338,7 @@ def report_assessment(out, *, params_path=None, times=None) -> SectionSummary:
         "convention": curves.convention,
         "keep_bgz": False,
         "e3d_bgz_m": curves.e3d_bgz, "e2d_bgz_m": curves.e2d_bgz,
-        "params": {"source": params.source, "dv0_mps": params.dv0, "ba_mps2": params.ba, "bg_radps": params.bg,
+        "params": {"source": shown, "dv0_mps": params.dv0, "ba_mps2": params.ba, "bg_radps": params.bg,
                    "g_mps2": params.g, "dG": list(params.dG), "morpi_speed_mps": params.morpi_speed_mps},
         "improvements": [{"ins": n.ins, "dG": n.dG, "t_ins_s": n.t_ins, "t_morpi_s": n.t_morpi,
                           "paper_m": n.paper_m, "ours_m": float(o)} for n, o in zip(PAPER_IMPROVEMENTS, ours)],

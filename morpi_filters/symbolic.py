@@ -592,6 +592,13 @@ def closed_form_mean_square(sigmas, times, kind: str = "3d", convention="z_up", 
     -------
     ndarray, shape (n,)
         ``E[e^2]`` [m^2]; ``sqrt`` of it is the RMS distance error.
+
+    Examples
+    --------
+    >>> sig = {"dv0_mps": [0.05] * 3, "ba_mps2": [0.04] * 3, "bg_radps": [2e-3] * 3, "g_mps2": 9.81}
+    >>> rms = np.sqrt(closed_form_mean_square(sig, [0.0, 5.0, 14.0], "3d", "z_up"))
+    >>> bool(rms[0] == 0.0 and rms[2] > rms[1])
+    True
     """
     p = _as_params(sigmas)
     t = _times(times)
