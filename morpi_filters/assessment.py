@@ -324,7 +324,15 @@ def report_assessment(out, *, params_path=None, times=None) -> SectionSummary:
          "0 and 15 s differ between such sets. The committed file is one plausible member of that family "
          "(the bounded least-squares fit closest to a calibrated-IMU prior, "
          "`morpi_filters.assessment.fit_paper_numbers`).", "",
-         "Note: `e_2D < e_3D` holds for these parameters but not for every realisation (see the audit).", "",
+         "The MoRPI-A model is the paper's `ds = sum_k dG_A Df_k` with the gain error as a fraction of the "
+         "gain: `dG` times the distance travelled, i.e. `dG v t` (constant biases cancel in max - min, "
+         "eq:del_F). The rate the eight numbers imply, about 1 m per second, is what one 1 m peak-to-peak "
+         "period per second gives; it is a property of the paper's curve, not of the field runs (the indoor "
+         "periodic runs cover 6.3 m in about 14 s). For a run of known length L the MoRPI-A error is simply "
+         "`dG L`, whatever its duration.", "",
+         "Note: `e_2D < e_3D` holds for these parameters but not for every realisation (see the audit). "
+         "The fitted values are specific to the `z_up` convention: under `z_down` the same file gives a "
+         "different e_3D (flip the signs of b_gx, b_gy and b_az to get the same curves).", "",
          "## Audit of the printed equations", "",
          f"[audit.md](audit.md): {n_disc} printed terms differ from the derivation under `{curves.convention}`; "
          "the b_gz cross terms of dp_x and dp_y and the cross terms of eq:error-3d are inconsistent under every "

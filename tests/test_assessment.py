@@ -156,3 +156,17 @@ def test_assessment_module_does_not_import_sympy_at_module_level():
     code = "import sys, morpi_filters.assessment; print('sympy' in sys.modules)"
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)
     assert res.stdout.strip() == "False"
+
+
+def test_z_down_equals_z_up_with_tilt_biases_flipped():
+    """The README's claim: z_down with (b_gx, b_gy, b_az) negated gives the z_up curves."""
+    from morpi_filters import symbolic as S
+
+    p = load_params()
+    q = params_from_dict({"dv0_mps": list(p.dv0), "ba_mps2": [p.ba[0], p.ba[1], -p.ba[2]],
+                          "bg_radps": [-p.bg[0], -p.bg[1], p.bg[2]], "g_mps2": p.g})
+    t = np.arange(16.0)
+    for kind in ("3d", "2d"):
+        np.testing.assert_allclose(S.closed_form_errors(q, t, kind, "z_down"), S.closed_form_errors(p, t, kind),
+                                   rtol=1e-12)
+    assert not np.allclose(S.closed_form_errors(p, t, "3d", "z_down"), S.closed_form_errors(p, t, "3d"))
