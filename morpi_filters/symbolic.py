@@ -155,6 +155,8 @@ def convention(spec="z_up") -> Convention:
     return Convention(**kw)
 
 
+_convention = convention  # for functions whose `convention` argument shadows the parser
+
 #: Every sign combination the audit compares against (paper's F signs first).
 AUDIT_CONVENTIONS = tuple(
     Convention(gr, m, s) for gr in CONVENTIONS for (m, s) in ((-1, 1), (1, -1), (-1, -1), (1, 1)))
@@ -516,7 +518,7 @@ def closed_form_errors(params, times, kind: str = "3d", convention="z_up", keep_
     """
     p = _as_params(params)
     t = _times(times)
-    fn = lambdified(kind, globals()["convention"](convention).name, bool(keep_bgz))
+    fn = lambdified(kind, _convention(convention).name, bool(keep_bgz))
     out = fn(t, *p.dv0, *p.ba, *p.bg, p.g)
     if kind in ("dp", "dp2d"):
         return np.stack([np.broadcast_to(np.asarray(c, float), t.shape) for c in out], axis=1)
@@ -603,7 +605,7 @@ def closed_form_mean_square(sigmas, times, kind: str = "3d", convention="z_up", 
     p = _as_params(sigmas)
     t = _times(times)
     sig = (*np.abs(p.dv0), *np.abs(p.ba), *np.abs(p.bg))
-    terms = _mean_square_poly(kind, globals()["convention"](convention).name, bool(linearized), bool(keep_bgz))
+    terms = _mean_square_poly(kind, _convention(convention).name, bool(linearized), bool(keep_bgz))
     out = np.zeros_like(t)
     for m, c in terms:
         ex = 1.0

@@ -375,3 +375,14 @@ def test_time_varying_block_form_matches_numerical_integration():
         got = np.asarray(Phi(4.0), float)
         # 1e-10: DOP853 at rtol 1e-12 over 4 s; the closed form is exact
         assert np.linalg.norm(got - ref) / np.linalg.norm(ref) < 1e-10
+
+
+@pytest.mark.parametrize("conv", S.AUDIT_CONVENTIONS, ids=lambda c: c.name)
+def test_position_error_is_phi_applied_to_the_initial_state(conv):
+    """The cheap Q/T shortcut of position_error equals the full block-integral Phi times dx(0)."""
+    s = S.symbols()
+    f = sp.Matrix([s.ba[0], s.ba[1], conv.gravity_sign * s.g + s.ba[2]])
+    Phi = S.phi_block_form(conv, C=sp.eye(3), f=f).subs(s.t0, 0)
+    x0 = sp.Matrix([0, 0, 0, *s.dv, 0, 0, 0, *s.ba, *s.bg])
+    dp = (Phi * x0)[0:3, :]
+    assert sp.expand(dp - S.position_error(conv, "3d", True)).is_zero_matrix
