@@ -817,6 +817,26 @@ def _audit_notes() -> tuple:
     return tuple(notes)
 
 
+def _discrepancy_table(r: AuditResult, conv_name: str, phys: dict) -> list:
+    disc = r.discrepancies(conv_name)
+    if not disc:
+        return ["None."]
+    L = [f"| equation | monomial | printed | derived (`{conv_name}`) | conventions reproducing this term "
+         "| conventions reproducing the whole equation |", "|---|---|---|---|---|---|"]
+    for label, tc in disc:
+        full = r.equation(label).full_match
+        term = ", ".join(f"`{n}`" for n in tc.matches) or "none"
+        whole = [n for n in tc.matches if n in full]
+        if whole:
+            whole_s = ", ".join(f"`{n}`" + ("" if phys[n] else " (not physical)") for n in whole)
+        else:
+            whole_s = "none (each one fixes this term but breaks another term of the equation)" if tc.matches \
+                else "none"
+        L.append("| " + " | ".join([label, f"`{tc.monomial}`", tc.printed, tc.derived[conv_name], term, whole_s])
+                 + " |")
+    return L
+
+
 def audit_markdown(result: AuditResult | None = None) -> str:
     """The audit as a markdown page (generated, never hand-edited)."""
     r = audit() if result is None else result
@@ -838,28 +858,16 @@ def audit_markdown(result: AuditResult | None = None) -> str:
         full = ", ".join(f"`{n}`" for n in e.full_match) or "none of the audited conventions"
         best = min(e.mismatches.values())
         closest = ", ".join(f"`{n}`" for n, k in e.mismatches.items() if k == best)
+        pbest = min(k for n, k in e.mismatches.items() if phys[n])
+        pclosest = ", ".join(f"`{n}`" for n, k in e.mismatches.items() if k == pbest and phys[n])
         L.append(f"- **{e.label}**: every term matches under {full}; mismatching terms under the reference: "
-                 f"{e.mismatches[r.reference]}; closest: {closest} ({best} mismatching).")
-    L += ["", "## Discrepancies under the reference convention", ""]
-    disc = r.discrepancies()
-    if not disc:
-        L.append("None.")
-    else:
-        rows = []
-        for label, tc in disc:
-            full = r.equation(label).full_match
-            term = ", ".join(f"`{n}`" for n in tc.matches) or "none"
-            whole = [n for n in tc.matches if n in full]
-            if whole:
-                whole_s = ", ".join(f"`{n}`" + ("" if phys[n] else " (not physical)") for n in whole)
-            else:
-                whole_s = "none (each one fixes this term but breaks another term of the equation)" if tc.matches \
-                    else "none"
-            rows.append([label, f"`{tc.monomial}`", tc.printed, tc.derived[r.reference], term, whole_s])
-        L.append("| equation | monomial | printed | derived (reference) | conventions reproducing this term "
-                 "| conventions reproducing the whole equation |")
-        L.append("|---|---|---|---|---|---|")
-        L += ["| " + " | ".join(row) + " |" for row in rows]
+                 f"{e.mismatches[r.reference]}; closest: {closest} ({best} mismatching); closest physically "
+                 f"consistent: {pclosest} ({pbest} mismatching).")
+    for conv_name in dict.fromkeys([r.reference, "z_down"]):
+        title = (f"the reference convention `{conv_name}`" if conv_name == r.reference
+                 else f"the paper's NED-like reading `{conv_name}`")
+        L += ["", f"## Discrepancies under {title}", ""]
+        L += _discrepancy_table(r, conv_name, phys)
     L += ["", "## Terms the paper drops", ""]
     L += ["The paper keeps the b_gz terms in dp_x and dp_y and drops them from e_3D and e_2D (the heading error is "
           "common to every method). `keep_bgz=True` in `closed_form_errors` keeps them. Under the reference "
