@@ -41,7 +41,8 @@ from .reporting import SectionSummary, fmt, md_table, write_json, write_text
 
 __all__ = [
     "PAPER_IMPROVEMENTS", "PaperNumber", "AssessmentCurves", "assessment_curves", "improvements",
-    "fit_paper_numbers", "FitResult", "report_assessment", "DEFAULT_TIMES", "CONVENTION",
+    "fit_paper_numbers", "FitResult", "write_fitted_params", "report_assessment", "morpi_error", "DEFAULT_TIMES",
+    "CONVENTION", "FIT_PRIOR", "FIT_BOUNDS",
 ]
 
 #: Sign convention of the section (the package's frames, see morpi_filters.__init__).

@@ -64,6 +64,9 @@ def assessment_figure(curves, path, title: str = "Analytical assessment of 3D & 
     for k, (dG, e) in enumerate(sorted(curves.morpi.items())):
         ax.plot(t, [e[i] for i in order], color="tab:green", ls=styles[k % len(styles)], lw=2,
                 label=f"MoRPI-A, $\\delta G_A$ = {dG * 100:g}%")
+    for tm in (5.0, 14.0):  # the paper's straight-line and periodic-run durations
+        if t and min(t) <= tm <= max(t):
+            ax.axvline(tm, color="0.6", lw=0.8, ls="--", zorder=0)
     ax.set_xlabel("time [s]")
     ax.set_ylabel("distance error [m]")
     ax.set_title(title, fontsize=10)
