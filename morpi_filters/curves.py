@@ -150,14 +150,22 @@ def case_from_sensor(spec, params) -> CurveCase:
     )
 
 
+def _keys(dv0, ba, bg, g):
+    return {"dv0_mps": [float(v) for v in dv0], "ba_mps2": [float(v) for v in ba],
+            "bg_radps": [float(v) for v in bg], "g_mps2": float(g)}
+
+
 def closed_form_mean_square(case: CurveCase, t, kind):
-    """Expected squared horizontal error of the paper's linearized polynomials.
+    """Expected squared horizontal error of the paper's linearized closed form.
 
-    ``E[dp_x^2 + dp_y^2]`` for independent zero-mean errors (z-up)::
+    ``E[dp_x^2 + dp_y^2]`` for independent zero-mean errors with the case's
+    1-sigma values, from :func:`morpi_filters.symbolic.closed_form_mean_square`
+    (``linearized=True``, z up, ``b_gz`` dropped), e.g. for the 3D INS::
 
-        3D:    (s_vx^2 + s_vy^2) t^2 + (s_ax^2 + s_ay^2) t^4 / 4 + g^2 (s_gx^2 + s_gy^2) t^6 / 36
-        2D:    (s_vx^2 + s_vy^2) t^2 + (s_ax^2 + s_ay^2) t^4 / 4
-        morpi: (s_G speed t)^2        (distance error = dG x distance travelled)
+        (s_vx^2 + s_vy^2) t^2 + (s_ax^2 + s_ay^2) t^4 / 4 + g^2 (s_gx^2 + s_gy^2) t^6 / 36
+
+    and for MoRPI-A the paper's ``ds = dG v t`` (:func:`symbolic.morpi_error`):
+    ``(s_G speed t)^2``.
 
     Parameters
     ----------
@@ -170,42 +178,35 @@ def closed_form_mean_square(case: CurveCase, t, kind):
     -------
     ndarray, shape (n,)  [m^2]
     """
-    # Stands in for symbolic.closed_form_mean_square until that module is available.
+    from . import symbolic
+
     t = np.asarray(t, dtype=float)
-    sv, sa, sg = case.dv0, case.ba, case.bg
-    base = (sv[0] ** 2 + sv[1] ** 2) * t ** 2 + (sa[0] ** 2 + sa[1] ** 2) * t ** 4 / 4
-    if kind == "ins3d":
-        return base + case.g ** 2 * (sg[0] ** 2 + sg[1] ** 2) * t ** 6 / 36
-    if kind == "ins2d":
-        return base
     if kind == "morpi":
         return (case.gain_sigma * case.speed * t) ** 2
-    raise MorpiError(f"kind {kind!r}: expected 'ins3d', 'ins2d' or 'morpi'")
+    if kind not in ("ins3d", "ins2d"):
+        raise MorpiError(f"kind {kind!r}: expected 'ins3d', 'ins2d' or 'morpi'")
+    return symbolic.closed_form_mean_square(_keys(case.dv0, case.ba, case.bg, case.g), t, kind[3:], "z_up",
+                                            linearized=True, keep_bgz=False)
 
 
 def closed_form_errors(dv0, ba, bg, dG, g, speed, t, kind):
-    """Horizontal error of one realisation of the paper's polynomials (z-up, linearized).
+    """Horizontal error of one realisation of the paper's closed form (z up, ``b_gz`` dropped).
 
-    ``dp_x = dv_x t + b_ax t^2/2 + g b_gy t^3/6``,
-    ``dp_y = dv_y t + b_ay t^2/2 - g b_gx t^3/6`` (3D; 2D without the gyro
-    terms); MoRPI: ``|dG| speed t``.
+    From :func:`morpi_filters.symbolic.closed_form_errors`: the paper's
+    polynomials with ``alpha = g + b_az``; MoRPI-A: ``|dG| speed t``.
 
     Returns
     -------
     ndarray, shape (n,)  [m]
     """
-    # Stands in for symbolic.closed_form_errors until that module is available.
+    from . import symbolic
+
     t = np.asarray(t, dtype=float)
     if kind == "morpi":
         return np.abs(dG) * speed * t
-    dx = dv0[0] * t + ba[0] * t ** 2 / 2
-    dy = dv0[1] * t + ba[1] * t ** 2 / 2
-    if kind == "ins3d":
-        dx = dx + g * bg[1] * t ** 3 / 6
-        dy = dy - g * bg[0] * t ** 3 / 6
-    elif kind != "ins2d":
+    if kind not in ("ins3d", "ins2d"):
         raise MorpiError(f"kind {kind!r}: expected 'ins3d', 'ins2d' or 'morpi'")
-    return np.hypot(dx, dy)
+    return symbolic.closed_form_errors(_keys(dv0, ba, bg, g), t, kind[3:], "z_up", keep_bgz=False)
 
 
 def time_grid(times, dt, step_period=None):

@@ -46,6 +46,12 @@ def test_noise_off_variance_equals_the_closed_form_expectation():
     assert got[0] == 0.0
     # bar 1e-9 relative (task); the two differ only by rounding of 1500 products
     assert np.max(np.abs(got[1:] / want[1:] - 1)) < 1e-9
+    # second, independent route: the sympy-derived mean square of the same polynomials
+    from morpi_filters.symbolic import closed_form_mean_square
+
+    sig = {"dv0_mps": SV.tolist(), "ba_mps2": SA.tolist(), "bg_radps": SG.tolist(), "g_mps2": G_MPS2}
+    sym = closed_form_mean_square(sig, t, "3d", "z_up", linearized=True, keep_bgz=False)
+    assert np.max(np.abs(got[1:] / sym[1:] - 1)) < 1e-9
 
 
 def test_noise_on_variance_matches_the_linear_monte_carlo():
