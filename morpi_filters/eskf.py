@@ -70,8 +70,9 @@ from .errors import MorpiError
 
 __all__ = [
     "C_DP", "C_EPS", "GAIN", "AUG_STATE_NAMES", "Measurement", "FilterResult", "StepModel",
-    "initial_covariance", "augment", "augment_covariance", "step_update", "step_z",
+    "initial_covariance", "augment", "augment_covariance", "clone_reset", "step_update", "step_z",
     "run_filter", "propagate_covariance", "nees", "nis", "chi2_band", "simulate_steps",
+    "AidedTuning", "AidedRun", "morpi_aided_ins",
 ]
 
 #: Clone of the position error at the previous step (augmented state).
@@ -95,9 +96,10 @@ class Measurement:
     index : int
         Epoch index; the update follows the prediction into this epoch.
     z : ndarray, shape (m,) or (runs, m)
-        Measurement (one per Monte Carlo run when 2-D).
-    H : ndarray, shape (m, k)
-    R : ndarray, shape (m, m)
+        Measurement (one per Monte Carlo run when 2-D); None with ``H=None``.
+    H : ndarray, shape (m, k) or None
+        None for a reset-only event (no update).
+    R : ndarray, shape (m, m) or None
     reset : ndarray, shape (k, k) or None
         Linear state reset applied after the update (``x = T x``,
         ``P = T P T^T``), e.g. re-cloning the step-start states.
@@ -249,6 +251,11 @@ def augment(Phi, Qd, model: StepModel):
     return Phi_a, Qd_a
 
 
+def clone_reset(k):
+    """The reset that copies ``dp, eps`` into their clones, shape (k, k)."""
+    return _clone_reset(k)
+
+
 def _clone_reset(k):
     T = np.eye(k)
     for c, s in ((C_DP, DP), (C_EPS, EPS)):
@@ -383,7 +390,7 @@ def run_filter(Phi, Qd, P0, times, measurements=(), x0=None, keep_P=False):
         raise MorpiError(f"measurement index out of range 1..{n}")
     runs = None
     for m in meas:
-        if np.ndim(m.z) == 2:
+        if m.H is not None and np.ndim(m.z) == 2:
             runs = np.shape(m.z)[0]
     if x0 is not None and np.ndim(x0) == 2:
         runs = np.shape(x0)[0]
@@ -392,8 +399,9 @@ def run_filter(Phi, Qd, P0, times, measurements=(), x0=None, keep_P=False):
     else:
         X = np.zeros((runs, k)) if x0 is None else np.broadcast_to(np.asarray(x0, float), (runs, k)).copy()
 
-    dim_z = meas[0].H.shape[0] if meas else 1
-    for m in meas:
+    upd = [m for m in meas if m.H is not None]
+    dim_z = upd[0].H.shape[0] if upd else 1
+    for m in upd:
         if m.H.shape != (dim_z, k) or m.R.shape != (dim_z, dim_z) or np.shape(m.z)[-1] != dim_z:
             raise MorpiError(f"measurement at epoch {m.index}: expected H ({dim_z}, {k}), R ({dim_z}, {dim_z}) "
                              f"and z of length {dim_z}, got {m.H.shape}, {m.R.shape}, {np.shape(m.z)}")
@@ -430,6 +438,12 @@ def run_filter(Phi, Qd, P0, times, measurements=(), x0=None, keep_P=False):
         while mi < len(meas) and meas[mi].index == i + 1:
             m = meas[mi]
             mi += 1
+            if m.H is None:  # a state reset only (e.g. re-cloning at a step start)
+                kf.x = m.reset @ kf.x
+                kf.P = _symmetrize(m.reset @ kf.P @ m.reset.T)
+                if runs is not None:
+                    X = X @ m.reset.T
+                continue
             z = np.asarray(m.z, dtype=float)
             H, R = m.H, m.R
             if runs is None:
@@ -471,7 +485,7 @@ def run_filter(Phi, Qd, P0, times, measurements=(), x0=None, keep_P=False):
     names = AUG_STATE_NAMES[:k] if k > N_STATES else STATE_NAMES[:k]
     return FilterResult(
         times=times, x=x_out, sigma=np.sqrt(np.clip(var, 0.0, None)), P_end=kf.P.copy(),
-        update_index=np.array([m.index for m in meas], dtype=int),
+        update_index=np.array([m.index for m in upd], dtype=int),
         innovations=innov, S=np.array(Ss).reshape(len(Ss), m_dim, m_dim),
         normalized_innovations=white, P=P_store, P_index=P_index, state_names=names,
     )
@@ -587,3 +601,126 @@ def simulate_steps(X, step_index, length, psi, model: StepModel, speed, gain, rn
         out.append(Measurement(index=m.index, z=z, H=m.H, R=m.R, reset=m.reset))
         prev = idx
     return out
+
+
+@dataclass(frozen=True)
+class AidedTuning:
+    """Tunables of the MoRPI-aided INS on a recording (1 sigma values, SI).
+
+    Attributes
+    ----------
+    dv0 : float
+        Initial velocity error [m/s] (the run starts at rest).
+    ba, bg : float
+        Residual accelerometer [m/s^2] and gyro [rad/s] biases after calibration.
+    eps0 : float
+        Initial misalignment [rad].
+    noise_scale : float
+        Factor on the datasheet noise densities.
+    step : StepModel
+        Error model of one MoRPI step.
+    """
+
+    dv0: float = 0.02
+    ba: float = 0.05
+    bg: float = 0.003
+    eps0: float = 0.01
+    noise_scale: float = 1.0
+    step: StepModel = StepModel()
+
+
+@dataclass(frozen=True)
+class AidedRun:
+    """A MoRPI-aided INS solution of one recording.
+
+    Attributes
+    ----------
+    time : ndarray, shape (n,)
+    ins_position : ndarray, shape (n, 2)
+        Horizontal position of the INS alone [m].
+    position : ndarray, shape (n, 2)
+        Aided horizontal position: INS minus the estimated position error [m].
+    sigma_xy : ndarray, shape (n,)
+        Horizontal 1 sigma of the aided position [m].
+    n_updates : int
+        Steps used as measurements.
+    result : FilterResult
+    """
+
+    time: np.ndarray
+    ins_position: np.ndarray
+    position: np.ndarray
+    sigma_xy: np.ndarray
+    n_updates: int
+    result: FilterResult
+
+    @property
+    def end_point(self) -> np.ndarray:
+        """Aided horizontal position at the last sample [m], shape (2,)."""
+        return self.position[-1]
+
+
+def morpi_aided_ins(time, C_bn, f_b, ins_position, ins_heading, step_start, step_end, step_length, spec,
+                    tuning: AidedTuning = AidedTuning()) -> AidedRun:
+    """MoRPI-aided 3D INS: the error-state filter along a strapdown solution.
+
+    The error model is linearized along the INS's own trajectory (``C_b^n``
+    and ``f^n = C_b^n f^b`` at the start of every real time step), the
+    process noise is the IMU's datasheet noise, and each MoRPI step is a
+    pseudo-measurement (module docstring). The filter runs open loop (the INS
+    is not corrected while it runs); the aided position is the INS position
+    minus the estimated position error.
+
+    Parameters
+    ----------
+    time : array_like, shape (n,)
+        Sample times of the INS [s] (real, non-uniform steps).
+    C_bn : array_like, shape (n, 3, 3)
+    f_b : array_like, shape (n, 3)
+        Specific force in the body frame [m/s^2] (as fed to the INS).
+    ins_position : array_like, shape (n, 2) or (n, 3)
+    ins_heading : array_like, shape (n,)
+        INS heading [rad] (unwrapped here).
+    step_start, step_end : array_like, shape (k,)
+        Step boundaries [s] (peak times).
+    step_length : array_like, shape (k,)
+        MoRPI step lengths [m].
+    spec : units.SensorSpec
+    tuning : AidedTuning
+
+    Returns
+    -------
+    AidedRun
+    """
+    from .error_model import discretize, noise_coupling, noise_density, system_matrix
+
+    t = np.asarray(time, dtype=float)
+    C = np.asarray(C_bn, dtype=float)
+    fn = np.einsum("nij,nj->ni", C, np.asarray(f_b, dtype=float))
+    p = np.asarray(ins_position, dtype=float)[:, :2]
+    psi = np.unwrap(np.asarray(ins_heading, dtype=float))
+    n = t.size
+    if n < 2 or C.shape != (n, 3, 3) or fn.shape != (n, 3) or p.shape != (n, 2) or psi.shape != (n,):
+        raise MorpiError("morpi_aided_ins: time (n,), C_bn (n, 3, 3), f_b (n, 3), position (n, 2|3), heading (n,)")
+    model = tuning.step
+    D = discretize(system_matrix(C[:-1], fn[:-1]), noise_coupling(C[:-1]),
+                   noise_density(spec) * tuning.noise_scale ** 2, np.diff(t))
+    Phi_a, Qd_a = augment(D.Phi, D.Qd, model)
+    P0a = augment_covariance(initial_covariance(tuning.dv0, tuning.ba, tuning.bg, eps0=tuning.eps0), model)
+    T = clone_reset(model.n_states)
+    meas, prev = [], 0
+    for a, b, s in zip(np.asarray(step_start, float), np.asarray(step_end, float), np.asarray(step_length, float)):
+        i0 = int(np.clip(np.searchsorted(t, a), 0, n - 1))
+        i1 = int(np.clip(np.searchsorted(t, b), 0, n - 1))
+        if i1 <= i0 or not np.isfinite(s):
+            continue
+        if i0 != prev and i0 > 0:
+            meas.append(Measurement(i0, None, None, None, reset=T))
+        psi_hat = float(psi[i0:i1 + 1].mean())
+        speed = s / max(t[i1] - t[i0], 1e-9)
+        meas.append(step_update(i1, s, psi_hat, model, speed, z=step_z(p[i1], p[i0], s, psi_hat)))
+        prev = i1
+    r = run_filter(Phi_a, Qd_a, P0a, t, meas)
+    pos = p - r.x[:, DP][:, :2]
+    return AidedRun(time=t, ins_position=p, position=pos, sigma_xy=r.horizontal_sigma,
+                    n_updates=int(r.update_index.size), result=r)
