@@ -660,67 +660,157 @@ class AidedRun:
         return self.position[-1]
 
 
-def morpi_aided_ins(time, C_bn, f_b, ins_position, ins_heading, step_start, step_end, step_length, spec,
-                    tuning: AidedTuning = AidedTuning()) -> AidedRun:
-    """MoRPI-aided 3D INS: the error-state filter along a strapdown solution.
+def _rot(phi):
+    """Rotation matrix ``exp([phi x])`` of a rotation vector (Rodrigues)."""
+    from .error_model import skew
 
-    The error model is linearized along the INS's own trajectory (``C_b^n``
-    and ``f^n = C_b^n f^b`` at the start of every real time step), the
-    process noise is the IMU's datasheet noise, and each MoRPI step is a
-    pseudo-measurement (module docstring). The filter runs open loop (the INS
-    is not corrected while it runs); the aided position is the INS position
-    minus the estimated position error.
+    th = float(np.linalg.norm(phi))
+    K = skew(phi)
+    if th < 1e-12:
+        return np.eye(3) + K
+    return np.eye(3) + np.sin(th) / th * K + (1 - np.cos(th)) / th ** 2 * (K @ K)
+
+
+def morpi_aided_ins(time, f_b, omega_b, step_start, step_end, step_length, spec,
+                    tuning: AidedTuning = AidedTuning(), *, C0=None, v0=None, g=None, every: int = 1) -> AidedRun:
+    """MoRPI-aided 3D INS: a closed-loop error-state filter around the strapdown.
+
+    The 3D strapdown (:func:`morpi_filters.strapdown.ins3d`) runs from one
+    filter event (step boundary) to the next on the bias-corrected IMU
+    samples. Between events the filter predicts through filterpy with the
+    error model linearized along the corrected INS (``C_b^n`` and
+    ``f^n = C_b^n f^b`` held over each filter step of `every` samples, real
+    time steps, the datasheet noise). At each step end the MoRPI step is a
+    pseudo-measurement (module docstring); the estimated position, velocity,
+    attitude and bias errors are then fed back into the INS
+    (``p -= dp``, ``v -= dv``, ``C = exp(-[eps x]) C``, ``b_hat += db``) and
+    their error states reset to zero (closed loop), and the clones re-taken.
+    The gain error stays an estimated state.
 
     Parameters
     ----------
     time : array_like, shape (n,)
-        Sample times of the INS [s] (real, non-uniform steps).
-    C_bn : array_like, shape (n, 3, 3)
-    f_b : array_like, shape (n, 3)
-        Specific force in the body frame [m/s^2] (as fed to the INS).
-    ins_position : array_like, shape (n, 2) or (n, 3)
-    ins_heading : array_like, shape (n,)
-        INS heading [rad] (unwrapped here).
+        Sample times [s] (real, non-uniform steps).
+    f_b, omega_b : array_like, shape (n, 3)
+        Specific force [m/s^2] and angular rate [rad/s] in the body frame.
     step_start, step_end : array_like, shape (k,)
         Step boundaries [s] (peak times).
     step_length : array_like, shape (k,)
         MoRPI step lengths [m].
     spec : units.SensorSpec
     tuning : AidedTuning
+    C0 : array_like, shape (3, 3), optional
+        Initial attitude (default identity: level, heading along x).
+    v0 : array_like, shape (3,), optional
+        Initial velocity (default zero).
+    g : float, optional
+        Gravity magnitude [m/s^2] (default :data:`units.G0`).
+    every : int
+        Filter steps of `every` samples (plus the event samples).
 
     Returns
     -------
     AidedRun
+        On the filter epochs; ``ins_position`` is the corrected INS before
+        each feedback, ``position`` after it.
     """
-    from .error_model import discretize, noise_coupling, noise_density, system_matrix
+    from . import units
+    from .error_model import BA, BG, DV, discretize, noise_coupling, noise_density, system_matrix
+    from .strapdown import heading_from_C, ins3d
 
     t = np.asarray(time, dtype=float)
-    C = np.asarray(C_bn, dtype=float)
-    fn = np.einsum("nij,nj->ni", C, np.asarray(f_b, dtype=float))
-    p = np.asarray(ins_position, dtype=float)[:, :2]
-    psi = np.unwrap(np.asarray(ins_heading, dtype=float))
+    f_b = np.asarray(f_b, dtype=float)
+    w_b = np.asarray(omega_b, dtype=float)
     n = t.size
-    if n < 2 or C.shape != (n, 3, 3) or fn.shape != (n, 3) or p.shape != (n, 2) or psi.shape != (n,):
-        raise MorpiError("morpi_aided_ins: time (n,), C_bn (n, 3, 3), f_b (n, 3), position (n, 2|3), heading (n,)")
+    if n < 2 or f_b.shape != (n, 3) or w_b.shape != (n, 3):
+        raise MorpiError(f"morpi_aided_ins: expected time (n,), f_b and omega_b (n, 3), got {t.shape}, "
+                         f"{f_b.shape}, {w_b.shape}")
+    g = units.G0 if g is None else float(g)
     model = tuning.step
-    D = discretize(system_matrix(C[:-1], fn[:-1]), noise_coupling(C[:-1]),
-                   noise_density(spec) * tuning.noise_scale ** 2, np.diff(t))
-    Phi_a, Qd_a = augment(D.Phi, D.Qd, model)
-    P0a = augment_covariance(initial_covariance(tuning.dv0, tuning.ba, tuning.bg, eps0=tuning.eps0), model)
-    T = clone_reset(model.n_states)
-    meas, prev = [], 0
-    for a, b, s in zip(np.asarray(step_start, float), np.asarray(step_end, float), np.asarray(step_length, float)):
-        i0 = int(np.clip(np.searchsorted(t, a), 0, n - 1))
-        i1 = int(np.clip(np.searchsorted(t, b), 0, n - 1))
-        if i1 <= i0 or not np.isfinite(s):
-            continue
-        if i0 != prev and i0 > 0:
-            meas.append(Measurement(i0, None, None, None, reset=T))
-        psi_hat = float(psi[i0:i1 + 1].mean())
-        speed = s / max(t[i1] - t[i0], 1e-9)
-        meas.append(step_update(i1, s, psi_hat, model, speed, z=step_z(p[i1], p[i0], s, psi_hat)))
-        prev = i1
-    r = run_filter(Phi_a, Qd_a, P0a, t, meas)
-    pos = p - r.x[:, DP][:, :2]
-    return AidedRun(time=t, ins_position=p, position=pos, sigma_xy=r.horizontal_sigma,
-                    n_updates=int(r.update_index.size), result=r)
+    k = model.n_states
+    Q = noise_density(spec) * tuning.noise_scale ** 2
+    T = clone_reset(k)
+    a_idx = np.clip(np.searchsorted(t, np.asarray(step_start, float)), 0, n - 1)
+    b_idx = np.clip(np.searchsorted(t, np.asarray(step_end, float)), 0, n - 1)
+    lengths = np.asarray(step_length, float)
+    # events: (index, kind, step) with kind 0 = update at a step end, 1 = re-clone at a step start
+    # (at a shared index the update of the ending step comes first)
+    events = []
+    for j, (a, b) in enumerate(zip(a_idx, b_idx)):
+        if b > a and np.isfinite(lengths[j]):
+            events.append((int(b), 0, j))
+            events.append((int(a), 1, j))
+    events.sort()
+
+    kf = KalmanFilter(dim_x=k, dim_z=2)
+    kf.x = np.zeros(k)
+    kf.P = augment_covariance(initial_covariance(tuning.dv0, tuning.ba, tuning.bg, eps0=tuning.eps0), model)
+    C = np.eye(3) if C0 is None else np.array(C0, dtype=float)
+    v = np.zeros(3) if v0 is None else np.array(v0, dtype=float)
+    p = np.zeros(3)
+    ba_hat, bg_hat = np.zeros(3), np.zeros(3)
+    p_start, psi_seg = p.copy(), []
+    times, pos_before, pos_after, var = [t[0]], [p[:2].copy()], [p[:2].copy()], [np.diag(kf.P)]
+    ys, Ss, ws, upd = [], [], [], []
+    i = 0
+    bounds = sorted({e[0] for e in events} | {n - 1})
+    ev = {}
+    for e in events:
+        ev.setdefault(e[0], []).append(e)
+    for j in bounds:
+        if j > i:
+            seg = slice(i, j + 1)
+            r = ins3d(t[seg], f_b[seg] - ba_hat, w_b[seg] - bg_hat, C0=C, v0=v, p0=p, g=g)
+            Cs, ps = np.asarray(r.C_bn), np.asarray(r.position)
+            sub = np.unique(np.r_[np.arange(0, j - i, max(int(every), 1)), j - i])
+            fn = np.einsum("nij,nj->ni", Cs[sub[:-1]], f_b[i + sub[:-1]] - ba_hat)
+            D = discretize(system_matrix(Cs[sub[:-1]], fn), noise_coupling(Cs[sub[:-1]]), Q, np.diff(t[i + sub]))
+            Phi_a, Qd_a = augment(D.Phi, D.Qd, model)
+            for q in range(sub.size - 1):
+                kf.predict(F=Phi_a[q], Q=Qd_a[q])
+                times.append(t[i + sub[q + 1]])
+                pos_before.append(ps[sub[q + 1], :2].copy())
+                pos_after.append(ps[sub[q + 1], :2].copy())
+                var.append(np.diag(kf.P).copy())
+            psi_seg.append(np.unwrap(heading_from_C(Cs)))
+            C, v, p = Cs[-1].copy(), np.asarray(r.velocity)[-1].copy(), ps[-1].copy()
+            i = j
+        for _, kind, step in ev.get(j, []):
+            if kind == 1:
+                kf.x = T @ kf.x
+                kf.P = _symmetrize(T @ kf.P @ T.T)
+                p_start, psi_seg = p.copy(), [np.array([heading_from_C(C)])]
+                continue
+            s = float(lengths[step])
+            psi_hat = float(np.mean(np.unwrap(np.concatenate(psi_seg)))) if psi_seg else float(heading_from_C(C))
+            speed = s / max(t[b_idx[step]] - t[a_idx[step]], 1e-9)
+            m = step_update(j, s, psi_hat, model, speed, z=step_z(p[:2], p_start[:2], s, psi_hat))
+            y = m.z - m.H @ kf.x
+            kf.update(m.z, R=m.R, H=m.H)
+            kf.P = _symmetrize(kf.P)
+            L = np.linalg.cholesky(kf.S)
+            ys.append(y)
+            Ss.append(kf.S.copy())
+            ws.append(np.linalg.solve(L, y))
+            upd.append(len(times) - 1)
+            dx = kf.x
+            p = p - dx[DP]
+            v = v - dx[DV]
+            C = _rot(-dx[EPS]) @ C
+            ba_hat, bg_hat = ba_hat + dx[BA], bg_hat + dx[BG]
+            x = kf.x.copy()
+            x[:N_STATES] = 0.0
+            kf.x = T @ x
+            kf.P = _symmetrize(T @ kf.P @ T.T)
+            p_start, psi_seg = p.copy(), [np.array([heading_from_C(C)])]
+            pos_after[-1] = p[:2].copy()
+            var[-1] = np.diag(kf.P).copy()
+    var = np.array(var)
+    res = FilterResult(
+        times=np.array(times), x=np.zeros((len(times), k)), sigma=np.sqrt(np.clip(var, 0, None)), P_end=kf.P.copy(),
+        update_index=np.array(upd, dtype=int), innovations=np.array(ys).reshape(-1, 2),
+        S=np.array(Ss).reshape(-1, 2, 2), normalized_innovations=np.array(ws).reshape(-1, 2),
+        state_names=AUG_STATE_NAMES[:k],
+    )
+    return AidedRun(time=res.times, ins_position=np.array(pos_before), position=np.array(pos_after),
+                    sigma_xy=res.horizontal_sigma, n_updates=len(upd), result=res)

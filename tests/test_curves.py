@@ -89,7 +89,8 @@ def test_report_contract(tmp_path):
     assert "Covariance curves" in (out / "README.md").read_text()
 
 
-def test_default_times_and_cli(tmp_path):
+def test_default_times_and_cli(tmp_path, monkeypatch):
+    monkeypatch.delenv("MORPI_DATA", raising=False)  # no field study here (see the field tests)
     assert DEFAULT_TIMES[0] == 0.0 and DEFAULT_TIMES[-1] == 15.0 and len(DEFAULT_TIMES) == 16
     js = tmp_path / "r.json"
     rc = main(["curves", "--params", str(_write(tmp_path)), "--out", str(tmp_path / "c"), "--json", str(js)])
@@ -99,7 +100,8 @@ def test_default_times_and_cli(tmp_path):
     assert r["sigma_ins3d_m"][0] == 0.0
 
 
-def test_bad_parameter_file_is_one_clear_error(tmp_path, capsys):
+def test_bad_parameter_file_is_one_clear_error(tmp_path, capsys, monkeypatch):
+    monkeypatch.delenv("MORPI_DATA", raising=False)
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps({**PARAMS, "process_noise": "yes"}))
     out = tmp_path / "c"
@@ -148,3 +150,17 @@ def test_field_straight_line_end_points(field_root):
     # the paper: 6.3 m in about 5 s; motion spans between 3 and 10 s
     assert np.all((d[:, 0] > 3) & (d[:, 0] < 10))
     assert np.all(np.isfinite(d[:, 1])) and np.all(np.array(pts["ins2d"])[:, 1] > 0)
+
+
+@pytest.mark.field
+def test_field_morpi_aided_ins_one_cell(field_root):
+    pytest.importorskip("morpi_filters.evaluate")
+    from morpi_filters.curves import field_aided_study
+
+    label = "short_route s8 1 m MoRPI-A GC"
+    (c,) = field_aided_study(field_root, labels={label})
+    assert c.label == label and c.runs == 11  # s8/short_distance/test holds 11 runs
+    # the steps tie the INS down: from hundreds of % (INS alone) to MoRPI's level (within x2)
+    assert c.aided_percent < 0.05 * c.ins_percent
+    assert c.aided_percent < 2 * c.morpi_percent
+    assert set(c.tuning) == {"noise_scale", "step_sigma", "gain_sigma"}
