@@ -624,10 +624,11 @@ def sample_times(t_start: float, t_end: float, rng, *, pattern: str = "uniform",
         Source of the irregular intervals (unused for ``"uniform"``).
     pattern : {"uniform", "s6", "s8"}
         ``"uniform"``: ``1 / rate_hz``. ``"s6"``: the Galaxy S6's irregular
-        stamps: a two-state Markov chain between ~100 Hz (dt 0.0095-0.0115 s)
-        and ~50 Hz (dt 0.018-0.0223 s) with lag-1 correlation 0.35 and a
-        per-run share of slow intervals drawn in 0.1-0.95 (median dt
-        0.011-0.019 s, as in the field files). ``"s8"``: 0.0100 s with
+        stamps: a two-state Markov chain between ~100 Hz (dt uniform in
+        0.0095-0.0115 s) and ~50 Hz (dt 0.0195 +- 0.0009 s, clipped to
+        0.0175-0.0223 s) with lag-1 correlation 0.35 and a per-run share of
+        slow intervals drawn in 0.1-0.75 (median dt 0.011-0.019 s, as in the
+        field files). ``"s8"``: 0.0100 s with
         +-0.1 ms jitter and a rare (0.3 %) longer interval up to 0.019 s.
     rate_hz : float
         Rate of the uniform pattern [Hz].
@@ -642,14 +643,15 @@ def sample_times(t_start: float, t_end: float, rng, *, pattern: str = "uniform",
         return t_start + np.arange(int(math.floor(span * rate_hz + 1e-9)) + 1) / rate_hz
     n_max = int(span / 0.0095) + 2
     if pattern == "s6":
-        q = rng.uniform(0.1, 0.95)
+        q = rng.uniform(0.1, 0.75)
         lam = 0.35
         redraw = rng.random(n_max) < 1.0 - lam
         redraw[0] = True
         fresh = rng.random(n_max) < q
         last = np.maximum.accumulate(np.where(redraw, np.arange(n_max), 0))
         slow = fresh[last]
-        dt = np.where(slow, rng.uniform(0.018, 0.0223, n_max), rng.uniform(0.0095, 0.0115, n_max))
+        slow_dt = np.clip(rng.normal(0.0195, 0.0009, n_max), 0.0175, 0.0223)
+        dt = np.where(slow, slow_dt, rng.uniform(0.0095, 0.0115, n_max))
     elif pattern == "s8":
         dt = 0.0100 + rng.uniform(-1e-4, 1e-4, n_max)
         gap = rng.random(n_max) < 0.003
