@@ -330,3 +330,18 @@ def test_bad_parameters_raise_naming_them(call, word):
         call()
     msg = str(exc.value)
     assert word in msg and "\n" not in msg
+
+
+def test_analysis_script_writes_figure(tmp_path, capsys):
+    sys.path.insert(0, str(ROOT / "analysis"))
+    try:
+        import synthetic_dataset
+    finally:
+        sys.path.pop(0)
+    out = tmp_path / "fig" / "run.png"
+    synthetic_dataset.main(["--seed", "2", "--phone", "s6", "--out", str(out)])
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    text = capsys.readouterr().out
+    # the noise-free line of the printout: integration error only, under the 1 mm bar
+    line = next(s for s in text.splitlines() if s.startswith("3D INS, noise-free"))
+    assert float(line.split()[-2]) < 1.0
