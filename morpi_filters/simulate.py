@@ -74,7 +74,8 @@ __all__ = [
 ]
 
 #: Version of the synthetic-dataset generator; a cached dataset with another version is rebuilt.
-GENERATOR_VERSION = "1"
+#: Bump it whenever the written files change for the same seed.
+GENERATOR_VERSION = "2"
 
 #: Turn-on biases drawn in the synthetic dataset, as a fraction of the datasheet 1 sigma
 #: (accelerometer, gyro). The rest periods of the field recordings show per-axis gyro offsets of
@@ -329,6 +330,9 @@ class Trajectory:
         Times of the lateral extremes of the periodic motion [s] (empty if none).
     peak_side : ndarray, shape (m,)
         +1 for an extreme to the left, -1 to the right.
+    period_times : ndarray, shape (k,)
+        Times the centreline distance passes each multiple of the period
+        (period boundaries, upward zero crossings of the untapered sine) [s].
     """
 
     time: np.ndarray
@@ -350,6 +354,7 @@ class Trajectory:
     amplitude: float | None = None
     peak_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
     peak_side: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    period_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
     _model: tuple = field(default=None, repr=False)
 
     @property
@@ -413,7 +418,7 @@ def _build(kind, path: _Path, *, speed, ramp, rest, rate_hz, t0, g, period=None,
     speed_u = np.linalg.norm(path.geometry(uq)[1], axis=1).reshape(-1, _GL_X.size)
     distance = float(np.sum((speed_u @ _GL_W) * half))
     end_point = path.geometry(np.array([path.length]))[0][0]
-    peak_t, side = np.zeros(0), np.zeros(0)
+    peak_t, side, bounds = np.zeros(0), np.zeros(0), np.zeros(0)
     if path.A:
         uu = np.linspace(0.0, path.length, int(path.length * 400) + 2)
         dy = path.offset(uu)[1]
@@ -426,9 +431,10 @@ def _build(kind, path: _Path, *, speed, ramp, rest, rate_hz, t0, g, period=None,
         up = 0.5 * (lo + hi)
         peak_t = law.inverse(up)
         side = np.sign(path.offset(up)[0])
+        bounds = law.inverse(np.arange(1, int(path.length / period + 1e-9) + 1) * period)
     return Trajectory(**kin, kind=kind, start_time=law.start, stop_time=law.stop, centreline_length=path.length,
                       distance=distance, end_point=end_point, period=period, amplitude=amplitude,
-                      peak_times=peak_t, peak_side=side, _model=(path, law, g))
+                      peak_times=peak_t, peak_side=side, period_times=bounds, _model=(path, law, g))
 
 
 def straight(length: float = 6.3, *, speed: float = _SPEED["straight"], ramp: float = 1.0, rest=3.0,
@@ -683,7 +689,8 @@ class ImuData:
     misalignment : ndarray, shape (3,) or (runs, 3)
         Mounting misalignment rotation vector of the sensor axes [rad].
     accel_bias_drift, gyro_bias_drift : ndarray or None, shape (n, 3) or (runs, n, 3)
-        Random-walk part of the bias over time (None when disabled).
+        Time-varying part of the bias (random walk plus Gauss-Markov; None when
+        both are disabled).
     spec : units.SensorSpec
         The sensor specification used.
     """
@@ -739,6 +746,7 @@ def _normal(rng, rngs, shape, out=None):
 
 def imu(traj: Trajectory, spec: units.SensorSpec, rng, *, runs: int | None = None, sampling="uniform",
         bias_scale=1.0, noise_scale: float = 1.0, accel_bias_rw: float = 0.0, gyro_bias_rw: float = 0.0,
+        bias_instability=(0.0, 0.0), correlation_time: float = 100.0,
         scale_factor: float = 0.0, misalignment: float = 0.0, vibration=(0.0, 0.0),
         time_span=None) -> ImuData:
     """Synthesize IMU readings of a trajectory.
@@ -746,8 +754,11 @@ def imu(traj: Trajectory, spec: units.SensorSpec, rng, *, runs: int | None = Non
     Measurement model per run (sensor axes rotated from the body by the
     mounting misalignment ``M = exp([m x])``)::
 
-        f     = (1 + s_a) * M^T f_b     + b_a + b_a,rw(t) + v_a(t) + sigma_a,k z
-        omega = (1 + s_g) * M^T omega_b + b_g + b_g,rw(t) + v_g(t) + sigma_g,k z
+        f     = (1 + s_a) * M^T f_b     + b_a + b_a(t) + v_a(t) + sigma_a,k z
+        omega = (1 + s_g) * M^T omega_b + b_g + b_g(t) + v_g(t) + sigma_g,k z
+
+    (``b(t)``: bias random walk plus Gauss-Markov bias instability, ``v(t)``:
+    vibration while moving) and the model of [2]_ for the rest.
 
     with ``sigma_k = density / sqrt(dt_k)`` the white-noise standard deviation
     of sample k from its actual interval ``dt_k`` (the interval before it;
@@ -761,7 +772,8 @@ def imu(traj: Trajectory, spec: units.SensorSpec, rng, *, runs: int | None = Non
         Datasheet figures (turn-on bias 1 sigma, noise densities).
     rng : numpy.random.Generator or list of Generator
         Every draw comes from it. A list of one generator per run makes each
-        run's draws independent of how the runs are batched.
+        run's draws independent of how the runs are batched (then `sampling`
+        must be ``"uniform"`` or explicit times).
     runs : int, optional
         Number of runs (leading axis); None for one unbatched run.
     sampling : {"uniform", "s6", "s8"} or array_like
@@ -775,6 +787,13 @@ def imu(traj: Trajectory, spec: units.SensorSpec, rng, *, runs: int | None = Non
         Factor on both noise densities.
     accel_bias_rw, gyro_bias_rw : float
         Bias random-walk densities [m/s^2/sqrt(s), rad/s/sqrt(s)] (0: off).
+    bias_instability : (float, float)
+        Steady-state 1 sigma of a first-order Gauss-Markov bias (accelerometer
+        [m/s^2], gyro [rad/s]), started in steady state (0: off), exact
+        discretization on the real intervals:
+        ``b_k+1 = exp(-dt/tau) b_k + sigma sqrt(1 - exp(-2 dt/tau)) z``.
+    correlation_time : float
+        Its correlation time tau [s].
     scale_factor : float
         1-sigma scale-factor error per axis (relative, e.g. 0.01).
     misalignment : float
@@ -809,10 +828,15 @@ def imu(traj: Trajectory, spec: units.SensorSpec, rng, *, runs: int | None = Non
     scale_factor = _positive("scale_factor", scale_factor, allow_zero=True)
     misalignment = _positive("misalignment", misalignment, allow_zero=True)
     va, vg = (_positive("vibration", v, allow_zero=True) for v in vibration)
+    gm_a, gm_g = (_positive("bias_instability", v, allow_zero=True) for v in bias_instability)
+    tau = _positive("correlation_time", correlation_time)
 
     if isinstance(sampling, str):
+        if rngs is not None and sampling != "uniform":
+            raise MorpiError(f"sampling: {sampling!r} time stamps are shared by the runs and need one Generator; "
+                             "with one Generator per run pass explicit times (e.g. from sample_times)")
         t_a, t_b = (traj.time[0], traj.end_time) if time_span is None else time_span
-        time = sample_times(t_a, t_b, rng1 if rngs is None else rngs[0], pattern=sampling, rate_hz=spec.rate_hz)
+        time = sample_times(t_a, t_b, rng1, pattern=sampling, rate_hz=spec.rate_hz)
     else:
         time = np.asarray(sampling, dtype=float)
         if time.ndim != 1 or time.size < 2 or not np.isfinite(time).all() or not (np.diff(time) > 0).all():
@@ -834,7 +858,7 @@ def imu(traj: Trajectory, spec: units.SensorSpec, rng, *, runs: int | None = Non
     s_g = scale_factor * small[:, 9:12]
     mis = misalignment * small[:, 12:15]
 
-    def channel(true, sens_scale, bias, density, rw, vib):
+    def channel(true, sens_scale, bias, density, rw, vib, gm):
         out = _normal(rng1, rngs, (R, n, 3))
         out *= (noise_scale * density / np.sqrt(dt_k))[None, :, None]
         if misalignment:
@@ -852,6 +876,17 @@ def imu(traj: Trajectory, spec: units.SensorSpec, rng, *, runs: int | None = Non
             steps = _normal(rng1, rngs, (R, n - 1, 3)) * (rw * np.sqrt(dt))[None, :, None]
             drift = np.zeros((R, n, 3))
             np.cumsum(steps, axis=1, out=drift[:, 1:])
+        if gm:
+            z = _normal(rng1, rngs, (R, n, 3))
+            phi = np.exp(-dt / tau)
+            q = gm * np.sqrt(1.0 - phi * phi)
+            b = np.empty((R, n, 3))
+            b[:, 0] = gm * z[:, 0]
+            for k in range(n - 1):
+                np.multiply(b[:, k], phi[k], out=b[:, k + 1])
+                b[:, k + 1] += q[k] * z[:, k + 1]
+            drift = b if drift is None else drift + b
+        if drift is not None:
             out += drift
         if vib:
             frac = (np.abs(traj._model[1](time)[1]) / traj._model[1].V)[None, :, None]
@@ -864,8 +899,8 @@ def imu(traj: Trajectory, spec: units.SensorSpec, rng, *, runs: int | None = Non
             out += amp * frac * wave
         return out, drift
 
-    f, drift_a = channel(truth.f_b, s_a, b_a, spec.accel_noise, accel_bias_rw, va)
-    w, drift_g = channel(truth.omega_b, s_g, b_g, spec.gyro_noise, gyro_bias_rw, vg)
+    f, drift_a = channel(truth.f_b, s_a, b_a, spec.accel_noise, accel_bias_rw, va, gm_a)
+    w, drift_g = channel(truth.omega_b, s_g, b_g, spec.gyro_noise, gyro_bias_rw, vg, gm_g)
     if runs is None:
         f, w, b_a, b_g, s_a, s_g, mis = f[0], w[0], b_a[0], b_g[0], s_a[0], s_g[0], mis[0]
         drift_a = None if drift_a is None else drift_a[0]

@@ -202,6 +202,10 @@ def _batch_shape(name_shapes) -> tuple:
         raise MorpiError(f"batch shapes do not match: {desc}; expected the same leading runs axis") from None
 
 
+#: Rotation increments built at once in :func:`ins3d` (steps x runs), to bound memory.
+_BLOCK = 1 << 18
+
+
 def _slopes(time, x):
     """Time derivative of samples `x` (B, n, ...) along axis 1: 3-point non-uniform differences.
 
@@ -333,11 +337,14 @@ def ins3d(time, f, omega, *, C0=None, v0=None, p0=None, g: float = units.G0) -> 
     w0, w1 = wb[:, :-1], wb[:, 1:]
     phi = _increments(time, wb)[0] + np.cross(w0, w1) * (dt * dt / 12.0)
     # time-major so each step works on one contiguous (B, 3, 3) block
-    E = rotvec_to_C(np.swapaxes(phi, 0, 1))                     # (n-1, B, 3, 3)
+    phi_t = np.swapaxes(phi, 0, 1)                              # (n-1, B, 3)
     Ct = np.empty((n, B, 3, 3))
     Ct[0] = C0b
-    for k in range(n - 1):
-        np.matmul(Ct[k], E[k], out=Ct[k + 1])
+    block = max(1, _BLOCK // max(B, 1))                         # bound the memory of the increments
+    for k0 in range(0, n - 1, block):
+        E = rotvec_to_C(phi_t[k0:k0 + block])
+        for j in range(E.shape[0]):
+            np.matmul(Ct[k0 + j], E[j], out=Ct[k0 + j + 1])
     C = np.swapaxes(Ct, 0, 1)                                   # (B, n, 3, 3)
 
     a = (C @ fb[..., None])[..., 0]

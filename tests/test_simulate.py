@@ -135,6 +135,10 @@ def test_sine_peaks_at_known_times():
     # the steady part: consecutive extremes of a sine of period P are P/2 apart in x
     x = np.interp(tr.peak_times, tr.time, tr.position[:, 0])
     np.testing.assert_allclose(np.diff(x)[2:-2], 0.5, atol=2e-3)
+    # period boundaries: x passes 1, 2, ... 6 m (x = u on a straight route; linear
+    # interpolation of the 1 kHz samples is exact to h * speed / 2 < 0.3 mm)
+    xb = np.interp(tr.period_times, tr.time, tr.position[:, 0])
+    np.testing.assert_allclose(xb, np.arange(1, 7), atol=3e-4)
 
 
 def test_white_noise_matches_density_with_chi_square():
@@ -184,6 +188,24 @@ def test_scale_factor_misalignment_and_bias_random_walk():
     steps = np.diff(d.gyro_bias_drift, axis=1) / (1e-3 * np.sqrt(np.diff(d.time)))[None, :, None]
     N = steps.size
     assert stats.chi2.ppf(0.0005, N) < np.sum(steps ** 2) < stats.chi2.ppf(0.9995, N)
+
+
+def test_gauss_markov_bias_instability_statistics():
+    tr = simulate.straight(2.0, rest=2.0, rate_hz=50)
+    sigma, tau = 0.01, 0.5
+    d = simulate.imu(tr, units.LSM6DSL, np.random.default_rng(14), runs=300, sampling="s6", bias_scale=0,
+                     noise_scale=0, bias_instability=(0.0, sigma), correlation_time=tau)
+    b = d.gyro_bias_drift
+    dt = np.diff(d.time)
+    phi = np.exp(-dt / tau)
+    # the innovations of the exact discretization are independent N(0, sigma^2 (1 - phi^2))
+    z = (b[:, 1:] - phi[None, :, None] * b[:, :-1]) / (sigma * np.sqrt(1 - phi * phi))[None, :, None]
+    N = z.size
+    assert stats.chi2.ppf(0.0005, N) < np.sum(z ** 2) < stats.chi2.ppf(0.9995, N)
+    # started in steady state: the first sample has variance sigma^2 (chi-square, 900 values)
+    N0 = b[:, 0].size
+    assert stats.chi2.ppf(0.0005, N0) < np.sum((b[:, 0] / sigma) ** 2) < stats.chi2.ppf(0.9995, N0)
+    assert d.accel_bias_drift is None
 
 
 def test_per_run_generators_make_batching_irrelevant():
@@ -321,6 +343,8 @@ def test_cli_simulate_end_to_end(tmp_path):
     (lambda: simulate.imu(simulate.straight(), units.MPU6500, np.random.default_rng(0), sampling="s7"), "sampling"),
     (lambda: simulate.imu(simulate.straight(), units.MPU6500, np.random.default_rng(0), noise_scale=-1), "noise_scale"),
     (lambda: simulate.imu(simulate.straight(), units.MPU6500, [np.random.default_rng(0)], runs=2), "rng"),
+    (lambda: simulate.imu(simulate.straight(), units.MPU6500, [np.random.default_rng(0)], runs=1, sampling="s6"),
+     "sampling"),
     (lambda: simulate.route_trajectory("nowhere"), "route"),
     (lambda: simulate.write_dataset("/tmp/never-written-x", seed=-1), "seed"),
     (lambda: simulate.write_dataset("/tmp/never-written-x", runs_per_folder=0), "runs_per_folder"),
