@@ -7,7 +7,7 @@ Usage (from the project root)::
 The run is the short indoor route (6.3 m, 1 m periods, 0.1 m amplitude) driven as in
 the synthetic dataset: the phone's irregular or regular time stamps, turn-on biases at
 the realistic fraction of the datasheet (simulate.REALISTIC_BIAS_FRACTION), white noise,
-mounting misalignment and motion vibration. The same run is integrated three ways: 3D
+mounting misalignment, motion vibration and bias instability. The same run is integrated three ways: 3D
 INS on the noise-free readings (integration error only), 3D and 2D INS on the noisy
 readings (the drift the paper's INS baselines show).
 """
@@ -34,7 +34,8 @@ def main(argv=None) -> None:
     traj = simulate.route_trajectory("short_distance", t0=0.4)
     opts = simulate.DATASET_OPTIONS
     noisy = simulate.imu(traj, spec, rng, sampling=args.phone, bias_scale=simulate.REALISTIC_BIAS_FRACTION[args.phone],
-                         misalignment=opts["misalignment"], vibration=opts["vibration"])
+                         misalignment=opts["misalignment"], vibration=opts["vibration"],
+                         bias_instability=opts["bias_instability"], correlation_time=opts["correlation_time"])
     clean = simulate.imu(traj, spec, rng, sampling=noisy.time, bias_scale=0.0, noise_scale=0.0)
     truth = noisy.truth
     start = dict(C0=truth.C_bn[0], p0=truth.position[0])
