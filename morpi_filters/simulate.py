@@ -33,14 +33,27 @@ IMU synthesis
     :func:`imu` turns a trajectory into sensor readings from a
     :class:`~morpi_filters.units.SensorSpec`: turn-on bias per run, white
     noise from the noise density and the actual sampling interval
-    (``sigma_k = density / sqrt(dt_k)``), optional bias random walk, scale
-    factor, mounting misalignment and motion vibration, on uniform or
-    S6/S8-like irregular time stamps. Runs are batched on axis 0.
+    (``sigma_k = density / sqrt(dt_k)``), optional bias random walk,
+    Gauss-Markov bias instability, scale factor, mounting misalignment and
+    motion vibration, on uniform or S6/S8-like irregular time stamps. Runs are
+    batched on axis 0; every draw comes from the caller's ``rng`` (one
+    Generator, or one per run so a run's draws do not depend on batching).
 
 Synthetic dataset
     :func:`write_dataset` writes the field dataset's folder layout and CSV
     format with seeded synthetic recordings; :func:`ensure_synthetic_dataset`
-    caches one and verifies it on reuse.
+    caches one and verifies it on reuse. Realism choices (all in
+    :data:`REALISTIC_BIAS_FRACTION` and :data:`DATASET_OPTIONS`): turn-on
+    biases at a fraction of the datasheet 1 sigma (the field rest periods show
+    gyro offsets far below the datasheet's 3 and 6 deg/s), mounting tilt,
+    vibration while moving, bias instability, and run-to-run spread of speed,
+    period length and amplitude (a person drove the robot). Both phones
+    share the trajectory of each long-route run, as in the field.
+
+    Known difference from the field files: the field S6 L-route recordings
+    read about 10 deg nose-down at the start and about 7 deg at the end,
+    while the route's ground truth (15 deg over the first 5 m, level after)
+    gives 15 deg and 0 deg here.
 
 References
 ----------

@@ -75,9 +75,9 @@ class InsResult:
     C_bn : ndarray, shape (..., n, 3, 3)
         Body-to-navigation rotation matrices.
     heading : ndarray, shape (..., n)
-        Heading (yaw) [rad], positive to the left (about +z), see
-        :func:`heading_from_C`. For :func:`ins2d` it is the unwrapped
-        integrated yaw; for :func:`ins3d` it is wrapped to (-pi, pi].
+        Heading (yaw) [rad], positive to the left (about +z), continuous
+        over time (unwrapped): for :func:`ins2d` the integrated yaw, for
+        :func:`ins3d` :func:`heading_from_C` of ``C_bn`` unwrapped.
     """
 
     time: np.ndarray
@@ -351,7 +351,8 @@ def ins3d(time, f, omega, *, C0=None, v0=None, p0=None, g: float = units.G0) -> 
     a[..., 2] -= g
     v, p = _integrate_translation(time, a, v0b, p0b)
     return InsResult(time=time, position=p.reshape(batch + (n, 3)), velocity=v.reshape(batch + (n, 3)),
-                     C_bn=C.reshape(batch + (n, 3, 3)), heading=heading_from_C(C).reshape(batch + (n,)))
+                     C_bn=C.reshape(batch + (n, 3, 3)),
+                     heading=np.unwrap(heading_from_C(C), axis=-1).reshape(batch + (n,)))
 
 
 def ins2d(time, f, omega, *, psi0=0.0, v0=None, p0=None) -> InsResult:
