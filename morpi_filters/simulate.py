@@ -199,8 +199,9 @@ class _Path:
         S3, dS3, _ = _s5(x3)
         kappa = k0 * (S1 - S3)
         dkappa = k0 * (dS1 - dS3) / r
-        th = k0 * (r * _s5_int(x1) + np.clip(s - r, 0.0, c) + np.where(x3 > 0, r * (np.clip(x3, 0, 1) - _s5_int(x3)), 0.0)
-                   )
+        # integral of kappa: ramp in (r/2 when complete), constant part, ramp out (r/2 when complete)
+        ramp_out = np.where(x3 > 0, r * (np.clip(x3, 0, 1) - _s5_int(x3)), 0.0)
+        th = k0 * (r * _s5_int(x1) + np.clip(s - r, 0.0, c) + ramp_out)
         return th, kappa, dkappa
 
     def _gl(self, a, b):
