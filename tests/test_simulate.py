@@ -310,7 +310,11 @@ def test_ensure_synthetic_dataset_reuses_and_repairs(tmp_path, monkeypatch):
     assert len(files) == sum(dataset.layout().values())
     real_write = simulate.write_dataset
     calls = []
-    monkeypatch.setattr(simulate, "write_dataset", lambda *a, **k: calls.append(a) or real_write(*a, **k))
+    def recording_write(*a, **k):
+        calls.append(k.get("seed"))
+        return real_write(*a, **k) if k.get("seed") == 1 else Path(a[0])   # seed 2: only note the call
+
+    monkeypatch.setattr(simulate, "write_dataset", recording_write)
     simulate.ensure_synthetic_dataset(cache, seed=1)
     assert calls == []                                            # verified and reused
     original = files[5].read_bytes()
@@ -318,7 +322,7 @@ def test_ensure_synthetic_dataset_reuses_and_repairs(tmp_path, monkeypatch):
     simulate.ensure_synthetic_dataset(cache, seed=1)
     assert len(calls) == 1 and files[5].read_bytes() == original  # regenerated, identical
     simulate.ensure_synthetic_dataset(cache, seed=2)
-    assert len(calls) == 2                                        # another seed: rebuilt
+    assert calls == [1, 2]                                        # another seed: rebuilt
 
 
 def test_cli_simulate_end_to_end(tmp_path):
