@@ -258,8 +258,9 @@ def _integrate_translation(time, a, v0, p0):
     v[:, 0] = v0
     np.cumsum(dv, axis=1, out=v[:, 1:])
     v[:, 1:] += v0[:, None, :]
-    dp = (v[:, :-1] * dt + (7.0 * a[:, :-1] + 3.0 * a[:, 1:]) * (dt * dt / 20.0)
-          + (3.0 * d[:, :-1] - 2.0 * d[:, 1:]) * (dt ** 3 / 60.0))
+    dp = v[:, :-1] * dt
+    dp += (7.0 * a[:, :-1] + 3.0 * a[:, 1:]) * (dt * dt / 20.0)
+    dp += (3.0 * d[:, :-1] - 2.0 * d[:, 1:]) * (dt ** 3 / 60.0)
     p = np.empty_like(a)
     p[:, 0] = p0
     np.cumsum(dp, axis=1, out=p[:, 1:])
@@ -335,7 +336,11 @@ def ins3d(time, f, omega, *, C0=None, v0=None, p0=None, g: float = units.G0) -> 
 
     dt = np.diff(time)[None, :, None]
     w0, w1 = wb[:, :-1], wb[:, 1:]
-    phi = _increments(time, wb)[0] + np.cross(w0, w1) * (dt * dt / 12.0)
+    phi = _increments(time, wb)[0]
+    coning = dt[..., 0] * dt[..., 0] / 12.0                    # (1, n-1)
+    phi[..., 0] += (w0[..., 1] * w1[..., 2] - w0[..., 2] * w1[..., 1]) * coning
+    phi[..., 1] += (w0[..., 2] * w1[..., 0] - w0[..., 0] * w1[..., 2]) * coning
+    phi[..., 2] += (w0[..., 0] * w1[..., 1] - w0[..., 1] * w1[..., 0]) * coning
     # time-major so each step works on one contiguous (B, 3, 3) block
     phi_t = np.swapaxes(phi, 0, 1)                              # (n-1, B, 3)
     Ct = np.empty((n, B, 3, 3))
