@@ -4,12 +4,13 @@ Usage (from the project root)::
 
     PYTHONPATH=. python3 analysis/synthetic_dataset.py [--seed S] [--phone s8] [--out FILE.png]
 
-The run is the short indoor route (6.3 m, 1 m periods, 0.1 m amplitude) driven as in
-the synthetic dataset: the phone's irregular or regular time stamps, turn-on biases at
-the realistic fraction of the datasheet (simulate.REALISTIC_BIAS_FRACTION), white noise,
-mounting misalignment, motion vibration and bias instability. The same run is integrated three ways: 3D
-INS on the noise-free readings (integration error only), 3D and 2D INS on the noisy
-readings (the drift the paper's INS baselines show).
+The run is the short indoor route (6.3 m, 1 m periods) driven as in the synthetic
+dataset (lateral amplitude 0.1 m x DATASET_OPTIONS["amplitude_factor"]): the phone's
+irregular or regular time stamps, turn-on biases at the realistic fraction of the
+datasheet (simulate.REALISTIC_BIAS_FRACTION), white noise, mounting misalignment, motion
+vibration and bias instability. The same run is integrated three ways: 3D INS on the
+noise-free readings (integration error only), 3D and 2D INS on the noisy readings (the
+drift the paper's raw-data INS baselines show).
 """
 from __future__ import annotations
 
@@ -31,8 +32,9 @@ def main(argv=None) -> None:
 
     rng = np.random.default_rng(args.seed)
     spec = units.sensor_for_phone(args.phone)
-    traj = simulate.route_trajectory("short_distance", t0=0.4)
     opts = simulate.DATASET_OPTIONS
+    amplitude = 0.1 * opts["amplitude_factor"]          # as the dataset drives the 0.1 m route
+    traj = simulate.route_trajectory("short_distance", amplitude=amplitude, t0=0.4)
     noisy = simulate.imu(traj, spec, rng, sampling=args.phone, bias_scale=simulate.REALISTIC_BIAS_FRACTION[args.phone],
                          misalignment=opts["misalignment"], vibration=opts["vibration"],
                          bias_instability=opts["bias_instability"], correlation_time=opts["correlation_time"])
