@@ -57,7 +57,7 @@ Synthetic dataset
 
 References
 ----------
-.. [1] D. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
+.. [1] A. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
    IEEE Journal of Indoor and Seamless Positioning and Navigation, 2023.
 .. [2] P. D. Groves, "Principles of GNSS, Inertial, and Multisensor Integrated
    Navigation Systems", 2nd ed., Artech House, 2013 (ch. 4: IMU error model).

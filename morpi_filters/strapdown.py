@@ -42,7 +42,7 @@ over time and runs. Batched inputs (``(runs, n, 3)``) share one time vector.
 
 References
 ----------
-.. [1] D. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
+.. [1] A. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
    IEEE Journal of Indoor and Seamless Positioning and Navigation, 2023.
 .. [2] P. G. Savage, "Strapdown Inertial Navigation Integration Algorithm
    Design Part 1: Attitude Algorithms", Journal of Guidance, Control, and
