@@ -51,8 +51,8 @@ def main():
     P0 = initial_covariance(0.05, 0.3, 0.01, dp0=0.01, eps0=1e-3)
     t = np.arange(n + 1) * dt
     print(f"covariance propagation, {n} steps, cost per step and ratio to filterpy predict()")
-    for label, (F_, Q_, P_) in {"15 states": (Phi, Qd, P0),
-                                "22 states": (*augment(Phi, Qd, StepModel()), augment_covariance(P0, StepModel()))}.items():
+    aug = (*augment(Phi, Qd, StepModel()), augment_covariance(P0, StepModel()))
+    for label, (F_, Q_, P_) in {"15 states": (Phi, Qd, P0), "22 states": aug}.items():
         ref = best(lambda: filterpy_loop(F_, Q_, P_, n))
         ours = best(lambda: run_filter(F_, Q_, P_, t))
         batched = best(lambda: propagate_covariance(F_, Q_, P_, n))

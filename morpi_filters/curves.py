@@ -13,8 +13,12 @@ For each *case* (a parameter file, or one of the paper's IMUs) and each method
 * the Monte Carlo RMS over seeded runs of the linear error model (sampled
   white noise, :func:`morpi_filters.error_model.simulate_linear`), and for the
   MoRPI-aided case the RMS of the filter's own estimation error;
-* when a data source is configured, the field recordings' end-point errors at
-  their durations (once the strapdown and step modules are available).
+* the nonlinear Monte Carlo of the IMU cases (``simulate.imu`` at rest through
+  the 3D/2D strapdown), where the linear model's limits show;
+* when a data source is configured, the field straight-line INS end-point
+  errors at their durations, and (with the field evaluation) the MoRPI-aided
+  INS against MoRPI alone and the INS alone per MoRPI table cell
+  (:func:`field_aided_study`).
 
 Nominal trajectory and assumptions (the paper's analytical assessment [1]_):
 ``C_b^n = I`` and ``f^n = (0, 0, g)``, z-up package convention. As in the
@@ -427,7 +431,8 @@ def compute_curves(case: CurveCase, times=DEFAULT_TIMES, runs=MC_RUNS, rng=None,
     real = {}
     if case.realisation is not None:
         dv0, ba, bg, dG = case.realisation
-        real = {k: closed_form_errors(dv0, ba, bg, dG, case.g, case.speed, grid, k) for k in ("ins3d", "ins2d", "morpi")}
+        real = {k: closed_form_errors(dv0, ba, bg, dG, case.g, case.speed, grid, k)
+                for k in ("ins3d", "ins2d", "morpi")}
     mc_t, mc, mc_at = np.zeros(0), {}, np.zeros(0, int)
     r_lin, r_nl = rng.spawn(2)
     if runs:

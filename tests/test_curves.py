@@ -66,7 +66,8 @@ def test_closed_form_realisation_and_mean_square_by_hand():
     assert e[0] == pytest.approx(np.hypot(dx, dy), rel=1e-12)
     case = case_from_params(p)
     # linearized mean square by hand (alpha = g), b_gz dropped
-    ms = (0.06 ** 2 + 0.03 ** 2) * 4 + (0.08 ** 2 + 0.03 ** 2) * 16 / 4 + 9.81 ** 2 * (0.002 ** 2 + 0.003 ** 2) * 64 / 36
+    ms = ((0.06 ** 2 + 0.03 ** 2) * 4 + (0.08 ** 2 + 0.03 ** 2) * 16 / 4
+          + 9.81 ** 2 * (0.002 ** 2 + 0.003 ** 2) * 64 / 36)
     assert closed_form_mean_square(case, t, "ins3d")[0] == pytest.approx(ms, rel=1e-12)
     assert closed_form_mean_square(case, t, "morpi")[0] == pytest.approx((0.05 * 0.5 * 2) ** 2)
     with pytest.raises(MorpiError, match="kind"):

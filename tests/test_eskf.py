@@ -7,7 +7,7 @@ from filterpy.kalman import KalmanFilter
 
 from morpi_filters import units
 from morpi_filters.error_model import (
-    BA, BG, DP, DV, EPS, discretize, noise_coupling, noise_density, paper_trajectory,
+    DP, DV, EPS, discretize, noise_coupling, noise_density, paper_trajectory,
     simulate_linear, system_matrix,
 )
 from morpi_filters.errors import MorpiError
@@ -259,7 +259,8 @@ def test_bad_inputs_raise():
     with pytest.raises(MorpiError, match="P0"):
         run_filter(np.eye(3), np.eye(3), np.eye(2), [0.0, 1.0])
     with pytest.raises(MorpiError, match="index"):
-        run_filter(np.eye(2), np.eye(2), np.eye(2), [0.0, 1.0], [Measurement(5, np.zeros(1), np.ones((1, 2)), np.eye(1))])
+        bad = Measurement(5, np.zeros(1), np.ones((1, 2)), np.eye(1))
+        run_filter(np.eye(2), np.eye(2), np.eye(2), [0.0, 1.0], [bad])
 
 
 def test_morpi_aided_ins_on_a_simulated_sine_run():
