@@ -68,8 +68,11 @@ FILTER_DT = 0.01
 MC_DT = 0.05
 #: Monte Carlo runs per case and seed of the curves.
 MC_RUNS, MC_SEED = 1000, 20230901
-#: Runs of the nonlinear (strapdown) Monte Carlo per IMU case.
-NL_RUNS = 200
+#: Runs per chunk of the linear Monte Carlo and most epochs of its grid (memory bound).
+MC_CHUNK, MC_MAX_EPOCHS = 250, 600
+#: Runs of the nonlinear (strapdown) Monte Carlo per IMU case, and the longest
+#: time it is run for [s] (its memory and time grow with runs x samples).
+NL_RUNS, NL_MAX_T = 200, 60.0
 #: Noise spec used for a parameter file with ``process_noise: true``.
 PARAMS_NOISE_SPEC = units.MPU6500
 
@@ -350,26 +353,30 @@ def _run_methods(case, grid, steps, model):
 
 
 def _monte_carlo(case, times, model, runs, rng):
+    """Linear-model Monte Carlo RMS per method, in chunks of :data:`MC_CHUNK` runs (bounded memory)."""
     period = STEP_LENGTH_M / case.speed
-    grid, steps, at = time_grid(times, MC_DT, period)
+    T = float(np.max(times))
+    grid, steps, at = time_grid(times, max(MC_DT, T / MC_MAX_EPOCHS), period)
     dts = _steps(grid)
     (F3, G3, Q3, P3), (F2, G2, Q2, P2) = _models(case)
     n = grid.size - 1
-    rng3, rng2, rngs, rngg = rng.spawn(4)
-    X3 = simulate_linear(F3, G3, Q3, P3, dts, n, runs, rng3)
-    X2 = simulate_linear(F2, G2, Q2, P2, dts, n, runs, rng2)
-    rms = {
-        "ins3d": np.sqrt((X3[..., 0] ** 2 + X3[..., 1] ** 2).mean(axis=0)),
-        "ins2d": np.sqrt((X2[..., 0] ** 2 + X2[..., 1] ** 2).mean(axis=0)),
-    }
-    gain = model.gain_sigma * rngg.standard_normal(runs)
-    meas = simulate_steps(X3, steps, STEP_LENGTH_M, 0.0, model, case.speed, gain, rngs)
     D3 = discretize(F3, G3, Q3, dts)
     Phi_a, Qd_a = augment(D3.Phi, D3.Qd, model)
-    r = run_filter(Phi_a, Qd_a, augment_covariance(P3, model), grid, meas)
-    e = r.x[..., DP][..., :2] - X3[..., DP][..., :2]
-    rms["morpi"] = np.sqrt((e ** 2).sum(axis=-1).mean(axis=0))
-    return grid, rms, at
+    P0a = augment_covariance(P3, model)
+    sq = {k: np.zeros(n + 1) for k in ("ins3d", "ins2d", "morpi")}
+    sizes = [min(MC_CHUNK, runs - i) for i in range(0, runs, MC_CHUNK)]
+    for size, sub in zip(sizes, rng.spawn(len(sizes))):
+        rng3, rng2, rngs, rngg = sub.spawn(4)
+        X3 = simulate_linear(F3, G3, Q3, P3, dts, n, size, rng3)
+        X2 = simulate_linear(F2, G2, Q2, P2, dts, n, size, rng2)
+        sq["ins3d"] += (X3[..., 0] ** 2 + X3[..., 1] ** 2).sum(axis=0)
+        sq["ins2d"] += (X2[..., 0] ** 2 + X2[..., 1] ** 2).sum(axis=0)
+        gain = model.gain_sigma * rngg.standard_normal(size)
+        meas = simulate_steps(X3, steps, STEP_LENGTH_M, 0.0, model, case.speed, gain, rngs)
+        r = run_filter(Phi_a, Qd_a, P0a, grid, meas)
+        e = r.x[..., DP][..., :2] - X3[..., DP][..., :2]
+        sq["morpi"] += (e ** 2).sum(axis=-1).sum(axis=0)
+    return grid, {k: np.sqrt(v / runs) for k, v in sq.items()}, at
 
 
 def _nonlinear_monte_carlo(case, times, runs, rng):
@@ -438,7 +445,7 @@ def compute_curves(case: CurveCase, times=DEFAULT_TIMES, runs=MC_RUNS, rng=None,
     if runs:
         mc_t, mc, mc_at = _monte_carlo(case, times, model, runs, r_lin)
     nl_t, nl, nl_at = np.zeros(0), {}, np.zeros(0, int)
-    if nonlinear_runs and case.spec is not None:
+    if nonlinear_runs and case.spec is not None and times.max() <= NL_MAX_T:
         nl_t, nl, nl_at = _nonlinear_monte_carlo(case, times, nonlinear_runs, r_nl)
     return CaseCurves(case=case, times=grid, sigma=sigma, rms_closed_form=rms, realisation=real,
                       mc_times=mc_t, mc_rms=mc, mc_runs=runs, eval_times=times, eval_index=at,
@@ -812,7 +819,7 @@ def report_curves(out, *, params_path=None, times=None, source=None):
         f"{STEP_LENGTH_M / params.morpi_speed_mps:g} s, gain error 1 sigma {abs(params.dG[0]):g} as a constant "
         f"augmented state. Monte Carlo: {MC_RUNS} seeded runs of the linear model (seed {MC_SEED}); for "
         f"MoRPI-aided, the RMS of the filter's own estimation error. For the two IMU cases a second Monte "
-        f"Carlo ({NL_RUNS} runs) synthesizes the IMU at rest (`simulate.imu`, datasheet biases on all axes) and "
+        f"Carlo ({NL_RUNS} runs, for evaluation times up to {NL_MAX_T:g} s) synthesizes the IMU at rest (`simulate.imu`, datasheet biases on all axes) and "
         f"runs the nonlinear 3D/2D strapdown; where it departs from the filter sigma the linear error model "
         f"no longer holds (large tilt from the gyro bias).\n\n"
         f"At the last requested time:\n\n" + md_table(head, rows) + "\n"
