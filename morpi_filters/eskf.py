@@ -8,6 +8,12 @@ MoRPI step ``kf.update(z, R=R, H=H)``. ``kf.F`` is never touched. filterpy's
 update is the Joseph form ``P = (I - K H) P (I - K H)^T + K R K^T``; the
 filter symmetrizes P after every update and state reset.
 
+Two entry points: :func:`run_filter` runs the filter on given ``Phi, Qd``
+stacks and measurements (covariance analysis, Monte Carlo runs batched over a
+leading axis); :func:`morpi_aided_ins` closes the loop around the 3D
+strapdown on recorded or simulated IMU data, feeding the estimated errors
+back after every MoRPI step.
+
 MoRPI step pseudo-measurement
 -----------------------------
 MoRPI measures the distance travelled over one period of the periodic path,
@@ -17,7 +23,7 @@ displacement (horizontal, 2 components)::
 
     z = (p_ins(t_k) - p_ins(t_c)) - s_M u(psi_hat)
 
-where ``t_c`` is the previous step and ``u = (cos psi, sin psi)``. To first
+where ``t_c`` is the start of the step (the previous peak) and ``u = (cos psi, sin psi)``. To first
 order, with ``x_g`` the relative gain error (``s_M = (1 + x_g) s + n``) and
 ``J = [[0, -1], [1, 0]]``::
 
