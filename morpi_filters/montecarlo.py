@@ -1,0 +1,1219 @@
+"""Batched, seeded Monte Carlo studies: gain error and closed-form drift.
+
+Two studies live here.
+
+Gain-error study (:func:`run_study`, :func:`report_montecarlo`)
+    For each of N runs: draw the IMU's turn-on biases and white noise from a
+    :class:`~morpi_filters.units.SensorSpec` and one standard-normal number
+    for the Weinberg gain error, then navigate
+
+    * INS-3D and INS-2D on a straight line at constant speed (the paper's
+      baseline trajectory), and
+    * MoRPI-A (Weinberg on ``f_y``) and MoRPI-G (Weinberg on ``omega_z``) on a
+      sine path of the same duration, heading from the integrated gyro z,
+
+    and record the horizontal position error over time. The reference gains
+    are trained on noisy runs of the same path and sensor (so the sensor
+    noise's inflation of ``max - min`` is part of the gain, as in practice);
+    each gain scenario multiplies them by ``1 + dG`` with
+    ``dG = mean + std * z``. All scenarios share the run's draws (common
+    random numbers).
+
+Drift study (:func:`drift_map`, :func:`report_drift`)
+    The same kind of bias draws through the nonlinear strapdown on a
+    stationary trajectory and through the small-angle closed form, for 3D and
+    2D INS, on a grid of gyro bias levels and times.
+
+Reproducibility
+    Run ``i`` of a study with seed ``s`` draws everything from its own
+    Generator seeded with ``SeedSequence(s).spawn(N)[i]`` (built directly as
+    ``SeedSequence(s, spawn_key=(i,))``, which is the same object), in a
+    fixed order: 6 bias numbers (accelerometer xyz, gyro xyz), 1 gain number,
+    then the ``(n, 6)`` noise block (accelerometer xyz, gyro xyz). Every
+    computation is elementwise over runs, so a run's numbers do not depend on
+    which chunk, thread or Dask worker computed it: the digest is the same for
+    any chunk size, any number of workers and through Dask.
+
+Digest
+    sha256 over the per-run final horizontal errors as a C-ordered
+    little-endian float64 array of shape ``(runs, columns)`` with the columns
+    of :attr:`StudyResult.columns` (INS-3D, INS-2D, then MoRPI-A and MoRPI-G
+    for each gain scenario in order).
+
+Pieces from other modules
+    The nonlinear mechanizations come from :mod:`morpi_filters.strapdown`,
+    the closed form from :mod:`morpi_filters.symbolic`, the trajectories from
+    :mod:`morpi_filters.simulate` when those modules are present. Until they
+    are, the private functions under "fallbacks" below are used and every
+    report says so (``StudyResult.backends``).
+
+References
+----------
+.. [1] A. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial
+   Navigation," IEEE J. Indoor and Seamless Positioning and Navigation, 2023.
+.. [2] H. Weinberg, "Using the ADXL202 in pedometer and personal navigation
+   applications," Analog Devices AN-602, 2002.
+.. [3] NumPy Enhancement Proposal 19 / SPEC 7: seeding with SeedSequence.spawn.
+"""
+from __future__ import annotations
+
+import hashlib
+import math
+import sys
+import time as _time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from .errors import MorpiError
+from .units import DEG_S, G0, MPU6500, SensorSpec
+
+__all__ = [
+    "GainError", "StudyConfig", "CALIBRATIONS", "StudyResult", "METHODS", "run_study", "summarize", "digest",
+    "child_seed", "reference_gains", "training_runs_study", "TrainingStudy",
+    "DriftMap", "drift_map", "report_montecarlo", "report_drift", "Z99",
+]
+
+#: Error series columns of :attr:`StudyResult.errors`.
+METHODS = ("ins3d", "ins2d", "morpi_a", "morpi_g")
+
+#: Bias calibrations a study can assume (see StudyConfig.calibration).
+CALIBRATIONS = ("none", "gyro", "gyro+accel")
+
+#: Per-run numbers drawn before the noise block: 3 accelerometer biases, 3 gyro biases, 1 gain.
+_N_HEAD = 7
+
+#: Seed of the noisy training runs that fix the reference Weinberg gains (a property of the
+#: path and sensor, the same for every study seed).
+_TRAINING_SEED = 20230101
+
+#: Memory budget of one chunk's noise block [bytes]; sets the default chunk size.
+_CHUNK_BYTES = 64 * 2**20
+
+
+# ----------------------------------------------------------------------------- configuration
+
+@dataclass(frozen=True)
+class GainError:
+    """A Weinberg gain-error scenario: ``dG = mean + std * z``, z ~ N(0, 1) per run.
+
+    Attributes
+    ----------
+    label : str
+        Name shown in reports.
+    mean : float
+        Mean gain error, a fraction of the true gain (0.05 is 5 %).
+    std : float
+        Spread of the gain error across runs (fraction), >= 0.
+    """
+
+    label: str
+    mean: float
+    std: float = 0.0
+
+
+@dataclass(frozen=True)
+class StudyConfig:
+    """What one gain-error study simulates.
+
+    Attributes
+    ----------
+    spec : SensorSpec
+        IMU error figures (biases 1 sigma per axis, noise densities).
+    duration : float
+        Length of every run [s].
+    rate_hz : float
+        Sampling rate [Hz]; the noise standard deviation is ``density * sqrt(rate_hz)``.
+    speed : float
+        Forward speed on both paths [m/s].
+    period_m : float
+        Sine-path period (peak-to-peak step) [m].
+    amplitude_m : float
+        Sine-path lateral amplitude [m].
+    gains : tuple of GainError
+        Gain scenarios; the first is the primary one (``morpi_a``/``morpi_g``).
+    keep_every : int
+        Keep every k-th sample of the error series (the final sample is always kept).
+    ins : bool
+        Whether to run INS-3D and INS-2D (False for MoRPI-only studies).
+    training_runs : int
+        Noisy training runs that fix the reference gains.
+    calibration : str
+        ``"none"``: the datasheet turn-on biases act in full. ``"gyro"`` (the
+        paper's GC) or ``"gyro+accel"`` (GAC): a zero-order calibration on
+        `cal_seconds` of rest leaves a residual bias equal to the mean of the
+        white noise over that window, ``density / sqrt(cal_seconds)`` per axis
+        (drawn from the same per-run bias numbers).
+    cal_seconds : float
+        Length of the stationary calibration window [s].
+    """
+
+    spec: SensorSpec = MPU6500
+    duration: float = 15.0
+    rate_hz: float = 100.0
+    speed: float = 0.4
+    period_m: float = 1.0
+    amplitude_m: float = 0.1
+    gains: tuple = (GainError("dG = 5 %", 0.05), GainError("dG = 10 %", 0.10))
+    keep_every: int = 10
+    ins: bool = True
+    training_runs: int = 4000
+    calibration: str = "none"
+    cal_seconds: float = 3.0
+
+    def bias_sigmas(self) -> tuple:
+        """(accelerometer, gyro) bias 1 sigma per axis after calibration [m/s^2, rad/s]."""
+        ra = self.spec.accel_noise / math.sqrt(self.cal_seconds)
+        rg = self.spec.gyro_noise / math.sqrt(self.cal_seconds)
+        return ({"none": self.spec.accel_bias, "gyro": self.spec.accel_bias, "gyro+accel": ra}[self.calibration],
+                {"none": self.spec.gyro_bias, "gyro": rg, "gyro+accel": rg}[self.calibration])
+
+    def validate(self) -> None:
+        """Raise MorpiError naming the first bad parameter."""
+        for name in ("duration", "rate_hz", "speed", "period_m", "amplitude_m"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise MorpiError(f"StudyConfig.{name}: {v!r}, expected a finite number > 0")
+        if self.duration * self.rate_hz < 2:
+            raise MorpiError(f"StudyConfig.duration: {self.duration} s at {self.rate_hz} Hz gives fewer than 2 samples")
+        if self.duration * self.speed < self.period_m:
+            raise MorpiError(f"StudyConfig.duration: {self.duration} s at {self.speed} m/s is shorter than one "
+                             f"period of {self.period_m} m")
+        if not self.gains or not all(isinstance(g, GainError) for g in self.gains):
+            raise MorpiError("StudyConfig.gains: expected a non-empty tuple of GainError")
+        for g in self.gains:
+            if not (math.isfinite(g.mean) and math.isfinite(g.std) and g.std >= 0 and g.mean > -1):
+                raise MorpiError(f"StudyConfig.gains: {g.label!r}: mean {g.mean}, std {g.std}; expected finite, "
+                                 "std >= 0, mean > -1")
+        if not (isinstance(self.keep_every, int) and self.keep_every >= 1):
+            raise MorpiError(f"StudyConfig.keep_every: {self.keep_every!r}, expected a whole number >= 1")
+        if self.calibration not in CALIBRATIONS:
+            raise MorpiError(f"StudyConfig.calibration: {self.calibration!r}, expected one of {CALIBRATIONS}")
+        if not (math.isfinite(self.cal_seconds) and self.cal_seconds > 0):
+            raise MorpiError(f"StudyConfig.cal_seconds: {self.cal_seconds!r}, expected a finite number > 0")
+        if not (isinstance(self.training_runs, int) and self.training_runs >= 2):
+            raise MorpiError(f"StudyConfig.training_runs: {self.training_runs!r}, expected a whole number >= 2")
+
+
+@dataclass(frozen=True)
+class StudyResult:
+    """Outcome of :func:`run_study`.
+
+    Attributes
+    ----------
+    config : StudyConfig
+    runs, seed : int
+    time : ndarray, shape (m,)
+        Times of the kept error samples [s].
+    errors : ndarray, shape (runs, m, 4)
+        Horizontal position error [m] of :data:`METHODS` for the primary gain
+        scenario (NaN for INS columns when ``config.ins`` is False).
+    columns : tuple of str
+        Names of the columns of `final`.
+    final : ndarray, shape (runs, len(columns))
+        Final horizontal position error [m] of every method and scenario.
+    distance_error : ndarray, shape (runs, S, 2)
+        MoRPI-A and MoRPI-G along-track distance error ``sum(s_k) - D`` [m] per gain scenario.
+    dG : ndarray, shape (runs, S)
+        Gain errors applied.
+    distance : float
+        True peak-to-peak distance covered by the MoRPI steps [m].
+    gain_ref : tuple of float
+        Reference gains (G_A [m/(m/s^2)^(1/4)], G_G [m/(rad/s)^(1/4)]).
+    gain_ref_cv : tuple of float
+        Coefficient of variation of the per-run training gains behind `gain_ref`.
+    digest : str
+        sha256 hex digest of `final` (see module docstring).
+    backends : dict
+        Which implementation produced the trajectories and the mechanizations.
+    elapsed : float
+        Wall time of the study [s].
+    """
+
+    config: StudyConfig
+    runs: int
+    seed: int
+    time: np.ndarray
+    errors: np.ndarray
+    columns: tuple
+    final: np.ndarray
+    distance_error: np.ndarray
+    dG: np.ndarray
+    distance: float
+    gain_ref: tuple
+    gain_ref_cv: tuple
+    digest: str
+    backends: dict = field(default_factory=dict)
+    elapsed: float = 0.0
+
+    def column(self, name: str) -> np.ndarray:
+        """Final errors of one column, shape (runs,)."""
+        return self.final[:, self.columns.index(name)]
+
+
+# ----------------------------------------------------------------------------- seeding
+
+def child_seed(seed: int, i: int) -> np.random.SeedSequence:
+    """The seed of run `i`: identical to ``SeedSequence(seed).spawn(i + 1)[i]``."""
+    return np.random.SeedSequence(seed, spawn_key=(i,))
+
+
+def digest(final: np.ndarray) -> str:
+    """sha256 hex digest of per-run final errors, shape (runs, columns), float64 little-endian, C order."""
+    a = np.ascontiguousarray(np.asarray(final, dtype="<f8"))
+    return hashlib.sha256(a.tobytes(order="C")).hexdigest()
+
+
+# ----------------------------------------------------------------------------- progress
+
+class _Progress:
+    """A one-line progress indicator on stderr (rewritten in place on a terminal)."""
+
+    def __init__(self, total: int, label: str, enabled: bool):
+        self.total, self.label, self.enabled = total, label, enabled
+        self.done = 0
+        self.t0 = _time.perf_counter()
+        self.tty = enabled and hasattr(sys.stderr, "isatty") and sys.stderr.isatty()
+        self.last_tenth = -1
+
+    def update(self, k: int) -> None:
+        self.done += k
+        if not self.enabled:
+            return
+        frac = self.done / self.total
+        if self.tty:
+            sys.stderr.write(f"\r{self.label}: {self.done}/{self.total} runs ({100 * frac:3.0f} %)")
+            if self.done >= self.total:
+                sys.stderr.write(f" in {_time.perf_counter() - self.t0:.1f} s\n")
+            sys.stderr.flush()
+        else:
+            tenth = int(10 * frac)
+            if tenth > self.last_tenth:
+                self.last_tenth = tenth
+                print(f"{self.label}: {self.done}/{self.total} runs ({100 * frac:.0f} %)", file=sys.stderr)
+
+
+# ----------------------------------------------------------------------------- chunk execution
+
+def _chunks(runs: int, chunk: int):
+    return [(a, min(a + chunk, runs)) for a in range(0, runs, chunk)]
+
+
+def _execute(fn, payload, ranges, *, workers=1, scheduler=None, progress=None):
+    """Run ``fn(payload, a, b)`` for every range; results in range order.
+
+    `scheduler` is a Dask scheduler address (or a ``distributed.Client``);
+    otherwise `workers` threads run the ranges locally.
+    """
+    if scheduler is not None:
+        return _execute_dask(fn, payload, ranges, scheduler, progress)
+    if workers is None or workers <= 1 or len(ranges) == 1:
+        out = []
+        for a, b in ranges:
+            out.append(fn(payload, a, b))
+            if progress:
+                progress.update(b - a)
+        return out
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max_workers=int(workers)) as pool:
+        futs = [pool.submit(fn, payload, a, b) for a, b in ranges]
+        out = []
+        for (a, b), f in zip(ranges, futs):
+            out.append(f.result())
+            if progress:
+                progress.update(b - a)
+    return out
+
+
+def _execute_dask(fn, payload, ranges, scheduler, progress):
+    try:
+        from distributed import Client, as_completed
+    except ImportError:  # pragma: no cover - depends on the installation
+        raise MorpiError("--scheduler: the Dask path needs dask[distributed] "
+                         "(pip install 'morpi_filters[dask]')") from None
+    own = not isinstance(scheduler, Client)
+    try:
+        client = Client(scheduler, timeout="10s") if own else scheduler
+    except OSError as exc:
+        raise MorpiError(f"--scheduler: cannot reach a Dask scheduler at {scheduler!r} ({exc})") from None
+    try:
+        [remote] = client.scatter([payload], broadcast=True)
+        futs = client.map(fn, [remote] * len(ranges), [a for a, _ in ranges], [b for _, b in ranges],
+                          pure=False)
+        index = {f.key: i for i, f in enumerate(futs)}
+        out = [None] * len(ranges)
+        for f in as_completed(futs):
+            i = index[f.key]
+            out[i] = f.result()
+            if progress:
+                progress.update(ranges[i][1] - ranges[i][0])
+        return out
+    finally:
+        if own:
+            client.close()
+
+
+# ----------------------------------------------------------------------------- trajectories
+
+@dataclass(frozen=True)
+class _Path:
+    """An exact trajectory sampled on `time` (private; see simulate.Trajectory)."""
+
+    time: np.ndarray        # (n,)
+    position: np.ndarray    # (n, 3)
+    velocity: np.ndarray    # (n, 3)
+    f_b: np.ndarray         # (n, 3)
+    omega_b: np.ndarray     # (n, 3)
+    psi: np.ndarray         # (n,) heading
+    peaks: np.ndarray       # sample indices of period boundaries (lateral f_y maxima)
+
+
+def _time_grid(cfg: StudyConfig) -> np.ndarray:
+    n = int(round(cfg.duration * cfg.rate_hz)) + 1
+    return np.arange(n) / cfg.rate_hz
+
+
+def _straight_fallback(t: np.ndarray, speed: float, g: float) -> _Path:
+    n = t.size
+    pos = np.zeros((n, 3))
+    pos[:, 0] = speed * t
+    vel = np.zeros((n, 3))
+    vel[:, 0] = speed
+    f = np.zeros((n, 3))
+    f[:, 2] = g
+    return _Path(t, pos, vel, f, np.zeros((n, 3)), np.zeros(n), np.array([0, n - 1]))
+
+
+def _sine_fallback(t: np.ndarray, speed: float, period: float, amp: float, g: float) -> _Path:
+    """x = v t, y = -A cos(k x): lateral-acceleration maxima at x = 0, period, 2 period, ..."""
+    k = 2 * np.pi / period
+    ph = k * speed * t
+    x, y = speed * t, -amp * np.cos(ph)
+    vy, ay = amp * k * speed * np.sin(ph), amp * (k * speed) ** 2 * np.cos(ph)
+    psi = np.arctan2(vy, speed)
+    r = amp * k * np.sin(ph)
+    wz = amp * k * k * speed * np.cos(ph) / (1 + r * r)
+    n = t.size
+    f = np.stack([np.sin(psi) * ay, np.cos(psi) * ay, np.full(n, g)], axis=1)
+    om = np.zeros((n, 3))
+    om[:, 2] = wz
+    pos = np.stack([x, y, np.zeros(n)], axis=1)
+    vel = np.stack([np.full(n, speed), vy, np.zeros(n)], axis=1)
+    T = period / speed
+    dt = t[1] - t[0]
+    peaks = np.rint(np.arange(0, t[-1] + 0.5 * dt, T) / dt).astype(int)
+    peaks = peaks[peaks < n]
+    return _Path(t, pos, vel, f, om, psi, peaks)
+
+
+def _paths(cfg: StudyConfig):
+    """(straight, sine, backend name) for a config."""
+    t = _time_grid(cfg)
+    g = G0
+    straight = _straight_fallback(t, cfg.speed, g)
+    sine = _sine_fallback(t, cfg.speed, cfg.period_m, cfg.amplitude_m, g)
+    return straight, sine, "montecarlo fallback (analytic x = v t, y = -A cos(2 pi x / period))"
+
+
+# ----------------------------------------------------------------------------- mechanizations
+
+def _rodrigues(a: np.ndarray) -> np.ndarray:
+    """exp(skew(a)) for rotation vectors a (R, 3) -> (R, 3, 3)."""
+    th2 = np.einsum("ij,ij->i", a, a)
+    th = np.sqrt(th2)
+    small = th2 < 1e-12
+    ths = np.where(small, 1.0, th)
+    s = np.where(small, 1 - th2 / 6, np.sin(ths) / ths)
+    c = np.where(small, 0.5 - th2 / 24, (1 - np.cos(ths)) / np.where(small, 1.0, th2))
+    K = np.zeros(a.shape[:-1] + (3, 3))
+    K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -a[:, 2], a[:, 1], -a[:, 0]
+    K[:, 1, 0], K[:, 2, 0], K[:, 2, 1] = a[:, 2], -a[:, 1], a[:, 0]
+    E = s[:, None, None] * K + c[:, None, None] * (K @ K)
+    E[:, 0, 0] += 1
+    E[:, 1, 1] += 1
+    E[:, 2, 2] += 1
+    return E
+
+
+def _ins3d_fallback(time, f, omega, *, C0=None, v0=None, p0=None, g=G0):
+    """Batched 3D strapdown, runs (R, n, 3): attitude by exact rotation of the held rate,
+    velocity and position by the held specific force in n. Returns positions (R, n, 3)."""
+    R, n, _ = f.shape
+    dt = np.diff(time)
+    C = np.broadcast_to(np.eye(3) if C0 is None else C0, (R, 3, 3)).copy()
+    v = np.zeros((R, 3)) if v0 is None else np.broadcast_to(v0, (R, 3)).astype(float).copy()
+    p = np.zeros((R, n, 3))
+    if p0 is not None:
+        p[:, 0] = p0
+    gn = np.array([0.0, 0.0, -g])
+    for k in range(n - 1):
+        h = dt[k]
+        a = np.einsum("rij,rj->ri", C, f[:, k]) + gn
+        p[:, k + 1] = p[:, k] + v * h + (0.5 * h * h) * a
+        v += a * h
+        C = C @ _rodrigues(omega[:, k] * h)
+    return p
+
+
+def _ins2d_fallback(time, f, omega, *, psi0=0.0, v0=None, p0=None):
+    """Batched planar INS: heading from omega_z, f_xy rotated by the heading. Positions (R, n, 3)."""
+    R, n, _ = f.shape
+    dt = np.diff(time)
+    psi = np.empty((R, n))
+    psi[:, 0] = psi0
+    np.cumsum(omega[:, :-1, 2] * dt, axis=1, out=psi[:, 1:])
+    psi[:, 1:] += psi0
+    c, s = np.cos(psi), np.sin(psi)
+    ax = c * f[:, :, 0] - s * f[:, :, 1]
+    ay = s * f[:, :, 0] + c * f[:, :, 1]
+    v0 = np.zeros(3) if v0 is None else np.asarray(v0, float)
+    p = np.zeros((R, n, 3))
+    if p0 is not None:
+        p[:, :] = p0
+    for j, a in ((0, ax), (1, ay)):
+        dv = a[:, :-1] * dt
+        v = np.empty((R, n))
+        v[:, 0] = v0[j]
+        np.cumsum(dv, axis=1, out=v[:, 1:])
+        v[:, 1:] += v0[j]
+        dp = v[:, :-1] * dt + 0.5 * dv * dt
+        np.cumsum(dp, axis=1, out=p[:, 1:, j])
+        if p0 is not None:
+            p[:, 1:, j] += p0[j]
+    return p
+
+
+def _mechanizations():
+    """(ins3d, ins2d, backend name): positions (R, n, 3) from batched IMU."""
+    return _ins3d_fallback, _ins2d_fallback, "montecarlo fallback strapdown"
+
+
+# ----------------------------------------------------------------------------- MoRPI
+
+def _weinberg_sums(sig: np.ndarray, peaks: np.ndarray) -> np.ndarray:
+    """(max - min)^(1/4) of `sig` (R, n) over each peak-to-peak window (inclusive): (R, K)."""
+    K = peaks.size - 1
+    out = np.empty((sig.shape[0], K))
+    for j in range(K):
+        w = sig[:, peaks[j]:peaks[j + 1] + 1]
+        out[:, j] = np.sqrt(np.sqrt(w.max(axis=1) - w.min(axis=1)))
+    return out
+
+
+def _heading(time, wz, psi0=0.0):
+    """Integrated heading (R, n) from gyro z (R, n), rectangle rule on the held rate."""
+    R, n = wz.shape
+    psi = np.empty((R, n))
+    psi[:, 0] = psi0
+    np.cumsum(wz[:, :-1] * np.diff(time), axis=1, out=psi[:, 1:])
+    psi[:, 1:] += psi0
+    return psi
+
+
+def reference_gains(cfg: StudyConfig):
+    """Train the MoRPI-A and MoRPI-G reference gains on noisy runs of the sine path.
+
+    Each training run gives ``G_j = D / sum_k df_k`` (D: true peak-to-peak
+    distance, df_k: Weinberg term of step k); the reference gain is the mean of
+    the G_j, as in the paper's gain calculation [1]_. Uses one Generator seeded
+    with a fixed constant, so the gains are a property of the path and sensor.
+
+    Returns
+    -------
+    gains : tuple of float
+        (G_A, G_G).
+    cv : tuple of float
+        Coefficient of variation of the per-run gains (spread / mean).
+    """
+    _, sine, _ = _paths(cfg)
+    rng = np.random.Generator(np.random.PCG64(np.random.SeedSequence(_TRAINING_SEED)))
+    sa = cfg.spec.accel_noise * math.sqrt(cfg.rate_hz)
+    sg = cfg.spec.gyro_noise * math.sqrt(cfg.rate_hz)
+    D = float(np.linalg.norm(sine.position[sine.peaks[-1], :2] - sine.position[sine.peaks[0], :2]))
+    ga, gg = [], []
+    M = cfg.training_runs
+    for a in range(0, M, 500):
+        m = min(500, M - a)
+        z = rng.standard_normal((m, 2, sine.time.size))
+        fy = sine.f_b[:, 1] + sa * z[:, 0]
+        wz = sine.omega_b[:, 2] + sg * z[:, 1]
+        ga.append(D / _weinberg_sums(fy, sine.peaks).sum(axis=1))
+        gg.append(D / _weinberg_sums(wz, sine.peaks).sum(axis=1))
+    ga, gg = np.concatenate(ga), np.concatenate(gg)
+    return (float(ga.mean()), float(gg.mean())), (float(ga.std(ddof=1) / ga.mean()), float(gg.std(ddof=1) / gg.mean()))
+
+
+# ----------------------------------------------------------------------------- the chunk kernel
+
+@dataclass(frozen=True)
+class _Payload:
+    cfg: StudyConfig
+    seed: int
+    straight: _Path
+    sine: _Path
+    gain_ref: tuple
+    keep: np.ndarray
+
+
+def _draw(seed: int, a: int, b: int, n: int) -> np.ndarray:
+    """Per-run draws of runs a..b-1: (b - a, 7 + 6 n) standard normals, each from its own Generator."""
+    z = np.empty((b - a, _N_HEAD + 6 * n))
+    for r in range(a, b):
+        np.random.Generator(np.random.PCG64(child_seed(seed, r))).standard_normal(out=z[r - a])
+    return z
+
+
+def _chunk(payload: _Payload, a: int, b: int) -> dict:
+    cfg, st, sine = payload.cfg, payload.straight, payload.sine
+    spec = cfg.spec
+    n = sine.time.size
+    R = b - a
+    z = _draw(payload.seed, a, b, n)
+    sig_ba, sig_bg = cfg.bias_sigmas()
+    ba = sig_ba * z[:, 0:3]
+    bg = sig_bg * z[:, 3:6]
+    zg = z[:, 6]
+    noise = z[:, _N_HEAD:].reshape(R, n, 6)
+    noise[:, :, :3] *= spec.accel_noise * math.sqrt(cfg.rate_hz)
+    noise[:, :, 3:] *= spec.gyro_noise * math.sqrt(cfg.rate_hz)
+    keep = payload.keep
+    S = len(cfg.gains)
+    series = np.full((R, keep.size, 4), np.nan)
+    final = np.full((R, 2 + 2 * S), np.nan)
+
+    if cfg.ins:
+        ins3d, ins2d, _ = _mechanizations()
+        f = st.f_b + ba[:, None, :] + noise[:, :, :3]
+        w = st.omega_b + bg[:, None, :] + noise[:, :, 3:]
+        p3 = ins3d(st.time, f, w, v0=st.velocity[0], p0=st.position[0])
+        p2 = ins2d(st.time, f, w, psi0=float(st.psi[0]), v0=st.velocity[0], p0=st.position[0])
+        for j, p in ((0, p3), (1, p2)):
+            e = np.hypot(p[:, :, 0] - st.position[:, 0], p[:, :, 1] - st.position[:, 1])
+            series[:, :, j] = e[:, keep]
+            final[:, j] = e[:, -1]
+        del f, w, p3, p2
+
+    # MoRPI on the sine path: Weinberg terms from the noisy signals (constant biases cancel in max - min).
+    fy = sine.f_b[:, 1] + ba[:, 1:2] + noise[:, :, 1]
+    wz = sine.omega_b[:, 2] + bg[:, 2:3] + noise[:, :, 5]
+    dfa = _weinberg_sums(fy, sine.peaks)                      # (R, K)
+    dfg = _weinberg_sums(wz, sine.peaks)
+    psi = _heading(sine.time, wz, float(sine.psi[0]))[:, sine.peaks[1:]]   # heading at each step's end peak
+    cps, sps = np.cos(psi), np.sin(psi)
+    truth = sine.position[sine.peaks, :2] - sine.position[sine.peaks[0], :2]  # (K+1, 2)
+    D = float(np.linalg.norm(truth[-1]))
+    # keep index -> number of completed steps
+    steps_done = np.searchsorted(sine.peaks, keep, side="right") - 1
+    dG = np.empty((R, S))
+    dist = np.empty((R, S, 2))
+    for s_i, gain in enumerate(cfg.gains):
+        dG[:, s_i] = gain.mean + gain.std * zg
+        scale = 1.0 + dG[:, s_i:s_i + 1]
+        for m, (df, G) in enumerate(((dfa, payload.gain_ref[0]), (dfg, payload.gain_ref[1]))):
+            s = (G * scale) * df                              # (R, K) step lengths
+            x = np.cumsum(s * cps, axis=1)
+            y = np.cumsum(s * sps, axis=1)
+            e = np.hypot(x - truth[1:, 0], y - truth[1:, 1])  # (R, K)
+            final[:, 2 + 2 * s_i + m] = e[:, -1]
+            dist[:, s_i, m] = s.sum(axis=1) - D
+            if s_i == 0:
+                e0 = np.concatenate([np.zeros((R, 1)), e], axis=1)
+                series[:, :, 2 + m] = e0[:, steps_done]
+    return {"series": series, "final": final, "dG": dG, "dist": dist}
+
+
+# ----------------------------------------------------------------------------- the engine
+
+def _default_chunk(n: int) -> int:
+    return max(1, _CHUNK_BYTES // (8 * (_N_HEAD + 6 * n)))
+
+
+def _check_runs(runs, seed, chunk):
+    if isinstance(runs, bool) or not isinstance(runs, (int, np.integer)) or runs < 1:
+        raise MorpiError(f"runs: {runs!r}, expected a whole number >= 1")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise MorpiError(f"seed: {seed!r}, expected a whole number >= 0")
+    if chunk is not None and (isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1):
+        raise MorpiError(f"chunk: {chunk!r}, expected a whole number >= 1")
+
+
+def run_study(runs: int, seed: int, config: StudyConfig | None = None, *, chunk: int | None = None,
+              workers: int = 1, scheduler=None, progress: bool | None = None) -> StudyResult:
+    """Run a seeded gain-error Monte Carlo study.
+
+    Parameters
+    ----------
+    runs : int
+        Number of runs N (axis 0 of every output).
+    seed : int
+        Study seed; run i uses ``SeedSequence(seed).spawn(N)[i]``.
+    config : StudyConfig, optional
+        What to simulate (default: :class:`StudyConfig`()).
+    chunk : int, optional
+        Runs per batch (bounds memory; results do not depend on it). Default:
+        as many as fit a 64 MiB noise block.
+    workers : int
+        Local threads running chunks (results do not depend on it).
+    scheduler : str or distributed.Client, optional
+        Run the chunks on this Dask cluster instead (results identical).
+    progress : bool, optional
+        Progress on stderr; default on when the study has more than 1000 runs.
+
+    Returns
+    -------
+    StudyResult
+    """
+    t0 = _time.perf_counter()
+    cfg = StudyConfig() if config is None else config
+    cfg.validate()
+    _check_runs(runs, seed, chunk)
+    runs, seed = int(runs), int(seed)
+    straight, sine, traj_backend = _paths(cfg)
+    if sine.peaks.size < 2:
+        raise MorpiError("StudyConfig: the sine path has fewer than two period boundaries")
+    n = sine.time.size
+    keep = np.unique(np.r_[np.arange(0, n, cfg.keep_every), n - 1])
+    gain_ref, cv = reference_gains(cfg)
+    payload = _Payload(cfg, seed, straight, sine, gain_ref, keep)
+    chunk = _default_chunk(n) if chunk is None else int(chunk)
+    ranges = _chunks(runs, min(chunk, runs))
+    prog = _Progress(runs, "montecarlo", runs > 1000 if progress is None else progress)
+    parts = _execute(_chunk, payload, ranges, workers=workers, scheduler=scheduler, progress=prog)
+    cat = {k: np.concatenate([p[k] for p in parts], axis=0) for k in parts[0]}
+    columns = ("ins3d", "ins2d") + tuple(f"{m}[{g.label}]" for g in cfg.gains for m in ("morpi_a", "morpi_g"))
+    truth = sine.position[sine.peaks[-1], :2] - sine.position[sine.peaks[0], :2]
+    return StudyResult(
+        config=cfg, runs=runs, seed=seed, time=sine.time[keep], errors=cat["series"], columns=columns,
+        final=cat["final"], distance_error=cat["dist"], dG=cat["dG"], distance=float(np.linalg.norm(truth)),
+        gain_ref=gain_ref, gain_ref_cv=cv, digest=digest(cat["final"]),
+        backends={"trajectories": traj_backend, "strapdown": _mechanizations()[2]},
+        elapsed=_time.perf_counter() - t0)
+
+
+def summarize(x: np.ndarray) -> dict:
+    """mean, std (ddof=1), median and 95th percentile of a sample (NaN-free) [same unit as x]."""
+    x = np.asarray(x, float)
+    return {"mean": float(x.mean()), "std": float(x.std(ddof=1)) if x.size > 1 else 0.0,
+            "median": float(np.median(x)), "p95": float(np.percentile(x, 95))}
+
+
+# ----------------------------------------------------------------------------- training runs vs gain error
+
+@dataclass(frozen=True)
+class TrainingStudy:
+    """How the MoRPI error shrinks with the number k of training runs behind the gain.
+
+    The gain is the mean of k per-run gains, each off by ``mismatch + spread * z_j``
+    (a fraction of the true gain), so ``dG = mismatch + spread * mean(z_1..z_k)``,
+    i.e. ``dG ~ N(mismatch, spread^2 / k)``.
+
+    Attributes
+    ----------
+    k : ndarray, shape (K,)
+        Numbers of training runs.
+    mismatch, spread : float
+        Motion mismatch between training and use, and per-run gain spread (fractions).
+    rms_distance : ndarray, shape (K, 2)
+        Monte Carlo RMS of the MoRPI-A / MoRPI-G distance error [m].
+    rms_expected : ndarray, shape (K,)
+        ``D * sqrt(mismatch^2 + spread^2 / k)`` [m] (gain term only).
+    final : ndarray, shape (K, 2, 4)
+        mean, std, median, p95 of the MoRPI-A / MoRPI-G final position error [m].
+    digests : tuple of str
+    distance : float
+        D [m].
+    """
+
+    k: np.ndarray
+    mismatch: float
+    spread: float
+    rms_distance: np.ndarray
+    rms_expected: np.ndarray
+    final: np.ndarray
+    digests: tuple
+    distance: float
+
+
+def training_runs_study(ks, *, mismatch: float, spread: float, runs: int, seed: int,
+                        config: StudyConfig | None = None, chunk=None, scheduler=None,
+                        progress=None) -> TrainingStudy:
+    """MoRPI-only studies with ``dG ~ N(mismatch, spread^2 / k)`` for each k in `ks`.
+
+    Each k reuses the study seed, so the runs share their sensor draws and only
+    the gain differs (common random numbers).
+    """
+    ks = np.asarray(ks, int)
+    if ks.ndim != 1 or ks.size == 0 or (ks < 1).any():
+        raise MorpiError(f"ks: {ks.tolist()!r}, expected whole numbers >= 1")
+    if not (math.isfinite(spread) and spread >= 0 and math.isfinite(mismatch)):
+        raise MorpiError(f"spread/mismatch: {spread!r}/{mismatch!r}, expected finite, spread >= 0")
+    base = StudyConfig() if config is None else config
+    rms, fin, dig = [], [], []
+    D = None
+    for k in ks:
+        cfg = replace(base, ins=False, gains=(GainError(f"k = {k}", mismatch, spread / math.sqrt(k)),))
+        r = run_study(runs, seed, cfg, chunk=chunk, scheduler=scheduler, progress=progress)
+        D = r.distance
+        rms.append(np.sqrt(np.mean(r.distance_error[:, 0, :] ** 2, axis=0)))
+        fin.append([[summarize(r.column(f"{m}[{cfg.gains[0].label}]"))[q] for q in ("mean", "std", "median", "p95")]
+                    for m in ("morpi_a", "morpi_g")])
+        dig.append(r.digest)
+    return TrainingStudy(ks, float(mismatch), float(spread), np.array(rms),
+                         D * np.sqrt(mismatch ** 2 + spread ** 2 / ks), np.array(fin), tuple(dig), float(D))
+
+
+# ----------------------------------------------------------------------------- drift: closed form vs strapdown
+
+@dataclass(frozen=True)
+class DriftMap:
+    """Closed form against nonlinear strapdown, over gyro bias level and time.
+
+    Attributes
+    ----------
+    gyro_bias : ndarray, shape (L,)
+        Gyro bias levels, 1 sigma per axis [rad/s].
+    time : ndarray, shape (m,)
+        Times [s] (t > 0).
+    rel_3d, rel_2d : ndarray, shape (L, m)
+        Median over the draws of ``|dp_sim - dp_cf| / |dp_sim|`` (horizontal).
+    p90_3d, p90_2d : ndarray, shape (L, m)
+        90th percentile of the same.
+    final_3d, final_2d : ndarray, shape (L, 2)
+        Median final horizontal error [m]: (strapdown, closed form).
+    accel_bias : float
+        Accelerometer bias 1 sigma per axis [m/s^2].
+    draws, seed : int
+        Bias draws per level (shared by every level) and their seed.
+    backends : dict
+    """
+
+    gyro_bias: np.ndarray
+    time: np.ndarray
+    rel_3d: np.ndarray
+    rel_2d: np.ndarray
+    p90_3d: np.ndarray
+    p90_2d: np.ndarray
+    final_3d: np.ndarray
+    final_2d: np.ndarray
+    accel_bias: float
+    draws: int
+    seed: int
+    backends: dict = field(default_factory=dict)
+
+    def onset(self, which: str = "3d", level: float = 0.01) -> np.ndarray:
+        """Time [s] from which the median disagreement stays above `level` to the end, per bias
+        (NaN: below it at the end). Ignores the first samples' O(dt / t) discretization bump."""
+        rel = self.rel_3d if which == "3d" else self.rel_2d
+        out = np.full(rel.shape[0], np.nan)
+        for i, row in enumerate(rel):
+            if row[-1] > level:
+                below = np.flatnonzero(row <= level)
+                out[i] = self.time[below[-1] + 1] if below.size else self.time[0]
+        return out
+
+
+def _closed_form_fallback(ba, bg, t, g, kind):
+    """Small-angle position error (z up, C = I, f^n = (0, 0, g)) of a stationary INS, horizontal.
+
+    ba, bg: (R, 3); t: (m,). Returns (R, m, 2). For kind "3d":
+    dp_x = ba_x t^2/2 + (alpha bg_y - ba_y bg_z) t^3/6,
+    dp_y = ba_y t^2/2 + (ba_x bg_z - alpha bg_x) t^3/6, alpha = g + ba_z;
+    for "2d" the tilt terms (bg_x, bg_y, ba_z) drop out.
+    """
+    t2, t3 = (t * t / 2)[None], (t ** 3 / 6)[None]
+    alpha = g + ba[:, 2:3] if kind == "3d" else 0.0
+    bx, by = (bg[:, 0:1], bg[:, 1:2]) if kind == "3d" else (0.0, 0.0)
+    dx = ba[:, 0:1] * t2 + (alpha * by - ba[:, 1:2] * bg[:, 2:3]) * t3
+    dy = ba[:, 1:2] * t2 + (ba[:, 0:1] * bg[:, 2:3] - alpha * bx) * t3
+    return np.stack([dx, dy], axis=-1)
+
+
+def _closed_form():
+    return _closed_form_fallback, "montecarlo fallback (small-angle polynomials, z up)"
+
+
+@dataclass(frozen=True)
+class _DriftPayload:
+    levels: np.ndarray
+    z: np.ndarray          # (draws, 6)
+    time: np.ndarray       # (n,)
+    keep: np.ndarray
+    accel_bias: float
+    g: float
+
+
+def _drift_chunk(payload: _DriftPayload, a: int, b: int) -> dict:
+    D = payload.z.shape[0]
+    idx = np.arange(a, b)
+    lev, d = idx // D, idx % D
+    z = payload.z[d]
+    ba = payload.accel_bias * z[:, :3]
+    bg = payload.levels[lev][:, None] * z[:, 3:]
+    t, keep, g = payload.time, payload.keep, payload.g
+    R, n = b - a, t.size
+    f = np.empty((R, n, 3))
+    f[:] = ba[:, None, :]
+    f[:, :, 2] += g
+    w = np.empty((R, n, 3))
+    w[:] = bg[:, None, :]
+    ins3d, ins2d, _ = _mechanizations()
+    cf, _ = _closed_form()
+    out = {}
+    tk = t[keep]
+    for kind, p in (("3d", ins3d(t, f, w, g=g)), ("2d", ins2d(t, f, w))):
+        sim = p[:, keep, :2]
+        cfv = cf(ba, bg, tk, g, kind)
+        num = np.hypot(*(sim - cfv).transpose(2, 0, 1))
+        den = np.hypot(*sim.transpose(2, 0, 1))
+        out["rel_" + kind] = num / den
+        out["end_" + kind] = np.stack([den[:, -1], np.hypot(*cfv[:, -1].T)], axis=1)
+    return out
+
+
+def drift_map(gyro_bias=None, *, spec: SensorSpec = MPU6500, duration: float = 15.0, rate_hz: float = 100.0,
+              draws: int = 32, seed: int = 0, keep_every: int = 10, chunk: int | None = None,
+              scheduler=None, progress: bool | None = None) -> DriftMap:
+    """Compare the closed-form and the strapdown position error of a stationary INS.
+
+    Every level of `gyro_bias` uses the same `draws` bias draws (run d of the
+    study: 3 accelerometer then 3 gyro standard normals from
+    ``SeedSequence(seed).spawn(draws)[d]``), the gyro numbers scaled by the
+    level and the accelerometer ones by ``spec.accel_bias``. The strapdown
+    integrates the biased IMU at `rate_hz` (no noise); the closed form is the
+    small-angle error polynomial of the 15-state model with C = I and
+    f^n = (0, 0, g) [1]_, including the gyro-z terms.
+
+    Parameters
+    ----------
+    gyro_bias : array_like, shape (L,), optional
+        Gyro bias levels, 1 sigma per axis [rad/s]. Default: 25 levels from
+        0.01 to 10 deg/s, log spaced.
+    spec : SensorSpec
+        Source of the accelerometer bias sigma.
+    duration, rate_hz : float
+        Length [s] and sampling rate [Hz].
+    draws, seed : int
+        Bias draws per level and their seed.
+    keep_every : int
+        Keep every k-th sample in time.
+    chunk, scheduler, progress
+        As in :func:`run_study` (results do not depend on them).
+
+    Returns
+    -------
+    DriftMap
+    """
+    levels = np.logspace(-2, 1, 25) * DEG_S if gyro_bias is None else np.asarray(gyro_bias, float)
+    if levels.ndim != 1 or levels.size == 0 or not np.all(np.isfinite(levels)) or (levels <= 0).any():
+        raise MorpiError("gyro_bias: expected a 1-D list of finite levels > 0 [rad/s]")
+    if not (math.isfinite(duration) and duration > 0 and math.isfinite(rate_hz) and duration * rate_hz >= 2):
+        raise MorpiError(f"duration/rate_hz: {duration!r} s at {rate_hz!r} Hz, expected at least 2 samples")
+    _check_runs(draws, seed, chunk)
+    n = int(round(duration * rate_hz)) + 1
+    t = np.arange(n) / rate_hz
+    keep = np.unique(np.r_[np.arange(keep_every, n, keep_every), n - 1])
+    z = np.stack([np.random.Generator(np.random.PCG64(child_seed(seed, d))).standard_normal(6)
+                  for d in range(draws)])
+    payload = _DriftPayload(levels, z, t, keep, float(spec.accel_bias), G0)
+    total = levels.size * draws
+    chunk = max(1, _CHUNK_BYTES // (8 * 6 * n)) if chunk is None else int(chunk)
+    prog = _Progress(total, "drift", total > 1000 if progress is None else progress)
+    parts = _execute(_drift_chunk, payload, _chunks(total, min(chunk, total)), scheduler=scheduler, progress=prog)
+    cat = {k: np.concatenate([p[k] for p in parts]).reshape(levels.size, draws, *parts[0][k].shape[1:])
+           for k in parts[0]}
+    return DriftMap(
+        gyro_bias=levels, time=t[keep],
+        rel_3d=np.median(cat["rel_3d"], axis=1), rel_2d=np.median(cat["rel_2d"], axis=1),
+        p90_3d=np.percentile(cat["rel_3d"], 90, axis=1), p90_2d=np.percentile(cat["rel_2d"], 90, axis=1),
+        final_3d=np.median(cat["end_3d"], axis=1), final_2d=np.median(cat["end_2d"], axis=1),
+        accel_bias=float(spec.accel_bias), draws=int(draws), seed=int(seed),
+        backends={"strapdown": _mechanizations()[2], "closed form": _closed_form()[1]})
+
+
+# ----------------------------------------------------------------------------- report sections
+
+#: Two-sided 99 % normal quantile used for the Monte Carlo confidence bounds.
+Z99 = 2.5758293035489004
+
+#: Assumed per-run gain spread and motion mismatch (fractions) when no field gain training is available.
+ASSUMED_SPREAD = 0.05
+ASSUMED_MISMATCH = 0.02
+
+#: Training-run counts of the gain-training study.
+TRAINING_KS = (1, 2, 3, 5, 10, 20, 50)
+
+
+def _field_gain_spread(source):
+    """(spread, mismatch, note) of the per-run training gains of a dataset, or (None, None, note)."""
+    if source is None or getattr(source, "root", None) is None:
+        return None, None, "no dataset configured"
+    try:
+        from . import evaluate  # noqa: F401
+        fn = getattr(evaluate, "training_gain_spread")
+    except (ImportError, AttributeError):
+        return None, None, ("the per-run gain training of the field pipeline (steps.py / evaluate.py) "
+                            "is not available in this build")
+    spread, mismatch = fn(source)
+    return float(spread), float(mismatch), f"per-run training gains of {source.root}"
+
+
+def _stats_block(result: StudyResult) -> dict:
+    g0 = result.config.gains[0].label
+    return {
+        "ins3d": summarize(result.column("ins3d")) if result.config.ins else None,
+        "ins2d": summarize(result.column("ins2d")) if result.config.ins else None,
+        "morpi_a": summarize(result.column(f"morpi_a[{g0}]")),
+        "morpi_g": summarize(result.column(f"morpi_g[{g0}]")),
+    }
+
+
+def _distance_check(result: StudyResult) -> list:
+    """Monte Carlo mean of the MoRPI distance error against the analytical ds = dG D, per scenario."""
+    rows = []
+    N = result.runs
+    for s_i, g in enumerate(result.config.gains):
+        row = {"label": g.label, "dG_mean": g.mean, "dG_std": g.std,
+               "analytic_mean": g.mean * result.distance, "analytic_std_gain_only": g.std * result.distance}
+        for m, name in enumerate(("morpi_a", "morpi_g")):
+            x = result.distance_error[:, s_i, m]
+            mean = float(x.mean())
+            half = Z99 * float(x.std(ddof=1)) / math.sqrt(N) if N > 1 else float("inf")
+            row[name] = {"mc_mean": mean, "mc_std": float(x.std(ddof=1)) if N > 1 else 0.0,
+                         "bound": half, "within": bool(abs(mean - row["analytic_mean"]) <= half)}
+        rows.append(row)
+    return rows
+
+
+def _config_json(cfg: StudyConfig) -> dict:
+    sa, sg = cfg.bias_sigmas()
+    return {"sensor": cfg.spec.name, "duration_s": cfg.duration, "rate_hz": cfg.rate_hz, "speed_mps": cfg.speed,
+            "period_m": cfg.period_m, "amplitude_m": cfg.amplitude_m, "calibration": cfg.calibration,
+            "cal_seconds": cfg.cal_seconds, "accel_bias_sigma_mps2": sa, "gyro_bias_sigma_radps": sg,
+            "accel_noise_sigma_mps2": cfg.spec.accel_noise * math.sqrt(cfg.rate_hz),
+            "gyro_noise_sigma_radps": cfg.spec.gyro_noise * math.sqrt(cfg.rate_hz),
+            "gains": [{"label": g.label, "mean": g.mean, "std": g.std} for g in cfg.gains]}
+
+
+def report_montecarlo(out, *, runs: int, seed: int, chunk=None, scheduler=None, source=None):
+    """Write the gain-error Monte Carlo section into folder `out`.
+
+    Two studies with the same seed: the primary one after a zero-order
+    calibration on 3 s of rest (the paper's GAC baselines; MoRPI does not use
+    the accelerometer bias), and one with the full datasheet turn-on biases.
+    Gain scenarios: 5 % and 10 % (the paper) and the spread of per-run training
+    gains (from the dataset when the field gain training is available,
+    otherwise an assumed value, stated on the page). Then the gain-training
+    study over k training runs.
+
+    Returns
+    -------
+    reporting.SectionSummary
+    """
+    from . import plots
+    from .reporting import SectionSummary, fmt, md_table, write_json, write_text
+
+    out = Path(out)
+    _check_runs(runs, seed, chunk)
+    spread, mismatch, spread_note = _field_gain_spread(source)
+    assumed = spread is None
+    if assumed:
+        spread, mismatch = ASSUMED_SPREAD, ASSUMED_MISMATCH
+    gains = (GainError("dG = 5 %", 0.05), GainError("dG = 10 %", 0.10),
+             GainError("training spread", mismatch, spread))
+    cal = StudyConfig(gains=gains, calibration="gyro+accel")
+    raw = replace(cal, calibration="none")
+    r = run_study(runs, seed, cal, chunk=chunk, scheduler=scheduler)
+    rr = run_study(runs, seed, raw, chunk=chunk, scheduler=scheduler)
+    tr = training_runs_study(TRAINING_KS, mismatch=mismatch, spread=spread, runs=runs, seed=seed,
+                             config=cal, chunk=chunk, scheduler=scheduler)
+    checks = _distance_check(r)
+    fallback = any("fallback" in v for v in r.backends.values())
+
+    figs = []
+    figs.append(plots.montecarlo_final_errors(
+        r.columns, r.final, out / "final_errors.png",
+        title=f"{cal.spec.name}, {cal.duration:g} s, {runs} runs, GAC-calibrated biases").name)
+    figs.append(plots.montecarlo_error_curves(
+        r.time, r.errors, ["INS-3D", "INS-2D", "MoRPI-A (dG 5 %)", "MoRPI-G (dG 5 %)"],
+        out / "error_curves.png", title="horizontal error over time (median, 5-95 % band)").name)
+    s_i = 2
+    figs.append(plots.montecarlo_gain_vs_error(
+        r.dG[:, s_i], r.distance_error[:, s_i, 0], out / "gain_vs_distance_error.png",
+        analytic_slope=r.distance, title="MoRPI-A distance error against the gain error (training-spread scenario)").name)
+    figs.append(plots.montecarlo_training_runs(
+        tr.k, tr.rms_distance, tr.rms_expected, ["MoRPI-A", "MoRPI-G"], out / "training_runs.png",
+        title=f"gain from k training runs: spread {100 * spread:g} %, mismatch {100 * mismatch:g} %").name)
+
+    result = {
+        "runs": runs, "seed": seed, "digest": r.digest, **_stats_block(r),
+        "unit": "m, final horizontal position error",
+        "config": _config_json(cal), "columns": list(r.columns), "distance_m": r.distance,
+        "gain_ref": {"morpi_a": r.gain_ref[0], "morpi_g": r.gain_ref[1],
+                     "training_cv": {"morpi_a": r.gain_ref_cv[0], "morpi_g": r.gain_ref_cv[1]}},
+        "scenarios": [{**c, "final_morpi_a": summarize(r.column(f"morpi_a[{c['label']}]")),
+                       "final_morpi_g": summarize(r.column(f"morpi_g[{c['label']}]"))} for c in checks],
+        "confidence": {"z": Z99, "bound": "mean +/- z * std / sqrt(runs)"},
+        "raw_biases": {"digest": rr.digest, "config": _config_json(raw), **_stats_block(rr)},
+        "training_runs": {"k": tr.k, "mismatch": tr.mismatch, "spread": tr.spread, "assumed": assumed,
+                          "source": spread_note if not assumed else f"assumed ({spread_note})",
+                          "rms_distance_morpi_a": tr.rms_distance[:, 0], "rms_distance_morpi_g": tr.rms_distance[:, 1],
+                          "rms_expected": tr.rms_expected, "digests": list(tr.digests)},
+        "backends": r.backends,
+    }
+    write_json(out / "result.json", result)
+
+    synthetic = bool(getattr(source, "synthetic", False))
+    banner = source.banner if source is not None else ""
+    lines = [banner + "# Monte Carlo gain-error study\n"]
+    if fallback:
+        lines.append("> **Stand-in components.** " + "; ".join(f"{k}: {v}" for k, v in r.backends.items())
+                     + ". The numbers follow the same model but were not computed with the package's "
+                       "strapdown/simulate modules.\n")
+    lines.append(
+        f"{runs} seeded runs (seed {seed}) of {cal.spec.name} errors over {cal.duration:g} s at "
+        f"{cal.rate_hz:g} Hz. INS-3D and INS-2D drive a straight line at {cal.speed:g} m/s; MoRPI-A and "
+        f"MoRPI-G drive a sine path (period {cal.period_m:g} m, amplitude {cal.amplitude_m:g} m) of the same "
+        f"duration and take {len(r.config.gains) and int(round(r.distance / cal.period_m))} Weinberg steps "
+        f"(D = {r.distance:.2f} m). Every run draws turn-on biases, white noise at "
+        f"{cal.rate_hz:g} Hz from the datasheet densities, and one gain number; the MoRPI reference gains "
+        f"are the mean of {cal.training_runs} noisy training runs (per-run gain spread from sensor noise: "
+        f"{100 * r.gain_ref_cv[0]:.3f} % for MoRPI-A, {100 * r.gain_ref_cv[1]:.4f} % for MoRPI-G).\n")
+    lines.append(f"Digest (sha256 of the per-run final errors): `{r.digest}`; with raw biases: `{rr.digest}`.\n")
+    lines.append("## Final horizontal position error [m]\n")
+    rows = []
+    for label, res in (("GAC-calibrated (3 s rest)", r), ("raw datasheet biases", rr)):
+        for c in res.columns:
+            st = summarize(res.column(c))
+            rows.append([label, c, fmt(st["mean"], 3), fmt(st["std"], 3), fmt(st["median"], 3), fmt(st["p95"], 3)])
+    lines.append(md_table(["biases", "method", "mean", "std", "median", "p95"], rows))
+    lines.append(
+        "\nWith raw datasheet biases the MoRPI position error is dominated by the heading drift of the "
+        "gyro-z bias, the same for every method; after calibration the gain error dominates.\n")
+    lines.append("## MoRPI distance error against the analytical ds = dG D\n")
+    lines.append(f"The analytical distance error of a run with gain error dG is ds = sum_k dG G df_k = dG D "
+                 f"(paper, Section III-A). Bound: Monte Carlo mean +/- z std / sqrt(N), z = {Z99:.3f} (99 %).\n")
+    rows = []
+    for c in checks:
+        for name in ("morpi_a", "morpi_g"):
+            v = c[name]
+            rows.append([c["label"], name, fmt(c["analytic_mean"], 4), fmt(v["mc_mean"], 4), fmt(v["bound"], 4),
+                         "yes" if v["within"] else "NO", fmt(c["analytic_std_gain_only"], 4), fmt(v["mc_std"], 4)])
+    lines.append(md_table(["scenario", "method", "analytical ds [m]", "MC mean [m]", "+/- bound [m]", "within",
+                           "analytical std (gain) [m]", "MC std [m]"], rows))
+    lines.append("\n## Gain from k training runs\n")
+    src = (f"Per-run gain spread {100 * spread:g} % and motion mismatch {100 * mismatch:g} % "
+           + (f"from the {spread_note}." if not assumed else
+              f"are ASSUMED values: the field gain spread could not be computed ({spread_note})."))
+    lines.append(src + " The gain is the mean of k per-run gains, so dG ~ N(mismatch, spread^2 / k) and "
+                 "the RMS distance error approaches D |mismatch| like 1/sqrt(k).\n")
+    rows = [[int(k), fmt(a, 4), fmt(g, 4), fmt(e, 4)] for k, (a, g), e in zip(tr.k, tr.rms_distance, tr.rms_expected)]
+    lines.append(md_table(["k", "MoRPI-A RMS [m]", "MoRPI-G RMS [m]", "D sqrt(m^2 + s^2/k) [m]"], rows))
+    lines.append("\n## Figures\n")
+    lines.extend(f"![{f}]({f})\n" for f in figs)
+    write_text(out / "README.md", "\n".join(lines))
+
+    st = _stats_block(r)
+    summary = (f"{runs} runs, {cal.spec.name}, {cal.duration:g} s (GAC-calibrated): mean final error INS-3D "
+               f"{fmt(st['ins3d']['mean'])} m, INS-2D {fmt(st['ins2d']['mean'])} m, MoRPI-A (dG 5 %) "
+               f"{fmt(st['morpi_a']['mean'])} m, MoRPI-G {fmt(st['morpi_g']['mean'])} m. "
+               f"MoRPI distance error vs ds = dG D: "
+               + ", ".join(f"{c['label']} {'within' if c['morpi_a']['within'] else 'OUTSIDE'}" for c in checks)
+               + " the 99 % bound." + (" Stand-in strapdown/trajectories." if fallback else ""))
+    return SectionSummary(name="montecarlo", title="Monte Carlo gain-error study", page="README.md",
+                          figures=tuple(figs), summary=summary, synthetic=synthetic)
+
+
+def _loglog_slope(x, y):
+    x, y = np.log(np.asarray(x, float)), np.log(np.asarray(y, float))
+    if x.size < 2:
+        return float("nan")
+    return float(np.polyfit(x, y, 1)[0])
+
+
+def report_drift(out, *, scheduler=None):
+    """Write the closed-form vs strapdown drift section into folder `out`.
+
+    Returns
+    -------
+    reporting.SectionSummary
+    """
+    from . import plots
+    from .reporting import SectionSummary, fmt, md_table, write_json, write_text
+
+    out = Path(out)
+    spec = MPU6500
+    levels = np.union1d(np.logspace(-2, 1, 25), [spec.gyro_bias / DEG_S]) * DEG_S
+    d = drift_map(levels, spec=spec, scheduler=scheduler)
+    bdeg = d.gyro_bias / DEG_S
+    figs = []
+    s6 = spec.gyro_bias / DEG_S
+    for kind, rel in (("3d", d.rel_3d), ("2d", d.rel_2d)):
+        figs.append(plots.drift_disagreement_map(
+            bdeg, d.time, rel, out / f"drift_map_{kind}.png", marks=[(s6, 14.0, f"S6 datasheet, 14 s")],
+            title=f"{kind.upper()} INS at rest: strapdown vs small-angle closed form "
+                  f"(median of {d.draws} draws)").name)
+    # growth: slope of log disagreement in log time (15 s row region) and in log bias (at 15 s)
+    growth = {}
+    for kind, rel in (("3d", d.rel_3d), ("2d", d.rel_2d)):
+        end = rel[:, -1]
+        sel = (end > 1e-4) & (end < 0.05)
+        i_mid = int(np.argmin(np.abs(np.log(np.where(end > 0, end, 1e-30)) - np.log(0.01))))
+        row = rel[i_mid]
+        tsel = (d.time >= 2.0) & (row > 1e-5) & (row < 0.05)
+        growth[kind] = {"slope_in_bias_at_end": _loglog_slope(d.gyro_bias[sel], end[sel]),
+                        "slope_in_time": _loglog_slope(d.time[tsel], row[tsel]),
+                        "slope_in_time_bias_deg_s": float(bdeg[i_mid])}
+    onset = {f"{k}_{int(100 * lv)}pct": d.onset(k, lv) for k in ("3d", "2d") for lv in (0.01, 0.1)}
+    result = {
+        "gyro_bias_deg_s": bdeg, "time_s": d.time, "rel_3d": d.rel_3d, "rel_2d": d.rel_2d,
+        "p90_3d": d.p90_3d, "p90_2d": d.p90_2d,
+        "final_3d_m": {"strapdown": d.final_3d[:, 0], "closed_form": d.final_3d[:, 1]},
+        "final_2d_m": {"strapdown": d.final_2d[:, 0], "closed_form": d.final_2d[:, 1]},
+        "onset_s": onset, "growth": growth, "accel_bias_sigma_mps2": d.accel_bias,
+        "draws": d.draws, "seed": d.seed, "backends": d.backends,
+        "metric": "median over draws of |dp_strapdown - dp_closed_form| / |dp_strapdown|, horizontal",
+    }
+    write_json(out / "result.json", result)
+    fallback = any("fallback" in v for v in d.backends.values())
+    lines = ["# Closed-form vs strapdown drift\n"]
+    if fallback:
+        lines.append("> **Stand-in components.** " + "; ".join(f"{k}: {v}" for k, v in d.backends.items()) + ".\n")
+    lines.append(
+        f"An INS at rest for 15 s at 100 Hz with constant biases: accelerometer {spec.accel_bias / 9.80665e-3:g} mg "
+        f"1 sigma per axis ({spec.name} datasheet), gyro bias levels from {bdeg[0]:g} to {bdeg[-1]:g} deg/s "
+        f"1 sigma per axis; {d.draws} draws shared by every level. Each draw goes through the nonlinear "
+        "strapdown (3D and planar 2D) and through the small-angle closed form of the 15-state model "
+        "(C = I, f^n = gravity, gyro-z terms kept). The map shows the median relative disagreement of the "
+        "horizontal position error.\n")
+    lines.append(f"The {spec.name} datasheet gyro bias, {s6:g} deg/s, turns the attitude by {s6 * 14:g} degrees "
+                 "in 14 s, far outside the small-angle range.\n")
+    rows = []
+    pick = np.unique([int(np.argmin(np.abs(bdeg - b))) for b in (0.01, 0.1, 0.3, 1.0, 3.0, s6, 10.0)])
+    for i in pick:
+        rows.append([fmt(bdeg[i], 3), fmt(100 * d.rel_3d[i, -1], 3), fmt(onset["3d_1pct"][i], 1),
+                     fmt(onset["3d_10pct"][i], 1), fmt(100 * d.rel_2d[i, -1], 3), fmt(onset["2d_1pct"][i], 1),
+                     fmt(onset["2d_10pct"][i], 1)])
+    lines.append(md_table(["gyro bias [deg/s]", "3D at 15 s [%]", "3D > 1 % from [s]", "3D > 10 % from [s]",
+                           "2D at 15 s [%]", "2D > 1 % from [s]", "2D > 10 % from [s]"], rows))
+    lines.append(
+        f"\nHow fast they part: near 1 % the 3D disagreement grows like t^{fmt(growth['3d']['slope_in_time'], 2)} "
+        f"(at {fmt(growth['3d']['slope_in_time_bias_deg_s'], 2)} deg/s) and like "
+        f"b^{fmt(growth['3d']['slope_in_bias_at_end'], 2)} in the bias at 15 s; for 2D t^"
+        f"{fmt(growth['2d']['slope_in_time'], 2)} and b^{fmt(growth['2d']['slope_in_bias_at_end'], 2)}. "
+        "A single-axis rotation b t gives a relative error of (b t)^2 / 20 to leading order "
+        "(1 - 6 (x - sin x) / x^3), so both exponents near 2 are the signature of the small-angle "
+        "linearization; a '-' marks a bias that stays below the level for the whole 15 s. "
+        "The first samples of the strongest biases show an O(dt / t) bump from the held-sample "
+        "integration, not from the linearization.\n")
+    lines.append("## Figures\n")
+    lines.extend(f"![{f}]({f})\n" for f in figs)
+    write_text(out / "README.md", "\n".join(lines))
+    i6 = int(np.argmin(np.abs(bdeg - s6)))
+    summary = (f"Closed form vs nonlinear strapdown at rest: at 15 s they differ by "
+               f"{fmt(100 * d.rel_3d[0, -1], 3)} % (3D) at {fmt(bdeg[0], 2)} deg/s and by "
+               f"{fmt(100 * d.rel_3d[i6, -1], 0)} % (3D) / {fmt(100 * d.rel_2d[i6, -1], 0)} % (2D) at "
+               f"{fmt(bdeg[i6], 1)} deg/s (S6 datasheet)." + (" Stand-in strapdown/closed form." if fallback else ""))
+    return SectionSummary(name="drift", title="Closed-form vs strapdown drift", page="README.md",
+                          figures=tuple(figs), summary=summary, synthetic=False)
