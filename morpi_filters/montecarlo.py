@@ -29,7 +29,8 @@ Reproducibility
     Generator seeded with ``SeedSequence(s).spawn(N)[i]`` (built directly as
     ``SeedSequence(s, spawn_key=(i,))``, which is the same object), in a
     fixed order: 6 bias numbers (accelerometer xyz, gyro xyz), 1 gain number,
-    then the ``(n, 6)`` noise block (accelerometer xyz, gyro xyz). Every
+    then the ``(6, n)`` noise block (accelerometer xyz, gyro xyz; each
+    channel's n samples consecutive). Every
     computation is elementwise over runs, so a run's numbers do not depend on
     which chunk, thread or Dask worker computed it: the digest is the same for
     any chunk size, any number of workers and through Dask.
@@ -502,16 +503,6 @@ def _weinberg_sums(sig: np.ndarray, peaks: np.ndarray) -> np.ndarray:
     return out
 
 
-def _heading(time, wz, psi0=0.0):
-    """Integrated heading (R, n) from gyro z (R, n), rectangle rule on the held rate."""
-    R, n = wz.shape
-    psi = np.empty((R, n))
-    psi[:, 0] = psi0
-    np.cumsum(wz[:, :-1] * np.diff(time), axis=1, out=psi[:, 1:])
-    psi[:, 1:] += psi0
-    return psi
-
-
 def reference_gains(cfg: StudyConfig):
     """Train the MoRPI-A and MoRPI-G reference gains on noisy runs of the sine path.
 
@@ -565,63 +556,223 @@ def _draw(seed: int, a: int, b: int, n: int) -> np.ndarray:
     return z
 
 
+def _quat_increments(wx, wy, wz, h):
+    """Attitude increments exp(omega h / 2) as quaternion planes (4 arrays like wx).
+
+    The half-angle x = |omega| h / 2 enters through Taylor series of cos x and
+    sin(x) / x to x^4 (truncation below x^6 / 720 <= 1.4e-15 for x <= 0.01,
+    i.e. |omega| <= 2 rad/s at 100 Hz); elements with a larger x are
+    recomputed with sin/cos. The rule is elementwise, so the result of a run
+    does not depend on its neighbours in the chunk.
+    """
+    x2 = wx * wx
+    x2 += wy * wy
+    x2 += wz * wz
+    x2 *= 0.25 * h * h
+    c = x2 * (1 / 24)
+    c -= 0.5
+    c *= x2
+    c += 1
+    k = x2 * (1 / 120)
+    k -= 1 / 6
+    k *= x2
+    k += 1
+    big = x2 > 1e-4
+    if big.any():
+        x = np.sqrt(x2[big])
+        c[big] = np.cos(x)
+        k[big] = np.sin(x) / x
+    k *= 0.5 * h
+    return c, k * wx, k * wy, k * wz
+
+
+def _attitude(wx, wy, wz, h, block: int = 128):
+    """Quaternions (n, 4, R) of body-to-n from rest: q_{k+1} = q_k (x) exp(omega_k h / 2).
+
+    Time-major rate planes (n, R); the last sample's rate is not used. The
+    product runs as one einsum per step with the 4x4 right-multiplication
+    matrices of the increments, built `block` steps at a time.
+    """
+    n, R = wx.shape
+    q = np.empty((n, 4, R))
+    q[0] = 0.0
+    q[0, 0] = 1.0
+    M = np.empty((block, 4, 4, R))
+    for k0 in range(0, n - 1, block):
+        k1 = min(k0 + block, n - 1)
+        m = M[:k1 - k0]
+        p0, p1, p2, p3 = _quat_increments(wx[k0:k1], wy[k0:k1], wz[k0:k1], h)
+        # rows of M(p) with q (x) p = M(p) q (Hamilton product, scalar first)
+        for i, row in enumerate(((p0, -1, p1, -1, p2, -1, p3), (p1, 1, p0, 1, p3, -1, p2),
+                                 (p2, -1, p3, 1, p0, 1, p1), (p3, 1, p2, -1, p1, 1, p0))):
+            m[:, i, 0] = row[0]
+            for j, (sign, val) in enumerate(zip(row[1::2], row[2::2]), start=1):
+                if sign > 0:
+                    m[:, i, j] = val
+                else:
+                    np.negative(val, out=m[:, i, j])
+        for j in range(k1 - k0):
+            np.einsum("ijr,jr->ir", m[j], q[k0 + j], out=q[k0 + j + 1])
+    return q
+
+
+def _double_integral_at(a, h, keep):
+    """Held-sample double integral from rest, at rows `keep` (all >= 0): (len(keep), R).
+
+    v_{k+1} = v_k + a_k h and p_{k+1} = p_k + v_k h + a_k h^2 / 2, i.e.
+    p_k = h^2 (sum_{j<k} S_j + S_k / 2) with S_k = sum_{i<k} a_i.
+    """
+    n, R = a.shape
+    S = np.empty((n, R))
+    S[0] = 0.0
+    np.cumsum(a[:-1], axis=0, out=S[1:])
+    C = np.cumsum(S, axis=0)
+    T = np.zeros((keep.size, R))
+    pos = keep > 0
+    T[pos] = C[keep[pos] - 1]
+    T += 0.5 * S[keep]
+    T *= h * h
+    return T
+
+
+def _straight_errors_3d(h, f, w, keep):
+    """Horizontal position error of a 3D strapdown on a level, constant-velocity straight line.
+
+    The truth has C_bn = I, no rotation and no acceleration, so the error is
+    the double integral of ``C f + g^n`` with C propagated from the measured
+    rates (exact rotation of each held rate sample) and the held-sample
+    integration of :func:`_ins3d_fallback`.
+
+    Parameters
+    ----------
+    h : float
+        Sampling interval [s].
+    f, w : sequence of 3 ndarrays, shape (n, R)
+        Measured specific force [m/s^2] and angular rate [rad/s] planes, time-major.
+    keep : ndarray of int
+        Rows to return.
+
+    Returns
+    -------
+    dx, dy : ndarray, shape (len(keep), R)
+        Position error [m].
+    """
+    q = _attitude(w[0], w[1], w[2], h)
+    q0, q1, q2, q3 = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    fx, fy, fz = f
+    # C(q) f = f + 2 q0 (u x f) + 2 u x (u x f), u = (q1, q2, q3); horizontal rows only
+    cx = q2 * fz
+    cx -= q3 * fy
+    cy = q3 * fx
+    cy -= q1 * fz
+    cz = q1 * fy
+    cz -= q2 * fx
+    ax = q2 * cz
+    ax -= q3 * cy
+    ax += q0 * cx
+    ax *= 2
+    ax += fx
+    ay = q3 * cx
+    ay -= q1 * cz
+    ay += q0 * cy
+    ay *= 2
+    ay += fy
+    del q, cx, cy, cz
+    return _double_integral_at(ax, h, keep), _double_integral_at(ay, h, keep)
+
+
+def _straight_errors_2d(f, psi, h, keep):
+    """Horizontal position error of the planar INS on the straight line (truth: heading 0, no acceleration).
+
+    `psi` (n, R) is the heading integrated from the measured z rate; f_x, f_y
+    are rotated by it and integrated twice. Planes as in :func:`_straight_errors_3d`.
+    """
+    c, s = np.cos(psi), np.sin(psi)
+    ax = c * f[0]
+    ax -= s * f[1]
+    ay = s * f[0]
+    ay += c * f[1]
+    return _double_integral_at(ax, h, keep), _double_integral_at(ay, h, keep)
+
+
 def _chunk(payload: _Payload, a: int, b: int) -> dict:
-    cfg, st, sine = payload.cfg, payload.straight, payload.sine
-    spec = cfg.spec
+    cfg, sine = payload.cfg, payload.sine
     n = sine.time.size
+    h = 1.0 / cfg.rate_hz
     R = b - a
     z = _draw(payload.seed, a, b, n)
     sig_ba, sig_bg = cfg.bias_sigmas()
     ba = sig_ba * z[:, 0:3]
     bg = sig_bg * z[:, 3:6]
-    zg = z[:, 6]
-    noise = z[:, _N_HEAD:].reshape(R, n, 6)
-    noise[:, :, :3] *= spec.accel_noise * math.sqrt(cfg.rate_hz)
-    noise[:, :, 3:] *= spec.gyro_noise * math.sqrt(cfg.rate_hz)
+    zg = z[:, 6].copy()
+    # time-major planes (6, n, R) of the measured errors: bias + white noise at the discrete sigma
+    zr = z[:, _N_HEAD:].reshape(R, 6, n)
+    err = np.empty((6, n, R))
+    sa, sg = cfg.spec.accel_noise * math.sqrt(cfg.rate_hz), cfg.spec.gyro_noise * math.sqrt(cfg.rate_hz)
+    for c in range(6):
+        np.multiply(zr[:, c, :].T, sa if c < 3 else sg, out=err[c])
+        err[c] += ba[:, c] if c < 3 else bg[:, c - 3]
+    del z, zr
     keep = payload.keep
     S = len(cfg.gains)
     series = np.full((R, keep.size, 4), np.nan)
     final = np.full((R, 2 + 2 * S), np.nan)
+    # heading error integrated from the gyro-z error (the straight line's whole heading, 0 + error)
+    psi = np.empty((n, R))
+    psi[0] = 0.0
+    np.cumsum(err[5, :-1], axis=0, out=psi[1:])
+    psi *= h
 
     if cfg.ins:
-        ins3d, ins2d, _ = _mechanizations()
-        f = st.f_b + ba[:, None, :] + noise[:, :, :3]
-        w = st.omega_b + bg[:, None, :] + noise[:, :, 3:]
-        p3 = ins3d(st.time, f, w, v0=st.velocity[0], p0=st.position[0])
-        p2 = ins2d(st.time, f, w, psi0=float(st.psi[0]), v0=st.velocity[0], p0=st.position[0])
-        for j, p in ((0, p3), (1, p2)):
-            e = np.hypot(p[:, :, 0] - st.position[:, 0], p[:, :, 1] - st.position[:, 1])
-            series[:, :, j] = e[:, keep]
+        # straight line: f_b = (0, 0, g), omega_b = 0
+        f = [err[0], err[1], err[2] + G0]
+        w = [err[3], err[4], err[5]]
+        for j, (dx, dy) in enumerate((_straight_errors_3d(h, f, w, keep), _straight_errors_2d(f, psi, h, keep))):
+            e = np.hypot(dx, dy).T
+            series[:, :, j] = e
             final[:, j] = e[:, -1]
-        del f, w, p3, p2
+        del f, w
 
-    # MoRPI on the sine path: Weinberg terms from the noisy signals (constant biases cancel in max - min).
-    fy = sine.f_b[:, 1] + ba[:, 1:2] + noise[:, :, 1]
-    wz = sine.omega_b[:, 2] + bg[:, 2:3] + noise[:, :, 5]
-    dfa = _weinberg_sums(fy, sine.peaks)                      # (R, K)
-    dfg = _weinberg_sums(wz, sine.peaks)
-    psi = _heading(sine.time, wz, float(sine.psi[0]))[:, sine.peaks[1:]]   # heading at each step's end peak
-    cps, sps = np.cos(psi), np.sin(psi)
-    truth = sine.position[sine.peaks, :2] - sine.position[sine.peaks[0], :2]  # (K+1, 2)
+    # MoRPI on the sine path: Weinberg terms from the measured signals (constant biases cancel in
+    # max - min); heading = true heading + integrated gyro-z error.
+    pk = sine.peaks
+    dfa = _weinberg_terms(err[1], sine.f_b[:, 1], pk)          # (R, K)
+    dfg = _weinberg_terms(err[5], sine.omega_b[:, 2], pk)
+    del err
+    hd = (psi[pk[1:]] + sine.psi[pk[1:], None]).T                # (R, K) heading at each step's end peak
+    cps, sps = np.cos(hd), np.sin(hd)
+    truth = sine.position[pk, :2] - sine.position[pk[0], :2]   # (K+1, 2)
     D = float(np.linalg.norm(truth[-1]))
-    # keep index -> number of completed steps
-    steps_done = np.searchsorted(sine.peaks, keep, side="right") - 1
+    steps_done = np.searchsorted(pk, keep, side="right") - 1
     dG = np.empty((R, S))
     dist = np.empty((R, S, 2))
     for s_i, gain in enumerate(cfg.gains):
         dG[:, s_i] = gain.mean + gain.std * zg
         scale = 1.0 + dG[:, s_i:s_i + 1]
         for m, (df, G) in enumerate(((dfa, payload.gain_ref[0]), (dfg, payload.gain_ref[1]))):
-            s = (G * scale) * df                              # (R, K) step lengths
-            x = np.cumsum(s * cps, axis=1)
-            y = np.cumsum(s * sps, axis=1)
-            e = np.hypot(x - truth[1:, 0], y - truth[1:, 1])  # (R, K)
+            st = (G * scale) * df                           # (R, K) step lengths
+            x = np.cumsum(st * cps, axis=1)
+            y = np.cumsum(st * sps, axis=1)
+            e = np.hypot(x - truth[1:, 0], y - truth[1:, 1])   # (R, K)
             final[:, 2 + 2 * s_i + m] = e[:, -1]
-            dist[:, s_i, m] = s.sum(axis=1) - D
+            dist[:, s_i, m] = st.sum(axis=1) - D
             if s_i == 0:
                 e0 = np.concatenate([np.zeros((R, 1)), e], axis=1)
                 series[:, :, 2 + m] = e0[:, steps_done]
     return {"series": series, "final": final, "dG": dG, "dist": dist}
+
+
+def _weinberg_terms(err, true, peaks):
+    """(max - min)^(1/4) of ``true[:, None] + err`` over each peak-to-peak window (inclusive).
+
+    err: (n, R) time-major measurement errors; true: (n,) true signal. Returns (R, K).
+    """
+    K = peaks.size - 1
+    out = np.empty((err.shape[1], K))
+    for j in range(K):
+        win = err[peaks[j]:peaks[j + 1] + 1] + true[peaks[j]:peaks[j + 1] + 1, None]
+        out[:, j] = np.sqrt(np.sqrt(win.max(axis=0) - win.min(axis=0)))
+    return out
 
 
 # ----------------------------------------------------------------------------- the engine
