@@ -42,11 +42,16 @@ Digest
     for each gain scenario in order).
 
 Pieces from other modules
-    The nonlinear mechanizations come from :mod:`morpi_filters.strapdown`,
-    the closed form from :mod:`morpi_filters.symbolic`, the trajectories from
-    :mod:`morpi_filters.simulate` when those modules are present. Until they
-    are, the private functions under "fallbacks" below are used and every
-    report says so (``StudyResult.backends``).
+    Trajectories come from :mod:`morpi_filters.simulate` (``straight``,
+    ``sine``); the drift study integrates with
+    :func:`morpi_filters.strapdown.ins3d` / ``ins2d`` and evaluates
+    :func:`morpi_filters.symbolic.closed_form_errors`. The gain-error study
+    propagates the INS errors of its level straight line with a specialised
+    kernel (:func:`_straight_errors_3d`, :func:`_straight_errors_2d`: a
+    quaternion attitude step vectorized over runs and trapezoid integration),
+    because the general strapdown, which keeps every C_bn matrix, costs about
+    8 times the drawing of the random numbers; the tests check the kernel
+    against strapdown.ins3d / ins2d.
 
 References
 ----------
@@ -938,24 +943,24 @@ class DriftMap:
         return out
 
 
-def _closed_form_fallback(ba, bg, t, g, kind):
-    """Small-angle position error (z up, C = I, f^n = (0, 0, g)) of a stationary INS, horizontal.
+def _closed_form_symbolic(ba, bg, t, g, kind):
+    """Closed-form horizontal position error (z up, C = I, f^n = gravity, gyro-z terms kept).
 
-    ba, bg: (R, 3); t: (m,). Returns (R, m, 2). For kind "3d":
-    dp_x = ba_x t^2/2 + (alpha bg_y - ba_y bg_z) t^3/6,
-    dp_y = ba_y t^2/2 + (ba_x bg_z - alpha bg_x) t^3/6, alpha = g + ba_z;
-    for "2d" the tilt terms (bg_x, bg_y, ba_z) drop out.
+    ba, bg: (R, 3) biases; t: (m,) times; kind "3d" or "2d". Returns (R, m, 2), one
+    :func:`morpi_filters.symbolic.closed_form_errors` evaluation per run.
     """
-    t2, t3 = (t * t / 2)[None], (t ** 3 / 6)[None]
-    alpha = g + ba[:, 2:3] if kind == "3d" else 0.0
-    bx, by = (bg[:, 0:1], bg[:, 1:2]) if kind == "3d" else (0.0, 0.0)
-    dx = ba[:, 0:1] * t2 + (alpha * by - ba[:, 1:2] * bg[:, 2:3]) * t3
-    dy = ba[:, 1:2] * t2 + (ba[:, 0:1] * bg[:, 2:3] - alpha * bx) * t3
-    return np.stack([dx, dy], axis=-1)
+    from . import symbolic
+
+    which = {"3d": "dp", "2d": "dp2d"}[kind]
+    out = np.empty((ba.shape[0], t.size, 2))
+    for r in range(ba.shape[0]):
+        p = {"dv0_mps": [0.0, 0.0, 0.0], "ba_mps2": ba[r].tolist(), "bg_radps": bg[r].tolist(), "g_mps2": g}
+        out[r] = symbolic.closed_form_errors(p, t, which, "z_up", True)[:, :2]
+    return out
 
 
 def _closed_form():
-    return _closed_form_fallback, "montecarlo fallback (small-angle polynomials, z up)"
+    return _closed_form_symbolic, "symbolic.closed_form_errors (z_up, keep_bgz=True)"
 
 
 @dataclass(frozen=True)
@@ -1163,7 +1168,6 @@ def report_montecarlo(out, *, runs: int, seed: int, chunk=None, scheduler=None, 
     tr = training_runs_study(TRAINING_KS, mismatch=mismatch, spread=spread, runs=runs, seed=seed,
                              config=cal, chunk=chunk, scheduler=scheduler)
     checks = _distance_check(r)
-    fallback = any("fallback" in v for v in r.backends.values())
 
     figs = []
     figs.append(plots.montecarlo_final_errors(
@@ -1201,10 +1205,6 @@ def report_montecarlo(out, *, runs: int, seed: int, chunk=None, scheduler=None, 
     synthetic = bool(getattr(source, "synthetic", False))
     banner = source.banner if source is not None else ""
     lines = [banner + "# Monte Carlo gain-error study\n"]
-    if fallback:
-        lines.append("> **Stand-in components.** " + "; ".join(f"{k}: {v}" for k, v in r.backends.items())
-                     + ". The numbers follow the same model but were not computed with the package's "
-                       "strapdown/simulate modules.\n")
     lines.append(
         f"{runs} seeded runs (seed {seed}) of {cal.spec.name} errors over {cal.duration:g} s at "
         f"{cal.rate_hz:g} Hz. INS-3D and INS-2D drive a level straight line of {cal.length_m:g} m from rest "
@@ -1259,7 +1259,7 @@ def report_montecarlo(out, *, runs: int, seed: int, chunk=None, scheduler=None, 
                f"{fmt(st['morpi_a']['mean'])} m, MoRPI-G {fmt(st['morpi_g']['mean'])} m. "
                f"MoRPI distance error vs ds = dG D: "
                + ", ".join(f"{c['label']} {'within' if c['morpi_a']['within'] else 'OUTSIDE'}" for c in checks)
-               + " the 99 % bound." + (" Stand-in strapdown/trajectories." if fallback else ""))
+               + " the 99 % bound.")
     return SectionSummary(name="montecarlo", title="Monte Carlo gain-error study", page="README.md",
                           figures=tuple(figs), summary=summary, synthetic=synthetic)
 
@@ -1315,10 +1315,7 @@ def report_drift(out, *, scheduler=None):
         "metric": "median over draws of |dp_strapdown - dp_closed_form| / |dp_strapdown|, horizontal",
     }
     write_json(out / "result.json", result)
-    fallback = any("fallback" in v for v in d.backends.values())
     lines = ["# Closed-form vs strapdown drift\n"]
-    if fallback:
-        lines.append("> **Stand-in components.** " + "; ".join(f"{k}: {v}" for k, v in d.backends.items()) + ".\n")
     lines.append(
         f"An INS at rest for 15 s at 100 Hz with constant biases: accelerometer {spec.accel_bias / 9.80665e-3:g} mg "
         f"1 sigma per axis ({spec.name} datasheet), gyro bias levels from {bdeg[0]:g} to {bdeg[-1]:g} deg/s "
@@ -1353,6 +1350,6 @@ def report_drift(out, *, scheduler=None):
     summary = (f"Closed form vs nonlinear strapdown at rest: at 15 s they differ by "
                f"{fmt(100 * d.rel_3d[0, -1], 3)} % (3D) at {fmt(bdeg[0], 2)} deg/s and by "
                f"{fmt(100 * d.rel_3d[i6, -1], 0)} % (3D) / {fmt(100 * d.rel_2d[i6, -1], 0)} % (2D) at "
-               f"{fmt(bdeg[i6], 1)} deg/s (S6 datasheet)." + (" Stand-in strapdown/closed form." if fallback else ""))
+               f"{fmt(bdeg[i6], 1)} deg/s (S6 datasheet).")
     return SectionSummary(name="drift", title="Closed-form vs strapdown drift", page="README.md",
                           figures=tuple(figs), summary=summary, synthetic=False)

@@ -10,7 +10,7 @@ import pytest
 
 from morpi_filters import montecarlo as mc
 from morpi_filters.errors import MorpiError
-from morpi_filters.units import DEG_S, G0, LSM6DSL
+from morpi_filters.units import DEG_S, G0
 
 #: A fast study: few training runs (the reference gains only need to exist here).
 FAST = mc.StudyConfig(training_runs=50)
