@@ -215,7 +215,9 @@ class StudyResult:
         Times of the kept error samples [s].
     errors : ndarray, shape (runs, m, 4)
         Horizontal position error [m] of :data:`METHODS` for the primary gain
-        scenario (NaN for INS columns when ``config.ins`` is False).
+        scenario (NaN for INS columns when ``config.ins`` is False). MoRPI
+        positions start at the first f_y peak and change at each later peak
+        (0 until the first step is complete).
     columns : tuple of str
         Names of the columns of `final`.
     final : ndarray, shape (runs, len(columns))
@@ -719,7 +721,7 @@ def _chunk(payload: _Payload, a: int, b: int) -> dict:
     cps, sps = np.cos(hd), np.sin(hd)
     truth = sine.position[pk, :2] - sine.position[pk[0], :2]   # (K+1, 2)
     D = _chord_sum(sine)
-    steps_done = np.searchsorted(pk, keep, side="right") - 1
+    steps_done = np.clip(np.searchsorted(pk, keep, side="right") - 1, 0, None)   # 0 before the first peak
     dG = np.empty((R, S))
     dist = np.empty((R, S, 2))
     for s_i, gain in enumerate(cfg.gains):

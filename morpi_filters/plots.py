@@ -148,8 +148,10 @@ def montecarlo_error_curves(time, errors, labels, path, *, analytic=None, title=
         if not np.isfinite(e).any():
             continue
         lo, med, hi = np.percentile(e, [5, 50, 95], axis=0)
+        shown = hi > 0                      # log axis: leave out times with no error yet
+        med = np.where(shown & (med > 0), med, np.nan)
         ax.plot(time, med, color=f"C{i}", label=f"{lab} (median)")
-        ax.fill_between(time, np.maximum(lo, 1e-6), np.maximum(hi, 1e-6), color=f"C{i}", alpha=0.2)
+        ax.fill_between(time, np.where(lo > 0, lo, np.nan), np.where(shown, hi, np.nan), color=f"C{i}", alpha=0.2)
     for j, (lab, (t, v)) in enumerate((analytic or {}).items()):
         ax.plot(t, v, ls="--", color=f"C{len(labels) + j}", label=lab)
     ax.set_yscale("log")
