@@ -96,7 +96,7 @@ _N_HEAD = 7
 _TRAINING_SEED = 20230101
 
 #: Memory budget of one chunk's noise block [bytes]; sets the default chunk size.
-_CHUNK_BYTES = 64 * 2**20
+_CHUNK_BYTES = 32 * 2**20
 
 
 # ----------------------------------------------------------------------------- configuration
@@ -534,22 +534,25 @@ def _quat_increments(wx, wy, wz, h):
     return c, k * wx, k * wy, k * wz
 
 
-def _attitude(wx, wy, wz, h, block: int = 128):
-    """Quaternions (n, 4, R) of body-to-n from rest: q_{k+1} = q_k (x) exp(omega_k h / 2).
+def _attitude_blocks(wx, wy, wz, h, block: int = 64):
+    """Quaternions of body-to-n from rest, q_{k+1} = q_k (x) exp(omega_k h / 2), block by block.
 
-    Time-major rate planes (n, R); the last sample's rate is not used. The
-    product runs as a matrix-vector step with the 4x4 right-multiplication
-    matrices of the increments, built `block` steps at a time: one multiply
-    and three adds per step, elementwise over runs.
+    Time-major planes (n, R) of the rate held over each of the n intervals.
+    Yields ``(k0, q)`` with q of shape (m, 4, R) holding rows k0 .. k0+m-1 of
+    the n + 1 attitudes; consecutive blocks cover every row once. Each step is
+    a matrix-vector product with the 4x4 right-multiplication matrix of the
+    increment: one multiply and three adds, elementwise over runs in a fixed
+    order, so a run's result does not depend on the chunk size (einsum's
+    does). Working block by block keeps the data in cache for the caller.
     """
     n, R = wx.shape
-    q = np.empty((n, 4, R))
-    q[0] = 0.0
-    q[0, 0] = 1.0
     M = np.empty((block, 4, 4, R))
     tmp = np.empty((4, 4, R))
-    for k0 in range(0, n - 1, block):
-        k1 = min(k0 + block, n - 1)
+    Q = np.empty((block + 1, 4, R))
+    Q[0] = 0.0
+    Q[0, 0] = 1.0
+    for k0 in range(0, n, block):
+        k1 = min(k0 + block, n)
         m = M[:k1 - k0]
         p0, p1, p2, p3 = _quat_increments(wx[k0:k1], wy[k0:k1], wz[k0:k1], h)
         # rows of M(p) with q (x) p = M(p) q (Hamilton product, scalar first)
@@ -562,14 +565,71 @@ def _attitude(wx, wy, wz, h, block: int = 128):
                 else:
                     np.negative(val, out=m[:, i, j])
         for j in range(k1 - k0):
-            # q_next[i] = ((M[i,0] q[0] + M[i,1] q[1]) + M[i,2] q[2]) + M[i,3] q[3], elementwise in a
-            # fixed order, so a run's result does not depend on the chunk size (einsum's does)
-            np.multiply(m[j], q[k0 + j][None], out=tmp)
-            nxt = q[k0 + j + 1]
+            # q_next[i] = ((M[i,0] q[0] + M[i,1] q[1]) + M[i,2] q[2]) + M[i,3] q[3]
+            np.multiply(m[j], Q[j][None], out=tmp)
+            nxt = Q[j + 1]
             np.add(tmp[:, 0], tmp[:, 1], out=nxt)
             nxt += tmp[:, 2]
             nxt += tmp[:, 3]
-    return q
+        last = k1 == n
+        yield k0, Q[:k1 - k0 + (1 if last else 0)]
+        Q[0] = Q[k1 - k0]
+
+
+def _attitude(wx, wy, wz, h, block: int = 64):
+    """All n + 1 quaternions (n + 1, 4, R) of :func:`_attitude_blocks`."""
+    return np.concatenate([q.copy() for _, q in _attitude_blocks(wx, wy, wz, h, block)], axis=0)
+
+
+def _prefix_rows(a, out):
+    """out[0] = 0, out[k] = a[0] + ... + a[k-1] along axis 0 of time-major (n, R) planes.
+
+    A loop of row additions: the same sequential sums as ``np.cumsum(axis=0)``
+    but about 2.5 times faster on (n, R) planes, whose column-wise
+    accumulation numpy runs with strided access.
+    """
+    out[0] = 0.0
+    for k in range(1, out.shape[0]):
+        np.add(out[k - 1], a[k - 1], out=out[k])
+    return out
+
+
+def _cos_sin(psi, block: int = 32):
+    """cos and sin of time-major angles (n, R), exact trig only every `block` rows.
+
+    Within a block, ``cos(b + d) = cos b cos d - sin b sin d`` (and likewise
+    sin) with the offset d from the block's first row through Taylor series
+    to d^10 (truncation below d^12 / 12! <= 1e-17 for |d| <= 0.2); elements
+    with a larger offset are recomputed with cos/sin (an elementwise rule).
+    About three times faster than ``np.cos`` and ``np.sin`` of every element.
+    """
+    n, R = psi.shape
+    c, s = np.empty((n, R)), np.empty((n, R))
+    for k0 in range(0, n, block):
+        k1 = min(k0 + block, n)
+        base = psi[k0]
+        cb, sb = np.cos(base), np.sin(base)
+        d = psi[k0:k1] - base
+        d2 = d * d
+        cd = d2 * (-1 / 3628800)
+        sd = d2 * (-1 / 39916800)
+        for cc, ss in ((1 / 40320, 1 / 362880), (-1 / 720, -1 / 5040), (1 / 24, 1 / 120), (-1 / 2, -1 / 6)):
+            cd += cc
+            cd *= d2
+            sd += ss
+            sd *= d2
+        cd += 1
+        sd += 1
+        sd *= d
+        big = d2 > 0.04
+        if big.any():
+            cd[big] = np.cos(d[big])
+            sd[big] = np.sin(d[big])
+        np.multiply(cb, cd, out=c[k0:k1])
+        c[k0:k1] -= sb * sd
+        np.multiply(sb, cd, out=s[k0:k1])
+        s[k0:k1] += cb * sd
+    return c, s
 
 
 def _double_integral_at(a, h, keep):
@@ -583,13 +643,15 @@ def _double_integral_at(a, h, keep):
     """
     n, R = a.shape
     P = np.empty((n, R))
-    P[0] = 0.0
-    np.cumsum(a[:-1], axis=0, out=P[1:])
-    Q = np.cumsum(P, axis=0)
+    _prefix_rows(a, P)
+    # Q at the kept rows only: sums of P between consecutive kept rows, then their running sum
+    kk = keep[keep > 0]
+    edges = np.r_[0, kk]
+    seg = np.add.reduceat(P[:kk[-1]], edges[:-1], axis=0)
+    Q = np.cumsum(seg, axis=0)
     out = np.zeros((keep.size, R))
     pos = keep > 0
-    kk = keep[pos]
-    out[pos] = Q[kk - 1]
+    out[pos] = Q
     out[pos] += P[kk]
     out[pos] += a[kk] / 6
     out[pos] -= a[0] * (kk / 2 + 1 / 6)[:, None]
@@ -622,34 +684,33 @@ def _straight_errors_3d(h, f, w, keep):
     x, y : ndarray, shape (len(keep), R)
         Horizontal position from rest at the origin [m].
     """
-    # trapezoid rates over each interval (the last sample's slot is unused)
-    wm = [np.empty_like(c) for c in w]
-    for c, m in zip(w, wm):
-        np.add(c[:-1], c[1:], out=m[:-1])
-        m[:-1] *= 0.5
-        m[-1] = c[-1]
-    q = _attitude(wm[0], wm[1], wm[2], h)
-    del wm
-    q0, q1, q2, q3 = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-    fx, fy, fz = f
-    # C(q) f = f + 2 q0 (u x f) + 2 u x (u x f), u = (q1, q2, q3); horizontal rows only
-    cx = q2 * fz
-    cx -= q3 * fy
-    cy = q3 * fx
-    cy -= q1 * fz
-    cz = q1 * fy
-    cz -= q2 * fx
-    ax = q2 * cz
-    ax -= q3 * cy
-    ax += q0 * cx
-    ax *= 2
-    ax += fx
-    ay = q3 * cx
-    ay -= q1 * cz
-    ay += q0 * cy
-    ay *= 2
-    ay += fy
-    del q, cx, cy, cz
+    # trapezoid rate of each interval: h (w_k + w_k+1) / 2 = (h / 2) (w_k + w_k+1)
+    ws = [np.add(c[:-1], c[1:]) for c in w]
+    n, R = f[0].shape
+    ax, ay = np.empty((n, R)), np.empty((n, R))
+    for k0, q in _attitude_blocks(ws[0], ws[1], ws[2], 0.5 * h):
+        k1 = k0 + q.shape[0]
+        q0, q1, q2, q3 = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+        fx, fy, fz = f[0][k0:k1], f[1][k0:k1], f[2][k0:k1]
+        # C(q) f = f + 2 q0 (u x f) + 2 u x (u x f), u = (q1, q2, q3); horizontal rows only
+        cx = q2 * fz
+        cx -= q3 * fy
+        cy = q3 * fx
+        cy -= q1 * fz
+        cz = q1 * fy
+        cz -= q2 * fx
+        bx, by = ax[k0:k1], ay[k0:k1]
+        np.multiply(q2, cz, out=bx)
+        bx -= q3 * cy
+        bx += q0 * cx
+        bx *= 2
+        bx += fx
+        np.multiply(q3, cx, out=by)
+        by -= q1 * cz
+        by += q0 * cy
+        by *= 2
+        by += fy
+    del ws
     return _double_integral_at(ax, h, keep), _double_integral_at(ay, h, keep)
 
 
@@ -659,7 +720,7 @@ def _straight_errors_2d(f, psi, h, keep):
     `psi` (n, R) is the heading integrated from the measured z rate; f_x, f_y
     are rotated by it and integrated twice. Planes as in :func:`_straight_errors_3d`.
     """
-    c, s = np.cos(psi), np.sin(psi)
+    c, s = _cos_sin(psi)
     ax = c * f[0]
     ax -= s * f[1]
     ay = s * f[0]
@@ -691,9 +752,7 @@ def _chunk(payload: _Payload, a: int, b: int) -> dict:
     final = np.full((R, 2 + 2 * S), np.nan)
     # heading error integrated from the gyro-z error (on the straight line: the whole heading)
     # (trapezoid: psi_k = h (sum_{i<k} w_i + (w_k - w_0) / 2))
-    psi = np.empty((n, R))
-    psi[0] = 0.0
-    np.cumsum(err[5, :-1], axis=0, out=psi[1:])
+    psi = _prefix_rows(err[5], np.empty((n, R)))
     psi += 0.5 * err[5]
     psi -= 0.5 * err[5, 0]
     psi *= h
@@ -702,7 +761,9 @@ def _chunk(payload: _Payload, a: int, b: int) -> dict:
         # level straight line from rest: f_b = (a_x(t), 0, g), omega_b = 0, C_bn = I; the truth goes
         # through the same integration rule, so the difference is the error of the mechanization
         st = payload.straight
-        f = [err[0] + st.f_b[:, 0, None], err[1], err[2] + st.f_b[:, 2, None]]
+        err[0] += st.f_b[:, 0, None]          # err[0] and err[2] are not used after this block
+        err[2] += st.f_b[:, 2, None]
+        f = [err[0], err[1], err[2]]
         w = [err[3], err[4], err[5]]
         tx = _double_integral_at(st.f_b[:, 0, None], h, keep)            # (m, 1)
         for j, (x, y) in enumerate((_straight_errors_3d(h, f, w, keep), _straight_errors_2d(f, psi, h, keep))):
@@ -782,7 +843,7 @@ def run_study(runs: int, seed: int, config: StudyConfig | None = None, *, chunk:
         What to simulate (default: :class:`StudyConfig`()).
     chunk : int, optional
         Runs per batch (bounds memory; results do not depend on it). Default:
-        as many as fit a 64 MiB noise block.
+        as many as fit a 32 MiB noise block.
     workers : int
         Local threads running chunks (results do not depend on it).
     scheduler : str or distributed.Client, optional
