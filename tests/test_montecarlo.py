@@ -283,3 +283,11 @@ def test_cli_montecarlo_json(tmp_path, monkeypatch):
     assert cli.main(["montecarlo", "--runs", "8", "--seed", "3", "--chunk", "3", "--out", str(out),
                      "--json", str(js)]) == 0
     assert json.loads(js.read_text())["runs"] == 8
+
+
+def test_progress_goes_to_stderr(capsys):
+    mc.run_study(4, 0, FAST, chunk=2, progress=True)
+    err = capsys.readouterr().err
+    assert "4/4 runs" in err
+    mc.run_study(4, 0, FAST, chunk=2, progress=False)
+    assert capsys.readouterr().err == ""
