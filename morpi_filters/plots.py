@@ -10,7 +10,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-__all__ = ["pyplot", "save", "assessment_figure", "simulation_run"]
+__all__ = [
+    "pyplot", "save", "assessment_figure", "simulation_run",
+    "montecarlo_final_errors", "montecarlo_error_curves", "montecarlo_gain_vs_error",
+    "montecarlo_training_runs", "drift_disagreement_map",
+]
 
 
 def pyplot():
@@ -83,6 +87,152 @@ def assessment_figure(curves, path, title: str = "Analytical assessment of 3D & 
 
 # ============================================================================ montecarlo and drift
 # Gain-error distributions and the closed-form vs strapdown drift map.
+
+
+def montecarlo_final_errors(columns, final, path, *, title=""):
+    """Histograms of final horizontal errors, one panel per column.
+
+    Parameters
+    ----------
+    columns : sequence of str
+        Column names (panel titles).
+    final : ndarray, shape (runs, len(columns))
+        Final errors [m].
+    path : path-like
+        PNG file to write.
+    """
+    import numpy as np
+
+    plt = pyplot()
+    k = len(columns)
+    ncol = min(k, 3)
+    nrow = (k + ncol - 1) // ncol
+    fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol, 3.0 * nrow), squeeze=False)
+    for i, name in enumerate(columns):
+        ax = axes[i // ncol][i % ncol]
+        x = np.asarray(final[:, i], float)
+        ax.hist(x, bins=50, color="C%d" % (i % 10), alpha=0.8)
+        ax.axvline(np.mean(x), color="k", lw=1, label=f"mean {np.mean(x):.3g} m")
+        ax.axvline(np.percentile(x, 95), color="k", lw=1, ls="--", label=f"p95 {np.percentile(x, 95):.3g} m")
+        ax.set_title(name, fontsize=9)
+        ax.set_xlabel("final horizontal error [m]")
+        ax.legend(fontsize=7)
+    for j in range(k, nrow * ncol):
+        axes[j // ncol][j % ncol].set_visible(False)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    return save(fig, path)
+
+
+def montecarlo_error_curves(time, errors, labels, path, *, analytic=None, title=""):
+    """Median and 5-95 % band of the error over time, log scale.
+
+    Parameters
+    ----------
+    time : ndarray, shape (m,)
+        [s].
+    errors : ndarray, shape (runs, m, k)
+        Horizontal errors [m].
+    labels : sequence of str, length k
+    path : path-like
+    analytic : dict, optional
+        label -> (time (q,), value (q,)) curves drawn dashed.
+    """
+    import numpy as np
+
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    for i, lab in enumerate(labels):
+        e = errors[:, :, i]
+        if not np.isfinite(e).any():
+            continue
+        lo, med, hi = np.percentile(e, [5, 50, 95], axis=0)
+        shown = hi > 0                      # log axis: leave out times with no error yet
+        med = np.where(shown & (med > 0), med, np.nan)
+        ax.plot(time, med, color=f"C{i}", label=f"{lab} (median)")
+        ax.fill_between(time, np.where(lo > 0, lo, np.nan), np.where(shown, hi, np.nan), color=f"C{i}", alpha=0.2)
+    for j, (lab, (t, v)) in enumerate((analytic or {}).items()):
+        ax.plot(t, v, ls="--", color=f"C{len(labels) + j}", label=lab)
+    ax.set_yscale("log")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("horizontal position error [m]")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    if title:
+        ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    return save(fig, path)
+
+
+def montecarlo_gain_vs_error(dG, err, path, *, analytic_slope=None, label="MoRPI-A", title=""):
+    """Scatter of final distance error against the gain error, with the analytical line ds = dG * D."""
+    import numpy as np
+
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.plot(100 * np.asarray(dG), err, ".", ms=2, alpha=0.4, label=f"{label} Monte Carlo")
+    if analytic_slope is not None:
+        x = np.linspace(np.min(dG), np.max(dG), 50)
+        ax.plot(100 * x, analytic_slope * x, "k--", lw=1, label="analytical ds = dG D")
+    ax.set_xlabel("gain error dG [%]")
+    ax.set_ylabel("distance error [m]")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    if title:
+        ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    return save(fig, path)
+
+
+def montecarlo_training_runs(k, rms_mc, rms_expected, labels, path, *, title=""):
+    """RMS distance error against the number of training runs behind the gain (log-log)."""
+    import numpy as np
+
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(6, 4))
+    rms_mc = np.asarray(rms_mc)
+    for i, lab in enumerate(labels):
+        ax.plot(k, rms_mc[:, i], "o-", ms=4, label=f"{lab} Monte Carlo")
+    ax.plot(k, rms_expected, "k--", label="D sqrt(mismatch^2 + spread^2 / k)")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("training runs k")
+    ax.set_ylabel("RMS distance error [m]")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    if title:
+        ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    return save(fig, path)
+
+
+def drift_disagreement_map(gyro_bias_deg_s, time, rel, path, *, title="", marks=()):
+    """Map of the relative disagreement (log colour) over gyro bias [deg/s] and time [s].
+
+    `marks`: (bias_deg_s, time_s, text) points to annotate. Contours at 1 % and 10 %.
+    """
+    import numpy as np
+    from matplotlib.colors import LogNorm
+
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    r = np.clip(np.asarray(rel, float), 1e-7, None)
+    m = ax.pcolormesh(time, gyro_bias_deg_s, r, norm=LogNorm(vmin=1e-5, vmax=max(1.0, r.max())), shading="nearest",
+                      cmap="viridis")
+    cs = ax.contour(time, gyro_bias_deg_s, r, levels=[0.01, 0.1], colors=["w", "r"], linewidths=1)
+    ax.clabel(cs, fmt={0.01: "1 %", 0.1: "10 %"}, fontsize=8)
+    for b, t, text in marks:
+        ax.plot([t], [b], "r*", ms=9)
+        ax.annotate(text, (t, b), textcoords="offset points", xytext=(-60, 6), color="r", fontsize=8)
+    ax.set_yscale("log")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("gyro bias, 1 sigma per axis [deg/s]")
+    fig.colorbar(m, ax=ax, label="|dp strapdown - dp closed form| / |dp strapdown|")
+    if title:
+        ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    return save(fig, path)
 
 
 # ============================================================================ simulation
