@@ -55,7 +55,7 @@ from .errors import MorpiError
 __all__ = [
     "GRID_HZ", "HEADINGS", "SEGMENTS", "ENDS", "METHODS", "StepConfig", "Peaks", "Steps", "MorpiTrack",
     "resample_uniform", "lowpass", "detect_peaks", "weinberg_length", "integrate_heading",
-    "motion_span", "extract_steps", "train_gain", "dead_reckon", "morpi_track",
+    "motion_span", "activity_span", "PreparedSignal", "prepare_signal", "extract_steps", "train_gain", "dead_reckon", "morpi_track",
 ]
 
 #: Rate of the uniform grid peak detection works on [Hz].
@@ -360,14 +360,109 @@ def motion_span(time, values, rest_end_time: float | None = None, *, threshold: 
     return float(grid[on[0]]), float(grid[on[-1]])
 
 
+@dataclass(frozen=True, eq=False)
+class PreparedSignal:
+    """One recording's step signal on the uniform grid, reusable across configs.
+
+    Attributes
+    ----------
+    source : str
+        The recording's file.
+    method : str
+        ``"MoRPI-A"`` or ``"MoRPI-G"``.
+    grid : ndarray, shape (m,)
+        Uniform grid [s].
+    raw : ndarray, shape (m,)
+        Resampled signal (signal units).
+    filtered : ndarray, shape (m,)
+        Low-passed at `cutoff_hz` (equal to `raw` when None).
+    cutoff_hz : float or None
+    motion : tuple of float
+        Motion start and end time [s] (:func:`motion_span`).
+    time, heading : ndarray, shape (n,)
+        Original time stamps [s] and integrated heading [rad].
+    span : tuple of float
+        2nd and 98th percentile of the filtered signal during the motion
+        (the scale of the prominence threshold).
+    """
+
+    source: str
+    method: str
+    grid: np.ndarray
+    raw: np.ndarray
+    filtered: np.ndarray
+    cutoff_hz: float | None
+    motion: tuple
+    time: np.ndarray
+    heading: np.ndarray
+    span: tuple = (0.0, 0.0)
+
+
+def prepare_signal(rec, method: str, cutoff_hz: float | None, *, rest_end_time: float | None = None,
+                   heading=None, motion=None) -> PreparedSignal:
+    """Resample (and filter) a recording's MoRPI signal once for many step configs.
+
+    `heading` (n,) defaults to integrated omega_z; `motion` (start, end) [s]
+    defaults to :func:`motion_span` of the signal.
+    """
+    if method not in METHODS:
+        raise MorpiError(f"method={method!r}: expected one of {tuple(METHODS)}")
+    attr, col = METHODS[method]
+    x = getattr(rec, attr)[:, col]
+    t = rec.time
+    grid, graw = resample_uniform(t, x)
+    g = lowpass(graw, cutoff_hz) if cutoff_hz is not None else graw
+    if motion is None:
+        motion = motion_span(t, x, rest_end_time)
+    psi = integrate_heading(t, rec.omega[:, 2]) if heading is None else np.asarray(heading, float)
+    i0, i1 = np.searchsorted(grid, [motion[0], motion[1] + 1e-9])
+    span = tuple(float(v) for v in np.percentile(g[i0:i1], [2, 98])) if i1 - i0 >= 3 else (0.0, 0.0)
+    return PreparedSignal(source=rec.source, method=method, grid=grid, raw=graw, filtered=g,
+                          cutoff_hz=cutoff_hz, motion=(float(motion[0]), float(motion[1])), time=t, heading=psi,
+                          span=span)
+
+
+def activity_span(time, omega, *, window_s: float = 0.5, factor: float = 10.0, floor: float = 0.02,
+                  rest_s: float = 2.0, min_pause_s: float = 1.5):
+    """Start and end time of the main motion from the gyro's vibration [s].
+
+    The moving standard deviation (over `window_s`, on the uniform grid) of the
+    angular rate, summed over the axes, is compared with `factor` times its
+    median over the first `rest_s` seconds (and at least `floor` rad/s).
+    Active stretches separated by pauses shorter than `min_pause_s` are merged
+    and the longest one is the motion (handling of the phone after the robot
+    stopped is left out). The whole recording when nothing is active.
+    """
+    time = np.asarray(time, float)
+    grid, w = resample_uniform(time, omega)
+    k = max(2, int(round(window_s * GRID_HZ)))
+    if grid.shape[0] <= k:
+        return float(time[0]), float(time[-1])
+    c1 = np.vstack([np.zeros((1, 3)), np.cumsum(w, axis=0)])
+    c2 = np.vstack([np.zeros((1, 3)), np.cumsum(w * w, axis=0)])
+    mean = (c1[k:] - c1[:-k]) / k
+    sd = np.sqrt(np.maximum((c2[k:] - c2[:-k]) / k - mean * mean, 0.0)).sum(axis=1)
+    n_rest = max(1, int(rest_s * GRID_HZ) - k)
+    thr = max(factor * float(np.median(sd[:n_rest])), floor)
+    on = np.flatnonzero(sd > thr)
+    if on.size == 0:
+        return float(time[0]), float(time[-1])
+    # window j covers grid samples [j, j + k); split where the gap exceeds the pause
+    breaks = np.flatnonzero(np.diff(on) > k + min_pause_s * GRID_HZ)
+    starts = np.r_[on[0], on[breaks + 1]]
+    ends = np.r_[on[breaks], on[-1]] + k - 1
+    j = int(np.argmax(ends - starts))
+    return float(grid[starts[j]]), float(grid[min(ends[j], grid.shape[0] - 1)])
+
+
 def extract_steps(rec, method: str, config: StepConfig = StepConfig(), *, rest_end_time: float | None = None,
-                  heading=None) -> Steps:
+                  heading=None, prepared: PreparedSignal | None = None) -> Steps:
     """Find the steps of one run.
 
     Parameters
     ----------
-    rec : Recording
-        (Calibrated or raw) recording.
+    rec : Recording or None
+        (Calibrated or raw) recording; may be None when `prepared` is given.
     method : str
         ``"MoRPI-A"`` (f_y) or ``"MoRPI-G"`` (omega_z).
     config : StepConfig
@@ -375,6 +470,9 @@ def extract_steps(rec, method: str, config: StepConfig = StepConfig(), *, rest_e
         End of the initial rest [s] (baseline for the motion span).
     heading : ndarray, shape (n,), optional
         Heading on the recording's samples [rad]; default: integrated omega_z.
+    prepared : PreparedSignal, optional
+        Output of :func:`prepare_signal` with ``config.cutoff_hz`` (saves the
+        resampling and filtering when many configs are tried).
 
     Raises
     ------
@@ -382,47 +480,44 @@ def extract_steps(rec, method: str, config: StepConfig = StepConfig(), *, rest_e
         Naming the recording when fewer than two peaks are found (no periodic
         motion).
     """
-    if method not in METHODS:
-        raise MorpiError(f"method={method!r}: expected one of {tuple(METHODS)}")
-    attr, col = METHODS[method]
-    x = getattr(rec, attr)[:, col]
-    t = rec.time
-    m0, m1 = motion_span(t, x, rest_end_time)
-    grid, graw = resample_uniform(t, x)
-    g = lowpass(graw, config.cutoff_hz) if config.cutoff_hz is not None else graw
-    inside = (grid >= m0) & (grid <= m1)
-    if np.count_nonzero(inside) < 3:
-        raise MorpiError(f"{rec.source}: no periodic motion found in {method} signal")
-    lo, hi = np.percentile(g[inside], [2, 98])
-    prom = config.prominence * (hi - lo)
+    if prepared is None:
+        prepared = prepare_signal(rec, method, config.cutoff_hz, rest_end_time=rest_end_time, heading=heading)
+    elif prepared.cutoff_hz != config.cutoff_hz or prepared.method != method:
+        raise MorpiError(f"{prepared.source}: prepared signal ({prepared.method}, cutoff {prepared.cutoff_hz}) "
+                         f"does not match ({method}, cutoff {config.cutoff_hz})")
+    p = prepared
+    grid, g, graw, t = p.grid, p.filtered, p.raw, p.time
+    m0, m1 = p.motion
+    i0, i1 = np.searchsorted(grid, [m0, m1 + 1e-9])
+    if i1 - i0 < 3:
+        raise MorpiError(f"{p.source}: no periodic motion found in the {method} signal")
+    lo, hi = p.span
     if not hi - lo > 0:
-        raise MorpiError(f"{rec.source}: no periodic motion found in {method} signal (flat signal)")
+        raise MorpiError(f"{p.source}: no periodic motion found in the {method} signal (flat signal)")
+    prom = config.prominence * (hi - lo)
     dist = max(1, int(round(config.min_period_s * GRID_HZ)))
-    imax, _ = _sig.find_peaks(g, distance=dist, prominence=prom)
-    imax = imax[(grid[imax] >= m0) & (grid[imax] <= m1)]
+    seg = g[i0:i1]
+    imax = _sig.find_peaks(seg, distance=dist, prominence=prom)[0] + i0
     if config.segment == "extrema":
-        imin, _ = _sig.find_peaks(-g, distance=dist, prominence=prom)
-        imin = imin[(grid[imin] >= m0) & (grid[imin] <= m1)]
+        imin = _sig.find_peaks(-seg, distance=dist, prominence=prom)[0] + i0
         bounds = np.sort(np.concatenate([imax, imin]))
     else:
         bounds = imax
     if bounds.size < 2:
-        raise MorpiError(f"{rec.source}: no periodic motion found in {method} signal "
+        raise MorpiError(f"{p.source}: no periodic motion found in the {method} signal "
                          f"({bounds.size} peak(s) between {m0 - t[0]:.1f} s and {m1 - t[0]:.1f} s)")
     amp = g if config.amplitude_from == "filtered" else graw
-    # max - min over each [bounds[j], bounds[j+1]] (inclusive) on the grid
-    vmax = np.array([amp[a:b + 1].max() for a, b in zip(bounds[:-1], bounds[1:])])
-    vmin = np.array([amp[a:b + 1].min() for a, b in zip(bounds[:-1], bounds[1:])])
+    # max and min over each closed interval [bounds[j], bounds[j+1]] of the grid
+    vmax = np.maximum(np.maximum.reduceat(amp, bounds[:-1])[:bounds.size - 1], amp[bounds[1:]])
+    vmin = np.minimum(np.minimum.reduceat(amp, bounds[:-1])[:bounds.size - 1], amp[bounds[1:]])
     weight = (vmax - vmin) ** 0.25
     st, et = grid[bounds[:-1]], grid[bounds[1:]]
     frac = np.ones_like(weight)
     if config.ends != "drop":
-        per = np.median(et - st)
-        wmed = np.median(weight)
-        head = (grid[bounds[0]] - m0) / per
-        tail = (m1 - grid[bounds[-1]]) / per
+        per = float(np.median(et - st))
+        wmed = float(np.median(weight))
         parts = []
-        for f in (head, tail):
+        for f in ((grid[bounds[0]] - m0) / per, (m1 - grid[bounds[-1]]) / per):
             f = min(max(f, 0.0), 1.0)
             if config.ends == "whole":
                 f = 1.0 if f >= 0.5 else 0.0
@@ -431,7 +526,7 @@ def extract_steps(rec, method: str, config: StepConfig = StepConfig(), *, rest_e
         et = np.concatenate([[grid[bounds[0]]], et, [m1]])
         weight = np.concatenate([[wmed], weight, [wmed]])
         frac = np.concatenate([[parts[0]], frac, [parts[1]]])
-    psi = integrate_heading(t, rec.omega[:, 2]) if heading is None else np.asarray(heading, float)
+    psi = p.heading
     psi_s, psi_e = np.interp(st, t, psi), np.interp(et, t, psi)
     if config.heading == "absolute":
         dpsi = psi_e
@@ -439,10 +534,11 @@ def extract_steps(rec, method: str, config: StepConfig = StepConfig(), *, rest_e
         dpsi = psi_e - psi_s
     else:
         cpsi = np.concatenate([[0.0], np.cumsum(0.5 * (psi[1:] + psi[:-1]) * np.diff(t))])
-        span = np.maximum(et - st, 1e-9)
-        dpsi = np.where(et - st > 1e-9, (np.interp(et, t, cpsi) - np.interp(st, t, cpsi)) / span, psi_s)
-    peaks = Peaks(grid_time=grid, grid_signal=g, grid_index=bounds,
-                  index=np.clip(np.searchsorted(t, grid[bounds]), 0, t.shape[0] - 1),
+        span = et - st
+        with np.errstate(invalid="ignore", divide="ignore"):
+            dpsi = np.where(span > 1e-9, (np.interp(et, t, cpsi) - np.interp(st, t, cpsi)) / span, psi_s)
+    idx = np.clip(np.searchsorted(t, grid[bounds]), 0, t.shape[0] - 1)
+    peaks = Peaks(grid_time=grid, grid_signal=g, grid_index=bounds, index=idx,
                   properties={"prominence_threshold": prom})
     return Steps(start_time=st, end_time=et, weight=weight, fraction=frac, heading=dpsi, peaks=peaks,
                  motion=(m0, m1))
