@@ -85,6 +85,13 @@ class StepConfig:
     amplitude_from : str
         ``"filtered"`` or ``"raw"``: which signal the Weinberg max - min is
         read from inside each step.
+    min_swing_deg : float
+        Least median heading swing (max - min of the heading between two
+        consecutive maxima of the signal) for the motion to count as periodic
+        [deg]. The designed sine paths swing by about 2 atan(2 pi A / lambda)
+        = 64 deg (A = 0.1 m, lambda = 1 m); on the field recordings the
+        periodic runs swing by 20 deg or more, the straight runs by 11 deg or
+        less, hence 15 deg.
     """
 
     heading: str = "absolute"
@@ -94,6 +101,7 @@ class StepConfig:
     prominence: float = 0.3
     cutoff_hz: float | None = 2.0
     amplitude_from: str = "raw"
+    min_swing_deg: float = 15.0
 
     def __post_init__(self):
         for name, allowed in (("heading", HEADINGS), ("segment", SEGMENTS), ("ends", ENDS),
@@ -527,6 +535,14 @@ def extract_steps(rec, method: str, config: StepConfig = StepConfig(), *, rest_e
         weight = np.concatenate([[wmed], weight, [wmed]])
         frac = np.concatenate([[parts[0]], frac, [parts[1]]])
     psi = p.heading
+    bi = np.searchsorted(t, grid[imax])
+    if bi.size >= 2:
+        swing = np.degrees(np.maximum.reduceat(psi, bi[:-1])[:bi.size - 1]
+                           - np.minimum.reduceat(psi, bi[:-1])[:bi.size - 1])
+        if np.median(swing) < config.min_swing_deg:
+            raise MorpiError(f"{p.source}: no periodic motion found in the {method} signal (median heading "
+                             f"swing {np.median(swing):.1f} deg per period, expected at least "
+                             f"{config.min_swing_deg:g} deg for a sine path)")
     psi_s, psi_e = np.interp(st, t, psi), np.interp(et, t, psi)
     if config.heading == "absolute":
         dpsi = psi_e
