@@ -1,0 +1,594 @@
+"""Initial rest detection and zero-order sensor calibration (RD, GC, GAC).
+
+The MoRPI paper [1]_ calibrates every recording on "the first three seconds",
+when the robot stands still: the gyro bias is the mean angular rate (GC), and
+with the phone assumed level the accelerometer bias is the mean specific force
+minus local gravity on the z axis (GAC). Several field recordings start moving
+inside their first 3 s, so this module finds the rest period instead of
+assuming it (:func:`detect_rest`), then calibrates over it (:func:`calibrate`).
+
+Rest detection
+--------------
+The detector works on the real, non-uniform time stamps:
+
+1. The white-noise level of each gyro and accelerometer axis is estimated from
+   the first differences in blocks of ``window_s`` over the first ``noise_s``
+   seconds (a trimmed standard deviation, :func:`noise_sigma`; differences
+   remove the bias and slow trends), taking the lower quartile of the blocks
+   so that early motion or a disturbance does not inflate it, and never below
+   the datasheet white noise of the phone's IMU over the Nyquist band when
+   the phone is known (:mod:`morpi_filters.units`).
+2. A centred moving window of ``window_s`` seconds (time based, so the number
+   of samples per window follows the real sampling) gives a moving standard
+   deviation and a moving mean per axis.
+3. A sample is flagged when a gyro axis's moving standard deviation exceeds
+   ``k_std`` noise sigmas, or its moving mean departs from the rest level (the
+   median of the quietest block of step 1) by more than ``k_dev`` sigmas, or
+   an accelerometer axis's moving standard deviation exceeds ``k_std`` sigmas
+   and ``accel_floor``. The floor exists
+   because the phones' accelerometer channels are low-pass filtered and
+   settle during the first seconds (slow drifts of up to ~2 m/s^2 on an S6,
+   ~0.2 m/s^2 on an S8, with moving standard deviations up to ~0.05 m/s^2
+   after the first instants, in the field recordings); for the same reason
+   the accelerometer level is not compared with its initial median. The gyro
+   channels are not filtered and carry most of the detection.
+4. Flagged runs closer than one window are merged. The motion is the first
+   run lasting ``sustain_s`` or more and at least a quarter of the longest
+   run (the drive itself lasts tens of seconds, handling before it a few
+   seconds at most in the field recordings); shorter runs before it are
+   disturbances (in the field recordings, mostly a fraction of a second of
+   jitter from the tap that starts the recording) and the rest window starts
+   ``guard_s`` after the last of them.
+5. The onset is refined from the start of the motion run (up to half a window
+   early) to the first sample whose gyro reading departs from the rest mean by
+   more than ``k_dev`` sigmas. The rest window ends ``guard_s`` before the
+   onset and lasts at most ``max_window_s`` (the paper's 3 s).
+
+Gravity
+-------
+:data:`LOCAL_GRAVITY` is normal gravity on the WGS84 ellipsoid at the
+experiment site (University of Haifa, latitude 32.8 deg N), from Somigliana's
+closed formula [2]_, computed by :func:`normal_gravity`.
+
+References
+----------
+.. [1] D. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
+   IEEE Journal of Indoor and Seamless Positioning and Navigation, 2023
+   (sections "Straight Line Trajectory" and "Periodic Motion").
+.. [2] National Imagery and Mapping Agency, "Department of Defense World
+   Geodetic System 1984", NIMA TR8350.2, 3rd ed., 2000, eq. (4-1) and
+   Table 3.4 (normal gravity on the ellipsoid, Somigliana's formula), and
+   eq. (4-3) (its height correction).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, replace
+
+import numpy as np
+
+from .dataset import Recording
+from .errors import MorpiError
+from .units import SENSORS
+
+__all__ = [
+    "MODES", "SITE_LATITUDE_DEG", "LOCAL_GRAVITY", "normal_gravity", "RestWindow", "Calibration",
+    "detect_rest", "calibrate", "rest_windows_summary", "RestRow", "RestSummary", "noise_sigma",
+]
+
+#: Calibration modes: raw data, gyro calibration, gyro and accelerometer calibration.
+MODES = ("RD", "GC", "GAC")
+
+# Smallest noise sigmas used by the detector, far below any MEMS noise but above the
+# rounding of running sums, for noise-free simulated recordings [rad/s], [m/s^2].
+_GYRO_SIGMA_MIN = 1e-6
+_ACCEL_SIGMA_MIN = 1e-5
+
+#: Latitude of the experiment site, University of Haifa [deg N].
+SITE_LATITUDE_DEG = 32.8
+
+# WGS84 constants, NIMA TR8350.2 Table 3.1 and 3.4.
+_WGS84_A = 6378137.0                      # semi-major axis [m]
+_WGS84_F = 1.0 / 298.257223563            # flattening
+_WGS84_GM = 3.986004418e14                # gravitational constant [m^3/s^2]
+_WGS84_OMEGA = 7292115.0e-11              # earth rotation rate [rad/s]
+_WGS84_GAMMA_E = 9.7803253359             # normal gravity at the equator [m/s^2]
+_WGS84_K = 0.00193185265241               # Somigliana's constant
+_WGS84_E2 = 6.69437999014e-3              # first eccentricity squared
+
+
+def normal_gravity(latitude_deg: float, height_m: float = 0.0) -> float:
+    """Normal gravity of the WGS84 ellipsoid [m/s^2].
+
+    Somigliana's closed formula on the ellipsoid ([2]_ eq. 4-1)::
+
+        gamma = gamma_e (1 + k sin^2 phi) / sqrt(1 - e^2 sin^2 phi)
+
+    and, above it, the second-order height correction of [2]_ eq. (4-3)::
+
+        gamma_h = gamma (1 - 2/a (1 + f + m - 2 f sin^2 phi) h + 3 h^2 / a^2)
+
+    with ``m = omega^2 a^2 b / GM``.
+
+    Parameters
+    ----------
+    latitude_deg : float
+        Geodetic latitude [deg], in [-90, 90].
+    height_m : float
+        Height above the ellipsoid [m].
+
+    Returns
+    -------
+    float
+        Normal gravity [m/s^2].
+    """
+    if not (-90.0 <= latitude_deg <= 90.0) or not math.isfinite(latitude_deg):
+        raise MorpiError(f"latitude_deg={latitude_deg!r}: expected a latitude in [-90, 90] degrees")
+    s2 = math.sin(math.radians(latitude_deg)) ** 2
+    gamma = _WGS84_GAMMA_E * (1.0 + _WGS84_K * s2) / math.sqrt(1.0 - _WGS84_E2 * s2)
+    if height_m == 0.0:
+        return gamma
+    a, f = _WGS84_A, _WGS84_F
+    b = a * (1.0 - f)
+    m = _WGS84_OMEGA ** 2 * a ** 2 * b / _WGS84_GM
+    return gamma * (1.0 - 2.0 / a * (1.0 + f + m - 2.0 * f * s2) * height_m + 3.0 * height_m ** 2 / a ** 2)
+
+
+#: Normal gravity at the experiment site (latitude 32.8 deg N, at the
+#: ellipsoid), about 9.7953 m/s^2. Each 100 m of height lowers it by ~3.1e-4 m/s^2.
+LOCAL_GRAVITY = normal_gravity(SITE_LATITUDE_DEG)
+
+
+# ----------------------------------------------------------------------------- results
+
+@dataclass(frozen=True)
+class RestWindow:
+    """The initial rest period of a recording.
+
+    Attributes
+    ----------
+    start_s, end_s : float
+        Time stamps of the first and last sample of the window [s], on the
+        recording's own clock (``rec.time[i0]`` and ``rec.time[i1 - 1]``).
+    i0, i1 : int
+        Sample slice of the window: ``rec.time[i0:i1]``. ``i0`` is 0 unless a
+        brief disturbance (a tap on the phone) opens the recording.
+    method : str
+        ``"full"``: no motion or disturbance before `max_window_s`, the
+        window is the first `max_window_s` seconds (the paper's choice);
+        ``"detected"``: the window starts after a disturbance and/or ends
+        before an early motion, and lasts at least `min_window_s`; ``"short"``: the rest
+        before the motion is shorter than `min_window_s` and is used anyway
+        (see `note`).
+    note : str
+        Plain-language account of the decision (empty for ``"full"``).
+    motion_s : float or None
+        Detected motion onset [s] on the recording's clock, or None when no
+        motion was found in the recording.
+    """
+
+    start_s: float
+    end_s: float
+    i0: int
+    i1: int
+    method: str
+    note: str = ""
+    motion_s: float | None = None
+
+    @property
+    def duration_s(self) -> float:
+        """Length of the window, first to last sample [s]."""
+        return self.end_s - self.start_s
+
+    @property
+    def n(self) -> int:
+        """Number of samples in the window."""
+        return self.i1 - self.i0
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """Zero-order sensor biases to remove from a recording.
+
+    Attributes
+    ----------
+    mode : str
+        ``"RD"``, ``"GC"`` or ``"GAC"`` (see :func:`calibrate`).
+    gyro_bias : ndarray, shape (3,)
+        Angular-rate bias in body axes [rad/s] (zeros for RD).
+    accel_bias : ndarray, shape (3,)
+        Specific-force bias in body axes [m/s^2] (zeros for RD and GC).
+    window : RestWindow or None
+        The rest window the biases were averaged over (None for RD).
+    """
+
+    mode: str
+    gyro_bias: np.ndarray
+    accel_bias: np.ndarray
+    window: RestWindow | None
+
+    def apply(self, rec: Recording) -> Recording:
+        """Return a new recording with the biases removed.
+
+        Parameters
+        ----------
+        rec : Recording
+            Any recording (usually the one the biases were estimated on).
+
+        Returns
+        -------
+        Recording
+            Same time stamps and labels; ``f - accel_bias`` and
+            ``omega - gyro_bias``. The input is not modified.
+        """
+        return replace(rec, time=rec.time.copy(), f=rec.f - self.accel_bias, omega=rec.omega - self.gyro_bias)
+
+
+# ----------------------------------------------------------------------------- detection
+
+def noise_sigma(x: np.ndarray) -> np.ndarray:
+    """Robust white-noise standard deviation per column from first differences.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n, k)
+        Samples at rest (a few slow trends or outliers are tolerated).
+
+    Returns
+    -------
+    ndarray, shape (k,)
+        Standard deviation of the first differences over sqrt(2), computed on
+        the 90 % of differences closest to their median and rescaled by the
+        standard deviation of a normal law truncated at +-1.645 sigma (0.7891),
+        so that quantized signals (many zero differences), for which a median
+        absolute deviation collapses to zero, are still measured. Never below
+        the signal's resolution / sqrt(12) (its smallest non-zero step).
+    """
+    d = np.diff(np.asarray(x, dtype=float), axis=0)
+    if d.shape[0] < 2:
+        return np.full(x.shape[1], np.finfo(float).tiny)
+    dev = np.abs(d - np.median(d, axis=0))
+    keep = dev <= np.quantile(dev, 0.9, axis=0)
+    sigma = np.sqrt((np.where(keep, dev, 0.0) ** 2).sum(axis=0) / keep.sum(axis=0)) / 0.7891 / math.sqrt(2.0)
+    floor = np.array([np.min(c[c > 0]) if np.any(c > 0) else 0.0 for c in np.abs(d).T]) / math.sqrt(12.0)
+    return np.maximum(np.maximum(sigma, floor), np.finfo(float).tiny)
+
+
+def _block_sigma(t: np.ndarray, x: np.ndarray, span: float, block: float):
+    """Noise sigma and rest level from blocks of `block` seconds within the first `span` seconds.
+
+    Returns the lower quartile over the blocks of :func:`noise_sigma` (shape
+    (k,)) and the median of the quietest block (shape (k,)).
+    """
+    edges = np.searchsorted(t, np.arange(0.0, max(span, block) + 1e-12, block), side="left")
+    blocks = [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b - a >= 5]
+    if not blocks:
+        stop = max(int(np.searchsorted(t, span, side="right")), 3)
+        return noise_sigma(x[:stop]), np.median(x[:stop], axis=0)
+    sig = np.array([noise_sigma(x[a:b]) for a, b in blocks])
+    spread = np.array([x[a:b].std(axis=0) for a, b in blocks])
+    a, b = blocks[int(np.argmin((spread / np.maximum(sig.min(axis=0), 1e-300)).sum(axis=1)))]
+    return np.quantile(sig, 0.25, axis=0), np.median(x[a:b], axis=0)
+
+
+def _moving_stats(t: np.ndarray, x: np.ndarray, half: float):
+    """Centred time-window mean and std of each column (window [t-half, t+half])."""
+    ref = x[0]
+    x = x - ref    # running sums of small numbers: less cancellation in E[x^2] - E[x]^2
+    lo = np.searchsorted(t, t - half, side="left")
+    hi = np.searchsorted(t, t + half, side="right")
+    c1 = np.vstack([np.zeros((1, x.shape[1])), np.cumsum(x, axis=0)])
+    c2 = np.vstack([np.zeros((1, x.shape[1])), np.cumsum(x * x, axis=0)])
+    cnt = (hi - lo)[:, None].astype(float)
+    mean = (c1[hi] - c1[lo]) / cnt
+    var = (c2[hi] - c2[lo]) / cnt - mean ** 2
+    return mean + ref, np.sqrt(np.maximum(var, 0.0))
+
+
+def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: float = 1.0,
+                window_s: float = 0.25, noise_s: float | None = None, k_std: float = 4.0, k_dev: float = 6.0,
+                accel_floor: float = 0.1, sustain_s: float = 1.5, guard_s: float = 0.05,
+                min_samples: int = 10) -> RestWindow:
+    """Find the initial rest period of a recording.
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording (real, non-uniform time stamps).
+    max_window_s : float
+        Longest window returned [s] (the paper calibrates on the first 3 s).
+    min_window_s : float
+        Shortest rest accepted without a warning [s]; a shorter rest is still
+        used (method ``"short"``) and `note` says so.
+    window_s : float
+        Length of the centred moving window [s].
+    noise_s : float, optional
+        Length of the initial segment the noise sigmas are estimated on [s]
+        (default `max_window_s`). It is cut into blocks of `window_s`; each
+        block gives a sigma (:func:`noise_sigma`) and the lower quartile of
+        the blocks is used, so up to three quarters of the segment may move
+        or be disturbed.
+    k_std : float
+        Motion threshold on the moving standard deviation, in noise sigmas.
+        For white noise over a window of >= 10 samples the sample standard
+        deviation exceeds 4 sigma with negligible probability; the margin
+        covers the coarse quantization of the phones' gyros (the S8's step is
+        about its noise sigma, so windowed standard deviations reach ~2 sigma
+        at rest in the field recordings).
+    k_dev : float
+        Motion threshold on the moving mean's departure from the rest level,
+        and on single gyro samples when refining the onset, in noise sigmas
+        (a Gaussian sample exceeds 6 sigma with probability 2e-9).
+    accel_floor : float
+        Lowest accelerometer threshold [m/s^2] (see the module docstring).
+    sustain_s : float
+        Shortest flagged run taken as the start of the motion [s] (runs
+        shorter than a quarter of the longest one are not taken either);
+        shorter runs before it are disturbances, skipped.
+    guard_s : float
+        Gap left between the end of the window and the motion onset [s].
+    min_samples : int
+        Fewest samples a rest window may have; fewer raise MorpiError.
+
+    Returns
+    -------
+    RestWindow
+
+    Raises
+    ------
+    MorpiError
+        Naming the recording, when it moves from its first samples (fewer than
+        `min_samples` samples at rest), or for a bad parameter.
+    """
+    for name, v in (("max_window_s", max_window_s), ("min_window_s", min_window_s), ("window_s", window_s),
+                    ("noise_s", 1.0 if noise_s is None else noise_s), ("k_std", k_std), ("k_dev", k_dev),
+                    ("sustain_s", sustain_s)):
+        if not (math.isfinite(v) and v > 0):
+            raise MorpiError(f"{name}={v!r}: expected a positive number")
+    if min_window_s > max_window_s:
+        raise MorpiError(f"min_window_s={min_window_s!r}: expected at most max_window_s={max_window_s!r}")
+    if not (math.isfinite(guard_s) and guard_s >= 0) or not (math.isfinite(accel_floor) and accel_floor >= 0):
+        raise MorpiError(f"guard_s={guard_s!r}, accel_floor={accel_floor!r}: expected non-negative numbers")
+    t = rec.time - rec.time[0]
+    n = rec.n
+    span = max_window_s if noise_s is None else noise_s
+    sig_g, med_g = _block_sigma(t, rec.omega, span, window_s)
+    sig_a, _ = _block_sigma(t, rec.f, span, window_s)
+    # Noise-free (simulated) rests: stay above floating-point rounding.
+    sig_g = np.maximum(sig_g, _GYRO_SIGMA_MIN)
+    sig_a = np.maximum(sig_a, _ACCEL_SIGMA_MIN)
+    if rec.phone in SENSORS:
+        # Never below the datasheet white noise over the Nyquist band.
+        spec = SENSORS[rec.phone]
+        band = math.sqrt(rec.rate_hz / 2.0)
+        sig_g = np.maximum(sig_g, spec.gyro_noise * band)
+        sig_a = np.maximum(sig_a, spec.accel_noise * band)
+    half = window_s / 2.0
+    m_g, s_g = _moving_stats(t, rec.omega, half)
+    m_a, s_a = _moving_stats(t, rec.f, half)
+    thr_sa = np.maximum(k_std * sig_a, accel_floor)
+    moving = ((s_g > k_std * sig_g) | (np.abs(m_g - med_g) > k_dev * sig_g)).any(axis=1) | \
+        (s_a > thr_sa).any(axis=1)
+    # Runs of flagged samples, merged across gaps shorter than `window_s`
+    # (a window's worth of quiet inside motion is not rest).
+    runs = _runs(moving, t, window_s)
+    longest = max((t[s1 - 1] - t[s0] for s0, s1 in runs), default=0.0)
+    need = max(sustain_s, 0.25 * longest)
+    main = next(((s0, s1) for s0, s1 in runs if t[s1 - 1] - t[s0] >= need), None)
+    name = rec.name
+    if main is None:
+        onset = None
+        end_idx = n
+    else:
+        coarse = main[0]
+        # Refine: the first sample, from the coarse onset to one window
+        # later, whose gyro reading leaves the rest band around the mean of
+        # the quiet samples before it.
+        quiet = ~moving[:coarse]
+        rest_mean = rec.omega[:coarse][quiet].mean(axis=0) if quiet.any() else rec.omega[0]
+        stop = int(np.searchsorted(t, t[coarse] + window_s, side="right"))
+        out = np.flatnonzero((np.abs(rec.omega[coarse:stop] - rest_mean) > k_dev * sig_g).any(axis=1))
+        onset = coarse + int(out[0]) if out.size else coarse
+        end_idx = int(np.searchsorted(t, t[onset] - guard_s, side="left"))
+    motion_s = None if onset is None else float(rec.time[onset])
+    # The window starts after the last brief disturbance before the motion
+    # (a tap on the screen when the recording starts), plus a guard.
+    before = [(s0, s1) for s0, s1 in runs if s1 <= (main[0] if main else n)]
+    i0 = 0
+    if before:
+        i0 = int(np.searchsorted(t, t[before[-1][1] - 1] + guard_s, side="right"))
+    i1 = min(end_idx, int(np.searchsorted(t, t[i0] + max_window_s, side="right")))
+    if i1 - i0 < min_samples:
+        when = f"{t[onset]:.3f} s" if onset is not None else "?"
+        raise MorpiError(f"{rec.source}: no initial rest found: motion starts {when} after the first sample "
+                         f"({max(i1 - i0, 0)} samples at rest, expected at least {min_samples}); "
+                         f"cannot calibrate {name}")
+    dur = float(t[i1 - 1] - t[i0])
+    notes = []
+    if i0 > 0:
+        notes.append(f"disturbance in the first {t[i0]:.2f} s skipped")
+    if onset is not None and end_idx <= i1:
+        notes.append(f"motion starts at {t[onset]:.2f} s")
+    if i0 == 0 and end_idx >= i1 and dur >= max_window_s - 2.0 / rec.rate_hz:
+        method = "full"
+    elif dur >= min_window_s:
+        method = "detected"
+        notes.append(f"window {t[i0]:.2f}-{t[i1 - 1]:.2f} s ({dur:.2f} s)")
+    else:
+        method = "short"
+        notes.append(f"rest of only {dur:.2f} s (< min_window_s {min_window_s:g} s) used anyway: "
+                     "the biases carry more noise")
+    return RestWindow(start_s=float(rec.time[i0]), end_s=float(rec.time[i1 - 1]), i0=i0, i1=i1,
+                      method=method, note="; ".join(notes), motion_s=motion_s)
+
+
+def _runs(flags: np.ndarray, t: np.ndarray, gap_s: float) -> list[tuple[int, int]]:
+    """Index ranges [s0, s1) of True runs, merging runs separated by less than `gap_s`."""
+    idx = np.flatnonzero(np.diff(np.concatenate([[0], flags.astype(np.int8), [0]])))
+    raw = list(zip(idx[::2].tolist(), idx[1::2].tolist()))
+    out: list[list[int]] = []
+    for s0, s1 in raw:
+        if out and t[s0] - t[out[-1][1] - 1] < gap_s:
+            out[-1][1] = s1
+        else:
+            out.append([s0, s1])
+    return [(a, b) for a, b in out]
+
+
+# ----------------------------------------------------------------------------- calibration
+
+def calibrate(rec: Recording, mode: str, *, window: RestWindow | None = None,
+              g_local: float = LOCAL_GRAVITY) -> Calibration:
+    """Zero-order calibration over the initial rest window.
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording to calibrate.
+    mode : str
+        ``"RD"``: raw data, no correction. ``"GC"``: gyro bias = mean angular
+        rate over the window. ``"GAC"``: GC plus accelerometer bias = mean
+        specific force over the window minus ``(0, 0, g_local)`` (the phone is
+        assumed level, z up; paper [1]_).
+    window : RestWindow, optional
+        The window to average over; found with :func:`detect_rest` when None
+        (not used for RD).
+    g_local : float
+        Local gravity magnitude [m/s^2].
+
+    Returns
+    -------
+    Calibration
+
+    Raises
+    ------
+    MorpiError
+        For an unknown `mode`, a bad `g_local`, a window outside the
+        recording, or a recording without initial rest.
+    """
+    if mode not in MODES:
+        raise MorpiError(f"mode={mode!r}: unknown calibration mode, expected one of {', '.join(MODES)}")
+    if not (math.isfinite(g_local) and g_local > 0):
+        raise MorpiError(f"g_local={g_local!r}: expected a positive gravity magnitude in m/s^2")
+    zero = np.zeros(3)
+    if mode == "RD":
+        return Calibration(mode="RD", gyro_bias=zero, accel_bias=zero.copy(), window=None)
+    if window is None:
+        window = detect_rest(rec)
+    if not (0 <= window.i0 < window.i1 <= rec.n):
+        raise MorpiError(f"window [{window.i0}, {window.i1}): outside {rec.source} ({rec.n} samples)")
+    sl = slice(window.i0, window.i1)
+    gyro_bias = rec.omega[sl].mean(axis=0)
+    accel_bias = zero.copy()
+    if mode == "GAC":
+        accel_bias = rec.f[sl].mean(axis=0) - np.array([0.0, 0.0, g_local])
+    return Calibration(mode=mode, gyro_bias=gyro_bias, accel_bias=accel_bias, window=window)
+
+
+@dataclass(frozen=True)
+class RestRow:
+    """The rest window of one recording, as reported.
+
+    Attributes
+    ----------
+    name : str
+        Recording label (``phone/route/split/file``).
+    method : str
+        :attr:`RestWindow.method`, or ``"none"`` when no rest was found.
+    start_s, window_s : float or None
+        Window start after the first sample, and window length [s].
+    motion_s : float or None
+        Motion onset after the first sample [s] (None: none found).
+    gyro_shift : float or None
+        Largest per-axis difference between the gyro bias over the paper's
+        first `max_window_s` seconds and over the detected window [rad/s]:
+        what assuming rest would have cost.
+    note, error : str
+        The window's note; the MorpiError message when no rest was found.
+    """
+
+    name: str
+    method: str
+    start_s: float | None
+    window_s: float | None
+    motion_s: float | None
+    gyro_shift: float | None
+    note: str = ""
+    error: str = ""
+
+
+@dataclass(frozen=True)
+class RestSummary:
+    """Which rest window each recording used, for reports.
+
+    Attributes
+    ----------
+    rows : tuple of RestRow
+        One per recording, in input order.
+    n_moving_early : int
+        Recordings whose sustained motion starts within `max_window_s` of
+        their first sample (or that have no rest at all).
+    n_disturbed : int
+        Recordings whose window starts after a brief initial disturbance.
+    n_total : int
+        Recordings examined.
+    """
+
+    rows: tuple
+    n_moving_early: int
+    n_disturbed: int
+    n_total: int
+
+    def to_json(self) -> dict:
+        """Counts and rows as plain JSON-ready values."""
+        return dict(n_total=self.n_total, n_moving_early=self.n_moving_early, n_disturbed=self.n_disturbed,
+                    rows=[asdict(r) for r in self.rows])
+
+    def markdown(self) -> str:
+        """A markdown table of the windows (gyro shift in deg/s)."""
+        from .reporting import fmt, md_table
+
+        body = [[r.name, r.method, fmt(r.start_s), fmt(r.window_s), fmt(r.motion_s),
+                 fmt(None if r.gyro_shift is None else math.degrees(r.gyro_shift), 3), r.note or r.error]
+                for r in self.rows]
+        return md_table(["recording", "window", "start [s]", "length [s]", "motion onset [s]",
+                         "first-3 s gyro bias shift [deg/s]", "note"], body)
+
+
+def rest_windows_summary(recordings, *, max_window_s: float = 3.0, **kwargs) -> RestSummary:
+    """Detect the rest window of each recording and tabulate them.
+
+    Parameters
+    ----------
+    recordings : iterable of Recording
+    max_window_s : float
+        Passed to :func:`detect_rest`; also the horizon of ``n_moving_early``
+        and of the paper's fixed window in ``gyro_shift``.
+    **kwargs
+        Further :func:`detect_rest` parameters.
+
+    Returns
+    -------
+    RestSummary
+        Recordings without a rest are listed with their error, not raised.
+    """
+    rows, early, disturbed, total = [], 0, 0, 0
+    for rec in recordings:
+        total += 1
+        try:
+            w = detect_rest(rec, max_window_s=max_window_s, **kwargs)
+        except MorpiError as exc:
+            rows.append(RestRow(name=rec.name, method="none", start_s=None, window_s=None, motion_s=None,
+                                gyro_shift=None, error=str(exc)))
+            early += 1
+            continue
+        t0 = float(rec.time[0])
+        onset = None if w.motion_s is None else w.motion_s - t0
+        if onset is not None and onset <= max_window_s:
+            early += 1
+        disturbed += w.i0 > 0
+        fixed = rec.omega[: int(np.searchsorted(rec.time - t0, max_window_s, side="right"))].mean(axis=0)
+        shift = float(np.abs(fixed - rec.omega[w.i0:w.i1].mean(axis=0)).max())
+        rows.append(RestRow(name=rec.name, method=w.method, start_s=w.start_s - t0, window_s=w.duration_s,
+                            motion_s=onset, gyro_shift=shift, note=w.note))
+    return RestSummary(rows=tuple(rows), n_moving_early=early, n_disturbed=disturbed, n_total=total)

@@ -1,0 +1,395 @@
+"""Download the public MoRPI field dataset and verify it against committed checksums.
+
+``morpi data fetch [--dest DIR] [--url URL]`` calls :func:`fetch_dataset`: it
+downloads an archive of the public repository ansfl/MoRPI [1]_ (by default
+the zip archive of its default branch), unpacks only the recordings (the CSV
+files under the repository's ``data/`` folder, without the archive's top
+folder) into ``DIR/data``, and checks every file against the SHA-256 sums in
+``data/dataset_checksums.txt``, a small file this project owns (paths and
+hashes only, made by :func:`compute_checksums` from a verified copy).
+
+All or nothing
+--------------
+The archive is downloaded to a temporary file and unpacked into a staging
+folder beside the destination; only when every file is present, no file is
+extra and every hash matches is the staging folder renamed into place. Any
+failure (HTTP error, refused connection, time-out, truncated or corrupt
+archive, checksum mismatch, missing or extra file, a member that would land
+outside the destination: absolute path, ``..``, link) raises one
+:class:`MorpiError` line and removes everything it wrote. A destination that
+already holds a verified dataset is left untouched.
+
+Archives are ``.zip`` or ``.tar.gz`` (recognised by their first bytes, not
+their names), read with :mod:`zipfile` and :mod:`tarfile`; HTTP goes through
+:mod:`urllib`. No other dependency.
+
+References
+----------
+.. [1] D. Etzion and I. Klein, MoRPI dataset, https://github.com/ansfl/MoRPI
+   (folder ``data/``).
+"""
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import http.client
+import os
+import shutil
+import socket
+import stat
+import tarfile
+import tempfile
+import urllib.error
+import urllib.request
+import zipfile
+import zlib
+from pathlib import Path, PurePosixPath
+from typing import Callable, Mapping
+
+from .dataset import PROJECT_DATA
+from .errors import MorpiError
+
+__all__ = [
+    "DEFAULT_URL", "CHECKSUMS_FILE", "compute_checksums", "write_checksums", "load_checksums",
+    "verify_tree", "fetch_dataset",
+]
+
+#: Zip archive of the default branch of the public repository.
+DEFAULT_URL = "https://github.com/ansfl/MoRPI/archive/HEAD.zip"
+#: The committed SHA-256 sums of the 143 recordings (``<sha256>  <relative path>`` per line).
+CHECKSUMS_FILE = PROJECT_DATA / "dataset_checksums.txt"
+#: Folder of the repository (inside the archive's top folder) that holds the recordings.
+ARCHIVE_DATA_DIR = "data"
+
+_CHUNK = 1 << 20
+_HEADER = (
+    "# SHA-256 of each recording of the MoRPI field dataset (public repository ansfl/MoRPI, folder data/),\n"
+    "# relative to that folder. Format of `sha256sum`: <hash>  <path>. Regenerate with\n"
+    "# morpi_filters.fetch.write_checksums(CHECKSUMS_FILE, compute_checksums(DATA_ROOT)).\n"
+)
+
+
+# ----------------------------------------------------------------------------- checksums
+
+def _sha256_file(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(_CHUNK), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def compute_checksums(root) -> dict[str, str]:
+    """SHA-256 of every CSV file under a dataset root.
+
+    Parameters
+    ----------
+    root : str or Path
+        Dataset root in the MoRPI layout (``s8/line_dataset/1.csv``, ...).
+
+    Returns
+    -------
+    dict
+        Relative POSIX path -> lowercase hex digest, sorted by path.
+    """
+    root = Path(root)
+    if not root.is_dir():
+        raise MorpiError(f"{root}: not a directory, expected a dataset root")
+    out = {p.relative_to(root).as_posix(): _sha256_file(p) for p in root.rglob("*.csv") if p.is_file()}
+    return dict(sorted(out.items()))
+
+
+def write_checksums(path, checksums: Mapping[str, str]) -> Path:
+    """Write checksums in ``sha256sum`` format with a short header (atomically)."""
+    from .reporting import write_text
+
+    body = "".join(f"{h}  {rel}\n" for rel, h in sorted(checksums.items()))
+    return write_text(path, _HEADER + body)
+
+
+def load_checksums(path=None) -> dict[str, str]:
+    """Read a checksum file written by :func:`write_checksums`.
+
+    Parameters
+    ----------
+    path : str or Path, optional
+        Default :data:`CHECKSUMS_FILE`.
+
+    Raises
+    ------
+    MorpiError
+        Naming the file and line of a malformed entry, an unsafe path or a
+        repeated path, or when the file is missing or empty.
+    """
+    path = Path(CHECKSUMS_FILE if path is None else path)
+    try:
+        lines = path.read_text().splitlines()
+    except OSError as exc:
+        raise MorpiError(f"{path}: cannot read checksum file ({exc.strerror})") from None
+    out: dict[str, str] = {}
+    for i, line in enumerate(lines, start=1):
+        if not line.strip() or line.startswith("#"):
+            continue
+        parts = line.split(None, 1)
+        digest = parts[0].lower() if parts else ""
+        rel = parts[1].strip() if len(parts) == 2 else ""
+        if len(digest) != 64 or any(c not in "0123456789abcdef" for c in digest) or not rel:
+            raise MorpiError(f"{path}: line {i}: expected '<64 hex digits>  <relative path>'")
+        if _unsafe(rel):
+            raise MorpiError(f"{path}: line {i}: path {rel!r} is not a plain relative path")
+        if rel in out:
+            raise MorpiError(f"{path}: line {i}: {rel} listed twice")
+        out[rel] = digest
+    if not out:
+        raise MorpiError(f"{path}: no checksums, expected one '<sha256>  <path>' line per recording")
+    return out
+
+
+def _resolve_checksums(checksums) -> dict[str, str]:
+    if checksums is None:
+        return load_checksums(CHECKSUMS_FILE)
+    if isinstance(checksums, (str, os.PathLike)):
+        return load_checksums(checksums)
+    return {str(k): str(v).lower() for k, v in checksums.items()}
+
+
+def verify_tree(root, checksums=None) -> list[str]:
+    """Compare a dataset folder with checksums.
+
+    Parameters
+    ----------
+    root : str or Path
+        Folder holding the recordings (``root/s8/line_dataset/1.csv``).
+    checksums : mapping or path, optional
+        Relative path -> SHA-256; default the committed file.
+
+    Returns
+    -------
+    list of str
+        Problems (missing file, unexpected file, mismatch); empty when the
+        folder's CSV files are exactly the expected ones with the expected
+        contents (other files, such as a README, are not recordings and are
+        not compared; a linked CSV never matches).
+    """
+    expected = _resolve_checksums(checksums)
+    root = Path(root)
+    if not root.is_dir():
+        return [f"{root}: not a directory"]
+    found = {p.relative_to(root).as_posix(): p for p in root.rglob("*.csv") if p.is_file() or p.is_symlink()}
+    return _compare(expected, {rel: (None if p.is_symlink() else _sha256_file(p)) for rel, p in found.items()})
+
+
+def _compare(expected: Mapping[str, str], got: Mapping[str, str | None]) -> list[str]:
+    problems = []
+    missing = sorted(set(expected) - set(got))
+    extra = sorted(set(got) - set(expected))
+    if missing:
+        problems.append(f"{len(missing)} file(s) missing, e.g. {missing[0]}")
+    if extra:
+        problems.append(f"{len(extra)} unexpected file(s), e.g. {extra[0]}")
+    bad = sorted(rel for rel in set(expected) & set(got) if got[rel] != expected[rel])
+    if bad:
+        problems.append(f"checksum mismatch in {len(bad)} file(s), e.g. {bad[0]}")
+    return problems
+
+
+# ----------------------------------------------------------------------------- archive members
+
+def _unsafe(name: str) -> bool:
+    """True for a member path that could land outside the destination."""
+    if not name or "\\" in name or "\x00" in name or name.startswith("/") or (len(name) > 1 and name[1] == ":"):
+        return True
+    return any(part == ".." for part in name.split("/"))
+
+
+def _data_relpath(name: str) -> str | None:
+    """Path below ``<top>/data/`` of an archive member, or None for members outside it."""
+    parts = PurePosixPath(name).parts
+    if len(parts) < 3 or parts[1] != ARCHIVE_DATA_DIR:
+        return None
+    return "/".join(parts[2:])
+
+
+class _Archive:
+    """Iterate (name, kind, opener) over the members of a zip or tar.gz file."""
+
+    def __init__(self, path: Path, url: str):
+        self.path, self.url = path, url
+        with open(path, "rb") as fh:
+            magic = fh.read(4)
+        if magic[:2] == b"\x1f\x8b":
+            self.kind = "tar.gz"
+        elif magic[:4] in (b"PK\x03\x04", b"PK\x05\x06"):
+            self.kind = "zip"
+        else:
+            raise MorpiError(f"{url}: not a .zip or .tar.gz archive (first bytes {magic!r})")
+
+    def members(self):
+        if self.kind == "zip":
+            with zipfile.ZipFile(self.path) as zf:
+                for info in zf.infolist():
+                    mode = info.external_attr >> 16
+                    if info.is_dir():
+                        kind = "dir"
+                    elif stat.S_ISLNK(mode):
+                        kind = "link"
+                    elif stat.S_IFMT(mode) not in (0, stat.S_IFREG):   # 0: no type bits (plain writers)
+                        kind = "special"
+                    else:
+                        kind = "file"
+                    yield info.filename, kind, (lambda info=info: zf.open(info))
+        else:
+            with tarfile.open(self.path, "r:gz") as tf:
+                for m in tf:
+                    kind = ("dir" if m.isdir() else "file" if m.isreg() else
+                            "link" if (m.issym() or m.islnk()) else "special")
+                    yield m.name, kind, (lambda m=m: tf.extractfile(m))
+
+
+# ----------------------------------------------------------------------------- fetch
+
+def fetch_dataset(dest, *, url: str | None = None, checksums=None, timeout: float = 60.0,
+                  progress: Callable[[str], None] | None = None) -> Path:
+    """Download, unpack and verify the field dataset; all or nothing.
+
+    Parameters
+    ----------
+    dest : str or Path
+        Destination folder; the recordings land in ``dest/data``. It must
+        not exist, be empty, or already hold the verified dataset.
+    url : str, optional
+        Archive URL (``http(s)://`` or ``file://``); default
+        :data:`DEFAULT_URL`.
+    checksums : mapping or path, optional
+        Relative path -> SHA-256 of every expected recording; default the
+        committed :data:`CHECKSUMS_FILE`.
+    timeout : float
+        Seconds to wait for the server at each step.
+    progress : callable, optional
+        Receives one-line progress messages; default: printed to stdout
+        (stderr is left to the one-line error).
+
+    Returns
+    -------
+    Path
+        The dataset root ``dest/data`` (pass it as ``--data``).
+
+    Raises
+    ------
+    MorpiError
+        One line naming the URL or the destination, for any failure listed
+        in the module docstring. Nothing is left behind: `dest` is either
+        untouched or absent, and no staging or temporary file remains.
+    """
+    say = progress or (lambda msg: print(msg, flush=True))
+    url = DEFAULT_URL if url is None else url
+    expected = _resolve_checksums(checksums)
+    dest = Path(dest).expanduser()
+    root = dest / ARCHIVE_DATA_DIR
+    if dest.exists() or dest.is_symlink():
+        if not dest.is_dir() or dest.is_symlink():
+            raise MorpiError(f"{dest}: exists and is not a folder, expected a new or empty destination folder")
+        if root.is_dir() and not verify_tree(root, expected):
+            say(f"{root}: already holds the verified dataset ({len(expected)} files); nothing to do")
+            return root
+        if any(dest.iterdir()):
+            raise MorpiError(f"{dest}: not empty and not a verified dataset; remove it or choose another --dest")
+    try:
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        stage = Path(tempfile.mkdtemp(prefix=f".staging-{dest.name}-", dir=dest.parent))
+    except OSError as exc:
+        raise MorpiError(f"{dest}: cannot create a staging folder beside it ({exc.strerror or exc})") from None
+    try:
+        archive = stage / "download"
+        say(f"downloading {url}")
+        _download(url, archive, timeout)
+        tree = stage / "tree"
+        got = _unpack(archive, tree / ARCHIVE_DATA_DIR, url)
+        archive.unlink()
+        problems = _compare(expected, got)
+        if problems:
+            raise MorpiError(f"{url}: archive does not match the dataset checksums: {'; '.join(problems)}")
+        if dest.is_dir():
+            dest.rmdir()   # empty (checked above); fails loudly if something appeared meanwhile
+        os.replace(tree, dest)
+    except MorpiError:
+        shutil.rmtree(stage, ignore_errors=True)
+        raise
+    except OSError as exc:
+        shutil.rmtree(stage, ignore_errors=True)
+        raise MorpiError(f"{dest}: cannot write the dataset ({exc.strerror or exc})") from None
+    except BaseException:
+        shutil.rmtree(stage, ignore_errors=True)
+        raise
+    shutil.rmtree(stage, ignore_errors=True)
+    say(f"{root}: {len(got)} recordings verified")
+    return root
+
+
+def _download(url: str, path: Path, timeout: float) -> None:
+    """Stream `url` to `path`; a short body (fewer bytes than Content-Length) is an error."""
+    try:
+        with contextlib.closing(urllib.request.urlopen(url, timeout=timeout)) as resp, open(path, "wb") as out:
+            length = resp.headers.get("Content-Length") if hasattr(resp, "headers") else None
+            n = 0
+            for block in iter(lambda: resp.read(_CHUNK), b""):
+                out.write(block)
+                n += len(block)
+            if length is not None and length.isdigit() and n != int(length):
+                raise MorpiError(f"{url}: download truncated: {n} of {length} bytes")
+    except urllib.error.HTTPError as exc:
+        raise MorpiError(f"{url}: download failed: HTTP {exc.code} {exc.reason}") from None
+    except urllib.error.URLError as exc:
+        reason = exc.reason
+        if isinstance(reason, (socket.timeout, TimeoutError)):
+            raise MorpiError(f"{url}: download failed: no answer within {timeout:g} s") from None
+        text = getattr(reason, "strerror", None) or str(reason)
+        raise MorpiError(f"{url}: download failed: {text}") from None
+    except (socket.timeout, TimeoutError):
+        raise MorpiError(f"{url}: download failed: no answer within {timeout:g} s") from None
+    except http.client.IncompleteRead as exc:
+        raise MorpiError(f"{url}: download truncated after {len(exc.partial)} bytes") from None
+    except (http.client.HTTPException, ConnectionError) as exc:
+        raise MorpiError(f"{url}: download failed: {exc.__class__.__name__} {exc}") from None
+    except ValueError as exc:
+        raise MorpiError(f"{url}: not a usable URL ({exc})") from None
+
+
+def _unpack(archive: Path, out: Path, url: str) -> dict[str, str]:
+    """Extract the CSVs under ``<top>/data/`` into `out`; return rel path -> SHA-256."""
+    arc = _Archive(archive, url)
+    got: dict[str, str] = {}
+    top = None
+    try:
+        for name, kind, opener in arc.members():
+            if _unsafe(name.rstrip("/")):
+                raise MorpiError(f"{url}: member {name!r} would escape the destination; refusing the archive")
+            head = name.split("/", 1)[0]
+            if top is None:
+                top = head
+            elif head != top:
+                raise MorpiError(f"{url}: members under both {top!r} and {head!r}; expected one top folder")
+            rel = _data_relpath(name.rstrip("/"))
+            if rel is None or kind == "dir":
+                continue
+            if kind != "file":
+                raise MorpiError(f"{url}: member {name!r} is a {kind}, not a regular file; refusing the archive")
+            if not rel.endswith(".csv"):
+                continue
+            if rel in got:
+                raise MorpiError(f"{url}: member {name!r} appears twice")
+            target = out / rel
+            target.parent.mkdir(parents=True, exist_ok=True)
+            h = hashlib.sha256()
+            src = opener()
+            with src, open(target, "xb") as fh:
+                for block in iter(lambda: src.read(_CHUNK), b""):
+                    h.update(block)
+                    fh.write(block)
+            got[rel] = h.hexdigest()
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, tarfile.TarError, zlib.error, EOFError) as exc:
+        raise MorpiError(f"{url}: truncated or corrupt {arc.kind} archive ({exc or exc.__class__.__name__})") \
+            from None
+    if top is None:
+        raise MorpiError(f"{url}: empty {arc.kind} archive")
+    return got

@@ -1,0 +1,1037 @@
+"""Synthetic trajectories, IMU synthesis and a synthetic dataset in the field layout.
+
+Trajectories
+    :func:`straight`, :func:`sine` and :func:`l_route` (and :func:`route_trajectory`
+    for a route of ``data/routes.json``) build a :class:`Trajectory` with exact
+    kinematics: the path is an analytic function of its centreline arc length
+    ``u`` and time enters only through an analytic speed law ``u(t)``, so
+    velocity, acceleration, attitude and angular rate are analytic derivatives
+    (no finite differences). Position on a turn is the integral of the
+    analytic tangent, evaluated by piecewise Gauss-Legendre quadrature to
+    rounding accuracy.
+
+    Geometry (navigation frame: x to the end point, y left, z up):
+
+    - centreline: straight legs joined by a turn whose curvature rises and
+      falls smoothly (C2 ramps, quintic smoothstep) around a constant-radius
+      arc, so the angular rate and specific force are continuous;
+    - periodic motion: a lateral horizontal offset ``A W(u) sin(2 pi u / P)``
+      from the centreline, ``W`` a smooth taper over one period at both
+      ends (the body starts and stops heading along the centreline);
+    - optional downhill slope on the first metres (horizontal length),
+      easing into level ground over 1 m;
+    - the body x axis follows the path tangent (yaw = path heading, pitch =
+      path inclination), body y stays horizontal (no roll);
+    - speed law: rest, a smooth (C2) acceleration ramp, constant speed, a
+      smooth stop, rest.
+
+    Specific force ``f_b = C_nb (a^n - g^n)`` and angular rate
+    ``omega_b = (psi_dot sin(gamma), -gamma_dot, psi_dot cos(gamma))`` for
+    ``C_bn = R_z(psi) R_y(-gamma)`` (``gamma`` path inclination, positive up).
+
+IMU synthesis
+    :func:`imu` turns a trajectory into sensor readings from a
+    :class:`~morpi_filters.units.SensorSpec`: turn-on bias per run, white
+    noise from the noise density and the actual sampling interval
+    (``sigma_k = density / sqrt(dt_k)``), optional bias random walk, scale
+    factor, mounting misalignment and motion vibration, on uniform or
+    S6/S8-like irregular time stamps. Runs are batched on axis 0.
+
+Synthetic dataset
+    :func:`write_dataset` writes the field dataset's folder layout and CSV
+    format with seeded synthetic recordings; :func:`ensure_synthetic_dataset`
+    caches one and verifies it on reuse.
+
+References
+----------
+.. [1] D. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
+   IEEE Journal of Indoor and Seamless Positioning and Navigation, 2023.
+.. [2] P. D. Groves, "Principles of GNSS, Inertial, and Multisensor Integrated
+   Navigation Systems", 2nd ed., Artech House, 2013 (ch. 4: IMU error model).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import shutil
+import tempfile
+import zlib
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from . import dataset, units
+from .errors import MorpiError
+from .strapdown import rotvec_to_C
+
+__all__ = [
+    "Trajectory", "ImuData", "straight", "sine", "l_route", "route_trajectory", "imu",
+    "sample_times", "write_dataset", "ensure_synthetic_dataset", "GENERATOR_VERSION",
+    "REALISTIC_BIAS_FRACTION", "DATASET_OPTIONS",
+]
+
+#: Version of the synthetic-dataset generator; a cached dataset with another version is rebuilt.
+GENERATOR_VERSION = "1"
+
+#: Turn-on biases drawn in the synthetic dataset, as a fraction of the datasheet 1 sigma
+#: (accelerometer, gyro). The rest periods of the field recordings show per-axis gyro offsets of
+#: about 0.3-1.8 deg/s on the S8 and 0.3-0.6 deg/s on the S6, far below the datasheet's 3 and
+#: 6 deg/s, so drawing at the full datasheet sigma would make every synthetic run much worse
+#: than the field runs.
+REALISTIC_BIAS_FRACTION = {"s6": (0.25, 0.1), "s8": (0.25, 0.3)}
+
+#: Other realism settings of the synthetic dataset (see :func:`imu`): 1-sigma mounting
+#: misalignment [rad] (the field rest periods show 1-4 deg of phone tilt), motion vibration
+#: rms (accelerometer [m/s^2], gyro [rad/s]), and run-to-run spread (1 sigma, relative) of the
+#: driven speed, period length and amplitude.
+DATASET_OPTIONS = {
+    "misalignment": 1.5 * units.DEG,
+    "vibration": (0.12, 0.02),
+    "speed_spread": 0.12,
+    "period_spread": 0.05,
+    "amplitude_spread": 0.12,
+}
+
+# typical driven speeds [m/s] along the centreline, from the paper's average durations over 6.3 m:
+# ~5 s straight, ~14.5 s with 1 m periods, ~11 s with 1.5 m periods (1 s ramps at both ends)
+_SPEED = {"straight": 6.3 / 4.0, 1.0: 6.3 / 13.5, 1.5: 6.3 / 10.0}
+_L_SPEED = 0.6          # the field L recordings last 45-90 s for 28 m
+
+
+# --------------------------------------------------------------------------- smooth steps
+
+def _s5(x):
+    """Quintic smoothstep S, S', S'' on [0, 1] (clamped outside)."""
+    x = np.clip(x, 0.0, 1.0)
+    x2 = x * x
+    return (x2 * x * (10.0 - 15.0 * x + 6.0 * x2), 30.0 * x2 * (1.0 - x) ** 2,
+            60.0 * x * (1.0 - x) * (1.0 - 2.0 * x))
+
+
+def _s5_int(x):
+    """Integral of S from 0 to x (x clamped to [0, 1]); 0.5 at x = 1."""
+    x = np.clip(x, 0.0, 1.0)
+    x2 = x * x
+    return x2 * x2 * (2.5 - 3.0 * x + x2)
+
+
+# --------------------------------------------------------------------------- checks
+
+def _positive(name, v, *, allow_zero=False):
+    try:
+        v = float(v)
+    except (TypeError, ValueError):
+        raise MorpiError(f"{name}: expected a number, got {v!r}") from None
+    if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
+        want = "a finite number >= 0" if allow_zero else "a finite number > 0"
+        raise MorpiError(f"{name}: expected {want}, got {v!r}")
+    return v
+
+
+# --------------------------------------------------------------------------- path model
+
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(24)
+
+
+class _Path:
+    """Centreline (legs, smooth turn, slope) plus a tapered sine offset, as functions of u."""
+
+    def __init__(self, legs, turn_rad, radius, slope_rad, slope_len, period, amplitude, taper):
+        self.legs = legs                        # (a1, a2): straight leg lengths [m]
+        self.turn = turn_rad
+        self.k0 = 0.0 if turn_rad == 0 else math.copysign(1.0 / radius, turn_rad)
+        if turn_rad != 0:
+            arc = abs(turn_rad) * radius
+            self.ramp = arc / 3.0               # curvature ramp length, each side
+            self.const = arc - self.ramp        # turn: kappa0 * (ramp + const) = turn
+        else:
+            self.ramp = self.const = 0.0
+        self.u1 = legs[0]
+        self.turn_len = 2 * self.ramp + self.const
+        self.length = legs[0] + self.turn_len + legs[1]
+        self.slope_t = math.tan(slope_rad)
+        self.slope_len = slope_len
+        self.slope_ease = 1.0
+        self.k = 0.0 if not period else 2 * math.pi / period
+        self.A = amplitude or 0.0
+        self.taper = taper
+        # breakpoints of the turn's three pieces, and the heading/offset at each
+        self._pieces = [self.u1, self.u1 + self.ramp, self.u1 + self.ramp + self.const, self.u1 + self.turn_len]
+        self._turn_xy = [np.zeros(2)]
+        for a, b in zip(self._pieces[:-1], self._pieces[1:]):
+            self._turn_xy.append(self._turn_xy[-1] + self._gl(a, np.array([b]))[0])
+
+    # ---- centreline heading and curvature
+    def theta(self, u):
+        """Centreline heading theta(u), curvature kappa(u) and its derivative."""
+        if self.turn == 0:
+            z = np.zeros_like(u)
+            return z, z, z
+        r, c, k0 = self.ramp, self.const, self.k0
+        s = u - self.u1
+        x1 = s / r
+        x3 = (s - r - c) / r
+        S1, dS1, _ = _s5(x1)
+        S3, dS3, _ = _s5(x3)
+        kappa = k0 * (S1 - S3)
+        dkappa = k0 * (dS1 - dS3) / r
+        th = k0 * (r * _s5_int(x1) + np.clip(s - r, 0.0, c) + np.where(x3 > 0, r * (np.clip(x3, 0, 1) - _s5_int(x3)), 0.0)
+                   )
+        return th, kappa, dkappa
+
+    def _gl(self, a, b):
+        """Integral of (cos theta, sin theta) from scalar a to each b (a <= b, one smooth piece)."""
+        half = 0.5 * (b - a)
+        uq = a + half[:, None] * (_GL_X[None, :] + 1.0)
+        th = self.theta(uq)[0]
+        return np.stack([np.cos(th) @ _GL_W * half, np.sin(th) @ _GL_W * half], axis=-1)
+
+    def centre_xy(self, u):
+        """Horizontal centreline position c(u), shape (n, 2)."""
+        out = np.zeros(u.shape + (2,))
+        before = u <= self.u1
+        out[before, 0] = u[before]
+        if self.turn == 0:
+            out[~before, 0] = u[~before]
+            return out
+        p = self._pieces
+        for i in range(3):
+            m = (u > p[i]) & (u <= p[i + 1])
+            if m.any():
+                out[m] = np.array([self.u1, 0.0]) + self._turn_xy[i] + self._gl(p[i], u[m])
+        after = u > p[3]
+        if after.any():
+            end = np.array([self.u1, 0.0]) + self._turn_xy[3]
+            out[after] = end + (u[after] - p[3])[:, None] * np.array([math.cos(self.turn), math.sin(self.turn)])
+        return out
+
+    # ---- slope
+    def z(self, u):
+        """Height z(u) and its first two derivatives in u."""
+        if self.slope_t == 0:
+            zz = np.zeros_like(u)
+            return zz, zz, zz
+        ell = self.slope_ease
+        a = self.slope_len - ell / 2
+        x = (u - a) / ell
+        S, dS, _ = _s5(x)
+        z = -self.slope_t * (u - ell * _s5_int(x) - np.maximum(0.0, u - a - ell))
+        return z, -self.slope_t * (1.0 - S), self.slope_t * dS / ell
+
+    # ---- lateral offset
+    def offset(self, u):
+        """Lateral offset y(u) and its first two derivatives."""
+        if self.A == 0:
+            zz = np.zeros_like(u)
+            return zz, zz, zz
+        L, ell, k = self.length, self.taper, self.k
+        Sa, dSa, ddSa = _s5(u / ell)
+        Sb, dSb, ddSb = _s5((L - u) / ell)
+        W = Sa * Sb
+        dW = (dSa * Sb - Sa * dSb) / ell
+        ddW = (ddSa * Sb - 2 * dSa * dSb + Sa * ddSb) / ell ** 2
+        sn, cs = np.sin(k * u), np.cos(k * u)
+        A = self.A
+        return A * W * sn, A * (dW * sn + k * W * cs), A * (ddW * sn + 2 * k * dW * cs - k * k * W * sn)
+
+    def geometry(self, u):
+        """Position r(u), tangent r'(u) and r''(u), each (n, 3)."""
+        th, kap, dkap = self.theta(u)
+        y, dy, ddy = self.offset(u)
+        z, dz, ddz = self.z(u)
+        t = np.stack([np.cos(th), np.sin(th)], axis=-1)
+        nrm = np.stack([-t[:, 1], t[:, 0]], axis=-1)
+        r = np.empty(u.shape + (3,))
+        r[:, :2] = self.centre_xy(u) + y[:, None] * nrm
+        r[:, 2] = z
+        d1 = np.empty_like(r)
+        d1[:, :2] = t * (1.0 - y * kap)[:, None] + dy[:, None] * nrm
+        d1[:, 2] = dz
+        d2 = np.empty_like(r)
+        d2[:, :2] = nrm * (kap * (1.0 - y * kap) + ddy)[:, None] + t * (-2.0 * dy * kap - y * dkap)[:, None]
+        d2[:, 2] = ddz
+        return r, d1, d2
+
+
+class _SpeedLaw:
+    """u(t): rest, smooth ramp up, cruise at speed V, smooth ramp down, rest."""
+
+    def __init__(self, length, speed, ramp, rest0, rest1, t0):
+        self.L, self.V, self.Tr, self.t0 = length, speed, ramp, t0
+        self.Tc = length / speed - ramp
+        if self.Tc < 0:
+            raise MorpiError(f"speed: {speed!r} m/s is too fast to cover {length:.3g} m with {ramp:g} s ramps; "
+                             f"expected at most {length / ramp:.3g} m/s")
+        self.start = t0 + rest0
+        self.stop = self.start + 2 * ramp + self.Tc
+        self.end = self.stop + rest1
+
+    def __call__(self, t):
+        V, Tr, Tc = self.V, self.Tr, self.Tc
+        tau = np.asarray(t, dtype=float) - self.start
+        x1 = tau / Tr
+        x3 = (tau - Tr - Tc) / Tr
+        S1, dS1, ddS1 = _s5(x1)
+        S3, dS3, ddS3 = _s5(x3)
+        u = V * (Tr * _s5_int(x1) + np.clip(tau - Tr, 0.0, Tc)
+                 + np.where(x3 > 0, Tr * (np.clip(x3, 0, 1) - _s5_int(x3)), 0.0))
+        du = V * (S1 - S3)
+        ddu = V * (dS1 - dS3) / Tr
+        return u, du, ddu
+
+    def inverse(self, u):
+        """Times at which the centreline distance first reaches each u (bisection)."""
+        u = np.atleast_1d(np.asarray(u, dtype=float))
+        lo = np.full(u.shape, self.start)
+        hi = np.full(u.shape, self.stop)
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            below = self(mid)[0] < u
+            lo = np.where(below, mid, lo)
+            hi = np.where(below, hi, mid)
+        return 0.5 * (lo + hi)
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """True motion of the body, sampled at `time`.
+
+    Attributes
+    ----------
+    time : ndarray, shape (n,)
+        Sample times [s].
+    position, velocity, acceleration : ndarray, shape (n, 3)
+        In the navigation frame [m, m/s, m/s^2].
+    C_bn : ndarray, shape (n, 3, 3)
+        Body-to-navigation matrices.
+    heading, pitch : ndarray, shape (n,)
+        Path heading (about +z, unwrapped) and inclination (positive up) [rad].
+    f_b : ndarray, shape (n, 3)
+        True specific force in the body frame [m/s^2].
+    omega_b : ndarray, shape (n, 3)
+        True angular rate in the body frame [rad/s].
+    kind : str
+        ``"straight"``, ``"sine"`` or ``"l_route"``.
+    start_time, stop_time : float
+        Times the motion starts and stops [s] (rest before and after).
+    centreline_length : float
+        Horizontal length of the centreline [m].
+    distance : float
+        Travelled 3D path length, including the lateral weaving [m].
+    end_point : ndarray, shape (3,)
+        Position at rest after the motion [m].
+    period, amplitude : float or None
+        Period length and lateral amplitude of the periodic motion [m].
+    peak_times : ndarray, shape (m,)
+        Times of the lateral extremes of the periodic motion [s] (empty if none).
+    peak_side : ndarray, shape (m,)
+        +1 for an extreme to the left, -1 to the right.
+    """
+
+    time: np.ndarray
+    position: np.ndarray
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    C_bn: np.ndarray
+    heading: np.ndarray
+    pitch: np.ndarray
+    f_b: np.ndarray
+    omega_b: np.ndarray
+    kind: str
+    start_time: float
+    stop_time: float
+    centreline_length: float
+    distance: float
+    end_point: np.ndarray
+    period: float | None = None
+    amplitude: float | None = None
+    peak_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    peak_side: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    _model: tuple = field(default=None, repr=False)
+
+    @property
+    def end_time(self) -> float:
+        """Time of the end of the trajectory (rest included) [s]."""
+        return float(self._model[1].end)
+
+    def at(self, time) -> "Trajectory":
+        """The same trajectory sampled at other times (any times; rest outside the motion)."""
+        time = np.asarray(time, dtype=float)
+        if time.ndim != 1 or not np.isfinite(time).all():
+            raise MorpiError("time: expected a 1-D array of finite sample times")
+        return replace(self, **_kinematics(*self._model, time))
+
+
+def _kinematics(path: _Path, law: _SpeedLaw, g: float, time: np.ndarray) -> dict:
+    u, du, ddu = law(time)
+    r, d1, d2 = path.geometry(u)
+    vel = d1 * du[:, None]
+    acc = d2 * (du * du)[:, None] + d1 * ddu[:, None]
+    hx, hy, hz = d1[:, 0], d1[:, 1], d1[:, 2]
+    h2 = hx * hx + hy * hy
+    h = np.sqrt(h2)
+    psi = np.unwrap(np.arctan2(hy, hx))
+    dpsi_du = (hx * d2[:, 1] - hy * d2[:, 0]) / h2
+    dh_du = (hx * d2[:, 0] + hy * d2[:, 1]) / h
+    gam = np.arctan2(hz, h)
+    dgam_du = (h * d2[:, 2] - hz * dh_du) / (h2 + hz * hz)
+    psid, gamd = dpsi_du * du, dgam_du * du
+    cp, sp, cg, sg = np.cos(psi), np.sin(psi), np.cos(gam), np.sin(gam)
+    C = np.empty(time.shape + (3, 3))
+    # C_bn = R_z(psi) R_y(-gamma): columns are body x (tangent), body y (horizontal left), body z
+    C[:, :, 0] = np.stack([cp * cg, sp * cg, sg], axis=-1)
+    C[:, :, 1] = np.stack([-sp, cp, np.zeros_like(cp)], axis=-1)
+    C[:, :, 2] = np.stack([-cp * sg, -sp * sg, cg], axis=-1)
+    fn = acc.copy()
+    fn[:, 2] += g
+    f_b = np.einsum("nji,nj->ni", C, fn)
+    omega = np.stack([psid * sg, -gamd, psid * cg], axis=-1)
+    return dict(time=time, position=r, velocity=vel, acceleration=acc, C_bn=C, heading=psi, pitch=gam,
+                f_b=f_b, omega_b=omega)
+
+
+def _build(kind, path: _Path, *, speed, ramp, rest, rate_hz, t0, g, period=None, amplitude=None) -> Trajectory:
+    speed = _positive("speed", speed)
+    ramp = _positive("ramp", ramp)
+    rate_hz = _positive("rate_hz", rate_hz)
+    rest0, rest1 = (rest, rest) if np.ndim(rest) == 0 else tuple(rest)
+    rest0, rest1 = _positive("rest", rest0, allow_zero=True), _positive("rest", rest1, allow_zero=True)
+    t0 = float(t0)
+    if not math.isfinite(t0):
+        raise MorpiError(f"t0: expected a finite start time, got {t0!r}")
+    law = _SpeedLaw(path.length, speed, ramp, rest0, rest1, t0)
+    n = int(math.floor((law.end - t0) * rate_hz + 1e-9)) + 1
+    time = t0 + np.arange(n) / rate_hz
+    kin = _kinematics(path, law, g, time)
+    # travelled 3D length by composite Gauss-Legendre over 2 cm pieces of the centreline
+    edges = np.linspace(0.0, path.length, max(2, int(path.length / 0.02) + 1))
+    half = 0.5 * np.diff(edges)
+    uq = (edges[:-1, None] + half[:, None] * (_GL_X[None, :] + 1.0)).ravel()
+    speed_u = np.linalg.norm(path.geometry(uq)[1], axis=1).reshape(-1, _GL_X.size)
+    distance = float(np.sum((speed_u @ _GL_W) * half))
+    end_point = path.geometry(np.array([path.length]))[0][0]
+    peak_t, side = np.zeros(0), np.zeros(0)
+    if path.A:
+        uu = np.linspace(0.0, path.length, int(path.length * 400) + 2)
+        dy = path.offset(uu)[1]
+        idx = np.flatnonzero(np.sign(dy[:-1]) * np.sign(dy[1:]) < 0)
+        lo, hi = uu[idx], uu[idx + 1]
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            same = np.sign(path.offset(mid)[1]) == np.sign(path.offset(lo)[1])
+            lo, hi = np.where(same, mid, lo), np.where(same, hi, mid)
+        up = 0.5 * (lo + hi)
+        peak_t = law.inverse(up)
+        side = np.sign(path.offset(up)[0])
+    return Trajectory(**kin, kind=kind, start_time=law.start, stop_time=law.stop, centreline_length=path.length,
+                      distance=distance, end_point=end_point, period=period, amplitude=amplitude,
+                      peak_times=peak_t, peak_side=side, _model=(path, law, g))
+
+
+def straight(length: float = 6.3, *, speed: float = _SPEED["straight"], ramp: float = 1.0, rest=3.0,
+             rate_hz: float = 100.0, t0: float = 0.0, g: float = units.G0) -> Trajectory:
+    """Straight line along x, from rest to rest.
+
+    Parameters
+    ----------
+    length : float
+        Distance [m].
+    speed : float
+        Cruise speed [m/s] (default: 6.3 m in about 5 s, the paper's average).
+    ramp : float
+        Duration of the smooth start and of the smooth stop [s].
+    rest : float or (float, float)
+        Rest before and after the motion [s].
+    rate_hz : float
+        Sampling rate of the returned samples [Hz] (use :meth:`Trajectory.at` for other times).
+    t0 : float
+        Time of the first sample [s].
+    g : float
+        Gravity [m/s^2].
+
+    Returns
+    -------
+    Trajectory
+    """
+    length = _positive("length", length)
+    return _build("straight", _Path((length, 0.0), 0.0, 1.0, 0.0, 0.0, None, None, None),
+                  speed=speed, ramp=ramp, rest=rest, rate_hz=rate_hz, t0=t0, g=g)
+
+
+def _check_sine(period, amplitude, taper, length):
+    period = _positive("period", period)
+    amplitude = _positive("amplitude", amplitude)
+    if amplitude * 2 * math.pi / period > 1.5:
+        raise MorpiError(f"amplitude: {amplitude!r} m is too large for {period!r} m periods; expected at most "
+                         f"{1.5 * period / (2 * math.pi):.3g} m (path slope 2 pi A / P <= 1.5)")
+    taper = period if taper is None else _positive("taper", taper)
+    if 2 * taper > length:
+        raise MorpiError(f"taper: {taper!r} m at both ends does not fit in {length:.3g} m; expected a shorter taper "
+                         "or period")
+    return period, amplitude, taper
+
+
+def sine(length: float = 6.3, *, period: float = 1.0, amplitude: float = 0.1, speed: float | None = None,
+         ramp: float = 1.0, rest=3.0, taper: float | None = None, rate_hz: float = 100.0, t0: float = 0.0,
+         g: float = units.G0) -> Trajectory:
+    """Periodic (sine) motion along x: ``y = A W(x) sin(2 pi x / P)``, from rest to rest.
+
+    Parameters
+    ----------
+    length : float
+        Distance along x (start to end point) [m].
+    period : float
+        Period (peak-to-peak event) length P [m]; the paper uses 1 m and 1.5 m.
+    amplitude : float
+        Lateral amplitude A [m]; the paper uses 0.1 m and 0.2 m.
+    speed : float, optional
+        Cruise speed along x [m/s]; default from the paper's average durations
+        (6.3 m in about 14.5 s with 1 m periods, 11 s with 1.5 m periods).
+    ramp, rest, rate_hz, t0, g
+        As in :func:`straight`.
+    taper : float, optional
+        Length over which the amplitude fades in and out at both ends [m]
+        (default P), so the body starts and stops heading along x. A half
+        period taper works too but turns 50 % faster than the steady sine.
+
+    Returns
+    -------
+    Trajectory
+        With ``peak_times`` the times of the lateral extremes.
+    """
+    length = _positive("length", length)
+    period, amplitude, taper = _check_sine(period, amplitude, taper, length)
+    if speed is None:
+        speed = _SPEED.get(period, _SPEED[1.0] * period ** 0.5)
+    return _build("sine", _Path((length, 0.0), 0.0, 1.0, 0.0, 0.0, period, amplitude, taper),
+                  speed=speed, ramp=ramp, rest=rest, rate_hz=rate_hz, t0=t0, g=g, period=period, amplitude=amplitude)
+
+
+def l_route(legs=(18.0, 10.0), *, turn_deg: float = 90.0, turn_radius: float = 1.0, slope_deg: float = 0.0,
+            slope_length: float = 5.0, period: float | None = None, amplitude: float | None = None,
+            speed: float = _L_SPEED, ramp: float = 1.0, rest=3.0, taper: float | None = None,
+            rate_hz: float = 100.0, t0: float = 0.0, g: float = units.G0) -> Trajectory:
+    """L-shaped route: a leg along x, a smooth turn, a second leg; optional slope and sine.
+
+    The end point is exactly ``legs[0]`` along x and ``legs[1]`` across (the
+    turn cuts the corner, so the straight parts are shorter than the legs).
+
+    Parameters
+    ----------
+    legs : (float, float)
+        Leg lengths [m] (the field route: 18 m then 10 m).
+    turn_deg : float
+        Heading change [deg], positive to the left, 0 < |turn_deg| < 180.
+    turn_radius : float
+        Radius of the turn's constant-curvature part [m]; curvature ramps in
+        and out over a third of the turn's arc length each side.
+    slope_deg : float
+        Downhill slope at the start [deg] (the field L route: 15 deg over 5 m).
+    slope_length : float
+        Horizontal length of the slope [m]; it eases into level ground over 1 m.
+    period, amplitude : float, optional
+        Periodic motion on top of the centreline (both or neither).
+    speed, ramp, rest, taper, rate_hz, t0, g
+        As in :func:`sine`.
+
+    Returns
+    -------
+    Trajectory
+    """
+    try:
+        legs = tuple(float(v) for v in legs)
+    except (TypeError, ValueError):
+        raise MorpiError(f"legs: expected two lengths in m, got {legs!r}") from None
+    if len(legs) != 2:
+        raise MorpiError(f"legs: expected two lengths in m, got {legs!r}")
+    for v in legs:
+        _positive("legs", v)
+    turn_deg = float(turn_deg)
+    if not (0 < abs(turn_deg) < 180):
+        raise MorpiError(f"turn_deg: expected 0 < |turn_deg| < 180, got {turn_deg!r}")
+    turn_radius = _positive("turn_radius", turn_radius)
+    slope_deg = float(slope_deg)
+    if not (0 <= abs(slope_deg) < 45):
+        raise MorpiError(f"slope_deg: expected a downhill slope of 0 to 45 deg, got {slope_deg!r}")
+    slope_length = _positive("slope_length", slope_length, allow_zero=slope_deg == 0)
+    if slope_deg and slope_length < 0.5:
+        raise MorpiError(f"slope_length: expected at least 0.5 m (the slope eases out over 1 m), got {slope_length!r}")
+    if (period is None) != (amplitude is None):
+        raise MorpiError("period, amplitude: give both for periodic motion, or neither")
+    turn = turn_deg * units.DEG
+    probe = _Path((0.0, 0.0), turn, turn_radius, 0.0, 0.0, None, None, None)
+    d = probe.centre_xy(np.array([probe.turn_len]))[0]
+    # solve a1 e_x + a2 (cos turn, sin turn) = target - d for the straight lengths
+    target = np.array([legs[0] + legs[1] * math.cos(turn), legs[1] * math.sin(turn)])
+    M = np.array([[1.0, math.cos(turn)], [0.0, math.sin(turn)]])
+    a1, a2 = np.linalg.solve(M, target - d)
+    if a1 <= 0 or a2 <= 0:
+        raise MorpiError(f"turn_radius: {turn_radius!r} m does not fit legs {legs!r}; expected a smaller radius")
+    if slope_deg and slope_length + 0.5 > a1:
+        raise MorpiError(f"slope_length: {slope_length!r} m does not fit in the first leg ({a1:.3g} m straight)")
+    if period is not None:
+        period, amplitude, taper = _check_sine(period, amplitude, taper, legs[0] + legs[1])
+        if amplitude >= 0.5 * turn_radius:
+            raise MorpiError(f"amplitude: {amplitude!r} m is too large for a {turn_radius!r} m turn radius; "
+                             "expected less than half the radius")
+    path = _Path((float(a1), float(a2)), turn, turn_radius, abs(slope_deg) * units.DEG, slope_length,
+                 period, amplitude, taper)
+    return _build("l_route", path, speed=speed, ramp=ramp, rest=rest, rate_hz=rate_hz, t0=t0, g=g,
+                  period=period, amplitude=amplitude)
+
+
+def route_trajectory(name: str, *, speed: float | None = None, period: float | None = None,
+                     amplitude: float | None = None, **kwargs) -> Trajectory:
+    """Trajectory of a route of ``data/routes.json`` (``"short_distance"``, ``"L_shape"``, ...).
+
+    Parameters
+    ----------
+    name : str
+        Route folder name.
+    speed, period, amplitude : float, optional
+        Override the route's typical speed and its designed period and amplitude.
+    **kwargs
+        Passed to :func:`straight`, :func:`sine` or :func:`l_route`.
+    """
+    r = dataset.route(name)
+    period = r.p2p_m if period is None else period
+    amplitude = r.amplitude_m if amplitude is None else amplitude
+    if len(r.segments_m) == 2:
+        kw = dict(kwargs, turn_deg=r.turn_deg, slope_deg=r.slope_deg, slope_length=r.slope_length_m or 5.0)
+        if speed is not None:
+            kw["speed"] = speed
+        if r.kind == "periodic":
+            kw.update(period=period, amplitude=amplitude)
+        return l_route(tuple(r.segments_m), **kw)
+    if r.kind == "periodic":
+        return sine(r.distance_m, period=period, amplitude=amplitude, speed=speed, **kwargs)
+    return straight(r.distance_m, **(dict(kwargs, speed=speed) if speed is not None else kwargs))
+
+
+# --------------------------------------------------------------------------- IMU synthesis
+
+def sample_times(t_start: float, t_end: float, rng, *, pattern: str = "uniform", rate_hz: float = 100.0) -> np.ndarray:
+    """Sample times from `t_start` to at most `t_end`.
+
+    Parameters
+    ----------
+    t_start, t_end : float
+        Time span [s].
+    rng : numpy.random.Generator
+        Source of the irregular intervals (unused for ``"uniform"``).
+    pattern : {"uniform", "s6", "s8"}
+        ``"uniform"``: ``1 / rate_hz``. ``"s6"``: the Galaxy S6's irregular
+        stamps: a two-state Markov chain between ~100 Hz (dt 0.0095-0.0115 s)
+        and ~50 Hz (dt 0.018-0.0223 s) with lag-1 correlation 0.35 and a
+        per-run share of slow intervals drawn in 0.1-0.95 (median dt
+        0.011-0.019 s, as in the field files). ``"s8"``: 0.0100 s with
+        +-0.1 ms jitter and a rare (0.3 %) longer interval up to 0.019 s.
+    rate_hz : float
+        Rate of the uniform pattern [Hz].
+
+    Returns
+    -------
+    ndarray, shape (n,)
+    """
+    span = float(t_end) - float(t_start)
+    if pattern == "uniform":
+        rate_hz = _positive("rate_hz", rate_hz)
+        return t_start + np.arange(int(math.floor(span * rate_hz + 1e-9)) + 1) / rate_hz
+    n_max = int(span / 0.0095) + 2
+    if pattern == "s6":
+        q = rng.uniform(0.1, 0.95)
+        lam = 0.35
+        redraw = rng.random(n_max) < 1.0 - lam
+        redraw[0] = True
+        fresh = rng.random(n_max) < q
+        last = np.maximum.accumulate(np.where(redraw, np.arange(n_max), 0))
+        slow = fresh[last]
+        dt = np.where(slow, rng.uniform(0.018, 0.0223, n_max), rng.uniform(0.0095, 0.0115, n_max))
+    elif pattern == "s8":
+        dt = 0.0100 + rng.uniform(-1e-4, 1e-4, n_max)
+        gap = rng.random(n_max) < 0.003
+        dt = np.where(gap, rng.uniform(0.011, 0.019, n_max), dt)
+    else:
+        raise MorpiError(f"sampling: {pattern!r}: expected 'uniform', 's6', 's8' or an array of times")
+    t = t_start + np.concatenate([[0.0], np.cumsum(dt)])
+    return t[t <= t_end]
+
+
+@dataclass(frozen=True, eq=False)
+class ImuData:
+    """Synthesized IMU readings of one or more runs over one trajectory, with the drawn errors.
+
+    Attributes
+    ----------
+    time : ndarray, shape (n,)
+        Sample times [s], shared by all runs.
+    f : ndarray, shape (n, 3) or (runs, n, 3)
+        Measured specific force [m/s^2].
+    omega : ndarray, shape (n, 3) or (runs, n, 3)
+        Measured angular rate [rad/s].
+    truth : Trajectory
+        The trajectory sampled at `time` (true f_b, omega_b, position, ...).
+    accel_bias, gyro_bias : ndarray, shape (3,) or (runs, 3)
+        Turn-on biases [m/s^2, rad/s].
+    accel_scale, gyro_scale : ndarray, shape (3,) or (runs, 3)
+        Scale-factor errors (relative).
+    misalignment : ndarray, shape (3,) or (runs, 3)
+        Mounting misalignment rotation vector of the sensor axes [rad].
+    accel_bias_drift, gyro_bias_drift : ndarray or None, shape (n, 3) or (runs, n, 3)
+        Random-walk part of the bias over time (None when disabled).
+    spec : units.SensorSpec
+        The sensor specification used.
+    """
+
+    time: np.ndarray
+    f: np.ndarray
+    omega: np.ndarray
+    truth: Trajectory
+    accel_bias: np.ndarray
+    gyro_bias: np.ndarray
+    accel_scale: np.ndarray
+    gyro_scale: np.ndarray
+    misalignment: np.ndarray
+    accel_bias_drift: np.ndarray | None
+    gyro_bias_drift: np.ndarray | None
+    spec: units.SensorSpec
+
+    @property
+    def runs(self) -> int | None:
+        """Number of runs, None when unbatched."""
+        return None if self.f.ndim == 2 else int(self.f.shape[0])
+
+    def recording(self, run: int = 0, *, source: str = "<synthetic>", phone=None, route=None, split=None):
+        """One run as a :class:`~morpi_filters.dataset.Recording`."""
+        f = self.f if self.f.ndim == 2 else self.f[run]
+        w = self.omega if self.omega.ndim == 2 else self.omega[run]
+        return dataset.Recording(time=self.time.copy(), f=np.ascontiguousarray(f), omega=np.ascontiguousarray(w),
+                                 source=source, phone=self.spec.phone if phone is None else phone,
+                                 route=route, split=split)
+
+
+def _rngs(rng, runs):
+    """One generator for all runs, or one per run (results independent of batching)."""
+    if isinstance(rng, np.random.Generator):
+        return rng, None
+    rngs = list(rng)
+    if runs is None or len(rngs) != runs or not all(isinstance(r, np.random.Generator) for r in rngs):
+        raise MorpiError("rng: expected a numpy Generator, or a list of one Generator per run")
+    return None, rngs
+
+
+def _normal(rng, rngs, shape, out=None):
+    """Standard normals of shape (R, ...) from one generator or one per run."""
+    if out is None:
+        out = np.empty(shape)
+    if rngs is None:
+        rng.standard_normal(out=out)
+    else:
+        for i, r in enumerate(rngs):
+            r.standard_normal(out=out[i])
+    return out
+
+
+def imu(traj: Trajectory, spec: units.SensorSpec, rng, *, runs: int | None = None, sampling="uniform",
+        bias_scale=1.0, noise_scale: float = 1.0, accel_bias_rw: float = 0.0, gyro_bias_rw: float = 0.0,
+        scale_factor: float = 0.0, misalignment: float = 0.0, vibration=(0.0, 0.0),
+        time_span=None) -> ImuData:
+    """Synthesize IMU readings of a trajectory.
+
+    Measurement model per run (sensor axes rotated from the body by the
+    mounting misalignment ``M = exp([m x])``)::
+
+        f     = (1 + s_a) * M^T f_b     + b_a + b_a,rw(t) + v_a(t) + sigma_a,k z
+        omega = (1 + s_g) * M^T omega_b + b_g + b_g,rw(t) + v_g(t) + sigma_g,k z
+
+    with ``sigma_k = density / sqrt(dt_k)`` the white-noise standard deviation
+    of sample k from its actual interval ``dt_k`` (the interval before it;
+    the first sample uses the interval after it).
+
+    Parameters
+    ----------
+    traj : Trajectory
+        Truth; it is resampled at the IMU time stamps.
+    spec : units.SensorSpec
+        Datasheet figures (turn-on bias 1 sigma, noise densities).
+    rng : numpy.random.Generator or list of Generator
+        Every draw comes from it. A list of one generator per run makes each
+        run's draws independent of how the runs are batched.
+    runs : int, optional
+        Number of runs (leading axis); None for one unbatched run.
+    sampling : {"uniform", "s6", "s8"} or array_like
+        Time-stamp pattern (see :func:`sample_times`), drawn once and shared
+        by the runs, or explicit times.
+    bias_scale : float or (float, float)
+        Turn-on bias 1 sigma as a fraction of the datasheet's (accelerometer,
+        gyro). The datasheet figures are worst-case; see
+        :data:`REALISTIC_BIAS_FRACTION` for values matching the field data.
+    noise_scale : float
+        Factor on both noise densities.
+    accel_bias_rw, gyro_bias_rw : float
+        Bias random-walk densities [m/s^2/sqrt(s), rad/s/sqrt(s)] (0: off).
+    scale_factor : float
+        1-sigma scale-factor error per axis (relative, e.g. 0.01).
+    misalignment : float
+        1-sigma mounting misalignment per axis [rad].
+    vibration : (float, float)
+        Rms of motion-induced vibration (accelerometer [m/s^2], gyro [rad/s]),
+        present only while moving (scaled by the speed fraction): a sum of six
+        sinusoids per axis at random frequencies in 4-25 Hz, so it integrates
+        to a bounded velocity like a real vibration, not to a random walk.
+    time_span : (float, float), optional
+        Span of the time stamps (default the trajectory's first sample to its end).
+
+    Returns
+    -------
+    ImuData
+
+    Raises
+    ------
+    MorpiError
+        For a bad parameter (named in the message).
+    """
+    if runs is not None:
+        if isinstance(runs, bool) or not isinstance(runs, (int, np.integer)) or runs < 1:
+            raise MorpiError(f"runs: expected a positive integer or None, got {runs!r}")
+        runs = int(runs)
+    rng1, rngs = _rngs(rng, runs)
+    sa, sg = (bias_scale, bias_scale) if np.ndim(bias_scale) == 0 else tuple(bias_scale)
+    sa, sg = _positive("bias_scale", sa, allow_zero=True), _positive("bias_scale", sg, allow_zero=True)
+    noise_scale = _positive("noise_scale", noise_scale, allow_zero=True)
+    accel_bias_rw = _positive("accel_bias_rw", accel_bias_rw, allow_zero=True)
+    gyro_bias_rw = _positive("gyro_bias_rw", gyro_bias_rw, allow_zero=True)
+    scale_factor = _positive("scale_factor", scale_factor, allow_zero=True)
+    misalignment = _positive("misalignment", misalignment, allow_zero=True)
+    va, vg = (_positive("vibration", v, allow_zero=True) for v in vibration)
+
+    if isinstance(sampling, str):
+        t_a, t_b = (traj.time[0], traj.end_time) if time_span is None else time_span
+        time = sample_times(t_a, t_b, rng1 if rngs is None else rngs[0], pattern=sampling, rate_hz=spec.rate_hz)
+    else:
+        time = np.asarray(sampling, dtype=float)
+        if time.ndim != 1 or time.size < 2 or not np.isfinite(time).all() or not (np.diff(time) > 0).all():
+            raise MorpiError("sampling: expected strictly increasing finite sample times")
+    truth = traj.at(time)
+    n = time.size
+    R = 1 if runs is None else runs
+    dt = np.diff(time)
+    dt_k = np.concatenate([dt[:1], dt])
+
+    def per_run(k):                           # (R, k) normals
+        return _normal(rng1, rngs, (R, k))
+
+    # small per-run draws first (same order for either rng form)
+    small = per_run(15)
+    b_a = spec.accel_bias * sa * small[:, 0:3]
+    b_g = spec.gyro_bias * sg * small[:, 3:6]
+    s_a = scale_factor * small[:, 6:9]
+    s_g = scale_factor * small[:, 9:12]
+    mis = misalignment * small[:, 12:15]
+
+    def channel(true, sens_scale, bias, density, rw, vib):
+        out = _normal(rng1, rngs, (R, n, 3))
+        out *= (noise_scale * density / np.sqrt(dt_k))[None, :, None]
+        if misalignment:
+            M = rotvec_to_C(mis)                                    # (R, 3, 3) sensor-to-body
+            body = np.matmul(true[None], M)                         # rows: M^T f_b
+        else:
+            body = true[None]
+        if scale_factor:
+            out += body * (1.0 + sens_scale[:, None, :])
+        else:
+            out += body
+        out += bias[:, None, :]
+        drift = None
+        if rw:
+            steps = _normal(rng1, rngs, (R, n - 1, 3)) * (rw * np.sqrt(dt))[None, :, None]
+            drift = np.zeros((R, n, 3))
+            np.cumsum(steps, axis=1, out=drift[:, 1:])
+            out += drift
+        if vib:
+            frac = (np.abs(traj._model[1](time)[1]) / traj._model[1].V)[None, :, None]
+            freq = 4.0 + 21.0 * _uniform(rng1, rngs, (R, 6, 3))
+            phase = 2 * np.pi * _uniform(rng1, rngs, (R, 6, 3))
+            amp = vib / math.sqrt(3.0)                              # six sines of amplitude a: rms a sqrt(3)
+            wave = np.zeros((R, n, 3))
+            for j in range(6):
+                wave += np.sin(2 * np.pi * freq[:, None, j, :] * (time - time[0])[None, :, None] + phase[:, None, j, :])
+            out += amp * frac * wave
+        return out, drift
+
+    f, drift_a = channel(truth.f_b, s_a, b_a, spec.accel_noise, accel_bias_rw, va)
+    w, drift_g = channel(truth.omega_b, s_g, b_g, spec.gyro_noise, gyro_bias_rw, vg)
+    if runs is None:
+        f, w, b_a, b_g, s_a, s_g, mis = f[0], w[0], b_a[0], b_g[0], s_a[0], s_g[0], mis[0]
+        drift_a = None if drift_a is None else drift_a[0]
+        drift_g = None if drift_g is None else drift_g[0]
+    return ImuData(time=time, f=f, omega=w, truth=truth, accel_bias=b_a, gyro_bias=b_g, accel_scale=s_a,
+                   gyro_scale=s_g, misalignment=mis, accel_bias_drift=drift_a, gyro_bias_drift=drift_g, spec=spec)
+
+
+def _uniform(rng, rngs, shape):
+    if rngs is None:
+        return rng.random(shape)
+    return np.stack([r.random(shape[1:]) for r in rngs])
+
+
+# --------------------------------------------------------------------------- synthetic dataset
+
+_MANIFEST = "manifest.json"
+
+
+def _seed_for(seed: int, *labels) -> np.random.SeedSequence:
+    """A child seed keyed by labels (stable, independent of the order files are written)."""
+    key = tuple(zlib.crc32(str(x).encode()) for x in labels)
+    return np.random.SeedSequence(entropy=int(seed), spawn_key=key)
+
+
+def _synthetic_run(seed: int, folder: str, run: int) -> tuple[dataset.Recording, dict]:
+    """Simulate run `run` (1-based) of a dataset folder such as ``s8/short_distance/train``."""
+    parts = folder.split("/")
+    phone, route_name = parts[0], parts[1]
+    split = parts[2] if len(parts) > 2 else None
+    r = dataset.route(route_name)
+    spec = units.sensor_for_phone(phone)
+    # both phones recorded the long route at once in the field: share its trajectory draws
+    traj_key = ("long_distance", split, run) if route_name == "long_distance" else (folder, run)
+    trng = np.random.default_rng(_seed_for(seed, "trajectory", *traj_key))
+    irng = np.random.default_rng(_seed_for(seed, "imu", folder, run))
+    o = DATASET_OPTIONS
+    jitter = trng.standard_normal(4)
+    if len(r.segments_m) == 2:
+        base = _L_SPEED
+    elif r.kind == "periodic":
+        base = _SPEED.get(r.p2p_m, _SPEED[1.0])
+    else:
+        base = _SPEED["straight"]
+    speed = base * math.exp(o["speed_spread"] * jitter[0])
+    kw = dict(speed=speed, rest=tuple(trng.uniform(3.0, 4.5, 2)), t0=float(trng.uniform(0.3, 0.5)))
+    if r.kind == "periodic":
+        kw["period"] = r.p2p_m * (1.0 + o["period_spread"] * float(np.clip(jitter[1], -2.5, 2.5)))
+        kw["amplitude"] = r.amplitude_m * (1.0 + o["amplitude_spread"] * float(np.clip(jitter[2], -2.5, 2.5)))
+    traj = route_trajectory(route_name, **kw)
+    data = imu(traj, spec, irng, sampling=phone, bias_scale=REALISTIC_BIAS_FRACTION[phone],
+               misalignment=o["misalignment"], vibration=o["vibration"])
+    rel = f"{folder}/{run}.csv"
+    rec = data.recording(source=rel, phone=phone, route=route_name, split=split)
+    info = dict(speed_m_s=speed, period_m=kw.get("period"), amplitude_m=kw.get("amplitude"),
+                distance_m=traj.distance, start_time=traj.start_time, stop_time=traj.stop_time)
+    return rec, info
+
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+_README = """# Synthetic MoRPI dataset
+
+Seeded synthetic recordings in the layout and CSV format of the MoRPI field
+dataset (`time,f_x,f_y,f_z,g_x,g_y,g_z`; s, m/s^2, rad/s, phone axes, z up),
+written by `morpi simulate` (morpi_filters.simulate, generator version {version},
+seed {seed}). Routes follow `data/routes.json`; the S6 files have irregular
+time stamps like the field S6 files. Turn-on biases are drawn at a fraction of
+the datasheet 1 sigma (accelerometer, gyro): S6 {s6}, S8 {s8}. `manifest.json`
+lists every file's sha256 and the per-run speed, period and amplitude.
+"""
+
+
+def write_dataset(out, *, seed: int = 0, runs_per_folder: int | None = None) -> Path:
+    """Write a synthetic dataset in the field dataset's layout and CSV format.
+
+    Parameters
+    ----------
+    out : str or Path
+        Destination folder. It is built in a staging folder beside it and
+        renamed into place when complete; an existing folder is replaced only
+        if it is a synthetic dataset written by this function (it has the
+        manifest), otherwise a MorpiError is raised.
+    seed : int
+        Seed; each file draws from a child seed keyed by its folder and run,
+        so the output does not depend on the order files are written.
+    runs_per_folder : int, optional
+        Runs in every folder (default: as many as the field dataset,
+        ``data/routes.json`` "layout").
+
+    Returns
+    -------
+    Path
+        The dataset root (`out`).
+    """
+    out = Path(out)
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise MorpiError(f"seed: expected a non-negative integer, got {seed!r}")
+    if runs_per_folder is not None and (isinstance(runs_per_folder, bool) or
+                                        not isinstance(runs_per_folder, (int, np.integer)) or runs_per_folder < 1):
+        raise MorpiError(f"runs_per_folder: expected a positive integer, got {runs_per_folder!r}")
+    if out.exists() and not (out / _MANIFEST).is_file() and (not out.is_dir() or any(out.iterdir())):
+        raise MorpiError(f"{out}: exists and is not a synthetic dataset (no {_MANIFEST}); "
+                         "expected a new or empty folder")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=f".staging-{out.name}-", dir=out.parent))
+    try:
+        files, runs_info = {}, {}
+        for folder, n_runs in sorted(dataset.layout().items()):
+            for run in range(1, (runs_per_folder or n_runs) + 1):
+                rec, info = _synthetic_run(int(seed), folder, run)
+                rel = f"{folder}/{run}.csv"
+                dataset.write_csv(stage / rel, rec)
+                files[rel] = _sha256(stage / rel)
+                runs_info[rel] = info
+        fr = REALISTIC_BIAS_FRACTION
+        (stage / "README.md").write_text(_README.format(version=GENERATOR_VERSION, seed=seed, s6=fr["s6"], s8=fr["s8"]))
+        files["README.md"] = _sha256(stage / "README.md")
+        manifest = dict(generator="morpi_filters.simulate", version=GENERATOR_VERSION, seed=int(seed),
+                        runs_per_folder=runs_per_folder, files=files, runs=runs_info)
+        from .reporting import write_json
+        write_json(stage / _MANIFEST, manifest)
+        if out.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".previous-{out.name}-", dir=out.parent))
+            os.replace(out, old / out.name)
+            os.replace(stage, out)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(stage, out)
+    except BaseException:
+        shutil.rmtree(stage, ignore_errors=True)
+        raise
+    return out
+
+
+def _verify(root: Path, seed: int) -> bool:
+    try:
+        m = json.loads((root / _MANIFEST).read_text())
+    except (OSError, ValueError):
+        return False
+    if m.get("version") != GENERATOR_VERSION or m.get("seed") != seed or m.get("runs_per_folder") is not None:
+        return False
+    files = m.get("files", {})
+    present = {p.relative_to(root).as_posix() for p in root.rglob("*.csv")}
+    if present != {k for k in files if k.endswith(".csv")}:
+        return False
+    return all((root / rel).is_file() and _sha256(root / rel) == h for rel, h in files.items())
+
+
+def ensure_synthetic_dataset(cache_dir, *, seed: int = 0) -> Path:
+    """The synthetic dataset of `seed` in `cache_dir`, written once and verified on reuse.
+
+    Reuses the folder when its manifest has this seed and generator version,
+    it holds the full layout, and every file's sha256 matches; otherwise
+    (re)writes it with :func:`write_dataset`.
+
+    Returns
+    -------
+    Path
+        The dataset root.
+    """
+    cache_dir = Path(cache_dir)
+    if cache_dir.is_dir() and _verify(cache_dir, int(seed)):
+        return cache_dir
+    return write_dataset(cache_dir, seed=seed)

@@ -1,0 +1,207 @@
+"""Rest detection and zero-order calibration on synthetic data with known truth and on the field data."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from morpi_filters.calibration import (LOCAL_GRAVITY, Calibration, RestWindow, calibrate, detect_rest,
+                                       normal_gravity, rest_windows_summary)
+from morpi_filters.dataset import Recording, load_catalogue
+from morpi_filters.errors import MorpiError
+
+GYRO_BIAS = np.array([0.012, -0.021, 0.0305])   # rad/s, of the order of the field recordings' biases
+ACCEL_BIAS = np.array([0.15, -0.22, 0.09])      # m/s^2
+SIG_G = 6e-4                                    # rad/s, white gyro noise per sample (S8-like)
+SIG_A = 9e-3                                    # m/s^2, white accel noise per sample (S8 datasheet x sqrt(50 Hz))
+
+
+def synthetic(rng, *, rest_s=3.5, total_s=8.0, tap=None, g=LOCAL_GRAVITY):
+    """Level phone at rest (f = (0, 0, g) + bias + noise), then a sine yaw/forward motion.
+
+    Time steps are non-uniform (0.0095 to 0.0125 s). Returns the recording and
+    the index of the first moving sample.
+    """
+    n = int(total_s / 0.011) + 1
+    t = 12.5 + np.cumsum(rng.uniform(0.0095, 0.0125, n))
+    tau = t - t[0]
+    f = np.array([0.0, 0.0, g]) + ACCEL_BIAS + SIG_A * rng.standard_normal((n, 3))
+    w = GYRO_BIAS + SIG_G * rng.standard_normal((n, 3))
+    move = tau >= rest_s
+    s = tau[move] - rest_s
+    w[move, 2] += 0.6 * np.sin(2 * np.pi * 0.8 * s) + 0.05   # yaw rate of a sine path [rad/s]
+    w[move, 0] += 0.05 * np.sin(2 * np.pi * 7.0 * s)         # roll vibration
+    f[move, 0] += 1.0 * np.cos(2 * np.pi * 0.8 * s)          # forward acceleration
+    if tap is not None:
+        a, b = tap
+        hit = (tau >= a) & (tau < b)
+        w[hit] += 0.03 * np.sin(2 * np.pi * 15.0 * tau[hit])[:, None]
+    rec = Recording(time=t, f=f, omega=w, source="synthetic.csv")
+    return rec, int(np.argmax(move)) if move.any() else None
+
+
+def test_rest_window_and_biases_recovered():
+    rng = np.random.default_rng(11)
+    rec, onset = synthetic(rng)
+    w = detect_rest(rec)
+    assert isinstance(w, RestWindow)
+    assert w.method == "full" and w.i0 == 0
+    assert 2.95 <= w.duration_s <= 3.0                  # capped at the paper's 3 s (one sample ~0.0125 s)
+    # Motion onset: the refined onset is the first sample whose gyro leaves the 6-sigma band;
+    # the sine starts at zero but the 0.05 rad/s offset (83 sigma) crosses it at once.
+    assert abs(rec.time[onset] - w.motion_s) <= 3 * 0.0125   # within 3 samples
+    cal = calibrate(rec, "GAC", window=w)
+    # Noise bound: the mean of N white samples has sigma/sqrt(N); 4 of those is the tolerance.
+    n = w.n
+    assert np.all(np.abs(cal.gyro_bias - GYRO_BIAS) < 4 * SIG_G / math.sqrt(n))
+    assert np.all(np.abs(cal.accel_bias - ACCEL_BIAS) < 4 * SIG_A / math.sqrt(n))
+
+
+def test_motion_at_1_2_s_is_found_and_window_ends_before_it():
+    rng = np.random.default_rng(12)
+    rec, onset = synthetic(rng, rest_s=1.2)
+    w = detect_rest(rec)
+    t_on = rec.time[onset]
+    assert w.method == "detected" and "motion starts" in w.note
+    assert w.end_s < t_on                               # the window never contains motion
+    assert t_on - w.end_s <= 0.05 + 4 * 0.0125          # guard_s plus at most 4 samples
+    assert abs(w.motion_s - t_on) <= 3 * 0.0125         # onset within 3 samples
+    cal = calibrate(rec, "GC", window=w)
+    assert np.all(np.abs(cal.gyro_bias - GYRO_BIAS) < 4 * SIG_G / math.sqrt(w.n))
+
+
+def test_short_rest_is_used_and_said():
+    rng = np.random.default_rng(13)
+    rec, onset = synthetic(rng, rest_s=0.5)
+    w = detect_rest(rec)
+    assert w.method == "short" and "min_window_s" in w.note
+    assert w.end_s < rec.time[onset]
+
+
+def test_initial_tap_is_skipped():
+    rng = np.random.default_rng(14)
+    rec, onset = synthetic(rng, rest_s=4.5, tap=(0.2, 0.7))
+    w = detect_rest(rec)
+    tau0 = w.start_s - rec.time[0]
+    assert 0.7 <= tau0 <= 0.7 + 0.125 + 0.05 + 0.0125   # after the tap: half a window plus guard plus a step
+    assert w.i0 > 0 and "disturbance" in w.note
+    assert abs(w.motion_s - rec.time[onset]) <= 3 * 0.0125
+    cal = calibrate(rec, "GC", window=w)
+    assert np.all(np.abs(cal.gyro_bias - GYRO_BIAS) < 4 * SIG_G / math.sqrt(w.n))
+
+
+def test_motion_from_first_sample_raises_naming_file():
+    rng = np.random.default_rng(15)
+    rec, _ = synthetic(rng, rest_s=0.0)
+    with pytest.raises(MorpiError, match="synthetic.csv: no initial rest"):
+        detect_rest(rec)
+    with pytest.raises(MorpiError, match="synthetic.csv"):
+        calibrate(rec, "GC")
+
+
+def test_rd_changes_nothing_and_gac_levels_the_rest():
+    rng = np.random.default_rng(16)
+    rec, _ = synthetic(rng)
+    rd = calibrate(rec, "RD")
+    out = rd.apply(rec)
+    assert rd.window is None
+    np.testing.assert_array_equal(out.f, rec.f)
+    np.testing.assert_array_equal(out.omega, rec.omega)
+    np.testing.assert_array_equal(out.time, rec.time)
+    gac = calibrate(rec, "GAC")
+    fixed = gac.apply(rec)
+    sl = slice(gac.window.i0, gac.window.i1)
+    # Exact by construction up to float rounding of a mean of ~300 values near 9.8 (1e-12 m/s^2).
+    np.testing.assert_allclose(fixed.f[sl].mean(axis=0), [0.0, 0.0, LOCAL_GRAVITY], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(fixed.omega[sl].mean(axis=0), 0.0, rtol=0, atol=1e-15)
+    gc = calibrate(rec, "GC")
+    np.testing.assert_array_equal(gc.accel_bias, 0.0)
+    np.testing.assert_array_equal(gc.apply(rec).f, rec.f)
+    assert isinstance(gac, Calibration) and rec.f is not fixed.f    # input untouched
+
+
+def test_custom_gravity():
+    rng = np.random.default_rng(17)
+    rec, _ = synthetic(rng, g=9.81)
+    gac = calibrate(rec, "GAC", g_local=9.81)
+    np.testing.assert_allclose(gac.apply(rec).f[gac.window.i0:gac.window.i1].mean(axis=0),
+                               [0, 0, 9.81], rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("kwargs, match", [(dict(mode="XYZ"), "mode='XYZ'"),
+                                           (dict(mode="GAC", g_local=-1.0), "g_local")])
+def test_bad_parameters(kwargs, match):
+    rng = np.random.default_rng(18)
+    rec, _ = synthetic(rng)
+    with pytest.raises(MorpiError, match=match):
+        calibrate(rec, **kwargs)
+    with pytest.raises(MorpiError, match="min_window_s"):
+        detect_rest(rec, min_window_s=5.0, max_window_s=3.0)
+
+
+def test_normal_gravity_reference_values():
+    # NIMA TR8350.2 Table 3.4: gamma_e = 9.7803253359, gamma_p = 9.8321849378 m/s^2.
+    assert normal_gravity(0.0) == pytest.approx(9.7803253359, abs=1e-10)
+    assert normal_gravity(90.0) == pytest.approx(9.8321849378, abs=1e-9)
+    # Free-air gradient about -3.086e-6 s^-2 at mid latitudes (first-order term of eq. 4-3).
+    dg = normal_gravity(32.8, 100.0) - normal_gravity(32.8)
+    assert dg == pytest.approx(-3.086e-4, rel=0.01)
+    assert 9.795 < LOCAL_GRAVITY < 9.796
+    with pytest.raises(MorpiError, match="latitude"):
+        normal_gravity(91.0)
+
+
+def test_summary_counts_and_shift():
+    rng = np.random.default_rng(19)
+    still, _ = synthetic(rng)
+    early, _ = synthetic(rng, rest_s=1.2)
+    moving, _ = synthetic(rng, rest_s=0.0)
+    summary = rest_windows_summary([still, early, moving])
+    assert (summary.n_total, summary.n_moving_early, summary.n_disturbed) == (3, 2, 0)
+    a, b, c = summary.rows
+    assert a.method == "full" and a.motion_s == pytest.approx(3.5, abs=3 * 0.0125)
+    # Same samples averaged twice (up to the last ~half sample): floating rounding only.
+    assert a.gyro_shift < 1e-3 * SIG_G
+    # With motion from 1.2 s the first 3 s average in the yaw-rate sine (0.6 rad/s amplitude, 0.05 offset):
+    # the shift is of the order of 0.1 rad/s, far above the 4 sigma/sqrt(N) noise bound.
+    assert b.gyro_shift > 0.01
+    assert c.method == "none" and "no initial rest" in c.error
+    js = summary.to_json()
+    assert js["n_total"] == 3 and js["rows"][1]["method"] == "detected"
+    assert summary.markdown().count("\n") == 5
+
+
+@pytest.mark.field
+def test_field_every_recording_gets_a_window(field_root):
+    recs = load_catalogue(field_root)
+    assert len(recs) == 143
+    summary = rest_windows_summary(recs)
+    errors = [r.error for r in summary.rows if r.error]
+    assert errors == []
+    for rec, row in zip(recs, summary.rows):
+        w = detect_rest(rec)
+        assert w.duration_s <= 3.0 + 1e-9 and w.n >= 10
+        # Rest is rest: over the window the gyro scatter stays far below the robot's motion
+        # (windowed gyro standard deviations during the drives are >= 0.03 rad/s).
+        assert rec.omega[w.i0:w.i1].std(axis=0).max() < 0.01, rec.name
+        if w.motion_s is not None:
+            assert w.end_s < w.motion_s
+    worst = max(summary.rows, key=lambda r: r.gyro_shift)
+    print(f"\n{summary.n_moving_early} of {summary.n_total} recordings move within their first 3 s; "
+          f"{summary.n_disturbed} start with a brief disturbance; largest first-3 s gyro bias shift "
+          f"{math.degrees(worst.gyro_shift):.2f} deg/s ({worst.name})")
+    assert summary.markdown().count("\n") == summary.n_total + 2
+
+
+def test_noise_free_recording():
+    # Simulated recordings may carry no noise at all: the exact rest and onset must still come out.
+    n = 1000
+    t = 1.0 + np.cumsum(np.full(n, 0.01))
+    f = np.tile([0.1, 0.2, 9.9], (n, 1))
+    w = np.tile(GYRO_BIAS, (n, 1))
+    w[400:, 2] += 0.3 * np.sin(np.arange(600) * 0.05) + 0.02
+    rec = Recording(time=t, f=f, omega=w, source="clean.csv")
+    win = detect_rest(rec)
+    assert win.method == "full" and win.motion_s == t[400]
+    np.testing.assert_allclose(calibrate(rec, "GC").gyro_bias, GYRO_BIAS, rtol=0, atol=1e-15)
