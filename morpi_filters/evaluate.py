@@ -451,12 +451,9 @@ class FieldData:
 
 
 def _window_end(cal, rec) -> float:
+    """End of the calibration's rest window [s] (first 2 s when there is none)."""
     w = getattr(cal, "window", None)
-    for name in ("end_time", "t_end", "end"):
-        v = getattr(w, name, None)
-        if v is not None:
-            return float(v)
-    return float(rec.time[0] + 2.0)
+    return float(w.end_s) if w is not None else float(rec.time[0] + 2.0)
 
 
 # --------------------------------------------------------------------------- gain training and config search
