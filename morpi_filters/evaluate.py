@@ -379,35 +379,56 @@ class FieldData:
         except ValueError:
             return rec.source
 
+    def rest_window(self, rec):
+        """The initial rest window (calibration.detect_rest), found once per recording."""
+        from .calibration import detect_rest
+
+        key = (rec.source, "rest")
+        if key not in self._cal:
+            self._cal[key] = detect_rest(rec)
+        return self._cal[key]
+
     def calibrated(self, rec, mode: str):
-        """(calibrated Recording, Calibration or None) for RD | GC | GAC."""
+        """(calibrated Recording, Calibration) for RD | GC | GAC."""
         from .calibration import calibrate
 
         key = (rec.source, mode)
         if key not in self._cal:
-            cal = calibrate(rec, mode)
-            self._cal[key] = (cal.apply(rec), cal)
+            if mode == "RD":
+                cal = calibrate(rec, mode)
+                self._cal[key] = (rec, cal)
+            else:
+                cal = calibrate(rec, mode, window=self.rest_window(rec))
+                self._cal[key] = (cal.apply(rec), cal)
         return self._cal[key]
 
     def rest_end(self, rec) -> float:
         """End time of the initial rest window [s]."""
-        _, cal = self.calibrated(rec, "GC")
-        return _window_end(cal, rec)
+        return float(self.rest_window(rec).end_s)
 
     def prepared(self, rec, mode: str, method: str, cutoff_hz):
+        # MoRPI-A's f_y is the same under RD and GC (GC corrects the gyro only), but the heading
+        # is not: the signal part is shared, the heading is the calibration's
         key = (rec.source, mode, method, cutoff_hz)
         if key not in self._prep:
             crec, _ = self.calibrated(rec, mode)
-            motion = self._motion(rec, mode, method)
-            self._prep[key] = st.prepare_signal(crec, method, cutoff_hz, motion=motion)
+            motion = self._motion(rec, method)
+            other = (rec.source, "GC" if mode == "RD" else "RD", method, cutoff_hz)
+            if method == "MoRPI-A" and other in self._prep and mode in ("RD", "GC"):
+                from dataclasses import replace
+
+                self._prep[key] = replace(self._prep[other], heading=st.integrate_heading(crec.time, crec.omega[:, 2]))
+            else:
+                self._prep[key] = st.prepare_signal(crec, method, cutoff_hz, motion=motion)
         return self._prep[key]
 
-    def _motion(self, rec, mode, method):
-        key = (rec.source, mode, method, "motion")
+    def _motion(self, rec, method):
+        # the span is measured from the deviation from the rest mean, so a constant bias does not change it:
+        # one span per recording and method serves RD and GC
+        key = (rec.source, method, "motion")
         if key not in self._prep:
-            crec, _ = self.calibrated(rec, mode)
             attr, col = st.METHODS[method]
-            self._prep[key] = st.motion_span(crec.time, getattr(crec, attr)[:, col], self.rest_end(rec))
+            self._prep[key] = st.motion_span(rec.time, getattr(rec, attr)[:, col], self.rest_end(rec))
         return self._prep[key]
 
     def steps(self, rec, mode, method, config):
@@ -448,12 +469,6 @@ class FieldData:
                 raise MorpiError(f"{rec.source}: no motion found for the INS")
             self._ins[key] = ins3d(t, f, w) if method == "INS-3D" else ins2d(t, f, w)
         return self._ins[key]
-
-
-def _window_end(cal, rec) -> float:
-    """End of the calibration's rest window [s] (first 2 s when there is none)."""
-    w = getattr(cal, "window", None)
-    return float(w.end_s) if w is not None else float(rec.time[0] + 2.0)
 
 
 # --------------------------------------------------------------------------- gain training and config search
@@ -899,9 +914,8 @@ def _figures(res: TablesResult, out: Path) -> list[str]:
         if not recs:
             continue
         r = recs[0]
-        _, cal = data.calibrated(r, "GC")
-        w = getattr(cal, "window", None)
-        rest = (float(r.time[0]), data.rest_end(r)) if w is not None else None
+        w = data.rest_window(r)
+        rest = (float(w.start_s), float(w.end_s))
         peaks = None
         if method:
             try:

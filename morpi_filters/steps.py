@@ -46,6 +46,7 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import lru_cache
 
 import numpy as np
 from scipy import signal as _sig
@@ -236,9 +237,21 @@ def resample_uniform(time, values, rate_hz: float = GRID_HZ):
     return grid, np.column_stack([np.interp(grid, time, values[:, j]) for j in range(values.shape[1])])
 
 
+@lru_cache(maxsize=64)
+def _butter(order: int, cutoff_hz: float, rate_hz: float):
+    return _sig.butter(order, cutoff_hz, btype="low", fs=rate_hz, output="sos")
+
+
+def _median(x) -> float:
+    """Median of a small 1-D array (np.median's overhead dominates at this size)."""
+    x = np.sort(np.asarray(x, dtype=float))
+    n = x.shape[0]
+    return float(x[n // 2]) if n % 2 else float(0.5 * (x[n // 2 - 1] + x[n // 2]))
+
+
 def lowpass(x, cutoff_hz: float, rate_hz: float = GRID_HZ, order: int = 2):
     """Zero-phase Butterworth low-pass of a uniformly sampled signal (axis 0)."""
-    sos = _sig.butter(order, cutoff_hz, btype="low", fs=rate_hz, output="sos")
+    sos = _butter(int(order), float(cutoff_hz), float(rate_hz))
     if x.shape[0] <= 3 * (2 * sos.shape[0] + 1):
         return np.asarray(x, dtype=float)
     return _sig.sosfiltfilt(sos, x, axis=0)
@@ -522,8 +535,8 @@ def extract_steps(rec, method: str, config: StepConfig = StepConfig(), *, rest_e
     st, et = grid[bounds[:-1]], grid[bounds[1:]]
     frac = np.ones_like(weight)
     if config.ends != "drop":
-        per = float(np.median(et - st))
-        wmed = float(np.median(weight))
+        per = _median(et - st)
+        wmed = _median(weight)
         parts = []
         for f in ((grid[bounds[0]] - m0) / per, (m1 - grid[bounds[-1]]) / per):
             f = min(max(f, 0.0), 1.0)
@@ -539,9 +552,10 @@ def extract_steps(rec, method: str, config: StepConfig = StepConfig(), *, rest_e
     if bi.size >= 2:
         swing = np.degrees(np.maximum.reduceat(psi, bi[:-1])[:bi.size - 1]
                            - np.minimum.reduceat(psi, bi[:-1])[:bi.size - 1])
-        if np.median(swing) < config.min_swing_deg:
+        med = _median(swing)
+        if med < config.min_swing_deg:
             raise MorpiError(f"{p.source}: no periodic motion found in the {method} signal (median heading "
-                             f"swing {np.median(swing):.1f} deg per period, expected at least "
+                             f"swing {med:.1f} deg per period, expected at least "
                              f"{config.min_swing_deg:g} deg for a sine path)")
     psi_s, psi_e = np.interp(st, t, psi), np.interp(et, t, psi)
     if config.heading == "absolute":
