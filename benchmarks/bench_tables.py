@@ -5,8 +5,8 @@ Both are measured in this one run, on the field dataset (``--data DIR`` or
 
 - parse: :func:`morpi_filters.dataset.load_csv` on every recording of the catalogue;
 - tables: everything `morpi tables` computes, from the CSV files to result.json and
-  the README (:func:`evaluate.evaluate_tables` plus the report's alternatives, i.e.
-  :func:`evaluate.result_json`), without rendering the figures (reported separately);
+  the README text (:func:`evaluate.evaluate_tables`, the report's alternatives in
+  :func:`evaluate.result_json`, the page), without rendering the figures (reported separately);
 - figures: the section's PNG figures, for information.
 
 Target: tables / parse <= 5. Each timing is the best of ``--repeat`` runs.
@@ -40,8 +40,13 @@ def parse_all(root):
 
 
 def tables(root):
+    from morpi_filters.reporting import fmt, md_table
+
+    src = DataSource(root)
     res = ev.evaluate_tables(root)
-    return res, ev.result_json(res, DataSource(root))
+    payload = ev.result_json(res, src)
+    ev._page(res, payload, src, [], fmt, md_table)
+    return res, payload
 
 
 def best_of(fn, repeat):

@@ -477,7 +477,7 @@ def activity_span(time, omega, *, window_s: float = 0.5, factor: float = 10.0, f
 
 
 def extract_steps(rec, method: str, config: StepConfig = StepConfig(), *, rest_end_time: float | None = None,
-                  heading=None, prepared: PreparedSignal | None = None) -> Steps:
+                  heading=None, prepared: PreparedSignal | None = None, peak_cache: dict | None = None) -> Steps:
     """Find the steps of one run.
 
     Parameters
@@ -494,6 +494,11 @@ def extract_steps(rec, method: str, config: StepConfig = StepConfig(), *, rest_e
     prepared : PreparedSignal, optional
         Output of :func:`prepare_signal` with ``config.cutoff_hz`` (saves the
         resampling and filtering when many configs are tried).
+    peak_cache : dict, optional
+        Reuses the peaks found for the same recording, method, cut-off,
+        prominence, least period and segment rule. The peaks do not depend on
+        a constant offset of the signal (the threshold is relative to its
+        range), so one entry serves the raw and the gyro-calibrated signal.
 
     Raises
     ------
@@ -516,14 +521,20 @@ def extract_steps(rec, method: str, config: StepConfig = StepConfig(), *, rest_e
     if not hi - lo > 0:
         raise MorpiError(f"{p.source}: no periodic motion found in the {method} signal (flat signal)")
     prom = config.prominence * (hi - lo)
-    dist = max(1, int(round(config.min_period_s * GRID_HZ)))
-    seg = g[i0:i1]
-    imax = _sig.find_peaks(seg, distance=dist, prominence=prom)[0] + i0
-    if config.segment == "extrema":
-        imin = _sig.find_peaks(-seg, distance=dist, prominence=prom)[0] + i0
-        bounds = np.sort(np.concatenate([imax, imin]))
+    pkey = (p.source, method, config.cutoff_hz, config.prominence, config.min_period_s, config.segment)
+    if peak_cache is not None and pkey in peak_cache:
+        imax, bounds = peak_cache[pkey]
     else:
-        bounds = imax
+        dist = max(1, int(round(config.min_period_s * GRID_HZ)))
+        seg = g[i0:i1]
+        imax = _sig.find_peaks(seg, distance=dist, prominence=prom)[0] + i0
+        if config.segment == "extrema":
+            imin = _sig.find_peaks(-seg, distance=dist, prominence=prom)[0] + i0
+            bounds = np.sort(np.concatenate([imax, imin]))
+        else:
+            bounds = imax
+        if peak_cache is not None:
+            peak_cache[pkey] = (imax, bounds)
     if bounds.size < 2:
         raise MorpiError(f"{p.source}: no periodic motion found in the {method} signal "
                          f"({bounds.size} peak(s) between {m0 - t[0]:.1f} s and {m1 - t[0]:.1f} s)")
