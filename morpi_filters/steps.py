@@ -56,7 +56,8 @@ from .errors import MorpiError
 __all__ = [
     "GRID_HZ", "HEADINGS", "SEGMENTS", "ENDS", "METHODS", "StepConfig", "Peaks", "Steps", "MorpiTrack",
     "resample_uniform", "lowpass", "detect_peaks", "weinberg_length", "integrate_heading",
-    "motion_span", "activity_span", "PreparedSignal", "prepare_signal", "extract_steps", "train_gain", "dead_reckon", "morpi_track",
+    "motion_span", "activity_span", "PreparedSignal", "prepare_signal", "extract_steps", "train_gain",
+    "dead_reckon", "morpi_track",
 ]
 
 #: Rate of the uniform grid peak detection works on [Hz].
