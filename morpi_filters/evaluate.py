@@ -858,6 +858,21 @@ def _heading_stats(c: Cell, res: TablesResult) -> tuple[float, float]:
     return float(np.mean(drift)), float(np.mean(final))
 
 
+def _closest_reading(readings) -> dict:
+    """Per method: (the GC reading closest to the paper, its mean |deviation|, the selected rule's) [pp]."""
+    out = {}
+    for m in _MORPI_METHODS:
+        rows = [r for r in readings if r["method"] == m and r["calibration"] == "GC"
+                and all(x["ours_percent"] is not None for x in r["cells"])]
+        if not rows:
+            continue
+        dev = [float(np.mean([abs(x["ours_percent"] - x["paper_percent"]) for x in r["cells"]])) for r in rows]
+        i = int(np.argmin(dev))
+        sel = [d for r, d in zip(rows, dev) if r["selected"]]
+        out[m] = (rows[i], dev[i], sel[0] if sel else float("nan"))
+    return out
+
+
 def _explain(c: Cell, res: TablesResult) -> str:
     s = c.spec
     side = "above" if c.deviation_pp > 0 else "below"
@@ -1090,6 +1105,11 @@ def _page(res, payload, source, figures, fmt, md_table) -> str:
         rows.append([r["method"], r["calibration"], r["heading"] + mark, r["segment"], r["ends"]]
                     + [f"{fmt(x['ours_percent'])} (paper {fmt(x['paper_percent'])})" for x in r["cells"]])
     L += [md_table(heads, rows)]
+    closest = _closest_reading(payload["readings"])
+    if closest:
+        L += ["Mean |ours - paper| over the three GC cells of each method: "
+              + "; ".join(f"{m}: closest to the paper `{r['heading']}/{r['segment']}/{r['ends']}` "
+                          f"({fmt(d)} pp), selected rule {fmt(sd)} pp" for m, (r, d, sd) in closest.items()) + ".", ""]
     L += ["`change` cannot follow a turn (the L route ends 10 m sideways), so it is not a candidate of the search.", ""]
     L += ["## INS integration span", "", "The INS cells integrated over the robot's motion (default) and over the "
           "whole recording (rests included).", ""]

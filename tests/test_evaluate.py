@@ -192,3 +192,36 @@ def test_field_tables_end_to_end(field_root, tmp_path):
         if abs(c["ours_percent"] - c["paper_percent"]) > ev.DEVIATION_PP:
             p2p = f" {c['p2p_m']:g} m" if c["p2p_m"] is not None else ""
             assert f"**{c['table']} {c['phone']}{p2p} {c['method']} {c['calibration']}**" in page
+
+
+def test_a_recording_without_periodic_motion_is_reported_not_fatal(field_root, tmp_path):
+    # a straight-line run placed in a periodic test folder: its cell lists it as failed, naming the
+    # file, and the other runs are still evaluated
+    root = tmp_path / "mixed"
+    _link_folder(field_root / "s6/short_distance/train", root / "s6/short_distance/train")
+    test = root / "s6/short_distance/test"
+    test.mkdir(parents=True)
+    (test / "1.csv").symlink_to(field_root / "s8/line_dataset/1.csv")
+    (test / "2.csv").symlink_to(field_root / "s6/short_distance/test/16.csv")
+    res = ev.evaluate_tables(root, alternatives=False)
+    for m in ("MoRPI-A", "MoRPI-G"):
+        c = res.cell("short_route", "s6", 1.0, m, "GC")
+        assert [r.file for r in c.runs] == ["s6/short_distance/test/2.csv"]
+        assert len(c.failed) == 1 and "1.csv: no periodic motion" in c.failed[0]
+
+
+def test_cli_tables_writes_the_section_and_json(field_root, tmp_path):
+    from morpi_filters import cli
+
+    root = tmp_path / "partial"
+    _link_folder(field_root / "s8/short_distance/train", root / "s8/short_distance/train")
+    _link_folder(field_root / "s8/short_distance/test", root / "s8/short_distance/test")
+    out, js = tmp_path / "reports" / "tables", tmp_path / "tables.json"
+    assert cli.main(["tables", "--data", str(root), "--out", str(out), "--json", str(js)]) == 0
+    payload = json.loads(js.read_text())
+    done = [c for c in payload["cells"] if c["n_runs"]]
+    assert {(c["table"], c["phone"], c["p2p_m"]) for c in done} == {("short_route", "s8", 1.0)}
+    assert len(done) == 4 and (out / "README.md").is_file()
+    # no dataset at all: one line on stderr, exit code 2, nothing written
+    assert cli.main(["tables", "--data", str(tmp_path / "nowhere"), "--out", str(tmp_path / "x")]) == 2
+    assert not (tmp_path / "x").exists()
