@@ -73,6 +73,10 @@ METHODS = {"MoRPI-A": ("f", 1), "MoRPI-G": ("omega", 2)}
 class StepConfig:
     """Every tunable of the step pipeline.
 
+    The defaults are the rule :func:`morpi_filters.evaluate.select_config`
+    picks from the train runs of the MoRPI field dataset (one rule for both
+    methods); a test keeps them in step with the search.
+
     Attributes
     ----------
     heading, segment, ends : str
@@ -96,12 +100,12 @@ class StepConfig:
         less, hence 15 deg.
     """
 
-    heading: str = "absolute"
-    segment: str = "maxima"
+    heading: str = "mean"
+    segment: str = "extrema"
     ends: str = "fraction"
-    min_period_s: float = 1.0
-    prominence: float = 0.3
-    cutoff_hz: float | None = 2.0
+    min_period_s: float = 0.5
+    prominence: float = 0.35
+    cutoff_hz: float | None = 3.0
     amplitude_from: str = "raw"
     min_swing_deg: float = 15.0
 

@@ -135,6 +135,9 @@ def test_gains_and_step_rule_do_not_see_the_test_folders(field_root, tmp_path):
     part = ev.evaluate_tables(root, alternatives=False)
     assert {m: s.config for m, s in part.selections.items()} == {m: s.config for m, s in full.selections.items()}
     assert [s.score for s in part.selections.values()] == [s.score for s in full.selections.values()]
+    # the library's default step rule is the one the search picks on the field train runs
+    from morpi_filters.steps import StepConfig
+    assert all(s.config == StepConfig() for s in full.selections.values())
     assert [(g.phone, g.route, g.method, g.calibration, g.mean, g.std) for g in part.gains] == \
            [(g.phone, g.route, g.method, g.calibration, g.mean, g.std) for g in full.gains]
     # test folders are reported missing, their cells are empty with a reason, nothing crashes
