@@ -255,6 +255,8 @@ class Gain:
         Over the training runs [m / unit^(1/4)] (unit: m/s^2 for MoRPI-A, rad/s for MoRPI-G).
     per_run : tuple of float
     files : tuple of str
+    skipped : tuple of str
+        One line per training file left out (unreadable, or no periodic motion).
     """
 
     phone: str
@@ -265,6 +267,7 @@ class Gain:
     std: float
     per_run: tuple
     files: tuple
+    skipped: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -367,12 +370,24 @@ class FieldData:
         return {(e.phone, e.route, e.split) for e in self._entries}
 
     def recordings(self, phone, route, split) -> list:
+        """The recordings of a folder that load cleanly (see :meth:`load_errors` for the others)."""
         out = []
         for e in self.entries(phone, route, split):
             if e.relpath not in self._rec:
-                self._rec[e.relpath] = e.load()
-            out.append(self._rec[e.relpath])
+                try:
+                    self._rec[e.relpath] = e.load()
+                except MorpiError as exc:
+                    self._rec[e.relpath] = exc
+            r = self._rec[e.relpath]
+            if not isinstance(r, MorpiError):
+                out.append(r)
         return out
+
+    def load_errors(self, phone, route, split) -> list[str]:
+        """One line per file of the folder that could not be loaded."""
+        self.recordings(phone, route, split)
+        return [str(self._rec[e.relpath]) for e in self.entries(phone, route, split)
+                if isinstance(self._rec[e.relpath], MorpiError)]
 
     def relpath(self, rec) -> str:
         """The recording's path relative to the root (its source when outside)."""
@@ -484,17 +499,17 @@ def _train(data: FieldData, phone, route, mode, method, config) -> Gain | None:
     if not recs:
         return None
     truth = ds.route(route)
-    steps_list, files = [], []
+    steps_list, files, skipped = [], [], list(data.load_errors(phone, route, "train"))
     for r in recs:
         try:
             steps_list.append(data.steps(r, mode, method, config))
             files.append(data.relpath(r))
-        except MorpiError:
-            continue
+        except MorpiError as exc:
+            skipped.append(str(exc))
     if not steps_list:
         return None
     mean, std, per = st.train_gain(steps_list, truth.distance_m)
-    return Gain(phone, route, method, mode, mean, std, tuple(float(g) for g in per), tuple(files))
+    return Gain(phone, route, method, mode, mean, std, tuple(float(g) for g in per), tuple(files), tuple(skipped))
 
 
 #: Coordinate search: first the readings (with the first tunables), then the tunables.
@@ -589,10 +604,11 @@ def _run_result(rel, end, truth, distance, n_steps=None) -> RunResult:
 
 def _ins_cell(data: FieldData, spec: CellSpec) -> Cell:
     recs = data.recordings(spec.phone, spec.route, spec.split)
+    bad = data.load_errors(spec.phone, spec.route, spec.split)
     if not recs:
-        return Cell(spec, (), missing=f"{spec.phone}/{spec.route}: no recordings")
+        return Cell(spec, (), failed=tuple(bad), missing=f"{spec.phone}/{spec.route}: no recordings")
     truth = ds.route(spec.route)
-    runs, failed = [], []
+    runs, failed = [], list(bad)
     for r in recs:
         try:
             res = data.ins(r, spec.calibration, spec.method)
@@ -610,10 +626,11 @@ def _morpi_cell(data: FieldData, spec: CellSpec, config, gain: Gain | None) -> C
     if gain is None:
         return Cell(spec, (), missing=f"{spec.train[0]}/{spec.train[1]}/train: no training runs for the gain")
     recs = data.recordings(spec.phone, spec.route, spec.split)
+    bad = data.load_errors(spec.phone, spec.route, spec.split)
     if not recs:
-        return Cell(spec, (), gain=gain.mean, missing=f"{folder}: no recordings")
+        return Cell(spec, (), gain=gain.mean, failed=tuple(bad), missing=f"{folder}: no recordings")
     truth = ds.route(spec.route)
-    runs, failed = [], []
+    runs, failed = [], list(bad)
     for r in recs:
         try:
             s = data.steps(r, spec.calibration, spec.method, config)
@@ -831,7 +848,7 @@ def result_json(result: TablesResult, source=None) -> dict:
         "cells": [_cell_json(c) for c in result.cells],
         "gains": [{"train_set": f"{g.phone}/{g.route}/train", "phone": g.phone, "route": g.route,
                    "method": g.method, "calibration": g.calibration, "mean": g.mean, "std": g.std,
-                   "per_run": list(g.per_run), "files": list(g.files),
+                   "per_run": list(g.per_run), "files": list(g.files), "skipped": list(g.skipped),
                    "unit": "m/(m/s^2)^(1/4)" if g.method == "MoRPI-A" else "m/(rad/s)^(1/4)"}
                   for g in result.gains],
         "step_rule": {m: {"config": _config_json(s.config), "train_loo_percent": s.score, "n_train_runs": s.n_train,
@@ -1090,9 +1107,9 @@ def _page(res, payload, source, figures, fmt, md_table) -> str:
     L += [md_table(["method", "paper m", "ours m", "our cell", "improvement pp"], rows)]
     L += ["## Trained gains", "", "Per training set, method and calibration: mean and std over the train runs "
           "(each run's gain makes its summed steps equal the known distance).", ""]
-    L += [md_table(["train set", "method", "cal", "mean", "std", "runs"],
+    L += [md_table(["train set", "method", "cal", "mean", "std", "runs", "left out"],
                    [[g["train_set"], g["method"], g["calibration"], fmt(g["mean"], 4), fmt(g["std"], 4),
-                     len(g["per_run"])] for g in payload["gains"]])]
+                     len(g["per_run"]), "; ".join(g["skipped"])] for g in payload["gains"]])]
     L += ["## The paper's open readings (short route)", "",
           "Each reading of Δψ (heading), step boundaries and partial end steps, other tunables as selected; "
           "mean end-point error [%] of the test runs (paper's value in the header).", ""]

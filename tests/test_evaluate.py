@@ -228,3 +228,22 @@ def test_cli_tables_writes_the_section_and_json(field_root, tmp_path):
     # no dataset at all: one line on stderr, exit code 2, nothing written
     assert cli.main(["tables", "--data", str(tmp_path / "nowhere"), "--out", str(tmp_path / "x")]) == 2
     assert not (tmp_path / "x").exists()
+
+
+def test_unreadable_files_are_listed_not_fatal(field_root, tmp_path):
+    root = tmp_path / "broken"
+    _link_folder(field_root / "s6/short_distance/train", root / "s6/short_distance/train")
+    (root / "s6/short_distance/train/99.csv").write_text("time,f_x\n1,2\n")
+    test = root / "s6/short_distance/test"
+    test.mkdir(parents=True)
+    (test / "16.csv").symlink_to(field_root / "s6/short_distance/test/16.csv")
+    (test / "17.csv").write_text("not a recording\n")
+    out = tmp_path / "out"
+    ev.report_tables(out, DataSource(root))
+    payload = json.loads((out / "result.json").read_text())
+    cell = next(c for c in payload["cells"] if (c["table"], c["phone"], c["method"], c["calibration"])
+                == ("short_route", "s6", "MoRPI-G", "GC"))
+    assert cell["n_runs"] == 1 and len(cell["failed"]) == 1 and "17.csv" in cell["failed"][0]
+    gain = next(g for g in payload["gains"] if g["method"] == "MoRPI-G" and g["calibration"] == "GC")
+    assert len(gain["per_run"]) == 15 and any("99.csv" in s for s in gain["skipped"])
+    assert "17.csv" in (out / "README.md").read_text()
