@@ -24,9 +24,21 @@ Tunables
     :mod:`morpi_filters.steps`) is chosen by :func:`select_config` from the
     short-route ``train`` runs only: a coordinate search scored by the
     leave-one-out end-point error on the train runs (each held-out run is
-    dead-reckoned with the gain of the other runs of its set). Nothing of a
-    ``test`` folder enters the choice, so the result is the same with the test
-    folders absent.
+    dead-reckoned with the gain of the other runs of its set). By default one
+    rule serves both methods (``rule="joint"``; ``"per_method"`` is reported
+    beside it). Nothing of a ``test`` folder enters the choice, so the result
+    is the same with the test folders absent.
+
+INS cells
+    3D (:func:`morpi_filters.strapdown.ins3d`, level start) and 2D
+    (:func:`~morpi_filters.strapdown.ins2d`) INS on the RD or GAC recording,
+    integrated over the robot's motion (:func:`morpi_filters.steps.activity_span`;
+    the whole recording is reported beside it).
+
+Caching
+    :class:`FieldData` computes each per-recording quantity once (the file,
+    the rest window, calibrations, resampled and filtered step signals, peaks,
+    INS runs) and every cell, the gain training and the rule search share it.
 
 Errors
     ``ours_percent`` is the mean end-point error over the test runs, in % of
