@@ -439,14 +439,15 @@ class FieldData:
         return float(self.rest_window(rec).end_s)
 
     def prepared(self, rec, mode: str, method: str, cutoff_hz):
-        # MoRPI-A's f_y is the same under RD and GC (GC corrects the gyro only), but the heading
-        # is not: the signal part is shared, the heading is the calibration's
+        # RD and GC differ by a constant on omega_z and not at all on f_y. A constant offset changes
+        # neither the peaks, the prominence threshold (relative to the signal's range) nor any
+        # max - min, so the signal part is shared between RD and GC; the heading is the calibration's
         key = (rec.source, mode, method, cutoff_hz)
         if key not in self._prep:
             crec, _ = self.calibrated(rec, mode)
             motion = self._motion(rec, method)
             other = (rec.source, "GC" if mode == "RD" else "RD", method, cutoff_hz)
-            if method == "MoRPI-A" and other in self._prep and mode in ("RD", "GC"):
+            if other in self._prep and mode in ("RD", "GC"):
                 from dataclasses import replace
 
                 self._prep[key] = replace(self._prep[other], heading=st.integrate_heading(crec.time, crec.omega[:, 2]))
