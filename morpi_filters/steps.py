@@ -473,12 +473,13 @@ def activity_span(time, omega, *, window_s: float = 0.5, factor: float = 10.0, f
     on = np.flatnonzero(sd > thr)
     if on.size == 0:
         return float(time[0]), float(time[-1])
-    # window j covers grid samples [j, j + k); split where the gap exceeds the pause
+    # window j covers grid samples [j, j + k): the first active window ends at the onset and the
+    # last one starts at the end of the motion; split where the gap exceeds the pause
     breaks = np.flatnonzero(np.diff(on) > k + min_pause_s * GRID_HZ)
-    starts = np.r_[on[0], on[breaks + 1]]
-    ends = np.r_[on[breaks], on[-1]] + k - 1
+    starts = np.r_[on[0], on[breaks + 1]] + k - 1
+    ends = np.r_[on[breaks], on[-1]]
     j = int(np.argmax(ends - starts))
-    return float(grid[starts[j]]), float(grid[min(ends[j], grid.shape[0] - 1)])
+    return float(grid[min(starts[j], grid.shape[0] - 1)]), float(grid[max(ends[j], starts[j])])
 
 
 def extract_steps(rec, method: str, config: StepConfig = StepConfig(), *, rest_end_time: float | None = None,
