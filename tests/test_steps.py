@@ -216,3 +216,18 @@ def test_bad_method_and_training():
         st.train_gain([], 6.3)
     with pytest.raises(MorpiError, match="strictly increasing"):
         st.detect_peaks([1.0, 2.0, 1.0], [0.0, 0.0, 1.0], min_period_s=1.0)
+
+
+def test_activity_span_finds_the_motion_and_ignores_a_later_tap():
+    rng = np.random.default_rng(8)
+    t = _jittered_time(16.0, 90.0, rng, t0=0.0)
+    w = 0.001 * rng.standard_normal((t.size, 3))
+    moving = (t >= 3.0) & (t < 8.0)
+    w[moving] += 0.1 * rng.standard_normal((moving.sum(), 3))
+    tap = (t >= 13.0) & (t < 13.2)  # the phone handled after the robot stopped
+    w[tap] += 0.5 * rng.standard_normal((tap.sum(), 3))
+    a, b = st.activity_span(t, w)
+    # the span is read on the 100 Hz grid from 0.5 s windows: within two grid steps plus one
+    # sample interval (0.02 + 0.016 s) of the true onset and end
+    assert a == pytest.approx(3.0, abs=0.04)
+    assert b == pytest.approx(8.0, abs=0.04)
