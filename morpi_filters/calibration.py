@@ -52,7 +52,7 @@ closed formula [2]_, computed by :func:`normal_gravity`.
 
 References
 ----------
-.. [1] D. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
+.. [1] A. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
    IEEE Journal of Indoor and Seamless Positioning and Navigation, 2023
    (sections "Straight Line Trajectory" and "Periodic Motion").
 .. [2] National Imagery and Mapping Agency, "Department of Defense World

@@ -25,7 +25,7 @@ their names), read with :mod:`zipfile` and :mod:`tarfile`; HTTP goes through
 
 References
 ----------
-.. [1] D. Etzion and I. Klein, MoRPI dataset, https://github.com/ansfl/MoRPI
+.. [1] A. Etzion and I. Klein, MoRPI dataset, https://github.com/ansfl/MoRPI
    (folder ``data/``).
 """
 from __future__ import annotations

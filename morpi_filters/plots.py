@@ -10,7 +10,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-__all__ = ["pyplot", "save", "plot_recording", "plot_tracks", "plot_path_sets", "assessment_figure"]
+__all__ = ["pyplot", "save", "plot_recording", "plot_tracks", "plot_path_sets", "assessment_figure",
+           "simulation_run"]
 
 
 def pyplot():
@@ -201,3 +202,77 @@ def assessment_figure(curves, path, title: str = "Analytical assessment of 3D & 
 
 # ============================================================================ montecarlo and drift
 # Gain-error distributions and the closed-form vs strapdown drift map.
+
+
+# ============================================================================ simulation
+# One simulated run: the true path against the INS, the periodic motion in f_y and omega_z,
+# and the INS position error over time.
+
+def simulation_run(truth, imu_data, solutions, path, *, title=None) -> Path:
+    """Figure of one simulated run and its strapdown solutions.
+
+    Parameters
+    ----------
+    truth : simulate.Trajectory
+        The true motion sampled at the IMU times (``imu_data.truth``).
+    imu_data : simulate.ImuData
+        The synthesized readings of one run (unbatched).
+    solutions : dict of str -> strapdown.InsResult
+        INS solutions to draw, by label (e.g. ``"3D INS, noise-free"``).
+    path : str or Path
+        PNG file to write.
+    title : str, optional
+        Figure title.
+
+    Returns
+    -------
+    Path
+    """
+    import numpy as np
+
+    plt = pyplot()
+    fig, ax = plt.subplots(2, 2, figsize=(11, 7.5))
+    t = imu_data.time - imu_data.time[0]
+    a = ax[0, 0]
+    a.plot(truth.position[:, 0], truth.position[:, 1], "k", lw=2, label="true path")
+    for label, r in solutions.items():
+        a.plot(r.position[:, 0], r.position[:, 1], lw=1, label=label)
+    a.set_xlabel("x [m]")
+    a.set_ylabel("y [m]")
+    a.set_title("path (navigation frame; drifting solutions leave the frame)")
+    lo, hi = truth.position[:, :2].min(axis=0), truth.position[:, :2].max(axis=0)
+    pad = 0.1 * max(hi - lo) + 0.2
+    a.set_xlim(lo[0] - pad, hi[0] + pad)
+    a.set_ylim(lo[1] - pad, hi[1] + pad)
+    a.legend(fontsize=8)
+    a = ax[0, 1]
+    a.plot(t, imu_data.f[:, 1], lw=0.6, color="C0", label="f_y measured")
+    a.plot(t, truth.f_b[:, 1], lw=1.2, color="k", label="f_y true")
+    a.set_ylabel("f_y [m/s^2]")
+    a.set_xlabel("t [s]")
+    a.set_title("lateral specific force")
+    for tp in truth.peak_times:
+        a.axvline(tp - imu_data.time[0], color="0.8", lw=0.6, zorder=0)
+    a.legend(fontsize=8)
+    a = ax[1, 1]
+    a.plot(t, imu_data.omega[:, 2], lw=0.6, color="C1", label="omega_z measured")
+    a.plot(t, truth.omega_b[:, 2], lw=1.2, color="k", label="omega_z true")
+    for tp in truth.peak_times:
+        a.axvline(tp - imu_data.time[0], color="0.8", lw=0.6, zorder=0)
+    a.set_ylabel("omega_z [rad/s]")
+    a.set_xlabel("t [s]")
+    a.set_title("z angular rate (grey: lateral peaks)")
+    a.legend(fontsize=8)
+    a = ax[1, 0]
+    for label, r in solutions.items():
+        err = np.linalg.norm(r.position[:, :2] - truth.position[:, :2], axis=1)
+        a.semilogy(t, np.maximum(err, 1e-9), lw=1, label=label)
+    a.set_xlabel("t [s]")
+    a.set_ylabel("horizontal position error [m]")
+    a.set_title("INS error")
+    a.grid(True, which="both", alpha=0.3)
+    a.legend(fontsize=8)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return save(fig, path)

@@ -33,18 +33,31 @@ IMU synthesis
     :func:`imu` turns a trajectory into sensor readings from a
     :class:`~morpi_filters.units.SensorSpec`: turn-on bias per run, white
     noise from the noise density and the actual sampling interval
-    (``sigma_k = density / sqrt(dt_k)``), optional bias random walk, scale
-    factor, mounting misalignment and motion vibration, on uniform or
-    S6/S8-like irregular time stamps. Runs are batched on axis 0.
+    (``sigma_k = density / sqrt(dt_k)``), optional bias random walk,
+    Gauss-Markov bias instability, scale factor, mounting misalignment and
+    motion vibration, on uniform or S6/S8-like irregular time stamps. Runs are
+    batched on axis 0; every draw comes from the caller's ``rng`` (one
+    Generator, or one per run so a run's draws do not depend on batching).
 
 Synthetic dataset
     :func:`write_dataset` writes the field dataset's folder layout and CSV
     format with seeded synthetic recordings; :func:`ensure_synthetic_dataset`
-    caches one and verifies it on reuse.
+    caches one and verifies it on reuse. Realism choices (all in
+    :data:`REALISTIC_BIAS_FRACTION` and :data:`DATASET_OPTIONS`): turn-on
+    biases at a fraction of the datasheet 1 sigma (the field rest periods show
+    gyro offsets far below the datasheet's 3 and 6 deg/s), mounting tilt,
+    vibration while moving, bias instability, and run-to-run spread of speed,
+    period length and amplitude (a person drove the robot). Both phones
+    share the trajectory of each long-route run, as in the field.
+
+    Known difference from the field files: the field S6 L-route recordings
+    read about 10 deg nose-down at the start and about 7 deg at the end,
+    while the route's ground truth (15 deg over the first 5 m, level after)
+    gives 15 deg and 0 deg here.
 
 References
 ----------
-.. [1] D. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
+.. [1] A. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
    IEEE Journal of Indoor and Seamless Positioning and Navigation, 2023.
 .. [2] P. D. Groves, "Principles of GNSS, Inertial, and Multisensor Integrated
    Navigation Systems", 2nd ed., Artech House, 2013 (ch. 4: IMU error model).
@@ -74,7 +87,8 @@ __all__ = [
 ]
 
 #: Version of the synthetic-dataset generator; a cached dataset with another version is rebuilt.
-GENERATOR_VERSION = "1"
+#: Bump it whenever the written files change for the same seed.
+GENERATOR_VERSION = "4"
 
 #: Turn-on biases drawn in the synthetic dataset, as a fraction of the datasheet 1 sigma
 #: (accelerometer, gyro). The rest periods of the field recordings show per-axis gyro offsets of
@@ -83,13 +97,29 @@ GENERATOR_VERSION = "1"
 #: than the field runs.
 REALISTIC_BIAS_FRACTION = {"s6": (0.25, 0.1), "s8": (0.25, 0.3)}
 
-#: Other realism settings of the synthetic dataset (see :func:`imu`): 1-sigma mounting
-#: misalignment [rad] (the field rest periods show 1-4 deg of phone tilt), motion vibration
-#: rms (accelerometer [m/s^2], gyro [rad/s]), and run-to-run spread (1 sigma, relative) of the
-#: driven speed, period length and amplitude.
+#: Other realism settings of the synthetic dataset (see :func:`imu`):
+#:
+#: - ``misalignment``: 1-sigma mounting misalignment [rad]; the field rest periods show
+#:   1-4 deg of phone tilt.
+#: - ``vibration``: rms of the motion vibration (accelerometer [m/s^2], gyro [rad/s]).
+#: - ``bias_instability``, ``correlation_time``: Gauss-Markov bias (accelerometer [m/s^2],
+#:   gyro [rad/s]) and its correlation time [s]: the part a rest-period calibration cannot
+#:   remove, so a calibrated INS drifts by decimetres to metres over a straight recording.
+#:   The synthetic calibrated INS still drifts several times less than the paper's INS table
+#:   (real phones on a moving robot have more error sources than this model).
+#: - ``amplitude_factor``: scales the routes' ``amplitude_m``. The field recordings' z-rate
+#:   peaks (median 0.72 rad/s with 1 m periods, 0.99 rad/s with 1.5 m periods, S8) and
+#:   lateral specific-force peaks are 0.4-0.5 of those of a sine with the full amplitude at
+#:   the same pace: the robot's lateral excursion was about half the stated amplitude (as if
+#:   0.1 m were peak to peak).
+#: - ``speed_spread``, ``period_spread``, ``amplitude_spread``: run-to-run spread (1 sigma,
+#:   relative) of the driven speed, period length and amplitude (a person drove the robot).
 DATASET_OPTIONS = {
     "misalignment": 1.5 * units.DEG,
     "vibration": (0.12, 0.02),
+    "bias_instability": (0.03, 0.0015),
+    "correlation_time": 30.0,
+    "amplitude_factor": 0.5,
     "speed_spread": 0.12,
     "period_spread": 0.05,
     "amplitude_spread": 0.12,
@@ -178,8 +208,9 @@ class _Path:
         S3, dS3, _ = _s5(x3)
         kappa = k0 * (S1 - S3)
         dkappa = k0 * (dS1 - dS3) / r
-        th = k0 * (r * _s5_int(x1) + np.clip(s - r, 0.0, c) + np.where(x3 > 0, r * (np.clip(x3, 0, 1) - _s5_int(x3)), 0.0)
-                   )
+        # integral of kappa: ramp in (r/2 when complete), constant part, ramp out (r/2 when complete)
+        ramp_out = np.where(x3 > 0, r * (np.clip(x3, 0, 1) - _s5_int(x3)), 0.0)
+        th = k0 * (r * _s5_int(x1) + np.clip(s - r, 0.0, c) + ramp_out)
         return th, kappa, dkappa
 
     def _gl(self, a, b):
@@ -329,6 +360,9 @@ class Trajectory:
         Times of the lateral extremes of the periodic motion [s] (empty if none).
     peak_side : ndarray, shape (m,)
         +1 for an extreme to the left, -1 to the right.
+    period_times : ndarray, shape (k,)
+        Times the centreline distance passes each multiple of the period
+        (period boundaries, upward zero crossings of the untapered sine) [s].
     """
 
     time: np.ndarray
@@ -350,6 +384,7 @@ class Trajectory:
     amplitude: float | None = None
     peak_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
     peak_side: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    period_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
     _model: tuple = field(default=None, repr=False)
 
     @property
@@ -413,7 +448,7 @@ def _build(kind, path: _Path, *, speed, ramp, rest, rate_hz, t0, g, period=None,
     speed_u = np.linalg.norm(path.geometry(uq)[1], axis=1).reshape(-1, _GL_X.size)
     distance = float(np.sum((speed_u @ _GL_W) * half))
     end_point = path.geometry(np.array([path.length]))[0][0]
-    peak_t, side = np.zeros(0), np.zeros(0)
+    peak_t, side, bounds = np.zeros(0), np.zeros(0), np.zeros(0)
     if path.A:
         uu = np.linspace(0.0, path.length, int(path.length * 400) + 2)
         dy = path.offset(uu)[1]
@@ -426,9 +461,10 @@ def _build(kind, path: _Path, *, speed, ramp, rest, rate_hz, t0, g, period=None,
         up = 0.5 * (lo + hi)
         peak_t = law.inverse(up)
         side = np.sign(path.offset(up)[0])
+        bounds = law.inverse(np.arange(1, int(path.length / period + 1e-9) + 1) * period)
     return Trajectory(**kin, kind=kind, start_time=law.start, stop_time=law.stop, centreline_length=path.length,
                       distance=distance, end_point=end_point, period=period, amplitude=amplitude,
-                      peak_times=peak_t, peak_side=side, _model=(path, law, g))
+                      peak_times=peak_t, peak_side=side, period_times=bounds, _model=(path, law, g))
 
 
 def straight(length: float = 6.3, *, speed: float = _SPEED["straight"], ramp: float = 1.0, rest=3.0,
@@ -624,10 +660,11 @@ def sample_times(t_start: float, t_end: float, rng, *, pattern: str = "uniform",
         Source of the irregular intervals (unused for ``"uniform"``).
     pattern : {"uniform", "s6", "s8"}
         ``"uniform"``: ``1 / rate_hz``. ``"s6"``: the Galaxy S6's irregular
-        stamps: a two-state Markov chain between ~100 Hz (dt 0.0095-0.0115 s)
-        and ~50 Hz (dt 0.018-0.0223 s) with lag-1 correlation 0.35 and a
-        per-run share of slow intervals drawn in 0.1-0.95 (median dt
-        0.011-0.019 s, as in the field files). ``"s8"``: 0.0100 s with
+        stamps: a two-state Markov chain between ~100 Hz (dt uniform in
+        0.0095-0.0115 s) and ~50 Hz (dt 0.0195 +- 0.0009 s, clipped to
+        0.0175-0.0223 s) with lag-1 correlation 0.35 and a per-run share of
+        slow intervals drawn in 0.1-0.75 (median dt 0.011-0.019 s, as in the
+        field files). ``"s8"``: 0.0100 s with
         +-0.1 ms jitter and a rare (0.3 %) longer interval up to 0.019 s.
     rate_hz : float
         Rate of the uniform pattern [Hz].
@@ -642,14 +679,15 @@ def sample_times(t_start: float, t_end: float, rng, *, pattern: str = "uniform",
         return t_start + np.arange(int(math.floor(span * rate_hz + 1e-9)) + 1) / rate_hz
     n_max = int(span / 0.0095) + 2
     if pattern == "s6":
-        q = rng.uniform(0.1, 0.95)
+        q = rng.uniform(0.1, 0.75)
         lam = 0.35
         redraw = rng.random(n_max) < 1.0 - lam
         redraw[0] = True
         fresh = rng.random(n_max) < q
         last = np.maximum.accumulate(np.where(redraw, np.arange(n_max), 0))
         slow = fresh[last]
-        dt = np.where(slow, rng.uniform(0.018, 0.0223, n_max), rng.uniform(0.0095, 0.0115, n_max))
+        slow_dt = np.clip(rng.normal(0.0195, 0.0009, n_max), 0.0175, 0.0223)
+        dt = np.where(slow, slow_dt, rng.uniform(0.0095, 0.0115, n_max))
     elif pattern == "s8":
         dt = 0.0100 + rng.uniform(-1e-4, 1e-4, n_max)
         gap = rng.random(n_max) < 0.003
@@ -681,7 +719,8 @@ class ImuData:
     misalignment : ndarray, shape (3,) or (runs, 3)
         Mounting misalignment rotation vector of the sensor axes [rad].
     accel_bias_drift, gyro_bias_drift : ndarray or None, shape (n, 3) or (runs, n, 3)
-        Random-walk part of the bias over time (None when disabled).
+        Time-varying part of the bias (random walk plus Gauss-Markov; None when
+        both are disabled).
     spec : units.SensorSpec
         The sensor specification used.
     """
@@ -737,6 +776,7 @@ def _normal(rng, rngs, shape, out=None):
 
 def imu(traj: Trajectory, spec: units.SensorSpec, rng, *, runs: int | None = None, sampling="uniform",
         bias_scale=1.0, noise_scale: float = 1.0, accel_bias_rw: float = 0.0, gyro_bias_rw: float = 0.0,
+        bias_instability=(0.0, 0.0), correlation_time: float = 100.0,
         scale_factor: float = 0.0, misalignment: float = 0.0, vibration=(0.0, 0.0),
         time_span=None) -> ImuData:
     """Synthesize IMU readings of a trajectory.
@@ -744,8 +784,11 @@ def imu(traj: Trajectory, spec: units.SensorSpec, rng, *, runs: int | None = Non
     Measurement model per run (sensor axes rotated from the body by the
     mounting misalignment ``M = exp([m x])``)::
 
-        f     = (1 + s_a) * M^T f_b     + b_a + b_a,rw(t) + v_a(t) + sigma_a,k z
-        omega = (1 + s_g) * M^T omega_b + b_g + b_g,rw(t) + v_g(t) + sigma_g,k z
+        f     = (1 + s_a) * M^T f_b     + b_a + b_a(t) + v_a(t) + sigma_a,k z
+        omega = (1 + s_g) * M^T omega_b + b_g + b_g(t) + v_g(t) + sigma_g,k z
+
+    (``b(t)``: bias random walk plus Gauss-Markov bias instability, ``v(t)``:
+    vibration while moving) and the model of [2]_ for the rest.
 
     with ``sigma_k = density / sqrt(dt_k)`` the white-noise standard deviation
     of sample k from its actual interval ``dt_k`` (the interval before it;
@@ -759,7 +802,8 @@ def imu(traj: Trajectory, spec: units.SensorSpec, rng, *, runs: int | None = Non
         Datasheet figures (turn-on bias 1 sigma, noise densities).
     rng : numpy.random.Generator or list of Generator
         Every draw comes from it. A list of one generator per run makes each
-        run's draws independent of how the runs are batched.
+        run's draws independent of how the runs are batched (then `sampling`
+        must be ``"uniform"`` or explicit times).
     runs : int, optional
         Number of runs (leading axis); None for one unbatched run.
     sampling : {"uniform", "s6", "s8"} or array_like
@@ -773,6 +817,13 @@ def imu(traj: Trajectory, spec: units.SensorSpec, rng, *, runs: int | None = Non
         Factor on both noise densities.
     accel_bias_rw, gyro_bias_rw : float
         Bias random-walk densities [m/s^2/sqrt(s), rad/s/sqrt(s)] (0: off).
+    bias_instability : (float, float)
+        Steady-state 1 sigma of a first-order Gauss-Markov bias (accelerometer
+        [m/s^2], gyro [rad/s]), started in steady state (0: off), exact
+        discretization on the real intervals:
+        ``b_k+1 = exp(-dt/tau) b_k + sigma sqrt(1 - exp(-2 dt/tau)) z``.
+    correlation_time : float
+        Its correlation time tau [s].
     scale_factor : float
         1-sigma scale-factor error per axis (relative, e.g. 0.01).
     misalignment : float
@@ -807,10 +858,15 @@ def imu(traj: Trajectory, spec: units.SensorSpec, rng, *, runs: int | None = Non
     scale_factor = _positive("scale_factor", scale_factor, allow_zero=True)
     misalignment = _positive("misalignment", misalignment, allow_zero=True)
     va, vg = (_positive("vibration", v, allow_zero=True) for v in vibration)
+    gm_a, gm_g = (_positive("bias_instability", v, allow_zero=True) for v in bias_instability)
+    tau = _positive("correlation_time", correlation_time)
 
     if isinstance(sampling, str):
+        if rngs is not None and sampling != "uniform":
+            raise MorpiError(f"sampling: {sampling!r} time stamps are shared by the runs and need one Generator; "
+                             "with one Generator per run pass explicit times (e.g. from sample_times)")
         t_a, t_b = (traj.time[0], traj.end_time) if time_span is None else time_span
-        time = sample_times(t_a, t_b, rng1 if rngs is None else rngs[0], pattern=sampling, rate_hz=spec.rate_hz)
+        time = sample_times(t_a, t_b, rng1, pattern=sampling, rate_hz=spec.rate_hz)
     else:
         time = np.asarray(sampling, dtype=float)
         if time.ndim != 1 or time.size < 2 or not np.isfinite(time).all() or not (np.diff(time) > 0).all():
@@ -832,7 +888,7 @@ def imu(traj: Trajectory, spec: units.SensorSpec, rng, *, runs: int | None = Non
     s_g = scale_factor * small[:, 9:12]
     mis = misalignment * small[:, 12:15]
 
-    def channel(true, sens_scale, bias, density, rw, vib):
+    def channel(true, sens_scale, bias, density, rw, vib, gm):
         out = _normal(rng1, rngs, (R, n, 3))
         out *= (noise_scale * density / np.sqrt(dt_k))[None, :, None]
         if misalignment:
@@ -850,6 +906,10 @@ def imu(traj: Trajectory, spec: units.SensorSpec, rng, *, runs: int | None = Non
             steps = _normal(rng1, rngs, (R, n - 1, 3)) * (rw * np.sqrt(dt))[None, :, None]
             drift = np.zeros((R, n, 3))
             np.cumsum(steps, axis=1, out=drift[:, 1:])
+        if gm:
+            b = _gauss_markov(_normal(rng1, rngs, (R, n, 3)), time, gm, tau)
+            drift = b if drift is None else drift + b
+        if drift is not None:
             out += drift
         if vib:
             frac = (np.abs(traj._model[1](time)[1]) / traj._model[1].V)[None, :, None]
@@ -862,14 +922,40 @@ def imu(traj: Trajectory, spec: units.SensorSpec, rng, *, runs: int | None = Non
             out += amp * frac * wave
         return out, drift
 
-    f, drift_a = channel(truth.f_b, s_a, b_a, spec.accel_noise, accel_bias_rw, va)
-    w, drift_g = channel(truth.omega_b, s_g, b_g, spec.gyro_noise, gyro_bias_rw, vg)
+    f, drift_a = channel(truth.f_b, s_a, b_a, spec.accel_noise, accel_bias_rw, va, gm_a)
+    w, drift_g = channel(truth.omega_b, s_g, b_g, spec.gyro_noise, gyro_bias_rw, vg, gm_g)
     if runs is None:
         f, w, b_a, b_g, s_a, s_g, mis = f[0], w[0], b_a[0], b_g[0], s_a[0], s_g[0], mis[0]
         drift_a = None if drift_a is None else drift_a[0]
         drift_g = None if drift_g is None else drift_g[0]
     return ImuData(time=time, f=f, omega=w, truth=truth, accel_bias=b_a, gyro_bias=b_g, accel_scale=s_a,
                    gyro_scale=s_g, misalignment=mis, accel_bias_drift=drift_a, gyro_bias_drift=drift_g, spec=spec)
+
+
+def _gauss_markov(z, time, sigma, tau):
+    """First-order Gauss-Markov sequence from standard normals z (R, n, 3), started in steady state.
+
+    Exact discretization ``b_k+1 = p_k b_k + sigma sqrt(1 - p_k^2) z_k+1`` with
+    ``p_k = exp(-dt_k / tau)``, evaluated without a loop over samples: within a
+    block where ``L_k = (t_k - t_s) / tau`` stays below 30,
+    ``b_k = exp(-L_k) (b_s + sum_{s<j<=k} exp(L_j) w_j)``, ``w_j`` the innovations.
+    """
+    dt = np.diff(time)
+    p = np.exp(-dt / tau)
+    w = np.empty_like(z)
+    w[:, 0] = sigma * z[:, 0]
+    w[:, 1:] = z[:, 1:] * (sigma * np.sqrt(-np.expm1(-2.0 * dt / tau)))[None, :, None]
+    b = np.empty_like(z)
+    n, s = time.size, 0
+    while s < n:
+        e = max(int(np.searchsorted(time, time[s] + 30.0 * tau, side="right")), s + 1)
+        L = (time[s:e] - time[s]) / tau                        # at most 30: exp(L) < 1.1e13
+        acc = np.cumsum(w[:, s:e] * np.exp(L)[None, :, None], axis=1)
+        if s > 0:
+            acc += (p[s - 1] * b[:, s - 1])[:, None, :]
+        b[:, s:e] = acc * np.exp(-L)[None, :, None]
+        s = e
+    return b
 
 
 def _uniform(rng, rngs, shape):
@@ -912,10 +998,12 @@ def _synthetic_run(seed: int, folder: str, run: int) -> tuple[dataset.Recording,
     kw = dict(speed=speed, rest=tuple(trng.uniform(3.0, 4.5, 2)), t0=float(trng.uniform(0.3, 0.5)))
     if r.kind == "periodic":
         kw["period"] = r.p2p_m * (1.0 + o["period_spread"] * float(np.clip(jitter[1], -2.5, 2.5)))
-        kw["amplitude"] = r.amplitude_m * (1.0 + o["amplitude_spread"] * float(np.clip(jitter[2], -2.5, 2.5)))
+        kw["amplitude"] = (r.amplitude_m * o["amplitude_factor"]
+                           * (1.0 + o["amplitude_spread"] * float(np.clip(jitter[2], -2.5, 2.5))))
     traj = route_trajectory(route_name, **kw)
     data = imu(traj, spec, irng, sampling=phone, bias_scale=REALISTIC_BIAS_FRACTION[phone],
-               misalignment=o["misalignment"], vibration=o["vibration"])
+               misalignment=o["misalignment"], vibration=o["vibration"], bias_instability=o["bias_instability"],
+               correlation_time=o["correlation_time"])
     rel = f"{folder}/{run}.csv"
     rec = data.recording(source=rel, phone=phone, route=route_name, split=split)
     info = dict(speed_m_s=speed, period_m=kw.get("period"), amplitude_m=kw.get("amplitude"),

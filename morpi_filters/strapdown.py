@@ -42,7 +42,7 @@ over time and runs. Batched inputs (``(runs, n, 3)``) share one time vector.
 
 References
 ----------
-.. [1] D. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
+.. [1] A. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
    IEEE Journal of Indoor and Seamless Positioning and Navigation, 2023.
 .. [2] P. G. Savage, "Strapdown Inertial Navigation Integration Algorithm
    Design Part 1: Attitude Algorithms", Journal of Guidance, Control, and
@@ -75,9 +75,9 @@ class InsResult:
     C_bn : ndarray, shape (..., n, 3, 3)
         Body-to-navigation rotation matrices.
     heading : ndarray, shape (..., n)
-        Heading (yaw) [rad], positive to the left (about +z), see
-        :func:`heading_from_C`. For :func:`ins2d` it is the unwrapped
-        integrated yaw; for :func:`ins3d` it is wrapped to (-pi, pi].
+        Heading (yaw) [rad], positive to the left (about +z), continuous
+        over time (unwrapped): for :func:`ins2d` the integrated yaw, for
+        :func:`ins3d` :func:`heading_from_C` of ``C_bn`` unwrapped.
     """
 
     time: np.ndarray
@@ -202,6 +202,10 @@ def _batch_shape(name_shapes) -> tuple:
         raise MorpiError(f"batch shapes do not match: {desc}; expected the same leading runs axis") from None
 
 
+#: Rotation increments built at once in :func:`ins3d` (steps x runs), to bound memory.
+_BLOCK = 1 << 18
+
+
 def _slopes(time, x):
     """Time derivative of samples `x` (B, n, ...) along axis 1: 3-point non-uniform differences.
 
@@ -254,8 +258,9 @@ def _integrate_translation(time, a, v0, p0):
     v[:, 0] = v0
     np.cumsum(dv, axis=1, out=v[:, 1:])
     v[:, 1:] += v0[:, None, :]
-    dp = (v[:, :-1] * dt + (7.0 * a[:, :-1] + 3.0 * a[:, 1:]) * (dt * dt / 20.0)
-          + (3.0 * d[:, :-1] - 2.0 * d[:, 1:]) * (dt ** 3 / 60.0))
+    dp = v[:, :-1] * dt
+    dp += (7.0 * a[:, :-1] + 3.0 * a[:, 1:]) * (dt * dt / 20.0)
+    dp += (3.0 * d[:, :-1] - 2.0 * d[:, 1:]) * (dt ** 3 / 60.0)
     p = np.empty_like(a)
     p[:, 0] = p0
     np.cumsum(dp, axis=1, out=p[:, 1:])
@@ -331,20 +336,28 @@ def ins3d(time, f, omega, *, C0=None, v0=None, p0=None, g: float = units.G0) -> 
 
     dt = np.diff(time)[None, :, None]
     w0, w1 = wb[:, :-1], wb[:, 1:]
-    phi = _increments(time, wb)[0] + np.cross(w0, w1) * (dt * dt / 12.0)
+    phi = _increments(time, wb)[0]
+    coning = dt[..., 0] * dt[..., 0] / 12.0                    # (1, n-1)
+    phi[..., 0] += (w0[..., 1] * w1[..., 2] - w0[..., 2] * w1[..., 1]) * coning
+    phi[..., 1] += (w0[..., 2] * w1[..., 0] - w0[..., 0] * w1[..., 2]) * coning
+    phi[..., 2] += (w0[..., 0] * w1[..., 1] - w0[..., 1] * w1[..., 0]) * coning
     # time-major so each step works on one contiguous (B, 3, 3) block
-    E = rotvec_to_C(np.swapaxes(phi, 0, 1))                     # (n-1, B, 3, 3)
+    phi_t = np.swapaxes(phi, 0, 1)                              # (n-1, B, 3)
     Ct = np.empty((n, B, 3, 3))
     Ct[0] = C0b
-    for k in range(n - 1):
-        np.matmul(Ct[k], E[k], out=Ct[k + 1])
+    block = max(1, _BLOCK // max(B, 1))                         # bound the memory of the increments
+    for k0 in range(0, n - 1, block):
+        E = rotvec_to_C(phi_t[k0:k0 + block])
+        for j in range(E.shape[0]):
+            np.matmul(Ct[k0 + j], E[j], out=Ct[k0 + j + 1])
     C = np.swapaxes(Ct, 0, 1)                                   # (B, n, 3, 3)
 
     a = (C @ fb[..., None])[..., 0]
     a[..., 2] -= g
     v, p = _integrate_translation(time, a, v0b, p0b)
     return InsResult(time=time, position=p.reshape(batch + (n, 3)), velocity=v.reshape(batch + (n, 3)),
-                     C_bn=C.reshape(batch + (n, 3, 3)), heading=heading_from_C(C).reshape(batch + (n,)))
+                     C_bn=C.reshape(batch + (n, 3, 3)),
+                     heading=np.unwrap(heading_from_C(C), axis=-1).reshape(batch + (n,)))
 
 
 def ins2d(time, f, omega, *, psi0=0.0, v0=None, p0=None) -> InsResult:
