@@ -1119,7 +1119,9 @@ def _page(res, payload, source, figures, fmt, md_table) -> str:
         rows.append([row["method"], fmt(row["paper_error_m"]), fmt(row["ours_error_m"]), row["cell"] or "-", imp])
     L += [md_table(["method", "paper m", "ours m", "our cell", "improvement pp"], rows)]
     L += ["## Trained gains", "", "Per training set, method and calibration: mean and std over the train runs "
-          "(each run's gain makes its summed steps equal the known distance).", ""]
+          "(each run's gain makes its summed steps equal the known distance). RD and GC gains coincide: GC "
+          "removes a constant from omega_z and leaves f_y alone, which changes no peak and no max - min; "
+          "calibration acts on MoRPI through the heading only.", ""]
     L += [md_table(["train set", "method", "cal", "mean", "std", "runs", "left out"],
                    [[g["train_set"], g["method"], g["calibration"], fmt(g["mean"], 4), fmt(g["std"], 4),
                      len(g["per_run"]), "; ".join(g["skipped"])] for g in payload["gains"]])]
