@@ -11,8 +11,8 @@ from __future__ import annotations
 from pathlib import Path
 
 __all__ = [
-    "pyplot", "save", "assessment_figure", "simulation_run",
-    "montecarlo_final_errors", "montecarlo_error_curves", "montecarlo_gain_vs_error",
+    "pyplot", "save", "plot_recording", "plot_tracks", "plot_path_sets", "assessment_figure",
+    "simulation_run", "montecarlo_final_errors", "montecarlo_error_curves", "montecarlo_gain_vs_error",
     "montecarlo_training_runs", "drift_disagreement_map",
 ]
 
@@ -43,6 +43,124 @@ def save(fig, path, dpi: int = 120) -> Path:
 
 # ============================================================================ tables (field pipeline)
 # Figures of reports/tables/: recordings, INS trajectories, MoRPI paths.
+
+def plot_recording(time, f, omega, path, *, title="", rest=None, motion=None, peaks=None, peak_signal="omega_z"):
+    """Specific force and angular rate of one recording, as in the paper's recording figures.
+
+    Parameters
+    ----------
+    time : ndarray, shape (n,)
+        [s]; shown from the first sample.
+    f, omega : ndarray, shape (n, 3)
+        Specific force [m/s^2] and angular rate [rad/s] in phone axes.
+    path : path
+        PNG file.
+    rest : tuple of float, optional
+        Initial rest window (start, end) [s], shaded.
+    motion : tuple of float, optional
+        Motion span (start, end) [s], dashed lines.
+    peaks : ndarray, optional
+        Peak times [s], marked on `peak_signal` (``"omega_z"`` or ``"f_y"``).
+    """
+    import numpy as np
+
+    plt = pyplot()
+    t = np.asarray(time) - time[0]
+    fig, axes = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
+    for ax, data, name, unit in ((axes[0], f, "f", "m/s$^2$"), (axes[1], omega, "\\omega", "rad/s")):
+        for j, c in enumerate("xyz"):
+            ax.plot(t, data[:, j], lw=0.8, label=f"${name}_{c}$")
+        ax.set_ylabel(unit)
+        if rest is not None:
+            ax.axvspan(rest[0] - time[0], rest[1] - time[0], color="0.85", zorder=0,
+                       label="rest window" if ax is axes[0] else None)
+        if motion is not None:
+            for v in motion:
+                ax.axvline(v - time[0], color="k", ls="--", lw=0.7)
+        ax.grid(alpha=0.3)
+    if peaks is not None and len(peaks):
+        ax = axes[1] if peak_signal == "omega_z" else axes[0]
+        col = omega[:, 2] if peak_signal == "omega_z" else f[:, 1]
+        pk = np.asarray(peaks)
+        ax.plot(pk - time[0], np.interp(pk, time, col), "kv", ms=5, label="step boundaries")
+    axes[0].legend(loc="upper right", fontsize=7, ncol=4)
+    axes[1].legend(loc="upper right", fontsize=7, ncol=4)
+    axes[1].set_xlabel("time from first sample [s]")
+    axes[0].set_title(title)
+    return save(fig, path)
+
+
+def plot_tracks(tracks, truth, path, *, title="", equal=True):
+    """Horizontal tracks against the true route.
+
+    Parameters
+    ----------
+    tracks : dict
+        Label -> ndarray (k, 2) positions [m].
+    truth : ndarray, shape (m, 2)
+        True route polyline [m].
+    path : path
+        PNG file.
+    """
+    import numpy as np
+
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(7, 5))
+    ax.plot(truth[:, 0], truth[:, 1], "k-", lw=2.5, alpha=0.4, label="true route")
+    ax.plot(*truth[-1], "k*", ms=12)
+    for label, p in tracks.items():
+        p = np.asarray(p)
+        ax.plot(p[:, 0], p[:, 1], lw=1.2, label=label)
+        ax.plot(p[-1, 0], p[-1, 1], "o", ms=4, color=ax.lines[-1].get_color())
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    if equal:
+        ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    ax.set_title(title)
+    return save(fig, path)
+
+
+def plot_path_sets(panels, path, *, ncols=3):
+    """MoRPI paths of several test sets, one panel per set.
+
+    Parameters
+    ----------
+    panels : list of dict
+        Each with ``title``, ``truth`` (m, 2) and ``paths``: dict label -> list of (k, 2) arrays
+        (one colour per label, one line per run).
+    path : path
+        PNG file.
+    """
+    import numpy as np
+
+    plt = pyplot()
+    n = max(1, len(panels))
+    ncols = min(ncols, n)
+    nrows = (n + ncols - 1) // ncols
+    fig, axes = plt.subplots(nrows, ncols, figsize=(4.6 * ncols, 3.8 * nrows), squeeze=False)
+    for ax in axes.ravel()[n:]:
+        ax.axis("off")
+    for ax, pnl in zip(axes.ravel(), panels):
+        tr = np.asarray(pnl["truth"])
+        ax.plot(tr[:, 0], tr[:, 1], "k-", lw=3, alpha=0.35)
+        ax.plot(*tr[-1], "k*", ms=11)
+        for i, (label, runs) in enumerate(pnl["paths"].items()):
+            color = f"C{i}"
+            for j, p in enumerate(runs):
+                p = np.asarray(p)
+                ax.plot(p[:, 0], p[:, 1], color=color, lw=0.8, alpha=0.7, label=label if j == 0 else None)
+                ax.plot(p[-1, 0], p[-1, 1], ".", color=color, ms=5)
+        ax.set_title(pnl["title"], fontsize=9)
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("y [m]")
+    fig.tight_layout()
+    return save(fig, path)
+
 
 
 # ============================================================================ assessment (symbolic)
