@@ -67,6 +67,7 @@ from .errors import MorpiError
 __all__ = [
     "TABLES", "PAPER_CELLS", "PAPER_COMPARISON", "CellSpec", "RunResult", "Cell", "Gain", "Selection",
     "TablesResult", "FieldData", "select_config", "evaluate_tables", "report_tables", "SHORT_SETS",
+    "training_gain_spread",
 ]
 
 # --------------------------------------------------------------------------- the paper's numbers
@@ -714,6 +715,36 @@ def evaluate_tables(root, *, include_test: bool = True, configs: dict | None = N
             cells.append(_morpi_cell(data, spec, selections[spec.method].config, g))
     readings = _alternative_readings(data, selections) if alternatives else []
     return TablesResult(tuple(cells), tuple(gains), selections, tuple(readings), tuple(missing), data)
+
+
+def training_gain_spread(source) -> tuple[float, float]:
+    """Run-to-run spread of the trained Weinberg gains, for Monte Carlo gain-error studies.
+
+    Every training run of the short routes (GC calibration, both methods) has
+    its own gain, the one that makes its steps add up to the known distance.
+    Applying the training-set mean to a run is then a relative gain error of
+    ``G_mean / G_run - 1``. This returns the pooled root-mean-square of that
+    error over all training sets and both methods (the spread), and its mean
+    (the mismatch, close to zero by construction: the gain is applied to the
+    motion it was trained on). Only train folders are read.
+
+    Parameters
+    ----------
+    source : reporting.DataSource
+        A dataset in the MoRPI layout.
+
+    Returns
+    -------
+    spread, mismatch : float
+        Fractions of the gain.
+    """
+    res = evaluate_tables(source.root, include_test=False, alternatives=False)
+    rel = [g.mean / np.asarray(g.per_run, dtype=float) - 1.0
+           for g in res.gains if g.calibration == "GC" and len(g.per_run) > 1]
+    if not rel:
+        raise MorpiError(f"{source.root}: no short-route training runs, expected folders like s8/short_distance/train")
+    rel = np.concatenate(rel)
+    return float(np.sqrt(np.mean(rel ** 2))), float(np.mean(rel))
 
 
 def _alternative_readings(data: FieldData, selections) -> list[dict]:

@@ -291,3 +291,23 @@ def test_progress_goes_to_stderr(capsys):
     assert "4/4 runs" in err
     mc.run_study(4, 0, FAST, chunk=2, progress=False)
     assert capsys.readouterr().err == ""
+
+
+@pytest.mark.field
+def test_field_training_gain_spread(field_root):
+    """The spread scenario of the gain study comes from the field train runs.
+
+    Each training run's own gain G_run makes its steps sum to the known
+    distance; the error of applying the set's mean is G_mean / G_run - 1.
+    Its RMS must be positive and below the largest per-set coefficient of
+    variation times 1.2 (Jensen: G_mean/G_run - 1 is about -dG/G + (dG/G)^2),
+    and its mean is second order, so smaller than the spread.
+    """
+    from morpi_filters.evaluate import evaluate_tables, training_gain_spread
+    from morpi_filters.reporting import DataSource
+
+    spread, mismatch = training_gain_spread(DataSource(field_root))
+    res = evaluate_tables(field_root, include_test=False, alternatives=False)
+    cvs = [g.std / g.mean for g in res.gains if g.calibration == "GC"]
+    assert 0 < spread < 1.2 * max(cvs)
+    assert abs(mismatch) < spread
