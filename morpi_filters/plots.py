@@ -10,7 +10,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-__all__ = ["pyplot", "save", "assessment_figure", "plot_curves", "simulation_run"]
+__all__ = [
+    "pyplot", "save", "plot_recording", "plot_tracks", "plot_path_sets", "assessment_figure", "plot_curves",
+    "simulation_run", "montecarlo_final_errors", "montecarlo_error_curves", "montecarlo_gain_vs_error",
+    "montecarlo_training_runs", "drift_disagreement_map",
+]
 
 
 def pyplot():
@@ -39,6 +43,124 @@ def save(fig, path, dpi: int = 120) -> Path:
 
 # ============================================================================ tables (field pipeline)
 # Figures of reports/tables/: recordings, INS trajectories, MoRPI paths.
+
+def plot_recording(time, f, omega, path, *, title="", rest=None, motion=None, peaks=None, peak_signal="omega_z"):
+    """Specific force and angular rate of one recording, as in the paper's recording figures.
+
+    Parameters
+    ----------
+    time : ndarray, shape (n,)
+        [s]; shown from the first sample.
+    f, omega : ndarray, shape (n, 3)
+        Specific force [m/s^2] and angular rate [rad/s] in phone axes.
+    path : path
+        PNG file.
+    rest : tuple of float, optional
+        Initial rest window (start, end) [s], shaded.
+    motion : tuple of float, optional
+        Motion span (start, end) [s], dashed lines.
+    peaks : ndarray, optional
+        Peak times [s], marked on `peak_signal` (``"omega_z"`` or ``"f_y"``).
+    """
+    import numpy as np
+
+    plt = pyplot()
+    t = np.asarray(time) - time[0]
+    fig, axes = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
+    for ax, data, name, unit in ((axes[0], f, "f", "m/s$^2$"), (axes[1], omega, "\\omega", "rad/s")):
+        for j, c in enumerate("xyz"):
+            ax.plot(t, data[:, j], lw=0.8, label=f"${name}_{c}$")
+        ax.set_ylabel(unit)
+        if rest is not None:
+            ax.axvspan(rest[0] - time[0], rest[1] - time[0], color="0.85", zorder=0,
+                       label="rest window" if ax is axes[0] else None)
+        if motion is not None:
+            for v in motion:
+                ax.axvline(v - time[0], color="k", ls="--", lw=0.7)
+        ax.grid(alpha=0.3)
+    if peaks is not None and len(peaks):
+        ax = axes[1] if peak_signal == "omega_z" else axes[0]
+        col = omega[:, 2] if peak_signal == "omega_z" else f[:, 1]
+        pk = np.asarray(peaks)
+        ax.plot(pk - time[0], np.interp(pk, time, col), "kv", ms=5, label="step boundaries")
+    axes[0].legend(loc="upper right", fontsize=7, ncol=4)
+    axes[1].legend(loc="upper right", fontsize=7, ncol=4)
+    axes[1].set_xlabel("time from first sample [s]")
+    axes[0].set_title(title)
+    return save(fig, path)
+
+
+def plot_tracks(tracks, truth, path, *, title="", equal=True):
+    """Horizontal tracks against the true route.
+
+    Parameters
+    ----------
+    tracks : dict
+        Label -> ndarray (k, 2) positions [m].
+    truth : ndarray, shape (m, 2)
+        True route polyline [m].
+    path : path
+        PNG file.
+    """
+    import numpy as np
+
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(7, 5))
+    ax.plot(truth[:, 0], truth[:, 1], "k-", lw=2.5, alpha=0.4, label="true route")
+    ax.plot(*truth[-1], "k*", ms=12)
+    for label, p in tracks.items():
+        p = np.asarray(p)
+        ax.plot(p[:, 0], p[:, 1], lw=1.2, label=label)
+        ax.plot(p[-1, 0], p[-1, 1], "o", ms=4, color=ax.lines[-1].get_color())
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    if equal:
+        ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    ax.set_title(title)
+    return save(fig, path)
+
+
+def plot_path_sets(panels, path, *, ncols=3):
+    """MoRPI paths of several test sets, one panel per set.
+
+    Parameters
+    ----------
+    panels : list of dict
+        Each with ``title``, ``truth`` (m, 2) and ``paths``: dict label -> list of (k, 2) arrays
+        (one colour per label, one line per run).
+    path : path
+        PNG file.
+    """
+    import numpy as np
+
+    plt = pyplot()
+    n = max(1, len(panels))
+    ncols = min(ncols, n)
+    nrows = (n + ncols - 1) // ncols
+    fig, axes = plt.subplots(nrows, ncols, figsize=(4.6 * ncols, 3.8 * nrows), squeeze=False)
+    for ax in axes.ravel()[n:]:
+        ax.axis("off")
+    for ax, pnl in zip(axes.ravel(), panels):
+        tr = np.asarray(pnl["truth"])
+        ax.plot(tr[:, 0], tr[:, 1], "k-", lw=3, alpha=0.35)
+        ax.plot(*tr[-1], "k*", ms=11)
+        for i, (label, runs) in enumerate(pnl["paths"].items()):
+            color = f"C{i}"
+            for j, p in enumerate(runs):
+                p = np.asarray(p)
+                ax.plot(p[:, 0], p[:, 1], color=color, lw=0.8, alpha=0.7, label=label if j == 0 else None)
+                ax.plot(p[-1, 0], p[-1, 1], ".", color=color, ms=5)
+        ax.set_title(pnl["title"], fontsize=9)
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("y [m]")
+    fig.tight_layout()
+    return save(fig, path)
+
 
 
 # ============================================================================ assessment (symbolic)
@@ -125,6 +247,152 @@ def plot_curves(curves, path):
 
 # ============================================================================ montecarlo and drift
 # Gain-error distributions and the closed-form vs strapdown drift map.
+
+
+def montecarlo_final_errors(columns, final, path, *, title=""):
+    """Histograms of final horizontal errors, one panel per column.
+
+    Parameters
+    ----------
+    columns : sequence of str
+        Column names (panel titles).
+    final : ndarray, shape (runs, len(columns))
+        Final errors [m].
+    path : path-like
+        PNG file to write.
+    """
+    import numpy as np
+
+    plt = pyplot()
+    k = len(columns)
+    ncol = min(k, 3)
+    nrow = (k + ncol - 1) // ncol
+    fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol, 3.0 * nrow), squeeze=False)
+    for i, name in enumerate(columns):
+        ax = axes[i // ncol][i % ncol]
+        x = np.asarray(final[:, i], float)
+        ax.hist(x, bins=50, color="C%d" % (i % 10), alpha=0.8)
+        ax.axvline(np.mean(x), color="k", lw=1, label=f"mean {np.mean(x):.3g} m")
+        ax.axvline(np.percentile(x, 95), color="k", lw=1, ls="--", label=f"p95 {np.percentile(x, 95):.3g} m")
+        ax.set_title(name, fontsize=9)
+        ax.set_xlabel("final horizontal error [m]")
+        ax.legend(fontsize=7)
+    for j in range(k, nrow * ncol):
+        axes[j // ncol][j % ncol].set_visible(False)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    return save(fig, path)
+
+
+def montecarlo_error_curves(time, errors, labels, path, *, analytic=None, title=""):
+    """Median and 5-95 % band of the error over time, log scale.
+
+    Parameters
+    ----------
+    time : ndarray, shape (m,)
+        [s].
+    errors : ndarray, shape (runs, m, k)
+        Horizontal errors [m].
+    labels : sequence of str, length k
+    path : path-like
+    analytic : dict, optional
+        label -> (time (q,), value (q,)) curves drawn dashed.
+    """
+    import numpy as np
+
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    for i, lab in enumerate(labels):
+        e = errors[:, :, i]
+        if not np.isfinite(e).any():
+            continue
+        lo, med, hi = np.percentile(e, [5, 50, 95], axis=0)
+        shown = hi > 0                      # log axis: leave out times with no error yet
+        med = np.where(shown & (med > 0), med, np.nan)
+        ax.plot(time, med, color=f"C{i}", label=f"{lab} (median)")
+        ax.fill_between(time, np.where(lo > 0, lo, np.nan), np.where(shown, hi, np.nan), color=f"C{i}", alpha=0.2)
+    for j, (lab, (t, v)) in enumerate((analytic or {}).items()):
+        ax.plot(t, v, ls="--", color=f"C{len(labels) + j}", label=lab)
+    ax.set_yscale("log")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("horizontal position error [m]")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    if title:
+        ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    return save(fig, path)
+
+
+def montecarlo_gain_vs_error(dG, err, path, *, analytic_slope=None, label="MoRPI-A", title=""):
+    """Scatter of final distance error against the gain error, with the analytical line ds = dG * D."""
+    import numpy as np
+
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.plot(100 * np.asarray(dG), err, ".", ms=2, alpha=0.4, label=f"{label} Monte Carlo")
+    if analytic_slope is not None:
+        x = np.linspace(np.min(dG), np.max(dG), 50)
+        ax.plot(100 * x, analytic_slope * x, "k--", lw=1, label="analytical ds = dG D")
+    ax.set_xlabel("gain error dG [%]")
+    ax.set_ylabel("distance error [m]")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    if title:
+        ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    return save(fig, path)
+
+
+def montecarlo_training_runs(k, rms_mc, rms_expected, labels, path, *, title=""):
+    """RMS distance error against the number of training runs behind the gain (log-log)."""
+    import numpy as np
+
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(6, 4))
+    rms_mc = np.asarray(rms_mc)
+    for i, lab in enumerate(labels):
+        ax.plot(k, rms_mc[:, i], "o-", ms=4, label=f"{lab} Monte Carlo")
+    ax.plot(k, rms_expected, "k--", label="D sqrt(mismatch^2 + spread^2 / k)")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("training runs k")
+    ax.set_ylabel("RMS distance error [m]")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    if title:
+        ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    return save(fig, path)
+
+
+def drift_disagreement_map(gyro_bias_deg_s, time, rel, path, *, title="", marks=()):
+    """Map of the relative disagreement (log colour) over gyro bias [deg/s] and time [s].
+
+    `marks`: (bias_deg_s, time_s, text) points to annotate. Contours at 1 % and 10 %.
+    """
+    import numpy as np
+    from matplotlib.colors import LogNorm
+
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    r = np.clip(np.asarray(rel, float), 1e-7, None)
+    m = ax.pcolormesh(time, gyro_bias_deg_s, r, norm=LogNorm(vmin=1e-5, vmax=max(1.0, r.max())), shading="nearest",
+                      cmap="viridis")
+    cs = ax.contour(time, gyro_bias_deg_s, r, levels=[0.01, 0.1], colors=["w", "r"], linewidths=1)
+    ax.clabel(cs, fmt={0.01: "1 %", 0.1: "10 %"}, fontsize=8)
+    for b, t, text in marks:
+        ax.plot([t], [b], "r*", ms=9)
+        ax.annotate(text, (t, b), textcoords="offset points", xytext=(-60, 6), color="r", fontsize=8)
+    ax.set_yscale("log")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("gyro bias, 1 sigma per axis [deg/s]")
+    fig.colorbar(m, ax=ax, label="|dp strapdown - dp closed form| / |dp strapdown|")
+    if title:
+        ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    return save(fig, path)
 
 
 # ============================================================================ simulation

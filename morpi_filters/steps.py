@@ -1,0 +1,638 @@
+"""MoRPI step machinery: peak detection, Weinberg length, gain training, dead reckoning.
+
+The robot drives a sine path; each period ("step", by analogy with pedestrian
+dead reckoning) is found between peaks of a periodic IMU signal, its length is
+estimated with the Weinberg formula [2]_
+
+    s = G (max - min)^(1/4)
+
+on the lateral specific force ``f_y`` (MoRPI-A) or on the z angular rate
+``omega_z`` (MoRPI-G) [1]_, and the position is advanced with the gyro heading,
+``x += s cos(dpsi), y += s sin(dpsi)``.
+
+Sampling
+    The recordings are not uniformly sampled (the S6 files wander between about
+    50 and 100 Hz). Peak detection therefore resamples the signal by linear
+    interpolation onto a uniform grid (:data:`GRID_HZ`), low-pass filters it
+    there (zero-phase Butterworth), runs :func:`scipy.signal.find_peaks` with
+    the period and width converted to grid samples, and maps the peaks back to
+    the nearest original sample. Heading is integrated on the original time
+    stamps (trapezoid rule on the real steps).
+
+Readings of the paper
+    The paper leaves three points open; :class:`StepConfig` implements each
+    reading as an option:
+
+    ``heading`` (what Delta psi_k is)
+        ``"absolute"``: the heading accumulated since the start, taken at the
+        step's end peak; ``"mean"``: its mean over the step; ``"change"``: the
+        heading change inside the step (end minus start).
+    ``segment`` (where a step starts and ends)
+        ``"maxima"``: between consecutive maxima (one period); ``"extrema"``:
+        between consecutive extrema (half periods, two per period).
+    ``ends`` (the partial steps before the first and after the last peak)
+        ``"drop"``: ignored; ``"fraction"``: counted as the fraction of the
+        run's median step duration they last, with the run's median step
+        length; ``"whole"``: counted as whole steps when at least half a step
+        long.
+
+References
+----------
+.. [1] A. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
+   IEEE J-ISPIN, 2023.
+.. [2] H. Weinberg, "Using the ADXL202 in pedometer and personal navigation
+   applications", Analog Devices AN-602, 2002.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from functools import lru_cache
+
+import numpy as np
+from scipy import signal as _sig
+
+from .errors import MorpiError
+
+__all__ = [
+    "GRID_HZ", "HEADINGS", "SEGMENTS", "ENDS", "METHODS", "StepConfig", "Peaks", "Steps", "MorpiTrack",
+    "resample_uniform", "lowpass", "detect_peaks", "weinberg_length", "integrate_heading",
+    "motion_span", "activity_span", "PreparedSignal", "prepare_signal", "extract_steps", "train_gain",
+    "dead_reckon", "morpi_track",
+]
+
+#: Rate of the uniform grid peak detection works on [Hz].
+GRID_HZ = 100.0
+HEADINGS = ("absolute", "mean", "change")
+SEGMENTS = ("maxima", "extrema")
+ENDS = ("drop", "fraction", "whole")
+#: MoRPI method -> (signal attribute, column).
+METHODS = {"MoRPI-A": ("f", 1), "MoRPI-G": ("omega", 2)}
+
+
+@dataclass(frozen=True)
+class StepConfig:
+    """Every tunable of the step pipeline.
+
+    The defaults are the rule :func:`morpi_filters.evaluate.select_config`
+    picks from the train runs of the MoRPI field dataset (one rule for both
+    methods); a test keeps them in step with the search.
+
+    Attributes
+    ----------
+    heading, segment, ends : str
+        The readings of the paper (module docstring).
+    min_period_s : float
+        Shortest time between two peaks of the same kind [s].
+    prominence : float
+        Least peak prominence, as a fraction of the run's robust signal
+        range (98th minus 2nd percentile during motion) [-].
+    cutoff_hz : float or None
+        Low-pass cut-off applied before peak detection [Hz]; None: none.
+    amplitude_from : str
+        ``"filtered"`` or ``"raw"``: which signal the Weinberg max - min is
+        read from inside each step.
+    min_swing_deg : float
+        Least median heading swing (max - min of the heading between two
+        consecutive maxima of the signal) for the motion to count as periodic
+        [deg]. The designed sine paths swing by about 2 atan(2 pi A / lambda)
+        = 64 deg (A = 0.1 m, lambda = 1 m); on the field recordings the
+        periodic runs swing by 20 deg or more, the straight runs by 11 deg or
+        less, hence 15 deg.
+    """
+
+    heading: str = "mean"
+    segment: str = "extrema"
+    ends: str = "fraction"
+    min_period_s: float = 0.5
+    prominence: float = 0.35
+    cutoff_hz: float | None = 3.0
+    amplitude_from: str = "raw"
+    min_swing_deg: float = 15.0
+
+    def __post_init__(self):
+        for name, allowed in (("heading", HEADINGS), ("segment", SEGMENTS), ("ends", ENDS),
+                              ("amplitude_from", ("filtered", "raw"))):
+            if getattr(self, name) not in allowed:
+                raise MorpiError(f"StepConfig.{name}={getattr(self, name)!r}: expected one of {allowed}")
+        if not self.min_period_s > 0:
+            raise MorpiError(f"StepConfig.min_period_s={self.min_period_s}: expected a positive time [s]")
+        if not self.prominence >= 0:
+            raise MorpiError(f"StepConfig.prominence={self.prominence}: expected a fraction >= 0")
+        if self.cutoff_hz is not None and not 0 < self.cutoff_hz < GRID_HZ / 2:
+            raise MorpiError(f"StepConfig.cutoff_hz={self.cutoff_hz}: expected None or 0 < f < {GRID_HZ / 2} Hz")
+
+    def with_(self, **kw) -> "StepConfig":
+        """A copy with some fields changed."""
+        return replace(self, **kw)
+
+
+@dataclass(frozen=True)
+class Peaks:
+    """Peaks of a signal found on a uniform grid.
+
+    Attributes
+    ----------
+    grid_time : ndarray, shape (m,)
+        The uniform grid [s].
+    grid_signal : ndarray, shape (m,)
+        The resampled (and filtered, when asked) signal.
+    grid_index : ndarray of int, shape (k,)
+        Peak positions on the grid.
+    index : ndarray of int, shape (k,)
+        Nearest original samples.
+    properties : dict
+        As returned by :func:`scipy.signal.find_peaks` (grid samples).
+    """
+
+    grid_time: np.ndarray
+    grid_signal: np.ndarray
+    grid_index: np.ndarray
+    index: np.ndarray
+    properties: dict
+
+
+@dataclass(frozen=True)
+class Steps:
+    """The steps of one run for one signal.
+
+    Attributes
+    ----------
+    start_time, end_time : ndarray, shape (k,)
+        Step boundaries [s].
+    weight : ndarray, shape (k,)
+        ``(max - min)^(1/4)`` of each step, in the signal's units to the 1/4
+        (step length = gain * weight * fraction).
+    fraction : ndarray, shape (k,)
+        1 for whole steps; the counted fraction for partial end steps.
+    heading : ndarray, shape (k,)
+        Delta psi of each step [rad] (per the config's heading reading).
+    peaks : Peaks
+        The detected peaks.
+    motion : tuple of float
+        Motion start and end time [s].
+    """
+
+    start_time: np.ndarray
+    end_time: np.ndarray
+    weight: np.ndarray
+    fraction: np.ndarray
+    heading: np.ndarray
+    peaks: Peaks
+    motion: tuple
+
+    @property
+    def n(self) -> int:
+        """Number of steps (partial ones included)."""
+        return int(self.weight.shape[0])
+
+    @property
+    def effective_weight(self) -> float:
+        """sum(weight * fraction): travelled distance = gain * this."""
+        return float(np.sum(self.weight * self.fraction))
+
+
+@dataclass(frozen=True)
+class MorpiTrack:
+    """A MoRPI dead-reckoning solution.
+
+    Attributes
+    ----------
+    steps : Steps
+    gain : float
+        Weinberg gain used [m / unit^(1/4)].
+    length : ndarray, shape (k,)
+        Step lengths [m].
+    position : ndarray, shape (k + 1, 2)
+        Positions after each step, starting at the origin [m].
+    """
+
+    steps: Steps
+    gain: float
+    length: np.ndarray
+    position: np.ndarray
+
+    @property
+    def distance(self) -> float:
+        """Travelled distance estimate: sum of the step lengths [m]."""
+        return float(np.sum(self.length))
+
+    @property
+    def end_point(self) -> np.ndarray:
+        """Last position, shape (2,) [m]."""
+        return self.position[-1]
+
+
+# --------------------------------------------------------------------------- signals
+
+def resample_uniform(time, values, rate_hz: float = GRID_HZ):
+    """Linear interpolation of `values` (n,) or (n, k) onto a uniform grid.
+
+    Returns
+    -------
+    grid : ndarray, shape (m,)
+        ``time[0] + j / rate_hz`` up to ``time[-1]`` [s].
+    out : ndarray, shape (m,) or (m, k)
+    """
+    time = np.asarray(time, dtype=float)
+    values = np.asarray(values, dtype=float)
+    m = int(np.floor((time[-1] - time[0]) * rate_hz)) + 1
+    grid = time[0] + np.arange(m) / rate_hz
+    if values.ndim == 1:
+        return grid, np.interp(grid, time, values)
+    return grid, np.column_stack([np.interp(grid, time, values[:, j]) for j in range(values.shape[1])])
+
+
+@lru_cache(maxsize=64)
+def _butter(order: int, cutoff_hz: float, rate_hz: float):
+    return _sig.butter(order, cutoff_hz, btype="low", fs=rate_hz, output="sos")
+
+
+def _median(x) -> float:
+    """Median of a small 1-D array (np.median's overhead dominates at this size)."""
+    x = np.sort(np.asarray(x, dtype=float))
+    n = x.shape[0]
+    return float(x[n // 2]) if n % 2 else float(0.5 * (x[n // 2 - 1] + x[n // 2]))
+
+
+def lowpass(x, cutoff_hz: float, rate_hz: float = GRID_HZ, order: int = 2):
+    """Zero-phase Butterworth low-pass of a uniformly sampled signal (axis 0)."""
+    sos = _butter(int(order), float(cutoff_hz), float(rate_hz))
+    if x.shape[0] <= 3 * (2 * sos.shape[0] + 1):
+        return np.asarray(x, dtype=float)
+    return _sig.sosfiltfilt(sos, x, axis=0)
+
+
+def detect_peaks(signal, time, *, min_period_s: float, min_prominence: float = 0.0,
+                 min_width_s: float | None = None, cutoff_hz: float | None = None,
+                 height=None, rate_hz: float = GRID_HZ, source: str = "<signal>"):
+    """Maxima of a non-uniformly sampled signal, with parameters in seconds.
+
+    The signal is resampled to a uniform grid at `rate_hz` (linear
+    interpolation), optionally low-pass filtered at `cutoff_hz`, and passed to
+    :func:`scipy.signal.find_peaks` with ``distance = min_period_s * rate_hz``
+    and ``width = min_width_s * rate_hz`` grid samples.
+
+    Parameters
+    ----------
+    signal : array_like, shape (n,)
+        Samples in physical units (m/s^2, rad/s).
+    time : array_like, shape (n,)
+        Strictly increasing sample times [s].
+    min_period_s : float
+        Least time between two peaks [s].
+    min_prominence : float
+        Least prominence, in the signal's units.
+    min_width_s : float, optional
+        Least peak width at half prominence [s].
+    cutoff_hz : float, optional
+        Low-pass cut-off [Hz].
+    height : optional
+        Passed to find_peaks (signal units).
+    rate_hz : float
+        Grid rate [Hz].
+    source : str
+        Name used in error messages.
+
+    Returns
+    -------
+    indices : ndarray of int
+        Nearest original samples of the peaks.
+    properties : dict
+        find_peaks' properties (in grid samples) plus ``"time"`` (peak times
+        on the grid [s]) and ``"grid_index"``.
+    """
+    p = _detect(np.asarray(signal, float), np.asarray(time, float), min_period_s=min_period_s,
+                min_prominence=min_prominence, min_width_s=min_width_s, cutoff_hz=cutoff_hz,
+                height=height, rate_hz=rate_hz, source=source)
+    props = dict(p.properties)
+    props["time"] = p.grid_time[p.grid_index]
+    props["grid_index"] = p.grid_index
+    return p.index, props
+
+
+def _detect(x, t, *, min_period_s, min_prominence, min_width_s=None, cutoff_hz=None, height=None,
+            rate_hz=GRID_HZ, source="<signal>") -> Peaks:
+    if x.ndim != 1 or t.shape != x.shape:
+        raise MorpiError(f"{source}: expected signal and time of the same shape (n,), got {x.shape}, {t.shape}")
+    if x.shape[0] < 3 or not np.all(np.diff(t) > 0):
+        raise MorpiError(f"{source}: expected at least 3 samples with strictly increasing time")
+    if not min_period_s > 0:
+        raise MorpiError(f"min_period_s={min_period_s}: expected a positive time [s]")
+    grid, g = resample_uniform(t, x, rate_hz)
+    if cutoff_hz is not None:
+        g = lowpass(g, cutoff_hz, rate_hz)
+    kw = dict(distance=max(1, int(round(min_period_s * rate_hz))), prominence=min_prominence)
+    if min_width_s is not None:
+        kw["width"] = min_width_s * rate_hz
+    if height is not None:
+        kw["height"] = height
+    gi, props = _sig.find_peaks(g, **kw)
+    idx = np.clip(np.searchsorted(t, grid[gi]), 0, t.shape[0] - 1)
+    prev = np.clip(idx - 1, 0, None)
+    idx = np.where(np.abs(t[prev] - grid[gi]) < np.abs(t[idx] - grid[gi]), prev, idx)
+    return Peaks(grid_time=grid, grid_signal=g, grid_index=gi, index=idx, properties=props)
+
+
+def weinberg_length(vmax, vmin, gain):
+    """Weinberg step length ``gain * (vmax - vmin)^(1/4)`` (broadcasts).
+
+    Parameters
+    ----------
+    vmax, vmin : array_like
+        Largest and smallest signal value in each step (vmax >= vmin).
+    gain : float or array_like
+        Weinberg gain [m / unit^(1/4)].
+
+    Returns
+    -------
+    ndarray
+        Step lengths [m].
+    """
+    d = np.asarray(vmax, dtype=float) - np.asarray(vmin, dtype=float)
+    if np.any(d < 0):
+        raise MorpiError("weinberg_length: expected vmax >= vmin in every step")
+    return np.asarray(gain, dtype=float) * d ** 0.25
+
+
+def integrate_heading(time, omega_z, psi0: float = 0.0):
+    """Heading from the z angular rate, trapezoid rule on the real time steps [rad], shape (n,)."""
+    time = np.asarray(time, float)
+    w = np.asarray(omega_z, float)
+    out = np.empty_like(w)
+    out[0] = psi0
+    np.cumsum(0.5 * (w[1:] + w[:-1]) * np.diff(time), out=out[1:])
+    out[1:] += psi0
+    return out
+
+
+def motion_span(time, values, rest_end_time: float | None = None, *, threshold: float = 0.15,
+                cutoff_hz: float = 1.0):
+    """Start and end time of the motion from a periodic signal [s].
+
+    The signal's deviation from its rest mean (before `rest_end_time`, else
+    the first 2 s) is low-passed on the uniform grid; the motion spans the first
+    to the last grid sample whose deviation exceeds `threshold` times the
+    robust range of the deviation.
+    """
+    time = np.asarray(time, float)
+    rest_end = time[0] + 2.0 if rest_end_time is None else rest_end_time
+    grid, g = resample_uniform(time, values)
+    base = g[grid <= rest_end].mean() if np.any(grid <= rest_end) else np.median(g)
+    d = np.abs(lowpass(g - base, cutoff_hz))
+    scale = np.percentile(d, 98)
+    on = np.flatnonzero(d > threshold * scale) if scale > 0 else np.array([], int)
+    if on.size == 0:
+        return float(time[0]), float(time[-1])
+    return float(grid[on[0]]), float(grid[on[-1]])
+
+
+@dataclass(frozen=True, eq=False)
+class PreparedSignal:
+    """One recording's step signal on the uniform grid, reusable across configs.
+
+    Attributes
+    ----------
+    source : str
+        The recording's file.
+    method : str
+        ``"MoRPI-A"`` or ``"MoRPI-G"``.
+    grid : ndarray, shape (m,)
+        Uniform grid [s].
+    raw : ndarray, shape (m,)
+        Resampled signal (signal units).
+    filtered : ndarray, shape (m,)
+        Low-passed at `cutoff_hz` (equal to `raw` when None).
+    cutoff_hz : float or None
+    motion : tuple of float
+        Motion start and end time [s] (:func:`motion_span`).
+    time, heading : ndarray, shape (n,)
+        Original time stamps [s] and integrated heading [rad].
+    span : tuple of float
+        2nd and 98th percentile of the filtered signal during the motion
+        (the scale of the prominence threshold).
+    """
+
+    source: str
+    method: str
+    grid: np.ndarray
+    raw: np.ndarray
+    filtered: np.ndarray
+    cutoff_hz: float | None
+    motion: tuple
+    time: np.ndarray
+    heading: np.ndarray
+    span: tuple = (0.0, 0.0)
+
+
+def prepare_signal(rec, method: str, cutoff_hz: float | None, *, rest_end_time: float | None = None,
+                   heading=None, motion=None) -> PreparedSignal:
+    """Resample (and filter) a recording's MoRPI signal once for many step configs.
+
+    `heading` (n,) defaults to integrated omega_z; `motion` (start, end) [s]
+    defaults to :func:`motion_span` of the signal.
+    """
+    if method not in METHODS:
+        raise MorpiError(f"method={method!r}: expected one of {tuple(METHODS)}")
+    attr, col = METHODS[method]
+    x = getattr(rec, attr)[:, col]
+    t = rec.time
+    grid, graw = resample_uniform(t, x)
+    g = lowpass(graw, cutoff_hz) if cutoff_hz is not None else graw
+    if motion is None:
+        motion = motion_span(t, x, rest_end_time)
+    psi = integrate_heading(t, rec.omega[:, 2]) if heading is None else np.asarray(heading, float)
+    i0, i1 = np.searchsorted(grid, [motion[0], motion[1] + 1e-9])
+    span = tuple(float(v) for v in np.percentile(g[i0:i1], [2, 98])) if i1 - i0 >= 3 else (0.0, 0.0)
+    return PreparedSignal(source=rec.source, method=method, grid=grid, raw=graw, filtered=g,
+                          cutoff_hz=cutoff_hz, motion=(float(motion[0]), float(motion[1])), time=t, heading=psi,
+                          span=span)
+
+
+def activity_span(time, omega, *, window_s: float = 0.5, factor: float = 10.0, floor: float = 0.02,
+                  rest_s: float = 2.0, min_pause_s: float = 1.5):
+    """Start and end time of the main motion from the gyro's vibration [s].
+
+    The moving standard deviation (over `window_s`, on the uniform grid) of the
+    angular rate, summed over the axes, is compared with `factor` times its
+    median over the first `rest_s` seconds (and at least `floor` rad/s).
+    Active stretches separated by pauses shorter than `min_pause_s` are merged
+    and the longest one is the motion (handling of the phone after the robot
+    stopped is left out). The whole recording when nothing is active.
+    """
+    time = np.asarray(time, float)
+    grid, w = resample_uniform(time, omega)
+    k = max(2, int(round(window_s * GRID_HZ)))
+    if grid.shape[0] <= k:
+        return float(time[0]), float(time[-1])
+    c1 = np.vstack([np.zeros((1, 3)), np.cumsum(w, axis=0)])
+    c2 = np.vstack([np.zeros((1, 3)), np.cumsum(w * w, axis=0)])
+    mean = (c1[k:] - c1[:-k]) / k
+    sd = np.sqrt(np.maximum((c2[k:] - c2[:-k]) / k - mean * mean, 0.0)).sum(axis=1)
+    n_rest = max(1, int(rest_s * GRID_HZ) - k)
+    thr = max(factor * float(np.median(sd[:n_rest])), floor)
+    on = np.flatnonzero(sd > thr)
+    if on.size == 0:
+        return float(time[0]), float(time[-1])
+    # window j covers grid samples [j, j + k): the first active window ends at the onset and the
+    # last one starts at the end of the motion; split where the gap exceeds the pause
+    breaks = np.flatnonzero(np.diff(on) > k + min_pause_s * GRID_HZ)
+    starts = np.r_[on[0], on[breaks + 1]] + k - 1
+    ends = np.r_[on[breaks], on[-1]]
+    j = int(np.argmax(ends - starts))
+    return float(grid[min(starts[j], grid.shape[0] - 1)]), float(grid[max(ends[j], starts[j])])
+
+
+def extract_steps(rec, method: str, config: StepConfig = StepConfig(), *, rest_end_time: float | None = None,
+                  heading=None, prepared: PreparedSignal | None = None, peak_cache: dict | None = None) -> Steps:
+    """Find the steps of one run.
+
+    Parameters
+    ----------
+    rec : Recording or None
+        (Calibrated or raw) recording; may be None when `prepared` is given.
+    method : str
+        ``"MoRPI-A"`` (f_y) or ``"MoRPI-G"`` (omega_z).
+    config : StepConfig
+    rest_end_time : float, optional
+        End of the initial rest [s] (baseline for the motion span).
+    heading : ndarray, shape (n,), optional
+        Heading on the recording's samples [rad]; default: integrated omega_z.
+    prepared : PreparedSignal, optional
+        Output of :func:`prepare_signal` with ``config.cutoff_hz`` (saves the
+        resampling and filtering when many configs are tried).
+    peak_cache : dict, optional
+        Reuses the peaks found for the same recording, method, cut-off,
+        prominence, least period and segment rule. The peaks do not depend on
+        a constant offset of the signal (the threshold is relative to its
+        range), so one entry serves the raw and the gyro-calibrated signal.
+
+    Raises
+    ------
+    MorpiError
+        Naming the recording when fewer than two peaks are found (no periodic
+        motion).
+    """
+    if prepared is None:
+        prepared = prepare_signal(rec, method, config.cutoff_hz, rest_end_time=rest_end_time, heading=heading)
+    elif prepared.cutoff_hz != config.cutoff_hz or prepared.method != method:
+        raise MorpiError(f"{prepared.source}: prepared signal ({prepared.method}, cutoff {prepared.cutoff_hz}) "
+                         f"does not match ({method}, cutoff {config.cutoff_hz})")
+    p = prepared
+    grid, g, graw, t = p.grid, p.filtered, p.raw, p.time
+    m0, m1 = p.motion
+    i0, i1 = np.searchsorted(grid, [m0, m1 + 1e-9])
+    if i1 - i0 < 3:
+        raise MorpiError(f"{p.source}: no periodic motion found in the {method} signal")
+    lo, hi = p.span
+    if not hi - lo > 0:
+        raise MorpiError(f"{p.source}: no periodic motion found in the {method} signal (flat signal)")
+    prom = config.prominence * (hi - lo)
+    pkey = (p.source, method, config.cutoff_hz, config.prominence, config.min_period_s, config.segment)
+    if peak_cache is not None and pkey in peak_cache:
+        imax, bounds = peak_cache[pkey]
+    else:
+        dist = max(1, int(round(config.min_period_s * GRID_HZ)))
+        seg = g[i0:i1]
+        imax = _sig.find_peaks(seg, distance=dist, prominence=prom)[0] + i0
+        if config.segment == "extrema":
+            imin = _sig.find_peaks(-seg, distance=dist, prominence=prom)[0] + i0
+            bounds = np.sort(np.concatenate([imax, imin]))
+        else:
+            bounds = imax
+        if peak_cache is not None:
+            peak_cache[pkey] = (imax, bounds)
+    if bounds.size < 2:
+        raise MorpiError(f"{p.source}: no periodic motion found in the {method} signal "
+                         f"({bounds.size} peak(s) between {m0 - t[0]:.1f} s and {m1 - t[0]:.1f} s)")
+    amp = g if config.amplitude_from == "filtered" else graw
+    # max and min over each closed interval [bounds[j], bounds[j+1]] of the grid
+    vmax = np.maximum(np.maximum.reduceat(amp, bounds[:-1])[:bounds.size - 1], amp[bounds[1:]])
+    vmin = np.minimum(np.minimum.reduceat(amp, bounds[:-1])[:bounds.size - 1], amp[bounds[1:]])
+    weight = (vmax - vmin) ** 0.25
+    st, et = grid[bounds[:-1]], grid[bounds[1:]]
+    frac = np.ones_like(weight)
+    if config.ends != "drop":
+        per = _median(et - st)
+        wmed = _median(weight)
+        parts = []
+        for f in ((grid[bounds[0]] - m0) / per, (m1 - grid[bounds[-1]]) / per):
+            f = min(max(f, 0.0), 1.0)
+            if config.ends == "whole":
+                f = 1.0 if f >= 0.5 else 0.0
+            parts.append(f)
+        st = np.concatenate([[m0], st, [grid[bounds[-1]]]])
+        et = np.concatenate([[grid[bounds[0]]], et, [m1]])
+        weight = np.concatenate([[wmed], weight, [wmed]])
+        frac = np.concatenate([[parts[0]], frac, [parts[1]]])
+    psi = p.heading
+    bi = np.searchsorted(t, grid[imax])
+    if bi.size >= 2:
+        swing = np.degrees(np.maximum.reduceat(psi, bi[:-1])[:bi.size - 1]
+                           - np.minimum.reduceat(psi, bi[:-1])[:bi.size - 1])
+        med = _median(swing)
+        if med < config.min_swing_deg:
+            raise MorpiError(f"{p.source}: no periodic motion found in the {method} signal (median heading "
+                             f"swing {med:.1f} deg per period, expected at least "
+                             f"{config.min_swing_deg:g} deg for a sine path)")
+    psi_s, psi_e = np.interp(st, t, psi), np.interp(et, t, psi)
+    if config.heading == "absolute":
+        dpsi = psi_e
+    elif config.heading == "change":
+        dpsi = psi_e - psi_s
+    else:
+        cpsi = np.concatenate([[0.0], np.cumsum(0.5 * (psi[1:] + psi[:-1]) * np.diff(t))])
+        span = et - st
+        with np.errstate(invalid="ignore", divide="ignore"):
+            dpsi = np.where(span > 1e-9, (np.interp(et, t, cpsi) - np.interp(st, t, cpsi)) / span, psi_s)
+    idx = np.clip(np.searchsorted(t, grid[bounds]), 0, t.shape[0] - 1)
+    peaks = Peaks(grid_time=grid, grid_signal=g, grid_index=bounds, index=idx,
+                  properties={"prominence_threshold": prom})
+    return Steps(start_time=st, end_time=et, weight=weight, fraction=frac, heading=dpsi, peaks=peaks,
+                 motion=(m0, m1))
+
+
+def train_gain(steps_list, distances):
+    """Weinberg gain from training runs with known travelled distances.
+
+    Each run's gain solves ``gain * sum(weight * fraction) = distance``; the
+    result is the mean over runs (the paper's protocol) and their std.
+
+    Parameters
+    ----------
+    steps_list : sequence of Steps
+    distances : float or sequence of float
+        Travelled distance of each run [m].
+
+    Returns
+    -------
+    mean, std : float
+        [m / unit^(1/4)]; std with ddof=0.
+    per_run : ndarray, shape (runs,)
+    """
+    steps_list = list(steps_list)
+    if not steps_list:
+        raise MorpiError("train_gain: no training runs")
+    d = np.broadcast_to(np.asarray(distances, float), (len(steps_list),))
+    w = np.array([s.effective_weight for s in steps_list])
+    if np.any(w <= 0):
+        raise MorpiError("train_gain: a training run has no step amplitude")
+    g = d / w
+    return float(g.mean()), float(g.std()), g
+
+
+def dead_reckon(length, heading, p0=(0.0, 0.0)):
+    """Positions ``x += s cos(dpsi), y += s sin(dpsi)``, shape (k + 1, 2) [m]."""
+    length = np.asarray(length, float)
+    heading = np.asarray(heading, float)
+    d = np.column_stack([length * np.cos(heading), length * np.sin(heading)])
+    out = np.empty((length.shape[0] + 1, 2))
+    out[0] = p0
+    np.cumsum(d, axis=0, out=out[1:])
+    out[1:] += np.asarray(p0, float)
+    return out
+
+
+def morpi_track(steps: Steps, gain: float) -> MorpiTrack:
+    """Dead-reckon a run's steps with a trained gain."""
+    length = gain * steps.weight * steps.fraction
+    return MorpiTrack(steps=steps, gain=float(gain), length=length, position=dead_reckon(length, steps.heading))

@@ -1,0 +1,233 @@
+"""Tests of morpi_filters.steps on synthetic signals with known peaks and distances."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.integrate import cumulative_trapezoid, quad
+
+from morpi_filters import steps as st
+from morpi_filters.dataset import Recording
+from morpi_filters.errors import MorpiError
+
+
+def _jittered_time(duration, rate, rng, t0=12.3):
+    """Non-uniform time stamps: steps uniformly spread +-40 % around 1/rate."""
+    n = int(duration * rate * 1.2)
+    dt = (1.0 / rate) * rng.uniform(0.6, 1.4, n)
+    t = t0 + np.concatenate([[0.0], np.cumsum(dt)])
+    return t[t <= t0 + duration]
+
+
+def sine_path_recording(n_periods, *, wavelength=1.0, amplitude=0.1, speed=0.4, rest=3.0, rate=80.0, seed=0,
+                        name="sine.csv"):
+    """A robot on y = A (1 - cos(2 pi x / lambda)) for `n_periods` periods, at constant forward speed.
+
+    Rest before and after; the body frame follows the path tangent (heading psi = atan(dy/dx)),
+    so omega_z = dpsi/dt and the lateral specific force is f_y = v_t * omega_z (centripetal),
+    f_x the tangential acceleration, f_z = g. Returns (recording, x(t) as the truth).
+    """
+    rng = np.random.default_rng(seed)
+    move = n_periods * wavelength / speed
+    t = _jittered_time(2 * rest + move, rate, rng)
+    tau = np.clip(t - t[0] - rest, 0.0, move)
+    x = speed * tau
+    k = 2 * np.pi / wavelength
+    psi = np.arctan(amplitude * k * np.sin(k * x))  # zero at the start, as the integrated gyro
+    moving = (t - t[0] > rest) & (t - t[0] < rest + move)
+    # dpsi/dt = dpsi/dx * dx/dt
+    dpsi_dx = (amplitude * k * k * np.cos(k * x)) / (1 + (amplitude * k * np.sin(k * x)) ** 2)
+    wz = np.where(moving, dpsi_dx * speed, 0.0)
+    vt = np.where(moving, speed / np.cos(psi), 0.0)
+    fy = vt * wz
+    fx = np.gradient(vt, t)
+    f = np.column_stack([fx, fy, np.full_like(t, 9.81)])
+    omega = np.column_stack([np.zeros_like(t), np.zeros_like(t), wz])
+    return Recording(time=t, f=f, omega=omega, source=name), x
+
+
+# ----------------------------------------------------------------------------- peak detection
+
+def test_sinusoid_one_peak_per_period_at_the_right_times():
+    rng = np.random.default_rng(1)
+    period, amp = 2.5, 0.7
+    t = _jittered_time(30.0, 60.0, rng)
+    x = amp * np.sin(2 * np.pi * (t - t[0]) / period)
+    idx, props = st.detect_peaks(x, t, min_period_s=0.5 * period, min_prominence=0.5 * amp)
+    # maxima at t0 + period/4 + j*period strictly inside the record
+    expected = t[0] + period / 4 + period * np.arange(12)
+    expected = expected[expected < t[-1]]
+    assert idx.size == expected.size
+    # the grid is 100 Hz and the samples ~60 Hz with +-40 % jitter: peak times within one grid
+    # step plus one sample interval (0.01 + 0.024 s)
+    np.testing.assert_allclose(props["time"], expected, atol=0.035)
+    np.testing.assert_allclose(t[idx], expected, atol=0.035)
+    assert set(("prominences", "time", "grid_index")) <= set(props)
+
+
+def test_min_period_in_seconds_suppresses_faster_peaks():
+    rng = np.random.default_rng(2)
+    t = _jittered_time(20.0, 90.0, rng)
+    x = np.sin(2 * np.pi * (t - t[0]) / 2.0) + 0.3 * np.sin(2 * np.pi * (t - t[0]) / 0.25)
+    many, _ = st.detect_peaks(x, t, min_period_s=0.1, min_prominence=0.1)
+    few, _ = st.detect_peaks(x, t, min_period_s=1.5, min_prominence=0.1)
+    assert few.size == 10  # one per 2 s period in 20 s
+    assert many.size > 3 * few.size
+
+
+def test_lowpass_cutoff_removes_noise_peaks():
+    rng = np.random.default_rng(3)
+    t = _jittered_time(20.0, 100.0, rng)
+    x = np.sin(2 * np.pi * (t - t[0]) / 2.0) + 0.2 * rng.standard_normal(t.size)
+    noisy, _ = st.detect_peaks(x, t, min_period_s=0.05, min_prominence=0.05)
+    clean, _ = st.detect_peaks(x, t, min_period_s=0.05, min_prominence=0.05, cutoff_hz=1.5)
+    assert clean.size == 10
+    assert noisy.size > 20
+
+
+def test_weinberg_length_of_a_sinusoid():
+    # a sinusoid of amplitude A has max - min = 2A in every period: length gain * (2A)^(1/4)
+    rng = np.random.default_rng(4)
+    A, gain, period = 0.8, 0.6, 3.0
+    t = _jittered_time(32.0, 70.0, rng)
+    wz = A * np.sin(2 * np.pi * (t - t[0] - 1.0) / period)
+    rec = Recording(time=t, f=np.column_stack([np.zeros_like(t), np.zeros_like(t), np.full_like(t, 9.81)]),
+                    omega=np.column_stack([np.zeros_like(t), np.zeros_like(t), wz]), source="sin.csv")
+    cfg = st.StepConfig(segment="maxima", ends="drop", cutoff_hz=None, min_swing_deg=0.0)
+    s = st.extract_steps(rec, "MoRPI-G", cfg, heading=np.zeros_like(t))
+    assert s.n == 9  # 10 maxima in 32 s (first at 1.75 s, then every 3 s), 9 peak-to-peak steps
+    # max - min of the resampled sinusoid is within the linear-interpolation error of 2A:
+    # A (1 - cos(pi dt_max / period)) with dt_max = 1.4/70 s gives 1.6e-4 relative
+    np.testing.assert_allclose(s.weight, (2 * A) ** 0.25, rtol=1e-4)
+    track = st.morpi_track(s, gain)
+    np.testing.assert_allclose(track.length, gain * (2 * A) ** 0.25, rtol=1e-4)
+
+
+def test_weinberg_length_vectorized_and_validated():
+    vmax = np.array([[1.0, 2.0], [17.0, 0.5]])
+    vmin = np.array([[0.0, 1.0], [1.0, 0.5]])
+    np.testing.assert_allclose(st.weinberg_length(vmax, vmin, 2.0), [[2.0, 2.0], [4.0, 0.0]])
+    with pytest.raises(MorpiError, match="vmax >= vmin"):
+        st.weinberg_length([0.0], [1.0], 1.0)
+
+
+# ----------------------------------------------------------------------------- the MoRPI pipeline on a sine path
+
+@pytest.mark.parametrize("segment", st.SEGMENTS)
+@pytest.mark.parametrize("method", tuple(st.METHODS))
+def test_trained_gain_gives_the_true_distance_on_a_sine_path(method, segment):
+    cfg = st.StepConfig(heading="mean", segment=segment, ends="fraction", cutoff_hz=3.0)
+    train, _ = sine_path_recording(6, seed=10, name="train.csv")
+    s_train = st.extract_steps(train, method, cfg, rest_end_time=train.time[0] + 2.0)
+    gain, std, per = st.train_gain([s_train], 6.0)
+    assert std == 0.0 and per.shape == (1,)
+    # trained on this path, the distance is the true one by construction of the gain
+    np.testing.assert_allclose(st.morpi_track(s_train, gain).distance, 6.0, rtol=1e-12)
+    # another run of the same path and speed (the Weinberg amplitude depends on the speed: f_y
+    # scales with v^2, omega_z with v), with 9 periods and another sampling
+    test, x = sine_path_recording(9, rate=55.0, seed=11, name="test.csv")
+    tr = st.morpi_track(st.extract_steps(test, method, cfg, rest_end_time=test.time[0] + 2.0), gain)
+    # partial end steps are counted by time fraction: the end estimate is good to a few % of one
+    # period (1 m) over 9 m; 2 % of the distance is the bar
+    assert tr.distance == pytest.approx(9.0, rel=0.02)
+    if segment == "maxima":
+        # mean heading over a whole period of the symmetric path is zero: the end point is on the x axis
+        expected_x = 9.0
+    else:
+        # half periods alternate a mean heading of +-psi_bar, so each step is shortened by cos(psi_bar),
+        # psi_bar = mean over theta in (0, pi) of atan(A k sin(theta)) (uniform in theta at constant
+        # forward speed); the gain only makes the summed lengths right
+        ak = 0.1 * 2 * np.pi
+        psi_bar = quad(lambda th: np.arctan(ak * np.sin(th)), 0.0, np.pi)[0] / np.pi
+        expected_x = 9.0 * np.cos(psi_bar)
+    assert np.linalg.norm(tr.end_point - [expected_x, 0.0]) < 0.02 * 9.0
+
+
+def test_dead_reckon_follows_the_heading():
+    pos = st.dead_reckon([1.0, 1.0, 2.0], np.radians([0.0, 90.0, 180.0]))
+    np.testing.assert_allclose(pos, [[0, 0], [1, 0], [1, 1], [-1, 1]], atol=1e-12)
+
+
+def test_integrate_heading_uses_the_real_time_steps():
+    rng = np.random.default_rng(5)
+    t = _jittered_time(10.0, 50.0, rng)
+    w = 0.3 * np.cos(t)
+    psi = st.integrate_heading(t, w)
+    np.testing.assert_allclose(psi, cumulative_trapezoid(w, t, initial=0.0), atol=1e-12)
+    # against the exact integral: trapezoid error is below dt^2/12 * max|w''| * T = 1e-4
+    np.testing.assert_allclose(psi, 0.3 * (np.sin(t) - np.sin(t[0])), atol=1e-4)
+
+
+def test_heading_readings_differ_as_documented():
+    rec, _ = sine_path_recording(5, seed=12)
+    psi = np.full(rec.n, 0.5)  # a constant heading of 0.5 rad
+    base = st.StepConfig(segment="maxima", ends="drop", cutoff_hz=3.0, min_swing_deg=0.0)
+    s_abs = st.extract_steps(rec, "MoRPI-G", base.with_(heading="absolute"), heading=psi)
+    s_chg = st.extract_steps(rec, "MoRPI-G", base.with_(heading="change"), heading=psi)
+    s_mean = st.extract_steps(rec, "MoRPI-G", base.with_(heading="mean"), heading=psi)
+    np.testing.assert_allclose(s_abs.heading, 0.5)
+    np.testing.assert_allclose(s_chg.heading, 0.0)
+    np.testing.assert_allclose(s_mean.heading, 0.5)
+
+
+# ----------------------------------------------------------------------------- bad input
+
+def _rest_recording(n=2000, name="flat.csv", noise=0.0):
+    rng = np.random.default_rng(6)
+    t = 5.0 + np.cumsum(rng.uniform(0.008, 0.02, n))
+    f = np.tile([0.0, 0.0, 9.81], (n, 1)) + noise * rng.standard_normal((n, 3))
+    w = noise * 0.01 * rng.standard_normal((n, 3))
+    return Recording(time=t, f=f, omega=w, source=name)
+
+
+@pytest.mark.parametrize("method", tuple(st.METHODS))
+@pytest.mark.parametrize("noise", [0.0, 0.02])
+def test_no_periodic_motion_is_an_error_naming_the_file(method, noise):
+    rec = _rest_recording(name=f"/data/rest_{noise}.csv", noise=noise)
+    with pytest.raises(MorpiError, match=r"rest_.*\.csv: no periodic motion"):
+        st.extract_steps(rec, method)
+
+
+def test_straight_drive_is_not_periodic():
+    # straight drive with lateral vibration: peaks exist but the heading does not swing
+    rng = np.random.default_rng(7)
+    t = _jittered_time(20.0, 100.0, rng)
+    wz = 0.05 * np.sin(2 * np.pi * 3.0 * t) + 0.01 * rng.standard_normal(t.size)
+    rec = Recording(time=t, f=np.tile([0.0, 0.0, 9.81], (t.size, 1)),
+                    omega=np.column_stack([np.zeros_like(t), np.zeros_like(t), wz]), source="straight.csv")
+    with pytest.raises(MorpiError, match="straight.csv: no periodic motion.*heading swing"):
+        st.extract_steps(rec, "MoRPI-G", st.StepConfig(cutoff_hz=None, min_period_s=0.2))
+
+
+@pytest.mark.parametrize("kw, what", [
+    (dict(heading="sideways"), "heading"), (dict(segment="zeros"), "segment"), (dict(ends="skip"), "ends"),
+    (dict(min_period_s=0.0), "min_period_s"), (dict(prominence=-1.0), "prominence"),
+    (dict(cutoff_hz=80.0), "cutoff_hz"),
+])
+def test_bad_config_names_the_parameter(kw, what):
+    with pytest.raises(MorpiError, match=f"StepConfig.{what}="):
+        st.StepConfig(**kw)
+
+
+def test_bad_method_and_training():
+    rec, _ = sine_path_recording(3)
+    with pytest.raises(MorpiError, match="method="):
+        st.extract_steps(rec, "MoRPI-X")
+    with pytest.raises(MorpiError, match="no training runs"):
+        st.train_gain([], 6.3)
+    with pytest.raises(MorpiError, match="strictly increasing"):
+        st.detect_peaks([1.0, 2.0, 1.0], [0.0, 0.0, 1.0], min_period_s=1.0)
+
+
+def test_activity_span_finds_the_motion_and_ignores_a_later_tap():
+    rng = np.random.default_rng(8)
+    t = _jittered_time(16.0, 90.0, rng, t0=0.0)
+    w = 0.001 * rng.standard_normal((t.size, 3))
+    moving = (t >= 3.0) & (t < 8.0)
+    w[moving] += 0.1 * rng.standard_normal((moving.sum(), 3))
+    tap = (t >= 13.0) & (t < 13.2)  # the phone handled after the robot stopped
+    w[tap] += 0.5 * rng.standard_normal((tap.sum(), 3))
+    a, b = st.activity_span(t, w)
+    # the span is read on the 100 Hz grid from 0.5 s windows: within two grid steps plus one
+    # sample interval (0.02 + 0.016 s) of the true onset and end
+    assert a == pytest.approx(3.0, abs=0.04)
+    assert b == pytest.approx(8.0, abs=0.04)
