@@ -453,40 +453,13 @@ def compute_curves(case: CurveCase, times=DEFAULT_TIMES, runs=MC_RUNS, rng=None,
                       nl_eval_index=nl_at)
 
 
-def _motion_span(time, omega, start, window_s=0.5, factor=10.0, quiet_s=1.0):
-    """Start and end [s] of the first motion after `start` from the gyro's windowed spread.
-
-    A window is active when the std of ``|omega|`` exceeds `factor` times the
-    median std of the windows before `start` (the rest). The motion ends at
-    the first `quiet_s` of inactive windows.
-    """
-    # Stands in for steps.activity_span until that module is available.
-    w = np.linalg.norm(omega, axis=1)
-    edges = np.arange(time[0], time[-1], window_s)
-    idx = np.searchsorted(time, edges)
-    std = np.array([w[i:j].std() if j - i > 1 else 0.0 for i, j in zip(idx, np.r_[idx[1:], time.size])])
-    rest = std[edges + window_s <= start]
-    thr = factor * (np.median(rest) if rest.size else std.min()) + 1e-12
-    active = std > thr
-    k0 = int(np.searchsorted(edges, start - window_s))
-    on = np.flatnonzero(active[k0:])
-    if on.size == 0:
-        return None
-    k = k0 + on[0]
-    t0 = max(float(edges[k]), float(start))
-    quiet = int(round(quiet_s / window_s))
-    j = k
-    while j < active.size and active[j:j + quiet].any():
-        j += 1
-    return t0, float(min(edges[j - 1] + window_s, time[-1]) if j > k else edges[k] + window_s)
-
-
 def _field_points(source):
     """End-point errors of the field INS straight-line runs, or why there are none.
 
     Each recording of ``s8/line_dataset`` is calibrated (GAC, the paper's best
-    for INS), integrated by the 3D and 2D strapdown from the start to the end
-    of the motion, and compared with the route's end point.
+    for INS) and integrated by the 3D and 2D strapdown over the robot's motion,
+    as the field evaluation does (:class:`morpi_filters.evaluate.FieldData`),
+    and compared with the route's end point.
 
     Returns
     -------
@@ -496,55 +469,28 @@ def _field_points(source):
     if source is None or source.root is None:
         return {}, "no data source configured, so no field end points are drawn"
     from . import dataset as ds
-    from .calibration import LOCAL_GRAVITY, calibrate
-    from .strapdown import ins2d, ins3d
+    from .evaluate import FieldData
 
-    entries = [e for e in ds.catalogue(source.root) if e.route == "line_dataset"]
-    if not entries:
-        return {}, f"{source.root}: no straight-line (line_dataset) recordings"
+    data = FieldData(source.root)
+    recs = data.recordings("s8", "line_dataset", None)
+    if not recs:
+        return {}, f"{source.root}: no straight-line (s8/line_dataset) recordings"
     truth = ds.route("line_dataset")
     pts, skipped = {"ins3d": [], "ins2d": []}, 0
-    try:  # the field evaluation's INS (its motion span), when available
-        from .evaluate import FieldData
-    except ImportError:
-        FieldData = None
-    if FieldData is not None:
-        data = FieldData(source.root)
-        for rec in data.recordings("s8", "line_dataset", None):
-            for key, method in (("ins3d", "INS-3D"), ("ins2d", "INS-2D")):
-                try:
-                    res = data.ins(rec, "GAC", method)
-                except MorpiError:
-                    skipped += 1
-                    continue
-                end = np.asarray(res.position)[-1, :2]
-                pts[key].append((float(res.time[-1] - res.time[0]), float(np.linalg.norm(end - truth.end_point_m))))
-        entries = []
-    for e in entries:
-        rec = e.load()
-        try:
-            cal = calibrate(rec, "GAC")
-        except MorpiError:
-            skipped += 1
-            continue
-        crec = cal.apply(rec)
-        span = _motion_span(crec.time, crec.omega, cal.window.end_s)
-        if span is None:
-            skipped += 1
-            continue
-        sl = slice(int(np.searchsorted(crec.time, span[0])), int(np.searchsorted(crec.time, span[1], side="right")))
-        t, f, w = crec.time[sl], crec.f[sl], crec.omega[sl]
-        if t.size < 3:
-            skipped += 1
-            continue
-        for key, res in (("ins3d", ins3d(t, f, w, g=LOCAL_GRAVITY)), ("ins2d", ins2d(t, f, w))):
+    for rec in recs:
+        for key, method in (("ins3d", "INS-3D"), ("ins2d", "INS-2D")):
+            try:
+                res = data.ins(rec, "GAC", method)
+            except MorpiError:
+                skipped += 1
+                continue
             end = np.asarray(res.position)[-1, :2]
-            pts[key].append((float(t[-1] - t[0]), float(np.linalg.norm(end - truth.end_point_m))))
+            pts[key].append((float(res.time[-1] - res.time[0]), float(np.linalg.norm(end - truth.end_point_m))))
     if not pts["ins3d"]:
         return {}, f"{source.root}: no straight-line recording could be integrated"
-    note = (f"{len(pts['ins3d'])} straight-line recordings ({truth.distance_m:g} m, GAC calibration, INS from the "
-            f"start to the end of the motion); end-point error against duration"
-            + (f"; {skipped} skipped (no rest or no motion found)" if skipped else "")
+    note = (f"{len(pts['ins3d'])} straight-line recordings ({truth.distance_m:g} m, GAC calibration, INS over the "
+            f"robot's motion as in the tables section); end-point error against duration"
+            + (f"; {skipped} INS runs skipped (no rest or no motion found)" if skipped else "")
             + ". MoRPI runs are compared per table cell below")
     return pts, note
 
@@ -717,11 +663,6 @@ def _field_aided(source):
     """The field study of :func:`field_aided_study`, or why it is not run."""
     if source is None or source.root is None:
         return [], "No data source configured: the MoRPI-aided INS is not run on recordings."
-    try:
-        from . import evaluate  # noqa: F401
-    except ImportError:
-        return [], ("The field evaluation (steps and gains per table cell) is not available in this build, so the "
-                    "MoRPI-aided INS is not run on the recordings.")
     cells = field_aided_study(source.root)
     if not cells:
         return [], "No MoRPI table cell could be evaluated on these recordings."

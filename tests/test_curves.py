@@ -138,6 +138,7 @@ def test_synthetic_source_banner_and_empty_field(tmp_path):
     text = (out / "README.md").read_text()
     assert text.startswith(SYNTHETIC_BANNER) and s.synthetic
     assert "no straight-line" in json.loads((out / "result.json").read_text())["field"]["note"]
+    assert json.loads((out / "result.json").read_text())["field_aided"]["cells"] == []
 
 
 @pytest.mark.field
@@ -155,7 +156,6 @@ def test_field_straight_line_end_points(field_root):
 
 @pytest.mark.field
 def test_field_morpi_aided_ins_one_cell(field_root):
-    pytest.importorskip("morpi_filters.evaluate")
     from morpi_filters.curves import field_aided_study
 
     label = "short_route s8 1 m MoRPI-A GC"
