@@ -55,7 +55,7 @@ from .eskf import (
 __all__ = [
     "STEP_LENGTH_M", "DEFAULT_TIMES", "CurveCase", "CaseCurves", "case_from_params", "case_from_sensor",
     "time_grid", "closed_form_mean_square", "closed_form_errors", "compute_curves", "report_curves",
-    "AIDED_GRID", "AidedCell", "field_aided_study",
+    "AIDED_GRID", "AidedCell", "field_aided_study", "train_aided_tuning",
 ]
 
 #: Length of one MoRPI step [m]: the 1 m peak-to-peak period of the paper's periodic routes.
@@ -578,6 +578,45 @@ def _tunings(gain_sigma):
                            step=StepModel(gain_sigma=gain_sigma, step_sigma=ss, jitter_s=0.02, cross_sigma_m=0.05)))
 
 
+def train_aided_tuning(data, train, method, mode, config, gain):
+    """Choose the aided-INS tunables on one training set (``train`` split only).
+
+    Parameters
+    ----------
+    data : evaluate.FieldData
+    train : (str, str)
+        (phone, route) of the training set.
+    method, mode : str
+        MoRPI method and calibration.
+    config : steps.StepConfig
+    gain : evaluate.Gain
+        The trained gain (mean used for the steps, std / mean as the gain
+        error's 1 sigma).
+
+    Returns
+    -------
+    (score, info, tuning)
+        Mean train end-point error [%], the tunables as a dict, the AidedTuning.
+    """
+    from . import dataset as ds
+
+    recs = data.recordings(train[0], train[1], "train")
+    truth = ds.route(train[1])
+    best = None
+    for info, tun in _tunings(gain.std / gain.mean):
+        errs = []
+        for rec in recs:
+            try:
+                end, _ = _aided_end(data, rec, mode, method, config, gain.mean, tun)
+            except MorpiError:
+                continue
+            errs.append(np.linalg.norm(end - truth.end_point_m) / truth.distance_m * 100)
+        score = float(np.mean(errs)) if errs else np.inf
+        if best is None or score < best[0]:
+            best = (score, info, tun)
+    return best
+
+
 def field_aided_study(root, result=None, labels=None):
     """MoRPI-aided INS (this filter) vs MoRPI alone vs INS alone per MoRPI table cell.
 
@@ -619,21 +658,7 @@ def field_aided_study(root, result=None, labels=None):
         config = res.selections[sp.method].config
         key = (sp.train, sp.method, sp.calibration)
         if key not in chosen:
-            train = data.recordings(sp.train[0], sp.train[1], "train")
-            truth = ds.route(sp.train[1])
-            best = None
-            for info, tun in _tunings(g.std / g.mean):
-                errs = []
-                for rec in train:
-                    try:
-                        end, _ = _aided_end(data, rec, sp.calibration, sp.method, config, g.mean, tun)
-                    except MorpiError:
-                        continue
-                    errs.append(np.linalg.norm(end - truth.end_point_m) / truth.distance_m * 100)
-                score = float(np.mean(errs)) if errs else np.inf
-                if best is None or score < best[0]:
-                    best = (score, info, tun)
-            chosen[key] = best
+            chosen[key] = train_aided_tuning(data, sp.train, sp.method, sp.calibration, config, g)
         score, info, tun = chosen[key]
         truth = ds.route(sp.route)
         by_file = {r.file: r for r in cell.runs}

@@ -165,3 +165,19 @@ def test_field_morpi_aided_ins_one_cell(field_root):
     assert c.aided_percent < 0.05 * c.ins_percent
     assert c.aided_percent < 2 * c.morpi_percent
     assert set(c.tuning) == {"noise_scale", "step_sigma", "gain_sigma"}
+
+
+@pytest.mark.field
+def test_aided_tunables_do_not_see_the_test_folders(field_root):
+    """The same tunables with every test folder hidden (train runs only)."""
+    from morpi_filters.curves import train_aided_tuning
+    from morpi_filters.evaluate import evaluate_tables
+
+    picks = []
+    for include_test in (True, False):
+        res = evaluate_tables(field_root, include_test=include_test, alternatives=False)
+        g = next(g for g in res.gains if (g.phone, g.route, g.method, g.calibration)
+                 == ("s6", "short_distance", "MoRPI-G", "GC"))
+        picks.append(train_aided_tuning(res.data, ("s6", "short_distance"), "MoRPI-G", "GC",
+                                        res.selections["MoRPI-G"].config, g)[:2])
+    assert picks[0] == picks[1]
