@@ -752,6 +752,9 @@ def report_curves(out, *, params_path=None, times=None, source=None):
                                                       for k in ("ins3d", "ins2d", "morpi")
                                                       for a in ("sigma", "rms_closed_form", "mc_rms",
                                                                 "nonlinear_mc_rms")[: 4 if k != "morpi" else 3]])
+    if aided:
+        plots.plot_aided_cells(aided, out / "field_aided.png")
+        figures.append("field_aided.png")
     main = per_case["params"]
     result = {
         "times": times,
@@ -794,6 +797,7 @@ def report_curves(out, *, params_path=None, times=None, source=None):
         + (md_table(["case", "method", "runs", "mean duration [s]", "mean end error [m]", "RMS end error [m]",
                      "filter 1 sigma at the mean duration [m]"], field_rows) if field_rows else "")
         + "\n## MoRPI-aided INS on the field recordings\n\n" + aided_note + "\n\n"
+        + ("![MoRPI-aided INS per cell](field_aided.png)\n\n" if aided else "")
         + (md_table(["cell", "test runs", "aided INS [%]", "MoRPI alone [%]", "INS-3D alone [%]",
                      "aided [m]", "MoRPI [m]", "train score [%]", "tunables (train)"],
                     [[c.label, c.runs, fmt(c.aided_percent), fmt(c.morpi_percent), fmt(c.ins_percent, 0),

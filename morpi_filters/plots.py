@@ -11,7 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 
 __all__ = [
-    "pyplot", "save", "plot_recording", "plot_tracks", "plot_path_sets", "assessment_figure", "plot_curves",
+    "pyplot", "save", "plot_recording", "plot_tracks", "plot_path_sets", "assessment_figure", "plot_curves", "plot_aided_cells",
     "simulation_run", "montecarlo_final_errors", "montecarlo_error_curves", "montecarlo_gain_vs_error",
     "montecarlo_training_runs", "drift_disagreement_map",
 ]
@@ -241,6 +241,35 @@ def plot_curves(curves, path):
     axes[0].set_ylabel("horizontal position error [m]")
     axes[0].legend(fontsize=8)
     fig.suptitle(curves.case.title)
+    fig.tight_layout()
+    return save(fig, path)
+
+
+def plot_aided_cells(cells, path):
+    """Field end-point error per MoRPI table cell: aided INS, MoRPI alone, INS alone.
+
+    Parameters
+    ----------
+    cells : sequence of curves.AidedCell
+    path : path
+        PNG destination.
+    """
+    import numpy as np
+
+    plt = pyplot()
+    n = len(cells)
+    fig, ax = plt.subplots(figsize=(8, 0.32 * n + 1.5))
+    y = np.arange(n)
+    h = 0.27
+    ax.barh(y - h, [c.ins_percent for c in cells], h, color="0.7", label="INS-3D alone")
+    ax.barh(y, [c.morpi_percent for c in cells], h, color="C1", label="MoRPI alone")
+    ax.barh(y + h, [c.aided_percent for c in cells], h, color="C0", label="MoRPI-aided INS (this filter)")
+    ax.set_yticks(y, [c.label for c in cells], fontsize=7)
+    ax.invert_yaxis()
+    ax.set_xscale("log")
+    ax.set_xlabel("mean end-point error [% of travelled distance]")
+    ax.grid(True, axis="x", alpha=0.3)
+    ax.legend(fontsize=8, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=3, frameon=False)
     fig.tight_layout()
     return save(fig, path)
 
