@@ -85,7 +85,7 @@ def test_discretize_double_integrator_closed_form():
     Phi, Qd = discretize(F, G, [[q]], dt)
     assert np.allclose(Phi, [[1, dt], [0, 1]], rtol=0, atol=1e-15)
     want = q * np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]])
-    assert np.allclose(Qd, want, rtol=1e-13, atol=0)  # Pade expm: ~1e-15 relative
+    assert np.allclose(Qd, want, rtol=1e-13, atol=0)  # nilpotent: finite series, exact to rounding
 
 
 def test_discretize_random_15_state_against_quadrature():
@@ -96,6 +96,7 @@ def test_discretize_random_15_state_against_quadrature():
     Q = A @ A.T
     dt = 0.5
     Phi, Qd = discretize(F, G, Q, dt)
+    # both are scipy's expm here (F is not nilpotent): rounding only
     assert np.allclose(Phi, expm(F * dt), rtol=1e-12, atol=1e-13)
     ref, err = quad_vec(lambda s: expm(F * s) @ G @ Q @ G.T @ expm(F * s).T, 0, dt, epsabs=1e-13, epsrel=1e-12)
     # quad_vec's own error estimate is ~1e-13; allow 1e-10 relative to the norm
@@ -112,6 +113,7 @@ def test_discretize_stack_equals_single_steps():
     dt = np.array([0.01, 0.011, 0.009, 0.0105])
     D = discretize(F, G, Q, dt)
     for i in range(4):
+        # the same arithmetic on a stack or one matrix: rounding-level differences only
         Phi_i, Qd_i = discretize(F[i], G[i], Q, dt[i])
         assert np.allclose(D.Phi[i], Phi_i, rtol=1e-14, atol=1e-16)
         assert np.allclose(D.Qd[i], Qd_i, rtol=1e-12, atol=1e-22)
@@ -140,7 +142,7 @@ def test_planar_model_is_the_heading_restriction_of_the_15_state_model():
     F2 = planar_system_matrix(psi, f_xy)
     assert np.allclose(F2, F3[:, idx][:, :, idx], atol=1e-15)
     G2 = planar_noise_coupling(psi)
-    assert np.allclose(G2, G3[:, idx][:, :, [0, 1, 5, 6, 7, 11]], atol=1e-15)
+    assert np.allclose(G2, G3[:, idx][:, :, [0, 1, 5, 6, 7, 11]], atol=1e-15)  # cos/sin entries: rounding
     Q2 = planar_noise_density(units.MPU6500)
     assert np.allclose(np.diag(Q2), np.diag(noise_density(units.MPU6500))[[0, 1, 5, 6, 7, 11]])
     names = [s.start for s in (P2_DP, P2_DV, P2_PSI, P2_BA, P2_BG)]
@@ -190,6 +192,7 @@ def test_nilpotent_series_path_against_scipy_expm_and_quadrature():
     dt = np.array([0.01, 0.5, 2.0])
     D = discretize(F, G, Q, dt)
     for i in range(3):
+        # finite series vs Pade approximant: both accurate to ~1e-15 relative
         assert np.allclose(D.Phi[i], expm(F[i] * dt[i]), rtol=1e-13, atol=1e-14)
     ref, _ = quad_vec(lambda s: expm(F[1] * s) @ G[1] @ Q @ G[1].T @ expm(F[1] * s).T, 0, dt[1],
                       epsabs=1e-16, epsrel=1e-12)
