@@ -99,6 +99,7 @@ def test_filterpy_predict_update_equivalence():
     kf.predict(F=Phi, Q=Qd)
     y = z - H @ kf.x
     kf.update(z, R=R, H=H)
+    # identical operations; only the symmetrization of P differs, by rounding
     assert np.allclose(r.x[-1], kf.x, rtol=1e-14, atol=1e-15)
     assert np.allclose(r.P_end, 0.5 * (kf.P + kf.P.T), rtol=1e-14, atol=1e-15)
     assert np.allclose(r.innovations[0], y)
