@@ -8,6 +8,7 @@ are printed on one line (``morpi: error: ...``) with exit status 2.
 from __future__ import annotations
 
 import argparse
+import shutil
 import sys
 from pathlib import Path
 
@@ -225,8 +226,23 @@ def _cmd_report(args):
             print(f"[{name}] ...", flush=True)
             summaries.append(_section(name, stage / name, sec_args, source))
         write_text(stage / "index.md", _index(summaries, source))
+        _keep_other_outputs(Path(args.out), stage)
     print(f"report: {Path(args.out) / 'index.md'}")
     return 0
+
+
+def _keep_other_outputs(old: Path, stage: Path) -> None:
+    """Carry over what the report does not write (e.g. analysis/ figures) into the new report."""
+    if not old.is_dir():
+        return
+    for entry in old.iterdir():
+        dest = stage / entry.name
+        if dest.exists() or entry.name.startswith("."):
+            continue
+        if entry.is_dir():
+            shutil.copytree(entry, dest)
+        else:
+            shutil.copy2(entry, dest)
 
 
 def _index(summaries, source) -> str:

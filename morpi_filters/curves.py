@@ -793,7 +793,7 @@ def report_curves(out, *, params_path=None, times=None, source=None):
         f"no longer holds (large tilt from the gyro bias).\n\n"
         f"At the last requested time:\n\n" + md_table(head, rows) + "\n"
         + "".join(f"![{c.title}]({png})\n\n" for c, png in zip(cases, figures))
-        + f"Field recordings: {field_note}.\n\n"
+        + f"{'Synthetic' if source is not None and source.synthetic else 'Field'} recordings: {field_note}.\n\n"
         + (md_table(["case", "method", "runs", "mean duration [s]", "mean end error [m]", "RMS end error [m]",
                      "filter 1 sigma at the mean duration [m]"], field_rows) if field_rows else "")
         + "\n## MoRPI-aided INS on the field recordings\n\n" + aided_note + "\n\n"
@@ -809,7 +809,8 @@ def report_curves(out, *, params_path=None, times=None, source=None):
     summary = (f"Filter sigma vs closed form vs Monte Carlo for 3D/2D INS and MoRPI-aided INS. "
                f"At {fmt(times[-1], 0)} s (parameter file): 3D {fmt(main['sigma_ins3d_m'][-1])} m, "
                f"2D {fmt(main['sigma_ins2d_m'][-1])} m, MoRPI-aided {fmt(main['sigma_morpi_m'][-1])} m (1 sigma)."
-               + (f" Field: the MoRPI-aided INS beats MoRPI alone in "
+               + (f" {'Synthetic' if source is not None and source.synthetic else 'Field'} recordings: "
+                  f"the MoRPI-aided INS beats MoRPI alone in "
                   f"{sum(c.aided_percent < c.morpi_percent for c in aided)} of {len(aided)} MoRPI cells." if aided else ""))
     return SectionSummary(name="curves", title="Covariance curves", page="README.md", figures=tuple(figures),
                           summary=summary, synthetic=bool(source is not None and source.synthetic))

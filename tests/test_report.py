@@ -1,0 +1,76 @@
+"""`morpi report` end to end: every section, index links, synthetic default, interruption safety."""
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from morpi_filters import cli
+
+SECTIONS = ("tables", "assessment", "curves", "montecarlo", "drift")
+
+
+@pytest.fixture(scope="module")
+def synthetic_report(tmp_path_factory):
+    """`morpi report` in an empty folder with no dataset configured (a fresh machine's main job)."""
+    cwd = tmp_path_factory.mktemp("fresh")
+    env = {k: v for k, v in os.environ.items() if k != "MORPI_DATA"}
+    r = subprocess.run([sys.executable, "-m", "morpi_filters.cli", "report", "--runs", "200"],
+                       cwd=cwd, env=env, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr[-2000:]
+    return cwd / "reports"
+
+
+def test_report_without_dataset_has_every_section(synthetic_report):
+    index = (synthetic_report / "index.md").read_text()
+    assert "Synthetic data" in index and "morpi data fetch" in index
+    for name in SECTIONS:
+        page = synthetic_report / name / "README.md"
+        assert page.is_file() and (synthetic_report / name / "result.json").is_file()
+        assert f"]({name}/README.md)" in index
+    # Every figure the index shows exists.
+    for png in re.findall(r"!\[[^\]]*\]\(([^)]+\.png)\)", index):
+        assert (synthetic_report / png).is_file(), png
+    # Pages computed on the recordings say they are synthetic, on the page itself.
+    for name in ("tables", "curves", "montecarlo"):
+        assert (synthetic_report / name / "README.md").read_text().startswith("> **Synthetic data.**")
+    # Nothing staged is left behind.
+    assert not [p for p in synthetic_report.parent.iterdir() if p.name.startswith((".staging", ".previous"))]
+
+
+def test_interrupted_report_keeps_previous(tmp_path, monkeypatch):
+    out = tmp_path / "reports"
+    (out / "tables").mkdir(parents=True)
+    (out / "index.md").write_text("previous complete report")
+    (out / "extra").mkdir()
+    (out / "extra" / "fig.png").write_bytes(b"x")
+
+    calls = []
+
+    def fake_section(name, stage, args, source=None):
+        calls.append(name)
+        stage.mkdir(parents=True, exist_ok=True)
+        (stage / "README.md").write_text(name)
+        if name == "curves":
+            raise KeyboardInterrupt
+        from morpi_filters.reporting import SectionSummary
+        return SectionSummary(name=name, title=name)
+
+    monkeypatch.setattr(cli, "_section", fake_section)
+    monkeypatch.setattr(cli, "_report_source", lambda args: None)
+    assert cli.main(["report", "--out", str(out)]) == 130
+    assert calls == ["tables", "assessment", "curves"]
+    assert (out / "index.md").read_text() == "previous complete report"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["reports"]
+
+    # A complete run replaces the report and keeps outputs it does not own (analysis figures).
+    monkeypatch.setattr(cli, "_section", lambda name, stage, args, source=None: (
+        stage.mkdir(parents=True, exist_ok=True), __import__("morpi_filters.reporting").reporting.SectionSummary(
+            name=name, title=name))[1])
+    assert cli.main(["report", "--out", str(out)]) == 0
+    assert (out / "index.md").read_text() != "previous complete report"
+    assert (out / "extra" / "fig.png").read_bytes() == b"x"
