@@ -19,28 +19,24 @@ __all__ = ["main", "build_parser"]
 REPORT_SECTIONS = ("tables", "assessment", "curves", "montecarlo", "drift")
 
 
-def _positive_int(name):
+def _int_at_least(name, lowest):
     def parse(text):
         try:
             v = int(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"{name}: {text!r} is not a whole number") from None
-        if v < 1:
-            raise argparse.ArgumentTypeError(f"{name}: {v} must be at least 1")
+        if v < lowest:
+            raise argparse.ArgumentTypeError(f"{name}: {v} must be at least {lowest}")
         return v
     return parse
+
+
+def _positive_int(name):
+    return _int_at_least(name, 1)
 
 
 def _nonneg_int(name):
-    def parse(text):
-        try:
-            v = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name}: {text!r} is not a whole number") from None
-        if v < 0:
-            raise argparse.ArgumentTypeError(f"{name}: {v} must be 0 or more")
-        return v
-    return parse
+    return _int_at_least(name, 0)
 
 
 def _time(text):

@@ -41,6 +41,16 @@ def save(fig, path, dpi: int = 120) -> Path:
     return path
 
 
+def _finish(fig, ax, path, title="", which="major"):
+    """Grid, legend and title of a one-axis figure, then save it."""
+    ax.grid(True, which=which, alpha=0.3)
+    ax.legend(fontsize=8)
+    if title:
+        ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    return save(fig, path)
+
+
 # ============================================================================ tables (field pipeline)
 # Figures of reports/tables/: recordings, INS trajectories, MoRPI paths.
 
@@ -346,12 +356,7 @@ def montecarlo_error_curves(time, errors, labels, path, *, analytic=None, title=
     ax.set_yscale("log")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("horizontal position error [m]")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
-    if title:
-        ax.set_title(title, fontsize=10)
-    fig.tight_layout()
-    return save(fig, path)
+    return _finish(fig, ax, path, title, which="both")
 
 
 def montecarlo_gain_vs_error(dG, err, path, *, analytic_slope=None, label="MoRPI-A", title=""):
@@ -366,12 +371,7 @@ def montecarlo_gain_vs_error(dG, err, path, *, analytic_slope=None, label="MoRPI
         ax.plot(100 * x, analytic_slope * x, "k--", lw=1, label="analytical ds = dG D")
     ax.set_xlabel("gain error dG [%]")
     ax.set_ylabel("distance error [m]")
-    ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8)
-    if title:
-        ax.set_title(title, fontsize=10)
-    fig.tight_layout()
-    return save(fig, path)
+    return _finish(fig, ax, path, title)
 
 
 def montecarlo_training_runs(k, rms_mc, rms_expected, labels, path, *, title=""):
@@ -388,12 +388,7 @@ def montecarlo_training_runs(k, rms_mc, rms_expected, labels, path, *, title="")
     ax.set_yscale("log")
     ax.set_xlabel("training runs k")
     ax.set_ylabel("RMS distance error [m]")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
-    if title:
-        ax.set_title(title, fontsize=10)
-    fig.tight_layout()
-    return save(fig, path)
+    return _finish(fig, ax, path, title, which="both")
 
 
 def drift_disagreement_map(gyro_bias_deg_s, time, rel, path, *, title="", marks=()):
