@@ -231,3 +231,28 @@ def test_activity_span_finds_the_motion_and_ignores_a_later_tap():
     # sample interval (0.02 + 0.016 s) of the true onset and end
     assert a == pytest.approx(3.0, abs=0.04)
     assert b == pytest.approx(8.0, abs=0.04)
+
+
+@pytest.mark.parametrize("method", tuple(st.METHODS))
+def test_noise_free_simulated_sine_distance_within_half_percent(method):
+    """MoRPI on the simulator's exact sine path (noise-free IMU), gain trained on the same path.
+
+    The training run is sampled at a uniform 100 Hz, the test run of the same path with the S6's
+    irregular time stamps, so the test is not the training data again. The bar, 0.5 % of the
+    distance, is the acceptance bar for the simulator; what is left is the change of peak
+    values and partial-step fractions with the sampling grid.
+    """
+    from morpi_filters import simulate, units
+
+    path = simulate.sine(6.3, period=1.0, amplitude=0.1, speed=0.45)
+
+    def run(pattern, seed):
+        imu = simulate.imu(path, units.LSM6DSL, np.random.default_rng(seed), sampling=pattern,
+                           bias_scale=0.0, noise_scale=0.0)
+        return imu.recording(0)
+
+    train, test = run("uniform", 1), run("s6", 2)
+    cfg = st.StepConfig()
+    gain, _, _ = st.train_gain([st.extract_steps(train, method, cfg, rest_end_time=train.time[0] + 2.5)], 6.3)
+    track = st.morpi_track(st.extract_steps(test, method, cfg, rest_end_time=test.time[0] + 2.5), gain)
+    assert track.distance == pytest.approx(6.3, rel=0.005)
