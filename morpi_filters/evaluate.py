@@ -24,10 +24,11 @@ Tunables
     :mod:`morpi_filters.steps`) is chosen by :func:`select_config` from the
     short-route ``train`` runs only: a coordinate search scored by the
     leave-one-out end-point error on the train runs (each held-out run is
-    dead-reckoned with the gain of the other runs of its set). By default one
-    rule serves both methods (``rule="joint"``; ``"per_method"`` is reported
-    beside it). Nothing of a ``test`` folder enters the choice, so the result
-    is the same with the test folders absent.
+    dead-reckoned with the gain of the other runs of its set). By default each
+    method gets its own rule (``rule="per_method"``), the choice with the lower
+    train error; one rule for both methods (``"joint"``, the paper's "in the
+    same manner" reading) is reported beside it. Nothing of a ``test`` folder
+    enters the choice, so the result is the same with the test folders absent.
 
 INS cells
     3D (:func:`morpi_filters.strapdown.ins3d`, level start) and 2D
@@ -123,7 +124,7 @@ SHORT_SETS = (("s8", "short_distance", 1.0), ("s8", "short_distance_1.5p2p", 1.5
 
 _INS_METHODS = ("INS-3D", "INS-2D")
 #: How the step rule is chosen (see :func:`evaluate_tables`).
-RULES = ("joint", "per_method")
+RULES = ("per_method", "joint")
 #: INS integration spans (see :class:`FieldData`).
 INS_SPANS = ("motion", "full")
 _MORPI_METHODS = tuple(st.METHODS)
@@ -680,7 +681,7 @@ def _morpi_cell(data: FieldData, spec: CellSpec, config, gain: Gain | None) -> C
 
 
 def evaluate_tables(root, *, include_test: bool = True, configs: dict | None = None,
-                    data: FieldData | None = None, ins_span: str = "motion", rule: str = "joint",
+                    data: FieldData | None = None, ins_span: str = "motion", rule: str = "per_method",
                     alternatives: bool = True) -> TablesResult:
     """Compute every table cell of the paper on a dataset root.
 
@@ -697,8 +698,9 @@ def evaluate_tables(root, *, include_test: bool = True, configs: dict | None = N
     ins_span : str
         INS integration span (:class:`FieldData`).
     rule : str
-        ``"joint"``: one step rule for both methods (default); ``"per_method"``:
-        each method's own rule (:func:`select_config`).
+        ``"per_method"``: each method's own rule (:func:`select_config`, the
+        default: its train error is never above the joint rule's); ``"joint"``:
+        one step rule for both methods.
     alternatives : bool
         Also compute the short-route cells under every reading.
 
@@ -856,10 +858,11 @@ def ins_full_span(result: TablesResult) -> list[dict]:
     return out
 
 
-def per_method_rule(result: TablesResult) -> dict:
-    """The MoRPI cells again with a step rule chosen for each method separately."""
-    alt = evaluate_tables(result.data.root, data=result.data, rule="per_method", alternatives=False)
-    return {"step_rule": {m: {"config": _config_json(s.config), "train_loo_percent": s.score}
+def other_rule(result: TablesResult, rule: str = "joint") -> dict:
+    """The MoRPI cells again under another step rule (default: one rule for both methods)."""
+    alt = evaluate_tables(result.data.root, data=result.data, rule=rule, alternatives=False)
+    return {"rule": rule,
+            "step_rule": {m: {"config": _config_json(s.config), "train_loo_percent": s.score}
                           for m, s in alt.selections.items()},
             "cells": [{"table": c.spec.table, "phone": c.spec.phone, "p2p_m": c.spec.p2p_m, "method": c.spec.method,
                        "calibration": c.spec.calibration, "paper_percent": c.spec.paper_percent,
@@ -924,7 +927,7 @@ def result_json(result: TablesResult, source=None) -> dict:
         "comparison": comparison(result),
         "readings": list(result.readings),
         "ins_full_span": ins_full_span(result),
-        "per_method_rule": per_method_rule(result),
+        "other_rule": other_rule(result),
     }
 
 
@@ -997,7 +1000,7 @@ def _explain(c: Cell, res: TablesResult) -> str:
     if s.table == "long_route":
         return (f"Ours is {side} the paper. Outdoor runs with the indoor gains: the distance error is "
                 f"{c.distance_percent:.2f} %, the rest is heading (the GC heading ends {final:.0f} deg off the "
-                f"route's direction on average, which moves the end point sideways). Tried: the per-method step rule "
+                f"route's direction on average, which moves the end point sideways). Tried: the joint step rule "
                 f"(table above) and the readings of the paper on the short route; none is chosen on test runs.")
     if s.table == "morpi_l_shape":
         return (f"Ours is {side} the paper. L route with the s6 indoor gains: distance error "
@@ -1139,19 +1142,26 @@ def _page(res, payload, source, figures, fmt, md_table) -> str:
     L += ["## Step rule (chosen on the train runs only)", "",
           "The readings and thresholds are picked by `evaluate.select_config`: a coordinate search scored by the "
           "leave-one-out end-point error of the short-route train runs (GC); test folders never enter. "
-          "One rule serves both methods (the paper extracts MoRPI-G \"in the same manner\" as MoRPI-A); "
-          "the search score is the mean of both methods' train errors.", ""]
+          "Each method gets its own rule: the search runs once per method on that method's train error, "
+          "and a rule per method never has a higher train error than one rule for both (it has more "
+          "freedom), so the train runs choose it.", ""]
     L += sel_txt + [""]
-    pm = payload["per_method_rule"]
-    L += ["A rule chosen for each method separately (same search, one method's train error) gives the table "
-          "below. The choice between the two is not made by the train runs: their mean train error prefers "
-          "per-method rules, and the joint rule is the default because the paper extracts G_G \"in the same "
-          "manner\" as G_A. That default was fixed with the test cells in view (per-method rules put the s8 1.5 m "
-          "MoRPI-G GC cell about 3 pp below the paper), so treat the gap between the two tables as the "
-          "uncertainty of that choice. Both are shown.", ""]
+    pm = payload["other_rule"]
+    def _within(cells):
+        gc = [c for c in cells if c["table"] == "short_route" and c["calibration"] == "GC"
+              and c["ours_percent"] is not None]
+        return sum(abs(c["ours_percent"] - c["paper_percent"]) <= DEVIATION_PP for c in gc), len(gc)
+
+    k_alt, n_alt = _within(pm["cells"])
+    k_def, n_def = _within(payload["cells"])
+    L += ["One rule for both methods, the reading of the paper's \"G_G is extracted in the same manner as G_A\" "
+          "(same search, scored by the mean of both methods' train errors), gives the table below. It is not the "
+          f"default because the train runs do not prefer it. Under it {k_alt} of {n_alt} short-route GC cells fall "
+          f"within {DEVIATION_PP:g} pp of the paper (the default: {k_def} of {n_def}); it was examined after the "
+          "test cells had been seen, so it is shown for comparison only.", ""]
     L += ["\n".join(f"- {m}: `{v['config']}` (train LOO {fmt(v['train_loo_percent'])} %)"
                     for m, v in pm["step_rule"].items()), ""]
-    L += [md_table(["table", "phone", "p2p", "method", "cal", "paper %", "per-method rule %", "dist %"],
+    L += [md_table(["table", "phone", "p2p", "method", "cal", "paper %", "joint rule %", "dist %"],
                    [[c["table"], c["phone"], f"{c['p2p_m']:g} m", c["method"], c["calibration"],
                      fmt(c["paper_percent"]), fmt(c["ours_percent"]), fmt(c["distance_error_percent"])]
                     for c in pm["cells"] if c["calibration"] == "GC"])]

@@ -57,7 +57,7 @@ __all__ = [
     "GRID_HZ", "HEADINGS", "SEGMENTS", "ENDS", "METHODS", "StepConfig", "Peaks", "Steps", "MorpiTrack",
     "resample_uniform", "lowpass", "detect_peaks", "weinberg_length", "integrate_heading",
     "motion_span", "activity_span", "PreparedSignal", "prepare_signal", "extract_steps", "train_gain",
-    "dead_reckon", "morpi_track",
+    "dead_reckon", "morpi_track", "DEFAULT_CONFIGS",
 ]
 
 #: Rate of the uniform grid peak detection works on [Hz].
@@ -73,9 +73,10 @@ METHODS = {"MoRPI-A": ("f", 1), "MoRPI-G": ("omega", 2)}
 class StepConfig:
     """Every tunable of the step pipeline.
 
-    The defaults are the rule :func:`morpi_filters.evaluate.select_config`
-    picks from the train runs of the MoRPI field dataset (one rule for both
-    methods); a test keeps them in step with the search.
+    The defaults are the MoRPI-A rule :func:`morpi_filters.evaluate.select_config`
+    picks from the train runs of the MoRPI field dataset; the MoRPI-G rule is
+    :data:`DEFAULT_CONFIGS` ``["MoRPI-G"]``. A test keeps both in step with
+    the search.
 
     Attributes
     ----------
@@ -223,6 +224,13 @@ class MorpiTrack:
 
 
 # --------------------------------------------------------------------------- signals
+
+#: The step rule of each method that :func:`morpi_filters.evaluate.select_config`
+#: picks on the field train runs (the defaults of :func:`extract_steps`).
+DEFAULT_CONFIGS = {
+    "MoRPI-A": StepConfig(),
+    "MoRPI-G": StepConfig(segment="maxima", prominence=0.2, cutoff_hz=1.0),
+}
 
 def resample_uniform(time, values, rate_hz: float = GRID_HZ):
     """Linear interpolation of `values` (n,) or (n, k) onto a uniform grid.
@@ -482,7 +490,7 @@ def activity_span(time, omega, *, window_s: float = 0.5, factor: float = 10.0, f
     return float(grid[min(starts[j], grid.shape[0] - 1)]), float(grid[max(ends[j], starts[j])])
 
 
-def extract_steps(rec, method: str, config: StepConfig = StepConfig(), *, rest_end_time: float | None = None,
+def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_end_time: float | None = None,
                   heading=None, prepared: PreparedSignal | None = None, peak_cache: dict | None = None) -> Steps:
     """Find the steps of one run.
 
@@ -492,7 +500,8 @@ def extract_steps(rec, method: str, config: StepConfig = StepConfig(), *, rest_e
         (Calibrated or raw) recording; may be None when `prepared` is given.
     method : str
         ``"MoRPI-A"`` (f_y) or ``"MoRPI-G"`` (omega_z).
-    config : StepConfig
+    config : StepConfig, optional
+        Default: ``DEFAULT_CONFIGS[method]``.
     rest_end_time : float, optional
         End of the initial rest [s] (baseline for the motion span).
     heading : ndarray, shape (n,), optional
@@ -512,6 +521,10 @@ def extract_steps(rec, method: str, config: StepConfig = StepConfig(), *, rest_e
         Naming the recording when fewer than two peaks are found (no periodic
         motion).
     """
+    if config is None:
+        if method not in DEFAULT_CONFIGS:
+            raise MorpiError(f"method={method!r}: expected one of {tuple(DEFAULT_CONFIGS)}")
+        config = DEFAULT_CONFIGS[method]
     if prepared is None:
         prepared = prepare_signal(rec, method, config.cutoff_hz, rest_end_time=rest_end_time, heading=heading)
     elif prepared.cutoff_hz != config.cutoff_hz or prepared.method != method:
