@@ -873,7 +873,7 @@ def other_rule(result: TablesResult, rule: str = "joint") -> dict:
 # --------------------------------------------------------------------------- report
 
 #: Cells further than this from the paper are listed and explained on the page [percentage points].
-#: The bar comes from the task definition of the reproduction (2.5 pp on the short-route GC cells).
+#: The acceptance bar of the reproduction (2.5 pp on the short-route GC cells).
 DEVIATION_PP = 2.5
 
 

@@ -183,7 +183,7 @@ def test_calibration_shrinks_the_ins_errors():
 def test_drift_closed_form_and_strapdown_agree_for_small_biases():
     d = mc.drift_map([0.01 * DEG_S, 0.1 * DEG_S, 6.0 * DEG_S], draws=8, seed=4)
     assert d.time[-1] == pytest.approx(15.0)
-    # the brief's bar: within 1 % at 15 s for small biases (measured: ~2e-5 and ~8e-4 for 3D)
+    # the acceptance bar: within 1 % at 15 s for small biases (measured: ~2e-5 and ~8e-4 for 3D)
     assert (d.p90_3d[:2, -1] < 0.01).all() and (d.p90_2d[:2, -1] < 0.01).all()
     # and they part for the S6 datasheet bias (84 degrees of tilt in 14 s)
     assert d.rel_3d[2, -1] > 0.2 and d.rel_2d[2, -1] > 0.05

@@ -105,7 +105,7 @@ def test_noise_free_ins_recovers_route(name, sampling):
     T = d.truth
     r = ins3d(d.time, d.f, d.omega, C0=T.C_bn[0], p0=T.position[0])
     err = np.linalg.norm(r.position - T.position, axis=1)
-    # the task's bar: under 1 mm after 15 s of recording at 100 Hz (irregular grids included)
+    # the acceptance bar: under 1 mm after 15 s of recording at 100 Hz (irregular grids included)
     k15 = min(np.searchsorted(d.time, d.time[0] + 15.0), d.time.size - 1)
     assert err[k15] < 1e-3
     if sampling != "s6":

@@ -15,7 +15,7 @@ from morpi_filters.errors import MorpiError
 from morpi_filters.strapdown import heading_from_C, ins2d, ins3d, rotvec_to_C, yaw_to_C
 
 G = units.G0
-# The bar of the task: noise-free INS end error under 1 mm after 15 s at 100 Hz.
+# The acceptance bar: noise-free INS end error under 1 mm after 15 s at 100 Hz.
 END_TOL_M = 1e-3
 
 

@@ -115,7 +115,7 @@ def test_phi_numeric_matches_scipy_expm():
             ref = expm(F_numeric(conv, C, f) * t)
             got = S.phi_numeric(C, f, t, conv)
             worst = max(worst, np.linalg.norm(got - ref) / np.linalg.norm(ref))
-    # 1e-12: the bar of the task; both sides are exact up to rounding (F is nilpotent)
+    # 1e-12: the acceptance bar; both sides are exact up to rounding (F is nilpotent)
     assert worst < 1e-12
 
 
@@ -131,7 +131,7 @@ def test_closed_form_dp_matches_solve_ivp(conv):
         got = S.closed_form_errors(p, times, "dp", conv, keep_bgz=True)
         ref = ode_dp(conv, dv, ba, bg, 9.81, times)
         rel = np.linalg.norm(got - ref, axis=1) / np.linalg.norm(ref, axis=1)
-        # 1e-9: the task's bar; DOP853 at rtol 1e-13 is good to ~1e-12 here
+        # 1e-9: the acceptance bar; DOP853 at rtol 1e-13 is good to ~1e-12 here
         assert rel.max() < 1e-9
         # distance errors are the horizontal norms, with and without b_gz
         e3 = S.closed_form_errors(p, times, "3d", conv, keep_bgz=True)
