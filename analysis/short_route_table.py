@@ -7,10 +7,13 @@ Usage: ``python3 analysis/short_route_table.py [DATA_ROOT]`` (default: $MORPI_DA
 """
 import sys
 
-from morpi_filters import dataset, evaluate
+from morpi_filters import MorpiError, dataset, evaluate
 from morpi_filters.reporting import fmt, md_table
 
-root = dataset.resolve_data_root(sys.argv[1] if len(sys.argv) > 1 else None)
+try:
+    root = dataset.resolve_data_root(sys.argv[1] if len(sys.argv) > 1 else None)
+except MorpiError as exc:
+    sys.exit(f"short_route_table: {exc}")
 result = evaluate.evaluate_tables(root, alternatives=False)
 rows = []
 for c in result.cells:

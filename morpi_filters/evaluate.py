@@ -1249,4 +1249,10 @@ def _page(res, payload, source, figures, fmt, md_table) -> str:
                     "morpi_paths.png": "MoRPI-A and MoRPI-G (GC) paths of every test run against the true route."}
         for f in figures:
             L += [f"![{f}]({f})", "", captions.get(f, ""), ""]
+    L += ["## MoRPI-aided INS", "",
+          "The same MoRPI cells with the MoRPI steps as pseudo-measurements of an error-state filter around the "
+          "3D INS (`morpi_filters.eskf.morpi_aided_ins`, filter tunables chosen on the train runs only), beside "
+          "MoRPI alone and INS alone, are in the covariance-curves section of the report: "
+          "[curves/README.md](../curves/README.md#morpi-aided-ins-on-the-field-recordings) "
+          "(written by `morpi curves --data DIR` or `morpi report`).", ""]
     return "\n".join(L)
