@@ -44,7 +44,7 @@ def test_noise_off_variance_equals_the_closed_form_expectation():
     want = _hand_horizontal_variance(t)
     got = r.horizontal_sigma ** 2
     assert got[0] == 0.0
-    # bar 1e-9 relative (task); the two differ only by rounding of 1500 products
+    # bar 1e-9 relative (acceptance bar); the two differ only by rounding of 1500 products
     assert np.max(np.abs(got[1:] / want[1:] - 1)) < 1e-9
     # second, independent route: the sympy-derived mean square of the same polynomials
     from morpi_filters.symbolic import closed_form_mean_square
