@@ -57,7 +57,7 @@ import numpy as np
 from . import units
 from .errors import MorpiError
 
-__all__ = ["InsResult", "ins3d", "ins2d", "heading_from_C", "rotvec_to_C", "yaw_to_C"]
+__all__ = ["InsResult", "ins3d", "ins2d", "heading_from_C", "rotvec_to_C", "yaw_to_C", "coarse_level"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -161,6 +161,37 @@ def yaw_to_C(psi) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- input checks
+
+def coarse_level(f_rest) -> np.ndarray:
+    """Initial attitude from the specific force at rest (roll and pitch; yaw 0).
+
+    At rest the accelerometer reads the reaction to gravity,
+    ``f^b = C_bn^T (0, 0, g)``, so the third row of ``C_bn`` is
+    ``f^b / |f^b|``. With yaw set to zero (the navigation x axis is the
+    body's heading at the start) that fixes ``C_bn = R_z(0) R_y(theta)
+    R_x(phi)`` with ``phi = atan2(f_y, f_z)`` and
+    ``theta = atan2(-f_x, sqrt(f_y^2 + f_z^2))``. An accelerometer bias is
+    read as tilt (about 1 mrad per 10 mg), which is what an INS started this
+    way cannot tell apart.
+
+    Parameters
+    ----------
+    f_rest : array_like, shape (3,)
+        Mean specific force over a rest period, body axes [m/s^2].
+
+    Returns
+    -------
+    C_bn : ndarray, shape (3, 3)
+    """
+    f = np.asarray(f_rest, dtype=float)
+    if f.shape != (3,) or not np.all(np.isfinite(f)) or not np.linalg.norm(f) > 0:
+        raise MorpiError(f"f_rest={f_rest!r}: expected a finite, non-zero specific force (3,) [m/s^2]")
+    phi = np.arctan2(f[1], f[2])
+    theta = np.arctan2(-f[0], np.hypot(f[1], f[2]))
+    cp, sp, ct, st = np.cos(phi), np.sin(phi), np.cos(theta), np.sin(theta)
+    Ry = np.array([[ct, 0.0, st], [0.0, 1.0, 0.0], [-st, 0.0, ct]])
+    Rx = np.array([[1.0, 0.0, 0.0], [0.0, cp, -sp], [0.0, sp, cp]])
+    return Ry @ Rx
 
 def _check_time(time) -> np.ndarray:
     time = np.asarray(time, dtype=float)

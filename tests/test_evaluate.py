@@ -269,3 +269,17 @@ def test_planar_ins_overshoot_is_the_tilt_leak(field_root):
     gap = np.array([data.ins(r, "GAC", "INS-2D").position[-1, 0] - data.ins(r, "GAC", "INS-3D").position[-1, 0]
                     for r in recs])
     assert np.sqrt(np.mean((gap - leak) ** 2)) < 0.1 * np.sqrt(np.mean(leak ** 2))
+
+
+@pytest.mark.field
+def test_leveled_ins_is_computed_for_the_3d_cells(field_root):
+    """The tilt-at-rest start is a further reading of the two 3D GAC cells, never a replacement."""
+    res = ev.evaluate_tables(field_root, alternatives=False)
+    rows = ev.ins_leveled(res)
+    assert [(r["table"], r["phone"]) for r in rows] == [("ins_straight", "s8"), ("ins_l_shape", "s6")]
+    for r in rows:
+        assert r["runs"] > 0 and r["leveled_percent"] > 0
+        assert r["gac_percent"] == res.cell(r["table"], r["phone"], None, "INS-3D", "GAC").ours_percent
+    # the L route starts on a slope: the rest tilt is several degrees there, about level indoors
+    tilt = {r["table"]: r["mean_rest_tilt_deg"] for r in rows}
+    assert tilt["ins_l_shape"] > 5.0 > tilt["ins_straight"]
