@@ -19,7 +19,6 @@ import os
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
-from typing import Iterable
 
 import numpy as np
 
@@ -420,10 +419,3 @@ def check_tree(root) -> tuple[list[str], int]:
         problems.append(f"{root}: no CSV files found; {_HOW_TO_GET}")
     return problems, n_ok
 
-
-def group(recordings: Iterable[Recording], *keys: str) -> dict[tuple, list[Recording]]:
-    """Group recordings by attribute names (``"phone"``, ``"route"``, ``"split"``)."""
-    out: dict[tuple, list[Recording]] = {}
-    for r in recordings:
-        out.setdefault(tuple(getattr(r, k) for k in keys), []).append(r)
-    return out

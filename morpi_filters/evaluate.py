@@ -64,6 +64,7 @@ import numpy as np
 from . import dataset as ds
 from . import steps as st
 from . import units
+from .reporting import SectionSummary
 from .errors import MorpiError
 
 __all__ = [
@@ -1070,7 +1071,7 @@ def _explain(c: Cell, res: TablesResult, other: dict | None = None) -> str:
             f"distance error {c.distance_percent:.2f} %.{alt_txt} Other readings are in the readings table.")
 
 
-def report_tables(out, source) -> "SectionSummary":
+def report_tables(out, source) -> SectionSummary:
     """Write the tables section: README.md, result.json and figures in `out`.
 
     Parameters
@@ -1084,7 +1085,7 @@ def report_tables(out, source) -> "SectionSummary":
     -------
     reporting.SectionSummary
     """
-    from .reporting import SectionSummary, fmt, md_table, write_json, write_text
+    from .reporting import fmt, md_table, write_json, write_text
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

@@ -1361,7 +1361,7 @@ def report_drift(out, *, scheduler=None):
     s6 = spec.gyro_bias / DEG_S
     for kind, rel in (("3d", d.rel_3d), ("2d", d.rel_2d)):
         figs.append(plots.drift_disagreement_map(
-            bdeg, d.time, rel, out / f"drift_map_{kind}.png", marks=[(s6, 14.0, f"S6 datasheet, 14 s")],
+            bdeg, d.time, rel, out / f"drift_map_{kind}.png", marks=[(s6, 14.0, "S6 datasheet, 14 s")],
             title=f"{kind.upper()} INS at rest: strapdown vs small-angle closed form "
                   f"(median of {d.draws} draws)").name)
     # growth: slope of log disagreement in log time (15 s row region) and in log bias (at 15 s)

@@ -25,7 +25,7 @@ def ode_horizontal(dv, ba, bg, g, times, ins="3d"):
     f = np.array([ba[0], ba[1], g + ba[2]])
 
     def rhs(t, x):
-        dp, dv_, eps = x[0:3], x[3:6], x[6:9]
+        dv_, eps = x[3:6], x[6:9]
         return np.concatenate([dv_, -np.cross(f, eps) + ba, bg])
 
     sol = solve_ivp(rhs, (0.0, max(times)), np.concatenate([np.zeros(3), dv, np.zeros(3)]), method="DOP853",
