@@ -275,8 +275,7 @@ def report_assessment(out, *, params_path=None, times=None) -> SectionSummary:
     t = _check_times(times)
     S = _symbolic()
     curves = assessment_curves(params, t)
-    src = Path(params.source)
-    shown = "data/assessment_params.json" if src.resolve() == DEFAULT_PARAMS_FILE.resolve() else str(src)
+    shown = params.label
     ours = improvements(params)
     audit = S.audit(CONVENTION)
     audit_md = S.audit_markdown(audit)

@@ -132,7 +132,7 @@ def case_from_params(params, noise_spec=PARAMS_NOISE_SPEC) -> CurveCase:
         Noise used when ``params.process_noise`` is true.
     """
     return CurveCase(
-        name="params", title=f"parameter file {params.source}", dv0=np.abs(params.dv0), ba=np.abs(params.ba),
+        name="params", title=f"parameter file {params.label}", dv0=np.abs(params.dv0), ba=np.abs(params.ba),
         bg=_drop_bgz(np.abs(params.bg)), g=params.g, gain_sigma=abs(params.dG[0]), speed=params.morpi_speed_mps,
         noise=noise_spec if params.process_noise else None,
         realisation=(params.dv0, params.ba, _drop_bgz(params.bg), params.dG[0]),
@@ -765,7 +765,7 @@ def report_curves(out, *, params_path=None, times=None, source=None):
         "rms_closed_form_ins2d_m": main["rms_closed_form_ins2d_m"],
         "rms_closed_form_morpi_m": main["rms_closed_form_morpi_m"],
         "process_noise": bool(params.process_noise),
-        "params_file": params.source,
+        "params_file": params.label,
         "step_length_m": STEP_LENGTH_M,
         "mc_runs": MC_RUNS,
         "mc_seed": MC_SEED,
@@ -783,7 +783,7 @@ def report_curves(out, *, params_path=None, times=None, source=None):
         f"{banner}# Covariance curves: closed form, filter sigma, Monte Carlo\n\n"
         f"Horizontal position error [m] of 3D INS, 2D INS and MoRPI-aided 3D INS on the paper's nominal "
         f"straight-line trajectory (C = I, f^n = gravity), error parameters read as 1 sigma from "
-        f"`{params.source}`. Process noise: {'on' if params.process_noise else 'off'}. The gyro z bias is left "
+        f"`{params.label}`. Process noise: {'on' if params.process_noise else 'off'}. The gyro z bias is left "
         f"out, as in the paper (common heading error). MoRPI steps of {STEP_LENGTH_M} m every "
         f"{STEP_LENGTH_M / params.morpi_speed_mps:g} s, gain error 1 sigma {abs(params.dG[0]):g} as a constant "
         f"augmented state. Monte Carlo: {MC_RUNS} seeded runs of the linear model (seed {MC_SEED}); for "

@@ -71,6 +71,16 @@ class ErrorParams:
     process_noise: bool = False
     source: str = "<dict>"
 
+    @property
+    def label(self) -> str:
+        """The source as shown in reports: project-relative for the committed file."""
+        try:
+            if Path(self.source).resolve() == DEFAULT_PARAMS_FILE.resolve():
+                return "data/" + DEFAULT_PARAMS_FILE.name
+        except OSError:
+            pass
+        return self.source
+
 
 def _number(name, key, v):
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
