@@ -426,6 +426,11 @@ class FieldData:
             self._cal[key] = detect_rest(rec)
         return self._cal[key]
 
+    def rest_specific_force(self, rec) -> np.ndarray:
+        """Mean specific force over the initial rest window, body axes [m/s^2], shape (3,)."""
+        w = self.rest_window(rec)
+        return rec.f[w.i0:w.i1].mean(axis=0)
+
     def calibrated(self, rec, mode: str):
         """(calibrated Recording, Calibration) for RD | GC | GAC."""
         from .calibration import calibrate
@@ -509,8 +514,7 @@ class FieldData:
                 from .strapdown import coarse_level
 
                 crec, cal = self.calibrated(rec, "GC")
-                w = self.rest_window(rec)
-                f_rest = rec.f[w.i0:w.i1].mean(axis=0)
+                f_rest = self.rest_specific_force(rec)
                 C0, g = coarse_level(f_rest), float(np.linalg.norm(f_rest))
             else:
                 crec, _ = self.calibrated(rec, mode)
@@ -902,10 +906,9 @@ def ins_leveled(result: TablesResult) -> list[dict]:
         for r in data.recordings(c.spec.phone, c.spec.route, c.spec.split):
             try:
                 p = np.asarray(data.ins(r, LEVELED, "INS-3D").position)[:, :2]
-                w = data.rest_window(r)
             except MorpiError:
                 continue
-            f_rest = r.f[w.i0:w.i1].mean(axis=0)
+            f_rest = data.rest_specific_force(r)
             tilts.append(np.degrees(np.arccos(np.clip(f_rest[2] / np.linalg.norm(f_rest), -1.0, 1.0))))
             errs.append(np.linalg.norm(p[-1] - truth.end_point_m) / truth.distance_m * 100)
         out.append({"table": c.spec.table, "phone": c.spec.phone, "paper_gac_percent": c.spec.paper_percent,
