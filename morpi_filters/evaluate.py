@@ -27,8 +27,12 @@ Tunables
     dead-reckoned with the gain of the other runs of its set). By default each
     method gets its own rule (``rule="per_method"``), the choice with the lower
     train error; one rule for both methods (``"joint"``, the paper's "in the
-    same manner" reading) is reported beside it. Nothing of a ``test`` folder
-    enters the choice, so the result is the same with the test folders absent.
+    same manner" reading) is reported beside it. :func:`nested_rule_comparison`
+    checks that choice without the bias of scoring on the runs a rule was
+    chosen on (nested leave-one-out over the train runs), and
+    :func:`rule_sensitivity` shows how far each rule the search tried moves
+    the short-route cells. Nothing of a ``test`` folder enters the choice, so
+    the result is the same with the test folders absent.
 
 INS cells
     3D (:func:`morpi_filters.strapdown.ins3d`, level start) and 2D
@@ -56,6 +60,7 @@ References
 from __future__ import annotations
 
 import itertools
+import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -70,7 +75,7 @@ from .errors import MorpiError
 __all__ = [
     "TABLES", "PAPER_CELLS", "PAPER_COMPARISON", "CellSpec", "RunResult", "Cell", "Gain", "Selection",
     "TablesResult", "FieldData", "select_config", "evaluate_tables", "report_tables", "SHORT_SETS",
-    "training_gain_spread",
+    "training_gain_spread", "nested_rule_comparison", "rule_sensitivity",
 ]
 
 # --------------------------------------------------------------------------- the paper's numbers
@@ -380,6 +385,7 @@ class FieldData:
         self._ins: dict = {}
         self._steps: dict = {}
         self._peaks: dict = {}
+        self._train_summaries: dict = {}
 
     def entries(self, phone, route, split):
         return [e for e in self._entries if (e.phone, e.route, e.split) == (phone, route, split)]
@@ -584,29 +590,55 @@ _START = st.StepConfig(heading="absolute", segment="maxima", ends="drop", cutoff
                        min_period_s=0.5)
 
 
-def _loo_score(data: FieldData, method, config, mode="GC") -> tuple[float, int]:
-    """Leave-one-out mean end-point error [%] over the short-route train runs."""
+def _train_summary(data: FieldData, method, config, mode="GC"):
+    """Per short-route set, the train runs reduced to what a gain and an end point need.
+
+    A tuple of ``(truth, relpaths, g, u)`` per set: ``g`` each run's own gain
+    (distance / effective weight), ``u`` the end point per unit gain
+    (``sum(weight * fraction * [cos, sin](heading))``, shape ``(n, 2)``), so that
+    a run dead-reckoned with gain ``G`` ends at ``G u``. None if a run fails.
+    Cached on `data`.
+    """
+    key = (method, config, mode)
+    if key not in data._train_summaries:
+        out = []
+        for phone, route, _ in SHORT_SETS:
+            recs = data.recordings(phone, route, "train")
+            try:
+                sl = [data.steps(r, mode, method, config) for r in recs]
+            except MorpiError:
+                out = None
+                break
+            truth = ds.route(route)
+            g = np.array([truth.distance_m / s.effective_weight for s in sl])
+            u = np.array([[np.dot(s.weight * s.fraction, np.cos(s.heading)),
+                           np.dot(s.weight * s.fraction, np.sin(s.heading))] for s in sl]).reshape(-1, 2)
+            out.append((truth, tuple(data.relpath(r) for r in recs), g, u))
+        data._train_summaries[key] = None if out is None else tuple(out)
+    return data._train_summaries[key]
+
+
+def _loo_errors(truth, g, u) -> np.ndarray:
+    """End-point errors [%] of each run with the mean gain of the others (leave-one-out)."""
+    gi = (g.sum() - g) / (g.size - 1)
+    return np.linalg.norm(gi[:, None] * u - truth.end_point_m, axis=1) / truth.distance_m * 100
+
+
+def _loo_score(data: FieldData, method, config, mode="GC", exclude=frozenset()) -> tuple[float, int]:
+    """Leave-one-out mean end-point error [%] over the short-route train runs not in `exclude`."""
+    sets = _train_summary(data, method, config, mode)
+    if sets is None:
+        return float("inf"), 0
     errs = []
-    for phone, route, _ in SHORT_SETS:
-        truth = ds.route(route)
-        recs = data.recordings(phone, route, "train")
-        if len(recs) < 2:
-            continue
-        try:
-            sl = [data.steps(r, mode, method, config) for r in recs]
-        except MorpiError:
-            return float("inf"), 0
-        g = truth.distance_m / np.array([s.effective_weight for s in sl])
-        n = g.size
-        for i, s in enumerate(sl):
-            gi = (g.sum() - g[i]) / (n - 1)
-            length = gi * s.weight * s.fraction  # as morpi_track, end point only
-            end = np.array([np.dot(length, np.cos(s.heading)), np.dot(length, np.sin(s.heading))])
-            errs.append(np.linalg.norm(end - truth.end_point_m) / truth.distance_m * 100)
-    return (float(np.mean(errs)) if errs else float("inf")), len(errs)
+    for truth, rels, g, u in sets:
+        keep = np.array([r not in exclude for r in rels], dtype=bool)
+        if keep.sum() >= 2:
+            errs.append(_loo_errors(truth, g[keep], u[keep]))
+    errs = np.concatenate(errs) if errs else np.empty(0)
+    return (float(np.mean(errs)) if errs.size else float("inf")), int(errs.size)
 
 
-def select_config(data: FieldData, methods=_MORPI_METHODS) -> Selection:
+def select_config(data: FieldData, methods=_MORPI_METHODS, *, exclude=()) -> Selection:
     """Choose the step rule from the short-route train runs only.
 
     A coordinate search: the paper's readings (heading absolute or mean over
@@ -625,12 +657,16 @@ def select_config(data: FieldData, methods=_MORPI_METHODS) -> Selection:
     data : FieldData
     methods : str or tuple of str
         Methods whose train scores are averaged.
+    exclude : iterable of str
+        Train recordings (paths relative to the dataset root) to leave out,
+        as if absent; used by :func:`nested_rule_comparison`.
     """
     if isinstance(methods, str):
         methods = (methods,)
+    exclude = frozenset(exclude)
 
     def score(cfg):
-        vals = [_loo_score(data, m, cfg) for m in methods]
+        vals = [_loo_score(data, m, cfg, exclude=exclude) for m in methods]
         return float(np.mean([v for v, _ in vals])), int(sum(n for _, n in vals))
 
     trials = []
@@ -655,6 +691,113 @@ def select_config(data: FieldData, methods=_MORPI_METHODS) -> Selection:
     if not np.isfinite(best_score):
         best = st.StepConfig()
     return Selection("+".join(methods), best, best_score, tuple(trials), n)
+
+
+def nested_rule_comparison(data: FieldData) -> dict:
+    """Compare the two ways of choosing the step rule by nested leave-one-out on the train runs.
+
+    The train score of :func:`select_config` is measured on the runs the rule
+    was chosen on, so it favours the choice with more freedom: a rule per
+    method can never score worse than one rule for both. Here each train run
+    is held out in turn, the whole selection (per method, and joint) is
+    repeated on the remaining train runs, and the held-out run is
+    dead-reckoned with the chosen rule and the mean gain of the other runs of
+    its set. The mean held-out error estimates how each procedure does on
+    runs it has not seen. Only train folders are read.
+
+    Returns
+    -------
+    dict
+        ``rules``: rule -> method -> mean held-out end-point error [%];
+        ``mean``: rule -> mean over both methods [%]; ``difference_pp`` and
+        ``difference_se_pp``: joint minus per-method, paired over the held-out
+        runs, and its standard error; ``n_folds``; ``same_as_full``: rule ->
+        method -> fraction of folds whose chosen rule equals the one chosen
+        on all train runs; ``preferred``: the rule with the lower mean.
+    """
+    folds = [(phone, route, data.relpath(r)) for phone, route, _ in SHORT_SETS
+             for r in data.recordings(phone, route, "train")]
+    full = {"per_method": {m: select_config(data, m).config for m in _MORPI_METHODS}}
+    cj = select_config(data).config
+    full["joint"] = {m: cj for m in _MORPI_METHODS}
+    errs = {rule: {m: [] for m in _MORPI_METHODS} for rule in RULES}
+    same = {rule: {m: 0 for m in _MORPI_METHODS} for rule in RULES}
+    for phone, route, rel in folds:
+        chosen = {"per_method": {m: select_config(data, m, exclude=(rel,)).config for m in _MORPI_METHODS}}
+        cj = select_config(data, exclude=(rel,)).config
+        chosen["joint"] = {m: cj for m in _MORPI_METHODS}
+        k = [s[:2] for s in SHORT_SETS].index((phone, route))
+        for rule in RULES:
+            for m in _MORPI_METHODS:
+                cfg = chosen[rule][m]
+                same[rule][m] += cfg == full[rule][m]
+                sets = _train_summary(data, m, cfg)
+                if sets is None or sets[k][2].size < 2:
+                    errs[rule][m].append(np.nan)
+                    continue
+                truth, rels, g, u = sets[k]
+                errs[rule][m].append(float(_loo_errors(truth, g, u)[rels.index(rel)]))
+    n = len(folds)
+    per_rule = {rule: np.nanmean([errs[rule][m] for m in _MORPI_METHODS], axis=0) for rule in RULES}
+    d = per_rule["joint"] - per_rule["per_method"]
+    d = d[np.isfinite(d)]
+    mean = {rule: float(np.nanmean(per_rule[rule])) if n else None for rule in RULES}
+    return {
+        "rules": {rule: {m: float(np.nanmean(errs[rule][m])) if n else None for m in _MORPI_METHODS}
+                  for rule in RULES},
+        "mean": mean,
+        "difference_pp": float(d.mean()) if d.size else None,
+        "difference_se_pp": float(d.std(ddof=1) / np.sqrt(d.size)) if d.size > 1 else None,
+        "n_folds": n,
+        "same_as_full": {rule: {m: same[rule][m] / n if n else None for m in _MORPI_METHODS} for rule in RULES},
+        "preferred": min(RULES, key=lambda r: mean[r]) if n else None,
+        "folds": [{"file": rel, **{rule: {m: errs[rule][m][i] for m in _MORPI_METHODS} for rule in RULES}}
+                  for i, (_, _, rel) in enumerate(folds)],
+    }
+
+
+def _loo_vector(data: FieldData, method, config) -> np.ndarray:
+    """Per-run leave-one-out end-point errors [%] of the short-route train runs (GC), in catalogue order."""
+    sets = _train_summary(data, method, config)
+    if sets is None:
+        return np.full(0, np.nan)
+    return np.concatenate([_loo_errors(truth, g, u) for truth, _, g, u in sets if g.size >= 2] or [np.empty(0)])
+
+
+def rule_sensitivity(result: TablesResult) -> list[dict]:
+    """How the step rules the search tried move the short-route GC cells.
+
+    For every config the search scored for a method (:attr:`Selection.trials`):
+    its train leave-one-out error, the paired difference to the selected
+    rule's with its standard error (over the same train runs), and the three
+    short-route GC test cells with the gains trained under it. The train
+    columns are what the choice sees; the test cells are shown, never used.
+    """
+    data = result.data
+    specs = {(s.phone, s.p2p_m, s.method): s for s in cell_specs()
+             if s.table == "short_route" and s.calibration == "GC"}
+    out = []
+    for m in _MORPI_METHODS:
+        sel = result.selections[m]
+        if not sel.trials:
+            continue
+        base = _loo_vector(data, m, sel.config)
+        for cfg, score in sorted(sel.trials, key=lambda t: t[1]):
+            vec = _loo_vector(data, m, cfg)
+            d = vec - base if vec.size == base.size and base.size > 1 else np.full(1, np.nan)
+            row = {"method": m, "config": _config_json(cfg), "selected": cfg == sel.config,
+                   "train_loo_percent": score,
+                   "train_difference_pp": float(np.mean(d)) if np.all(np.isfinite(d)) else None,
+                   "train_difference_se_pp": (float(np.std(d, ddof=1) / np.sqrt(d.size))
+                                              if d.size > 1 and np.all(np.isfinite(d)) else None),
+                   "cells": []}
+            for phone, route, p2p in SHORT_SETS:
+                g = _train(data, phone, route, "GC", m, cfg)
+                c = _morpi_cell(data, specs[(phone, p2p, m)], cfg, g)
+                row["cells"].append({"phone": phone, "p2p_m": p2p, "paper_percent": specs[(phone, p2p, m)].paper_percent,
+                                     "ours_percent": c.ours_percent})
+            out.append(row)
+    return out
 
 
 # --------------------------------------------------------------------------- cells
@@ -987,6 +1130,8 @@ def result_json(result: TablesResult, source=None) -> dict:
         "readings": list(result.readings),
         "ins_full_span": ins_full_span(result),
         "other_rule": other_rule(result),
+        "step_rule_nested": nested_rule_comparison(result.data),
+        "rule_sensitivity": rule_sensitivity(result),
         "ins_leveled": ins_leveled(result),
     }
 
@@ -1020,7 +1165,25 @@ def _closest_reading(readings) -> dict:
     return out
 
 
-def _explain(c: Cell, res: TablesResult, other: dict | None = None) -> str:
+#: Step rules whose train error is within this many paired standard errors of the selected one
+#: count as ones the train runs cannot tell apart (sensitivity section of the page).
+TRAIN_SE_BAND = 2.0
+
+
+def _indistinct(row: dict) -> bool:
+    d, se = row["train_difference_pp"], row["train_difference_se_pp"]
+    return d is not None and se is not None and d <= TRAIN_SE_BAND * se
+
+
+def _sensitivity_range(rows, method, phone, p2p) -> tuple | None:
+    """(least, greatest, number of rules) of a short-route GC cell over the rules the train runs cannot tell apart."""
+    vals = [x["ours_percent"] for r in rows if r["method"] == method and _indistinct(r)
+            for x in r["cells"] if x["phone"] == phone and x["p2p_m"] == p2p and x["ours_percent"] is not None]
+    n = len({json.dumps(r["config"], sort_keys=True) for r in rows if r["method"] == method and _indistinct(r)})
+    return (min(vals), max(vals), n) if vals else None
+
+
+def _explain(c: Cell, res: TablesResult, other: dict | None = None, sens: list | None = None) -> str:
     s = c.spec
     side = "above" if c.deviation_pp > 0 else "below"
     if s.method in _INS_METHODS:
@@ -1070,8 +1233,12 @@ def _explain(c: Cell, res: TablesResult, other: dict | None = None) -> str:
     alt = (other or {}).get((s.table, s.phone, s.p2p_m, s.method, s.calibration))
     alt_txt = (f" With one step rule for both methods (step-rule section) this cell is {alt:.2f} %."
                if alt is not None else "")
+    rng = _sensitivity_range(sens or [], s.method, s.phone, s.p2p_m)
+    rng_txt = (f" The {rng[2]} step rule(s) whose train error is within {TRAIN_SE_BAND:g} standard errors of the "
+               f"selected one give this cell {rng[0]:.2f} to {rng[1]:.2f} % (sensitivity table)."
+               if rng is not None else "")
     return (f"Ours is {side} the paper. Step rule chosen on the train runs (leave-one-out), not on the test runs; "
-            f"distance error {c.distance_percent:.2f} %.{alt_txt} Other readings are in the readings table.")
+            f"distance error {c.distance_percent:.2f} %.{alt_txt}{rng_txt} Other readings are in the readings table.")
 
 
 def report_tables(out, source) -> SectionSummary:
@@ -1228,6 +1395,21 @@ def _page(res, payload, source, figures, fmt, md_table) -> str:
                    [[c["table"], c["phone"], f"{c['p2p_m']:g} m", c["method"], c["calibration"],
                      fmt(c["paper_percent"]), fmt(c["ours_percent"]), fmt(c["distance_error_percent"])]
                     for c in pm["cells"] if c["calibration"] == "GC"])]
+    nest = payload["step_rule_nested"]
+    if nest["n_folds"]:
+        L += ["**Nested check of that choice.** The train error above is measured on the runs each rule was "
+              "chosen on, which favours the rule with more freedom. `evaluate.nested_rule_comparison` holds out "
+              "each train run in turn, repeats the whole search (per method, and joint) on the other train runs, "
+              "and dead-reckons the held-out run with the rule found. Held-out error over "
+              f"{nest['n_folds']} train runs: per method {fmt(nest['mean']['per_method'])} % "
+              f"(MoRPI-A {fmt(nest['rules']['per_method']['MoRPI-A'])}, MoRPI-G "
+              f"{fmt(nest['rules']['per_method']['MoRPI-G'])}), joint {fmt(nest['mean']['joint'])} % "
+              f"(MoRPI-A {fmt(nest['rules']['joint']['MoRPI-A'])}, MoRPI-G {fmt(nest['rules']['joint']['MoRPI-G'])}); "
+              f"joint minus per method {fmt(nest['difference_pp'])} ± {fmt(nest['difference_se_pp'])} pp "
+              f"(standard error, paired over the held-out runs). The train runs prefer "
+              f"`{nest['preferred']}`. The search without a held-out run finds the full-data rule in "
+              + ", ".join(f"{fmt(100 * v, 0)} % ({m})" for m, v in nest["same_as_full"]["per_method"].items())
+              + " of the folds (per method).", ""]
     for table, label in TABLES.items():
         cells = [c for c in res.cells if c.spec.table == table]
         L += [f"## `{table}` (paper: table `{label}`)", ""]
@@ -1284,6 +1466,43 @@ def _page(res, payload, source, figures, fmt, md_table) -> str:
               + "; ".join(f"{m}: closest to the paper `{r['heading']}/{r['segment']}/{r['ends']}` "
                           f"({fmt(d)} pp), selected rule {fmt(sd)} pp" for m, (r, d, sd) in closest.items()) + ".", ""]
     L += ["`change` cannot follow a turn (the L route ends 10 m sideways), so it is not a candidate of the search.", ""]
+    sens = payload["rule_sensitivity"]
+    if sens:
+        L += ["## How much the step rule moves the short-route cells", "",
+              "Every rule the search scored, best train error first: its train leave-one-out error, the paired "
+              "difference to the selected rule over the same train runs (± standard error), and the three "
+              "short-route GC test cells with gains trained under it. The search sees the train columns only. "
+              f"Rules within {TRAIN_SE_BAND:g} standard errors of the selected one (marked ≈) are ones the train "
+              "runs cannot tell apart.", ""]
+        for m in _MORPI_METHODS:
+            mine = [r for r in sens if r["method"] == m]
+            if not mine:
+                continue
+            heads = ["heading", "segment", "ends", "cut-off Hz", "prominence", "least period s", "train LOO %",
+                     "Δ train pp"] + [f"{x['phone']} {x['p2p_m']:g} m (paper {fmt(x['paper_percent'])})"
+                                      for x in mine[0]["cells"]]
+            rows = []
+            for r in mine:
+                c = r["config"]
+                d = ("-" if r["train_difference_pp"] is None else
+                     f"{fmt(r['train_difference_pp'])} ± {fmt(r['train_difference_se_pp'])}"
+                     + (" ≈" if _indistinct(r) and not r["selected"] else ""))
+                rows.append([c["heading"] + (" **(selected)**" if r["selected"] else ""), c["segment"], c["ends"],
+                             fmt(c["cutoff_hz"], 1), f"{c['prominence']:g}", f"{c['min_period_s']:g}",
+                             fmt(r["train_loo_percent"]), d] + [fmt(x["ours_percent"]) for x in r["cells"]])
+            L += [f"**{m}**", "", md_table(heads, rows)]
+        lines = []
+        for m in _MORPI_METHODS:
+            parts = []
+            for phone, _, p2p in SHORT_SETS:
+                rng = _sensitivity_range(sens, m, phone, p2p)
+                if rng is not None:
+                    parts.append(f"{phone} {p2p:g} m {fmt(rng[0])}–{fmt(rng[1])} %")
+            if parts:
+                lines.append(f"- {m}: " + ", ".join(parts))
+        if lines:
+            L += [f"Range of each cell over the rules within {TRAIN_SE_BAND:g} standard errors of the selected one:",
+                  ""] + lines + [""]
     L += ["## INS integration span", "", "The INS cells integrated over the robot's motion (default) and over the "
           "whole recording (rests included).", ""]
     L += [md_table(["table", "method", "cal", "paper %", "motion span %", "full recording %"],
@@ -1312,7 +1531,7 @@ def _page(res, payload, source, figures, fmt, md_table) -> str:
         L += ["None.", ""]
     for c in far:
         L += [f"- **{c.spec.label}**: paper {fmt(c.spec.paper_percent)}, ours {fmt(c.ours_percent)} "
-              f"(Δ {fmt(c.deviation_pp)} pp). {_explain(c, res, other)}"]
+              f"(Δ {fmt(c.deviation_pp)} pp). {_explain(c, res, other, payload['rule_sensitivity'])}"]
     L += [""]
     if figures:
         L += ["## Figures", ""]
