@@ -624,18 +624,28 @@ def _loo_errors(truth, g, u) -> np.ndarray:
     return np.linalg.norm(gi[:, None] * u - truth.end_point_m, axis=1) / truth.distance_m * 100
 
 
-def _loo_score(data: FieldData, method, config, mode="GC", exclude=frozenset()) -> tuple[float, int]:
-    """Leave-one-out mean end-point error [%] over the short-route train runs not in `exclude`."""
+def _loo_vector(data: FieldData, method, config, mode="GC", exclude=frozenset()) -> np.ndarray | None:
+    """Per-run leave-one-out end-point errors [%] of the short-route train runs not in `exclude`.
+
+    In catalogue order; sets with fewer than two runs left give none. None if a run fails.
+    """
     sets = _train_summary(data, method, config, mode)
     if sets is None:
-        return float("inf"), 0
+        return None
     errs = []
     for truth, rels, g, u in sets:
         keep = np.array([r not in exclude for r in rels], dtype=bool)
         if keep.sum() >= 2:
             errs.append(_loo_errors(truth, g[keep], u[keep]))
-    errs = np.concatenate(errs) if errs else np.empty(0)
-    return (float(np.mean(errs)) if errs.size else float("inf")), int(errs.size)
+    return np.concatenate(errs) if errs else np.empty(0)
+
+
+def _loo_score(data: FieldData, method, config, mode="GC", exclude=frozenset()) -> tuple[float, int]:
+    """Leave-one-out mean end-point error [%] over the short-route train runs not in `exclude`."""
+    errs = _loo_vector(data, method, config, mode, exclude)
+    if errs is None or not errs.size:
+        return float("inf"), 0
+    return float(np.mean(errs)), int(errs.size)
 
 
 def select_config(data: FieldData, methods=_MORPI_METHODS, *, exclude=()) -> Selection:
@@ -756,14 +766,6 @@ def nested_rule_comparison(data: FieldData) -> dict:
     }
 
 
-def _loo_vector(data: FieldData, method, config) -> np.ndarray:
-    """Per-run leave-one-out end-point errors [%] of the short-route train runs (GC), in catalogue order."""
-    sets = _train_summary(data, method, config)
-    if sets is None:
-        return np.full(0, np.nan)
-    return np.concatenate([_loo_errors(truth, g, u) for truth, _, g, u in sets if g.size >= 2] or [np.empty(0)])
-
-
 def rule_sensitivity(result: TablesResult) -> list[dict]:
     """How the step rules the search tried move the short-route GC cells.
 
@@ -784,7 +786,8 @@ def rule_sensitivity(result: TablesResult) -> list[dict]:
         base = _loo_vector(data, m, sel.config)
         for cfg, score in sorted(sel.trials, key=lambda t: t[1]):
             vec = _loo_vector(data, m, cfg)
-            d = vec - base if vec.size == base.size and base.size > 1 else np.full(1, np.nan)
+            ok = base is not None and vec is not None and vec.size == base.size > 1
+            d = vec - base if ok else np.full(1, np.nan)
             row = {"method": m, "config": _config_json(cfg), "selected": cfg == sel.config,
                    "train_loo_percent": score,
                    "train_difference_pp": float(np.mean(d)) if np.all(np.isfinite(d)) else None,
