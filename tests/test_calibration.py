@@ -205,3 +205,22 @@ def test_noise_free_recording():
     win = detect_rest(rec)
     assert win.method == "full" and win.motion_s == t[400]
     np.testing.assert_allclose(calibrate(rec, "GC").gyro_bias, GYRO_BIAS, rtol=0, atol=1e-15)
+
+
+def test_blockwise_noise_sigma_is_the_per_block_one():
+    # detect_rest measures the noise of many short blocks at once; every block must give exactly
+    # what noise_sigma gives on that block alone: odd and even lengths (median of one or two middle
+    # values), quantized signals with many zero differences, and a constant block (no non-zero step)
+    from morpi_filters.calibration import _noise_sigma_blocks, noise_sigma
+
+    rng = np.random.default_rng(11)
+    n = 400
+    x = np.column_stack([rng.normal(0.0, 0.02, n),
+                         np.round(rng.normal(0.0, 0.9, n)) * 0.0011,      # quantized, about one step of noise
+                         np.cumsum(rng.normal(0.0, 0.01, n)) + 9.81])     # random walk around gravity
+    x[300:340, 1] = 0.004                                                  # constant stretch
+    blocks = [(0, 5), (5, 11), (11, 60), (60, 133), (133, 134 + 97), (300, 340), (340, 400)]
+    got = _noise_sigma_blocks(x, blocks)
+    want = np.array([noise_sigma(x[a:b]) for a, b in blocks])
+    np.testing.assert_array_equal(got, want)
+    assert got[5, 1] == np.finfo(float).tiny
