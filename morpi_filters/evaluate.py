@@ -593,11 +593,12 @@ _START = st.StepConfig(heading="absolute", segment="maxima", ends="drop", cutoff
 def _train_summary(data: FieldData, method, config, mode="GC"):
     """Per short-route set, the train runs reduced to what a gain and an end point need.
 
-    A tuple of ``(truth, relpaths, g, u)`` per set: ``g`` each run's own gain
-    (distance / effective weight), ``u`` the end point per unit gain
+    A tuple of ``(truth, relpaths, g, u, loo)`` per set: ``g`` each run's own
+    gain (distance / effective weight), ``u`` the end point per unit gain
     (``sum(weight * fraction * [cos, sin](heading))``, shape ``(n, 2)``), so that
-    a run dead-reckoned with gain ``G`` ends at ``G u``. None if a run fails.
-    Cached on `data`.
+    a run dead-reckoned with gain ``G`` ends at ``G u``, and ``loo`` the runs'
+    leave-one-out errors (:func:`_loo_errors`; None below two runs). None if a
+    run fails. Cached on `data`.
     """
     key = (method, config, mode)
     if key not in data._train_summaries:
@@ -613,7 +614,9 @@ def _train_summary(data: FieldData, method, config, mode="GC"):
             g = np.array([truth.distance_m / s.effective_weight for s in sl])
             u = np.array([[np.dot(s.weight * s.fraction, np.cos(s.heading)),
                            np.dot(s.weight * s.fraction, np.sin(s.heading))] for s in sl]).reshape(-1, 2)
-            out.append((truth, tuple(data.relpath(r) for r in recs), g, u))
+            loo = _loo_errors(truth, g, u) if g.size >= 2 else None
+            out.append((truth, frozenset(data.relpath(r) for r in recs), tuple(data.relpath(r) for r in recs),
+                        g, u, loo))
         data._train_summaries[key] = None if out is None else tuple(out)
     return data._train_summaries[key]
 
@@ -633,7 +636,11 @@ def _loo_vector(data: FieldData, method, config, mode="GC", exclude=frozenset())
     if sets is None:
         return None
     errs = []
-    for truth, rels, g, u in sets:
+    for truth, members, rels, g, u, loo in sets:
+        if members.isdisjoint(exclude):
+            if loo is not None:
+                errs.append(loo)
+            continue
         keep = np.array([r not in exclude for r in rels], dtype=bool)
         if keep.sum() >= 2:
             errs.append(_loo_errors(truth, g[keep], u[keep]))
@@ -742,11 +749,11 @@ def nested_rule_comparison(data: FieldData) -> dict:
                 cfg = chosen[rule][m]
                 same[rule][m] += cfg == full[rule][m]
                 sets = _train_summary(data, m, cfg)
-                if sets is None or sets[k][2].size < 2:
+                if sets is None or sets[k][5] is None:
                     errs[rule][m].append(np.nan)
                     continue
-                truth, rels, g, u = sets[k]
-                errs[rule][m].append(float(_loo_errors(truth, g, u)[rels.index(rel)]))
+                rels, loo = sets[k][2], sets[k][5]
+                errs[rule][m].append(float(loo[rels.index(rel)]))
     n = len(folds)
     per_rule = {rule: np.nanmean([errs[rule][m] for m in _MORPI_METHODS], axis=0) for rule in RULES}
     d = per_rule["joint"] - per_rule["per_method"]
