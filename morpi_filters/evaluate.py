@@ -60,7 +60,6 @@ References
 from __future__ import annotations
 
 import itertools
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -1189,7 +1188,7 @@ def _sensitivity_range(rows, method, phone, p2p) -> tuple | None:
     """(least, greatest, number of rules) of a short-route GC cell over the rules the train runs cannot tell apart."""
     vals = [x["ours_percent"] for r in rows if r["method"] == method and _indistinct(r)
             for x in r["cells"] if x["phone"] == phone and x["p2p_m"] == p2p and x["ours_percent"] is not None]
-    n = len({json.dumps(r["config"], sort_keys=True) for r in rows if r["method"] == method and _indistinct(r)})
+    n = len({tuple(sorted(r["config"].items())) for r in rows if r["method"] == method and _indistinct(r)})
     return (min(vals), max(vals), n) if vals else None
 
 
