@@ -282,7 +282,7 @@ def main(argv=None) -> int:
         return _run_section(section, args)
     except MorpiError as exc:
         print(f"morpi: error: {exc}", file=sys.stderr)
-        return 2
+        return exc.exit_code
     except KeyboardInterrupt:
         print("morpi: interrupted; previous outputs left in place", file=sys.stderr)
         return 130
