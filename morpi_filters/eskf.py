@@ -389,8 +389,9 @@ def run_filter(Phi, Qd, P0, times, measurements=(), x0=None, keep_P=False):
     Notes
     -----
     The covariance is symmetrized (``(P + P^T) / 2``) after every update and
-    reset, every :data:`SYMMETRIZE_EVERY` predictions, at every kept epoch and
-    at the end, so every covariance returned is exactly symmetric; updates use
+    reset, every :data:`SYMMETRIZE_EVERY` predictions and at the end; kept
+    covariances are stored symmetrized, so every covariance returned is
+    exactly symmetric and the numbers do not depend on `keep_P`. Updates use
     the Joseph form. Memory grows with the number of epochs only through the
     estimate and the standard deviations (2 k floats per epoch).
 
@@ -462,7 +463,7 @@ def run_filter(Phi, Qd, P0, times, measurements=(), x0=None, keep_P=False):
         F_i = Phi if const else Phi[i]
         Q_i = Qd if Qd.ndim == 2 else Qd[i]
         kf.predict(F=F_i, Q=Q_i)
-        if (i + 1) % SYMMETRIZE_EVERY == 0 or keep[i + 1] or i + 1 == n:
+        if (i + 1) % SYMMETRIZE_EVERY == 0 or i + 1 == n:
             kf.P = _symmetrize(kf.P)
         if runs is not None:
             X = X @ F_i.T
@@ -501,7 +502,7 @@ def run_filter(Phi, Qd, P0, times, measurements=(), x0=None, keep_P=False):
             X = kf.x
         xs[i + 1], var[i + 1] = X, np.diag(kf.P)
         if keep[i + 1]:
-            P_store[slot] = kf.P
+            P_store[slot] = _symmetrize(kf.P)
             slot += 1
 
     m_dim = dim_z
