@@ -419,10 +419,15 @@ class Outputs:
         except BaseException:
             self._discard()
             raise
-        for stage, final in self._folders:
-            _swap_in(stage, final)
-        for tmp, final in self._files:
-            os.replace(tmp, final)
+        final = None
+        try:
+            for stage, final in self._folders:
+                _swap_in(stage, final)
+            for tmp, final in self._files:
+                os.replace(tmp, final)
+        except OSError as exc:
+            self._discard()
+            raise MorpiError(f"{final}: cannot put the new output in place ({exc.strerror or exc})") from None
         return False
 
     def _discard(self):

@@ -1039,8 +1039,9 @@ def write_dataset(out, *, seed: int = 0, runs_per_folder: int | None = None) -> 
     out : str or Path
         Destination folder. It is built in a staging folder beside it and
         renamed into place when complete; an existing folder is replaced only
-        if it is a synthetic dataset written by this function (it has the
-        manifest), otherwise a MorpiError is raised.
+        if it is empty or was written by morpi (it has the manifest or the
+        ``.morpi-output`` marker), otherwise a ParameterError is raised
+        before anything is computed.
     seed : int
         Seed; each file draws from a child seed keyed by its folder and run,
         so the output does not depend on the order files are written.

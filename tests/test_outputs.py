@@ -293,6 +293,21 @@ def test_stale_staging_of_dead_runs_removed_live_ones_kept(tmp_path, fake_sectio
         live.wait()
 
 
+def test_stale_staging_that_cannot_be_removed_is_named(tmp_path, fake_sections, monkeypatch, capsys):
+    import morpi_filters.reporting as reporting
+
+    stale = tmp_path / f".staging-sec-{_dead_pid()}-abcd1234"
+    stale.mkdir()
+
+    def refuse(path, *a, **k):
+        raise PermissionError(13, "Permission denied", str(path))
+
+    monkeypatch.setattr(reporting.shutil, "rmtree", refuse)
+    assert cli.main(["drift", "--out", str(tmp_path / "sec")]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and stale.name in err[0] and "interrupted run" in err[0]
+
+
 def test_report_removes_stale_staging_inside_the_report_folder(tmp_path, fake_sections, monkeypatch):
     monkeypatch.setattr(cli, "_report_source", lambda args: None)
     out = tmp_path / "reports"
