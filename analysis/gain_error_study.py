@@ -47,7 +47,7 @@ def main(argv=None) -> None:
                   f"difference {v['residual_mean']:+.5f} +/- {v['bound']:.5f} m")
     args.out.mkdir(parents=True, exist_ok=True)
     plots.montecarlo_final_errors(r.columns, r.final, args.out / "final_errors.png")
-    plots.montecarlo_error_curves(r.time, r.errors, ["INS-3D", "INS-2D", "MoRPI-A", "MoRPI-G"],
+    plots.montecarlo_error_curves(r.time, r.bands, ["INS-3D", "INS-2D", "MoRPI-A", "MoRPI-G"],
                                   args.out / "error_curves.png")
     print(f"figures: {args.out}")
 

@@ -35,6 +35,18 @@ Reproducibility
     which chunk, thread or Dask worker computed it: the digest is the same for
     any chunk size, any number of workers and through Dask.
 
+One pass, flat memory
+    :func:`run_studies` runs several studies that share the draws and the
+    paths (other calibrations, gain scenarios, training-set sizes) over one
+    pass of the random numbers: each run's numbers are drawn once, each
+    calibration's measurement errors are built once, and every study is a set
+    of columns of the same draws, equal bit for bit to the study run alone.
+    Chunks are reduced as they finish: the per-run final, gain and distance
+    errors are kept (they are what the digest, the order statistics and the
+    distance check need), the error series only as a sum of squares (RMS) and
+    histogram counts per epoch (the 5/50/95 % bands), unless a caller asks
+    for them (``series=True``). Dask workers return those reductions.
+
 Digest
     sha256 over the per-run final horizontal errors as a C-ordered
     little-endian float64 array of shape ``(runs, columns)`` with the columns
@@ -77,8 +89,9 @@ from .errors import MorpiError
 from .units import DEG_S, G0, MPU6500, SensorSpec
 
 __all__ = [
-    "GainError", "StudyConfig", "CALIBRATIONS", "StudyResult", "METHODS", "run_study", "summarize", "digest",
-    "child_seed", "reference_gains", "training_runs_study", "TrainingStudy",
+    "GainError", "StudyConfig", "CALIBRATIONS", "StudyResult", "METHODS", "run_study", "run_studies", "summarize",
+    "digest", "child_seed", "reference_gains", "training_runs_study", "training_configs", "training_summary",
+    "TrainingStudy", "band_quantiles", "BAND_PERCENTILES", "BAND_BINS_PER_DECADE",
     "DriftMap", "drift_map", "report_montecarlo", "report_drift", "Z99",
 ]
 
@@ -97,6 +110,15 @@ _TRAINING_SEED = 20230101
 
 #: Memory budget of one chunk's noise block [bytes]; sets the default chunk size.
 _CHUNK_BYTES = 32 * 2**20
+
+#: Resolution of the histograms behind :attr:`StudyResult.bands`: log-spaced bins
+#: from :data:`BAND_RANGE_M` [0] to [1] metres (plus one bin from 0 to the first edge).
+BAND_BINS_PER_DECADE = 40
+BAND_RANGE_M = (1e-6, 1e4)
+_BAND_EDGES = np.concatenate([[0.0], np.logspace(math.log10(BAND_RANGE_M[0]), math.log10(BAND_RANGE_M[1]),
+                                                 BAND_BINS_PER_DECADE * 10 + 1)])
+#: Percentiles of :attr:`StudyResult.bands`.
+BAND_PERCENTILES = (5.0, 50.0, 95.0)
 
 
 # ----------------------------------------------------------------------------- configuration
@@ -213,11 +235,19 @@ class StudyResult:
     runs, seed : int
     time : ndarray, shape (m,)
         Times of the kept error samples [s].
-    errors : ndarray, shape (runs, m, 4)
+    errors : ndarray, shape (runs, m, 4), or None
         Horizontal position error [m] of :data:`METHODS` for the primary gain
         scenario (NaN for INS columns when ``config.ins`` is False). MoRPI
         positions start at the first f_y peak and change at each later peak
-        (0 until the first step is complete).
+        (0 until the first step is complete). Kept only when the study is run
+        with ``series=True``; otherwise None, and the curves are summarised
+        by `rms` and `bands`, whose memory does not grow with the runs.
+    rms : ndarray, shape (m, 4)
+        Root mean square over the runs of the same errors [m].
+    bands : ndarray, shape (m, 4, 3)
+        5th, 50th and 95th percentiles over the runs of the same errors [m],
+        read from per-epoch histograms with :data:`BAND_BINS_PER_DECADE` log
+        bins per decade (relative resolution ``10 ** (1 / 40)``, 6 %).
     columns : tuple of str
         Names of the columns of `final`.
     final : ndarray, shape (runs, len(columns))
@@ -246,7 +276,7 @@ class StudyResult:
     runs: int
     seed: int
     time: np.ndarray
-    errors: np.ndarray
+    errors: np.ndarray | None
     columns: tuple
     final: np.ndarray
     distance_error: np.ndarray
@@ -258,6 +288,8 @@ class StudyResult:
     digest: str
     backends: dict = field(default_factory=dict)
     elapsed: float = 0.0
+    rms: np.ndarray | None = None
+    bands: np.ndarray | None = None
 
     def column(self, name: str) -> np.ndarray:
         """Final errors of one column, shape (runs,)."""
@@ -312,34 +344,46 @@ def _chunks(runs: int, chunk: int):
     return [(a, min(a + chunk, runs)) for a in range(0, runs, chunk)]
 
 
-def _execute(fn, payload, ranges, *, workers=1, scheduler=None, progress=None):
-    """Run ``fn(payload, a, b)`` for every range; results in range order.
+def _execute(fn, payload, ranges, *, workers=1, scheduler=None, progress=None, reduce=None):
+    """Run ``fn(payload, a, b)`` for every range, in range order.
 
-    `scheduler` is a Dask scheduler address (or a ``distributed.Client``);
-    otherwise `workers` threads run the ranges locally.
+    With `reduce`, each result is handed to ``reduce(result)`` in range order
+    as soon as it and every earlier one are done, and not kept (None is
+    returned); without it, the list of results is returned. `scheduler` is a
+    Dask scheduler address (or a ``distributed.Client``); otherwise `workers`
+    threads run the ranges locally.
     """
+    kept = []
+    sink = reduce if reduce is not None else kept.append
     if scheduler is not None:
-        return _execute_dask(fn, payload, ranges, scheduler, progress)
-    if workers is None or workers <= 1 or len(ranges) == 1:
-        out = []
+        _execute_dask(fn, payload, ranges, scheduler, progress, sink)
+    elif workers is None or workers <= 1 or len(ranges) == 1:
         for a, b in ranges:
-            out.append(fn(payload, a, b))
+            sink(fn(payload, a, b))
             if progress:
                 progress.update(b - a)
-        return out
-    from concurrent.futures import ThreadPoolExecutor
+    else:
+        from concurrent.futures import ThreadPoolExecutor
 
-    with ThreadPoolExecutor(max_workers=int(workers)) as pool:
-        futs = [pool.submit(fn, payload, a, b) for a, b in ranges]
-        out = []
-        for (a, b), f in zip(ranges, futs):
-            out.append(f.result())
-            if progress:
-                progress.update(b - a)
-    return out
+        with ThreadPoolExecutor(max_workers=int(workers)) as pool:
+            # at most 2 chunks per worker in flight, so finished chunks do not pile up
+            window = 2 * int(workers)
+            futs = {}
+            for i, (a, b) in enumerate(ranges):
+                futs[i] = pool.submit(fn, payload, a, b)
+                j = i - window + 1
+                if j >= 0:
+                    sink(futs.pop(j).result())
+                    if progress:
+                        progress.update(ranges[j][1] - ranges[j][0])
+            for j in sorted(futs):
+                sink(futs.pop(j).result())
+                if progress:
+                    progress.update(ranges[j][1] - ranges[j][0])
+    return kept if reduce is None else None
 
 
-def _execute_dask(fn, payload, ranges, scheduler, progress):
+def _execute_dask(fn, payload, ranges, scheduler, progress, sink):
     try:
         from distributed import Client, as_completed
     except ImportError:  # pragma: no cover - depends on the installation
@@ -355,13 +399,16 @@ def _execute_dask(fn, payload, ranges, scheduler, progress):
         futs = client.map(fn, [remote] * len(ranges), [a for a, _ in ranges], [b for _, b in ranges],
                           pure=False)
         index = {f.key: i for i, f in enumerate(futs)}
-        out = [None] * len(ranges)
+        waiting, nxt = {}, 0
         for f in as_completed(futs):
             i = index[f.key]
-            out[i] = f.result()
+            waiting[i] = f.result()
+            f.release()
             if progress:
                 progress.update(ranges[i][1] - ranges[i][0])
-        return out
+            while nxt in waiting:          # hand results on in range order
+                sink(waiting.pop(nxt))
+                nxt += 1
     finally:
         if own:
             client.close()
@@ -488,12 +535,13 @@ def _reference_gains(spec, length_m, period_m, amplitude_m, duration, rate_hz, t
 
 @dataclass(frozen=True)
 class _Payload:
-    cfg: StudyConfig
+    configs: tuple          # StudyConfig of each study; they share the draws and the paths
     seed: int
     straight: _Path
     sine: _Path
     gain_ref: tuple
     keep: np.ndarray
+    series: bool            # return the per-run error series too
 
 
 def _draw(seed: int, a: int, b: int, n: int) -> np.ndarray:
@@ -728,58 +776,89 @@ def _straight_errors_2d(f, psi, h, keep):
     return _double_integral_at(ax, h, keep), _double_integral_at(ay, h, keep)
 
 
-def _chunk(payload: _Payload, a: int, b: int) -> dict:
-    cfg, sine = payload.cfg, payload.sine
+def _chunk(payload: _Payload, a: int, b: int) -> list:
+    """Runs a..b-1 of every study of the payload from one draw of their random numbers.
+
+    The studies differ only in the calibration (which scales the same bias
+    numbers), the gain scenarios and whether the INS runs; each calibration's
+    measurement errors are built once and serve all its studies. Returns one
+    dict per study: per-run final errors, gain errors and distance errors, and
+    the chunk's reductions of the error series (sum of squares and histogram
+    counts per epoch), plus the series themselves when ``payload.series``.
+    """
+    cfg0, sine = payload.configs[0], payload.sine
     n = sine.time.size
-    h = 1.0 / cfg.rate_hz
+    h = 1.0 / cfg0.rate_hz
     R = b - a
     z = _draw(payload.seed, a, b, n)
-    sig_ba, sig_bg = cfg.bias_sigmas()
-    ba = sig_ba * z[:, 0:3]
-    bg = sig_bg * z[:, 3:6]
     zg = z[:, 6].copy()
-    # time-major planes (6, n, R) of the measured errors: bias + white noise at the discrete sigma
     zr = z[:, _N_HEAD:].reshape(R, 6, n)
-    err = np.empty((6, n, R))
-    sa, sg = cfg.spec.accel_noise * math.sqrt(cfg.rate_hz), cfg.spec.gyro_noise * math.sqrt(cfg.rate_hz)
-    for c in range(6):
-        np.multiply(zr[:, c, :].T, sa if c < 3 else sg, out=err[c])
-        err[c] += ba[:, c] if c < 3 else bg[:, c - 3]
-    del z, zr
     keep = payload.keep
+    sa, sg = cfg0.spec.accel_noise * math.sqrt(cfg0.rate_hz), cfg0.spec.gyro_noise * math.sqrt(cfg0.rate_hz)
+    out = [None] * len(payload.configs)
+    for cal in dict.fromkeys(c.calibration for c in payload.configs):
+        members = [i for i, c in enumerate(payload.configs) if c.calibration == cal]
+        cfg = payload.configs[members[0]]
+        sig_ba, sig_bg = cfg.bias_sigmas()
+        ba = sig_ba * z[:, 0:3]
+        bg = sig_bg * z[:, 3:6]
+        # time-major planes (6, n, R) of the measured errors: bias + white noise at the discrete sigma
+        err = np.empty((6, n, R))
+        for c in range(6):
+            np.multiply(zr[:, c, :].T, sa if c < 3 else sg, out=err[c])
+            err[c] += ba[:, c] if c < 3 else bg[:, c - 3]
+        # heading error integrated from the gyro-z error (on the straight line: the whole heading)
+        # (trapezoid: psi_k = h (sum_{i<k} w_i + (w_k - w_0) / 2))
+        psi = _prefix_rows(err[5], np.empty((n, R)))
+        psi += 0.5 * err[5]
+        psi -= 0.5 * err[5, 0]
+        psi *= h
+        ins_e = None
+        if any(payload.configs[i].ins for i in members):
+            ins_e = _ins_errors(payload, err, psi, h, keep)
+        # MoRPI on the sine path: Weinberg terms from the measured signals (constant biases cancel in
+        # max - min); heading = true heading + integrated gyro-z error.
+        pk = sine.peaks
+        dfa = _weinberg_terms(err[1], sine.f_b[:, 1], pk)          # (R, K)
+        dfg = _weinberg_terms(err[5], sine.omega_b[:, 2], pk)
+        del err
+        hd = (psi[pk[1:]] + sine.psi[pk[1:], None]).T                # (R, K) heading at each step's end peak
+        del psi
+        trig = (np.cos(hd), np.sin(hd))
+        for i in members:
+            out[i] = _study_chunk(payload, payload.configs[i], ins_e, dfa, dfg, trig, zg, R)
+    return out
+
+
+def _ins_errors(payload, err, psi, h, keep):
+    """INS-3D and INS-2D horizontal errors (R, m) on the level straight line from rest.
+
+    The true motion is f_b = (a_x(t), 0, g), omega_b = 0, C_bn = I; the truth
+    goes through the same integration rule, so the difference is the error of
+    the mechanization. Overwrites ``err[0]`` and ``err[2]``.
+    """
+    st = payload.straight
+    err[0] += st.f_b[:, 0, None]
+    err[2] += st.f_b[:, 2, None]
+    f = [err[0], err[1], err[2]]
+    w = [err[3], err[4], err[5]]
+    tx = _double_integral_at(st.f_b[:, 0, None], h, keep)            # (m, 1)
+    return [np.hypot(x - tx, y).T for x, y in (_straight_errors_3d(h, f, w, keep),
+                                                _straight_errors_2d(f, psi, h, keep))]
+
+
+def _study_chunk(payload, cfg, ins_e, dfa, dfg, trig, zg, R) -> dict:
+    """One study's part of a chunk: finals, gain and distance errors, series reductions."""
+    sine, keep = payload.sine, payload.keep
+    pk = sine.peaks
+    cps, sps = trig
     S = len(cfg.gains)
     series = np.full((R, keep.size, 4), np.nan)
     final = np.full((R, 2 + 2 * S), np.nan)
-    # heading error integrated from the gyro-z error (on the straight line: the whole heading)
-    # (trapezoid: psi_k = h (sum_{i<k} w_i + (w_k - w_0) / 2))
-    psi = _prefix_rows(err[5], np.empty((n, R)))
-    psi += 0.5 * err[5]
-    psi -= 0.5 * err[5, 0]
-    psi *= h
-
     if cfg.ins:
-        # level straight line from rest: f_b = (a_x(t), 0, g), omega_b = 0, C_bn = I; the truth goes
-        # through the same integration rule, so the difference is the error of the mechanization
-        st = payload.straight
-        err[0] += st.f_b[:, 0, None]          # err[0] and err[2] are not used after this block
-        err[2] += st.f_b[:, 2, None]
-        f = [err[0], err[1], err[2]]
-        w = [err[3], err[4], err[5]]
-        tx = _double_integral_at(st.f_b[:, 0, None], h, keep)            # (m, 1)
-        for j, (x, y) in enumerate((_straight_errors_3d(h, f, w, keep), _straight_errors_2d(f, psi, h, keep))):
-            e = np.hypot(x - tx, y).T
+        for j, e in enumerate(ins_e):
             series[:, :, j] = e
             final[:, j] = e[:, -1]
-        del f, w
-
-    # MoRPI on the sine path: Weinberg terms from the measured signals (constant biases cancel in
-    # max - min); heading = true heading + integrated gyro-z error.
-    pk = sine.peaks
-    dfa = _weinberg_terms(err[1], sine.f_b[:, 1], pk)          # (R, K)
-    dfg = _weinberg_terms(err[5], sine.omega_b[:, 2], pk)
-    del err
-    hd = (psi[pk[1:]] + sine.psi[pk[1:], None]).T                # (R, K) heading at each step's end peak
-    cps, sps = np.cos(hd), np.sin(hd)
     truth = sine.position[pk, :2] - sine.position[pk[0], :2]   # (K+1, 2)
     D = _chord_sum(sine)
     steps_done = np.clip(np.searchsorted(pk, keep, side="right") - 1, 0, None)   # 0 before the first peak
@@ -798,7 +877,54 @@ def _chunk(payload: _Payload, a: int, b: int) -> dict:
             if s_i == 0:
                 e0 = np.concatenate([np.zeros((R, 1)), e], axis=1)
                 series[:, :, 2 + m] = e0[:, steps_done]
-    return {"series": series, "final": final, "dG": dG, "dist": dist}
+    part = {"final": final, "dG": dG, "dist": dist, "sumsq": np.nansum(series * series, axis=0),
+            "count": np.isfinite(series).sum(axis=0), "hist": _band_counts(series)}
+    if payload.series:
+        part["series"] = series
+    return part
+
+
+def _band_counts(series) -> np.ndarray:
+    """Histogram counts (m, k, bins) of series (R, m, k) over :data:`_BAND_EDGES` (NaN left out)."""
+    R, m, k = series.shape
+    nb = _BAND_EDGES.size - 1
+    idx = np.clip(np.searchsorted(_BAND_EDGES, series, side="right") - 1, 0, nb - 1)
+    ok = np.isfinite(series)
+    flat = ((np.arange(m)[:, None] * k + np.arange(k)[None, :]) * nb)[None] + idx
+    return np.bincount(flat[ok], minlength=m * k * nb).reshape(m, k, nb)
+
+
+def band_quantiles(counts, q=BAND_PERCENTILES) -> np.ndarray:
+    """Percentiles from histogram counts over :data:`_BAND_EDGES`.
+
+    Parameters
+    ----------
+    counts : ndarray, shape (..., bins)
+    q : sequence of float
+        Percentiles in [0, 100].
+
+    Returns
+    -------
+    ndarray, shape (..., len(q))
+        Interpolated geometrically inside a bin (linearly in the first bin,
+        which starts at 0); NaN where the counts are all zero.
+    """
+    counts = np.asarray(counts, float)
+    cum = np.cumsum(counts, axis=-1)
+    total = cum[..., -1:]
+    out = []
+    lo_e, hi_e = _BAND_EDGES[:-1], _BAND_EDGES[1:]
+    for p in q:
+        target = p / 100.0 * total
+        j = np.minimum((cum < target).sum(axis=-1, keepdims=True), counts.shape[-1] - 1)
+        before = np.take_along_axis(cum, j, axis=-1) - np.take_along_axis(counts, j, axis=-1)
+        inbin = np.take_along_axis(counts, j, axis=-1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            frac = np.clip(np.where(inbin > 0, (target - before) / inbin, 0.0), 0.0, 1.0)
+        lo, hi = lo_e[j], hi_e[j]
+        val = np.where(lo > 0, lo * (hi / np.where(lo > 0, lo, 1.0)) ** frac, hi * frac)
+        out.append(np.where(total > 0, val, np.nan)[..., 0])
+    return np.stack(out, axis=-1)
 
 
 def _weinberg_terms(err, true, peaks):
@@ -829,8 +955,14 @@ def _check_runs(runs, seed, chunk):
         raise MorpiError(f"chunk: {chunk!r}, expected a whole number >= 1")
 
 
+#: StudyConfig fields that fix the draws and the paths: the studies of one
+#: :func:`run_studies` call must agree on them.
+_SHARED_FIELDS = ("spec", "duration", "rate_hz", "length_m", "period_m", "amplitude_m", "keep_every",
+                  "training_runs", "cal_seconds")
+
+
 def run_study(runs: int, seed: int, config: StudyConfig | None = None, *, chunk: int | None = None,
-              workers: int = 1, scheduler=None, progress: bool | None = None) -> StudyResult:
+              workers: int = 1, scheduler=None, progress: bool | None = None, series: bool = False) -> StudyResult:
     """Run a seeded gain-error Monte Carlo study.
 
     Parameters
@@ -850,38 +982,121 @@ def run_study(runs: int, seed: int, config: StudyConfig | None = None, *, chunk:
         Run the chunks on this Dask cluster instead (results identical).
     progress : bool, optional
         Progress on stderr; default on when the study has more than 1000 runs.
+    series : bool
+        Keep every run's error series (:attr:`StudyResult.errors`, 8 bytes x
+        runs x epochs x 4); by default only their reductions are kept.
 
     Returns
     -------
     StudyResult
     """
+    return run_studies(runs, seed, (StudyConfig() if config is None else config,), chunk=chunk, workers=workers,
+                       scheduler=scheduler, progress=progress, series=series)[0]
+
+
+def run_studies(runs: int, seed: int, configs, *, chunk: int | None = None, workers: int = 1, scheduler=None,
+                progress: bool | None = None, series: bool = False,
+                label: str = "montecarlo gain-error study") -> tuple:
+    """Several gain-error studies over one pass of the same random numbers.
+
+    The studies may differ in calibration, gain scenarios and whether the
+    INS runs; everything that fixes the draws and the paths (sensor, duration,
+    rate, path, kept epochs, training runs, calibration window) must be the
+    same. Each run's numbers are drawn once and serve every study, and every
+    study's result is identical, bit for bit, to what :func:`run_study` gives
+    for it alone with the same seed. Chunks are reduced as they finish, so
+    memory grows with the runs only by the per-run final, gain and distance
+    errors (about 8 bytes x (3 + 5 x scenarios) per run and study), not by the
+    error series (unless `series`).
+
+    Parameters
+    ----------
+    runs, seed, chunk, workers, scheduler, progress, series
+        As in :func:`run_study`.
+    configs : sequence of StudyConfig
+    label : str
+        Name of the progress line.
+
+    Returns
+    -------
+    tuple of StudyResult
+        One per config, in order.
+    """
     t0 = _time.perf_counter()
-    cfg = StudyConfig() if config is None else config
-    cfg.validate()
+    configs = tuple(configs)
+    if not configs or not all(isinstance(c, StudyConfig) for c in configs):
+        raise MorpiError("configs: expected a non-empty sequence of StudyConfig")
+    for c in configs:
+        c.validate()
+        for name in _SHARED_FIELDS:
+            if getattr(c, name) != getattr(configs[0], name):
+                raise MorpiError(f"configs: StudyConfig.{name} differs between studies of one pass "
+                                 f"({getattr(configs[0], name)!r} and {getattr(c, name)!r}); run them separately")
     _check_runs(runs, seed, chunk)
     runs, seed = int(runs), int(seed)
+    cfg = configs[0]
     straight, sine, traj_backend = _paths(cfg)
     if sine.peaks.size < 2:
         raise MorpiError("StudyConfig: the sine path has fewer than two period boundaries")
     n = sine.time.size
     keep = np.unique(np.r_[np.arange(0, n, cfg.keep_every), n - 1])
     gain_ref, cv = reference_gains(cfg)
-    payload = _Payload(cfg, seed, straight, sine, gain_ref, keep)
+    payload = _Payload(configs, seed, straight, sine, gain_ref, keep, bool(series))
     chunk = _default_chunk(n) if chunk is None else int(chunk)
     ranges = _chunks(runs, min(chunk, runs))
-    prog = _Progress(runs, "montecarlo gain-error study", runs > 1000 if progress is None else progress)
-    parts = _execute(_chunk, payload, ranges, workers=workers, scheduler=scheduler, progress=prog)
-    cat = {k: np.concatenate([p[k] for p in parts], axis=0) for k in parts[0]}
-    columns = ("ins3d", "ins2d") + tuple(f"{m}[{g.label}]" for g in cfg.gains for m in ("morpi_a", "morpi_g"))
-    return StudyResult(
-        config=cfg, runs=runs, seed=seed, time=sine.time[keep], errors=cat["series"], columns=columns,
-        final=cat["final"], distance_error=cat["dist"], dG=cat["dG"], distance=_chord_sum(sine),
-        steps=int(sine.peaks.size - 1),
-        gain_ref=gain_ref, gain_ref_cv=cv, digest=digest(cat["final"]),
-        backends={"trajectories": traj_backend,
-                  "ins": "montecarlo straight-line kernel (quaternion attitude, trapezoid integration; "
-                         "matches strapdown.ins3d/ins2d to 1e-6 of the error without noise)"},
-        elapsed=_time.perf_counter() - t0)
+    prog = _Progress(runs, label, runs > 1000 if progress is None else progress)
+    acc = [_Reduction(runs) for _ in configs]
+    _execute(_chunk, payload, ranges, workers=workers, scheduler=scheduler, progress=prog,
+             reduce=lambda parts: [r.add(p) for r, p in zip(acc, parts)])
+    out = []
+    for c, red in zip(configs, acc):
+        final = red.cat("final")
+        columns = ("ins3d", "ins2d") + tuple(f"{m}[{g.label}]" for g in c.gains for m in ("morpi_a", "morpi_g"))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            rms = np.where(red.count > 0, np.sqrt(red.sumsq / np.maximum(red.count, 1)), np.nan)
+        out.append(StudyResult(
+            config=c, runs=runs, seed=seed, time=sine.time[keep], errors=red.cat("series") if series else None,
+            columns=columns, final=final, distance_error=red.cat("dist"), dG=red.cat("dG"),
+            distance=_chord_sum(sine), steps=int(sine.peaks.size - 1), gain_ref=gain_ref, gain_ref_cv=cv,
+            digest=digest(final),
+            backends={"trajectories": traj_backend,
+                      "ins": "montecarlo straight-line kernel (quaternion attitude, trapezoid integration; "
+                             "matches strapdown.ins3d/ins2d to 1e-6 of the error without noise)"},
+            elapsed=_time.perf_counter() - t0, rms=rms, bands=band_quantiles(red.hist)))
+    return tuple(out)
+
+
+class _Reduction:
+    """Running reduction of one study's chunks, fed in run order.
+
+    Per-run arrays are written into arrays allocated once for all the runs
+    (no list of chunks concatenated at the end, which would hold them twice).
+    """
+
+    _PER_RUN = ("final", "dG", "dist", "series")
+
+    def __init__(self, runs: int):
+        self.runs, self.filled = runs, 0
+        self.arrays = {}
+        self.sumsq = self.count = self.hist = None
+
+    def add(self, part: dict) -> None:
+        m = part["final"].shape[0]
+        for k in self._PER_RUN:
+            if k in part:
+                if k not in self.arrays:
+                    self.arrays[k] = np.empty((self.runs,) + part[k].shape[1:], part[k].dtype)
+                self.arrays[k][self.filled:self.filled + m] = part[k]
+        self.filled += m
+        if self.sumsq is None:
+            self.sumsq, self.count, self.hist = part["sumsq"].copy(), part["count"].copy(), part["hist"].copy()
+        else:
+            self.sumsq += part["sumsq"]
+            self.count += part["count"]
+            self.hist += part["hist"]
+
+    def cat(self, key: str) -> np.ndarray:
+        return self.arrays[key]
 
 
 def summarize(x: np.ndarray) -> dict:
@@ -936,20 +1151,34 @@ def training_runs_study(ks, *, mismatch: float, spread: float, runs: int, seed: 
     Each k reuses the study seed, so the runs share their sensor draws and only
     the gain differs (common random numbers).
     """
+    base = StudyConfig() if config is None else config
+    cfgs = training_configs(ks, mismatch=mismatch, spread=spread, config=base)
+    results = run_studies(runs, seed, cfgs, chunk=chunk, scheduler=scheduler, progress=progress,
+                          label="montecarlo training-runs study")
+    return training_summary(ks, results, mismatch=mismatch, spread=spread)
+
+
+def training_configs(ks, *, mismatch: float, spread: float, config: StudyConfig | None = None) -> tuple:
+    """The MoRPI-only study configs of :func:`training_runs_study`, one per k (for :func:`run_studies`)."""
     ks = np.asarray(ks, int)
     if ks.ndim != 1 or ks.size == 0 or (ks < 1).any():
         raise MorpiError(f"ks: {ks.tolist()!r}, expected whole numbers >= 1")
     if not (math.isfinite(spread) and spread >= 0 and math.isfinite(mismatch)):
         raise MorpiError(f"spread/mismatch: {spread!r}/{mismatch!r}, expected finite, spread >= 0")
     base = StudyConfig() if config is None else config
+    return tuple(replace(base, ins=False, gains=(GainError(f"k = {k}", mismatch, spread / math.sqrt(k)),))
+                 for k in ks)
+
+
+def training_summary(ks, results, *, mismatch: float, spread: float) -> TrainingStudy:
+    """A :class:`TrainingStudy` from the results of the :func:`training_configs` studies."""
+    ks = np.asarray(ks, int)
     rms, fin, dig = [], [], []
-    D = None
-    for k in ks:
-        cfg = replace(base, ins=False, gains=(GainError(f"k = {k}", mismatch, spread / math.sqrt(k)),))
-        r = run_study(runs, seed, cfg, chunk=chunk, scheduler=scheduler, progress=progress)
-        D = r.distance
+    D = results[0].distance
+    for r in results:
+        label = r.config.gains[0].label
         rms.append(np.sqrt(np.mean(r.distance_error[:, 0, :] ** 2, axis=0)))
-        fin.append([[summarize(r.column(f"{m}[{cfg.gains[0].label}]"))[q] for q in ("mean", "std", "median", "p95")]
+        fin.append([[summarize(r.column(f"{m}[{label}]"))[q] for q in ("mean", "std", "median", "p95")]
                     for m in ("morpi_a", "morpi_g")])
         dig.append(r.digest)
     return TrainingStudy(ks, float(mismatch), float(spread), np.array(rms),
@@ -1226,10 +1455,10 @@ def report_montecarlo(out, *, runs: int, seed: int, chunk=None, scheduler=None, 
              GainError("training spread", mismatch, spread))
     cal = StudyConfig(gains=gains, calibration="gyro+accel")
     raw = replace(cal, calibration="none")
-    r = run_study(runs, seed, cal, chunk=chunk, scheduler=scheduler)
-    rr = run_study(runs, seed, raw, chunk=chunk, scheduler=scheduler)
-    tr = training_runs_study(TRAINING_KS, mismatch=mismatch, spread=spread, runs=runs, seed=seed,
-                             config=cal, chunk=chunk, scheduler=scheduler)
+    # one pass over the random numbers: every study of the page is a set of columns of the same draws
+    tcfg = training_configs(TRAINING_KS, mismatch=mismatch, spread=spread, config=cal)
+    r, rr, *tres = run_studies(runs, seed, (cal, raw, *tcfg), chunk=chunk, scheduler=scheduler)
+    tr = training_summary(TRAINING_KS, tres, mismatch=mismatch, spread=spread)
     checks = _distance_check(r)
 
     figs = []
@@ -1237,7 +1466,7 @@ def report_montecarlo(out, *, runs: int, seed: int, chunk=None, scheduler=None, 
         r.columns, r.final, out / "final_errors.png",
         title=f"{cal.spec.name}, {cal.duration:g} s, {runs} runs, GAC-calibrated biases").name)
     figs.append(plots.montecarlo_error_curves(
-        r.time, r.errors, ["INS-3D", "INS-2D", "MoRPI-A (dG 5 %)", "MoRPI-G (dG 5 %)"],
+        r.time, r.bands, ["INS-3D", "INS-2D", "MoRPI-A (dG 5 %)", "MoRPI-G (dG 5 %)"],
         out / "error_curves.png", title="horizontal error over time (median, 5-95 % band)").name)
     s_i = 2
     figs.append(plots.montecarlo_gain_vs_error(

@@ -324,15 +324,16 @@ def montecarlo_final_errors(columns, final, path, *, title=""):
     return save(fig, path)
 
 
-def montecarlo_error_curves(time, errors, labels, path, *, analytic=None, title=""):
+def montecarlo_error_curves(time, bands, labels, path, *, analytic=None, title=""):
     """Median and 5-95 % band of the error over time, log scale.
 
     Parameters
     ----------
     time : ndarray, shape (m,)
         [s].
-    errors : ndarray, shape (runs, m, k)
-        Horizontal errors [m].
+    bands : ndarray, shape (m, k, 3)
+        5th, 50th and 95th percentile of the horizontal errors over the runs
+        [m] (``montecarlo.StudyResult.bands``).
     labels : sequence of str, length k
     path : path-like
     analytic : dict, optional
@@ -343,10 +344,10 @@ def montecarlo_error_curves(time, errors, labels, path, *, analytic=None, title=
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(7, 4.2))
     for i, lab in enumerate(labels):
-        e = errors[:, :, i]
-        if not np.isfinite(e).any():
+        b = np.asarray(bands)[:, i, :]
+        if not np.isfinite(b).any():
             continue
-        lo, med, hi = np.percentile(e, [5, 50, 95], axis=0)
+        lo, med, hi = b[:, 0], b[:, 1], b[:, 2]
         shown = hi > 0                      # log axis: leave out times with no error yet
         med = np.where(shown & (med > 0), med, np.nan)
         ax.plot(time, med, color=f"C{i}", label=f"{lab} (median)")

@@ -34,15 +34,57 @@ def test_digest_depends_on_every_byte():
 
 @pytest.fixture(scope="module")
 def reference_study():
-    return mc.run_study(13, 7, FAST, chunk=13)
+    return mc.run_study(13, 7, FAST, chunk=13, series=True)
 
 
-@pytest.mark.parametrize("chunk, workers", [(1, 1), (7, 1), (7, 2)])
+@pytest.mark.parametrize("chunk, workers", [(1, 1), (7, 1), (7, 2), (2, 2)])
 def test_same_seed_same_digest_whatever_the_chunking(reference_study, chunk, workers):
-    r = mc.run_study(13, 7, FAST, chunk=chunk, workers=workers)
+    r = mc.run_study(13, 7, FAST, chunk=chunk, workers=workers, series=True)
     assert r.digest == reference_study.digest
     assert np.array_equal(r.final, reference_study.final)
     assert np.array_equal(r.errors, reference_study.errors, equal_nan=True)
+    # the histogram bands are integer counts: identical however the runs are chunked
+    assert np.array_equal(r.bands, reference_study.bands, equal_nan=True)
+
+
+def test_one_pass_equals_each_study_alone():
+    # every study of one pass over the draws is, bit for bit, the study run alone with the same seed
+    gains = (mc.GainError("a", 0.05), mc.GainError("spread", 0.02, 0.05))
+    cal = replace(FAST, gains=gains, calibration="gyro+accel")
+    raw = replace(cal, calibration="none")
+    cfgs = (cal, raw, *mc.training_configs([1, 4], mismatch=0.02, spread=0.05, config=cal))
+    together = mc.run_studies(17, 4, cfgs, chunk=5, series=True)
+    for cfg, r in zip(cfgs, together):
+        alone = mc.run_study(17, 4, cfg, chunk=17, series=True)
+        assert r.digest == alone.digest
+        assert np.array_equal(r.errors, alone.errors, equal_nan=True)
+        assert np.array_equal(r.distance_error, alone.distance_error) and np.array_equal(r.dG, alone.dG)
+
+
+def test_one_pass_refuses_studies_with_other_draws():
+    with pytest.raises(MorpiError, match="duration"):
+        mc.run_studies(3, 0, (FAST, replace(FAST, duration=FAST.duration + 1)))
+
+
+def test_series_reductions_agree_with_the_series():
+    r = mc.run_study(300, 3, FAST, chunk=70, series=True)
+    # RMS from the chunks' sums of squares against numpy on the kept series (summation order only)
+    np.testing.assert_allclose(r.rms, np.sqrt(np.mean(r.errors ** 2, axis=0)), rtol=1e-12)
+    # the histogram percentile lies in the bin of the exact order statistic (numpy's inverted CDF):
+    # within one bin ratio, 10 ** (1 / 40), above the first edge, and within the first bin (1e-6 m) below it
+    q = np.percentile(r.errors, mc.BAND_PERCENTILES, axis=0, method="inverted_cdf").transpose(1, 2, 0)
+    ok = np.isfinite(q)
+    assert np.array_equal(ok, np.isfinite(r.bands))
+    big = ok & (q > mc.BAND_RANGE_M[0])
+    ratio = r.bands[big] / q[big]
+    step = 10 ** (1 / mc.BAND_BINS_PER_DECADE)
+    assert ratio.min() >= 1 / step - 1e-12 and ratio.max() <= step + 1e-12
+    assert np.abs(r.bands[ok & ~big] - q[ok & ~big]).max() <= mc.BAND_RANGE_M[0]
+
+
+def test_series_not_kept_by_default():
+    r = mc.run_study(13, 7, FAST, chunk=5)
+    assert r.errors is None and r.rms.shape == (r.time.size, 4) and r.bands.shape == (r.time.size, 4, 3)
 
 
 def test_other_seed_other_digest(reference_study):
