@@ -1,78 +1,95 @@
-"""Cost of a Monte Carlo gain-error study relative to drawing its random numbers.
+"""Cost of ``morpi montecarlo`` against drawing its random numbers, both as whole processes.
 
-Prints the wall time of a seeded study (default 10,000 runs, 15 s at 100 Hz,
-INS-3D, INS-2D, MoRPI-A and MoRPI-G) and of numpy drawing the same random
-numbers alone (one Generator per run from SeedSequence(seed).spawn(N), each
-drawing its own block of 7 + 6 n standard normals, in the same chunks, plus
-the gain-training draws), both measured in this one process (best of
---repeat, wall clock and process CPU time), and their ratio. Target: 3x or less. The stricter ratio against
-the per-run draws only is printed too.
+A: the command a user runs, ``morpi montecarlo --runs N`` (every study of the
+page, the gain training, the JSON, the page and the figures), in a fresh
+interpreter. B, the floor: a fresh interpreter that imports numpy and draws
+exactly the random numbers the command draws: one Generator per run from
+``SeedSequence(seed, spawn_key=(i,))`` with its 7 + 6 n standard normals, in
+the command's chunks, plus the gain-training numbers of the reference gains
+(one Generator, ``training_runs x 2 x n`` normals). The two run in
+alternation and the ratio A / B is taken per pair (``benchmarks/pairs.py``).
 
-Usage: PYTHONPATH=. python3 benchmarks/bench_montecarlo.py [--runs N] [--chunk K] [--repeat R]
+A second, in-process line compares :func:`montecarlo.run_studies` (every study
+of the page in one pass, no files) with the same draws in the same process.
+
+Target: whole command / draws <= 4x.
+
+Usage: ``python3 benchmarks/bench_montecarlo.py [--runs N] [--pairs P]``
 """
 from __future__ import annotations
 
 import argparse
-import math
-import time
+import sys
+import tempfile
+from dataclasses import replace
+from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from pairs import paired, paired_commands, python_command  # noqa: E402
+
+from morpi_filters import montecarlo as mc  # noqa: E402
+
+TARGET = 4.0
+
+DRAWS = """
 import numpy as np
+runs, seed, n, chunk, head, training, training_seed = {runs}, {seed}, {n}, {chunk}, {head}, {training}, {tseed}
+total = 0.0
+for a in range(0, runs, chunk):
+    b = min(a + chunk, runs)
+    z = np.empty((b - a, head + 6 * n))
+    for r in range(a, b):
+        np.random.Generator(np.random.PCG64(np.random.SeedSequence(seed, spawn_key=(r,)))).standard_normal(out=z[r - a])
+    total += float(z[:, -1].sum())
+rng = np.random.Generator(np.random.PCG64(np.random.SeedSequence(training_seed)))
+for a in range(0, training, 500):
+    total += float(rng.standard_normal((min(500, training - a), 2, n))[:, 0, -1].sum())
+print(total)
+"""
 
-from morpi_filters import montecarlo as mc
 
-
-def draw_training(cfg) -> float:
-    """Draw the gain-training numbers of the study (one Generator, same shapes as reference_gains)."""
-    rng = np.random.Generator(np.random.PCG64(np.random.SeedSequence(mc._TRAINING_SEED)))
-    n = int(round(cfg.duration * cfg.rate_hz)) + 1
-    total = 0.0
-    for a in range(0, cfg.training_runs, 500):
-        total += float(rng.standard_normal((min(500, cfg.training_runs - a), 2, n))[:, 0, -1].sum())
-    return total
-
-
-def draw_only(runs: int, seed: int, n: int, chunk: int) -> float:
-    """Draw exactly the study's per-run random numbers, chunk by chunk; return a checksum."""
-    total = 0.0
-    for a in range(0, runs, chunk):
-        z = mc._draw(seed, a, min(a + chunk, runs), n)
-        total += float(z[:, -1].sum())
-    return total
+def page_configs():
+    """The studies ``morpi montecarlo`` runs without a dataset (assumed gain spread)."""
+    gains = (mc.GainError("dG = 5 %", 0.05), mc.GainError("dG = 10 %", 0.10),
+             mc.GainError("training spread", mc.ASSUMED_MISMATCH, mc.ASSUMED_SPREAD))
+    cal = mc.StudyConfig(gains=gains, calibration="gyro+accel")
+    return (cal, replace(cal, calibration="none"),
+            *mc.training_configs(mc.TRAINING_KS, mismatch=mc.ASSUMED_MISMATCH, spread=mc.ASSUMED_SPREAD, config=cal))
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=10_000)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--chunk", type=int, default=None)
-    ap.add_argument("--repeat", type=int, default=3, help="take the best of R timings of each")
+    ap.add_argument("--pairs", type=int, default=5)
     args = ap.parse_args(argv)
     cfg = mc.StudyConfig()
     n = int(round(cfg.duration * cfg.rate_hz)) + 1
-    chunk = args.chunk or mc._default_chunk(n)
-    # wall clock and process CPU time (the CPU time is not inflated when other processes share the cores)
-    clocks = {"wall": time.perf_counter, "cpu": time.process_time}
-    best = {(c, k): math.inf for c in clocks for k in ("draw", "train", "study")}
-    for _ in range(args.repeat):
-        for key, fn in (("draw", lambda: draw_only(args.runs, args.seed, n, chunk)),
-                        ("train", lambda: draw_training(cfg)),
-                        ("study", lambda: mc.run_study(args.runs, args.seed, cfg, chunk=chunk, progress=False))):
-            t0 = {c: f() for c, f in clocks.items()}
-            out = fn()
-            for c, f in clocks.items():
-                best[c, key] = min(best[c, key], f() - t0[c])
-            if key == "study":
-                r = out
-    print(f"runs {args.runs}, n {n} samples, chunk {chunk}, best of {args.repeat}")
-    for c in clocks:
-        td, tt, ts = best[c, "draw"], best[c, "train"], best[c, "study"]
-        print(f"[{c}] numpy drawing the per-run numbers alone: {td:.2f} s "
-              f"({args.runs * (7 + 6 * n) / td / 1e6:.0f} M normals/s); gain-training numbers: {tt:.2f} s; "
-              f"full study (4 methods, incl. gain training): {ts:.2f} s")
-        print(f"[{c}] ratio study / all its draws: {ts / (td + tt):.2f}x (target <= 3x); "
-              f"study / per-run draws only: {ts / td:.2f}x")
-    print(f"digest {r.digest}")
+    chunk = min(mc._default_chunk(n), args.runs)
+    code = DRAWS.format(runs=args.runs, seed=args.seed, n=n, chunk=chunk, head=mc._N_HEAD,
+                        training=cfg.training_runs, tseed=mc._TRAINING_SEED)
+    env_root = str(Path(__file__).resolve().parents[1])
+    import os
+
+    env = dict(os.environ, PYTHONPATH=env_root + os.pathsep + os.environ.get("PYTHONPATH", ""), MPLBACKEND="Agg")
+    with tempfile.TemporaryDirectory() as tmp:
+        cmd = [sys.executable, "-m", "morpi_filters.cli", "montecarlo", "--runs", str(args.runs),
+               "--seed", str(args.seed), "--out", str(Path(tmp) / "mc")]
+        whole = paired_commands(f"morpi montecarlo --runs {args.runs} / its random draws (whole processes)",
+                                cmd, python_command(code), pairs=args.pairs, target=TARGET, env=env)
+
+    def draws():
+        for a in range(0, args.runs, chunk):
+            mc._draw(args.seed, a, min(a + chunk, args.runs), n)
+
+    cfgs = page_configs()
+    mc.reference_gains(cfgs[0])          # the training is cached per process: not part of either side here
+    inproc = paired(f"run_studies (the page's {len(cfgs)} studies, one pass) / per-run draws (in process)",
+                    lambda: mc.run_studies(args.runs, args.seed, cfgs, progress=False), draws, pairs=args.pairs)
+    for r in (whole, inproc):
+        print(r.line())
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())
