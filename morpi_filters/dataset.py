@@ -29,6 +29,7 @@ __all__ = [
     "COLUMNS", "MIN_SAMPLES", "ACCEL_LIMIT_MPS2", "GYRO_LIMIT_RADPS", "MAX_GAP_S", "TIME_LIMIT_S", "DATA_ENV", "Route", "Recording", "CatalogueEntry",
     "load_csv", "write_csv", "routes", "route", "catalogue", "load_catalogue",
     "resolve_data_root", "missing_data_message", "check_tree", "PROJECT_DATA",
+    "layout", "expected_layout", "layout_problems", "folder_key",
 ]
 
 #: The columns every recording must have (the header names them; any order is read).
@@ -486,26 +487,93 @@ def load_catalogue(root, *, phone=None, route=None, split=None) -> list[Recordin
     return out
 
 
+def expected_layout(root) -> dict[str, int]:
+    """The folders a dataset root should hold and their number of recordings.
+
+    The MoRPI layout (:func:`layout`), except for a synthetic dataset written
+    by :func:`morpi_filters.simulate.write_dataset`, whose ``manifest.json``
+    lists its files (it may hold fewer runs per folder).
+    """
+    man = Path(root) / "manifest.json"
+    if man.is_file():
+        try:
+            m = json.loads(man.read_text())
+            if isinstance(m, dict) and m.get("generator") == "morpi_filters.simulate" \
+                    and isinstance(m.get("files"), dict):
+                counts: dict[str, int] = {}
+                for rel in (str(r) for r in m["files"] if str(r).endswith(".csv")):
+                    folder = rel.rsplit("/", 1)[0]
+                    counts[folder] = counts.get(folder, 0) + 1
+                return counts
+        except (OSError, ValueError):
+            pass
+    return layout()
+
+
+def folder_key(phone: str, route_name: str, split: str | None) -> str:
+    """The layout name of a folder: ``phone/route[/split]``."""
+    return "/".join([phone, route_name] + ([split] if split else []))
+
+
+def layout_problems(root, entries=None) -> list[str]:
+    """One line per difference between the recordings under `root` and :func:`expected_layout`.
+
+    A folder of the layout that is absent, a folder holding another number of
+    recordings, and CSV files outside the layout (which no command reads) are
+    named. No recording at all is one line saying so.
+    """
+    root = Path(root)
+    entries = catalogue(root) if entries is None else entries
+    expected = expected_layout(root)
+    counts: dict[str, int] = {}
+    for e in entries:
+        k = folder_key(e.phone, e.route, e.split)
+        counts[k] = counts.get(k, 0) + 1
+    out = []
+    if not entries:
+        inner = root / "data"
+        hint = (f"; {inner} looks like the dataset root, pass --data {inner}"
+                if inner.is_dir() and catalogue(inner) else f"; {_HOW_TO_GET}")
+        out.append(f"{root}: no recordings in the MoRPI layout (<phone>/<route>[/<split>]/<n>.csv){hint}")
+    for folder, n in (expected.items() if entries else ()):
+        got = counts.get(folder, 0)
+        if not (root / folder).is_dir():
+            out.append(f"{root / folder}: missing folder, expected {n} recording(s)")
+        elif got != n:
+            out.append(f"{root / folder}: {got} recording(s), expected {n}")
+    for folder in sorted(set(counts) - set(expected)):
+        out.append(f"{root / folder}: unexpected folder ({counts[folder]} recording(s)), "
+                   f"expected only {', '.join(sorted(expected))}")
+    known = {e.path for e in entries}
+    stray: dict[Path, int] = {}
+    for path in root.rglob("*.csv"):
+        if path not in known:
+            stray[path.parent] = stray.get(path.parent, 0) + 1
+    for folder in sorted(stray):
+        out.append(f"{folder}: {stray[folder]} CSV file(s) outside the MoRPI layout "
+                   "(<phone>/<route>[/<split>]/<n>.csv, routes of data/routes.json), read by no command")
+    return out
+
+
 def check_tree(root) -> tuple[list[str], int]:
-    """Validate every CSV under `root`.
+    """Validate every recording under `root` and the folder layout.
 
     Returns
     -------
     problems : list of str
-        One line per bad file (or missing folder of the MoRPI layout).
+        One line per bad file, and per difference from the expected layout
+        (:func:`layout_problems`: missing or unexpected folders, wrong counts,
+        no recordings at all).
     n_ok : int
         Number of files that loaded cleanly.
     """
     root = Path(root)
+    entries = catalogue(root)
     problems, n_ok = [], 0
-    files = sorted(root.rglob("*.csv"))
-    for path in files:
+    for e in entries:
         try:
-            load_csv(path)
+            load_csv(e.path)
             n_ok += 1
         except MorpiError as exc:
             problems.append(str(exc))
-    if not files:
-        problems.append(f"{root}: no CSV files found; {_HOW_TO_GET}")
-    return problems, n_ok
-
+    return problems + layout_problems(root, entries), n_ok

@@ -36,14 +36,40 @@ def test_check_reports_each_bad_file(tmp_path):
     assert any("2.csv: line 7: column f_y" in s for s in lines)
     assert any("3.csv: empty file" in s for s in lines)
     assert "Traceback" not in r.stdout + r.stderr
-    assert lines[-1].startswith("1 recording(s) OK, 2 problem(s)")
+    # 2 bad files, then the layout: 3 of the 24 line_dataset runs, the other 10 folders absent
+    assert lines[-1].startswith("1 recording(s) OK, 13 problem(s)")
+    assert any("line_dataset: 3 recording(s), expected 24" in s for s in lines)
 
 
-def test_check_good_tree_exits_zero(tmp_path):
+def test_check_names_missing_folders(tmp_path):
+    # One good folder is not the dataset: every other folder of data/routes.json is named.
     d = tmp_path / "s6" / "L_line"
     d.mkdir(parents=True)
     write_rows(d / "1.csv", good_rows())
-    assert main(["check", "--data", str(tmp_path)]) == 0
+    r = run("check", "--data", str(tmp_path))
+    assert r.returncode == 1
+    assert "s8/short_distance/train: missing folder, expected 12 recording(s)" in r.stdout
+    assert "L_line: 1 recording(s), expected 10" in r.stdout and "Traceback" not in r.stderr
+
+
+@pytest.mark.parametrize("make", ["empty", "stray", "clone"])
+def test_check_without_recordings_fails(tmp_path, make):
+    root = tmp_path / "root"
+    root.mkdir()
+    if make == "stray":
+        write_rows(root / "notes.csv", good_rows())
+    if make == "clone":
+        d = root / "data" / "s6" / "L_line"
+        d.mkdir(parents=True)
+        write_rows(d / "1.csv", good_rows())
+    r = run("check", "--data", str(root))
+    assert r.returncode == 1 and "Traceback" not in r.stderr
+    assert "no recordings in the MoRPI layout" in r.stdout
+    assert r.stdout.strip().splitlines()[-1].startswith("0 recording(s) OK")
+    if make == "stray":
+        assert "1 CSV file(s) outside the MoRPI layout" in r.stdout
+    if make == "clone":
+        assert f"pass --data {root / 'data'}" in r.stdout
 
 
 def test_missing_dataset_is_one_line(tmp_path, monkeypatch):
