@@ -3,7 +3,9 @@
 Each subcommand parses its arguments, calls one library function and writes
 into ``reports/`` (or the folder given by ``--out``). A report section is built
 in a staging folder and swapped in only when complete. Errors a user can cause
-are printed on one line (``morpi: error: ...``) with exit status 2.
+are printed on one line (``morpi: error: ...``) with the error's exit status
+(1 bad input data, 2 bad arguments or parameters). Commands that read the
+recordings stop when one they need is bad or missing, unless ``--partial``.
 """
 from __future__ import annotations
 
@@ -62,6 +64,11 @@ def build_parser() -> argparse.ArgumentParser:
         sp.add_argument("--data", metavar="DIR",
                         help="field dataset root (MoRPI layout); default: $MORPI_DATA")
 
+    def partial_arg(sp):
+        sp.add_argument("--partial", action="store_true",
+                        help="go on without bad or missing recordings (the page lists them); "
+                             "default: stop with exit status 1 naming them")
+
     def out_args(sp, section):
         sp.add_argument("--out", metavar="DIR", type=Path, default=Path("reports") / section,
                         help=f"output folder (default: reports/{section})")
@@ -72,6 +79,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("tables", help="every table of the paper on the recordings, ours beside the paper's")
     data_arg(s)
+    partial_arg(s)
     out_args(s, "tables")
 
     s = sub.add_parser("assess", help="analytical assessment: closed-form 3D/2D INS vs MoRPI-A error")
@@ -84,6 +92,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--params", metavar="FILE", type=Path, help="parameter file (JSON, values read as 1 sigma)")
     s.add_argument("--times", metavar="T", type=_time, nargs="+", help="evaluation times [s]")
     data_arg(s)
+    partial_arg(s)
     out_args(s, "curves")
 
     s = sub.add_parser("simulate", help="write a synthetic dataset in the field dataset's layout and format")
@@ -99,6 +108,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="runs per batch (results do not depend on it)")
     s.add_argument("--scheduler", metavar="ADDRESS", help="run on a Dask cluster at this address")
     data_arg(s)
+    partial_arg(s)
     out_args(s, "montecarlo")
 
     s = sub.add_parser("drift", help="closed-form vs nonlinear strapdown drift")
@@ -115,6 +125,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("report", help="the main job: every section into reports/, with index.md")
     data_arg(s)
+    partial_arg(s)
     s.add_argument("--out", metavar="DIR", type=Path, default=Path("reports"), help="report folder")
     s.add_argument("--seed", type=_nonneg_int("--seed"), default=0, help="seed of the synthetic dataset and studies")
     s.add_argument("--runs", metavar="N", type=_positive_int("--runs"), default=2000,
@@ -128,7 +139,7 @@ def _section(name, out: Path, args, source=None):
     """Build one report section into folder `out` and return its summary."""
     if name == "tables":
         from .evaluate import report_tables
-        return report_tables(out, source)
+        return report_tables(out, source, partial=getattr(args, "partial", False))
     if name == "assessment":
         from .assessment import report_assessment
         return report_assessment(out, params_path=getattr(args, "params", None), times=getattr(args, "times", None))
@@ -152,6 +163,20 @@ def _field_source(args, required=True):
 
     root = resolve_data_root(getattr(args, "data", None), required=required)
     return DataSource(root) if root is not None else None
+
+
+def _require_recordings(source, args):
+    """Stop (DataError) when recordings under `source` are bad or missing, unless --partial."""
+    from .dataset import check_tree
+    from .errors import DataError
+
+    if source is None or source.root is None or getattr(args, "partial", False):
+        return
+    problems, _ = check_tree(source.root)
+    if problems:
+        shown = "; ".join(problems[:5]) + (f"; and {len(problems) - 5} more" if len(problems) > 5 else "")
+        raise DataError(f"{source.root}: {len(problems)} recording problem(s): {shown} "
+                        "(run `morpi check` for the full list, or pass --partial to go on without them)")
 
 
 def _run_section(name, args, source=None):
@@ -213,6 +238,8 @@ def _cmd_report(args):
     from .reporting import staged_dir, write_text
 
     source = _report_source(args)
+    if source is not None and not source.synthetic:
+        _require_recordings(source, args)
     summaries = []
     with staged_dir(args.out) as stage:
         for name in REPORT_SECTIONS:
@@ -274,10 +301,10 @@ def main(argv=None) -> int:
             return _cmd_report(args)
         if args.command == "tables":
             return _run_section("tables", args, _field_source(args))
-        if args.command == "curves":
-            return _run_section("curves", args, _field_source(args, required=False))
-        if args.command == "montecarlo":
-            return _run_section("montecarlo", args, _field_source(args, required=False))
+        if args.command in ("curves", "montecarlo"):
+            source = _field_source(args, required=False)
+            _require_recordings(source, args)
+            return _run_section(args.command, args, source)
         section = {"assess": "assessment", "drift": "drift"}[args.command]
         return _run_section(section, args)
     except MorpiError as exc:
