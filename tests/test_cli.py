@@ -84,3 +84,19 @@ def test_missing_dataset_is_one_line(tmp_path, monkeypatch):
 def test_bad_parameters_exit_nonzero(argv, tmp_path):
     r = run(*argv, cwd=tmp_path)
     assert r.returncode == 2 and "Traceback" not in r.stderr
+
+
+@pytest.mark.parametrize("argv", [["tables"], ["curves", "--times", "1"], ["montecarlo", "--runs", "2"]])
+def test_data_commands_stop_on_a_bad_recording(tmp_path, argv):
+    """Every command that reads the recordings names a bad one and exits 1 (before computing anything)."""
+    from morpi_filters.simulate import write_dataset
+
+    root = write_dataset(tmp_path / "ds", seed=2, runs_per_folder=1)
+    bad = root / "s6" / "L_line" / "1.csv"
+    bad.write_bytes(b"\xef\xbb\xbf")
+    out = tmp_path / "out"
+    r = run(*argv, "--data", str(root), "--out", str(out))
+    assert r.returncode == 1, r.stderr
+    err = r.stderr.strip().splitlines()
+    assert len(err) == 1 and f"{bad}: empty file" in err[0] and "--partial" in err[0]
+    assert not out.exists() and "Traceback" not in r.stderr
