@@ -289,7 +289,7 @@ def _parse(raw: bytes, name: str) -> np.ndarray:
     data = None
     if text.find('"', len(lines[0])) < 0:
         try:
-            data = np.loadtxt(body, delimiter=",", ndmin=2, dtype=float)
+            data = np.loadtxt(body, delimiter=",", ndmin=2, dtype=float, comments=None)
             if data.shape != (n_rows, len(COLUMNS)):
                 data = None
         except ValueError:

@@ -261,3 +261,11 @@ def test_rejects_repeated_and_unknown_columns(tmp_path):
     rows = [r + [0.0] for r in good_rows()]
     with pytest.raises(DataError, match=r"line 1: repeated column\(s\) f_x"):
         load_csv(write_rows(tmp_path / "r.csv", rows, header="time,f_x,f_y,f_z,g_x,g_y,g_z,f_x"))
+
+
+def test_text_after_a_number_is_not_a_comment(tmp_path):
+    # '#' starts no comment in CSV: the row is rejected, not silently cut
+    rows = good_rows()
+    rows[50] = ",".join(repr(v) for v in rows[50]) + " # note"
+    with pytest.raises(DataError, match=r"line 52: column g_z: '.* # note' is not a number"):
+        load_csv(write_rows(tmp_path / "c.csv", rows))
