@@ -1,17 +1,21 @@
 """The ``morpi`` command: thin subcommands over the library.
 
 Each subcommand parses its arguments, calls one library function and writes
-into ``reports/`` (or the folder given by ``--out``). A report section is built
-in a staging folder and swapped in only when complete. Errors a user can cause
-are printed on one line (``morpi: error: ...``) with the error's exit status
-(1 bad input data, 2 bad arguments or parameters). Commands that read the
+into ``reports/`` (or the folder given by ``--out``). Outputs are checked
+before anything is computed (a folder is replaced only when it is new, empty
+or marked as an earlier morpi output), built in staging places and swapped in
+together only when complete. Errors a user can cause are printed on one line
+(``morpi: error: ...``). Exit status: 0 success, 1 bad input data, 2 bad
+arguments or parameters (or an output folder that is not morpi's), 130
+interrupted (SIGINT), 143 terminated (SIGTERM). Commands that read the
 recordings stop when one they need is bad or missing, unless ``--partial``.
 """
 from __future__ import annotations
 
 import argparse
-import shutil
+import signal
 import sys
+import threading
 from pathlib import Path
 
 from .errors import MorpiError
@@ -41,14 +45,66 @@ def _nonneg_int(name):
     return _int_at_least(name, 0)
 
 
-def _time(text):
+#: Largest ``--runs`` of a Monte Carlo study. Measured cost of one run of the
+#: gain-error study (``montecarlo.run_study``, 40,000 runs on a 2-core machine):
+#: 0.26 ms and 8 kB of peak memory; 200,000 runs take about a minute and 1.6 GB.
+MAX_RUNS = 200_000
+RUN_SECONDS, RUN_BYTES = 0.26e-3, 8e3
+
+#: Largest ``curves --times`` [s]. Measured cost of ``curves.report_curves``
+#: per second of the last evaluation time (T = 100 s and 400 s on a 2-core
+#: machine): 17 ms and 1.4 MB of peak memory over a 0.22 GB base; 1000 s need
+#: about 20 s and 1.6 GB. ``assess`` evaluates closed forms only and has no bound.
+MAX_CURVE_TIME = 1000.0
+CURVE_SECONDS, CURVE_BYTES, CURVE_BASE_BYTES = 17e-3, 1.4e6, 0.22e9
+
+
+def _duration(seconds):
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.0f} h"
+
+
+def _runs(name):
+    at_least_one = _int_at_least(name, 1)
+
+    def parse(text):
+        v = at_least_one(text)
+        if v > MAX_RUNS:
+            raise argparse.ArgumentTypeError(
+                f"{name}: {v} runs would take about {_duration(v * RUN_SECONDS)} and {v * RUN_BYTES / 1e9:.0f} GB "
+                f"of memory ({RUN_SECONDS * 1e3:g} ms and {RUN_BYTES / 1e3:g} kB per run); at most {MAX_RUNS}")
+        return v
+    return parse
+
+
+def _time(text, limit=None):
     try:
         v = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"--times: {text!r} is not a number of seconds") from None
     if not (v >= 0 and v < float("inf")):
         raise argparse.ArgumentTypeError(f"--times: {text} must be a finite time >= 0 s")
+    if limit is not None and v > limit:
+        gb = (CURVE_BASE_BYTES + v * CURVE_BYTES) / 1e9
+        raise argparse.ArgumentTypeError(
+            f"--times: {text} s would take about {_duration(v * CURVE_SECONDS)} and {gb:.3g} GB of memory "
+            f"({CURVE_BYTES / 1e6:g} MB per second of the last time); at most {limit:g} s")
     return v
+
+
+def _curve_time(text):
+    return _time(text, MAX_CURVE_TIME)
+
+
+def _path(option):
+    def parse(text):
+        if text == "":
+            raise argparse.ArgumentTypeError(f"{option}: empty path")
+        return Path(text)
+    return parse
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -70,9 +126,10 @@ def build_parser() -> argparse.ArgumentParser:
                              "default: stop with exit status 1 naming them")
 
     def out_args(sp, section):
-        sp.add_argument("--out", metavar="DIR", type=Path, default=Path("reports") / section,
-                        help=f"output folder (default: reports/{section})")
-        sp.add_argument("--json", metavar="FILE", type=Path, help="also write the JSON result here")
+        sp.add_argument("--out", metavar="DIR", type=_path("--out"), default=Path("reports") / section,
+                        help=f"output folder (default: reports/{section}); replaced only if new, empty or "
+                             "written by morpi")
+        sp.add_argument("--json", metavar="FILE", type=_path("--json"), help="also write the JSON result here")
 
     s = sub.add_parser("check", help="validate every recording under a dataset folder")
     data_arg(s)
@@ -90,19 +147,22 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("curves", help="closed form, filter sigma, Monte Carlo and field errors on one axis")
     s.add_argument("--params", metavar="FILE", type=Path, help="parameter file (JSON, values read as 1 sigma)")
-    s.add_argument("--times", metavar="T", type=_time, nargs="+", help="evaluation times [s]")
+    s.add_argument("--times", metavar="T", type=_curve_time, nargs="+",
+                   help=f"evaluation times [s], at most {MAX_CURVE_TIME:g}")
     data_arg(s)
     partial_arg(s)
     out_args(s, "curves")
 
     s = sub.add_parser("simulate", help="write a synthetic dataset in the field dataset's layout and format")
-    s.add_argument("--out", metavar="DIR", type=Path, required=True, help="destination folder")
+    s.add_argument("--out", metavar="DIR", type=_path("--out"), required=True,
+                   help="destination folder (new, empty, or an earlier synthetic dataset)")
     s.add_argument("--seed", type=_nonneg_int("--seed"), default=0, help="random seed (default 0)")
     s.add_argument("--runs-per-folder", metavar="N", type=_positive_int("--runs-per-folder"),
                    help="runs in every folder (default: as many as the field dataset)")
 
     s = sub.add_parser("montecarlo", help="Monte Carlo gain-error study")
-    s.add_argument("--runs", metavar="N", type=_positive_int("--runs"), default=2000)
+    s.add_argument("--runs", metavar="N", type=_runs("--runs"), default=2000,
+                   help=f"Monte Carlo runs (default 2000, at most {MAX_RUNS})")
     s.add_argument("--seed", type=_nonneg_int("--seed"), default=0)
     s.add_argument("--chunk", metavar="K", type=_positive_int("--chunk"), default=None,
                    help="runs per batch (results do not depend on it)")
@@ -119,17 +179,19 @@ def build_parser() -> argparse.ArgumentParser:
     dsub = s.add_subparsers(dest="data_command", metavar="ACTION")
     dsub.required = True
     f = dsub.add_parser("fetch", help="download the public dataset archive and verify every file")
-    f.add_argument("--dest", metavar="DIR", type=Path, default=Path("morpi-data"),
+    f.add_argument("--dest", metavar="DIR", type=_path("--dest"), default=Path("morpi-data"),
                    help="destination folder (default: ./morpi-data)")
     f.add_argument("--url", metavar="URL", help="archive URL (default: the public repository's archive)")
 
-    s = sub.add_parser("report", help="the main job: every section into reports/, with index.md")
+    s = sub.add_parser("report", help="the main job: every section into reports/ (reports/synthetic/ without "
+                                      "field data), with index.md")
     data_arg(s)
     partial_arg(s)
-    s.add_argument("--out", metavar="DIR", type=Path, default=Path("reports"), help="report folder")
+    s.add_argument("--out", metavar="DIR", type=_path("--out"), default=None,
+                   help="report folder (default: reports/ with field data, reports/synthetic/ without)")
     s.add_argument("--seed", type=_nonneg_int("--seed"), default=0, help="seed of the synthetic dataset and studies")
-    s.add_argument("--runs", metavar="N", type=_positive_int("--runs"), default=2000,
-                   help="Monte Carlo runs (default 2000)")
+    s.add_argument("--runs", metavar="N", type=_runs("--runs"), default=2000,
+                   help=f"Monte Carlo runs (default 2000, at most {MAX_RUNS})")
     return p
 
 
@@ -166,30 +228,53 @@ def _field_source(args, required=True):
 
 
 def _require_recordings(source, args):
-    """Stop (DataError) when recordings under `source` are bad or missing, unless --partial."""
+    """`source`, after stopping (DataError) when recordings under it are bad or missing, unless --partial."""
     from .dataset import check_tree
     from .errors import DataError
 
     if source is None or source.root is None or getattr(args, "partial", False):
-        return
+        return source
     problems, _ = check_tree(source.root)
     if problems:
         shown = "; ".join(problems[:5]) + (f"; and {len(problems) - 5} more" if len(problems) > 5 else "")
         raise DataError(f"{source.root}: {len(problems)} recording problem(s): {shown} "
                         "(run `morpi check` for the full list, or pass --partial to go on without them)")
+    return source
 
 
-def _run_section(name, args, source=None):
-    from .reporting import staged_dir, write_text
+def _clean_stale(*folders) -> None:
+    """Remove what killed runs left in these folders; name on one line what cannot be removed."""
+    from .reporting import remove_stale
 
-    with staged_dir(args.out) as stage:
-        summary = _section(name, stage, args, source)
+    failed, seen = [], set()
+    for folder in folders:
+        key = Path(folder).absolute()
+        if key not in seen:
+            seen.add(key)
+            failed += remove_stale(folder)
+    if failed:
+        print("morpi: cannot remove leftovers of an interrupted run: " + ", ".join(map(str, failed)),
+              file=sys.stderr)
+
+
+def _run_section(name, args, source_of=None):
+    """One report section into ``--out`` (and ``--json``): outputs checked first, swapped in together."""
+    from .reporting import Outputs, check_output_dir, check_output_file
+
+    out = check_output_dir(args.out)
     if args.json is not None:
-        result = Path(args.out) / "result.json"
-        if not result.is_file():
-            raise MorpiError(f"--json: section {name} wrote no result.json")
-        write_text(args.json, result.read_text())
-    page = Path(args.out) / summary.page
+        check_output_file(args.json)
+    _clean_stale(out.parent, *([args.json.parent] if args.json is not None else []))
+    source = source_of(args) if source_of is not None else None
+    with Outputs(f"morpi {args.command}") as outputs:
+        stage = outputs.folder(out, name)
+        summary = _section(name, stage, args, source)
+        if args.json is not None:
+            result = stage / "result.json"
+            if not result.is_file():
+                raise MorpiError(f"--json: section {name} wrote no result.json")
+            outputs.file(args.json).write_text(result.read_text())
+    page = out / summary.page
     print(f"{summary.title}: {page}")
     return 0
 
@@ -208,6 +293,7 @@ def _cmd_check(args):
 def _cmd_simulate(args):
     from .simulate import write_dataset
 
+    _clean_stale(args.out.parent)
     root = write_dataset(args.out, seed=args.seed, runs_per_folder=args.runs_per_folder)
     print(f"synthetic dataset: {root}")
     return 0
@@ -216,9 +302,16 @@ def _cmd_simulate(args):
 def _cmd_data(args):
     from .fetch import fetch_dataset
 
+    _clean_stale(Path(args.dest).expanduser().parent)
     root = fetch_dataset(args.dest, url=args.url)
     print(f"field dataset verified at {root}; use --data {root} or set MORPI_DATA={root}")
     return 0
+
+
+#: Where ``morpi report`` writes without ``--out``: field data and synthetic data apart,
+#: so a run on synthetic data never replaces a field report.
+REPORT_DIR, SYNTHETIC_REPORT_DIR = Path("reports"), Path("reports") / "synthetic"
+CACHE_DIR = Path(".morpi-cache")
 
 
 def _report_source(args):
@@ -230,42 +323,41 @@ def _report_source(args):
         return src
     from .simulate import ensure_synthetic_dataset
 
-    root = ensure_synthetic_dataset(Path(".morpi-cache") / f"synthetic-seed{args.seed}", seed=args.seed)
+    root = ensure_synthetic_dataset(CACHE_DIR / f"synthetic-seed{args.seed}", seed=args.seed)
     return DataSource(root, synthetic=True, seed=args.seed)
 
 
 def _cmd_report(args):
-    from .reporting import staged_dir, write_text
+    from .dataset import resolve_data_root
+    from .reporting import Outputs, check_output_dir
 
+    field_root = resolve_data_root(args.data, required=False)
+    out = args.out if args.out is not None else (REPORT_DIR if field_root is not None else SYNTHETIC_REPORT_DIR)
+    check_output_dir(out)
+    for name in REPORT_SECTIONS:
+        check_output_dir(out / name)
+    if field_root is None:
+        print(f"morpi report: no field dataset configured (--data DIR or MORPI_DATA), so every section is "
+              f"computed on a seeded synthetic dataset (seed {args.seed}) and written to {out}/", flush=True)
+    else:
+        print(f"morpi report: field dataset {field_root}, report written to {out}/", flush=True)
+    _clean_stale(out.parent, out, CACHE_DIR)
     source = _report_source(args)
     if source is not None and not source.synthetic:
         _require_recordings(source, args)
     summaries = []
-    with staged_dir(args.out) as stage:
+    with Outputs("morpi report") as outputs:
+        outputs.root(out)
         for name in REPORT_SECTIONS:
             sec_args = argparse.Namespace(**vars(args))
             sec_args.chunk = None
             sec_args.scheduler = None
+            stage = outputs.folder(out / name, name)
             print(f"[{name}] ...", flush=True)
-            summaries.append(_section(name, stage / name, sec_args, source))
-        write_text(stage / "index.md", _index(summaries, source))
-        _keep_other_outputs(Path(args.out), stage)
-    print(f"report: {Path(args.out) / 'index.md'}")
+            summaries.append(_section(name, stage, sec_args, source))
+        outputs.file(out / "index.md").write_text(_index(summaries, source))
+    print(f"report: {out / 'index.md'}")
     return 0
-
-
-def _keep_other_outputs(old: Path, stage: Path) -> None:
-    """Carry over what the report does not write (e.g. analysis/ figures) into the new report."""
-    if not old.is_dir():
-        return
-    for entry in old.iterdir():
-        dest = stage / entry.name
-        if dest.exists() or entry.name.startswith("."):
-            continue
-        if entry.is_dir():
-            shutil.copytree(entry, dest)
-        else:
-            shutil.copy2(entry, dest)
 
 
 def _index(summaries, source) -> str:
@@ -286,33 +378,56 @@ def _index(summaries, source) -> str:
     return "\n".join(lines)
 
 
+class Terminated(KeyboardInterrupt):
+    """Raised in the main thread when the process receives SIGTERM.
+
+    A kind of KeyboardInterrupt, so every cleanup that runs on an interrupt
+    (staging folders removed, previous outputs kept) runs on SIGTERM too.
+    """
+
+
+def _on_sigterm(signum, frame):
+    raise Terminated()
+
+
 def main(argv=None) -> int:
     """Entry point of the ``morpi`` console script."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
-        if args.command == "check":
-            return _cmd_check(args)
-        if args.command == "simulate":
-            return _cmd_simulate(args)
-        if args.command == "data":
-            return _cmd_data(args)
-        if args.command == "report":
-            return _cmd_report(args)
-        if args.command == "tables":
-            return _run_section("tables", args, _field_source(args))
-        if args.command in ("curves", "montecarlo"):
-            source = _field_source(args, required=False)
-            _require_recordings(source, args)
-            return _run_section(args.command, args, source)
-        section = {"assess": "assessment", "drift": "drift"}[args.command]
-        return _run_section(section, args)
+        return _dispatch(args)
     except MorpiError as exc:
         print(f"morpi: error: {exc}", file=sys.stderr)
         return exc.exit_code
+    except Terminated:
+        print("morpi: terminated (SIGTERM); previous outputs left in place", file=sys.stderr)
+        return 143
     except KeyboardInterrupt:
         print("morpi: interrupted; previous outputs left in place", file=sys.stderr)
         return 130
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _dispatch(args) -> int:
+    if args.command == "check":
+        return _cmd_check(args)
+    if args.command == "simulate":
+        return _cmd_simulate(args)
+    if args.command == "data":
+        return _cmd_data(args)
+    if args.command == "report":
+        return _cmd_report(args)
+    if args.command == "tables":
+        return _run_section("tables", args, _field_source)
+    if args.command in ("curves", "montecarlo"):
+        return _run_section(args.command, args, lambda a: _require_recordings(_field_source(a, required=False), a))
+    section = {"assess": "assessment", "drift": "drift"}[args.command]
+    return _run_section(section, args)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -419,6 +419,9 @@ def layout() -> dict[str, int]:
 def resolve_data_root(data=None, *, required: bool = True) -> Path | None:
     """Find the dataset root: `data` if given, else ``$MORPI_DATA``.
 
+    A folder without ``s6``/``s8`` whose ``data/`` has them (the root of an
+    ansfl/MoRPI clone) stands for that ``data/`` folder.
+
     Raises
     ------
     MorpiError
@@ -435,6 +438,8 @@ def resolve_data_root(data=None, *, required: bool = True) -> Path | None:
     root = Path(data).expanduser()
     if not root.is_dir():
         raise MorpiError(f"{source}={data}: not a directory; {_HOW_TO_GET}")
+    if not any((root / p).is_dir() for p in ("s6", "s8")) and any((root / "data" / p).is_dir() for p in ("s6", "s8")):
+        root = root / "data"   # the root of an ansfl/MoRPI clone: its recordings are under data/
     return root
 
 

@@ -77,7 +77,7 @@ from .errors import MorpiError
 __all__ = [
     "C_DP", "C_EPS", "GAIN", "AUG_STATE_NAMES", "Measurement", "FilterResult", "StepModel",
     "initial_covariance", "augment", "augment_covariance", "clone_reset", "step_update", "step_z",
-    "run_filter", "propagate_covariance", "nees", "nis", "chi2_band", "simulate_steps",
+    "run_filter", "propagate_covariance", "SYMMETRIZE_EVERY", "nees", "nis", "chi2_band", "simulate_steps",
     "AidedTuning", "AidedRun", "morpi_aided_ins",
 ]
 
@@ -354,7 +354,13 @@ def step_z(p_ins_end, p_ins_start, length_morpi, psi_hat):
 
 
 def _symmetrize(P):
-    return 0.5 * (P + P.T)
+    return 0.5 * (P + np.swapaxes(P, -1, -2))
+
+
+#: Predictions between two symmetrizations of P in :func:`run_filter`. The
+#: round-off asymmetry of one prediction is a few ulps; symmetrizing every
+#: step would add about 20 % to the cost of filterpy's 15-state predict.
+SYMMETRIZE_EVERY = 100
 
 
 def run_filter(Phi, Qd, P0, times, measurements=(), x0=None, keep_P=False):
@@ -374,8 +380,20 @@ def run_filter(Phi, Qd, P0, times, measurements=(), x0=None, keep_P=False):
         also the filterpy state.
     x0 : ndarray, shape (k,) or (runs, k), optional
         Initial estimate (zeros by default).
-    keep_P : bool or array_like of int
-        Keep the full covariance at every epoch (True) or at these epochs.
+    keep_P : bool, int or array_like of int
+        Keep the full covariance at every epoch (True), at none (False, the
+        default: a one-hour run at 100 Hz would otherwise hold 0.65 GB for 15
+        states), at every `keep_P`-th epoch (an int: epochs 0, s, 2s, ...), or
+        at the epochs listed.
+
+    Notes
+    -----
+    The covariance is symmetrized (``(P + P^T) / 2``) after every update and
+    reset, every :data:`SYMMETRIZE_EVERY` predictions and at the end; kept
+    covariances are stored symmetrized, so every covariance returned is
+    exactly symmetric and the numbers do not depend on `keep_P`. Updates use
+    the Joseph form. Memory grows with the number of epochs only through the
+    estimate and the standard deviations (2 k floats per epoch).
 
     Returns
     -------
@@ -419,8 +437,14 @@ def run_filter(Phi, Qd, P0, times, measurements=(), x0=None, keep_P=False):
         P_index = np.arange(n + 1)
     elif keep_P is False or keep_P is None:
         P_index = np.zeros(0, int)
+    elif isinstance(keep_P, (int, np.integer)):
+        if keep_P < 1:
+            raise MorpiError(f"keep_P: a stride must be a whole number >= 1, got {keep_P}")
+        P_index = np.arange(0, n + 1, int(keep_P))
     else:
         P_index = np.unique(np.asarray(keep_P, dtype=int))
+        if P_index.size and (P_index[0] < 0 or P_index[-1] > n):
+            raise MorpiError(f"keep_P: epochs must lie in 0..{n}")
     keep = np.zeros(n + 1, bool)
     keep[P_index] = True
     P_store = np.empty((P_index.size, k, k)) if P_index.size else None
@@ -439,6 +463,8 @@ def run_filter(Phi, Qd, P0, times, measurements=(), x0=None, keep_P=False):
         F_i = Phi if const else Phi[i]
         Q_i = Qd if Qd.ndim == 2 else Qd[i]
         kf.predict(F=F_i, Q=Q_i)
+        if (i + 1) % SYMMETRIZE_EVERY == 0 or i + 1 == n:
+            kf.P = _symmetrize(kf.P)
         if runs is not None:
             X = X @ F_i.T
         while mi < len(meas) and meas[mi].index == i + 1:
@@ -476,7 +502,7 @@ def run_filter(Phi, Qd, P0, times, measurements=(), x0=None, keep_P=False):
             X = kf.x
         xs[i + 1], var[i + 1] = X, np.diag(kf.P)
         if keep[i + 1]:
-            P_store[slot] = kf.P
+            P_store[slot] = _symmetrize(kf.P)
             slot += 1
 
     m_dim = dim_z
@@ -497,34 +523,56 @@ def run_filter(Phi, Qd, P0, times, measurements=(), x0=None, keep_P=False):
     )
 
 
-def propagate_covariance(Phi, Qd, P0, n):
-    """Covariance of a constant-``Phi`` prediction at epochs ``0..n``, vectorized.
+def propagate_covariance(Phi, Qd, P0, n, stride=1):
+    """Covariance of a constant-``Phi`` prediction at epochs ``0, s, 2s, ... <= n``, vectorized.
 
     ``P_k = Phi^k P0 Phi^kT + sum_{j<k} Phi^j Qd Phi^jT``, the closed form of
     the recursion ``P <- Phi P Phi^T + Qd`` that :func:`run_filter` runs through
-    filterpy. The powers ``Phi^j`` come from ``log2(n)`` batched doublings.
+    filterpy. The powers come from ``log2`` batched doublings: first over the
+    `s` steps of one stride (giving ``Phi^s`` and the noise ``Q_s`` of one
+    stride), then over the ``n // s`` strides, so memory holds about
+    ``s + n / s`` matrices instead of ``n``.
 
     Parameters
     ----------
     Phi, Qd : ndarray, shape (k, k)
     P0 : ndarray, shape (k, k)
     n : int
+        Number of steps.
+    stride : int
+        Keep every `stride`-th epoch (default 1: every epoch). Epoch `n` is
+        included when `stride` divides `n`.
 
     Returns
     -------
-    P : ndarray, shape (n + 1, k, k)
+    P : ndarray, shape (n // stride + 1, k, k)
+        Symmetric covariances at epochs ``0, stride, 2 stride, ...``.
     """
     Phi = np.asarray(Phi, dtype=float)
+    Qd = np.asarray(Qd, dtype=float)
+    P0 = np.asarray(P0, dtype=float)
+    if isinstance(stride, bool) or not isinstance(stride, (int, np.integer)) or stride < 1:
+        raise MorpiError(f"stride: expected a whole number >= 1, got {stride!r}")
+    stride = int(stride)
+    if stride > 1:
+        A_s, Q_s = _powers_and_noise(Phi, Qd, stride)
+        Phi, Qd = A_s[-1], _symmetrize(Q_s[-1])
+    A, Qsum = _powers_and_noise(Phi, Qd, n // stride)
+    At = np.swapaxes(A, -1, -2)
+    return _symmetrize(A @ P0 @ At + Qsum)
+
+
+def _powers_and_noise(Phi, Qd, m):
+    """``Phi^j`` and ``sum_{i<j} Phi^i Qd Phi^iT`` for ``j = 0..m`` (batched doublings)."""
     A = np.eye(Phi.shape[0])[None]
     step = Phi
-    while A.shape[0] < n + 1:
+    while A.shape[0] < m + 1:
         A = np.concatenate([A, A @ step])
         step = step @ step
-    A = A[: n + 1]
-    At = np.swapaxes(A, -1, -2)
-    terms = A @ Qd @ At
+    A = A[: m + 1]
+    terms = A @ Qd @ np.swapaxes(A, -1, -2)
     Qsum = np.concatenate([np.zeros((1,) + Phi.shape), np.cumsum(terms[:-1], axis=0)])
-    return A @ P0 @ At + Qsum
+    return A, Qsum
 
 
 def nees(err, P):

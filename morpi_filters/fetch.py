@@ -38,7 +38,6 @@ import shutil
 import socket
 import stat
 import tarfile
-import tempfile
 import urllib.error
 import urllib.request
 import zipfile
@@ -48,6 +47,7 @@ from typing import Callable, Mapping
 
 from .dataset import PROJECT_DATA
 from .errors import MorpiError
+from .reporting import new_stage_dir
 
 __all__ = [
     "DEFAULT_URL", "CHECKSUMS_FILE", "compute_checksums", "write_checksums", "load_checksums",
@@ -296,7 +296,7 @@ def fetch_dataset(dest, *, url: str | None = None, checksums=None, timeout: floa
             raise MorpiError(f"{dest}: not empty and not a verified dataset; remove it or choose another --dest")
     try:
         dest.parent.mkdir(parents=True, exist_ok=True)
-        stage = Path(tempfile.mkdtemp(prefix=f".staging-{dest.name}-", dir=dest.parent))
+        stage = new_stage_dir(dest)
     except OSError as exc:
         raise MorpiError(f"{dest}: cannot create a staging folder beside it ({exc.strerror or exc})") from None
     try:
@@ -326,7 +326,23 @@ def fetch_dataset(dest, *, url: str | None = None, checksums=None, timeout: floa
     return root
 
 
+#: What a user without network access (or with a blocked archive URL) can do instead.
+OFFLINE_ALTERNATIVES = (
+    "alternatives: clone the public repository (git clone https://github.com/ansfl/MoRPI) and pass "
+    "--data to the clone, pass --data to an existing copy of the recordings, or run "
+    "`morpi simulate --out DIR` for a synthetic dataset in the same layout"
+)
+
+
 def _download(url: str, path: Path, timeout: float) -> None:
+    """Stream `url` to `path`; a failed download names the alternatives to downloading."""
+    try:
+        _stream(url, path, timeout)
+    except MorpiError as exc:
+        raise MorpiError(f"{exc}; {OFFLINE_ALTERNATIVES}") from None
+
+
+def _stream(url: str, path: Path, timeout: float) -> None:
     """Stream `url` to `path`; a short body (fewer bytes than Content-Length) is an error."""
     try:
         with contextlib.closing(urllib.request.urlopen(url, timeout=timeout)) as resp, open(path, "wb") as out:

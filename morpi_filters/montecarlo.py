@@ -869,7 +869,7 @@ def run_study(runs: int, seed: int, config: StudyConfig | None = None, *, chunk:
     payload = _Payload(cfg, seed, straight, sine, gain_ref, keep)
     chunk = _default_chunk(n) if chunk is None else int(chunk)
     ranges = _chunks(runs, min(chunk, runs))
-    prog = _Progress(runs, "montecarlo", runs > 1000 if progress is None else progress)
+    prog = _Progress(runs, "montecarlo gain-error study", runs > 1000 if progress is None else progress)
     parts = _execute(_chunk, payload, ranges, workers=workers, scheduler=scheduler, progress=prog)
     cat = {k: np.concatenate([p[k] for p in parts], axis=0) for k in parts[0]}
     columns = ("ins3d", "ins2d") + tuple(f"{m}[{g.label}]" for g in cfg.gains for m in ("morpi_a", "morpi_g"))
@@ -1111,7 +1111,7 @@ def drift_map(gyro_bias=None, *, spec: SensorSpec = MPU6500, duration: float = 1
     payload = _DriftPayload(levels, z, t, keep, float(spec.accel_bias), G0)
     total = levels.size * draws
     chunk = max(1, _CHUNK_BYTES // (8 * 6 * n)) if chunk is None else int(chunk)
-    prog = _Progress(total, "drift", total > 1000 if progress is None else progress)
+    prog = _Progress(total, "drift study (gyro bias x time)", total > 1000 if progress is None else progress)
     parts = _execute(_drift_chunk, payload, _chunks(total, min(chunk, total)), scheduler=scheduler, progress=prog)
     cat = {k: np.concatenate([p[k] for p in parts]).reshape(levels.size, draws, *parts[0][k].shape[1:])
            for k in parts[0]}

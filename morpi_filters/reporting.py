@@ -1,10 +1,19 @@
-"""Writing reports safely: atomic files, staged folders, markdown helpers.
+"""Writing reports safely: atomic files, staged folders, owned outputs, markdown helpers.
 
 Every output file is written under a temporary name in its destination folder
 and renamed into place, so an interrupted run never leaves half a file. A
 report section is built in a staging folder beside its destination and swapped
 in only when it is complete, so an interrupted run leaves the previous complete
-section in place.
+section in place. All outputs of one command (its folders and its ``--json``
+file) are staged by one :class:`Outputs` and swapped in together at the end.
+
+A command writes only what it owns: it replaces an output folder only when the
+folder does not exist, is empty, or holds the marker file :data:`MARKER`, which
+every folder a command writes carries. Any other folder is refused with one
+line before anything is computed. Staging names carry the process id, so the
+leftovers of a killed run are recognised and removed by the next run
+(:func:`remove_stale`). Folders and files get the permissions the user's umask
+gives, not the private ones of temporary files.
 
 Each report section (tables, assessment, curves, montecarlo, drift) returns a
 :class:`SectionSummary`; ``morpi report`` collects them into ``index.md``.
@@ -12,9 +21,11 @@ Each report section (tables, assessment, curves, montecarlo, drift) returns a
 from __future__ import annotations
 
 import contextlib
+import functools
 import json
 import math
 import os
+import re
 import shutil
 import tempfile
 from dataclasses import dataclass
@@ -22,11 +33,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import MorpiError
+from .errors import MorpiError, ParameterError
 
 __all__ = [
     "SectionSummary", "DataSource", "atomic_path", "write_text", "write_json", "staged_dir",
-    "md_table", "fmt", "to_jsonable", "SYNTHETIC_BANNER",
+    "md_table", "fmt", "to_jsonable", "SYNTHETIC_BANNER", "MARKER", "Outputs", "check_output_dir",
+    "check_output_file", "remove_stale", "foreign_entry", "user_umask", "new_stage_dir", "new_temp_file",
 ]
 
 #: Shown at the top of every page computed on synthetic data.
@@ -98,13 +110,15 @@ def atomic_path(path):
     """Yield a temporary path beside `path`; rename it to `path` on success.
 
     On an exception the temporary file is removed and `path` is untouched.
+    The file gets the permissions of a file the user creates (``0o666``
+    minus the umask); its temporary name carries this process's id, so a
+    run that was killed leaves a name :func:`remove_stale` recognises.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
+    tmp = new_temp_file(path)
     try:
-        yield Path(tmp)
+        yield tmp
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
@@ -146,29 +160,294 @@ def write_json(path, obj) -> Path:
 
 
 @contextlib.contextmanager
-def staged_dir(final):
+def staged_dir(final, tool: str = "morpi"):
     """Build a folder in a staging place and swap it in when complete.
 
-    Yields the staging folder. On success the previous `final` folder (if any)
-    is replaced; on an exception the staging folder is removed and `final` is
-    left exactly as it was.
+    Yields the staging folder (with the ownership marker already in it). On
+    success the previous `final` folder is replaced; on an exception the
+    staging folder is removed and `final` is left exactly as it was. `final`
+    must be absent, empty or marked as an earlier output (see
+    :func:`check_output_dir`), otherwise a :class:`ParameterError` is raised
+    before anything is written.
+    """
+    with Outputs(tool) as outputs:
+        yield outputs.folder(final)
+
+
+# ----------------------------------------------------------------------------- output ownership
+
+#: Name of the file that marks a folder as written by a morpi command. A folder
+#: holding it may be replaced by the next run; any other non-empty folder is
+#: the user's and is never replaced.
+MARKER = ".morpi-output"
+
+_STAGE_RE = re.compile(r"^\.(staging|previous)-(?P<name>.*)-(?P<pid>[0-9]+)-[A-Za-z0-9_]{8}(\.tmp)?$")
+
+
+@functools.lru_cache(maxsize=1)
+def user_umask() -> int:
+    """The process umask, read once.
+
+    Read from ``/proc/self/status`` where the kernel reports it; elsewhere by
+    setting and restoring it once (the first call, before any thread of this
+    package writes).
+    """
+    with contextlib.suppress(OSError, ValueError):
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    old = os.umask(0o022)
+    os.umask(old)
+    return old
+
+
+def new_stage_dir(final) -> Path:
+    """Create an empty staging folder beside `final` with the user's folder permissions.
+
+    Its name, ``.staging-<name>-<pid>-XXXXXXXX``, carries this process's id.
     """
     final = Path(final)
-    final.parent.mkdir(parents=True, exist_ok=True)
-    stage = Path(tempfile.mkdtemp(prefix=f".staging-{final.name}-", dir=final.parent))
+    stage = Path(tempfile.mkdtemp(prefix=f".staging-{final.name}-{os.getpid()}-", dir=final.parent))
+    os.chmod(stage, 0o777 & ~user_umask())
+    return stage
+
+
+def new_temp_file(final) -> Path:
+    """Create an empty temporary file beside `final` with the user's file permissions."""
+    final = Path(final)
+    fd, tmp = tempfile.mkstemp(prefix=f".staging-{final.name}-{os.getpid()}-", suffix=".tmp", dir=final.parent)
     try:
-        yield stage
-    except BaseException:
-        shutil.rmtree(stage, ignore_errors=True)
-        raise
-    if final.is_dir() and not final.is_symlink():
-        old = Path(tempfile.mkdtemp(prefix=f".previous-{final.name}-", dir=final.parent))
-        os.replace(final, old / final.name)
+        os.fchmod(fd, 0o666 & ~user_umask())
+    finally:
+        os.close(fd)
+    return Path(tmp)
+
+
+def _pid_alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, OSError):
+        return True
+    return True
+
+
+def remove_stale(folder) -> list:
+    """Remove staging and previous-output leftovers of killed runs from `folder`.
+
+    An entry ``.staging-*-<pid>-XXXXXXXX`` or ``.previous-*-<pid>-XXXXXXXX``
+    whose process is no longer alive is removed; entries of live processes
+    are left alone.
+
+    Returns
+    -------
+    list of Path
+        Leftovers that could not be removed.
+    """
+    folder = Path(folder)
+    try:
+        entries = list(folder.iterdir())
+    except OSError:
+        return []
+    failed = []
+    for entry in entries:
+        m = _STAGE_RE.match(entry.name)
+        if m is None or _pid_alive(int(m["pid"])):
+            continue
+        try:
+            if entry.is_dir() and not entry.is_symlink():
+                shutil.rmtree(entry)
+            else:
+                entry.unlink()
+        except OSError:
+            failed.append(entry)
+    return failed
+
+
+def foreign_entry(folder):
+    """The first entry that makes `folder` someone else's, or None if a command may replace it.
+
+    A folder may be replaced when it does not exist, is empty, or holds
+    :data:`MARKER`. Staging leftovers of morpi runs do not count.
+    """
+    folder = Path(folder)
+    if not folder.exists() and not folder.is_symlink():
+        return None
+    if folder.is_symlink() or not folder.is_dir():
+        return folder
+    try:
+        names = sorted(p.name for p in folder.iterdir())
+    except OSError:
+        return folder
+    names = [n for n in names if not _STAGE_RE.match(n)]
+    if not names or MARKER in names:
+        return None
+    return folder / names[0]
+
+
+def check_output_dir(folder, option: str = "--out") -> Path:
+    """Refuse an output folder a command may not replace, before anything is computed.
+
+    Raises :class:`ParameterError` when `folder` is an empty name, exists
+    as something other than a folder, holds files without the marker, or
+    cannot be created (its nearest existing parent does not accept a new
+    file: read-only, not a folder, or a virtual system folder).
+    """
+    if str(folder) == "":
+        raise ParameterError(f"{option}: empty path, expected a folder name")
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise ParameterError(f"{option} {folder}: exists and is not a folder, expected an output folder")
+    bad = foreign_entry(folder)
+    if bad is not None:
+        what = "is a symbolic link" if bad == folder else f"holds {bad.name}, which morpi did not write"
+        raise ParameterError(f"{option} {folder}: {what} (no {MARKER} marker); refusing to replace it, "
+                             "choose a new or empty folder")
+    _check_creatable(folder.parent, option, folder)
+    return folder
+
+
+def check_output_file(path, option: str = "--json") -> Path:
+    """Refuse an output file path before anything is computed (empty, a folder, unwritable place)."""
+    if str(path) == "":
+        raise ParameterError(f"{option}: empty path, expected a file name")
+    path = Path(path)
+    if path.is_dir():
+        raise ParameterError(f"{option} {path}: is a folder, expected a file name")
+    if path.exists() and not path.is_file():
+        raise ParameterError(f"{option} {path}: exists and is not a regular file")
+    _check_creatable(path.parent, option, path)
+    return path
+
+
+def _check_creatable(parent: Path, option: str, target: Path) -> None:
+    """Check that a file can be created in `parent` (or its nearest existing ancestor)."""
+    probe = Path(os.path.abspath(parent))
+    while not probe.exists():
+        if probe.parent == probe:
+            break
+        probe = probe.parent
+    if not probe.is_dir():
+        raise ParameterError(f"{option} {target}: {probe} is not a folder")
+    try:
+        with tempfile.TemporaryFile(dir=probe, prefix=f".staging-probe-{os.getpid()}-"):
+            pass
+    except OSError as exc:
+        raise ParameterError(f"{option} {target}: cannot write in {probe} ({exc.strerror or exc})") from None
+
+
+class Outputs:
+    """Every output of one command, staged aside and swapped in together at the end.
+
+    Use as a context manager: :meth:`folder` and :meth:`file` return the
+    staging paths to write; leaving the block normally swaps every staged
+    folder in (each checked again under the ownership rule) and then renames
+    every staged file into place; an exception removes everything staged and
+    leaves the previous outputs exactly as they were.
+
+    Parameters
+    ----------
+    tool : str
+        What the marker file names as the writer (e.g. ``"morpi tables"``).
+    """
+
+    def __init__(self, tool: str):
+        self.tool = tool
+        self._folders = []   # (stage, final)
+        self._files = []     # (tmp, final)
+        self._roots = []     # folders kept, with only some entries replaced
+        self._made = []      # parent folders created here (removed again on failure if empty)
+
+    def _marker_text(self, what: str) -> str:
+        return (f"Written by {self.tool} ({what}). The next run of a morpi command may replace this folder "
+                "or the entries it writes in it; files added to it are then lost.\n")
+
+    def _mkdirs(self, folder: Path) -> None:
+        missing = []
+        p = Path(os.path.abspath(folder))
+        while not p.exists() and p.parent != p:
+            missing.append(p)
+            p = p.parent
+        folder.mkdir(parents=True, exist_ok=True)
+        self._made.extend(missing)   # deepest first
+
+    def folder(self, final, section: str | None = None) -> Path:
+        """A staging folder for output folder `final`, holding the marker already."""
+        final = Path(final)
+        check_output_dir(final)
+        self._mkdirs(final.parent)
+        stage = new_stage_dir(final)
+        self._folders.append((stage, final))
+        (stage / MARKER).write_text(self._marker_text(section or final.name))
+        return stage
+
+    def root(self, folder) -> Path:
+        """Claim `folder` as a report folder whose entries are replaced one by one.
+
+        The folder itself is kept: entries a command does not write stay
+        untouched. It must pass :func:`check_output_dir`; it gets the marker.
+        """
+        folder = check_output_dir(Path(folder))
+        self._mkdirs(folder)
+        self._roots.append(folder)
+        tmp = self.file(folder / MARKER)
+        tmp.write_text(self._marker_text("report folder"))
+        return folder
+
+    def file(self, final) -> Path:
+        """A temporary file beside `final`, renamed to `final` at the end."""
+        final = check_output_file(final)
+        self._mkdirs(final.parent)
+        tmp = new_temp_file(final)
+        self._files.append((tmp, final))
+        return tmp
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        if exc_type is not None:
+            self._discard()
+            return False
+        try:
+            for folder in self._roots + [final for _, final in self._folders]:
+                check_output_dir(folder)
+        except BaseException:
+            self._discard()
+            raise
+        final = None
+        try:
+            for stage, final in self._folders:
+                _swap_in(stage, final)
+            for tmp, final in self._files:
+                os.replace(tmp, final)
+        except OSError as exc:
+            self._discard()
+            raise MorpiError(f"{final}: cannot put the new output in place ({exc.strerror or exc})") from None
+        return False
+
+    def _discard(self):
+        for stage, _ in self._folders:
+            shutil.rmtree(stage, ignore_errors=True)
+        for tmp, _ in self._files:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+        for folder in self._made:
+            with contextlib.suppress(OSError):
+                folder.rmdir()
+
+
+def _swap_in(stage: Path, final: Path) -> None:
+    if final.is_dir():
+        keep = Path(tempfile.mkdtemp(prefix=f".previous-{final.name}-{os.getpid()}-", dir=final.parent))
+        os.replace(final, keep / final.name)
         os.replace(stage, final)
-        shutil.rmtree(old, ignore_errors=True)
+        shutil.rmtree(keep, ignore_errors=True)
     else:
-        if final.exists():
-            raise MorpiError(f"{final}: exists and is not a folder, expected an output folder")
         os.replace(stage, final)
 
 

@@ -77,7 +77,7 @@ from pathlib import Path
 import numpy as np
 
 from . import dataset, units
-from .errors import MorpiError
+from .errors import MorpiError, ParameterError
 from .strapdown import rotvec_to_C
 
 __all__ = [
@@ -1039,8 +1039,9 @@ def write_dataset(out, *, seed: int = 0, runs_per_folder: int | None = None) -> 
     out : str or Path
         Destination folder. It is built in a staging folder beside it and
         renamed into place when complete; an existing folder is replaced only
-        if it is a synthetic dataset written by this function (it has the
-        manifest), otherwise a MorpiError is raised.
+        if it is empty or was written by morpi (it has the manifest or the
+        ``.morpi-output`` marker), otherwise a ParameterError is raised
+        before anything is computed.
     seed : int
         Seed; each file draws from a child seed keyed by its folder and run,
         so the output does not depend on the order files are written.
@@ -1059,12 +1060,20 @@ def write_dataset(out, *, seed: int = 0, runs_per_folder: int | None = None) -> 
     if runs_per_folder is not None and (isinstance(runs_per_folder, bool) or
                                         not isinstance(runs_per_folder, (int, np.integer)) or runs_per_folder < 1):
         raise MorpiError(f"runs_per_folder: expected a positive integer, got {runs_per_folder!r}")
-    if out.exists() and not (out / _MANIFEST).is_file() and (not out.is_dir() or any(out.iterdir())):
-        raise MorpiError(f"{out}: exists and is not a synthetic dataset (no {_MANIFEST}); "
-                         "expected a new or empty folder")
+    from .reporting import MARKER, check_output_dir, foreign_entry, new_stage_dir, remove_stale
+    if not (out.is_dir() and (out / _MANIFEST).is_file()):
+        bad = foreign_entry(out)
+        if bad is not None:
+            raise ParameterError(f"{out}: not a synthetic dataset (no {_MANIFEST}) and "
+                                 + ("not a folder" if bad == out else f"holds {bad.name}, which morpi did not write")
+                                 + "; refusing to replace it, expected a new or empty folder")
+        check_output_dir(out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    stage = Path(tempfile.mkdtemp(prefix=f".staging-{out.name}-", dir=out.parent))
+    remove_stale(out.parent)
+    stage = new_stage_dir(out)
     try:
+        (stage / MARKER).write_text("Written by morpi simulate (synthetic dataset). The next run may replace "
+                                    "this folder; files added to it are then lost.\n")
         files, runs_info = {}, {}
         for folder, n_runs in sorted(dataset.layout().items()):
             for run in range(1, (runs_per_folder or n_runs) + 1):
@@ -1081,7 +1090,7 @@ def write_dataset(out, *, seed: int = 0, runs_per_folder: int | None = None) -> 
         from .reporting import write_json
         write_json(stage / _MANIFEST, manifest)
         if out.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".previous-{out.name}-", dir=out.parent))
+            old = Path(tempfile.mkdtemp(prefix=f".previous-{out.name}-{os.getpid()}-", dir=out.parent))
             os.replace(out, old / out.name)
             os.replace(stage, out)
             shutil.rmtree(old, ignore_errors=True)

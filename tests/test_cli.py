@@ -64,12 +64,22 @@ def test_check_without_recordings_fails(tmp_path, make):
         write_rows(d / "1.csv", good_rows())
     r = run("check", "--data", str(root))
     assert r.returncode == 1 and "Traceback" not in r.stderr
+    if make == "clone":   # the clone root stands for its data/ folder, whose missing folders are named
+        assert f"{root / 'data' / 's8' / 'line_dataset'}: missing folder" in r.stdout
+        return
     assert "no recordings in the MoRPI layout" in r.stdout
     assert r.stdout.strip().splitlines()[-1].startswith("0 recording(s) OK")
     if make == "stray":
         assert "1 CSV file(s) outside the MoRPI layout" in r.stdout
-    if make == "clone":
-        assert f"pass --data {root / 'data'}" in r.stdout
+
+
+def test_layout_problems_point_at_data_inside_a_clone(tmp_path):
+    from morpi_filters.dataset import layout_problems
+
+    d = tmp_path / "data" / "s6" / "L_line"
+    d.mkdir(parents=True)
+    write_rows(d / "1.csv", good_rows())
+    assert any(f"pass --data {tmp_path / 'data'}" in s for s in layout_problems(tmp_path))
 
 
 def test_missing_dataset_is_one_line(tmp_path, monkeypatch):

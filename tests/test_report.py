@@ -5,11 +5,13 @@ import os
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
 from morpi_filters import cli
 
+ROOT = Path(__file__).resolve().parents[1]
 SECTIONS = ("tables", "assessment", "curves", "montecarlo", "drift")
 
 
@@ -18,10 +20,16 @@ def synthetic_report(tmp_path_factory):
     """`morpi report` in an empty folder with no dataset configured (a fresh machine's main job)."""
     cwd = tmp_path_factory.mktemp("fresh")
     env = {k: v for k, v in os.environ.items() if k != "MORPI_DATA"}
+    env["PYTHONPATH"] = str(ROOT)   # this checkout, not an installed copy
     r = subprocess.run([sys.executable, "-m", "morpi_filters.cli", "report", "--runs", "200"],
                        cwd=cwd, env=env, capture_output=True, text=True)
     assert r.returncode == 0, r.stderr[-2000:]
-    return cwd / "reports"
+    # The first console line says the report is synthetic and where it goes.
+    first = r.stdout.splitlines()[0]
+    assert "synthetic" in first and "reports/synthetic" in first, first
+    # A synthetic run writes reports/synthetic/ only, never the field report's place.
+    assert sorted(p.name for p in (cwd / "reports").iterdir()) == ["synthetic"]
+    return cwd / "reports" / "synthetic"
 
 
 def test_report_without_dataset_has_every_section(synthetic_report):
@@ -44,6 +52,7 @@ def test_report_without_dataset_has_every_section(synthetic_report):
 def test_interrupted_report_keeps_previous(tmp_path, monkeypatch):
     out = tmp_path / "reports"
     (out / "tables").mkdir(parents=True)
+    (out / ".morpi-output").write_text("an earlier report")
     (out / "index.md").write_text("previous complete report")
     (out / "extra").mkdir()
     (out / "extra" / "fig.png").write_bytes(b"x")
@@ -65,6 +74,7 @@ def test_interrupted_report_keeps_previous(tmp_path, monkeypatch):
     assert calls == ["tables", "assessment", "curves"]
     assert (out / "index.md").read_text() == "previous complete report"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["reports"]
+    assert sorted(p.name for p in out.iterdir()) == [".morpi-output", "extra", "index.md", "tables"]
 
     # A complete run replaces the report and keeps outputs it does not own (analysis figures).
     monkeypatch.setattr(cli, "_section", lambda name, stage, args, source=None: (

@@ -38,7 +38,8 @@ def test_staged_dir_swaps_on_success_and_keeps_old_on_failure(tmp_path):
     assert (final / "a.txt").read_text() == "v1"
     with staged_dir(final) as stage:
         (stage / "b.txt").write_text("v2")
-    assert sorted(p.name for p in final.iterdir()) == ["b.txt"]
+    # The new folder holds the new files and the ownership marker only.
+    assert sorted(p.name for p in final.iterdir()) == [".morpi-output", "b.txt"]
     # No staging or previous folders are left behind.
     assert sorted(p.name for p in tmp_path.iterdir()) == ["section"]
 

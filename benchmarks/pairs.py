@@ -1,0 +1,124 @@
+"""Paired timing: two pieces of work run in alternation, the ratio taken per pair.
+
+A machine's speed drifts while a benchmark runs (other processes, frequency
+scaling, caches). Timing A five times and then B five times lets that drift
+land on one side only; running them A B A B ... and dividing each A by the B
+next to it cancels most of it. Every benchmark script of the project reports
+its ratios through :func:`paired` (work done in this process) or
+:func:`paired_commands` (whole commands, as a user runs them), as
+min / median / max over the pairs.
+"""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["PairedRatio", "paired", "paired_commands", "python_command", "run_command"]
+
+
+@dataclass(frozen=True)
+class PairedRatio:
+    """Timings of two pieces of work measured in alternation.
+
+    Attributes
+    ----------
+    name : str
+        What is measured, e.g. ``"tables / pandas parse"``.
+    a_s, b_s : ndarray, shape (pairs,)
+        Seconds of each run of A and of B, in the order they ran.
+    target : float or None
+        The ratio A / B the project aims at (at most), or None.
+    """
+
+    name: str
+    a_s: np.ndarray
+    b_s: np.ndarray
+    target: float | None = None
+
+    @property
+    def ratios(self) -> np.ndarray:
+        """A / B of each pair."""
+        return self.a_s / self.b_s
+
+    @property
+    def summary(self) -> tuple[float, float, float]:
+        """(min, median, max) of the per-pair ratios."""
+        r = self.ratios
+        return float(r.min()), float(np.median(r)), float(r.max())
+
+    @property
+    def meets_target(self) -> bool | None:
+        """Whether the median ratio is at or under the target (None without one)."""
+        return None if self.target is None else self.summary[1] <= self.target
+
+    def line(self) -> str:
+        """One printable line: name, ratios, medians of A and B, target."""
+        lo, med, hi = self.summary
+        tgt = "" if self.target is None else f"  target <= {self.target:g}x: {'met' if self.meets_target else 'NOT met'}"
+        return (f"{self.name}: {med:.2f}x (min {lo:.2f}, max {hi:.2f}; {len(self.a_s)} pairs; "
+                f"A {np.median(self.a_s):.3f} s, B {np.median(self.b_s):.3f} s){tgt}")
+
+
+def paired(name, a, b, *, pairs: int = 5, warmup: int = 1, target: float | None = None) -> PairedRatio:
+    """Time the callables `a` and `b` in alternation and return their ratios.
+
+    Parameters
+    ----------
+    name : str
+        Label of the comparison.
+    a, b : callable
+        Zero-argument callables doing the two pieces of work.
+    pairs : int
+        Counted pairs (at least 5 for a min / median / max that means something).
+    warmup : int
+        Uncounted pairs run first (imports, caches, page faults).
+    target : float, optional
+        The ratio A / B aimed at.
+    """
+    if pairs < 1 or warmup < 0:
+        raise ValueError("pairs must be >= 1 and warmup >= 0")
+    ta, tb = [], []
+    for k in range(warmup + pairs):
+        # alternate which side goes first, so neither always runs on a warm cache
+        order = ((a, ta), (b, tb)) if k % 2 == 0 else ((b, tb), (a, ta))
+        for fn, acc in order:
+            t0 = time.perf_counter()
+            fn()
+            dt = time.perf_counter() - t0
+            if k >= warmup:
+                acc.append(dt)
+    return PairedRatio(name, np.array(ta), np.array(tb), target)
+
+
+def run_command(argv, *, env=None, cwd=None) -> float:
+    """Run a command to completion, output discarded; return its wall time [s].
+
+    Raises
+    ------
+    RuntimeError
+        When the command exits non-zero (a failing command is not a timing).
+    """
+    t0 = time.perf_counter()
+    r = subprocess.run(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env, cwd=cwd)
+    dt = time.perf_counter() - t0
+    if r.returncode != 0:
+        raise RuntimeError(f"{' '.join(map(str, argv))} exited {r.returncode}: {r.stderr.decode()[-500:]}")
+    return dt
+
+
+def paired_commands(name, argv_a, argv_b, *, pairs: int = 5, warmup: int = 1, target: float | None = None,
+                    env=None, cwd=None) -> PairedRatio:
+    """:func:`paired` for two whole commands (each a list of arguments)."""
+    env = dict(os.environ if env is None else env)
+    return paired(name, lambda: run_command(argv_a, env=env, cwd=cwd), lambda: run_command(argv_b, env=env, cwd=cwd),
+                  pairs=pairs, warmup=warmup, target=target)
+
+
+def python_command(code: str) -> list[str]:
+    """The argument list that runs `code` in a fresh interpreter of this Python."""
+    return [sys.executable, "-c", code]
