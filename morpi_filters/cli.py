@@ -7,7 +7,8 @@ or marked as an earlier morpi output), built in staging places and swapped in
 together only when complete. Errors a user can cause are printed on one line
 (``morpi: error: ...``). Exit status: 0 success, 1 bad input data, 2 bad
 arguments or parameters (or an output folder that is not morpi's), 130
-interrupted (SIGINT), 143 terminated (SIGTERM).
+interrupted (SIGINT), 143 terminated (SIGTERM). Commands that read the
+recordings stop when one they need is bad or missing, unless ``--partial``.
 """
 from __future__ import annotations
 
@@ -119,6 +120,11 @@ def build_parser() -> argparse.ArgumentParser:
         sp.add_argument("--data", metavar="DIR",
                         help="field dataset root (MoRPI layout); default: $MORPI_DATA")
 
+    def partial_arg(sp):
+        sp.add_argument("--partial", action="store_true",
+                        help="go on without bad or missing recordings (the page lists them); "
+                             "default: stop with exit status 1 naming them")
+
     def out_args(sp, section):
         sp.add_argument("--out", metavar="DIR", type=_path("--out"), default=Path("reports") / section,
                         help=f"output folder (default: reports/{section}); replaced only if new, empty or "
@@ -130,6 +136,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("tables", help="every table of the paper on the recordings, ours beside the paper's")
     data_arg(s)
+    partial_arg(s)
     out_args(s, "tables")
 
     s = sub.add_parser("assess", help="analytical assessment: closed-form 3D/2D INS vs MoRPI-A error")
@@ -143,6 +150,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--times", metavar="T", type=_curve_time, nargs="+",
                    help=f"evaluation times [s], at most {MAX_CURVE_TIME:g}")
     data_arg(s)
+    partial_arg(s)
     out_args(s, "curves")
 
     s = sub.add_parser("simulate", help="write a synthetic dataset in the field dataset's layout and format")
@@ -160,6 +168,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="runs per batch (results do not depend on it)")
     s.add_argument("--scheduler", metavar="ADDRESS", help="run on a Dask cluster at this address")
     data_arg(s)
+    partial_arg(s)
     out_args(s, "montecarlo")
 
     s = sub.add_parser("drift", help="closed-form vs nonlinear strapdown drift")
@@ -177,6 +186,7 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("report", help="the main job: every section into reports/ (reports/synthetic/ without "
                                       "field data), with index.md")
     data_arg(s)
+    partial_arg(s)
     s.add_argument("--out", metavar="DIR", type=_path("--out"), default=None,
                    help="report folder (default: reports/ with field data, reports/synthetic/ without)")
     s.add_argument("--seed", type=_nonneg_int("--seed"), default=0, help="seed of the synthetic dataset and studies")
@@ -191,7 +201,7 @@ def _section(name, out: Path, args, source=None):
     """Build one report section into folder `out` and return its summary."""
     if name == "tables":
         from .evaluate import report_tables
-        return report_tables(out, source)
+        return report_tables(out, source, partial=getattr(args, "partial", False))
     if name == "assessment":
         from .assessment import report_assessment
         return report_assessment(out, params_path=getattr(args, "params", None), times=getattr(args, "times", None))
@@ -215,6 +225,21 @@ def _field_source(args, required=True):
 
     root = resolve_data_root(getattr(args, "data", None), required=required)
     return DataSource(root) if root is not None else None
+
+
+def _require_recordings(source, args):
+    """`source`, after stopping (DataError) when recordings under it are bad or missing, unless --partial."""
+    from .dataset import check_tree
+    from .errors import DataError
+
+    if source is None or source.root is None or getattr(args, "partial", False):
+        return source
+    problems, _ = check_tree(source.root)
+    if problems:
+        shown = "; ".join(problems[:5]) + (f"; and {len(problems) - 5} more" if len(problems) > 5 else "")
+        raise DataError(f"{source.root}: {len(problems)} recording problem(s): {shown} "
+                        "(run `morpi check` for the full list, or pass --partial to go on without them)")
+    return source
 
 
 def _clean_stale(*folders) -> None:
@@ -318,6 +343,8 @@ def _cmd_report(args):
         print(f"morpi report: field dataset {field_root}, report written to {out}/", flush=True)
     _clean_stale(out.parent, out, CACHE_DIR)
     source = _report_source(args)
+    if source is not None and not source.synthetic:
+        _require_recordings(source, args)
     summaries = []
     with Outputs("morpi report") as outputs:
         outputs.root(out)
@@ -398,7 +425,7 @@ def _dispatch(args) -> int:
     if args.command == "tables":
         return _run_section("tables", args, _field_source)
     if args.command in ("curves", "montecarlo"):
-        return _run_section(args.command, args, lambda a: _field_source(a, required=False))
+        return _run_section(args.command, args, lambda a: _require_recordings(_field_source(a, required=False), a))
     section = {"assess": "assessment", "drift": "drift"}[args.command]
     return _run_section(section, args)
 

@@ -13,6 +13,7 @@ the environment variable ``MORPI_DATA``.
 """
 from __future__ import annotations
 
+import csv
 import json
 import math
 import os
@@ -22,18 +23,36 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import MorpiError
+from .errors import DataError, MorpiError
 
 __all__ = [
-    "COLUMNS", "MIN_SAMPLES", "DATA_ENV", "Route", "Recording", "CatalogueEntry",
+    "COLUMNS", "MIN_SAMPLES", "ACCEL_LIMIT_MPS2", "GYRO_LIMIT_RADPS", "MAX_GAP_S", "TIME_LIMIT_S", "DATA_ENV", "Route", "Recording", "CatalogueEntry",
     "load_csv", "write_csv", "routes", "route", "catalogue", "load_catalogue",
     "resolve_data_root", "missing_data_message", "check_tree", "PROJECT_DATA",
+    "layout", "expected_layout", "layout_problems", "folder_key",
 ]
 
-#: The header every recording must have, in this order.
+#: The columns every recording must have (the header names them; any order is read).
 COLUMNS = ("time", "f_x", "f_y", "f_z", "g_x", "g_y", "g_z")
 #: Fewest samples a recording may have (1 s at the nominal 100 Hz).
 MIN_SAMPLES = 100
+#: Largest |specific force| accepted [m/s^2]: 16 g, the widest accelerometer full scale of the
+#: two phones' IMUs (LSM6DSL in the Galaxy S8 and MPU-6500 in the S6, as named in the paper:
+#: both datasheets list +-2/4/8/16 g), plus a 5 % margin for scale-factor and offset errors.
+#: No real reading can exceed it; the field recordings peak at about 1 g.
+ACCEL_LIMIT_MPS2 = 16 * 9.80665 * 1.05
+#: Largest |angular rate| accepted [rad/s]: 2000 deg/s, the widest gyro full scale of both
+#: IMUs (datasheets: +-125/250/500/1000/2000 deg/s for the LSM6DSL, +-250/.../2000 for the
+#: MPU-6500), plus the same 5 % margin. The field recordings peak at about 12.3 rad/s.
+GYRO_LIMIT_RADPS = 2000 * math.pi / 180 * 1.05
+#: Largest time between two samples [s]. The 143 field recordings sample at about 100 Hz and
+#: their largest gap is 0.023 s; a gap of 1 s (100 missing samples) means lost data, which the
+#: strapdown integration would bridge with one Euler step and report as motion.
+MAX_GAP_S = 1.0
+#: Largest |time stamp| accepted [s] (about 3 years). Recordings count from the start or from
+#: the phone's boot; beyond this a float64 time stamp is no plausible clock reading (and its
+#: resolution, 1.5e-8 s at 1e8 s, would start to eat into the 10 ms sample interval).
+TIME_LIMIT_S = 1e8
 #: Environment variable naming the dataset root.
 DATA_ENV = "MORPI_DATA"
 #: Folder of the small files this project owns (ground truth, checksums).
@@ -179,7 +198,9 @@ def load_csv(path, *, phone=None, route=None, split=None, min_samples: int = MIN
     Parameters
     ----------
     path : str or Path
-        CSV file with the header ``time,f_x,f_y,f_z,g_x,g_y,g_z``.
+        CSV file whose header names the columns ``time,f_x,f_y,f_z,g_x,g_y,g_z``
+        (in any order; standard CSV: quoted fields, a UTF-8 byte-order mark
+        and CRLF line ends are accepted).
     phone, route, split : str, optional
         Catalogue labels stored on the result.
     min_samples : int
@@ -191,92 +212,162 @@ def load_csv(path, *, phone=None, route=None, split=None, min_samples: int = MIN
 
     Raises
     ------
-    MorpiError
+    DataError
         With one line naming the file (and line) for: a missing or unreadable
-        file, an empty or header-only file, a file that is not CSV text,
-        missing or unexpected columns, a short or long row, a non-numeric
-        cell, NaN or inf, a non-increasing or repeated time stamp, or fewer
-        than `min_samples` rows.
+        file, an empty, blank or header-only file, a file that is not UTF-8
+        CSV text, missing, repeated or unknown columns, a short or long row,
+        a non-numeric cell, NaN or inf, a value beyond :data:`ACCEL_LIMIT_MPS2`
+        or :data:`GYRO_LIMIT_RADPS`, a time beyond :data:`TIME_LIMIT_S`, a
+        non-increasing or repeated time stamp, a gap above :data:`MAX_GAP_S`,
+        or fewer than `min_samples` rows.
     """
     path = Path(path)
     try:
         raw = path.read_bytes()
     except FileNotFoundError:
-        raise MorpiError(f"{path}: no such file") from None
+        raise DataError(f"{path}: no such file") from None
     except IsADirectoryError:
-        raise MorpiError(f"{path}: is a directory, expected a CSV file") from None
+        raise DataError(f"{path}: is a directory, expected a CSV file") from None
     except OSError as exc:
-        raise MorpiError(f"{path}: cannot read ({exc.strerror})") from None
+        raise DataError(f"{path}: cannot read ({exc.strerror})") from None
     data = _parse(raw, str(path))
     if data.shape[0] < min_samples:
-        raise MorpiError(f"{path}: too few samples: {data.shape[0]} rows, expected at least {min_samples}")
+        raise DataError(f"{path}: too few samples: {data.shape[0]} rows, expected at least {min_samples}")
     return Recording(time=np.ascontiguousarray(data[:, 0]), f=np.ascontiguousarray(data[:, 1:4]),
                      omega=np.ascontiguousarray(data[:, 4:7]), source=str(path),
                      phone=phone, route=route, split=split)
 
 
+def _csv_fields(line: str) -> list[str]:
+    """The fields of one CSV line (standard quoting), stripped of blanks."""
+    return [c.strip() for c in next(csv.reader([line]), [])]
+
+
+def _header_order(header: list[str], name: str) -> list[int] | None:
+    """Column index of each of :data:`COLUMNS` in the file; None when already in order."""
+    if header == list(COLUMNS):
+        return None
+    missing = [c for c in COLUMNS if c not in header]
+    extra = [c for c in header if c not in COLUMNS]
+    repeated = sorted({c for c in header if c in COLUMNS and header.count(c) > 1})
+    what = []
+    if missing:
+        what.append("missing column(s) " + ", ".join(missing))
+    if extra:
+        what.append("unexpected column(s) " + ", ".join(repr(c) for c in extra))
+    if repeated:
+        what.append("repeated column(s) " + ", ".join(repeated))
+    if what:
+        raise DataError(f"{name}: line 1: {'; '.join(what)}; expected the header {','.join(COLUMNS)} "
+                        "(in any order)")
+    return [header.index(c) for c in COLUMNS]
+
+
 def _parse(raw: bytes, name: str) -> np.ndarray:
     """Parse and validate CSV bytes; fast path with a precise slow path for errors."""
-    if not raw.strip():
-        raise MorpiError(f"{name}: empty file, expected the header {','.join(COLUMNS)} and data rows")
     if b"\x00" in raw:
-        raise MorpiError(f"{name}: not CSV text (binary content)")
+        raise DataError(f"{name}: not CSV text (binary content)")
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError:
-        raise MorpiError(f"{name}: not CSV text (not UTF-8)") from None
+        raise DataError(f"{name}: not CSV text (not UTF-8)") from None
+    if not text.strip():
+        raise DataError(f"{name}: empty file, expected the header {','.join(COLUMNS)} and data rows")
     lines = text.splitlines()
-    header = [c.strip() for c in lines[0].split(",")]
-    if header != list(COLUMNS):
-        missing = [c for c in COLUMNS if c not in header]
-        extra = [c for c in header if c not in COLUMNS]
-        what = []
-        if missing:
-            what.append("missing column(s) " + ", ".join(missing))
-        if extra:
-            what.append("unexpected column(s) " + ", ".join(repr(c) for c in extra))
-        if not what:
-            what.append("columns in the wrong order")
-        raise MorpiError(f"{name}: line 1: {'; '.join(what)}; expected the header {','.join(COLUMNS)}")
-    body = lines[1:]
-    if not any(s.strip() for s in body):
-        raise MorpiError(f"{name}: header only, no data rows")
+    first = next(i for i, s in enumerate(lines) if s.strip())
+    if first:
+        raise DataError(f"{name}: line 1: blank line before the header {','.join(COLUMNS)}")
     try:
-        data = np.loadtxt(body, delimiter=",", ndmin=2, dtype=float)
-        ok = data.shape[1] == len(COLUMNS) and data.shape[0] == sum(1 for s in body if s.strip())
-    except ValueError:
-        ok = False
-    if ok and np.isfinite(data).all() and (np.diff(data[:, 0]) > 0).all():
-        return data
-    return _slow_parse(body, name)
+        header = _csv_fields(lines[0])
+    except csv.Error as exc:
+        raise DataError(f"{name}: line 1: not a CSV header ({exc})") from None
+    order = _header_order(header, name)
+    body = lines[1:]
+    n_rows = sum(1 for s in body if s.strip())
+    if not n_rows:
+        raise DataError(f"{name}: header only, no data rows")
+    data = None
+    if text.find('"', len(lines[0])) < 0:
+        try:
+            data = np.loadtxt(body, delimiter=",", ndmin=2, dtype=float, comments=None)
+            if data.shape != (n_rows, len(COLUMNS)):
+                data = None
+        except ValueError:
+            data = None
+    if data is None:
+        data = _slow_parse(body, header, name)
+    if order is not None:
+        data = data[:, order]
+    if not (np.isfinite(data).all() and _within_limits(data)):
+        _name_bad_line(data, body, name)
+    return data
 
 
-def _slow_parse(body: list[str], name: str) -> np.ndarray:
-    """Row-by-row parse that names the first bad line; returns the data if all is well."""
+def _within_limits(data: np.ndarray) -> bool:
+    t = data[:, 0]
+    dt = np.diff(t)
+    return bool(np.abs(t).max() <= TIME_LIMIT_S and (dt > 0).all() and (dt <= MAX_GAP_S).all()
+                and np.abs(data[:, 1:4]).max() <= ACCEL_LIMIT_MPS2
+                and np.abs(data[:, 4:7]).max() <= GYRO_LIMIT_RADPS)
+
+
+def _name_bad_line(data: np.ndarray, body: list[str], name: str) -> None:
+    """Raise the error of the first row that breaks a limit (the data parsed as numbers)."""
+    line_of = [i for i, s in enumerate(body, start=2) if s.strip()]
+    cols = COLUMNS
+    prev_t = -math.inf
+    for k in range(data.shape[0]):
+        row, i = data[k], line_of[k]
+        for j, col in enumerate(cols):
+            v = float(row[j])
+            if not math.isfinite(v):
+                raise DataError(f"{name}: line {i}: column {col}: {v} is not finite, expected a real number")
+        t = float(row[0])
+        if abs(t) > TIME_LIMIT_S:
+            raise DataError(f"{name}: line {i}: column time: {t!r} s is beyond the limit of "
+                            f"+-{TIME_LIMIT_S:g} s, expected a plausible clock reading")
+        for j in range(1, 7):
+            v, limit = float(row[j]), (ACCEL_LIMIT_MPS2 if j < 4 else GYRO_LIMIT_RADPS)
+            if abs(v) > limit:
+                what = ("specific force", "m/s^2", "accelerometer") if j < 4 else ("angular rate", "rad/s", "gyro")
+                raise DataError(f"{name}: line {i}: column {cols[j]}: {what[0]} {v!r} {what[1]} is beyond "
+                                f"+-{limit:.4g} {what[1]}, the {what[2]} full scale of a phone IMU")
+        if k:
+            if t <= prev_t:
+                what = "repeated" if t == prev_t else "decreasing"
+                raise DataError(f"{name}: line {i}: {what} time stamp {t!r} (line {line_of[k - 1]} has "
+                                f"{prev_t!r}), expected strictly increasing time")
+            if t - prev_t > MAX_GAP_S:
+                raise DataError(f"{name}: line {i}: time gap of {t - prev_t:.6g} s after line {line_of[k - 1]}, "
+                                f"expected at most {MAX_GAP_S:g} s between samples")
+        prev_t = t
+    raise AssertionError("limits broken but no row found")  # pragma: no cover
+
+
+def _slow_parse(body: list[str], header: list[str], name: str) -> np.ndarray:
+    """Row-by-row parse that names the first row that is not numbers; returns the data if all parse."""
     rows = []
-    prev_t, prev_line = -math.inf, None
     for i, s in enumerate(body, start=2):
         if not s.strip():
             continue
-        cells = s.split(",")
+        try:
+            cells = _csv_fields(s)
+        except csv.Error as exc:
+            raise DataError(f"{name}: line {i}: not a CSV row ({exc})") from None
         if len(cells) != len(COLUMNS):
             kind = "short" if len(cells) < len(COLUMNS) else "long"
-            raise MorpiError(f"{name}: line {i}: {kind} row, {len(cells)} fields, expected {len(COLUMNS)}")
+            raise DataError(f"{name}: line {i}: {kind} row, {len(cells)} fields, expected {len(COLUMNS)}")
         vals = []
-        for col, c in zip(COLUMNS, cells):
+        for j, c in enumerate(cells):
             try:
+                if "_" in c:
+                    raise ValueError(c)
                 v = float(c)
             except ValueError:
-                raise MorpiError(f"{name}: line {i}: column {col}: {c.strip()!r} is not a number") from None
+                raise DataError(f"{name}: line {i}: column {header[j]}: {c!r} is not a number") from None
             if not math.isfinite(v):
-                raise MorpiError(f"{name}: line {i}: column {col}: {c.strip()} is not finite, expected a real number")
+                raise DataError(f"{name}: line {i}: column {header[j]}: {c} is not finite, expected a real number")
             vals.append(v)
-        t = vals[0]
-        if t <= prev_t:
-            what = "repeated" if t == prev_t else "decreasing"
-            raise MorpiError(f"{name}: line {i}: {what} time stamp {t!r} (line {prev_line} has {prev_t!r}), "
-                             "expected strictly increasing time")
-        prev_t, prev_line = t, i
         rows.append(vals)
     return np.asarray(rows, dtype=float)
 
@@ -401,26 +492,93 @@ def load_catalogue(root, *, phone=None, route=None, split=None) -> list[Recordin
     return out
 
 
+def expected_layout(root) -> dict[str, int]:
+    """The folders a dataset root should hold and their number of recordings.
+
+    The MoRPI layout (:func:`layout`), except for a synthetic dataset written
+    by :func:`morpi_filters.simulate.write_dataset`, whose ``manifest.json``
+    lists its files (it may hold fewer runs per folder).
+    """
+    man = Path(root) / "manifest.json"
+    if man.is_file():
+        try:
+            m = json.loads(man.read_text())
+            if isinstance(m, dict) and m.get("generator") == "morpi_filters.simulate" \
+                    and isinstance(m.get("files"), dict):
+                counts: dict[str, int] = {}
+                for rel in (str(r) for r in m["files"] if str(r).endswith(".csv")):
+                    folder = rel.rsplit("/", 1)[0]
+                    counts[folder] = counts.get(folder, 0) + 1
+                return counts
+        except (OSError, ValueError):
+            pass
+    return layout()
+
+
+def folder_key(phone: str, route_name: str, split: str | None) -> str:
+    """The layout name of a folder: ``phone/route[/split]``."""
+    return "/".join([phone, route_name] + ([split] if split else []))
+
+
+def layout_problems(root, entries=None) -> list[str]:
+    """One line per difference between the recordings under `root` and :func:`expected_layout`.
+
+    A folder of the layout that is absent, a folder holding another number of
+    recordings, and CSV files outside the layout (which no command reads) are
+    named. No recording at all is one line saying so.
+    """
+    root = Path(root)
+    entries = catalogue(root) if entries is None else entries
+    expected = expected_layout(root)
+    counts: dict[str, int] = {}
+    for e in entries:
+        k = folder_key(e.phone, e.route, e.split)
+        counts[k] = counts.get(k, 0) + 1
+    out = []
+    if not entries:
+        inner = root / "data"
+        hint = (f"; {inner} looks like the dataset root, pass --data {inner}"
+                if inner.is_dir() and catalogue(inner) else f"; {_HOW_TO_GET}")
+        out.append(f"{root}: no recordings in the MoRPI layout (<phone>/<route>[/<split>]/<n>.csv){hint}")
+    for folder, n in (expected.items() if entries else ()):
+        got = counts.get(folder, 0)
+        if not (root / folder).is_dir():
+            out.append(f"{root / folder}: missing folder, expected {n} recording(s)")
+        elif got != n:
+            out.append(f"{root / folder}: {got} recording(s), expected {n}")
+    for folder in sorted(set(counts) - set(expected)):
+        out.append(f"{root / folder}: unexpected folder ({counts[folder]} recording(s)), "
+                   f"expected only {', '.join(sorted(expected))}")
+    known = {e.path for e in entries}
+    stray: dict[Path, int] = {}
+    for path in root.rglob("*.csv"):
+        if path not in known:
+            stray[path.parent] = stray.get(path.parent, 0) + 1
+    for folder in sorted(stray):
+        out.append(f"{folder}: {stray[folder]} CSV file(s) outside the MoRPI layout "
+                   "(<phone>/<route>[/<split>]/<n>.csv, routes of data/routes.json), read by no command")
+    return out
+
+
 def check_tree(root) -> tuple[list[str], int]:
-    """Validate every CSV under `root`.
+    """Validate every recording under `root` and the folder layout.
 
     Returns
     -------
     problems : list of str
-        One line per bad file (or missing folder of the MoRPI layout).
+        One line per bad file, and per difference from the expected layout
+        (:func:`layout_problems`: missing or unexpected folders, wrong counts,
+        no recordings at all).
     n_ok : int
         Number of files that loaded cleanly.
     """
     root = Path(root)
+    entries = catalogue(root)
     problems, n_ok = [], 0
-    files = sorted(root.rglob("*.csv"))
-    for path in files:
+    for e in entries:
         try:
-            load_csv(path)
+            load_csv(e.path)
             n_ok += 1
         except MorpiError as exc:
             problems.append(str(exc))
-    if not files:
-        problems.append(f"{root}: no CSV files found; {_HOW_TO_GET}")
-    return problems, n_ok
-
+    return problems + layout_problems(root, entries), n_ok

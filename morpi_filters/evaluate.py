@@ -60,6 +60,7 @@ References
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -69,7 +70,7 @@ from . import dataset as ds
 from . import steps as st
 from . import units
 from .reporting import SectionSummary
-from .errors import MorpiError
+from .errors import DataError, MorpiError
 
 __all__ = [
     "TABLES", "PAPER_CELLS", "PAPER_COMPARISON", "CellSpec", "RunResult", "Cell", "Gain", "Selection",
@@ -1250,7 +1251,56 @@ def _explain(c: Cell, res: TablesResult, other: dict | None = None, sens: list |
             f"distance error {c.distance_percent:.2f} %.{alt_txt}{rng_txt} Other readings are in the readings table.")
 
 
-def report_tables(out, source) -> SectionSummary:
+#: Largest value a table cell (or one of its runs) may show [% of the route distance]. A
+#: recording within the loader's limits (|f| <= dataset.ACCEL_LIMIT_MPS2) lasting under
+#: 15 minutes cannot be double-integrated farther than 0.5 * 164.8 m/s^2 * (900 s)^2 = 6.7e7 m,
+#: about 1e9 % of the shortest (6.3 m) route; the field recordings last at most 90 s and their
+#: worst run is below 1e4 %. A value beyond it (or not finite) is a fault, not a result.
+CELL_SANITY_PERCENT = 1e9
+
+
+def dataset_problems(data: FieldData) -> list[str]:
+    """One line per recording the tables need that is bad or missing.
+
+    Loads every recording of `data` (cached for the evaluation) and lists the
+    files that fail to load, then the differences from the expected layout
+    (:func:`morpi_filters.dataset.layout_problems`: absent folders, missing
+    runs, no recordings at all).
+    """
+    errors = []
+    for phone, route, split in sorted(data.folders(), key=lambda k: (k[0], k[1], k[2] or "")):
+        errors += data.load_errors(phone, route, split)
+    return errors + ds.layout_problems(data.root, data._entries)
+
+
+def _require_complete(problems: list[str], root) -> None:
+    if problems:
+        shown = "; ".join(problems[:5]) + (f"; and {len(problems) - 5} more" if len(problems) > 5 else "")
+        raise DataError(f"{root}: {len(problems)} recording problem(s) the tables cannot go on with: {shown} "
+                        "(run `morpi check` for the full list, or pass --partial to evaluate without them)")
+
+
+def check_cells(result: TablesResult) -> None:
+    """Raise DataError for a cell value that is not finite or beyond :data:`CELL_SANITY_PERCENT`.
+
+    The message names the cell and its recordings. With the loader's input
+    limits this does not happen; it guards against printing an absurd number.
+    """
+    def bad(v):
+        return v is not None and not (math.isfinite(v) and abs(v) <= CELL_SANITY_PERCENT)
+
+    for c in result.cells:
+        if not c.runs:
+            continue
+        worst = [r.file for r in c.runs if bad(r.end_error_percent) or bad(r.distance_error_percent)]
+        values = (c.ours_percent, c.ours_std_percent, c.distance_percent)
+        if worst or any(bad(v) for v in values):
+            files = worst or [r.file for r in c.runs]
+            raise DataError(f"cell {c.spec.label}: end-point error {c.ours_percent} % is not finite or beyond "
+                            f"{CELL_SANITY_PERCENT:g} %, not a result; recordings: {', '.join(files)}")
+
+
+def report_tables(out, source, *, partial: bool = False) -> SectionSummary:
     """Write the tables section: README.md, result.json and figures in `out`.
 
     Parameters
@@ -1259,10 +1309,20 @@ def report_tables(out, source) -> SectionSummary:
         Section folder (a staging folder from the CLI).
     source : reporting.DataSource
         The dataset root; when synthetic, every page starts with its banner.
+    partial : bool
+        Go on when recordings are bad or missing (:func:`dataset_problems`);
+        the page and result.json then list them under "left out". Without it
+        they raise a DataError naming them.
 
     Returns
     -------
     reporting.SectionSummary
+
+    Raises
+    ------
+    DataError
+        A bad or missing recording (unless `partial`), or an absurd cell
+        (:func:`check_cells`).
     """
     from .reporting import fmt, md_table, write_json, write_text
 
@@ -1270,8 +1330,15 @@ def report_tables(out, source) -> SectionSummary:
     out.mkdir(parents=True, exist_ok=True)
     if source is None or source.root is None:
         raise MorpiError(f"tables: no dataset configured; {ds.missing_data_message()}")
-    res = evaluate_tables(source.root)
+    data = FieldData(source.root)
+    left_out = dataset_problems(data)
+    if not partial:
+        _require_complete(left_out, source.root)
+    res = evaluate_tables(source.root, data=data)
+    check_cells(res)
     payload = result_json(res, source)
+    payload["partial"] = bool(partial)
+    payload["left_out"] = left_out
     figures = _figures(res, out)
     write_json(out / "result.json", payload)
     page = _page(res, payload, source, figures, fmt, md_table)
@@ -1284,6 +1351,8 @@ def report_tables(out, source) -> SectionSummary:
                f"{within} of {len(gc6)} short-route GC MoRPI cells within {DEVIATION_PP} pp of the paper.")
     if res.missing:
         summary += f" Missing folders: {', '.join(res.missing)}."
+    if left_out:
+        summary += f" Partial evaluation: {len(left_out)} recording problem(s) left out (see the page)."
     return SectionSummary(name="tables", title="The paper's tables on the recordings", page="README.md",
                           figures=tuple(figures), summary=summary, synthetic=bool(source.synthetic))
 
@@ -1363,6 +1432,9 @@ def _page(res, payload, source, figures, fmt, md_table) -> str:
     L += [f"Dataset: `{source.root}`." if not source.synthetic else "Dataset: seeded synthetic recordings.", ""]
     if res.missing:
         L += [f"**Missing folders** (their cells are empty): {', '.join('`' + m + '`' for m in res.missing)}.", ""]
+    if payload.get("left_out"):
+        L += ["**Partial evaluation (`--partial`)**: these recordings were left out; the cells below are "
+              "computed without them.", ""] + [f"- {x}" for x in payload["left_out"]] + [""]
     L += ["Errors are end-point errors in % of the travelled distance, mean over the runs (the paper's measure); "
           "`dist %` is `|estimated travelled distance - true distance|` in % of the distance. "
           "MoRPI cells are the `test` runs; INS cells all runs of the folder, integrated over the robot's "

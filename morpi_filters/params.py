@@ -14,8 +14,12 @@ A JSON object with units in the key names::
 
 ``morpi assess`` reads the values as one error realisation; ``morpi curves``
 reads the same keys as 1-sigma values of zero-mean, independent errors.
-Optional keys take the defaults of :data:`DEFAULTS`. Any problem raises
-:class:`MorpiError` naming the file and the key.
+Optional keys take the defaults of :data:`DEFAULTS`; ``"note"`` holds free
+text. Any other key, a wrong type, a non-finite number or a value beyond its
+physical bound (the constants below, each with its reason) raises
+:class:`~morpi_filters.errors.ParameterError` naming the file and the key.
+Time grids and run counts are not part of the file (they are command-line
+options with their own limits).
 """
 from __future__ import annotations
 
@@ -26,9 +30,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import MorpiError
+from .errors import ParameterError
 
-__all__ = ["ErrorParams", "DEFAULTS", "REQUIRED", "load_params", "params_from_dict", "DEFAULT_PARAMS_FILE"]
+__all__ = ["ErrorParams", "DEFAULTS", "REQUIRED", "load_params", "params_from_dict", "DEFAULT_PARAMS_FILE",
+           "BA_MAX_MPS2", "BG_MAX_RADPS", "DV0_MAX_MPS", "SPEED_MAX_MPS", "G_MIN_MPS2", "G_MAX_MPS2", "DG_MAX"]
 
 #: The committed parameter file of the analytical assessment.
 DEFAULT_PARAMS_FILE = Path(__file__).resolve().parent.parent / "data" / "assessment_params.json"
@@ -82,56 +87,149 @@ class ErrorParams:
         return self.source
 
 
-def _number(name, key, v):
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise MorpiError(f"{name}: key {key!r}: {v!r} is not a finite number")
-    return float(v)
+#: Bounds of the values [SI units], each with its reason. The biases are bounded at about 17
+#: times the larger datasheet offset of the two phones' IMUs (units.MPU6500: 60 mg zero-g
+#: offset, 6 deg/s zero-rate offset): 1 g and 100 deg/s. A larger "bias" is a broken sensor or
+#: a unit mistake (an accelerometer bias of 1 g flips the gravity it reads at rest).
+BA_MAX_MPS2 = 9.80665
+BG_MAX_RADPS = 100 * math.pi / 180
+#: Initial velocity error and travel speed: MoRPI is for slow platforms (robots and walkers,
+#: the paper's robot moves at about 1 m/s); 10 m/s is twice a running pace.
+DV0_MAX_MPS = 10.0
+SPEED_MAX_MPS = 10.0
+#: Gravity magnitude on the Earth's surface: 9.78 m/s^2 (equator) to 9.83 m/s^2 (poles), with margin.
+G_MIN_MPS2, G_MAX_MPS2 = 9.7, 9.9
+#: A gain error of 100 % or more makes the Weinberg gain zero or negative.
+DG_MAX = 1.0
+#: Most gain errors in the dG list (each one is a curve of the report).
+DG_MAX_COUNT = 20
+#: Largest parameter file read [bytes]; the committed one is under 1 kB.
+MAX_FILE_BYTES = 64 * 1024
+#: Free-text keys accepted and not read (a comment on the values).
+TEXT_KEYS = ("note",)
 
 
-def _vector(name, key, v, n):
+def _number(name, key, v, bound=None, unit=""):
+    """A finite JSON number (not a boolean) within +-bound."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise ParameterError(f"{name}: key {key!r}: {_show(v)} is not a finite number")
+    try:
+        x = float(v)
+    except OverflowError:
+        x = math.inf
+    if not math.isfinite(x):
+        raise ParameterError(f"{name}: key {key!r}: {_show(v)} is not a finite number")
+    if bound is not None and abs(x) > bound:
+        raise ParameterError(f"{name}: key {key!r}: {_show(v)} is beyond the physical bound +-{bound:.4g} {unit}"
+                             f" (see morpi_filters.params)")
+    return x
+
+
+def _show(v) -> str:
+    """A short, one-line rendering of a JSON value for a message."""
+    text = repr(v) if not isinstance(v, int) or abs(v) < 10 ** 30 else f"an integer of {len(str(abs(v)))} digits"
+    text = " ".join(text.split())
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _vector(name, key, v, n, bound, unit):
     if not isinstance(v, list) or len(v) != n:
         got = f"length {len(v)}" if isinstance(v, list) else type(v).__name__
-        raise MorpiError(f"{name}: key {key!r}: expected a list of {n} numbers, got {got}")
-    return np.array([_number(name, f"{key}[{i}]", x) for i, x in enumerate(v)])
+        raise ParameterError(f"{name}: key {key!r}: expected a list of {n} numbers, got {got}")
+    return np.array([_number(name, f"{key}[{i}]", x, bound, unit) for i, x in enumerate(v)])
 
 
 def params_from_dict(d: dict, name: str = "<dict>") -> ErrorParams:
-    """Validate a parameter mapping (see the module docstring)."""
+    """Validate a parameter mapping (see the module docstring).
+
+    Raises
+    ------
+    ParameterError
+        One line naming the key and what was expected, for: a missing or
+        unknown key, a wrong type, a non-finite number, a value beyond its
+        physical bound (:data:`BA_MAX_MPS2`, :data:`BG_MAX_RADPS`,
+        :data:`DV0_MAX_MPS`, :data:`SPEED_MAX_MPS`, :data:`G_MIN_MPS2` ..
+        :data:`G_MAX_MPS2`, :data:`DG_MAX`), or too many gain errors.
+    """
     if not isinstance(d, dict):
-        raise MorpiError(f"{name}: expected a JSON object with keys {sorted(REQUIRED)}")
+        raise ParameterError(f"{name}: expected a JSON object with keys {sorted(REQUIRED)}")
+    known = set(REQUIRED) | set(DEFAULTS) | set(TEXT_KEYS)
+    unknown = [k for k in d if k not in known]
+    if unknown:
+        raise ParameterError(f"{name}: unknown key(s) {', '.join(_show(k) for k in unknown)}; expected only "
+                             f"{', '.join(sorted(known))} (time grids and run counts are command-line options)")
     missing = [k for k in REQUIRED if k not in d]
     if missing:
-        raise MorpiError(f"{name}: missing key(s) {', '.join(missing)}; expected {sorted(REQUIRED)}")
-    dv0 = _vector(name, "dv0_mps", d["dv0_mps"], 3)
-    ba = _vector(name, "ba_mps2", d["ba_mps2"], 3)
-    bg = _vector(name, "bg_radps", d["bg_radps"], 3)
+        raise ParameterError(f"{name}: missing key(s) {', '.join(missing)}; expected {sorted(REQUIRED)}")
+    for k in TEXT_KEYS:
+        if k in d and not isinstance(d[k], str):
+            raise ParameterError(f"{name}: key {k!r}: expected a text string, got {type(d[k]).__name__}")
+    dv0 = _vector(name, "dv0_mps", d["dv0_mps"], 3, DV0_MAX_MPS, "m/s")
+    ba = _vector(name, "ba_mps2", d["ba_mps2"], 3, BA_MAX_MPS2, "m/s^2")
+    bg = _vector(name, "bg_radps", d["bg_radps"], 3, BG_MAX_RADPS, "rad/s")
     g = _number(name, "g_mps2", d["g_mps2"])
-    if g <= 0:
-        raise MorpiError(f"{name}: key 'g_mps2': {g} must be a positive gravity magnitude [m/s^2]")
+    if not G_MIN_MPS2 <= g <= G_MAX_MPS2:
+        raise ParameterError(f"{name}: key 'g_mps2': {g} must be a positive gravity magnitude on the Earth's "
+                             f"surface, between {G_MIN_MPS2} and {G_MAX_MPS2} m/s^2")
     dG = d.get("dG", DEFAULTS["dG"])
-    if not isinstance(dG, list) or not dG:
-        raise MorpiError(f"{name}: key 'dG': expected a non-empty list of gain-error fractions")
-    dG = tuple(_number(name, f"dG[{i}]", x) for i, x in enumerate(dG))
+    if not isinstance(dG, list) or not dG or len(dG) > DG_MAX_COUNT:
+        raise ParameterError(f"{name}: key 'dG': expected a non-empty list of at most {DG_MAX_COUNT} "
+                             "gain-error fractions")
+    dG = tuple(_number(name, f"dG[{i}]", x, DG_MAX, "(fraction of the gain)") for i, x in enumerate(dG))
     speed = _number(name, "morpi_speed_mps", d.get("morpi_speed_mps", DEFAULTS["morpi_speed_mps"]))
-    if speed <= 0:
-        raise MorpiError(f"{name}: key 'morpi_speed_mps': {speed} must be positive [m/s]")
+    if not 0 < speed <= SPEED_MAX_MPS:
+        raise ParameterError(f"{name}: key 'morpi_speed_mps': {speed} must be positive [m/s] and at most "
+                             f"{SPEED_MAX_MPS:g} m/s")
     noise = d.get("process_noise", DEFAULTS["process_noise"])
     if not isinstance(noise, bool):
-        raise MorpiError(f"{name}: key 'process_noise': expected true or false, got {noise!r}")
+        raise ParameterError(f"{name}: key 'process_noise': expected true or false, got {_show(noise)}")
     return ErrorParams(dv0=dv0, ba=ba, bg=bg, g=g, dG=dG, morpi_speed_mps=speed, process_noise=noise, source=name)
 
 
+def _no_constant(token):
+    raise ValueError(f"{token} is not a finite number")
+
+
+def _unique_keys(pairs):
+    seen = {}
+    for k, v in pairs:
+        if k in seen:
+            raise ValueError(f"key {k!r} appears twice")
+        seen[k] = v
+    return seen
+
+
 def load_params(path=None) -> ErrorParams:
-    """Read and validate a parameter file (default: :data:`DEFAULT_PARAMS_FILE`)."""
+    """Read and validate a parameter file (default: :data:`DEFAULT_PARAMS_FILE`).
+
+    Raises
+    ------
+    ParameterError
+        For a missing, unreadable, oversized or non-JSON file, NaN or
+        Infinity, a repeated key, nesting or integers beyond what JSON parsing
+        accepts, and every case of :func:`params_from_dict`.
+    """
     path = Path(path) if path is not None else DEFAULT_PARAMS_FILE
     try:
-        text = path.read_text()
+        with open(path, "rb") as fh:
+            raw = fh.read(MAX_FILE_BYTES + 1)
     except FileNotFoundError:
-        raise MorpiError(f"{path}: no such parameter file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise MorpiError(f"{path}: cannot read the parameter file ({exc})") from None
+        raise ParameterError(f"{path}: no such parameter file") from None
+    except OSError as exc:
+        raise ParameterError(f"{path}: cannot read the parameter file ({exc.strerror or exc})") from None
+    if len(raw) > MAX_FILE_BYTES:
+        raise ParameterError(f"{path}: parameter file larger than {MAX_FILE_BYTES // 1024} kB; expected a small "
+                             "JSON object")
     try:
-        d = json.loads(text)
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise ParameterError(f"{path}: cannot read the parameter file (not UTF-8 text)") from None
+    try:
+        d = json.loads(text, parse_constant=_no_constant, object_pairs_hook=_unique_keys)
     except json.JSONDecodeError as exc:
-        raise MorpiError(f"{path}: line {exc.lineno}: not valid JSON ({exc.msg})") from None
+        raise ParameterError(f"{path}: line {exc.lineno}: not valid JSON ({exc.msg})") from None
+    except RecursionError:
+        raise ParameterError(f"{path}: nested too deeply; expected a flat JSON object") from None
+    except ValueError as exc:   # NaN/Infinity, a repeated key, an integer of more than 4300 digits
+        raise ParameterError(f"{path}: {' '.join(str(exc).split())[:120]}") from None
     return params_from_dict(d, str(path))

@@ -36,14 +36,50 @@ def test_check_reports_each_bad_file(tmp_path):
     assert any("2.csv: line 7: column f_y" in s for s in lines)
     assert any("3.csv: empty file" in s for s in lines)
     assert "Traceback" not in r.stdout + r.stderr
-    assert lines[-1].startswith("1 recording(s) OK, 2 problem(s)")
+    # 2 bad files, then the layout: 3 of the 24 line_dataset runs, the other 10 folders absent
+    assert lines[-1].startswith("1 recording(s) OK, 13 problem(s)")
+    assert any("line_dataset: 3 recording(s), expected 24" in s for s in lines)
 
 
-def test_check_good_tree_exits_zero(tmp_path):
+def test_check_names_missing_folders(tmp_path):
+    # One good folder is not the dataset: every other folder of data/routes.json is named.
     d = tmp_path / "s6" / "L_line"
     d.mkdir(parents=True)
     write_rows(d / "1.csv", good_rows())
-    assert main(["check", "--data", str(tmp_path)]) == 0
+    r = run("check", "--data", str(tmp_path))
+    assert r.returncode == 1
+    assert "s8/short_distance/train: missing folder, expected 12 recording(s)" in r.stdout
+    assert "L_line: 1 recording(s), expected 10" in r.stdout and "Traceback" not in r.stderr
+
+
+@pytest.mark.parametrize("make", ["empty", "stray", "clone"])
+def test_check_without_recordings_fails(tmp_path, make):
+    root = tmp_path / "root"
+    root.mkdir()
+    if make == "stray":
+        write_rows(root / "notes.csv", good_rows())
+    if make == "clone":
+        d = root / "data" / "s6" / "L_line"
+        d.mkdir(parents=True)
+        write_rows(d / "1.csv", good_rows())
+    r = run("check", "--data", str(root))
+    assert r.returncode == 1 and "Traceback" not in r.stderr
+    if make == "clone":   # the clone root stands for its data/ folder, whose missing folders are named
+        assert f"{root / 'data' / 's8' / 'line_dataset'}: missing folder" in r.stdout
+        return
+    assert "no recordings in the MoRPI layout" in r.stdout
+    assert r.stdout.strip().splitlines()[-1].startswith("0 recording(s) OK")
+    if make == "stray":
+        assert "1 CSV file(s) outside the MoRPI layout" in r.stdout
+
+
+def test_layout_problems_point_at_data_inside_a_clone(tmp_path):
+    from morpi_filters.dataset import layout_problems
+
+    d = tmp_path / "data" / "s6" / "L_line"
+    d.mkdir(parents=True)
+    write_rows(d / "1.csv", good_rows())
+    assert any(f"pass --data {tmp_path / 'data'}" in s for s in layout_problems(tmp_path))
 
 
 def test_missing_dataset_is_one_line(tmp_path, monkeypatch):
@@ -58,3 +94,19 @@ def test_missing_dataset_is_one_line(tmp_path, monkeypatch):
 def test_bad_parameters_exit_nonzero(argv, tmp_path):
     r = run(*argv, cwd=tmp_path)
     assert r.returncode == 2 and "Traceback" not in r.stderr
+
+
+@pytest.mark.parametrize("argv", [["tables"], ["curves", "--times", "1"], ["montecarlo", "--runs", "2"]])
+def test_data_commands_stop_on_a_bad_recording(tmp_path, argv):
+    """Every command that reads the recordings names a bad one and exits 1 (before computing anything)."""
+    from morpi_filters.simulate import write_dataset
+
+    root = write_dataset(tmp_path / "ds", seed=2, runs_per_folder=1)
+    bad = root / "s6" / "L_line" / "1.csv"
+    bad.write_bytes(b"\xef\xbb\xbf")
+    out = tmp_path / "out"
+    r = run(*argv, "--data", str(root), "--out", str(out))
+    assert r.returncode == 1, r.stderr
+    err = r.stderr.strip().splitlines()
+    assert len(err) == 1 and f"{bad}: empty file" in err[0] and "--partial" in err[0]
+    assert not out.exists() and "Traceback" not in r.stderr

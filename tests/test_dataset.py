@@ -136,3 +136,136 @@ def test_field_dataset_loads_and_matches_layout(field_root):
     # A level phone at rest reads about +g on z (README): first 0.5 s.
     fz = rec.f[rec.time < rec.time[0] + 0.5, 2].mean()
     assert 9.3 < fz < 10.3
+
+
+# ----------------------------------------------------------------- physical limits and standard CSV
+
+from morpi_filters import units
+from morpi_filters.dataset import ACCEL_LIMIT_MPS2, GYRO_LIMIT_RADPS, MAX_GAP_S, TIME_LIMIT_S
+from morpi_filters.errors import DataError
+
+
+def test_limits_are_the_datasheet_full_scales():
+    # Full scales from the LSM6DSL and MPU-6500 datasheets (16 g, 2000 deg/s) with the 5 % margin
+    # the loader states; computed here from the constants of units.py, independently of dataset.py.
+    assert ACCEL_LIMIT_MPS2 == pytest.approx(16 * units.G0 * 1.05, rel=1e-15)
+    assert GYRO_LIMIT_RADPS == pytest.approx(np.radians(2000) * 1.05, rel=1e-15)
+    assert MAX_GAP_S == 1.0 and TIME_LIMIT_S == 1e8
+
+
+@pytest.mark.parametrize("col, value, expect", [
+    (3, "1.7e308", r"line 42: column f_z: specific force 1.7e\+308 m/s\^2 is beyond"),
+    (1, "-170", r"line 42: column f_x: specific force -170.0 m/s\^2 is beyond \+-164.8 m/s\^2"),
+    (5, "40", r"line 42: column g_y: angular rate 40.0 rad/s is beyond \+-36.65 rad/s"),
+])
+def test_rejects_values_beyond_full_scale(tmp_path, col, value, expect):
+    rows = good_rows()
+    rows[40] = ",".join(value if j == col else repr(v) for j, v in enumerate(rows[40]))
+    with pytest.raises(DataError, match=expect) as ei:
+        load_csv(write_rows(tmp_path / "v.csv", rows))
+    assert str(tmp_path / "v.csv") in str(ei.value)
+
+
+def test_accepts_values_at_full_scale(tmp_path):
+    rows = good_rows()
+    rows[40][1] = 16 * units.G0       # exactly full scale on the accelerometer
+    rows[41][6] = -np.radians(2000)   # exactly full scale on the gyro
+    rec = load_csv(write_rows(tmp_path / "fs.csv", rows))
+    assert rec.f[40, 0] == 16 * units.G0 and rec.omega[41, 2] == -np.radians(2000)
+
+
+def test_rejects_time_gaps_and_absurd_times(tmp_path):
+    rows = good_rows()
+    for r in rows[70:]:
+        r[0] += 1e6
+    with pytest.raises(DataError, match=r"line 72: time gap of 1e\+06 s after line 71, expected at most 1 s"):
+        load_csv(write_rows(tmp_path / "g.csv", rows))
+    rows = good_rows()
+    for r in rows[70:]:
+        r[0] += 1.5   # 1.5 s gap: above the stated bound
+    with pytest.raises(DataError, match=r"line 72: time gap of 1.5\d* s"):
+        load_csv(write_rows(tmp_path / "g2.csv", rows))
+    rows = good_rows()
+    for r in rows:
+        r[0] += 2e8
+    with pytest.raises(DataError, match=r"line 2: column time: .* beyond the limit of \+-1e\+08 s"):
+        load_csv(write_rows(tmp_path / "t.csv", rows))
+
+
+@pytest.mark.parametrize("content", [b"\xef\xbb\xbf", b"\xef\xbb\xbf\r\n  \r\n", b"   \n\t\n", b"\r\n"])
+def test_rejects_bom_only_and_blank_files(tmp_path, content):
+    p = tmp_path / "b.csv"
+    p.write_bytes(content)
+    with pytest.raises(DataError, match="empty file") as ei:
+        load_csv(p)
+    assert str(p) in str(ei.value) and "\n" not in str(ei.value)
+
+
+def test_check_tree_survives_a_bom_only_file(tmp_path):
+    d = tmp_path / "s8" / "line_dataset"
+    d.mkdir(parents=True)
+    (d / "1.csv").write_bytes(b"\xef\xbb\xbf")
+    write_rows(d / "2.csv", good_rows())
+    problems, n_ok = check_tree(tmp_path)
+    assert n_ok == 1 and any("1.csv: empty file" in p for p in problems)
+
+
+def _reference(tmp_path):
+    rows = good_rows()
+    rows = [[r[0], 0.1 * k, -0.2, 9.81, 0.01, -0.02 * k, 0.03] for k, r in enumerate(rows)]
+    return rows, load_csv(write_rows(tmp_path / "ref.csv", rows))
+
+
+def _same(a, b):
+    np.testing.assert_array_equal(a.time, b.time)
+    np.testing.assert_array_equal(a.f, b.f)
+    np.testing.assert_array_equal(a.omega, b.omega)
+
+
+def test_accepts_standard_csv_variants(tmp_path):
+    rows, ref = _reference(tmp_path)
+    text = (tmp_path / "ref.csv").read_text()
+    # BOM + CRLF
+    p = tmp_path / "crlf.csv"
+    p.write_bytes(b"\xef\xbb\xbf" + text.replace("\n", "\r\n").encode())
+    _same(load_csv(p), ref)
+    # every field quoted
+    p = tmp_path / "q.csv"
+    p.write_text("\n".join(",".join(f'"{c}"' for c in line.split(",")) for line in text.splitlines()) + "\n")
+    _same(load_csv(p), ref)
+    # quoted header only
+    p = tmp_path / "qh.csv"
+    lines = text.splitlines()
+    p.write_text(",".join(f'"{c}"' for c in COLUMNS) + "\n" + "\n".join(lines[1:]) + "\n")
+    _same(load_csv(p), ref)
+    # columns in another order, by header name
+    perm = [3, 0, 6, 1, 5, 2, 4]
+    p = tmp_path / "perm.csv"
+    p.write_text(",".join(COLUMNS[j] for j in perm) + "\n"
+                 + "\n".join(",".join(repr(float(r[j])) for j in perm) for r in rows) + "\n")
+    _same(load_csv(p), ref)
+
+
+def test_reordered_columns_name_the_right_column(tmp_path):
+    rows, _ = _reference(tmp_path)
+    perm = [6, 5, 4, 3, 2, 1, 0]
+    rows[30][5] = 50.0   # g_y, written in the file's second column
+    p = tmp_path / "perm.csv"
+    p.write_text(",".join(COLUMNS[j] for j in perm) + "\n"
+                 + "\n".join(",".join(repr(float(r[j])) for j in perm) for r in rows) + "\n")
+    with pytest.raises(DataError, match=r"line 32: column g_y: angular rate 50.0"):
+        load_csv(p)
+
+
+def test_rejects_repeated_and_unknown_columns(tmp_path):
+    rows = [r + [0.0] for r in good_rows()]
+    with pytest.raises(DataError, match=r"line 1: repeated column\(s\) f_x"):
+        load_csv(write_rows(tmp_path / "r.csv", rows, header="time,f_x,f_y,f_z,g_x,g_y,g_z,f_x"))
+
+
+def test_text_after_a_number_is_not_a_comment(tmp_path):
+    # '#' starts no comment in CSV: the row is rejected, not silently cut
+    rows = good_rows()
+    rows[50] = ",".join(repr(v) for v in rows[50]) + " # note"
+    with pytest.raises(DataError, match=r"line 52: column g_z: '.* # note' is not a number"):
+        load_csv(write_rows(tmp_path / "c.csv", rows))

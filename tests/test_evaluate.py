@@ -8,6 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from morpi_filters.errors import DataError
+
 from morpi_filters import dataset as ds
 from morpi_filters import evaluate as ev
 from morpi_filters import simulate, units
@@ -241,10 +243,16 @@ def test_missing_folders_give_a_partial_report(field_root, tmp_path):
     root = tmp_path / "partial"
     _link_folder(field_root / "s6/short_distance/train", root / "s6/short_distance/train")
     out = tmp_path / "out"
-    summary = ev.report_tables(out, DataSource(root))
+    # Without --partial the missing folders stop the section, named in one line.
+    with pytest.raises(DataError, match=r"s8/line_dataset: missing folder, expected 24 recording\(s\)") as ei:
+        ev.report_tables(out, DataSource(root))
+    assert "--partial" in str(ei.value) and "\n" not in str(ei.value)
+    summary = ev.report_tables(out, DataSource(root), partial=True)
     page = (out / "README.md").read_text()
     payload = json.loads((out / "result.json").read_text())
     assert "Missing folders" in page and "s8/line_dataset" in page
+    assert "Partial evaluation" in page and payload["partial"] is True
+    assert any("s8/line_dataset: missing folder" in x for x in payload["left_out"])
     assert len(payload["cells"]) == 32
     assert sum(c["n_runs"] > 0 for c in payload["cells"]) == 0
     assert {g["train_set"] for g in payload["gains"]} == {"s6/short_distance/train"}
@@ -316,7 +324,10 @@ def test_cli_tables_writes_the_section_and_json(field_root, tmp_path):
     _link_folder(field_root / "s8/short_distance/train", root / "s8/short_distance/train")
     _link_folder(field_root / "s8/short_distance/test", root / "s8/short_distance/test")
     out, js = tmp_path / "reports" / "tables", tmp_path / "tables.json"
-    assert cli.main(["tables", "--data", str(root), "--out", str(out), "--json", str(js)]) == 0
+    # the other nine folders are missing: exit 1 (bad input data), nothing written
+    assert cli.main(["tables", "--data", str(root), "--out", str(out), "--json", str(js)]) == 1
+    assert not out.exists() and not js.exists()
+    assert cli.main(["tables", "--data", str(root), "--out", str(out), "--json", str(js), "--partial"]) == 0
     payload = json.loads(js.read_text())
     done = [c for c in payload["cells"] if c["n_runs"]]
     assert {(c["table"], c["phone"], c["p2p_m"]) for c in done} == {("short_route", "s8", 1.0)}
@@ -326,7 +337,7 @@ def test_cli_tables_writes_the_section_and_json(field_root, tmp_path):
     assert not (tmp_path / "x").exists()
 
 
-def test_unreadable_files_are_listed_not_fatal(field_root, tmp_path):
+def test_unreadable_files_stop_the_tables_or_are_listed_with_partial(field_root, tmp_path):
     root = tmp_path / "broken"
     _link_folder(field_root / "s6/short_distance/train", root / "s6/short_distance/train")
     (root / "s6/short_distance/train/99.csv").write_text("time,f_x\n1,2\n")
@@ -335,7 +346,9 @@ def test_unreadable_files_are_listed_not_fatal(field_root, tmp_path):
     (test / "16.csv").symlink_to(field_root / "s6/short_distance/test/16.csv")
     (test / "17.csv").write_text("not a recording\n")
     out = tmp_path / "out"
-    ev.report_tables(out, DataSource(root))
+    with pytest.raises(DataError, match=r"17.csv: line 1: .*99.csv: line 1: missing column"):
+        ev.report_tables(out, DataSource(root))
+    ev.report_tables(out, DataSource(root), partial=True)
     payload = json.loads((out / "result.json").read_text())
     cell = next(c for c in payload["cells"] if (c["table"], c["phone"], c["method"], c["calibration"])
                 == ("short_route", "s6", "MoRPI-G", "GC"))
@@ -343,6 +356,7 @@ def test_unreadable_files_are_listed_not_fatal(field_root, tmp_path):
     gain = next(g for g in payload["gains"] if g["method"] == "MoRPI-G" and g["calibration"] == "GC")
     assert len(gain["per_run"]) == 15 and any("99.csv" in s for s in gain["skipped"])
     assert "17.csv" in (out / "README.md").read_text()
+    assert any("17.csv" in x for x in payload["left_out"]) and any("99.csv" in x for x in payload["left_out"])
 
 
 @pytest.mark.field

@@ -339,7 +339,10 @@ def test_field_report_goes_to_reports(tmp_path, fake_sections, monkeypatch, caps
     monkeypatch.chdir(tmp_path)
     (tmp_path / "ds" / "s6").mkdir(parents=True)
     monkeypatch.setattr(cli, "_report_source", lambda args: DataSource(tmp_path / "ds"))
-    assert cli.main(["report", "--data", str(tmp_path / "ds")]) == 0
+    # the folder holds no recordings: the report stops on that (exit 1) unless --partial
+    assert cli.main(["report", "--data", str(tmp_path / "ds")]) == 1
+    assert "no recordings in the MoRPI layout" in capsys.readouterr().err
+    assert cli.main(["report", "--data", str(tmp_path / "ds"), "--partial"]) == 0
     first = capsys.readouterr().out.splitlines()[0]
     assert "synthetic" not in first and "field dataset" in first
     assert (tmp_path / "reports" / "index.md").is_file() and not (tmp_path / "reports" / "synthetic").exists()
