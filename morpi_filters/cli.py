@@ -45,11 +45,12 @@ def _nonneg_int(name):
     return _int_at_least(name, 0)
 
 
-#: Largest ``--runs`` of a Monte Carlo study. Measured cost of one run of the
-#: gain-error study (``montecarlo.run_study``, 40,000 runs on a 2-core machine):
-#: 0.26 ms and 8 kB of peak memory; 200,000 runs take about a minute and 1.6 GB.
-MAX_RUNS = 200_000
-RUN_SECONDS, RUN_BYTES = 0.26e-3, 8e3
+#: Largest ``--runs`` of a Monte Carlo page. Measured cost of one run of every
+#: study of ``morpi montecarlo`` (one pass over the draws, ``montecarlo.run_studies``;
+#: 1,000,000 runs on a 2-core machine): 0.54 ms and 0.7 kB of peak memory
+#: (9 min and 0.84 GB for the million, a 0.19 GB base included).
+MAX_RUNS = 1_000_000
+RUN_SECONDS, RUN_BYTES = 0.54e-3, 0.7e3
 
 #: Largest ``curves --times`` [s]. Measured cost of ``curves.report_curves``
 #: per second of the last evaluation time (T = 100 s and 400 s on a 2-core
@@ -74,7 +75,7 @@ def _runs(name):
         v = at_least_one(text)
         if v > MAX_RUNS:
             raise argparse.ArgumentTypeError(
-                f"{name}: {v} runs would take about {_duration(v * RUN_SECONDS)} and {v * RUN_BYTES / 1e9:.0f} GB "
+                f"{name}: {v} runs would take about {_duration(v * RUN_SECONDS)} and {v * RUN_BYTES / 1e9:.1f} GB "
                 f"of memory ({RUN_SECONDS * 1e3:g} ms and {RUN_BYTES / 1e3:g} kB per run); at most {MAX_RUNS}")
         return v
     return parse

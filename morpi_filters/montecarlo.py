@@ -884,14 +884,21 @@ def _study_chunk(payload, cfg, ins_e, dfa, dfg, trig, zg, R) -> dict:
     return part
 
 
-def _band_counts(series) -> np.ndarray:
-    """Histogram counts (m, k, bins) of series (R, m, k) over :data:`_BAND_EDGES` (NaN left out)."""
+def _band_counts(series) -> tuple:
+    """Histogram of series (R, m, k) over :data:`_BAND_EDGES` (NaN left out), sparse.
+
+    Returns ``(cells, counts)``: the occupied cells of the (m, k, bins)
+    histogram as flat indices (int32) and their counts (int32). A chunk's runs
+    occupy a few bins per epoch, so this is far smaller than the dense array
+    (which matters when chunks travel back from Dask workers).
+    """
     R, m, k = series.shape
     nb = _BAND_EDGES.size - 1
     idx = np.clip(np.searchsorted(_BAND_EDGES, series, side="right") - 1, 0, nb - 1)
     ok = np.isfinite(series)
     flat = ((np.arange(m)[:, None] * k + np.arange(k)[None, :]) * nb)[None] + idx
-    return np.bincount(flat[ok], minlength=m * k * nb).reshape(m, k, nb)
+    cells, counts = np.unique(flat[ok], return_counts=True)
+    return cells.astype(np.int32), counts.astype(np.int32)
 
 
 def band_quantiles(counts, q=BAND_PERCENTILES) -> np.ndarray:
@@ -1089,11 +1096,14 @@ class _Reduction:
                 self.arrays[k][self.filled:self.filled + m] = part[k]
         self.filled += m
         if self.sumsq is None:
-            self.sumsq, self.count, self.hist = part["sumsq"].copy(), part["count"].copy(), part["hist"].copy()
+            m_, k_ = part["sumsq"].shape
+            self.sumsq, self.count = part["sumsq"].copy(), part["count"].copy()
+            self.hist = np.zeros((m_, k_, _BAND_EDGES.size - 1), np.int64)
         else:
             self.sumsq += part["sumsq"]
             self.count += part["count"]
-            self.hist += part["hist"]
+        cells, counts = part["hist"]
+        np.add.at(self.hist.reshape(-1), cells, counts)
 
     def cat(self, key: str) -> np.ndarray:
         return self.arrays[key]
