@@ -894,11 +894,20 @@ def _band_counts(series) -> tuple:
     """
     R, m, k = series.shape
     nb = _BAND_EDGES.size - 1
-    idx = np.clip(np.searchsorted(_BAND_EDGES, series, side="right") - 1, 0, nb - 1)
     ok = np.isfinite(series)
-    flat = ((np.arange(m)[:, None] * k + np.arange(k)[None, :]) * nb)[None] + idx
-    cells, counts = np.unique(flat[ok], return_counts=True)
-    return cells.astype(np.int32), counts.astype(np.int32)
+    x = series[ok]
+    # bin from the logarithm (the edges are log-spaced), then corrected against the edges themselves
+    lo = _BAND_EDGES[1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        idx = np.floor(np.log10(np.maximum(x, lo) / lo) * BAND_BINS_PER_DECADE).astype(np.int64) + 1
+    idx[x < lo] = 0
+    np.clip(idx, 0, nb - 1, out=idx)
+    idx -= x < _BAND_EDGES[idx]
+    idx += (x >= _BAND_EDGES[idx + 1]) & (idx < nb - 1)
+    flat = np.broadcast_to(((np.arange(m)[:, None] * k + np.arange(k)[None, :]) * nb)[None], series.shape)[ok] + idx
+    dense = np.bincount(flat, minlength=m * k * nb)
+    cells = np.flatnonzero(dense)
+    return cells.astype(np.int32), dense[cells].astype(np.int32)
 
 
 def band_quantiles(counts, q=BAND_PERCENTILES) -> np.ndarray:

@@ -353,3 +353,14 @@ def test_field_training_gain_spread(field_root):
     cvs = [g.std / g.mean for g in res.gains if g.calibration == "GC"]
     assert 0 < spread < 1.2 * max(cvs)
     assert abs(mismatch) < spread
+
+
+def test_band_binning_equals_a_search_over_the_edges():
+    # the log-based bin index against numpy's searchsorted over the edges, values on the edges included
+    rng = np.random.default_rng(1)
+    x = np.concatenate([10 ** rng.uniform(-8, 5, 20000), mc._BAND_EDGES, [0.0, np.nan, 1e6]])
+    cells, counts = mc._band_counts(x.reshape(-1, 1, 1))
+    nb = mc._BAND_EDGES.size - 1
+    ref = np.bincount(np.clip(np.searchsorted(mc._BAND_EDGES, x[np.isfinite(x)], side="right") - 1, 0, nb - 1),
+                      minlength=nb)
+    assert np.array_equal(cells, np.flatnonzero(ref)) and np.array_equal(counts, ref[ref > 0])
