@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import MorpiError
+from .resources import project_data
 
 __all__ = [
     "COLUMNS", "MIN_SAMPLES", "DATA_ENV", "Route", "Recording", "CatalogueEntry",
@@ -37,7 +38,7 @@ MIN_SAMPLES = 100
 #: Environment variable naming the dataset root.
 DATA_ENV = "MORPI_DATA"
 #: Folder of the small files this project owns (ground truth, checksums).
-PROJECT_DATA = Path(__file__).resolve().parent.parent / "data"
+PROJECT_DATA = project_data()
 
 _HOW_TO_GET = (
     "get the field recordings with `morpi data fetch --dest DIR` (or clone the public "

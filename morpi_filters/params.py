@@ -27,11 +27,12 @@ from pathlib import Path
 import numpy as np
 
 from .errors import MorpiError
+from .resources import project_data
 
 __all__ = ["ErrorParams", "DEFAULTS", "REQUIRED", "load_params", "params_from_dict", "DEFAULT_PARAMS_FILE"]
 
 #: The committed parameter file of the analytical assessment.
-DEFAULT_PARAMS_FILE = Path(__file__).resolve().parent.parent / "data" / "assessment_params.json"
+DEFAULT_PARAMS_FILE = project_data() / "assessment_params.json"
 #: Keys every parameter file must have: name -> vector length (None for a scalar).
 REQUIRED = {"dv0_mps": 3, "ba_mps2": 3, "bg_radps": 3, "g_mps2": None}
 #: Optional keys and their defaults.
