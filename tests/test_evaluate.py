@@ -13,8 +13,6 @@ from morpi_filters import evaluate as ev
 from morpi_filters import simulate, units
 from morpi_filters.reporting import DataSource
 
-PAPER_TEX = Path(__file__).resolve().parents[1].parent / "shared" / "paper" / "morpi-paper.tex"
-PAPER_TEX_ALT = Path("/work/shared/paper/morpi-paper.tex")
 
 
 # ----------------------------------------------------------------------------- the paper's numbers
@@ -35,11 +33,8 @@ def _tex_table_numbers(tex: str, label: str) -> list[float]:
     return out
 
 
-def test_paper_cells_are_the_tex_tables():
-    path = PAPER_TEX if PAPER_TEX.is_file() else PAPER_TEX_ALT
-    if not path.is_file():
-        pytest.skip("paper source not available")
-    tex = path.read_text()
+def test_paper_cells_are_the_tex_tables(paper_tex):
+    tex = paper_tex.read_text()
     assert len(ev.PAPER_CELLS) == 32
     for table, label in ev.TABLES.items():
         ours = [c[5] for c in ev.PAPER_CELLS if c[0] == table]
