@@ -181,7 +181,7 @@ def _cmd_check(args):
 
 
 def _cmd_simulate(args):
-    from .simulate import write_dataset
+    from .synthetic import write_dataset
 
     root = write_dataset(args.out, seed=args.seed, runs_per_folder=args.runs_per_folder)
     print(f"synthetic dataset: {root}")
@@ -203,7 +203,7 @@ def _report_source(args):
     src = _field_source(args, required=False)
     if src is not None:
         return src
-    from .simulate import ensure_synthetic_dataset
+    from .synthetic import ensure_synthetic_dataset
 
     root = ensure_synthetic_dataset(Path(".morpi-cache") / f"synthetic-seed{args.seed}", seed=args.seed)
     return DataSource(root, synthetic=True, seed=args.seed)
