@@ -457,7 +457,7 @@ def _field_points(source):
 
     Each recording of ``s8/line_dataset`` is calibrated (GAC, the paper's best
     for INS) and integrated by the 3D and 2D strapdown over the robot's motion,
-    as the field evaluation does (:class:`morpi_filters.evaluate.FieldData`),
+    as the field evaluation does (:class:`morpi_filters.field.FieldData`),
     and compared with the route's end point.
 
     Returns
@@ -468,7 +468,7 @@ def _field_points(source):
     if source is None or source.root is None:
         return {}, "no data source configured, so no field end points are drawn"
     from . import dataset as ds
-    from .evaluate import FieldData
+    from .field import FieldData
 
     data = FieldData(source.root)
     recs = data.recordings("s8", "line_dataset", None)

@@ -105,13 +105,13 @@ def train_aided_tuning(data, train, method, mode, config, gain):
 
     Parameters
     ----------
-    data : evaluate.FieldData
+    data : field.FieldData
     train : (str, str)
         (phone, route) of the training set.
     method, mode : str
         MoRPI method and calibration.
     config : steps.StepConfig
-    gain : evaluate.Gain
+    gain : field.Gain
         The trained gain (mean used for the steps, std / mean as the gain
         error's 1 sigma).
 
