@@ -75,6 +75,7 @@ import numpy as np
 from . import _batch_ins as bi
 from .errors import MorpiError
 from .parallel import Progress, chunk_ranges, execute
+from .steps import weinberg_length
 from .units import DEG_S, G0, MPU6500, SensorSpec
 
 __all__ = [
@@ -345,7 +346,7 @@ def _weinberg_sums(sig: np.ndarray, peaks: np.ndarray) -> np.ndarray:
     out = np.empty((sig.shape[0], K))
     for j in range(K):
         w = sig[:, peaks[j]:peaks[j + 1] + 1]
-        out[:, j] = np.sqrt(np.sqrt(w.max(axis=1) - w.min(axis=1)))
+        out[:, j] = weinberg_length(w.max(axis=1), w.min(axis=1), 1.0)
     return out
 
 
@@ -497,7 +498,7 @@ def _weinberg_terms(err, true, peaks):
     out = np.empty((err.shape[1], K))
     for j in range(K):
         win = err[peaks[j]:peaks[j + 1] + 1] + true[peaks[j]:peaks[j + 1] + 1, None]
-        out[:, j] = np.sqrt(np.sqrt(win.max(axis=0) - win.min(axis=0)))
+        out[:, j] = weinberg_length(win.max(axis=0), win.min(axis=0), 1.0)
     return out
 
 

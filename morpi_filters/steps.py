@@ -561,7 +561,7 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
     # max and min over each closed interval [bounds[j], bounds[j+1]] of the grid
     vmax = np.maximum(np.maximum.reduceat(amp, bounds[:-1])[:bounds.size - 1], amp[bounds[1:]])
     vmin = np.minimum(np.minimum.reduceat(amp, bounds[:-1])[:bounds.size - 1], amp[bounds[1:]])
-    weight = (vmax - vmin) ** 0.25
+    weight = weinberg_length(vmax, vmin, 1.0)
     st, et = grid[bounds[:-1]], grid[bounds[1:]]
     frac = np.ones_like(weight)
     if config.ends != "drop":
