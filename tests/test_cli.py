@@ -1,8 +1,10 @@
 """The `morpi` command: help, one-line errors, exit codes."""
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -11,6 +13,8 @@ from conftest import good_rows, write_rows
 
 
 def run(*args, cwd=None, env=None):
+    # The package under test is this checkout's, whatever the working directory and installation.
+    env = dict(os.environ if env is None else env, PYTHONPATH=str(Path(__file__).resolve().parent.parent))
     return subprocess.run([sys.executable, "-m", "morpi_filters.cli", *args], capture_output=True,
                           text=True, cwd=cwd, env=env)
 

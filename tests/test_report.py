@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+from pathlib import Path
 import re
 import subprocess
 import sys
@@ -17,7 +18,9 @@ SECTIONS = ("tables", "assessment", "curves", "montecarlo", "drift")
 def synthetic_report(tmp_path_factory):
     """`morpi report` in an empty folder with no dataset configured (a fresh machine's main job)."""
     cwd = tmp_path_factory.mktemp("fresh")
+    # The package under test is this checkout's, not whatever is installed.
     env = {k: v for k, v in os.environ.items() if k != "MORPI_DATA"}
+    env["PYTHONPATH"] = str(Path(__file__).resolve().parent.parent)
     r = subprocess.run([sys.executable, "-m", "morpi_filters.cli", "report", "--runs", "200"],
                        cwd=cwd, env=env, capture_output=True, text=True)
     assert r.returncode == 0, r.stderr[-2000:]
