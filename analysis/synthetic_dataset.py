@@ -7,7 +7,7 @@ Usage (from the project root)::
 The run is the short indoor route (6.3 m, 1 m periods) driven as in the synthetic
 dataset (lateral amplitude 0.1 m x DATASET_OPTIONS["amplitude_factor"]): the phone's
 irregular or regular time stamps, turn-on biases at the realistic fraction of the
-datasheet (simulate.REALISTIC_BIAS_FRACTION), white noise, mounting misalignment, motion
+datasheet (synthetic.REALISTIC_BIAS_FRACTION), white noise, mounting misalignment, motion
 vibration and bias instability. The same run is integrated three ways: 3D INS on the
 noise-free readings (integration error only), 3D and 2D INS on the noisy readings (the
 drift the paper's raw-data INS baselines show).
@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from morpi_filters import plots, simulate, units
+from morpi_filters import plots, simulate, synthetic, units
 from morpi_filters.strapdown import ins2d, ins3d
 
 
@@ -32,10 +32,10 @@ def main(argv=None) -> None:
 
     rng = np.random.default_rng(args.seed)
     spec = units.sensor_for_phone(args.phone)
-    opts = simulate.DATASET_OPTIONS
+    opts = synthetic.DATASET_OPTIONS
     amplitude = 0.1 * opts["amplitude_factor"]          # as the dataset drives the 0.1 m route
     traj = simulate.route_trajectory("short_distance", amplitude=amplitude, t0=0.4)
-    noisy = simulate.imu(traj, spec, rng, sampling=args.phone, bias_scale=simulate.REALISTIC_BIAS_FRACTION[args.phone],
+    noisy = simulate.imu(traj, spec, rng, sampling=args.phone, bias_scale=synthetic.REALISTIC_BIAS_FRACTION[args.phone],
                          misalignment=opts["misalignment"], vibration=opts["vibration"],
                          bias_instability=opts["bias_instability"], correlation_time=opts["correlation_time"])
     clean = simulate.imu(traj, spec, rng, sampling=noisy.time, bias_scale=0.0, noise_scale=0.0)

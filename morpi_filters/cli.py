@@ -292,7 +292,7 @@ def _cmd_check(args):
 
 
 def _cmd_simulate(args):
-    from .simulate import write_dataset
+    from .synthetic import write_dataset
 
     _clean_stale(args.out.parent)
     root = write_dataset(args.out, seed=args.seed, runs_per_folder=args.runs_per_folder)
@@ -322,7 +322,7 @@ def _report_source(args):
     src = _field_source(args, required=False)
     if src is not None:
         return src
-    from .simulate import ensure_synthetic_dataset
+    from .synthetic import ensure_synthetic_dataset
 
     root = ensure_synthetic_dataset(CACHE_DIR / f"synthetic-seed{args.seed}", seed=args.seed)
     return DataSource(root, synthetic=True, seed=args.seed)

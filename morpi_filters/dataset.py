@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import DataError, MorpiError
+from .resources import project_data
 
 __all__ = [
     "COLUMNS", "MIN_SAMPLES", "ACCEL_LIMIT_MPS2", "GYRO_LIMIT_RADPS", "MAX_GAP_S", "TIME_LIMIT_S", "DATA_ENV", "Route", "Recording", "CatalogueEntry",
@@ -56,7 +57,7 @@ TIME_LIMIT_S = 1e8
 #: Environment variable naming the dataset root.
 DATA_ENV = "MORPI_DATA"
 #: Folder of the small files this project owns (ground truth, checksums).
-PROJECT_DATA = Path(__file__).resolve().parent.parent / "data"
+PROJECT_DATA = project_data()
 
 _HOW_TO_GET = (
     "get the field recordings with `morpi data fetch --dest DIR` (or clone the public "
@@ -496,7 +497,7 @@ def expected_layout(root) -> dict[str, int]:
     """The folders a dataset root should hold and their number of recordings.
 
     The MoRPI layout (:func:`layout`), except for a synthetic dataset written
-    by :func:`morpi_filters.simulate.write_dataset`, whose ``manifest.json``
+    by :func:`morpi_filters.synthetic.write_dataset`, whose ``manifest.json``
     lists its files (it may hold fewer runs per folder).
     """
     man = Path(root) / "manifest.json"

@@ -68,14 +68,17 @@ import numpy as np
 
 from . import dataset as ds
 from . import steps as st
-from . import units
 from .reporting import SectionSummary
 from .errors import DataError, MorpiError
+from .field import (
+    _MORPI_METHODS, LEVELED, RULES, SHORT_SETS, FieldData, Gain, Selection, _loo_vector, _train,
+    nested_rule_comparison, select_config,
+)
 
 __all__ = [
-    "TABLES", "PAPER_CELLS", "PAPER_COMPARISON", "CellSpec", "RunResult", "Cell", "Gain", "Selection",
-    "TablesResult", "FieldData", "select_config", "evaluate_tables", "report_tables", "SHORT_SETS",
-    "training_gain_spread", "nested_rule_comparison", "rule_sensitivity",
+    "TABLES", "PAPER_CELLS", "PAPER_COMPARISON", "CellSpec", "RunResult", "Cell",
+    "TablesResult", "evaluate_tables", "report_tables",
+    "training_gain_spread", "rule_sensitivity",
 ]
 
 # --------------------------------------------------------------------------- the paper's numbers
@@ -125,17 +128,7 @@ PAPER_COMPARISON = {
                        ("MoRPI-G", "INS-3D"): 48.5, ("MoRPI-G", "INS-2D"): 24.0, ("MoRPI-G", "MoRPI-A"): 1.27},
 }
 
-#: Short-route training/test sets: (phone, route, p2p).
-SHORT_SETS = (("s8", "short_distance", 1.0), ("s8", "short_distance_1.5p2p", 1.5), ("s6", "short_distance", 1.0))
-
 _INS_METHODS = ("INS-3D", "INS-2D")
-#: How the step rule is chosen (see :func:`evaluate_tables`).
-RULES = ("per_method", "joint")
-#: INS integration spans (see :class:`FieldData`).
-INS_SPANS = ("motion", "full")
-#: INS start that measures the tilt at rest instead of assuming a level phone (3D INS only).
-LEVELED = "GC+level"
-_MORPI_METHODS = tuple(st.METHODS)
 
 
 @dataclass(frozen=True)
@@ -268,55 +261,6 @@ class Cell:
 
 
 @dataclass(frozen=True)
-class Gain:
-    """A trained Weinberg gain.
-
-    Attributes
-    ----------
-    phone, route, method, calibration : str
-    mean, std : float
-        Over the training runs [m / unit^(1/4)] (unit: m/s^2 for MoRPI-A, rad/s for MoRPI-G).
-    per_run : tuple of float
-    files : tuple of str
-    skipped : tuple of str
-        One line per training file left out (unreadable, or no periodic motion).
-    """
-
-    phone: str
-    route: str
-    method: str
-    calibration: str
-    mean: float
-    std: float
-    per_run: tuple
-    files: tuple
-    skipped: tuple = ()
-
-
-@dataclass(frozen=True)
-class Selection:
-    """The step rule chosen on the train runs for one method.
-
-    Attributes
-    ----------
-    method : str
-    config : StepConfig
-    score : float
-        Leave-one-out mean end-point error on the train runs [%].
-    trials : tuple of (StepConfig, float)
-        Every config scored, in the order tried.
-    n_train : int
-        Train runs used.
-    """
-
-    method: str
-    config: st.StepConfig
-    score: float
-    trials: tuple
-    n_train: int
-
-
-@dataclass(frozen=True)
 class TablesResult:
     """Everything :func:`evaluate_tables` computed.
 
@@ -354,424 +298,6 @@ class TablesResult:
 
 
 # --------------------------------------------------------------------------- data access with caches
-
-class FieldData:
-    """Lazy, cached access to a dataset root: recordings, calibrations, INS runs, step signals.
-
-    Every per-recording computation is done once and reused by all cells,
-    the gain training and the config search.
-
-    Parameters
-    ----------
-    root : path
-        Dataset root in the MoRPI layout.
-    include_test : bool
-        False hides every ``test`` folder (as if absent).
-    ins_span : str
-        ``"motion"``: the INS integrates from the start to the end of the
-        robot's motion (:func:`morpi_filters.steps.activity_span`, the rests
-        are left out; default); ``"full"``: the whole recording.
-    """
-
-    def __init__(self, root, *, include_test: bool = True, ins_span: str = "motion"):
-        if ins_span not in INS_SPANS:
-            raise MorpiError(f"ins_span={ins_span!r}: expected one of {INS_SPANS}")
-        self.ins_span = ins_span
-        self.root = Path(root)
-        self._entries = [e for e in ds.catalogue(self.root) if include_test or e.split != "test"]
-        self._rec: dict = {}
-        self._cal: dict = {}
-        self._prep: dict = {}
-        self._ins: dict = {}
-        self._steps: dict = {}
-        self._peaks: dict = {}
-        self._train_summaries: dict = {}
-
-    def entries(self, phone, route, split):
-        return [e for e in self._entries if (e.phone, e.route, e.split) == (phone, route, split)]
-
-    def folders(self) -> set:
-        return {(e.phone, e.route, e.split) for e in self._entries}
-
-    def recordings(self, phone, route, split) -> list:
-        """The recordings of a folder that load cleanly (see :meth:`load_errors` for the others)."""
-        out = []
-        for e in self.entries(phone, route, split):
-            if e.relpath not in self._rec:
-                try:
-                    self._rec[e.relpath] = e.load()
-                except MorpiError as exc:
-                    self._rec[e.relpath] = exc
-            r = self._rec[e.relpath]
-            if not isinstance(r, MorpiError):
-                out.append(r)
-        return out
-
-    def load_errors(self, phone, route, split) -> list[str]:
-        """One line per file of the folder that could not be loaded."""
-        self.recordings(phone, route, split)
-        return [str(self._rec[e.relpath]) for e in self.entries(phone, route, split)
-                if isinstance(self._rec[e.relpath], MorpiError)]
-
-    def relpath(self, rec) -> str:
-        """The recording's path relative to the root (its source when outside)."""
-        key = (rec.source, "relpath")
-        if key not in self._rec:
-            try:
-                self._rec[key] = Path(rec.source).relative_to(self.root).as_posix()
-            except ValueError:
-                self._rec[key] = rec.source
-        return self._rec[key]
-
-    def rest_window(self, rec):
-        """The initial rest window (calibration.detect_rest), found once per recording."""
-        from .calibration import detect_rest
-
-        key = (rec.source, "rest")
-        if key not in self._cal:
-            self._cal[key] = detect_rest(rec)
-        return self._cal[key]
-
-    def rest_specific_force(self, rec) -> np.ndarray:
-        """Mean specific force over the initial rest window, body axes [m/s^2], shape (3,)."""
-        w = self.rest_window(rec)
-        return rec.f[w.i0:w.i1].mean(axis=0)
-
-    def calibrated(self, rec, mode: str):
-        """(calibrated Recording, Calibration) for RD | GC | GAC."""
-        from .calibration import calibrate
-
-        key = (rec.source, mode)
-        if key not in self._cal:
-            if mode == "RD":
-                cal = calibrate(rec, mode)
-                self._cal[key] = (rec, cal)
-            else:
-                cal = calibrate(rec, mode, window=self.rest_window(rec))
-                self._cal[key] = (cal.apply(rec), cal)
-        return self._cal[key]
-
-    def rest_end(self, rec) -> float:
-        """End time of the initial rest window [s]."""
-        return float(self.rest_window(rec).end_s)
-
-    def prepared(self, rec, mode: str, method: str, cutoff_hz):
-        # RD and GC differ by a constant on omega_z and not at all on f_y. A constant offset changes
-        # neither the peaks, the prominence threshold (relative to the signal's range) nor any
-        # max - min, so the signal part is shared between RD and GC; the heading is the calibration's
-        key = (rec.source, mode, method, cutoff_hz)
-        if key not in self._prep:
-            crec, _ = self.calibrated(rec, mode)
-            motion = self._motion(rec, method)
-            other = (rec.source, "GC" if mode == "RD" else "RD", method, cutoff_hz)
-            if other in self._prep and mode in ("RD", "GC"):
-                from dataclasses import replace
-
-                self._prep[key] = replace(self._prep[other], heading=st.integrate_heading(crec.time, crec.omega[:, 2]))
-            else:
-                self._prep[key] = st.prepare_signal(crec, method, cutoff_hz, motion=motion)
-        return self._prep[key]
-
-    def _motion(self, rec, method):
-        # the span is measured from the deviation from the rest mean, so a constant bias does not change it:
-        # one span per recording and method serves RD and GC
-        key = (rec.source, method, "motion")
-        if key not in self._prep:
-            attr, col = st.METHODS[method]
-            self._prep[key] = st.motion_span(rec.time, getattr(rec, attr)[:, col], self.rest_end(rec))
-        return self._prep[key]
-
-    def steps(self, rec, mode, method, config):
-        key = (rec.source, mode, method, config)
-        if key not in self._steps:
-            try:
-                self._steps[key] = st.extract_steps(None, method, config,
-                                                    prepared=self.prepared(rec, mode, method, config.cutoff_hz),
-                                                    peak_cache=self._peaks)
-            except MorpiError as exc:
-                self._steps[key] = exc
-        out = self._steps[key]
-        if isinstance(out, MorpiError):
-            raise out
-        return out
-
-    def activity(self, rec) -> tuple:
-        """Start and end of the robot's motion [s] (gyro vibration)."""
-        key = (rec.source, "activity")
-        if key not in self._prep:
-            self._prep[key] = st.activity_span(rec.time, rec.omega)
-        return self._prep[key]
-
-    def ins(self, rec, mode: str, method: str, span: str | None = None):
-        """INS solution (InsResult) of a recording, 3D or 2D, over `span` (default: the instance's).
-
-        `mode` is RD, GAC (the paper's: level phone assumed) or :data:`LEVELED`
-        (3D only: GC gyro, initial roll and pitch from the rest specific force).
-        """
-        span = span or self.ins_span
-        key = (rec.source, mode, method, span)
-        if key not in self._ins:
-            from .strapdown import ins2d, ins3d
-
-            C0, g = None, units.G0
-            if mode == LEVELED:
-                # gyro zero-order calibration; the initial attitude from the rest specific force
-                # instead of the level assumption (the accelerometer bias stays in, read as tilt)
-                from .strapdown import coarse_level
-
-                crec, cal = self.calibrated(rec, "GC")
-                f_rest = self.rest_specific_force(rec)
-                C0, g = coarse_level(f_rest), float(np.linalg.norm(f_rest))
-            else:
-                crec, _ = self.calibrated(rec, mode)
-            if span == "motion":
-                a, b = self.activity(rec)
-                sl = slice(int(np.searchsorted(crec.time, a)), int(np.searchsorted(crec.time, b, side="right")))
-            else:
-                sl = slice(None)
-            t, f, w = crec.time[sl], crec.f[sl], crec.omega[sl]
-            if t.shape[0] < 2:
-                raise MorpiError(f"{rec.source}: no motion found for the INS")
-            if method == "INS-3D":
-                self._ins[key] = ins3d(t, f, w, C0=C0, g=g)
-            elif mode == LEVELED:
-                raise MorpiError(f"{rec.source}: the planar INS has no tilt to level; {LEVELED} is for INS-3D")
-            else:
-                self._ins[key] = ins2d(t, f, w)
-        return self._ins[key]
-
-
-    def tilt_leak(self, rec, mode: str) -> tuple[float, float]:
-        """Gravity that leaks into f_x through the tilt the 3D INS tracks, as the planar INS sees it.
-
-        The planar INS takes f_x as horizontal acceleration. The 3D solution's
-        attitude says how much of f_x is gravity, ``g C_bn[2, 0]``; integrated
-        twice over the motion span (from rest) it is the along-track error the
-        planar mechanization makes and the 3D one does not.
-
-        Returns
-        -------
-        tilt_deg : float
-            Mean of ``asin(C_bn[2, 0])`` over the motion [deg] (nose up positive).
-        leak_m : float
-            Double integral of ``g C_bn[2, 0]`` over the motion [m].
-        """
-        r3 = self.ins(rec, mode, "INS-3D")
-        s = np.clip(np.asarray(r3.C_bn)[:, 2, 0], -1.0, 1.0)
-        a = units.G0 * s
-        dt = np.diff(r3.time)
-        v = np.concatenate([[0.0], np.cumsum(0.5 * (a[1:] + a[:-1]) * dt)])
-        return float(np.degrees(np.mean(np.arcsin(s)))), float(np.sum(0.5 * (v[1:] + v[:-1]) * dt))
-
-# --------------------------------------------------------------------------- gain training and config search
-
-def _train(data: FieldData, phone, route, mode, method, config) -> Gain | None:
-    recs = data.recordings(phone, route, "train")
-    if not recs:
-        return None
-    truth = ds.route(route)
-    steps_list, files, skipped = [], [], list(data.load_errors(phone, route, "train"))
-    for r in recs:
-        try:
-            steps_list.append(data.steps(r, mode, method, config))
-            files.append(data.relpath(r))
-        except MorpiError as exc:
-            skipped.append(str(exc))
-    if not steps_list:
-        return None
-    mean, std, per = st.train_gain(steps_list, truth.distance_m)
-    return Gain(phone, route, method, mode, mean, std, tuple(float(g) for g in per), tuple(files), tuple(skipped))
-
-
-#: Coordinate search: first the readings (with the first tunables), then the tunables.
-READING_GRID = {"heading": ("absolute", "mean"), "segment": st.SEGMENTS, "ends": st.ENDS}
-TUNABLE_GRID = {"cutoff_hz": (1.0, 2.0, 3.0), "prominence": (0.2, 0.35, 0.5), "min_period_s": (0.5, 1.0)}
-_START = st.StepConfig(heading="absolute", segment="maxima", ends="drop", cutoff_hz=2.0, prominence=0.35,
-                       min_period_s=0.5)
-
-
-def _train_summary(data: FieldData, method, config, mode="GC"):
-    """Per short-route set, the train runs reduced to what a gain and an end point need.
-
-    A tuple of ``(truth, relpaths, g, u, loo)`` per set: ``g`` each run's own
-    gain (distance / effective weight), ``u`` the end point per unit gain
-    (``sum(weight * fraction * [cos, sin](heading))``, shape ``(n, 2)``), so that
-    a run dead-reckoned with gain ``G`` ends at ``G u``, and ``loo`` the runs'
-    leave-one-out errors (:func:`_loo_errors`; None below two runs). None if a
-    run fails. Cached on `data`.
-    """
-    key = (method, config, mode)
-    if key not in data._train_summaries:
-        out = []
-        for phone, route, _ in SHORT_SETS:
-            recs = data.recordings(phone, route, "train")
-            try:
-                sl = [data.steps(r, mode, method, config) for r in recs]
-            except MorpiError:
-                out = None
-                break
-            truth = ds.route(route)
-            g = np.array([truth.distance_m / s.effective_weight for s in sl])
-            u = np.array([[np.dot(s.weight * s.fraction, np.cos(s.heading)),
-                           np.dot(s.weight * s.fraction, np.sin(s.heading))] for s in sl]).reshape(-1, 2)
-            loo = _loo_errors(truth, g, u) if g.size >= 2 else None
-            out.append((truth, frozenset(data.relpath(r) for r in recs), tuple(data.relpath(r) for r in recs),
-                        g, u, loo))
-        data._train_summaries[key] = None if out is None else tuple(out)
-    return data._train_summaries[key]
-
-
-def _loo_errors(truth, g, u) -> np.ndarray:
-    """End-point errors [%] of each run with the mean gain of the others (leave-one-out)."""
-    gi = (g.sum() - g) / (g.size - 1)
-    return np.linalg.norm(gi[:, None] * u - truth.end_point_m, axis=1) / truth.distance_m * 100
-
-
-def _loo_vector(data: FieldData, method, config, mode="GC", exclude=frozenset()) -> np.ndarray | None:
-    """Per-run leave-one-out end-point errors [%] of the short-route train runs not in `exclude`.
-
-    In catalogue order; sets with fewer than two runs left give none. None if a run fails.
-    """
-    sets = _train_summary(data, method, config, mode)
-    if sets is None:
-        return None
-    errs = []
-    for truth, members, rels, g, u, loo in sets:
-        if members.isdisjoint(exclude):
-            if loo is not None:
-                errs.append(loo)
-            continue
-        keep = np.array([r not in exclude for r in rels], dtype=bool)
-        if keep.sum() >= 2:
-            errs.append(_loo_errors(truth, g[keep], u[keep]))
-    return np.concatenate(errs) if errs else np.empty(0)
-
-
-def _loo_score(data: FieldData, method, config, mode="GC", exclude=frozenset()) -> tuple[float, int]:
-    """Leave-one-out mean end-point error [%] over the short-route train runs not in `exclude`."""
-    errs = _loo_vector(data, method, config, mode, exclude)
-    if errs is None or not errs.size:
-        return float("inf"), 0
-    return float(np.mean(errs)), int(errs.size)
-
-
-def select_config(data: FieldData, methods=_MORPI_METHODS, *, exclude=()) -> Selection:
-    """Choose the step rule from the short-route train runs only.
-
-    A coordinate search: the paper's readings (heading absolute or mean over
-    the step; segments between maxima or extrema; partial end steps dropped,
-    fractional or whole) are scored with the start tunables, then each tunable
-    (low-pass cut-off, prominence fraction, least period) is scanned in turn
-    with the best readings. The score is the leave-one-out end-point error of
-    the train runs (GC calibration), averaged over `methods`: with both
-    methods (the default) one rule serves MoRPI-A and MoRPI-G, as the paper
-    extracts both "in the same manner". The heading reading "change" is not a
-    candidate: it cannot represent a turn (the L route), so it is reported as
-    an alternative only. Ties keep the earlier config.
-
-    Parameters
-    ----------
-    data : FieldData
-    methods : str or tuple of str
-        Methods whose train scores are averaged.
-    exclude : iterable of str
-        Train recordings (paths relative to the dataset root) to leave out,
-        as if absent; used by :func:`nested_rule_comparison`.
-    """
-    if isinstance(methods, str):
-        methods = (methods,)
-    exclude = frozenset(exclude)
-
-    def score(cfg):
-        vals = [_loo_score(data, m, cfg, exclude=exclude) for m in methods]
-        return float(np.mean([v for v, _ in vals])), int(sum(n for _, n in vals))
-
-    trials = []
-    best, best_score, n = _START, float("inf"), 0
-    keys = list(READING_GRID)
-    for combo in itertools.product(*(READING_GRID[k] for k in keys)):
-        cfg = _START.with_(**dict(zip(keys, combo)))
-        sc, n_ = score(cfg)
-        trials.append((cfg, sc))
-        if sc < best_score:
-            best, best_score, n = cfg, sc, n_
-    for k, values in TUNABLE_GRID.items():
-        base = best
-        for v in values:
-            cfg = base.with_(**{k: v})
-            if any(c == cfg for c, _ in trials):
-                continue
-            sc, n_ = score(cfg)
-            trials.append((cfg, sc))
-            if sc < best_score:
-                best, best_score, n = cfg, sc, n_
-    if not np.isfinite(best_score):
-        best = st.StepConfig()
-    return Selection("+".join(methods), best, best_score, tuple(trials), n)
-
-
-def nested_rule_comparison(data: FieldData) -> dict:
-    """Compare the two ways of choosing the step rule by nested leave-one-out on the train runs.
-
-    The train score of :func:`select_config` is measured on the runs the rule
-    was chosen on, so it favours the choice with more freedom: a rule per
-    method can never score worse than one rule for both. Here each train run
-    is held out in turn, the whole selection (per method, and joint) is
-    repeated on the remaining train runs, and the held-out run is
-    dead-reckoned with the chosen rule and the mean gain of the other runs of
-    its set. The mean held-out error estimates how each procedure does on
-    runs it has not seen. Only train folders are read.
-
-    Returns
-    -------
-    dict
-        ``rules``: rule -> method -> mean held-out end-point error [%];
-        ``mean``: rule -> mean over both methods [%]; ``difference_pp`` and
-        ``difference_se_pp``: joint minus per-method, paired over the held-out
-        runs, and its standard error; ``n_folds``; ``same_as_full``: rule ->
-        method -> fraction of folds whose chosen rule equals the one chosen
-        on all train runs; ``preferred``: the rule with the lower mean.
-    """
-    folds = [(phone, route, data.relpath(r)) for phone, route, _ in SHORT_SETS
-             for r in data.recordings(phone, route, "train")]
-    full = {"per_method": {m: select_config(data, m).config for m in _MORPI_METHODS}}
-    cj = select_config(data).config
-    full["joint"] = {m: cj for m in _MORPI_METHODS}
-    errs = {rule: {m: [] for m in _MORPI_METHODS} for rule in RULES}
-    same = {rule: {m: 0 for m in _MORPI_METHODS} for rule in RULES}
-    for phone, route, rel in folds:
-        chosen = {"per_method": {m: select_config(data, m, exclude=(rel,)).config for m in _MORPI_METHODS}}
-        cj = select_config(data, exclude=(rel,)).config
-        chosen["joint"] = {m: cj for m in _MORPI_METHODS}
-        k = [s[:2] for s in SHORT_SETS].index((phone, route))
-        for rule in RULES:
-            for m in _MORPI_METHODS:
-                cfg = chosen[rule][m]
-                same[rule][m] += cfg == full[rule][m]
-                sets = _train_summary(data, m, cfg)
-                if sets is None or sets[k][5] is None:
-                    errs[rule][m].append(np.nan)
-                    continue
-                rels, loo = sets[k][2], sets[k][5]
-                errs[rule][m].append(float(loo[rels.index(rel)]))
-    n = len(folds)
-    per_rule = {rule: np.nanmean([errs[rule][m] for m in _MORPI_METHODS], axis=0) for rule in RULES}
-    d = per_rule["joint"] - per_rule["per_method"]
-    d = d[np.isfinite(d)]
-    mean = {rule: float(np.nanmean(per_rule[rule])) if n else None for rule in RULES}
-    return {
-        "rules": {rule: {m: float(np.nanmean(errs[rule][m])) if n else None for m in _MORPI_METHODS}
-                  for rule in RULES},
-        "mean": mean,
-        "difference_pp": float(d.mean()) if d.size else None,
-        "difference_se_pp": float(d.std(ddof=1) / np.sqrt(d.size)) if d.size > 1 else None,
-        "n_folds": n,
-        "same_as_full": {rule: {m: same[rule][m] / n if n else None for m in _MORPI_METHODS} for rule in RULES},
-        "preferred": min(RULES, key=lambda r: mean[r]) if n else None,
-        "folds": [{"file": rel, **{rule: {m: errs[rule][m][i] for m in _MORPI_METHODS} for rule in RULES}}
-                  for i, (_, _, rel) in enumerate(folds)],
-    }
-
 
 def rule_sensitivity(result: TablesResult) -> list[dict]:
     """How the step rules the search tried move the short-route GC cells.
@@ -1451,7 +977,7 @@ def _page(res, payload, source, figures, fmt, md_table) -> str:
                        f"signal range, least period {c.min_period_s:g} s (train leave-one-out error "
                        f"{fmt(s.score)} % over {s.n_train} train runs).")
     L += ["## Step rule (chosen on the train runs only)", "",
-          "The readings and thresholds are picked by `evaluate.select_config`: a coordinate search scored by the "
+          "The readings and thresholds are picked by `field.select_config`: a coordinate search scored by the "
           "leave-one-out end-point error of the short-route train runs (GC); test folders never enter. "
           "Each method gets its own rule: the search runs once per method on that method's train error, "
           "and a rule per method never has a higher train error than one rule for both (it has more "
@@ -1479,7 +1005,7 @@ def _page(res, payload, source, figures, fmt, md_table) -> str:
     nest = payload["step_rule_nested"]
     if nest["n_folds"]:
         L += ["**Nested check of that choice.** The train error above is measured on the runs each rule was "
-              "chosen on, which favours the rule with more freedom. `evaluate.nested_rule_comparison` holds out "
+              "chosen on, which favours the rule with more freedom. `field.nested_rule_comparison` holds out "
               "each train run in turn, repeats the whole search (per method, and joint) on the other train runs, "
               "and dead-reckons the held-out run with the rule found. Held-out error over "
               f"{nest['n_folds']} train runs: per method {fmt(nest['mean']['per_method'])} % "

@@ -59,7 +59,7 @@ Pieces from other modules
     :func:`morpi_filters.strapdown.ins3d` / ``ins2d`` and evaluates
     :func:`morpi_filters.symbolic.closed_form_errors`. The gain-error study
     propagates the INS errors of its level straight line with a specialised
-    kernel (:func:`_straight_errors_3d`, :func:`_straight_errors_2d`: a
+    kernel (:mod:`morpi_filters._batch_ins`: a
     quaternion attitude step vectorized over runs and trapezoid integration),
     because the general strapdown, which keeps every C_bn matrix, costs about
     8 times the drawing of the random numbers; the tests check the kernel
@@ -78,14 +78,16 @@ from __future__ import annotations
 import functools
 import hashlib
 import math
-import sys
 import time as _time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
+from . import _batch_ins as bi
 from .errors import MorpiError
+from .parallel import Progress, chunk_ranges, execute
+from .steps import weinberg_length
 from .units import DEG_S, G0, MPU6500, SensorSpec
 
 __all__ = [
@@ -309,111 +311,6 @@ def digest(final: np.ndarray) -> str:
     return hashlib.sha256(a.tobytes(order="C")).hexdigest()
 
 
-# ----------------------------------------------------------------------------- progress
-
-class _Progress:
-    """A one-line progress indicator on stderr (rewritten in place on a terminal)."""
-
-    def __init__(self, total: int, label: str, enabled: bool):
-        self.total, self.label, self.enabled = total, label, enabled
-        self.done = 0
-        self.t0 = _time.perf_counter()
-        self.tty = enabled and hasattr(sys.stderr, "isatty") and sys.stderr.isatty()
-        self.last_tenth = -1
-
-    def update(self, k: int) -> None:
-        self.done += k
-        if not self.enabled:
-            return
-        frac = self.done / self.total
-        if self.tty:
-            sys.stderr.write(f"\r{self.label}: {self.done}/{self.total} runs ({100 * frac:3.0f} %)")
-            if self.done >= self.total:
-                sys.stderr.write(f" in {_time.perf_counter() - self.t0:.1f} s\n")
-            sys.stderr.flush()
-        else:
-            tenth = int(10 * frac)
-            if tenth > self.last_tenth:
-                self.last_tenth = tenth
-                print(f"{self.label}: {self.done}/{self.total} runs ({100 * frac:.0f} %)", file=sys.stderr)
-
-
-# ----------------------------------------------------------------------------- chunk execution
-
-def _chunks(runs: int, chunk: int):
-    return [(a, min(a + chunk, runs)) for a in range(0, runs, chunk)]
-
-
-def _execute(fn, payload, ranges, *, workers=1, scheduler=None, progress=None, reduce=None):
-    """Run ``fn(payload, a, b)`` for every range, in range order.
-
-    With `reduce`, each result is handed to ``reduce(result)`` in range order
-    as soon as it and every earlier one are done, and not kept (None is
-    returned); without it, the list of results is returned. `scheduler` is a
-    Dask scheduler address (or a ``distributed.Client``); otherwise `workers`
-    threads run the ranges locally.
-    """
-    kept = []
-    sink = reduce if reduce is not None else kept.append
-    if scheduler is not None:
-        _execute_dask(fn, payload, ranges, scheduler, progress, sink)
-    elif workers is None or workers <= 1 or len(ranges) == 1:
-        for a, b in ranges:
-            sink(fn(payload, a, b))
-            if progress:
-                progress.update(b - a)
-    else:
-        from concurrent.futures import ThreadPoolExecutor
-
-        with ThreadPoolExecutor(max_workers=int(workers)) as pool:
-            # at most 2 chunks per worker in flight, so finished chunks do not pile up
-            window = 2 * int(workers)
-            futs = {}
-            for i, (a, b) in enumerate(ranges):
-                futs[i] = pool.submit(fn, payload, a, b)
-                j = i - window + 1
-                if j >= 0:
-                    sink(futs.pop(j).result())
-                    if progress:
-                        progress.update(ranges[j][1] - ranges[j][0])
-            for j in sorted(futs):
-                sink(futs.pop(j).result())
-                if progress:
-                    progress.update(ranges[j][1] - ranges[j][0])
-    return kept if reduce is None else None
-
-
-def _execute_dask(fn, payload, ranges, scheduler, progress, sink):
-    try:
-        from distributed import Client, as_completed
-    except ImportError:  # pragma: no cover - depends on the installation
-        raise MorpiError("--scheduler: the Dask path needs dask[distributed] "
-                         "(pip install 'morpi_filters[dask]')") from None
-    own = not isinstance(scheduler, Client)
-    try:
-        client = Client(scheduler, timeout="10s") if own else scheduler
-    except OSError as exc:
-        raise MorpiError(f"--scheduler: cannot reach a Dask scheduler at {scheduler!r} ({exc})") from None
-    try:
-        [remote] = client.scatter([payload], broadcast=True)
-        futs = client.map(fn, [remote] * len(ranges), [a for a, _ in ranges], [b for _, b in ranges],
-                          pure=False)
-        index = {f.key: i for i, f in enumerate(futs)}
-        waiting, nxt = {}, 0
-        for f in as_completed(futs):
-            i = index[f.key]
-            waiting[i] = f.result()
-            f.release()
-            if progress:
-                progress.update(ranges[i][1] - ranges[i][0])
-            while nxt in waiting:          # hand results on in range order
-                sink(waiting.pop(nxt))
-                nxt += 1
-    finally:
-        if own:
-            client.close()
-
-
 # ----------------------------------------------------------------------------- trajectories
 
 @dataclass(frozen=True)
@@ -481,7 +378,7 @@ def _weinberg_sums(sig: np.ndarray, peaks: np.ndarray) -> np.ndarray:
     out = np.empty((sig.shape[0], K))
     for j in range(K):
         w = sig[:, peaks[j]:peaks[j + 1] + 1]
-        out[:, j] = np.sqrt(np.sqrt(w.max(axis=1) - w.min(axis=1)))
+        out[:, j] = weinberg_length(w.max(axis=1), w.min(axis=1), 1.0)
     return out
 
 
@@ -552,230 +449,6 @@ def _draw(seed: int, a: int, b: int, n: int) -> np.ndarray:
     return z
 
 
-def _quat_increments(wx, wy, wz, h):
-    """Attitude increments exp(omega h / 2) as quaternion planes (4 arrays like wx).
-
-    The half-angle x = |omega| h / 2 enters through Taylor series of cos x and
-    sin(x) / x to x^4 (truncation below x^6 / 720 <= 1.4e-15 for x <= 0.01,
-    i.e. |omega| <= 2 rad/s at 100 Hz); elements with a larger x are
-    recomputed with sin/cos. The rule is elementwise, so the result of a run
-    does not depend on its neighbours in the chunk.
-    """
-    x2 = wx * wx
-    x2 += wy * wy
-    x2 += wz * wz
-    x2 *= 0.25 * h * h
-    c = x2 * (1 / 24)
-    c -= 0.5
-    c *= x2
-    c += 1
-    k = x2 * (1 / 120)
-    k -= 1 / 6
-    k *= x2
-    k += 1
-    big = x2 > 1e-4
-    if big.any():
-        x = np.sqrt(x2[big])
-        c[big] = np.cos(x)
-        k[big] = np.sin(x) / x
-    k *= 0.5 * h
-    return c, k * wx, k * wy, k * wz
-
-
-def _attitude_blocks(wx, wy, wz, h, block: int = 64):
-    """Quaternions of body-to-n from rest, q_{k+1} = q_k (x) exp(omega_k h / 2), block by block.
-
-    Time-major planes (n, R) of the rate held over each of the n intervals.
-    Yields ``(k0, q)`` with q of shape (m, 4, R) holding rows k0 .. k0+m-1 of
-    the n + 1 attitudes; consecutive blocks cover every row once. Each step is
-    a matrix-vector product with the 4x4 right-multiplication matrix of the
-    increment: one multiply and three adds, elementwise over runs in a fixed
-    order, so a run's result does not depend on the chunk size (einsum's
-    does). Working block by block keeps the data in cache for the caller.
-    """
-    n, R = wx.shape
-    M = np.empty((block, 4, 4, R))
-    tmp = np.empty((4, 4, R))
-    Q = np.empty((block + 1, 4, R))
-    Q[0] = 0.0
-    Q[0, 0] = 1.0
-    for k0 in range(0, n, block):
-        k1 = min(k0 + block, n)
-        m = M[:k1 - k0]
-        p0, p1, p2, p3 = _quat_increments(wx[k0:k1], wy[k0:k1], wz[k0:k1], h)
-        # rows of M(p) with q (x) p = M(p) q (Hamilton product, scalar first)
-        for i, row in enumerate(((p0, -1, p1, -1, p2, -1, p3), (p1, 1, p0, 1, p3, -1, p2),
-                                 (p2, -1, p3, 1, p0, 1, p1), (p3, 1, p2, -1, p1, 1, p0))):
-            m[:, i, 0] = row[0]
-            for j, (sign, val) in enumerate(zip(row[1::2], row[2::2]), start=1):
-                if sign > 0:
-                    m[:, i, j] = val
-                else:
-                    np.negative(val, out=m[:, i, j])
-        for j in range(k1 - k0):
-            # q_next[i] = ((M[i,0] q[0] + M[i,1] q[1]) + M[i,2] q[2]) + M[i,3] q[3]
-            np.multiply(m[j], Q[j][None], out=tmp)
-            nxt = Q[j + 1]
-            np.add(tmp[:, 0], tmp[:, 1], out=nxt)
-            nxt += tmp[:, 2]
-            nxt += tmp[:, 3]
-        last = k1 == n
-        yield k0, Q[:k1 - k0 + (1 if last else 0)]
-        Q[0] = Q[k1 - k0]
-
-
-def _attitude(wx, wy, wz, h, block: int = 64):
-    """All n + 1 quaternions (n + 1, 4, R) of :func:`_attitude_blocks`."""
-    return np.concatenate([q.copy() for _, q in _attitude_blocks(wx, wy, wz, h, block)], axis=0)
-
-
-def _prefix_rows(a, out):
-    """out[0] = 0, out[k] = a[0] + ... + a[k-1] along axis 0 of time-major (n, R) planes.
-
-    A loop of row additions: the same sequential sums as ``np.cumsum(axis=0)``
-    but about 2.5 times faster on (n, R) planes, whose column-wise
-    accumulation numpy runs with strided access.
-    """
-    out[0] = 0.0
-    for k in range(1, out.shape[0]):
-        np.add(out[k - 1], a[k - 1], out=out[k])
-    return out
-
-
-def _cos_sin(psi, block: int = 32):
-    """cos and sin of time-major angles (n, R), exact trig only every `block` rows.
-
-    Within a block, ``cos(b + d) = cos b cos d - sin b sin d`` (and likewise
-    sin) with the offset d from the block's first row through Taylor series
-    to d^10 (truncation below d^12 / 12! <= 1e-17 for |d| <= 0.2); elements
-    with a larger offset are recomputed with cos/sin (an elementwise rule).
-    About three times faster than ``np.cos`` and ``np.sin`` of every element.
-    """
-    n, R = psi.shape
-    c, s = np.empty((n, R)), np.empty((n, R))
-    for k0 in range(0, n, block):
-        k1 = min(k0 + block, n)
-        base = psi[k0]
-        cb, sb = np.cos(base), np.sin(base)
-        d = psi[k0:k1] - base
-        d2 = d * d
-        cd = d2 * (-1 / 3628800)
-        sd = d2 * (-1 / 39916800)
-        for cc, ss in ((1 / 40320, 1 / 362880), (-1 / 720, -1 / 5040), (1 / 24, 1 / 120), (-1 / 2, -1 / 6)):
-            cd += cc
-            cd *= d2
-            sd += ss
-            sd *= d2
-        cd += 1
-        sd += 1
-        sd *= d
-        big = d2 > 0.04
-        if big.any():
-            cd[big] = np.cos(d[big])
-            sd[big] = np.sin(d[big])
-        np.multiply(cb, cd, out=c[k0:k1])
-        c[k0:k1] -= sb * sd
-        np.multiply(sb, cd, out=s[k0:k1])
-        s[k0:k1] += cb * sd
-    return c, s
-
-
-def _double_integral_at(a, h, keep):
-    """Trapezoid double integral from rest, at rows `keep`: (len(keep), R).
-
-    ``v_{k+1} = v_k + h (a_k + a_{k+1}) / 2`` and
-    ``p_{k+1} = p_k + v_k h + h^2 (a_k / 3 + a_{k+1} / 6)`` (a linear in each
-    interval), evaluated in closed form from two prefix sums:
-    ``p_k = h^2 (Q_k + P_k + a_k / 6 - a_0 (k / 2 + 1 / 6))`` for k >= 1, with
-    ``P_k = sum_{i<k} a_i`` and ``Q_k = sum_{j<k} P_j``.
-    """
-    n, R = a.shape
-    P = np.empty((n, R))
-    _prefix_rows(a, P)
-    # Q at the kept rows only: sums of P between consecutive kept rows, then their running sum
-    kk = keep[keep > 0]
-    edges = np.r_[0, kk]
-    seg = np.add.reduceat(P[:kk[-1]], edges[:-1], axis=0)
-    Q = np.cumsum(seg, axis=0)
-    out = np.zeros((keep.size, R))
-    pos = keep > 0
-    out[pos] = Q
-    out[pos] += P[kk]
-    out[pos] += a[kk] / 6
-    out[pos] -= a[0] * (kk / 2 + 1 / 6)[:, None]
-    out *= h * h
-    return out
-
-
-def _straight_errors_3d(h, f, w, keep):
-    """Horizontal position of a 3D strapdown from rest, for a level straight line (C_bn = I).
-
-    The truth has C_bn = I and no rotation, so the horizontal position is the
-    double integral of ``C f`` with C propagated from the measured rates
-    (exact rotation by the trapezoid mean rate of each interval) and
-    trapezoid integration (:func:`_double_integral_at`);
-    the caller subtracts the same integral of the true ``f``. It agrees with
-    :func:`morpi_filters.strapdown.ins3d` to their O(dt) integration-rule
-    difference (tests/test_montecarlo.py).
-
-    Parameters
-    ----------
-    h : float
-        Sampling interval [s].
-    f, w : sequence of 3 ndarrays, shape (n, R)
-        Measured specific force [m/s^2] and angular rate [rad/s] planes, time-major.
-    keep : ndarray of int
-        Rows to return.
-
-    Returns
-    -------
-    x, y : ndarray, shape (len(keep), R)
-        Horizontal position from rest at the origin [m].
-    """
-    # trapezoid rate of each interval: h (w_k + w_k+1) / 2 = (h / 2) (w_k + w_k+1)
-    ws = [np.add(c[:-1], c[1:]) for c in w]
-    n, R = f[0].shape
-    ax, ay = np.empty((n, R)), np.empty((n, R))
-    for k0, q in _attitude_blocks(ws[0], ws[1], ws[2], 0.5 * h):
-        k1 = k0 + q.shape[0]
-        q0, q1, q2, q3 = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-        fx, fy, fz = f[0][k0:k1], f[1][k0:k1], f[2][k0:k1]
-        # C(q) f = f + 2 q0 (u x f) + 2 u x (u x f), u = (q1, q2, q3); horizontal rows only
-        cx = q2 * fz
-        cx -= q3 * fy
-        cy = q3 * fx
-        cy -= q1 * fz
-        cz = q1 * fy
-        cz -= q2 * fx
-        bx, by = ax[k0:k1], ay[k0:k1]
-        np.multiply(q2, cz, out=bx)
-        bx -= q3 * cy
-        bx += q0 * cx
-        bx *= 2
-        bx += fx
-        np.multiply(q3, cx, out=by)
-        by -= q1 * cz
-        by += q0 * cy
-        by *= 2
-        by += fy
-    del ws
-    return _double_integral_at(ax, h, keep), _double_integral_at(ay, h, keep)
-
-
-def _straight_errors_2d(f, psi, h, keep):
-    """Horizontal position of the planar INS from rest on the straight line (true heading 0).
-
-    `psi` (n, R) is the heading integrated from the measured z rate; f_x, f_y
-    are rotated by it and integrated twice. Planes as in :func:`_straight_errors_3d`.
-    """
-    c, s = _cos_sin(psi)
-    ax = c * f[0]
-    ax -= s * f[1]
-    ay = s * f[0]
-    ay += c * f[1]
-    return _double_integral_at(ax, h, keep), _double_integral_at(ay, h, keep)
-
-
 def _chunk(payload: _Payload, a: int, b: int) -> list:
     """Runs a..b-1 of every study of the payload from one draw of their random numbers.
 
@@ -809,7 +482,7 @@ def _chunk(payload: _Payload, a: int, b: int) -> list:
             err[c] += ba[:, c] if c < 3 else bg[:, c - 3]
         # heading error integrated from the gyro-z error (on the straight line: the whole heading)
         # (trapezoid: psi_k = h (sum_{i<k} w_i + (w_k - w_0) / 2))
-        psi = _prefix_rows(err[5], np.empty((n, R)))
+        psi = bi.prefix_rows(err[5], np.empty((n, R)))
         psi += 0.5 * err[5]
         psi -= 0.5 * err[5, 0]
         psi *= h
@@ -842,9 +515,9 @@ def _ins_errors(payload, err, psi, h, keep):
     err[2] += st.f_b[:, 2, None]
     f = [err[0], err[1], err[2]]
     w = [err[3], err[4], err[5]]
-    tx = _double_integral_at(st.f_b[:, 0, None], h, keep)            # (m, 1)
-    return [np.hypot(x - tx, y).T for x, y in (_straight_errors_3d(h, f, w, keep),
-                                                _straight_errors_2d(f, psi, h, keep))]
+    tx = bi.double_integral_at(st.f_b[:, 0, None], h, keep)            # (m, 1)
+    return [np.hypot(x - tx, y).T for x, y in (bi.straight_errors_3d(h, f, w, keep),
+                                                bi.straight_errors_2d(f, psi, h, keep))]
 
 
 def _study_chunk(payload, cfg, ins_e, dfa, dfg, trig, zg, R) -> dict:
@@ -952,7 +625,7 @@ def _weinberg_terms(err, true, peaks):
     out = np.empty((err.shape[1], K))
     for j in range(K):
         win = err[peaks[j]:peaks[j + 1] + 1] + true[peaks[j]:peaks[j + 1] + 1, None]
-        out[:, j] = np.sqrt(np.sqrt(win.max(axis=0) - win.min(axis=0)))
+        out[:, j] = weinberg_length(win.max(axis=0), win.min(axis=0), 1.0)
     return out
 
 
@@ -1059,10 +732,10 @@ def run_studies(runs: int, seed: int, configs, *, chunk: int | None = None, work
     gain_ref, cv = reference_gains(cfg)
     payload = _Payload(configs, seed, straight, sine, gain_ref, keep, bool(series))
     chunk = _default_chunk(n) if chunk is None else int(chunk)
-    ranges = _chunks(runs, min(chunk, runs))
-    prog = _Progress(runs, label, runs > 1000 if progress is None else progress)
+    ranges = chunk_ranges(runs, min(chunk, runs))
+    prog = Progress(runs, label, runs > 1000 if progress is None else progress)
     acc = [_Reduction(runs) for _ in configs]
-    _execute(_chunk, payload, ranges, workers=workers, scheduler=scheduler, progress=prog,
+    execute(_chunk, payload, ranges, workers=workers, scheduler=scheduler, progress=prog,
              reduce=lambda parts: [r.add(p) for r, p in zip(acc, parts)])
     out = []
     for c, red in zip(configs, acc):
@@ -1359,8 +1032,8 @@ def drift_map(gyro_bias=None, *, spec: SensorSpec = MPU6500, duration: float = 1
     payload = _DriftPayload(levels, z, t, keep, float(spec.accel_bias), G0)
     total = levels.size * draws
     chunk = max(1, _CHUNK_BYTES // (8 * 6 * n)) if chunk is None else int(chunk)
-    prog = _Progress(total, "drift study (gyro bias x time)", total > 1000 if progress is None else progress)
-    parts = _execute(_drift_chunk, payload, _chunks(total, min(chunk, total)), scheduler=scheduler, progress=prog)
+    prog = Progress(total, "drift study (gyro bias x time)", total > 1000 if progress is None else progress)
+    parts = execute(_drift_chunk, payload, chunk_ranges(total, min(chunk, total)), scheduler=scheduler, progress=prog)
     cat = {k: np.concatenate([p[k] for p in parts]).reshape(levels.size, draws, *parts[0][k].shape[1:])
            for k in parts[0]}
     return DriftMap(

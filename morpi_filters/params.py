@@ -31,12 +31,13 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ParameterError
+from .resources import project_data
 
 __all__ = ["ErrorParams", "DEFAULTS", "REQUIRED", "load_params", "params_from_dict", "DEFAULT_PARAMS_FILE",
            "BA_MAX_MPS2", "BG_MAX_RADPS", "DV0_MAX_MPS", "SPEED_MAX_MPS", "G_MIN_MPS2", "G_MAX_MPS2", "DG_MAX"]
 
 #: The committed parameter file of the analytical assessment.
-DEFAULT_PARAMS_FILE = Path(__file__).resolve().parent.parent / "data" / "assessment_params.json"
+DEFAULT_PARAMS_FILE = project_data() / "assessment_params.json"
 #: Keys every parameter file must have: name -> vector length (None for a scalar).
 REQUIRED = {"dv0_mps": 3, "ba_mps2": 3, "bg_radps": 3, "g_mps2": None}
 #: Optional keys and their defaults.

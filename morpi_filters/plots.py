@@ -260,7 +260,7 @@ def plot_aided_cells(cells, path):
 
     Parameters
     ----------
-    cells : sequence of curves.AidedCell
+    cells : sequence of field_aided.AidedCell
     path : path
         PNG destination.
     """

@@ -1,4 +1,7 @@
-"""Synthetic trajectories, IMU synthesis and a synthetic dataset in the field layout.
+"""Synthetic trajectories and IMU synthesis.
+
+The synthetic dataset in the field layout built from them is in
+:mod:`morpi_filters.synthetic`.
 
 Trajectories
     :func:`straight`, :func:`sine` and :func:`l_route` (and :func:`route_trajectory`
@@ -39,22 +42,6 @@ IMU synthesis
     batched on axis 0; every draw comes from the caller's ``rng`` (one
     Generator, or one per run so a run's draws do not depend on batching).
 
-Synthetic dataset
-    :func:`write_dataset` writes the field dataset's folder layout and CSV
-    format with seeded synthetic recordings; :func:`ensure_synthetic_dataset`
-    caches one and verifies it on reuse. Realism choices (all in
-    :data:`REALISTIC_BIAS_FRACTION` and :data:`DATASET_OPTIONS`): turn-on
-    biases at a fraction of the datasheet 1 sigma (the field rest periods show
-    gyro offsets far below the datasheet's 3 and 6 deg/s), mounting tilt,
-    vibration while moving, bias instability, and run-to-run spread of speed,
-    period length and amplitude (a person drove the robot). Both phones
-    share the trajectory of each long-route run, as in the field.
-
-    Known difference from the field files: the field S6 L-route recordings
-    read about 10 deg nose-down at the start and about 7 deg at the end,
-    while the route's ground truth (15 deg over the first 5 m, level after)
-    gives 15 deg and 0 deg here.
-
 References
 ----------
 .. [1] A. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
@@ -64,66 +51,19 @@ References
 """
 from __future__ import annotations
 
-import hashlib
-import json
 import math
-import os
-import shutil
-import tempfile
-import zlib
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 
 import numpy as np
 
 from . import dataset, units
-from .errors import MorpiError, ParameterError
+from .errors import MorpiError
 from .strapdown import rotvec_to_C
 
 __all__ = [
     "Trajectory", "ImuData", "straight", "sine", "l_route", "route_trajectory", "imu",
-    "sample_times", "write_dataset", "ensure_synthetic_dataset", "GENERATOR_VERSION",
-    "REALISTIC_BIAS_FRACTION", "DATASET_OPTIONS",
+    "sample_times",
 ]
-
-#: Version of the synthetic-dataset generator; a cached dataset with another version is rebuilt.
-#: Bump it whenever the written files change for the same seed.
-GENERATOR_VERSION = "4"
-
-#: Turn-on biases drawn in the synthetic dataset, as a fraction of the datasheet 1 sigma
-#: (accelerometer, gyro). The rest periods of the field recordings show per-axis gyro offsets of
-#: about 0.3-1.8 deg/s on the S8 and 0.3-0.6 deg/s on the S6, far below the datasheet's 3 and
-#: 6 deg/s, so drawing at the full datasheet sigma would make every synthetic run much worse
-#: than the field runs.
-REALISTIC_BIAS_FRACTION = {"s6": (0.25, 0.1), "s8": (0.25, 0.3)}
-
-#: Other realism settings of the synthetic dataset (see :func:`imu`):
-#:
-#: - ``misalignment``: 1-sigma mounting misalignment [rad]; the field rest periods show
-#:   1-4 deg of phone tilt.
-#: - ``vibration``: rms of the motion vibration (accelerometer [m/s^2], gyro [rad/s]).
-#: - ``bias_instability``, ``correlation_time``: Gauss-Markov bias (accelerometer [m/s^2],
-#:   gyro [rad/s]) and its correlation time [s]: the part a rest-period calibration cannot
-#:   remove, so a calibrated INS drifts by decimetres to metres over a straight recording.
-#:   The synthetic calibrated INS still drifts several times less than the paper's INS table
-#:   (real phones on a moving robot have more error sources than this model).
-#: - ``amplitude_factor``: scales the routes' ``amplitude_m``. The field recordings' z-rate
-#:   peaks (median 0.72 rad/s with 1 m periods, 0.99 rad/s with 1.5 m periods, S8) and
-#:   lateral specific-force peaks are 0.4-0.5 of those of a sine with the full amplitude at
-#:   the same pace: the robot's lateral excursion was about half the stated amplitude (as if
-#:   0.1 m were peak to peak).
-#: - ``speed_spread``, ``period_spread``, ``amplitude_spread``: run-to-run spread (1 sigma,
-#:   relative) of the driven speed, period length and amplitude (a person drove the robot).
-DATASET_OPTIONS = {
-    "misalignment": 1.5 * units.DEG,
-    "vibration": (0.12, 0.02),
-    "bias_instability": (0.03, 0.0015),
-    "correlation_time": 30.0,
-    "amplitude_factor": 0.5,
-    "speed_spread": 0.12,
-    "period_spread": 0.05,
-    "amplitude_spread": 0.12,
-}
 
 # typical driven speeds [m/s] along the centreline, from the paper's average durations over 6.3 m:
 # ~5 s straight, ~14.5 s with 1 m periods, ~11 s with 1.5 m periods (1 s ramps at both ends)
@@ -812,7 +752,7 @@ def imu(traj: Trajectory, spec: units.SensorSpec, rng, *, runs: int | None = Non
     bias_scale : float or (float, float)
         Turn-on bias 1 sigma as a fraction of the datasheet's (accelerometer,
         gyro). The datasheet figures are worst-case; see
-        :data:`REALISTIC_BIAS_FRACTION` for values matching the field data.
+        :data:`morpi_filters.synthetic.REALISTIC_BIAS_FRACTION` for values matching the field data.
     noise_scale : float
         Factor on both noise densities.
     accel_bias_rw, gyro_bias_rw : float
@@ -962,173 +902,3 @@ def _uniform(rng, rngs, shape):
     if rngs is None:
         return rng.random(shape)
     return np.stack([r.random(shape[1:]) for r in rngs])
-
-
-# --------------------------------------------------------------------------- synthetic dataset
-
-_MANIFEST = "manifest.json"
-
-
-def _seed_for(seed: int, *labels) -> np.random.SeedSequence:
-    """A child seed keyed by labels (stable, independent of the order files are written)."""
-    key = tuple(zlib.crc32(str(x).encode()) for x in labels)
-    return np.random.SeedSequence(entropy=int(seed), spawn_key=key)
-
-
-def _synthetic_run(seed: int, folder: str, run: int) -> tuple[dataset.Recording, dict]:
-    """Simulate run `run` (1-based) of a dataset folder such as ``s8/short_distance/train``."""
-    parts = folder.split("/")
-    phone, route_name = parts[0], parts[1]
-    split = parts[2] if len(parts) > 2 else None
-    r = dataset.route(route_name)
-    spec = units.sensor_for_phone(phone)
-    # both phones recorded the long route at once in the field: share its trajectory draws
-    traj_key = ("long_distance", split, run) if route_name == "long_distance" else (folder, run)
-    trng = np.random.default_rng(_seed_for(seed, "trajectory", *traj_key))
-    irng = np.random.default_rng(_seed_for(seed, "imu", folder, run))
-    o = DATASET_OPTIONS
-    jitter = trng.standard_normal(4)
-    if len(r.segments_m) == 2:
-        base = _L_SPEED
-    elif r.kind == "periodic":
-        base = _SPEED.get(r.p2p_m, _SPEED[1.0])
-    else:
-        base = _SPEED["straight"]
-    speed = base * math.exp(o["speed_spread"] * jitter[0])
-    kw = dict(speed=speed, rest=tuple(trng.uniform(3.0, 4.5, 2)), t0=float(trng.uniform(0.3, 0.5)))
-    if r.kind == "periodic":
-        kw["period"] = r.p2p_m * (1.0 + o["period_spread"] * float(np.clip(jitter[1], -2.5, 2.5)))
-        kw["amplitude"] = (r.amplitude_m * o["amplitude_factor"]
-                           * (1.0 + o["amplitude_spread"] * float(np.clip(jitter[2], -2.5, 2.5))))
-    traj = route_trajectory(route_name, **kw)
-    data = imu(traj, spec, irng, sampling=phone, bias_scale=REALISTIC_BIAS_FRACTION[phone],
-               misalignment=o["misalignment"], vibration=o["vibration"], bias_instability=o["bias_instability"],
-               correlation_time=o["correlation_time"])
-    rel = f"{folder}/{run}.csv"
-    rec = data.recording(source=rel, phone=phone, route=route_name, split=split)
-    info = dict(speed_m_s=speed, period_m=kw.get("period"), amplitude_m=kw.get("amplitude"),
-                distance_m=traj.distance, start_time=traj.start_time, stop_time=traj.stop_time)
-    return rec, info
-
-
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
-_README = """# Synthetic MoRPI dataset
-
-Seeded synthetic recordings in the layout and CSV format of the MoRPI field
-dataset (`time,f_x,f_y,f_z,g_x,g_y,g_z`; s, m/s^2, rad/s, phone axes, z up),
-written by `morpi simulate` (morpi_filters.simulate, generator version {version},
-seed {seed}). Routes follow `data/routes.json`; the S6 files have irregular
-time stamps like the field S6 files. Turn-on biases are drawn at a fraction of
-the datasheet 1 sigma (accelerometer, gyro): S6 {s6}, S8 {s8}. `manifest.json`
-lists every file's sha256 and the per-run speed, period and amplitude.
-"""
-
-
-def write_dataset(out, *, seed: int = 0, runs_per_folder: int | None = None) -> Path:
-    """Write a synthetic dataset in the field dataset's layout and CSV format.
-
-    Parameters
-    ----------
-    out : str or Path
-        Destination folder. It is built in a staging folder beside it and
-        renamed into place when complete; an existing folder is replaced only
-        if it is empty or was written by morpi (it has the manifest or the
-        ``.morpi-output`` marker), otherwise a ParameterError is raised
-        before anything is computed.
-    seed : int
-        Seed; each file draws from a child seed keyed by its folder and run,
-        so the output does not depend on the order files are written.
-    runs_per_folder : int, optional
-        Runs in every folder (default: as many as the field dataset,
-        ``data/routes.json`` "layout").
-
-    Returns
-    -------
-    Path
-        The dataset root (`out`).
-    """
-    out = Path(out)
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise MorpiError(f"seed: expected a non-negative integer, got {seed!r}")
-    if runs_per_folder is not None and (isinstance(runs_per_folder, bool) or
-                                        not isinstance(runs_per_folder, (int, np.integer)) or runs_per_folder < 1):
-        raise MorpiError(f"runs_per_folder: expected a positive integer, got {runs_per_folder!r}")
-    from .reporting import MARKER, check_output_dir, foreign_entry, new_stage_dir, remove_stale
-    if not (out.is_dir() and (out / _MANIFEST).is_file()):
-        bad = foreign_entry(out)
-        if bad is not None:
-            raise ParameterError(f"{out}: not a synthetic dataset (no {_MANIFEST}) and "
-                                 + ("not a folder" if bad == out else f"holds {bad.name}, which morpi did not write")
-                                 + "; refusing to replace it, expected a new or empty folder")
-        check_output_dir(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    remove_stale(out.parent)
-    stage = new_stage_dir(out)
-    try:
-        (stage / MARKER).write_text("Written by morpi simulate (synthetic dataset). The next run may replace "
-                                    "this folder; files added to it are then lost.\n")
-        files, runs_info = {}, {}
-        for folder, n_runs in sorted(dataset.layout().items()):
-            for run in range(1, (runs_per_folder or n_runs) + 1):
-                rec, info = _synthetic_run(int(seed), folder, run)
-                rel = f"{folder}/{run}.csv"
-                dataset.write_csv(stage / rel, rec)
-                files[rel] = _sha256(stage / rel)
-                runs_info[rel] = info
-        fr = REALISTIC_BIAS_FRACTION
-        (stage / "README.md").write_text(_README.format(version=GENERATOR_VERSION, seed=seed, s6=fr["s6"], s8=fr["s8"]))
-        files["README.md"] = _sha256(stage / "README.md")
-        manifest = dict(generator="morpi_filters.simulate", version=GENERATOR_VERSION, seed=int(seed),
-                        runs_per_folder=runs_per_folder, files=files, runs=runs_info)
-        from .reporting import write_json
-        write_json(stage / _MANIFEST, manifest)
-        if out.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".previous-{out.name}-{os.getpid()}-", dir=out.parent))
-            os.replace(out, old / out.name)
-            os.replace(stage, out)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(stage, out)
-    except BaseException:
-        shutil.rmtree(stage, ignore_errors=True)
-        raise
-    return out
-
-
-def _verify(root: Path, seed: int) -> bool:
-    try:
-        m = json.loads((root / _MANIFEST).read_text())
-    except (OSError, ValueError):
-        return False
-    if m.get("version") != GENERATOR_VERSION or m.get("seed") != seed or m.get("runs_per_folder") is not None:
-        return False
-    files = m.get("files", {})
-    present = {p.relative_to(root).as_posix() for p in root.rglob("*.csv")}
-    if present != {k for k in files if k.endswith(".csv")}:
-        return False
-    return all((root / rel).is_file() and _sha256(root / rel) == h for rel, h in files.items())
-
-
-def ensure_synthetic_dataset(cache_dir, *, seed: int = 0) -> Path:
-    """The synthetic dataset of `seed` in `cache_dir`, written once and verified on reuse.
-
-    Reuses the folder when its manifest has this seed and generator version,
-    it holds the full layout, and every file's sha256 matches; otherwise
-    (re)writes it with :func:`write_dataset`.
-
-    Returns
-    -------
-    Path
-        The dataset root.
-    """
-    cache_dir = Path(cache_dir)
-    if cache_dir.is_dir() and _verify(cache_dir, int(seed)):
-        return cache_dir
-    return write_dataset(cache_dir, seed=seed)

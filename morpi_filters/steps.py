@@ -73,7 +73,7 @@ METHODS = {"MoRPI-A": ("f", 1), "MoRPI-G": ("omega", 2)}
 class StepConfig:
     """Every tunable of the step pipeline.
 
-    The defaults are the MoRPI-A rule :func:`morpi_filters.evaluate.select_config`
+    The defaults are the MoRPI-A rule :func:`morpi_filters.field.select_config`
     picks from the train runs of the MoRPI field dataset; the MoRPI-G rule is
     :data:`DEFAULT_CONFIGS` ``["MoRPI-G"]``. A test keeps both in step with
     the search.
@@ -225,7 +225,7 @@ class MorpiTrack:
 
 # --------------------------------------------------------------------------- signals
 
-#: The step rule of each method that :func:`morpi_filters.evaluate.select_config`
+#: The step rule of each method that :func:`morpi_filters.field.select_config`
 #: picks on the field train runs (the defaults of :func:`extract_steps`).
 DEFAULT_CONFIGS = {
     "MoRPI-A": StepConfig(),
@@ -561,7 +561,7 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
     # max and min over each closed interval [bounds[j], bounds[j+1]] of the grid
     vmax = np.maximum(np.maximum.reduceat(amp, bounds[:-1])[:bounds.size - 1], amp[bounds[1:]])
     vmin = np.minimum(np.minimum.reduceat(amp, bounds[:-1])[:bounds.size - 1], amp[bounds[1:]])
-    weight = (vmax - vmin) ** 0.25
+    weight = weinberg_length(vmax, vmin, 1.0)
     st, et = grid[bounds[:-1]], grid[bounds[1:]]
     frac = np.ones_like(weight)
     if config.ends != "drop":

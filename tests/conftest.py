@@ -2,7 +2,8 @@
 
 The field dataset is found at ``$MORPI_DATA`` or ``../shared/morpi-dataset``.
 Tests that need it use the ``field_root`` fixture: they skip when it is absent,
-except when ``MORPI_REQUIRE_DATA=1`` (CI), where they fail.
+except when ``MORPI_REQUIRE_DATA=1`` (CI), where they fail. The paper's source
+(``$MORPI_PAPER`` or ``../shared/paper/``) is found the same way by ``paper_tex``.
 """
 from __future__ import annotations
 
@@ -31,6 +32,26 @@ def field_root():
             pytest.fail("field dataset missing: set MORPI_DATA or place it at ../shared/morpi-dataset")
         pytest.skip("field dataset not available")
     return root
+
+
+def _paper_tex():
+    env = os.environ.get("MORPI_PAPER")
+    for cand in ([Path(env)] if env else []) + [ROOT.parent / "shared" / "paper"]:
+        tex = cand / "morpi-paper.tex"
+        if tex.is_file():
+            return tex
+    return None
+
+
+@pytest.fixture(scope="session")
+def paper_tex():
+    """The paper's LaTeX source: ``$MORPI_PAPER/morpi-paper.tex`` or ``../shared/paper/``."""
+    tex = _paper_tex()
+    if tex is None:
+        if os.environ.get("MORPI_REQUIRE_DATA") == "1":
+            pytest.fail("paper source missing: set MORPI_PAPER or place it at ../shared/paper/morpi-paper.tex")
+        pytest.skip("paper source not available")
+    return tex
 
 
 @pytest.fixture(autouse=True)

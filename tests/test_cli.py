@@ -1,8 +1,10 @@
 """The `morpi` command: help, one-line errors, exit codes."""
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -11,6 +13,8 @@ from conftest import good_rows, write_rows
 
 
 def run(*args, cwd=None, env=None):
+    # The package under test is this checkout's, whatever the working directory and installation.
+    env = dict(os.environ if env is None else env, PYTHONPATH=str(Path(__file__).resolve().parent.parent))
     return subprocess.run([sys.executable, "-m", "morpi_filters.cli", *args], capture_output=True,
                           text=True, cwd=cwd, env=env)
 
@@ -99,7 +103,7 @@ def test_bad_parameters_exit_nonzero(argv, tmp_path):
 @pytest.mark.parametrize("argv", [["tables"], ["curves", "--times", "1"], ["montecarlo", "--runs", "2"]])
 def test_data_commands_stop_on_a_bad_recording(tmp_path, argv):
     """Every command that reads the recordings names a bad one and exits 1 (before computing anything)."""
-    from morpi_filters.simulate import write_dataset
+    from morpi_filters.synthetic import write_dataset
 
     root = write_dataset(tmp_path / "ds", seed=2, runs_per_folder=1)
     bad = root / "s6" / "L_line" / "1.csv"

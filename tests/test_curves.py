@@ -156,7 +156,7 @@ def test_field_straight_line_end_points(field_root):
 
 @pytest.mark.field
 def test_field_morpi_aided_ins_one_cell(field_root):
-    from morpi_filters.curves import field_aided_study
+    from morpi_filters.field_aided import field_aided_study
 
     label = "short_route s8 1 m MoRPI-A GC"
     (c,) = field_aided_study(field_root, labels={label})
@@ -170,7 +170,7 @@ def test_field_morpi_aided_ins_one_cell(field_root):
 @pytest.mark.field
 def test_aided_tunables_do_not_see_the_test_folders(field_root):
     """The same tunables with every test folder hidden (train runs only)."""
-    from morpi_filters.curves import train_aided_tuning
+    from morpi_filters.field_aided import train_aided_tuning
     from morpi_filters.evaluate import evaluate_tables
 
     picks = []

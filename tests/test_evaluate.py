@@ -12,11 +12,10 @@ from morpi_filters.errors import DataError
 
 from morpi_filters import dataset as ds
 from morpi_filters import evaluate as ev
+from morpi_filters import field as fd
 from morpi_filters import simulate, units
 from morpi_filters.reporting import DataSource
 
-PAPER_TEX = Path(__file__).resolve().parents[1].parent / "shared" / "paper" / "morpi-paper.tex"
-PAPER_TEX_ALT = Path("/work/shared/paper/morpi-paper.tex")
 
 
 # ----------------------------------------------------------------------------- the paper's numbers
@@ -37,11 +36,8 @@ def _tex_table_numbers(tex: str, label: str) -> list[float]:
     return out
 
 
-def test_paper_cells_are_the_tex_tables():
-    path = PAPER_TEX if PAPER_TEX.is_file() else PAPER_TEX_ALT
-    if not path.is_file():
-        pytest.skip("paper source not available")
-    tex = path.read_text()
+def test_paper_cells_are_the_tex_tables(paper_tex):
+    tex = paper_tex.read_text()
     assert len(ev.PAPER_CELLS) == 32
     for table, label in ev.TABLES.items():
         ours = [c[5] for c in ev.PAPER_CELLS if c[0] == table]
@@ -151,7 +147,7 @@ def test_gains_and_step_rule_do_not_see_the_test_folders(field_root, tmp_path):
             assert c.runs
 
 
-def _loo_by_tracking(data, method, config, sets=ev.SHORT_SETS, drop=()):
+def _loo_by_tracking(data, method, config, sets=fd.SHORT_SETS, drop=()):
     """Leave-one-out end-point errors [%] the long way: train_gain on the others, morpi_track on the run."""
     from morpi_filters import steps as st
     errs = []
@@ -170,23 +166,23 @@ def test_train_score_is_the_tracked_leave_one_out_error(field_root):
     # the search's vectorised score against dead-reckoning every held-out run with the tracker; the
     # same sums in another order, so they agree to rounding (rel 1e-12)
     from morpi_filters.steps import DEFAULT_CONFIGS
-    data = ev.FieldData(field_root, include_test=False)
+    data = fd.FieldData(field_root, include_test=False)
     drop = ("s6/short_distance/train/1.csv",)
     for m in ("MoRPI-A", "MoRPI-G"):
-        score, n = ev._loo_score(data, m, DEFAULT_CONFIGS[m])
+        score, n = fd._loo_score(data, m, DEFAULT_CONFIGS[m])
         ref = _loo_by_tracking(data, m, DEFAULT_CONFIGS[m])
         assert n == ref.size == 40 and score == pytest.approx(ref.mean(), rel=1e-12)
-        score, n = ev._loo_score(data, m, DEFAULT_CONFIGS[m], exclude=frozenset(drop))
+        score, n = fd._loo_score(data, m, DEFAULT_CONFIGS[m], exclude=frozenset(drop))
         ref = _loo_by_tracking(data, m, DEFAULT_CONFIGS[m], drop=drop)
         assert n == ref.size == 39 and score == pytest.approx(ref.mean(), rel=1e-12)
 
 
 def test_nested_rule_comparison_matches_a_search_without_the_held_out_run(field_root, tmp_path):
     from morpi_filters import steps as st
-    data = ev.FieldData(field_root, include_test=False)
-    nest = ev.nested_rule_comparison(data)
+    data = fd.FieldData(field_root, include_test=False)
+    nest = fd.nested_rule_comparison(data)
     assert nest["n_folds"] == 40 and len(nest["folds"]) == 40
-    for rule in ev.RULES:
+    for rule in fd.RULES:
         for m in ("MoRPI-A", "MoRPI-G"):
             assert nest["rules"][rule][m] == pytest.approx(np.mean([f[rule][m] for f in nest["folds"]]))
     # folds recomputed independently: the run's file is absent from a symlinked tree, the whole
@@ -202,11 +198,11 @@ def test_nested_rule_comparison_matches_a_search_without_the_held_out_run(field_
         run = next(r for r in data.recordings(phone, route, "train") if data.relpath(r) == rel)
         truth = ds.route(route)
         fold = next(f for f in nest["folds"] if f["file"] == rel)
-        for rule in ev.RULES:
+        for rule in fd.RULES:
             part = ev.evaluate_tables(tree, alternatives=False, rule=rule)
             for m in ("MoRPI-A", "MoRPI-G"):
                 cfg = part.selections[m].config
-                assert cfg == ev.select_config(data, m if rule == "per_method" else ev._MORPI_METHODS,
+                assert cfg == fd.select_config(data, m if rule == "per_method" else fd._MORPI_METHODS,
                                                exclude=(rel,)).config
                 gain = part.gain(phone, route, m, "GC").mean
                 end = st.morpi_track(data.steps(run, "GC", m, cfg), gain).end_point
@@ -216,7 +212,7 @@ def test_nested_rule_comparison_matches_a_search_without_the_held_out_run(field_
                   for f in nest["folds"]])
     assert nest["difference_pp"] == pytest.approx(d.mean())
     assert nest["difference_se_pp"] == pytest.approx(d.std(ddof=1) / np.sqrt(d.size))
-    assert nest["preferred"] == min(ev.RULES, key=lambda r: nest["mean"][r])
+    assert nest["preferred"] == min(fd.RULES, key=lambda r: nest["mean"][r])
 
 
 def test_rule_sensitivity_rows_agree_with_the_tables(field_root):
@@ -368,7 +364,7 @@ def test_planar_ins_overshoot_is_the_tilt_leak(field_root):
     against the 3D yaw, lateral leakage through roll) is second order, so the residual RMS must be
     under 10 % of the leak's RMS.
     """
-    from morpi_filters.evaluate import FieldData
+    from morpi_filters.field import FieldData
 
     data = FieldData(field_root)
     recs = data.recordings("s8", "line_dataset", None)

@@ -22,7 +22,7 @@ import pytest
 
 from morpi_filters import dataset as ds
 from morpi_filters import evaluate as ev
-from morpi_filters import simulate
+from morpi_filters import synthetic
 from morpi_filters.errors import DataError, MorpiError
 from morpi_filters.reporting import DataSource
 
@@ -368,7 +368,7 @@ def test_harmful_corruptions_are_rejected(tmp_path, kind):
 
 @pytest.fixture(scope="module")
 def tiny_dataset(tmp_path_factory):
-    return simulate.write_dataset(tmp_path_factory.mktemp("fuzz") / "ds", seed=4, runs_per_folder=2)
+    return synthetic.write_dataset(tmp_path_factory.mktemp("fuzz") / "ds", seed=4, runs_per_folder=2)
 
 
 TARGET = "s8/short_distance/test/1.csv"

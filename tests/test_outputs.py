@@ -247,12 +247,16 @@ def test_signal_ends_cleanly_and_keeps_the_previous_output(sig, code, word, tmp_
                           "--out", str(out)], env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         deadline = time.monotonic() + 60
-        while not list(tmp_path.glob(".staging-mc-*")):     # the run has started computing
+        while not list(tmp_path.glob(".staging-mc-*")):     # the outputs are staged
             assert p.poll() is None and time.monotonic() < deadline
             time.sleep(0.05)
-        time.sleep(0.5)
+        # the study is computing once its first progress line is out (its modules are imported by then:
+        # a SIGINT that lands inside an import is reported by Python itself, not by morpi)
+        first = p.stderr.readline()
+        assert "montecarlo gain-error study" in first and p.poll() is None, first
         p.send_signal(sig)
         _, err = p.communicate(timeout=60)
+        err = first + err
     finally:
         if p.poll() is None:
             p.kill()

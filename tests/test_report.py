@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+from pathlib import Path
 import re
 import subprocess
 import sys
@@ -19,6 +20,7 @@ SECTIONS = ("tables", "assessment", "curves", "montecarlo", "drift")
 def synthetic_report(tmp_path_factory):
     """`morpi report` in an empty folder with no dataset configured (a fresh machine's main job)."""
     cwd = tmp_path_factory.mktemp("fresh")
+    # The package under test is this checkout's, not whatever is installed.
     env = {k: v for k, v in os.environ.items() if k != "MORPI_DATA"}
     env["PYTHONPATH"] = str(ROOT)   # this checkout, not an installed copy
     r = subprocess.run([sys.executable, "-m", "morpi_filters.cli", "report", "--runs", "200"],

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from morpi_filters import dataset, simulate, units
+from morpi_filters import dataset, simulate, synthetic, units
 from morpi_filters.errors import MorpiError
 from morpi_filters.strapdown import ins2d, ins3d
 
@@ -251,7 +251,7 @@ def test_sampling_patterns_like_the_field_files():
 @pytest.fixture(scope="module")
 def small_dataset(tmp_path_factory):
     root = tmp_path_factory.mktemp("syn") / "ds"
-    return simulate.write_dataset(root, seed=3, runs_per_folder=1)
+    return synthetic.write_dataset(root, seed=3, runs_per_folder=1)
 
 
 def test_write_dataset_layout_and_check_tree(small_dataset, tmp_path):
@@ -270,10 +270,10 @@ def test_write_dataset_layout_and_check_tree(small_dataset, tmp_path):
         assert abs(np.linalg.norm(rec.f[:50].mean(axis=0)) - G) < 0.5
     assert not list(small_dataset.parent.glob(".staging-*"))
     # reproducible: same seed, same bytes; the run's file does not depend on how many runs are written
-    again = simulate.write_dataset(tmp_path / "again", seed=3, runs_per_folder=2)
+    again = synthetic.write_dataset(tmp_path / "again", seed=3, runs_per_folder=2)
     for e in entries:
         assert (again / e.relpath).read_bytes() == e.path.read_bytes()
-    other = simulate.write_dataset(tmp_path / "other", seed=4, runs_per_folder=1)
+    other = synthetic.write_dataset(tmp_path / "other", seed=4, runs_per_folder=1)
     assert (other / entries[0].relpath).read_bytes() != entries[0].path.read_bytes()
     # both phones recorded the long route at once: same trajectory draws
     m = json.loads((again / "manifest.json").read_text())["runs"]
@@ -285,7 +285,7 @@ def test_write_dataset_refuses_foreign_folder_and_cleans_up(tmp_path, monkeypatc
     foreign.mkdir()
     (foreign / "notes.txt").write_text("keep me")
     with pytest.raises(MorpiError, match="not a synthetic dataset"):
-        simulate.write_dataset(foreign, runs_per_folder=1)
+        synthetic.write_dataset(foreign, runs_per_folder=1)
     assert (foreign / "notes.txt").read_text() == "keep me"
     calls = []
     real_write = dataset.write_csv
@@ -298,30 +298,30 @@ def test_write_dataset_refuses_foreign_folder_and_cleans_up(tmp_path, monkeypatc
 
     monkeypatch.setattr(dataset, "write_csv", failing)
     with pytest.raises(RuntimeError):
-        simulate.write_dataset(tmp_path / "broken", runs_per_folder=1)
+        synthetic.write_dataset(tmp_path / "broken", runs_per_folder=1)
     assert not (tmp_path / "broken").exists()
     assert [p.name for p in tmp_path.iterdir()] == ["mine"]
 
 
 def test_ensure_synthetic_dataset_reuses_and_repairs(tmp_path, monkeypatch):
     cache = tmp_path / "cache"
-    root = simulate.ensure_synthetic_dataset(cache, seed=1)
+    root = synthetic.ensure_synthetic_dataset(cache, seed=1)
     files = sorted(root.rglob("*.csv"))
     assert len(files) == sum(dataset.layout().values())
-    real_write = simulate.write_dataset
+    real_write = synthetic.write_dataset
     calls = []
     def recording_write(*a, **k):
         calls.append(k.get("seed"))
         return real_write(*a, **k) if k.get("seed") == 1 else Path(a[0])   # seed 2: only note the call
 
-    monkeypatch.setattr(simulate, "write_dataset", recording_write)
-    simulate.ensure_synthetic_dataset(cache, seed=1)
+    monkeypatch.setattr(synthetic, "write_dataset", recording_write)
+    synthetic.ensure_synthetic_dataset(cache, seed=1)
     assert calls == []                                            # verified and reused
     original = files[5].read_bytes()
     files[5].write_bytes(original[:-20])                          # tamper with one file
-    simulate.ensure_synthetic_dataset(cache, seed=1)
+    synthetic.ensure_synthetic_dataset(cache, seed=1)
     assert len(calls) == 1 and files[5].read_bytes() == original  # regenerated, identical
-    simulate.ensure_synthetic_dataset(cache, seed=2)
+    synthetic.ensure_synthetic_dataset(cache, seed=2)
     assert calls == [1, 2]                                        # another seed: rebuilt
 
 
@@ -365,8 +365,8 @@ def test_cli_simulate_end_to_end(tmp_path):
     (lambda: simulate.imu(simulate.straight(), units.MPU6500, [np.random.default_rng(0)], runs=1, sampling="s6"),
      "sampling"),
     (lambda: simulate.route_trajectory("nowhere"), "route"),
-    (lambda: simulate.write_dataset("/tmp/never-written-x", seed=-1), "seed"),
-    (lambda: simulate.write_dataset("/tmp/never-written-x", runs_per_folder=0), "runs_per_folder"),
+    (lambda: synthetic.write_dataset("/tmp/never-written-x", seed=-1), "seed"),
+    (lambda: synthetic.write_dataset("/tmp/never-written-x", runs_per_folder=0), "runs_per_folder"),
 ])
 def test_bad_parameters_raise_naming_them(call, word):
     with pytest.raises(MorpiError) as exc:

@@ -1,0 +1,32 @@
+"""Files the project ships beside its code: the route catalogue, the
+assessment parameters and the dataset checksums.
+
+They live in the top-level ``data/`` folder of the source tree; the build maps
+that folder into the package as ``morpi_filters/data`` (see ``pyproject.toml``),
+so an installed wheel carries them. :func:`project_data` finds the folder in
+either layout through :mod:`importlib.resources`.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from importlib import resources
+from pathlib import Path
+
+__all__ = ["project_data"]
+
+
+@lru_cache(maxsize=None)
+def project_data() -> Path:
+    """Folder holding ``routes.json``, ``assessment_params.json`` and ``dataset_checksums.txt``.
+
+    Returns
+    -------
+    Path
+        ``morpi_filters/data`` inside an installed package, else the
+        ``data/`` folder next to the package in a source checkout.
+    """
+    packaged = resources.files(__package__) / "data"
+    if packaged.is_dir():
+        return Path(str(packaged))
+    return Path(__file__).resolve().parent.parent / "data"
