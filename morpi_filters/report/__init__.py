@@ -1,6 +1,7 @@
-"""Report pages: every markdown page, JSON payload and figure of ``reports/``.
+"""Report pages: the home of the markdown pages, JSON payloads and figures of ``reports/``.
 
-Studies return frozen results; the modules of this package turn them into
-files. Nothing here computes a study, and no module outside this package
-writes markdown or imports matplotlib.
+Studies return results; page writers turn them into files. Today the page
+writers still sit beside their studies (``evaluate.report_tables``,
+``curves.report_curves``, ``montecarlo.report_montecarlo`` and
+``report_drift``, ``assessment.report_assessment``) and move here one by one.
 """
