@@ -241,9 +241,11 @@ class FieldData:
         span = span or self.ins_span
         key = (rec.source, mode, method, span)
         if key not in self._ins:
+            from .calibration import LOCAL_GRAVITY
             from .strapdown import ins2d, ins3d
 
-            C0, g = None, units.G0
+            # the gravity the calibration assumed at rest (GAC leaves (0, 0, LOCAL_GRAVITY) there)
+            C0, g = None, LOCAL_GRAVITY
             if mode == LEVELED:
                 # gyro zero-order calibration; the initial attitude from the rest specific force
                 # instead of the level assumption (the accelerometer bias stays in, read as tilt)
@@ -288,7 +290,9 @@ class FieldData:
         """
         r3 = self.ins(rec, mode, "INS-3D")
         s = np.clip(np.asarray(r3.C_bn)[:, 2, 0], -1.0, 1.0)
-        a = units.G0 * s
+        from .calibration import LOCAL_GRAVITY
+
+        a = LOCAL_GRAVITY * s
         dt = np.diff(r3.time)
         v = np.concatenate([[0.0], np.cumsum(0.5 * (a[1:] + a[:-1]) * dt)])
         return float(np.degrees(np.mean(np.arcsin(s)))), float(np.sum(0.5 * (v[1:] + v[:-1]) * dt))

@@ -363,14 +363,14 @@ def weinberg_length(vmax, vmin, gain):
 
 
 def integrate_heading(time, omega_z, psi0: float = 0.0):
-    """Heading from the z angular rate, trapezoid rule on the real time steps [rad], shape (n,)."""
-    time = np.asarray(time, float)
-    w = np.asarray(omega_z, float)
-    out = np.empty_like(w)
-    out[0] = psi0
-    np.cumsum(0.5 * (w[1:] + w[:-1]) * np.diff(time), out=out[1:])
-    out[1:] += psi0
-    return out
+    """Heading from the z angular rate on the real time steps [rad], shape (n,).
+
+    The rule of the INS (:func:`morpi_filters.strapdown.integrate_rate`), so
+    MoRPI and the planar INS read the same gyro the same way.
+    """
+    from .strapdown import integrate_rate
+
+    return integrate_rate(time, omega_z, psi0)
 
 
 def motion_span(time, values, rest_end_time: float | None = None, *, threshold: float = 0.15,

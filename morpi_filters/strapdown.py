@@ -57,7 +57,7 @@ import numpy as np
 from . import units
 from .errors import MorpiError
 
-__all__ = ["InsResult", "ins3d", "ins2d", "heading_from_C", "rotvec_to_C", "yaw_to_C", "coarse_level"]
+__all__ = ["InsResult", "ins3d", "ins2d", "integrate_rate", "heading_from_C", "rotvec_to_C", "yaw_to_C", "coarse_level"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -275,6 +275,42 @@ def _increments(time, x):
     return 0.5 * (x[:, :-1] + x[:, 1:]) * dt + (d[:, :-1] - d[:, 1:]) * (dt * dt / 12.0), d
 
 
+def integrate_rate(time, rate, x0=0.0) -> np.ndarray:
+    """Running integral of a rate on the real time steps (heading from a yaw rate, for example).
+
+    Each interval integrates the cubic Hermite interpolant of the samples with
+    3-point slopes: ``x_k+1 = x_k + dt (r_k + r_k+1)/2 + dt^2 (r'_k - r'_k+1)/12``
+    (the trapezoid plus its end correction). The same rule integrates the
+    attitude increments of :func:`ins3d` and the heading of :func:`ins2d`.
+
+    Parameters
+    ----------
+    time : array_like, shape (n,)
+        Sample times [s], strictly increasing (n >= 2).
+    rate : array_like, shape (..., n)
+        Rate samples along the last axis [unit/s].
+    x0 : float or array_like, shape (...)
+        Value at ``time[0]`` [unit].
+
+    Returns
+    -------
+    ndarray, shape (..., n)
+        The integral [unit], ``x0`` at ``time[0]``.
+    """
+    time = _check_time(time)
+    r = np.asarray(rate, dtype=float)
+    if r.shape[-1:] != time.shape:
+        raise MorpiError(f"rate: expected the last axis to have {time.shape[0]} samples, got shape {r.shape}")
+    batch = r.shape[:-1]
+    rb = r.reshape(-1, time.shape[0])
+    x0b = np.broadcast_to(np.asarray(x0, dtype=float), batch).reshape(-1)
+    out = np.empty_like(rb)
+    out[:, 0] = x0b
+    np.cumsum(_increments(time, rb)[0], axis=1, out=out[:, 1:])
+    out[:, 1:] += x0b[:, None]
+    return out.reshape(r.shape)
+
+
 def _integrate_translation(time, a, v0, p0):
     """Velocity and position from navigation-frame accelerations.
 
@@ -439,10 +475,7 @@ def ins2d(time, f, omega, *, psi0=0.0, v0=None, p0=None) -> InsResult:
     v0b[:, 2] = 0.0
     p0b[:, 2] = 0.0
 
-    psi = np.empty((B, n))
-    psi[:, 0] = psi0b
-    np.cumsum(_increments(time, wz)[0], axis=1, out=psi[:, 1:])
-    psi[:, 1:] += psi0b[:, None]
+    psi = integrate_rate(time, wz, psi0b)
     c, s = np.cos(psi), np.sin(psi)
     a = np.zeros((B, n, 3))
     a[..., 0] = c * fb[..., 0] - s * fb[..., 1]
