@@ -49,9 +49,15 @@ from dataclasses import dataclass, replace
 from functools import lru_cache
 
 import numpy as np
-from scipy import signal as _sig
 
 from .errors import MorpiError
+
+
+def _signal():
+    """scipy.signal, imported on first use (the step length alone does not need it)."""
+    from scipy import signal
+
+    return signal
 
 __all__ = [
     "GRID_HZ", "HEADINGS", "SEGMENTS", "ENDS", "METHODS", "StepConfig", "Peaks", "Steps", "MorpiTrack",
@@ -252,7 +258,7 @@ def resample_uniform(time, values, rate_hz: float = GRID_HZ):
 
 @lru_cache(maxsize=64)
 def _butter(order: int, cutoff_hz: float, rate_hz: float):
-    return _sig.butter(order, cutoff_hz, btype="low", fs=rate_hz, output="sos")
+    return _signal().butter(order, cutoff_hz, btype="low", fs=rate_hz, output="sos")
 
 
 def _median(x) -> float:
@@ -267,7 +273,7 @@ def lowpass(x, cutoff_hz: float, rate_hz: float = GRID_HZ, order: int = 2):
     sos = _butter(int(order), float(cutoff_hz), float(rate_hz))
     if x.shape[0] <= 3 * (2 * sos.shape[0] + 1):
         return np.asarray(x, dtype=float)
-    return _sig.sosfiltfilt(sos, x, axis=0)
+    return _signal().sosfiltfilt(sos, x, axis=0)
 
 
 def detect_peaks(signal, time, *, min_period_s: float, min_prominence: float = 0.0,
@@ -334,7 +340,7 @@ def _detect(x, t, *, min_period_s, min_prominence, min_width_s=None, cutoff_hz=N
         kw["width"] = min_width_s * rate_hz
     if height is not None:
         kw["height"] = height
-    gi, props = _sig.find_peaks(g, **kw)
+    gi, props = _signal().find_peaks(g, **kw)
     idx = np.clip(np.searchsorted(t, grid[gi]), 0, t.shape[0] - 1)
     prev = np.clip(idx - 1, 0, None)
     idx = np.where(np.abs(t[prev] - grid[gi]) < np.abs(t[idx] - grid[gi]), prev, idx)
@@ -546,9 +552,9 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
     else:
         dist = max(1, int(round(config.min_period_s * GRID_HZ)))
         seg = g[i0:i1]
-        imax = _sig.find_peaks(seg, distance=dist, prominence=prom)[0] + i0
+        imax = _signal().find_peaks(seg, distance=dist, prominence=prom)[0] + i0
         if config.segment == "extrema":
-            imin = _sig.find_peaks(-seg, distance=dist, prominence=prom)[0] + i0
+            imin = _signal().find_peaks(-seg, distance=dist, prominence=prom)[0] + i0
             bounds = np.sort(np.concatenate([imax, imin]))
         else:
             bounds = imax
