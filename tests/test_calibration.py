@@ -126,7 +126,7 @@ def test_custom_gravity():
     rec, _ = synthetic(rng, g=9.81)
     gac = calibrate(rec, "GAC", g_local=9.81)
     np.testing.assert_allclose(gac.apply(rec).f[gac.window.i0:gac.window.i1].mean(axis=0),
-                               [0, 0, 9.81], rtol=0, atol=1e-12)
+                               [0, 0, 9.81], rtol=0, atol=1e-12)  # GAC subtracts the window mean: float rounding
 
 
 @pytest.mark.parametrize("kwargs, match", [(dict(mode="XYZ"), "mode='XYZ'"),
@@ -160,7 +160,7 @@ def test_summary_counts_and_shift():
     summary = rest_windows_summary([still, early, moving])
     assert (summary.n_total, summary.n_moving_early, summary.n_disturbed) == (3, 2, 0)
     a, b, c = summary.rows
-    assert a.method == "full" and a.motion_s == pytest.approx(3.5, abs=3 * 0.0125)
+    assert a.method == "full" and a.motion_s == pytest.approx(3.5, abs=3 * 0.0125)  # three time steps of at most 0.0125 s (the synthetic grid)
     # Same samples averaged twice (up to the last ~half sample): floating rounding only.
     assert a.gyro_shift < 1e-3 * SIG_G
     # With motion from 1.2 s the first 3 s average in the yaw-rate sine (0.6 rad/s amplitude, 0.05 offset):
@@ -204,7 +204,7 @@ def test_noise_free_recording():
     rec = Recording(time=t, f=f, omega=w, source="clean.csv")
     win = detect_rest(rec)
     assert win.method == "full" and win.motion_s == t[400]
-    np.testing.assert_allclose(calibrate(rec, "GC").gyro_bias, GYRO_BIAS, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(calibrate(rec, "GC").gyro_bias, GYRO_BIAS, rtol=0, atol=1e-15)  # mean of a constant bias: float rounding
 
 
 def test_blockwise_noise_sigma_is_the_per_block_one():

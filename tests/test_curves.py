@@ -27,9 +27,9 @@ def _write(tmp_path, **over):
 
 def test_time_grid_contains_requested_and_step_times():
     grid, steps, at = time_grid([0.0, 2.5, 3.333], 0.01, 0.7)
-    assert grid[0] == 0.0 and grid[-1] == pytest.approx(3.333)
-    assert np.allclose(grid[at], [0.0, 2.5, 3.333])
-    assert np.allclose(grid[steps], 0.7 * np.arange(1, 5))
+    assert grid[0] == 0.0 and grid[-1] == pytest.approx(3.333)  # pytest's default 1e-6 relative; the grid ends at the requested time up to rounding
+    assert np.allclose(grid[at], [0.0, 2.5, 3.333])  # requested times are inserted exactly; default tolerances cover the grid's rounding
+    assert np.allclose(grid[steps], 0.7 * np.arange(1, 5))  # step times 0.7 k are inserted exactly; default tolerances cover the grid's rounding
     assert np.all(np.diff(grid) > 0)
 
 
@@ -63,13 +63,13 @@ def test_closed_form_realisation_and_mean_square_by_hand():
     alpha = 9.81 + 0.03  # the paper's alpha = g + b_az for one realisation
     dx = 0.06 * 2 + 0.08 * 2 + alpha * 0.003 * 8 / 6
     dy = 0.03 * 2 + 0.03 * 2 - alpha * 0.002 * 8 / 6
-    assert e[0] == pytest.approx(np.hypot(dx, dy), rel=1e-12)
+    assert e[0] == pytest.approx(np.hypot(dx, dy), rel=1e-12)  # the norm of the same two components: float rounding
     case = case_from_params(p)
     # linearized mean square by hand (alpha = g), b_gz dropped
     ms = ((0.06 ** 2 + 0.03 ** 2) * 4 + (0.08 ** 2 + 0.03 ** 2) * 16 / 4
           + 9.81 ** 2 * (0.002 ** 2 + 0.003 ** 2) * 64 / 36)
-    assert closed_form_mean_square(case, t, "ins3d")[0] == pytest.approx(ms, rel=1e-12)
-    assert closed_form_mean_square(case, t, "morpi")[0] == pytest.approx((0.05 * 0.5 * 2) ** 2)
+    assert closed_form_mean_square(case, t, "ins3d")[0] == pytest.approx(ms, rel=1e-12)  # the same closed form through two call paths: float rounding
+    assert closed_form_mean_square(case, t, "morpi")[0] == pytest.approx((0.05 * 0.5 * 2) ** 2)  # (dG v t)^2 exactly; pytest's default 1e-6 relative
     with pytest.raises(MorpiError, match="kind"):
         closed_form_mean_square(case, t, "ins4d")
 

@@ -25,7 +25,7 @@ def test_slices_cover_the_state_once():
 def test_skew_is_the_cross_product():
     rng = np.random.default_rng(11)
     a, b = rng.normal(size=(4, 3)), rng.normal(size=(4, 3))
-    assert np.allclose(skew(a) @ b[..., None], np.cross(a, b)[..., None], atol=1e-15)
+    assert np.allclose(skew(a) @ b[..., None], np.cross(a, b)[..., None], atol=1e-15)  # cross product two ways on unit-scale vectors: float rounding
 
 
 def test_F_blocks_and_stack():
@@ -83,7 +83,7 @@ def test_discretize_double_integrator_closed_form():
     G = np.array([[0.0], [1.0]])
     q, dt = 0.7, 0.37
     Phi, Qd = discretize(F, G, [[q]], dt)
-    assert np.allclose(Phi, [[1, dt], [0, 1]], rtol=0, atol=1e-15)
+    assert np.allclose(Phi, [[1, dt], [0, 1]], rtol=0, atol=1e-15)  # exact for a nilpotent F: float rounding
     want = q * np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]])
     assert np.allclose(Qd, want, rtol=1e-13, atol=0)  # nilpotent: finite series, exact to rounding
 
@@ -116,14 +116,14 @@ def test_discretize_stack_equals_single_steps():
         # the same arithmetic on a stack or one matrix: rounding-level differences only
         Phi_i, Qd_i = discretize(F[i], G[i], Q, dt[i])
         assert np.allclose(D.Phi[i], Phi_i, rtol=1e-14, atol=1e-16)
-        assert np.allclose(D.Qd[i], Qd_i, rtol=1e-12, atol=1e-22)
+        assert np.allclose(D.Qd[i], Qd_i, rtol=1e-12, atol=1e-22)  # the same integral two ways: float rounding (atol for zero entries of size 1e-22)
 
 
 def test_noise_density_from_spec():
     Q = noise_density(units.LSM6DSL)
     assert Q.shape == (12, 12)
-    assert np.allclose(np.diag(Q)[:3], (130 * units.UG_SQRT_HZ) ** 2)
-    assert np.allclose(np.diag(Q)[3:6], (0.004 * units.DEG_S_SQRT_HZ) ** 2)
+    assert np.allclose(np.diag(Q)[:3], (130 * units.UG_SQRT_HZ) ** 2)  # the datasheet density squared; default tolerances, values are exact up to rounding
+    assert np.allclose(np.diag(Q)[3:6], (0.004 * units.DEG_S_SQRT_HZ) ** 2)  # the datasheet density squared; default tolerances, values are exact up to rounding
     assert not np.diag(Q)[6:].any()
     with pytest.raises(MorpiError, match="gyro_bias_walk"):
         noise_density(units.LSM6DSL, gyro_bias_walk=-1.0)
@@ -140,11 +140,11 @@ def test_planar_model_is_the_heading_restriction_of_the_15_state_model():
     # map planar states into the 15-state vector
     idx = [0, 1, 3, 4, 8, 9, 10, 14]
     F2 = planar_system_matrix(psi, f_xy)
-    assert np.allclose(F2, F3[:, idx][:, :, idx], atol=1e-15)
+    assert np.allclose(F2, F3[:, idx][:, :, idx], atol=1e-15)  # the planar model is a sub-block of the 3D one: exact up to rounding
     G2 = planar_noise_coupling(psi)
     assert np.allclose(G2, G3[:, idx][:, :, [0, 1, 5, 6, 7, 11]], atol=1e-15)  # cos/sin entries: rounding
     Q2 = planar_noise_density(units.MPU6500)
-    assert np.allclose(np.diag(Q2), np.diag(noise_density(units.MPU6500))[[0, 1, 5, 6, 7, 11]])
+    assert np.allclose(np.diag(Q2), np.diag(noise_density(units.MPU6500))[[0, 1, 5, 6, 7, 11]])  # sub-block of the 3D noise density: default tolerances, exact up to rounding
     names = [s.start for s in (P2_DP, P2_DV, P2_PSI, P2_BA, P2_BG)]
     assert names == [0, 2, 4, 5, 7]
 

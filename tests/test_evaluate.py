@@ -171,10 +171,10 @@ def test_train_score_is_the_tracked_leave_one_out_error(field_root):
     for m in ("MoRPI-A", "MoRPI-G"):
         score, n = fd._loo_score(data, m, DEFAULT_CONFIGS[m])
         ref = _loo_by_tracking(data, m, DEFAULT_CONFIGS[m])
-        assert n == ref.size == 40 and score == pytest.approx(ref.mean(), rel=1e-12)
+        assert n == ref.size == 40 and score == pytest.approx(ref.mean(), rel=1e-12)  # the mean of the same errors: float rounding
         score, n = fd._loo_score(data, m, DEFAULT_CONFIGS[m], exclude=frozenset(drop))
         ref = _loo_by_tracking(data, m, DEFAULT_CONFIGS[m], drop=drop)
-        assert n == ref.size == 39 and score == pytest.approx(ref.mean(), rel=1e-12)
+        assert n == ref.size == 39 and score == pytest.approx(ref.mean(), rel=1e-12)  # the mean of the same errors: float rounding
 
 
 def test_nested_rule_comparison_matches_a_search_without_the_held_out_run(field_root, tmp_path):
@@ -184,7 +184,7 @@ def test_nested_rule_comparison_matches_a_search_without_the_held_out_run(field_
     assert nest["n_folds"] == 40 and len(nest["folds"]) == 40
     for rule in fd.RULES:
         for m in ("MoRPI-A", "MoRPI-G"):
-            assert nest["rules"][rule][m] == pytest.approx(np.mean([f[rule][m] for f in nest["folds"]]))
+            assert nest["rules"][rule][m] == pytest.approx(np.mean([f[rule][m] for f in nest["folds"]]))  # the mean of the same fold values: pytest's default 1e-6 relative
     # folds recomputed independently: the run's file is absent from a symlinked tree, the whole
     # table evaluation runs there (its own search and gains), and the held-out run is dead-reckoned
     # with what that evaluation chose (same arithmetic in another order: rel 1e-12). Without 1.5p2p/30 the per-method MoRPI-A search picks
@@ -207,11 +207,11 @@ def test_nested_rule_comparison_matches_a_search_without_the_held_out_run(field_
                 gain = part.gain(phone, route, m, "GC").mean
                 end = st.morpi_track(data.steps(run, "GC", m, cfg), gain).end_point
                 err = np.linalg.norm(np.asarray(end[:2]) - truth.end_point_m) / truth.distance_m * 100
-                assert fold[rule][m] == pytest.approx(err, rel=1e-12)
+                assert fold[rule][m] == pytest.approx(err, rel=1e-12)  # the same run error recomputed: float rounding
     d = np.array([np.mean([f["joint"][m] - f["per_method"][m] for m in ("MoRPI-A", "MoRPI-G")])
                   for f in nest["folds"]])
-    assert nest["difference_pp"] == pytest.approx(d.mean())
-    assert nest["difference_se_pp"] == pytest.approx(d.std(ddof=1) / np.sqrt(d.size))
+    assert nest["difference_pp"] == pytest.approx(d.mean())  # the mean of the same differences: pytest's default 1e-6 relative
+    assert nest["difference_se_pp"] == pytest.approx(d.std(ddof=1) / np.sqrt(d.size))  # the standard error of the same differences: pytest's default 1e-6 relative
     assert nest["preferred"] == min(fd.RULES, key=lambda r: nest["mean"][r])
 
 
@@ -222,7 +222,7 @@ def test_rule_sensitivity_rows_agree_with_the_tables(field_root):
         mine = [r for r in rows if r["method"] == m]
         assert len(mine) == len(res.selections[m].trials)
         scores = [r["train_loo_percent"] for r in mine]
-        assert scores == sorted(scores) and scores[0] == pytest.approx(res.selections[m].score)
+        assert scores == sorted(scores) and scores[0] == pytest.approx(res.selections[m].score)  # the selection's own score: pytest's default 1e-6 relative
         sel = [r for r in mine if r["selected"]]
         assert len(sel) == 1 and sel[0]["train_difference_pp"] == 0.0
         # the selected rule's cells are the main table's
@@ -271,11 +271,11 @@ def test_field_tables_end_to_end(field_root, tmp_path):
     for c in cells:
         assert c["table"] in ev.TABLES and c["phone"] in ("s6", "s8")
         assert c["method"] in ("INS-3D", "INS-2D", "MoRPI-A", "MoRPI-G") and c["calibration"] in ("RD", "GAC", "GC")
-        assert c["ours_percent"] == pytest.approx(np.mean([r["end_error_percent"] for r in c["runs"]]))
+        assert c["ours_percent"] == pytest.approx(np.mean([r["end_error_percent"] for r in c["runs"]]))  # the cell is the mean of its runs: pytest's default 1e-6 relative
     n_train = {("s8", "short_distance"): 12, ("s8", "short_distance_1.5p2p"): 13, ("s6", "short_distance"): 15}
     for g in payload["gains"]:
         assert len(g["per_run"]) == n_train[(g["phone"], g["route"])]
-        assert g["mean"] == pytest.approx(np.mean(g["per_run"])) and g["std"] >= 0
+        assert g["mean"] == pytest.approx(np.mean(g["per_run"])) and g["std"] >= 0  # the gain is the mean of its runs: pytest's default 1e-6 relative
     # the reproduction bar of the six GC MoRPI cells of the short route: within 2.5 percentage
     # points of the paper's table "weinberg results short". With the step rules the train runs
     # choose, one cell misses it on the low side (s8 1.5 m MoRPI-G GC: ours is lower than the

@@ -29,7 +29,7 @@ EPS = np.finfo(float).eps
 def _vee_log(R):
     """Rotation vectors of rotation matrices (n, 3, 3), angles < pi/2."""
     ang = np.arccos(np.clip((np.trace(R, axis1=1, axis2=2) - 1) / 2, -1, 1))
-    k = np.where(ang < 1e-12, 0.5, ang / (2 * np.sin(np.maximum(ang, 1e-300))))
+    k = np.where(ang < 1e-12, 0.5, ang / (2 * np.sin(np.maximum(ang, 1e-300))))  # guard against division by zero for a null rotation, not a tolerance
     v = np.stack([R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0], R[:, 1, 0] - R[:, 0, 1]], axis=-1)
     return k[:, None] * v
 
@@ -76,8 +76,8 @@ def test_kinematics_match_finite_differences(name):
     np.testing.assert_allclose(np.einsum("nij,nkj->nik", C, C), np.broadcast_to(np.eye(3), C.shape), atol=1e-13)
     moving = np.linalg.norm(v, axis=1) > 1e-6
     xb = C[moving, :, 0]
-    np.testing.assert_allclose(np.cross(xb, v[moving] / np.linalg.norm(v[moving], axis=1)[:, None]), 0, atol=1e-12)
-    np.testing.assert_allclose(C[:, 2, 1], 0.0, atol=1e-15)
+    np.testing.assert_allclose(np.cross(xb, v[moving] / np.linalg.norm(v[moving], axis=1)[:, None]), 0, atol=1e-12)  # the body x axis is the velocity direction by construction: float rounding
+    np.testing.assert_allclose(C[:, 2, 1], 0.0, atol=1e-15)  # no roll on a level route by construction: float rounding
     # at rest a level body reads f = (0, 0, g); on the slope it reads the tilt
     np.testing.assert_allclose(np.linalg.norm(tr.f_b[0]), G, rtol=1e-12)
     np.testing.assert_allclose(tr.position[-1], tr.end_point, atol=1e-12)
@@ -93,7 +93,7 @@ def test_route_end_points_match_ground_truth():
             # 15 deg over 5 m (horizontal), easing out over 1 m: drop 5 tan(15 deg)
             np.testing.assert_allclose(tr.end_point[2], -5 * np.tan(np.radians(15)), atol=1e-12)
             assert np.sign(tr.heading[-1]) == np.sign(r.turn_deg)
-            np.testing.assert_allclose(tr.heading[-1], np.radians(r.turn_deg), atol=1e-12)
+            np.testing.assert_allclose(tr.heading[-1], np.radians(r.turn_deg), atol=1e-12)  # the path ends on the route's turn angle; only rounding
 
 
 @pytest.mark.parametrize("sampling", ["uniform", "s6", "s8"])
@@ -113,7 +113,7 @@ def test_noise_free_ins_recovers_route(name, sampling):
         assert err[-1] < 1e-3
     if not name.startswith("L_"):
         r2 = ins2d(d.time, d.f, d.omega, psi0=T.heading[0], p0=T.position[0])
-        assert np.linalg.norm(r2.position[k15, :2] - T.position[k15, :2]) < 1e-3
+        assert np.linalg.norm(r2.position[k15, :2] - T.position[k15, :2]) < 1e-3  # the simulator's acceptance bar (1 mm after 15 s), as for the 3D INS above
 
 
 def test_sine_peaks_at_known_times():
@@ -182,9 +182,9 @@ def test_scale_factor_misalignment_and_bias_random_walk():
     for i in range(3):
         M = rotvec_to_C(d.misalignment[i])
         expect = (tr.f_b @ M) * (1 + d.accel_scale[i])
-        np.testing.assert_allclose(d.f[i], expect, atol=1e-12)
+        np.testing.assert_allclose(d.f[i], expect, atol=1e-12)  # the closed-form specific force at the sample: float rounding
         expect_w = (tr.omega_b @ M) * (1 + d.gyro_scale[i]) + d.gyro_bias_drift[i]
-        np.testing.assert_allclose(d.omega[i], expect_w, atol=1e-12)
+        np.testing.assert_allclose(d.omega[i], expect_w, atol=1e-12)  # the closed-form angular rate at the sample: float rounding
     steps = np.diff(d.gyro_bias_drift, axis=1) / (1e-3 * np.sqrt(np.diff(d.time)))[None, :, None]
     N = steps.size
     assert stats.chi2.ppf(0.0005, N) < np.sum(steps ** 2) < stats.chi2.ppf(0.9995, N)
@@ -219,7 +219,7 @@ def test_gauss_markov_bias_instability_statistics():
     for k in range(1, t.size):
         p = np.exp(-(t[k] - t[k - 1]) / tau)
         ref[:, k] = p * ref[:, k - 1] + 0.3 * np.sqrt(1 - p * p) * z[:, k]
-    np.testing.assert_allclose(fast, ref, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(fast, ref, rtol=0, atol=1e-12)  # the fast path evaluates the same formulas: float rounding
 
 
 def test_per_run_generators_make_batching_irrelevant():

@@ -121,7 +121,7 @@ def test_accelerometer_bias_closed_form():
     np.testing.assert_allclose(r.position[:, 0], 0.5 * b * tau ** 2, rtol=1e-10, atol=1e-12)
     np.testing.assert_allclose(r.position[:, 1:], 0.0, atol=1e-9)
     r2 = ins2d(t, f, np.zeros_like(f))
-    np.testing.assert_allclose(r2.position[:, 0], 0.5 * b * tau ** 2, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(r2.position[:, 0], 0.5 * b * tau ** 2, rtol=1e-10, atol=1e-12)  # as for the 3D INS above: exact for piecewise-linear acceleration, only rounding
 
 
 def test_gyro_bias_closed_form_z_up():
@@ -166,7 +166,7 @@ def test_attitude_matches_fine_reference():
     # well below 1e-4 rad; without the coning term the error is of order 1e-3 rad
     ang = np.arccos(np.clip((np.trace(dC) - 1) / 2, -1, 1))
     assert ang < 1e-4
-    np.testing.assert_allclose(r.C_bn[-1] @ r.C_bn[-1].T, np.eye(3), atol=1e-12)
+    np.testing.assert_allclose(r.C_bn[-1] @ r.C_bn[-1].T, np.eye(3), atol=1e-12)  # orthogonality kept by the Rodrigues update: float rounding over the run
 
 
 def test_batched_equals_per_run_loop():
@@ -208,7 +208,7 @@ def test_heading_is_continuous_through_full_turns():
 
 def test_heading_from_C():
     psi = np.array([0.0, 0.3, -2.0, 3.0])
-    np.testing.assert_allclose(heading_from_C(yaw_to_C(psi)), psi, atol=1e-15)
+    np.testing.assert_allclose(heading_from_C(yaw_to_C(psi)), psi, atol=1e-15)  # atan2 of the yaw matrix: one rounding
 
 
 def test_rotvec_to_C_small_and_large_angles():
@@ -265,7 +265,7 @@ def test_start_on_a_slope_needs_the_measured_tilt():
                        noise_scale=0.0).recording(0)
     f_rest = rec.f[rec.time < rec.time[0] + 2.0].mean(axis=0)
     leveled = ins3d(rec.time, rec.f, rec.omega, C0=coarse_level(f_rest), g=np.linalg.norm(f_rest))
-    assert np.linalg.norm(leveled.position[-1] - traj.position[-1]) < 1e-3
+    assert np.linalg.norm(leveled.position[-1] - traj.position[-1]) < 1e-3  # the simulator's acceptance bar (1 mm), as in test_simulate
     g = np.linalg.norm(f_rest)
     level = ins3d(rec.time, rec.f - (f_rest - [0.0, 0.0, g]), rec.omega, g=g)
     assert np.linalg.norm(level.position[-1] - traj.position[-1]) > 100.0

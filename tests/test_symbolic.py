@@ -139,7 +139,7 @@ def test_closed_form_dp_matches_solve_ivp(conv):
         bg0 = np.array([bg[0], bg[1], 0.0])
         ref0 = ode_dp(conv, dv, ba, bg0, 9.81, times)
         e3d = S.closed_form_errors(p, times, "3d", conv, keep_bgz=False)
-        np.testing.assert_allclose(e3d, np.linalg.norm(ref0[:, :2], axis=1), rtol=1e-9)
+        np.testing.assert_allclose(e3d, np.linalg.norm(ref0[:, :2], axis=1), rtol=1e-9)  # DOP853 at rtol 1e-12 over the span; 1e-9 leaves room for the accumulated solver error
 
 
 @pytest.mark.parametrize("conv", PHYSICAL, ids=lambda c: c.name)
@@ -150,12 +150,12 @@ def test_closed_form_2d_matches_the_yaw_only_ode(conv):
         dv, ba, bg = random_draw(rng)
         p = params_from_dict({"dv0_mps": list(dv), "ba_mps2": list(ba), "bg_radps": list(bg), "g_mps2": 9.81})
         ref = ode_dp_2d(conv, dv, ba, bg[2], times)
-        np.testing.assert_allclose(S.closed_form_errors(p, times, "dp2d", conv, keep_bgz=True), ref, rtol=1e-9)
+        np.testing.assert_allclose(S.closed_form_errors(p, times, "dp2d", conv, keep_bgz=True), ref, rtol=1e-9)  # DOP853 at rtol 1e-12 over the span; 1e-9 leaves room for the accumulated solver error
         np.testing.assert_allclose(S.closed_form_errors(p, times, "2d", conv, keep_bgz=True),
-                                   np.linalg.norm(ref, axis=1), rtol=1e-9)
+                                   np.linalg.norm(ref, axis=1), rtol=1e-9)  # DOP853 at rtol 1e-12 over the span; 1e-9 leaves room for the accumulated solver error
         ref0 = ode_dp_2d(conv, dv, ba, 0.0, times)
         np.testing.assert_allclose(S.closed_form_errors(p, times, "2d", conv), np.linalg.norm(ref0, axis=1),
-                                   rtol=1e-9)
+                                   rtol=1e-9)  # DOP853 at rtol 1e-12 over the span; 1e-9 leaves room for the accumulated solver error
 
 
 def test_z_up_closed_form_matches_a_nonlinear_strapdown_at_rest():
@@ -200,8 +200,8 @@ def test_linearized_mean_square_is_the_textbook_sum():
     ex = sum(s["dv0_mps"][i] ** 2 * t**2 + s["ba_mps2"][i] ** 2 * t**4 / 4 for i in (0, 1))
     ex3 = ex + g**2 * (s["bg_radps"][0] ** 2 + s["bg_radps"][1] ** 2) * t**6 / 36
     for conv in ("z_up", "z_down"):
-        np.testing.assert_allclose(S.closed_form_mean_square(SIG, t, "3d", conv), ex3, rtol=1e-12)
-        np.testing.assert_allclose(S.closed_form_mean_square(SIG, t, "2d", conv), ex, rtol=1e-12)
+        np.testing.assert_allclose(S.closed_form_mean_square(SIG, t, "3d", conv), ex3, rtol=1e-12)  # the same polynomial expanded by hand: float rounding
+        np.testing.assert_allclose(S.closed_form_mean_square(SIG, t, "2d", conv), ex, rtol=1e-12)  # the same polynomial expanded by hand: float rounding
 
 
 def test_full_mean_square_adds_the_product_terms():
@@ -216,7 +216,7 @@ def test_full_mean_square_adds_the_product_terms():
     np.testing.assert_allclose(full, lin + extra, rtol=1e-12)
     np.testing.assert_allclose(S.closed_form_mean_square(SIG, t, "2d", "z_up", linearized=False, keep_bgz=True),
                                S.closed_form_mean_square(SIG, t, "2d", "z_up")
-                               + (bax**2 + bay**2) * bgz**2 * t**6 / 36, rtol=1e-12)
+                               + (bax**2 + bay**2) * bgz**2 * t**6 / 36, rtol=1e-12)  # the same polynomial expanded by hand: float rounding
 
 
 def test_full_mean_square_against_monte_carlo():
@@ -398,7 +398,7 @@ def test_time_varying_block_form_matches_numerical_integration():
         Phi = sp.lambdify(t, S.phi_block_form(conv, C=C, f=f).subs(s.t0, 0), "numpy")
         Fn = sp.lambdify(t, S.system_matrix(conv, C=C, f=f), "numpy")
         sol = solve_ivp(lambda tt, y: (np.asarray(Fn(tt), float) @ y.reshape(15, 15)).ravel(), (0, 4.0),
-                        np.eye(15).ravel(), method="DOP853", rtol=1e-12, atol=1e-14)
+                        np.eye(15).ravel(), method="DOP853", rtol=1e-12, atol=1e-14)  # solver tolerances of the reference transition matrix
         ref = sol.y[:, -1].reshape(15, 15)
         got = np.asarray(Phi(4.0), float)
         # 1e-10: DOP853 at rtol 1e-12 over 4 s; the closed form is exact
