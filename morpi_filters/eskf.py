@@ -714,17 +714,6 @@ class AidedRun:
         return self.position[-1]
 
 
-def _rot(phi):
-    """Rotation matrix ``exp([phi x])`` of a rotation vector (Rodrigues)."""
-    from .error_model import skew
-
-    th = float(np.linalg.norm(phi))
-    K = skew(phi)
-    if th < 1e-12:
-        return np.eye(3) + K
-    return np.eye(3) + np.sin(th) / th * K + (1 - np.cos(th)) / th ** 2 * (K @ K)
-
-
 def morpi_aided_ins(time, f_b, omega_b, step_start, step_end, step_length, spec,
                     tuning: AidedTuning = AidedTuning(), *, C0=None, v0=None, g=None, every: int = 1) -> AidedRun:
     """MoRPI-aided 3D INS: a closed-loop error-state filter around the strapdown.
@@ -770,7 +759,7 @@ def morpi_aided_ins(time, f_b, omega_b, step_start, step_end, step_length, spec,
     """
     from . import units
     from .error_model import BA, BG, DV, discretize, noise_coupling, noise_density, system_matrix
-    from .strapdown import heading_from_C, ins3d
+    from .strapdown import heading_from_C, ins3d, rotvec_to_C
 
     t = np.asarray(time, dtype=float)
     f_b = np.asarray(f_b, dtype=float)
@@ -850,7 +839,7 @@ def morpi_aided_ins(time, f_b, omega_b, step_start, step_end, step_length, spec,
             dx = kf.x
             p = p - dx[DP]
             v = v - dx[DV]
-            C = _rot(-dx[EPS]) @ C
+            C = rotvec_to_C(-dx[EPS]) @ C
             ba_hat, bg_hat = ba_hat + dx[BA], bg_hat + dx[BG]
             x = kf.x.copy()
             x[:N_STATES] = 0.0

@@ -50,7 +50,7 @@ from .errors import MorpiError
 from .reporting import new_stage_dir
 
 __all__ = [
-    "DEFAULT_URL", "CHECKSUMS_FILE", "compute_checksums", "write_checksums", "load_checksums",
+    "DEFAULT_URL", "CHECKSUMS_FILE", "sha256_file", "compute_checksums", "write_checksums", "load_checksums",
     "verify_tree", "fetch_dataset",
 ]
 
@@ -71,7 +71,8 @@ _HEADER = (
 
 # ----------------------------------------------------------------------------- checksums
 
-def _sha256_file(path: Path) -> str:
+def sha256_file(path) -> str:
+    """sha256 hex digest of a file's bytes (the format of ``sha256sum``)."""
     h = hashlib.sha256()
     with open(path, "rb") as fh:
         for block in iter(lambda: fh.read(_CHUNK), b""):
@@ -95,7 +96,7 @@ def compute_checksums(root) -> dict[str, str]:
     root = Path(root)
     if not root.is_dir():
         raise MorpiError(f"{root}: not a directory, expected a dataset root")
-    out = {p.relative_to(root).as_posix(): _sha256_file(p) for p in root.rglob("*.csv") if p.is_file()}
+    out = {p.relative_to(root).as_posix(): sha256_file(p) for p in root.rglob("*.csv") if p.is_file()}
     return dict(sorted(out.items()))
 
 
@@ -176,7 +177,7 @@ def verify_tree(root, checksums=None) -> list[str]:
     if not root.is_dir():
         return [f"{root}: not a directory"]
     found = {p.relative_to(root).as_posix(): p for p in root.rglob("*.csv") if p.is_file() or p.is_symlink()}
-    return _compare(expected, {rel: (None if p.is_symlink() else _sha256_file(p)) for rel, p in found.items()})
+    return _compare(expected, {rel: (None if p.is_symlink() else sha256_file(p)) for rel, p in found.items()})
 
 
 def _compare(expected: Mapping[str, str], got: Mapping[str, str | None]) -> list[str]:

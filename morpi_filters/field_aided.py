@@ -66,18 +66,15 @@ def _aided_end(data, rec, mode, method, config, gain, tuning):
     along the route's start direction), with gravity equal to the magnitude of
     that mean (it absorbs the z-accelerometer bias).
     """
-    from scipy.spatial.transform import Rotation
-
     from .eskf import morpi_aided_ins
+    from .strapdown import coarse_level
 
     steps = data.steps(rec, mode, method, config)
     crec, _ = data.calibrated(rec, mode)
     _, gc = data.calibrated(rec, "GC")
     w = gc.window
     f_rest = crec.f[w.i0:w.i1].mean(axis=0)
-    roll = np.arctan2(f_rest[1], f_rest[2])
-    pitch = np.arctan2(-f_rest[0], np.hypot(f_rest[1], f_rest[2]))
-    C0 = Rotation.from_euler("ZYX", [0.0, pitch, roll]).as_matrix()
+    C0 = coarse_level(f_rest)
     a, b = data.activity(rec)
     a, b = min(a, float(steps.start_time[0])), max(b, float(steps.end_time[-1]))
     sl = slice(int(np.searchsorted(crec.time, a)), int(np.searchsorted(crec.time, b, side="right")))

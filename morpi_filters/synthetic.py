@@ -17,7 +17,6 @@ gives 15 deg and 0 deg here.
 """
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 import os
@@ -30,6 +29,7 @@ import numpy as np
 
 from . import dataset, units
 from .errors import MorpiError, ParameterError
+from .fetch import sha256_file
 from .simulate import _L_SPEED, _SPEED, imu, route_trajectory
 
 __all__ = ["write_dataset", "ensure_synthetic_dataset", "GENERATOR_VERSION", "REALISTIC_BIAS_FRACTION",
@@ -120,14 +120,6 @@ def _synthetic_run(seed: int, folder: str, run: int) -> tuple[dataset.Recording,
     return rec, info
 
 
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
 _README = """# Synthetic MoRPI dataset
 
 Seeded synthetic recordings in the layout and CSV format of the MoRPI field
@@ -189,11 +181,11 @@ def write_dataset(out, *, seed: int = 0, runs_per_folder: int | None = None) -> 
                 rec, info = _synthetic_run(int(seed), folder, run)
                 rel = f"{folder}/{run}.csv"
                 dataset.write_csv(stage / rel, rec)
-                files[rel] = _sha256(stage / rel)
+                files[rel] = sha256_file(stage / rel)
                 runs_info[rel] = info
         fr = REALISTIC_BIAS_FRACTION
         (stage / "README.md").write_text(_README.format(version=GENERATOR_VERSION, seed=seed, s6=fr["s6"], s8=fr["s8"]))
-        files["README.md"] = _sha256(stage / "README.md")
+        files["README.md"] = sha256_file(stage / "README.md")
         manifest = dict(generator="morpi_filters.simulate", version=GENERATOR_VERSION, seed=int(seed),
                         runs_per_folder=runs_per_folder, files=files, runs=runs_info)
         from .reporting import write_json
@@ -222,7 +214,7 @@ def _verify(root: Path, seed: int) -> bool:
     present = {p.relative_to(root).as_posix() for p in root.rglob("*.csv")}
     if present != {k for k in files if k.endswith(".csv")}:
         return False
-    return all((root / rel).is_file() and _sha256(root / rel) == h for rel, h in files.items())
+    return all((root / rel).is_file() and sha256_file(root / rel) == h for rel, h in files.items())
 
 
 def ensure_synthetic_dataset(cache_dir, *, seed: int = 0) -> Path:
