@@ -38,7 +38,7 @@ from .errors import MorpiError, ParameterError
 __all__ = [
     "SectionSummary", "DataSource", "atomic_path", "write_text", "write_json", "staged_dir",
     "md_table", "fmt", "to_jsonable", "SYNTHETIC_BANNER", "MARKER", "Outputs", "check_output_dir",
-    "check_output_file", "remove_stale", "foreign_entry", "user_umask", "new_stage_dir", "new_temp_file",
+    "check_output_file", "remove_stale", "swap_in", "foreign_entry", "user_umask", "new_stage_dir", "new_temp_file",
 ]
 
 #: Shown at the top of every page computed on synthetic data.
@@ -422,7 +422,7 @@ class Outputs:
         final = None
         try:
             for stage, final in self._folders:
-                _swap_in(stage, final)
+                swap_in(stage, final)
             for tmp, final in self._files:
                 os.replace(tmp, final)
         except OSError as exc:
@@ -441,7 +441,8 @@ class Outputs:
                 folder.rmdir()
 
 
-def _swap_in(stage: Path, final: Path) -> None:
+def swap_in(stage: Path, final: Path) -> None:
+    """Rename the staging folder `stage` to `final`; a folder already at `final` is replaced."""
     if final.is_dir():
         keep = Path(tempfile.mkdtemp(prefix=f".previous-{final.name}-{os.getpid()}-", dir=final.parent))
         os.replace(final, keep / final.name)

@@ -19,9 +19,7 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import shutil
-import tempfile
 import zlib
 from pathlib import Path
 
@@ -188,15 +186,9 @@ def write_dataset(out, *, seed: int = 0, runs_per_folder: int | None = None) -> 
         files["README.md"] = sha256_file(stage / "README.md")
         manifest = dict(generator="morpi_filters.simulate", version=GENERATOR_VERSION, seed=int(seed),
                         runs_per_folder=runs_per_folder, files=files, runs=runs_info)
-        from .reporting import write_json
+        from .reporting import swap_in, write_json
         write_json(stage / _MANIFEST, manifest)
-        if out.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".previous-{out.name}-{os.getpid()}-", dir=out.parent))
-            os.replace(out, old / out.name)
-            os.replace(stage, out)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(stage, out)
+        swap_in(stage, out)
     except BaseException:
         shutil.rmtree(stage, ignore_errors=True)
         raise
