@@ -198,22 +198,26 @@ def build_parser() -> argparse.ArgumentParser:
 
 # ----------------------------------------------------------------------------- sections
 
-def _section(name, out: Path, args, source=None):
-    """Build one report section into folder `out` and return its summary."""
+def _section(name, out: Path, args, source=None, tables=None):
+    """Build one report section into folder `out` and return its summary.
+
+    `tables` is the field evaluation of ``source.root`` when ``morpi report``
+    has computed it once for every section.
+    """
     if name == "tables":
         from .evaluate import report_tables
-        return report_tables(out, source, partial=getattr(args, "partial", False))
+        return report_tables(out, source, partial=getattr(args, "partial", False), result=tables)
     if name == "assessment":
         from .assessment import report_assessment
         return report_assessment(out, params_path=getattr(args, "params", None), times=getattr(args, "times", None))
     if name == "curves":
         from .curves import report_curves
         return report_curves(out, params_path=getattr(args, "params", None), times=getattr(args, "times", None),
-                             source=source)
+                             source=source, tables=tables)
     if name == "montecarlo":
         from .montecarlo import report_montecarlo
         return report_montecarlo(out, runs=args.runs, seed=args.seed, chunk=getattr(args, "chunk", None),
-                                 scheduler=getattr(args, "scheduler", None), source=source)
+                                 scheduler=getattr(args, "scheduler", None), source=source, tables=tables)
     if name == "drift":
         from .montecarlo import report_drift
         return report_drift(out, scheduler=getattr(args, "scheduler", None))
@@ -346,6 +350,14 @@ def _cmd_report(args):
     source = _report_source(args)
     if source is not None and not source.synthetic:
         _require_recordings(source, args)
+    tables = None
+    if source is not None and source.root is not None:
+        # the field evaluation, once for every section that reads the recordings
+        from .evaluate import evaluate_tables
+        from .field import FieldData
+
+        print("[field evaluation] ...", flush=True)
+        tables = evaluate_tables(source.root, data=FieldData(source.root))
     summaries = []
     with Outputs("morpi report") as outputs:
         outputs.root(out)
@@ -355,7 +367,7 @@ def _cmd_report(args):
             sec_args.scheduler = None
             stage = outputs.folder(out / name, name)
             print(f"[{name}] ...", flush=True)
-            summaries.append(_section(name, stage, sec_args, source))
+            summaries.append(_section(name, stage, sec_args, source, tables))
         outputs.file(out / "index.md").write_text(_index(summaries, source))
     print(f"report: {out / 'index.md'}")
     return 0

@@ -452,7 +452,7 @@ def compute_curves(case: CurveCase, times=DEFAULT_TIMES, runs=MC_RUNS, rng=None,
                       nl_eval_index=nl_at)
 
 
-def _field_points(source):
+def _field_points(source, data=None):
     """End-point errors of the field INS straight-line runs, or why there are none.
 
     Each recording of ``s8/line_dataset`` is calibrated (GAC, the paper's best
@@ -470,7 +470,7 @@ def _field_points(source):
     from . import dataset as ds
     from .field import FieldData
 
-    data = FieldData(source.root)
+    data = data if data is not None else FieldData(source.root)
     recs = data.recordings("s8", "line_dataset", None)
     if not recs:
         return {}, f"{source.root}: no straight-line (s8/line_dataset) recordings"
@@ -494,7 +494,7 @@ def _field_points(source):
     return pts, note
 
 
-def report_curves(out, *, params_path=None, times=None, source=None):
+def report_curves(out, *, params_path=None, times=None, source=None, tables=None):
     """The ``curves`` report section (``morpi curves``, ``morpi report``).
 
     Parameters
@@ -507,6 +507,8 @@ def report_curves(out, *, params_path=None, times=None, source=None):
         Evaluation times [s] (default 0..15 s).
     source : reporting.DataSource or None
         Recordings for the field end points.
+    tables : evaluate.TablesResult, optional
+        The field evaluation of ``source.root`` when already computed.
 
     Returns
     -------
@@ -523,8 +525,8 @@ def report_curves(out, *, params_path=None, times=None, source=None):
     params = load_params(params_path)
     times = np.unique(np.asarray(DEFAULT_TIMES if not times else times, dtype=float))
     cases = [case_from_params(params), case_from_sensor(units.MPU6500, params), case_from_sensor(units.LSM6DSL, params)]
-    field_pts, field_note = _field_points(source)
-    aided, aided_note = _field_aided(source)
+    field_pts, field_note = _field_points(source, tables.data if tables is not None else None)
+    aided, aided_note = _field_aided(source, tables)
     figures, per_case, rows, field_rows = [], {}, [], []
     for case in cases:
         cc = replace(compute_curves(case, times), field=field_pts)

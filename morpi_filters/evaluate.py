@@ -448,7 +448,7 @@ def evaluate_tables(root, *, include_test: bool = True, configs: dict | None = N
     return TablesResult(tuple(cells), tuple(gains), selections, tuple(readings), tuple(missing), data)
 
 
-def training_gain_spread(source) -> tuple[float, float]:
+def training_gain_spread(source, result: TablesResult | None = None) -> tuple[float, float]:
     """Run-to-run spread of the trained Weinberg gains, for Monte Carlo gain-error studies.
 
     Every training run of the short routes (GC calibration, both methods) has
@@ -463,13 +463,17 @@ def training_gain_spread(source) -> tuple[float, float]:
     ----------
     source : reporting.DataSource
         A dataset in the MoRPI layout.
+    result : TablesResult, optional
+        An evaluation of the same root to take the gains from (they are
+        trained on the train folders only, so they are the same with or
+        without the test folders).
 
     Returns
     -------
     spread, mismatch : float
         Fractions of the gain.
     """
-    res = evaluate_tables(source.root, include_test=False, alternatives=False)
+    res = result if result is not None else evaluate_tables(source.root, include_test=False, alternatives=False)
     rel = [g.mean / np.asarray(g.per_run, dtype=float) - 1.0
            for g in res.gains if g.calibration == "GC" and len(g.per_run) > 1]
     if not rel:
@@ -826,7 +830,7 @@ def check_cells(result: TablesResult) -> None:
                             f"{CELL_SANITY_PERCENT:g} %, not a result; recordings: {', '.join(files)}")
 
 
-def report_tables(out, source, *, partial: bool = False) -> SectionSummary:
+def report_tables(out, source, *, partial: bool = False, result: TablesResult | None = None) -> SectionSummary:
     """Write the tables section: README.md, result.json and figures in `out`.
 
     Parameters
@@ -839,6 +843,9 @@ def report_tables(out, source, *, partial: bool = False) -> SectionSummary:
         Go on when recordings are bad or missing (:func:`dataset_problems`);
         the page and result.json then list them under "left out". Without it
         they raise a DataError naming them.
+    result : TablesResult, optional
+        The evaluation of ``source.root`` when it is already computed (``morpi
+        report`` evaluates the field data once for every section).
 
     Returns
     -------
@@ -856,11 +863,11 @@ def report_tables(out, source, *, partial: bool = False) -> SectionSummary:
     out.mkdir(parents=True, exist_ok=True)
     if source is None or source.root is None:
         raise MorpiError(f"tables: no dataset configured; {ds.missing_data_message()}")
-    data = FieldData(source.root)
+    data = result.data if result is not None else FieldData(source.root)
     left_out = dataset_problems(data)
     if not partial:
         _require_complete(left_out, source.root)
-    res = evaluate_tables(source.root, data=data)
+    res = result if result is not None else evaluate_tables(source.root, data=data)
     check_cells(res)
     payload = result_json(res, source)
     payload["partial"] = bool(partial)

@@ -203,11 +203,11 @@ def field_aided_study(root, result=None, labels=None):
     return out
 
 
-def _field_aided(source):
+def _field_aided(source, result=None):
     """The field study of :func:`field_aided_study`, or why it is not run."""
     if source is None or source.root is None:
         return [], "No data source configured: the MoRPI-aided INS is not run on recordings."
-    cells = field_aided_study(source.root)
+    cells = field_aided_study(source.root, result=result)
     if not cells:
         return [], "No MoRPI table cell could be evaluated on these recordings."
     better = sum(c.aided_percent < c.morpi_percent for c in cells)

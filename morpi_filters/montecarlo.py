@@ -1058,7 +1058,7 @@ ASSUMED_MISMATCH = 0.02
 TRAINING_KS = (1, 2, 3, 5, 10, 20, 50)
 
 
-def _field_gain_spread(source):
+def _field_gain_spread(source, tables=None):
     """(spread, mismatch, note) of the per-run training gains of a dataset, or (None, None, note)."""
     if source is None or getattr(source, "root", None) is None:
         return None, None, "no dataset configured"
@@ -1068,7 +1068,7 @@ def _field_gain_spread(source):
     except (ImportError, AttributeError):
         return None, None, ("the per-run gain training of the field pipeline (steps.py / evaluate.py) "
                             "is not available in this build")
-    spread, mismatch = fn(source)
+    spread, mismatch = fn(source, tables)
     return float(spread), float(mismatch), f"per-run training gains of {source.root}"
 
 
@@ -1119,7 +1119,7 @@ def _config_json(cfg: StudyConfig) -> dict:
             "gains": [{"label": g.label, "mean": g.mean, "std": g.std} for g in cfg.gains]}
 
 
-def report_montecarlo(out, *, runs: int, seed: int, chunk=None, scheduler=None, source=None):
+def report_montecarlo(out, *, runs: int, seed: int, chunk=None, scheduler=None, source=None, tables=None):
     """Write the gain-error Monte Carlo section into folder `out`.
 
     Two studies with the same seed: the primary one after a zero-order
@@ -1128,7 +1128,8 @@ def report_montecarlo(out, *, runs: int, seed: int, chunk=None, scheduler=None, 
     Gain scenarios: 5 % and 10 % (the paper) and the spread of per-run training
     gains (from the dataset when the field gain training is available,
     otherwise an assumed value, stated on the page). Then the gain-training
-    study over k training runs.
+    study over k training runs. `tables` (an ``evaluate.TablesResult`` of
+    ``source.root``) gives the trained gains when already computed.
 
     Returns
     -------
@@ -1139,7 +1140,7 @@ def report_montecarlo(out, *, runs: int, seed: int, chunk=None, scheduler=None, 
 
     out = Path(out)
     _check_runs(runs, seed, chunk)
-    spread, mismatch, spread_note = _field_gain_spread(source)
+    spread, mismatch, spread_note = _field_gain_spread(source, tables)
     assumed = spread is None
     if assumed:
         spread, mismatch = ASSUMED_SPREAD, ASSUMED_MISMATCH

@@ -60,7 +60,7 @@ def fake_sections(monkeypatch):
     """Replace the computation of every section by a recorder that writes two small files."""
     calls = []
 
-    def fake(name, stage, args, source=None):
+    def fake(name, stage, args, source=None, tables=None):
         calls.append(name)
         (stage / "README.md").write_text(f"# {name}\n")
         (stage / "result.json").write_text('{"section": "%s"}\n' % name)

@@ -61,7 +61,7 @@ def test_interrupted_report_keeps_previous(tmp_path, monkeypatch):
 
     calls = []
 
-    def fake_section(name, stage, args, source=None):
+    def fake_section(name, stage, args, source=None, tables=None):
         calls.append(name)
         stage.mkdir(parents=True, exist_ok=True)
         (stage / "README.md").write_text(name)
@@ -79,9 +79,35 @@ def test_interrupted_report_keeps_previous(tmp_path, monkeypatch):
     assert sorted(p.name for p in out.iterdir()) == [".morpi-output", "extra", "index.md", "tables"]
 
     # A complete run replaces the report and keeps outputs it does not own (analysis figures).
-    monkeypatch.setattr(cli, "_section", lambda name, stage, args, source=None: (
+    monkeypatch.setattr(cli, "_section", lambda name, stage, args, source=None, tables=None: (
         stage.mkdir(parents=True, exist_ok=True), __import__("morpi_filters.reporting").reporting.SectionSummary(
             name=name, title=name))[1])
     assert cli.main(["report", "--out", str(out)]) == 0
     assert (out / "index.md").read_text() != "previous complete report"
     assert (out / "extra" / "fig.png").read_bytes() == b"x"
+
+
+def test_report_evaluates_the_field_data_once(tmp_path, monkeypatch):
+    """`morpi report` evaluates the recordings once and hands the same result to every section."""
+    from morpi_filters import cli, evaluate, synthetic
+    from morpi_filters.reporting import SectionSummary
+
+    root = synthetic.write_dataset(tmp_path / "ds", seed=2, runs_per_folder=1)
+    calls, seen = [], {}
+    real = evaluate.evaluate_tables
+
+    def counting(*a, **k):
+        calls.append(a)
+        return real(*a, **k)
+
+    def fake_section(name, stage, args, source=None, tables=None):
+        seen[name] = tables
+        (stage / "README.md").write_text(f"# {name}\n")
+        return SectionSummary(name=name, title=name)
+
+    monkeypatch.setattr(evaluate, "evaluate_tables", counting)
+    monkeypatch.setattr(cli, "_section", fake_section)
+    assert cli.main(["report", "--data", str(root), "--out", str(tmp_path / "r"), "--runs", "10"]) == 0
+    assert len(calls) == 1
+    assert set(seen) == set(cli.REPORT_SECTIONS)
+    assert all(t is seen["tables"] for t in seen.values()) and seen["tables"] is not None
