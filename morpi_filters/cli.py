@@ -22,7 +22,7 @@ from .errors import MorpiError
 
 __all__ = ["main", "build_parser"]
 
-REPORT_SECTIONS = ("tables", "assessment", "curves", "montecarlo", "drift")
+REPORT_SECTIONS = ("tables", "aided", "assessment", "curves", "montecarlo", "drift")
 
 
 def _int_at_least(name, lowest):
@@ -140,6 +140,11 @@ def build_parser() -> argparse.ArgumentParser:
     partial_arg(s)
     out_args(s, "tables")
 
+    s = sub.add_parser("aided", help="the MoRPI-aided filter on every MoRPI cell: forward, smoothed, ablation, "
+                                     "consistency")
+    data_arg(s)
+    out_args(s, "aided")
+
     s = sub.add_parser("assess", help="analytical assessment: closed-form 3D/2D INS vs MoRPI-A error")
     s.add_argument("--params", metavar="FILE", type=Path,
                    help="parameter file (JSON); default: data/assessment_params.json")
@@ -207,6 +212,9 @@ def _section(name, out: Path, args, source=None, tables=None):
     if name == "tables":
         from .evaluate import report_tables
         return report_tables(out, source, partial=getattr(args, "partial", False), result=tables)
+    if name == "aided":
+        from .report.aided import report_aided
+        return report_aided(out, source, tables=tables)
     if name == "assessment":
         from .assessment import report_assessment
         return report_assessment(out, params_path=getattr(args, "params", None), times=getattr(args, "times", None))
@@ -437,6 +445,8 @@ def _dispatch(args) -> int:
         return _cmd_report(args)
     if args.command == "tables":
         return _run_section("tables", args, _field_source)
+    if args.command == "aided":
+        return _run_section("aided", args, lambda a: _require_recordings(_field_source(a), a))
     if args.command in ("curves", "montecarlo"):
         return _run_section(args.command, args, lambda a: _require_recordings(_field_source(a, required=False), a))
     section = {"assess": "assessment", "drift": "drift"}[args.command]

@@ -16,9 +16,8 @@ For each *case* (a parameter file, or one of the paper's IMUs) and each method
 * the nonlinear Monte Carlo of the IMU cases (``simulate.imu`` at rest through
   the 3D/2D strapdown), where the linear model's limits show;
 * when a data source is configured, the field straight-line INS end-point
-  errors at their durations, and (with the field evaluation) the MoRPI-aided
-  INS against MoRPI alone and the INS alone per MoRPI table cell
-  (:func:`morpi_filters.field_aided.field_aided_study`).
+  errors at their durations (the MoRPI-aided filter on the recordings is the
+  ``aided`` section, :func:`morpi_filters.field_aided.aided_study`).
 
 Nominal trajectory and assumptions (the paper's analytical assessment [1]_):
 ``C_b^n = I`` and ``f^n = (0, 0, g)``, z-up package convention. As in the
@@ -38,7 +37,7 @@ References
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -494,6 +493,12 @@ def _field_points(source, data=None):
     return pts, note
 
 
+#: Where the field comparison of the MoRPI-aided filter lives (one implementation, one page).
+AIDED_NOTE = ("The MoRPI-aided filter on the field recordings (forward and smoothed, against MoRPI alone and the "
+              "INS alone per table cell, with its ablation and consistency) is the `aided` section: "
+              "[../aided/README.md](../aided/README.md), `morpi aided`.")
+
+
 def report_curves(out, *, params_path=None, times=None, source=None, tables=None):
     """The ``curves`` report section (``morpi curves``, ``morpi report``).
 
@@ -517,7 +522,6 @@ def report_curves(out, *, params_path=None, times=None, source=None, tables=None
     from pathlib import Path
 
     from . import plots
-    from .field_aided import AIDED_GRID, _field_aided
     from .params import load_params
     from .reporting import SectionSummary, fmt, md_table, write_json, write_text
 
@@ -526,7 +530,6 @@ def report_curves(out, *, params_path=None, times=None, source=None, tables=None
     times = np.unique(np.asarray(DEFAULT_TIMES if not times else times, dtype=float))
     cases = [case_from_params(params), case_from_sensor(units.MPU6500, params), case_from_sensor(units.LSM6DSL, params)]
     field_pts, field_note = _field_points(source, tables.data if tables is not None else None)
-    aided, aided_note = _field_aided(source, tables)
     figures, per_case, rows, field_rows = [], {}, [], []
     for case in cases:
         cc = replace(compute_curves(case, times), field=field_pts)
@@ -546,9 +549,6 @@ def report_curves(out, *, params_path=None, times=None, source=None, tables=None
                                                       for k in ("ins3d", "ins2d", "morpi")
                                                       for a in ("sigma", "rms_closed_form", "mc_rms",
                                                                 "nonlinear_mc_rms")[: 4 if k != "morpi" else 3]])
-    if aided:
-        plots.plot_aided_cells(aided, out / "field_aided.png")
-        figures.append("field_aided.png")
     main = per_case["params"]
     result = {
         "times": times,
@@ -566,8 +566,7 @@ def report_curves(out, *, params_path=None, times=None, source=None, tables=None
         "nonlinear_mc_runs": NL_RUNS,
         "cases": per_case,
         "field": {"note": field_note, "points_duration_s_error_m": field_pts},
-        "field_aided": {"note": aided_note, "grid": {k: list(v) for k, v in AIDED_GRID.items()},
-                        "cells": [asdict(c) for c in aided]},
+        "field_aided": {"note": AIDED_NOTE, "section": "aided"},
     }
     write_json(out / "result.json", result)
     banner = source.banner if source is not None else ""
@@ -590,21 +589,11 @@ def report_curves(out, *, params_path=None, times=None, source=None, tables=None
         + f"{'Synthetic' if source is not None and source.synthetic else 'Field'} recordings: {field_note}.\n\n"
         + (md_table(["case", "method", "runs", "mean duration [s]", "mean end error [m]", "RMS end error [m]",
                      "filter 1 sigma at the mean duration [m]"], field_rows) if field_rows else "")
-        + "\n## MoRPI-aided INS on the field recordings\n\n" + aided_note + "\n\n"
-        + ("![MoRPI-aided INS per cell](field_aided.png)\n\n" if aided else "")
-        + (md_table(["cell", "test runs", "aided INS [%]", "MoRPI alone [%]", "INS-3D alone [%]",
-                     "aided [m]", "MoRPI [m]", "train score [%]", "tunables (train)"],
-                    [[c.label, c.runs, fmt(c.aided_percent), fmt(c.morpi_percent), fmt(c.ins_percent, 0),
-                      fmt(c.aided_m), fmt(c.morpi_m), fmt(c.train_score),
-                      f"noise x{c.tuning['noise_scale']:g}, step {c.tuning['step_sigma']:g}, "
-                      f"gain {c.tuning['gain_sigma']:.3f}"] for c in aided]) if aided else "")
+        + "\n## MoRPI-aided INS on the field recordings\n\n" + AIDED_NOTE + "\n"
     )
     write_text(out / "README.md", text)
     summary = (f"Filter sigma vs closed form vs Monte Carlo for 3D/2D INS and MoRPI-aided INS. "
                f"At {fmt(times[-1], 0)} s (parameter file): 3D {fmt(main['sigma_ins3d_m'][-1])} m, "
-               f"2D {fmt(main['sigma_ins2d_m'][-1])} m, MoRPI-aided {fmt(main['sigma_morpi_m'][-1])} m (1 sigma)."
-               + (f" {'Synthetic' if source is not None and source.synthetic else 'Field'} recordings: "
-                  f"the MoRPI-aided INS beats MoRPI alone in "
-                  f"{sum(c.aided_percent < c.morpi_percent for c in aided)} of {len(aided)} MoRPI cells." if aided else ""))
+               f"2D {fmt(main['sigma_ins2d_m'][-1])} m, MoRPI-aided {fmt(main['sigma_morpi_m'][-1])} m (1 sigma).")
     return SectionSummary(name="curves", title="Covariance curves", page="README.md", figures=tuple(figures),
                           summary=summary, synthetic=bool(source is not None and source.synthetic))

@@ -1,163 +1,248 @@
-"""MoRPI-aided INS on the field recordings, against MoRPI alone and the INS alone.
+"""The MoRPI-aided filter (:mod:`morpi_filters.aided`) on the field recordings.
 
-Per MoRPI table cell of :func:`morpi_filters.evaluate.evaluate_tables`, the
-error-state filter of :func:`morpi_filters.eskf.morpi_aided_ins` runs the 3D
-strapdown over each test run with the cell's steps and trained gain as
-pseudo-measurements. Its tunables are chosen per training set, method and
-calibration on the ``train`` runs only (:func:`train_aided_tuning`).
+Per MoRPI table cell of :func:`morpi_filters.evaluate.evaluate_tables` (its
+steps, step rule and trained gain), the aided filter runs once over each test
+recording, forward and smoothed, beside MoRPI alone and the INS alone.
+
+Tunables are chosen per training set, method and calibration on the ``train``
+runs only (:func:`choose_tunables`): the noise densities start from the noise
+each train run shows in its rest windows, the grid (:data:`GRID`) scales them
+for the vibration of the moving robot and sets the step and constraint noise;
+the gain error's prior is the trained gain's spread. Nothing of a ``test``
+folder enters the choice.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import product
 
 import numpy as np
 
-from . import units
+from . import aided
 from .errors import MorpiError
 
-__all__ = ["AIDED_GRID", "AIDED_EVERY", "AidedCell", "field_aided_study", "train_aided_tuning"]
+__all__ = ["GRID", "ABLATIONS", "AidedCell", "AidedStudy", "aided_study", "choose_tunables", "prepare",
+           "final_rest"]
 
-#: Grid of the aided-INS tunables searched on the training runs: factor on the datasheet
-#: noise densities (the car's vibration is far above them) and white relative step
-#: error; the other tunables are fixed in _tunings.
-AIDED_GRID = {"noise_scale": (10.0, 100.0, 1000.0), "step_sigma": (0.05, 0.1, 0.2)}
-#: Filter epochs every this many samples on the recordings (10 Hz at 100 Hz).
-AIDED_EVERY = 10
+#: Train-only grid: factor on the rest-window noise densities (the moving robot vibrates far above
+#: them), step displacement noise [m] and non-holonomic velocity noise [m/s].
+GRID = {"vibration": (30.0, 300.0), "step_sigma": (0.02, 0.05), "nhc_sigma": (0.05, 0.2),
+        "step_heading": ("attitude", "gyro")}
+#: Accelerometer bias random walk [m/s^2/sqrt(s)]: lets the filter follow the specific-force offset of the
+#: moving robot (0.2-0.3 m/s^2 above the rest value while cruising) within a few seconds.
+ACCEL_WALK = 1e-2
+#: Aids removed in turn in the ablation (AidTuning fields set to these values).
+ABLATIONS = {"steps": {"steps": False}, "non-holonomic": {"nhc": False}, "rest updates": {"rest": False},
+             "gain state": {"gain_sigma": 0.0}, "smoothing": {}}
+
+
+def final_rest(rec):
+    """The rest at the end of a recording: :func:`calibration.detect_rest` on the reversed samples.
+
+    Returns
+    -------
+    (start_s, end_s) : float
+        On the recording's clock.
+    """
+    from .calibration import detect_rest
+    from .dataset import Recording
+
+    t = rec.time[-1] - rec.time[::-1]
+    rev = Recording(time=t, f=rec.f[::-1].copy(), omega=rec.omega[::-1].copy(), source=f"{rec.source} (reversed)")
+    w = detect_rest(rev)
+    return float(rec.time[-1] - w.end_s), float(rec.time[-1] - w.start_s)
+
+
+def rest_noise(rec, window) -> tuple[float, float]:
+    """White-noise densities the rest window shows: RMS over the axes of ``std * sqrt(dt)``.
+
+    Returns
+    -------
+    (accel [m/s^2/sqrt(Hz)], gyro [rad/s/sqrt(Hz)])
+    """
+    sl = slice(window.i0, window.i1)
+    dt = float(np.median(np.diff(rec.time[sl]))) if window.i1 - window.i0 > 2 else float(np.median(np.diff(rec.time)))
+    a = float(np.sqrt(np.mean(np.var(rec.f[sl], axis=0))) * np.sqrt(dt))
+    g = float(np.sqrt(np.mean(np.var(rec.omega[sl], axis=0))) * np.sqrt(dt))
+    return a, g
+
+
+@dataclass(frozen=True, eq=False)
+class Prepared:
+    """A recording ready for the aided filter in one cell: input, MoRPI track, noise from rest."""
+
+    rel: str
+    input: aided.AidedInput
+    morpi_xy: np.ndarray
+    noise: tuple
+
+
+def prepare(data, rec, mode, method, config, gain) -> Prepared:
+    """The aided filter's input for one recording, calibration, method and gain.
+
+    Raises
+    ------
+    MorpiError
+        When no steps are found.
+    """
+    from . import steps as st
+    from .strapdown import coarse_level
+
+    key = (rec.source, mode, method, config, float(gain), "aided")
+    cache = data._prep
+    if key in cache:
+        return cache[key]
+    crec, _ = data.calibrated(rec, mode)
+    w = data.rest_window(rec)
+    f_rest = crec.f[w.i0:w.i1].mean(axis=0)
+    # the robot stands before and after its motion (the gyro's vibration says when it moves)
+    a, b = data.activity(rec)
+    rest = tuple((t0, t1) for t0, t1 in ((float(crec.time[0]), a), (b, float(crec.time[-1]))) if t1 > t0)
+    s = data.steps(rec, mode, method, config)
+    track = st.morpi_track(s, gain)
+    inp = aided.AidedInput(time=crec.time, f=crec.f, omega=crec.omega, C0=coarse_level(f_rest),
+                           g=float(np.linalg.norm(f_rest)), step_start=s.start_time, step_end=s.end_time,
+                           step_length=track.length, rest=rest, step_vector=np.diff(track.position, axis=0))
+    cache[key] = Prepared(data.relpath(rec), inp, track.position, rest_noise(rec, w))
+    return cache[key]
+
+
+def _tuning(noise, info, gain_rel) -> aided.AidTuning:
+    a, g = noise
+    return aided.AidTuning(accel_noise=a * info["vibration"], gyro_noise=g * info["vibration"],
+                           accel_walk=ACCEL_WALK, step_sigma=info["step_sigma"], nhc_sigma=info["nhc_sigma"],
+                           gain_sigma=float(gain_rel), step_heading=info["step_heading"])
+
+
+def _candidates():
+    keys = sorted(GRID)
+    return [dict(zip(keys, vals)) for vals in product(*(GRID[k] for k in keys))]
+
+
+def _prepared_runs(data, phone, route, split, mode, method, config, gain):
+    out = []
+    for rec in data.recordings(phone, route, split):
+        try:
+            out.append(prepare(data, rec, mode, method, config, gain))
+        except MorpiError:
+            continue
+    return out
+
+
+def choose_tunables(data, train, method, mode, config, gain):
+    """Tunables with the least mean end-point error on the ``train`` runs of `train` (phone, route).
+
+    Every candidate of :data:`GRID` runs on every train run in one batch.
+
+    Returns
+    -------
+    (score_percent, info, noise) : the mean train error [%], the chosen grid point, and the median
+        rest-window noise densities (accel, gyro) of the train runs
+    """
+    from . import dataset as ds
+
+    runs = _prepared_runs(data, train[0], train[1], "train", mode, method, config, gain.mean)
+    if not runs:
+        raise MorpiError(f"{train[0]}/{train[1]}/train: no train run with steps for the aided filter")
+    truth = ds.route(train[1])
+    noise = (float(np.median([r.noise[0] for r in runs])), float(np.median([r.noise[1] for r in runs])))
+    cands = _candidates()
+    rel = gain.std / gain.mean
+    inputs = [r.input for _ in cands for r in runs]
+    tunings = [_tuning(noise, c, rel) for c in cands for _ in runs]
+    res = aided.run_batch(inputs, tunings)
+    err = np.array([np.linalg.norm(r.end_point - truth.end_point_m) for r in res]).reshape(len(cands), len(runs))
+    score = err.mean(axis=1) / truth.distance_m * 100
+    j = int(np.argmin(score))
+    return float(score[j]), cands[j], noise
 
 
 @dataclass(frozen=True)
 class AidedCell:
-    """MoRPI-aided INS vs MoRPI alone vs INS alone on one table cell.
+    """The aided filter on one MoRPI table cell (test runs).
 
     Attributes
     ----------
-    label : str
-        The cell (table, phone, p2p, method, calibration).
-    runs : int
-        Test runs evaluated by all three.
-    aided_percent, morpi_percent, ins_percent : float
-        Mean end-point error over the runs [% of the travelled distance].
-    aided_m, morpi_m, ins_m : float
-        Mean end-point error [m].
+    spec : evaluate.CellSpec
+    forward_percent, smoothed_percent, morpi_percent, ins_percent : float
+        Mean end-point error over the runs [% of the route's distance].
+    runs : tuple of dict
+        Per run: ``file``, end-point errors [m] (``forward_m``, ``smoothed_m``, ``morpi_m``, ``ins_m``),
+        ``mahalanobis2`` of the true end point, ``inside_95``, estimated gain error and its sigma.
     tuning : dict
-        The tunables chosen on the training runs.
-    train_score : float
-        Mean train end-point error of the chosen tunables [%].
+        The grid point chosen on the train runs, and the noise densities used.
+    train_percent : float
+        Its mean train end-point error [%].
+    nis : dict
+        Measurement name -> (mean NIS per update, dof).
+    paths : tuple
+        Per run: (epoch time, forward xy, smoothed xy, MoRPI xy, forward P_xy) for figures.
     """
 
-    label: str
-    runs: int
-    aided_percent: float
+    spec: object
+    forward_percent: float
+    smoothed_percent: float
     morpi_percent: float
     ins_percent: float
-    aided_m: float
-    morpi_m: float
-    ins_m: float
+    runs: tuple
     tuning: dict
-    train_score: float
+    train_percent: float
+    nis: dict
+    paths: tuple
+
+    @property
+    def label(self) -> str:
+        return self.spec.label
 
 
-def _aided_end(data, rec, mode, method, config, gain, tuning):
-    """Aided and INS-alone end points of one recording (MorpiError when it has no steps).
+@dataclass(frozen=True)
+class AidedStudy:
+    """Every MoRPI cell, the ablation on the GC cells, the field coverage and NIS.
 
-    The aided INS runs over the motion (the gyro activity span joined with the
-    steps' span), levelled from the mean specific
-    force over the initial rest window (roll and pitch; heading zero, i.e.
-    along the route's start direction), with gravity equal to the magnitude of
-    that mean (it absorbs the z-accelerometer bias).
+    Attributes
+    ----------
+    cells : tuple of AidedCell
+    ablation : tuple of dict
+        ``{cell, removed, smoothed_percent}``: the full filter with one aid removed.
+    coverage_95 : float
+        Share of test runs whose true end point is inside the filter's 95 % ellipse.
+    nis : dict
+        Measurement name -> (mean NIS per update, dof) over all test runs.
+    note : str
+        Why the study is empty, when it is.
     """
-    from .eskf import morpi_aided_ins
-    from .strapdown import coarse_level
 
-    steps = data.steps(rec, mode, method, config)
-    crec, _ = data.calibrated(rec, mode)
-    _, gc = data.calibrated(rec, "GC")
-    w = gc.window
-    f_rest = crec.f[w.i0:w.i1].mean(axis=0)
-    C0 = coarse_level(f_rest)
-    a, b = data.activity(rec)
-    a, b = min(a, float(steps.start_time[0])), max(b, float(steps.end_time[-1]))
-    sl = slice(int(np.searchsorted(crec.time, a)), int(np.searchsorted(crec.time, b, side="right")))
-    L = gain * steps.weight * steps.fraction
-    run = morpi_aided_ins(crec.time[sl], crec.f[sl], crec.omega[sl], steps.start_time, steps.end_time, L,
-                          units.sensor_for_phone(rec.phone), tuning, C0=C0, g=float(np.linalg.norm(f_rest)),
-                          every=AIDED_EVERY)
-    ins = data.ins(rec, mode, "INS-3D")
-    return run.end_point, np.asarray(ins.position)[-1, :2]
+    cells: tuple
+    ablation: tuple
+    coverage_95: float
+    nis: dict
+    note: str = ""
 
 
-def _tunings(gain_sigma):
-    from itertools import product
-
-    from .eskf import AidedTuning, StepModel
-
-    for ns, ss in product(AIDED_GRID["noise_scale"], AIDED_GRID["step_sigma"]):
-        yield ({"noise_scale": ns, "step_sigma": ss, "gain_sigma": gain_sigma},
-               AidedTuning(dv0=0.02, ba=0.05, bg=0.5 * units.DEG_S, eps0=0.02, noise_scale=ns,
-                           step=StepModel(gain_sigma=gain_sigma, step_sigma=ss, jitter_s=0.02, cross_sigma_m=0.05)))
+def _merge_nis(acc, nis):
+    for name, (s, c, dof) in nis.items():
+        a = acc.setdefault(name, [0.0, 0, dof])
+        a[0] += s
+        a[1] += c
 
 
-def train_aided_tuning(data, train, method, mode, config, gain):
-    """Choose the aided-INS tunables on one training set (``train`` split only).
+def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> AidedStudy:
+    """The aided filter on every MoRPI cell of :func:`evaluate.evaluate_tables`.
 
     Parameters
     ----------
-    data : field.FieldData
-    train : (str, str)
-        (phone, route) of the training set.
-    method, mode : str
-        MoRPI method and calibration.
-    config : steps.StepConfig
-    gain : field.Gain
-        The trained gain (mean used for the steps, std / mean as the gain
-        error's 1 sigma).
-
-    Returns
-    -------
-    (score, info, tuning)
-        Mean train end-point error [%], the tunables as a dict, the AidedTuning.
-    """
-    from . import dataset as ds
-
-    recs = data.recordings(train[0], train[1], "train")
-    truth = ds.route(train[1])
-    best = None
-    for info, tun in _tunings(gain.std / gain.mean):
-        errs = []
-        for rec in recs:
-            try:
-                end, _ = _aided_end(data, rec, mode, method, config, gain.mean, tun)
-            except MorpiError:
-                continue
-            errs.append(np.linalg.norm(end - truth.end_point_m) / truth.distance_m * 100)
-        score = float(np.mean(errs)) if errs else np.inf
-        if best is None or score < best[0]:
-            best = (score, info, tun)
-    return best
-
-
-def field_aided_study(root, result=None, labels=None):
-    """MoRPI-aided INS (this filter) vs MoRPI alone vs INS alone per MoRPI table cell.
-
-    The cells, gains, step rule and recordings are those of
-    :func:`morpi_filters.evaluate.evaluate_tables`. The aided filter's
-    tunables (:data:`AIDED_GRID`) are chosen per training set, method and
-    calibration by the mean end-point error on the ``train`` runs; the
-    relative gain error's 1 sigma is the trained gain's std over its mean.
-    Nothing of a ``test`` folder enters the choice.
-
-    Parameters
-    ----------
-    root : path
-        Dataset root.
+    root : path, optional
+        Dataset root (when `result` is not given).
     result : evaluate.TablesResult, optional
-        Reuse a computed evaluation.
+        Reuse a computed evaluation (its cells, gains, step rules and caches).
     labels : collection of str, optional
-        Only these cells (``CellSpec.label``); all MoRPI cells by default.
+        Only these cells (``CellSpec.label``).
+    ablation : bool
+        Also run the GC cells with each aid removed in turn.
 
     Returns
     -------
-    list of AidedCell
+    AidedStudy
     """
     from . import dataset as ds
     from .evaluate import evaluate_tables
@@ -166,7 +251,7 @@ def field_aided_study(root, result=None, labels=None):
     data = res.data
     gmap = {(g.phone, g.route, g.method, g.calibration): g for g in res.gains}
     chosen = {}
-    out = []
+    todo = []
     for cell in res.cells:
         sp = cell.spec
         if sp.train is None or not cell.runs or (labels is not None and sp.label not in labels):
@@ -177,46 +262,77 @@ def field_aided_study(root, result=None, labels=None):
         config = res.selections[sp.method].config
         key = (sp.train, sp.method, sp.calibration)
         if key not in chosen:
-            chosen[key] = train_aided_tuning(data, sp.train, sp.method, sp.calibration, config, g)
-        score, info, tun = chosen[key]
-        truth = ds.route(sp.route)
-        by_file = {r.file: r for r in cell.runs}
-        a_e, m_e, i_e = [], [], []
-        for rec in data.recordings(sp.phone, sp.route, sp.split):
-            rel = data.relpath(rec)
-            if rel not in by_file:
-                continue
             try:
-                end, ins_end = _aided_end(data, rec, sp.calibration, sp.method, config, g.mean, tun)
+                chosen[key] = choose_tunables(data, sp.train, sp.method, sp.calibration, config, g)
             except MorpiError:
                 continue
-            a_e.append(np.linalg.norm(end - truth.end_point_m))
-            i_e.append(np.linalg.norm(ins_end - truth.end_point_m))
-            m_e.append(by_file[rel].end_error_m)
-        if not a_e:
-            continue
+        score, info, noise = chosen[key]
+        by_file = {r.file: r for r in cell.runs}
+        runs = [p for p in _prepared_runs(data, sp.phone, sp.route, sp.split, sp.calibration, sp.method, config,
+                                          g.mean) if p.rel in by_file]
+        if runs:
+            todo.append((cell, g, score, info, noise, runs, by_file))
+    if not todo:
+        return AidedStudy((), (), float("nan"), {}, note="No MoRPI table cell could be evaluated on these recordings.")
+    # one smoothed pass per cell (the smoother keeps every epoch's covariances: a cell's runs at a time)
+    results = {}
+    for i, (cell, g, score, info, noise, runs, by_file) in enumerate(todo):
+        out = aided.run_batch([p.input for p in runs], _tuning(noise, info, g.std / g.mean), smooth=True)
+        for p, r in zip(runs, out):
+            results[(i, p.rel)] = r
+    abl_res = {}
+    if ablation:
+        # one pass per route (members of one length: little padding)
+        for route in sorted({c.spec.route for c, *_ in todo}):
+            items = [(i, p, name) for i, (c, *rest) in enumerate(todo) if c.spec.calibration == "GC"
+                     and c.spec.route == route for name, change in ABLATIONS.items() if change for p in rest[4]]
+            tun = [_tuning(todo[i][4], todo[i][3], todo[i][1].std / todo[i][1].mean).with_(**ABLATIONS[name])
+                   for i, _, name in items]
+            out = aided.run_batch([p.input for _, p, _ in items], tun)
+            for (i, p, name), r in zip(items, out):
+                abl_res[(i, p.rel, name)] = r
+    cells, abl, nis_all = [], [], {}
+    inside = total = 0
+    for i, (cell, g, score, info, noise, runs, by_file) in enumerate(todo):
+        sp = cell.spec
+        truth = ds.route(sp.route)
         d = truth.distance_m / 100
-        out.append(AidedCell(label=sp.label, runs=len(a_e), aided_percent=float(np.mean(a_e) / d),
-                             morpi_percent=float(np.mean(m_e) / d), ins_percent=float(np.mean(i_e) / d),
-                             aided_m=float(np.mean(a_e)), morpi_m=float(np.mean(m_e)), ins_m=float(np.mean(i_e)),
-                             tuning=info, train_score=score))
-    return out
-
-
-def _field_aided(source, result=None):
-    """The field study of :func:`field_aided_study`, or why it is not run."""
-    if source is None or source.root is None:
-        return [], "No data source configured: the MoRPI-aided INS is not run on recordings."
-    cells = field_aided_study(source.root, result=result)
-    if not cells:
-        return [], "No MoRPI table cell could be evaluated on these recordings."
-    better = sum(c.aided_percent < c.morpi_percent for c in cells)
-    return cells, (
-        "Per MoRPI table cell (test runs): this filter around the 3D strapdown (closed loop, levelled from the "
-        "initial rest, the cell's steps and trained gain as pseudo-measurements) against MoRPI alone and the INS "
-        "alone, mean end-point error in % of the travelled distance. The filter's tunables are chosen per "
-        f"training set, method and calibration on the train runs only, over {AIDED_GRID}. The aided INS beats "
-        f"MoRPI alone in {better} of {len(cells)} cells. The training runs choose process noise "
-        f"{min(c.tuning['noise_scale'] for c in cells):g}-{max(c.tuning['noise_scale'] for c in cells):g} times "
-        "the datasheet's (the car's vibration): between steps the smartphone INS carries little information, "
-        "and the aided solution stays close to MoRPI's.")
+        rows, paths, nis = [], [], {}
+        for p in runs:
+            r = results[(i, p.rel)]
+            rec = next(x for x in data.recordings(sp.phone, sp.route, sp.split) if data.relpath(x) == p.rel)
+            try:
+                ins = np.asarray(data.ins(rec, sp.calibration, "INS-3D").position)[-1, :2]
+                ins_m = float(np.linalg.norm(ins - truth.end_point_m))
+            except MorpiError:
+                ins_m = float("nan")
+            dxy = r.end_point - truth.end_point_m
+            m2 = float(dxy @ np.linalg.solve(r.end_cov, dxy))
+            inside += m2 <= aided.CHI2_95_2DOF
+            total += 1
+            _merge_nis(nis, r.nis)
+            _merge_nis(nis_all, r.nis)
+            rows.append({"file": p.rel, "forward_m": float(np.linalg.norm(dxy)),
+                         "smoothed_m": float(np.linalg.norm(r.smoothed[-1, :2] - truth.end_point_m)),
+                         "morpi_m": float(by_file[p.rel].end_error_m), "ins_m": ins_m,
+                         "mahalanobis2": m2, "inside_95": bool(m2 <= aided.CHI2_95_2DOF),
+                         "gain_error": r.gain_error, "gain_error_sigma": r.gain_sigma})
+            paths.append((r.time, r.position[:, :2], r.smoothed[:, :2], p.morpi_xy, r.P_xy))
+        mean = lambda k: float(np.nanmean([q[k] for q in rows]) / d)  # noqa: E731
+        cells.append(AidedCell(
+            spec=sp, forward_percent=mean("forward_m"), smoothed_percent=mean("smoothed_m"),
+            morpi_percent=mean("morpi_m"), ins_percent=mean("ins_m"), runs=tuple(rows),
+            tuning={**info, "accel_noise": noise[0] * info["vibration"], "gyro_noise": noise[1] * info["vibration"],
+                    "gain_sigma": g.std / g.mean},
+            train_percent=score, nis={k: (v[0] / max(v[1], 1), v[2]) for k, v in nis.items()}, paths=tuple(paths)))
+        if ablation and sp.calibration == "GC":
+            for name, change in ABLATIONS.items():
+                if not change:
+                    # without smoothing: the forward filter's end points
+                    val = mean("forward_m")
+                else:
+                    e = [np.linalg.norm(abl_res[(i, p.rel, name)].end_point - truth.end_point_m) for p in runs]
+                    val = float(np.mean(e) / d)
+                abl.append({"cell": sp.label, "removed": name, "smoothed_percent": val})
+    return AidedStudy(cells=tuple(cells), ablation=tuple(abl), coverage_95=inside / total if total else float("nan"),
+                      nis={k: (v[0] / max(v[1], 1), v[2]) for k, v in nis_all.items()})

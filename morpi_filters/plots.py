@@ -11,7 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 
 __all__ = [
-    "pyplot", "save", "plot_recording", "plot_tracks", "plot_path_sets", "assessment_figure", "plot_curves", "plot_aided_cells",
+    "pyplot", "save", "plot_recording", "plot_tracks", "plot_path_sets", "assessment_figure", "plot_curves", "plot_aided_cells", "plot_aided_paths", "plot_aided_ellipses",
     "simulation_run", "montecarlo_final_errors", "montecarlo_error_curves", "montecarlo_gain_vs_error",
     "montecarlo_training_runs", "drift_disagreement_map",
 ]
@@ -256,7 +256,7 @@ def plot_curves(curves, path):
 
 
 def plot_aided_cells(cells, path):
-    """Field end-point error per MoRPI table cell: aided INS, MoRPI alone, INS alone.
+    """Field end-point error per MoRPI table cell: aided filter, MoRPI alone, INS alone, the paper.
 
     Parameters
     ----------
@@ -273,13 +273,81 @@ def plot_aided_cells(cells, path):
     h = 0.27
     ax.barh(y - h, [c.ins_percent for c in cells], h, color="0.7", label="INS-3D alone")
     ax.barh(y, [c.morpi_percent for c in cells], h, color="C1", label="MoRPI alone")
-    ax.barh(y + h, [c.aided_percent for c in cells], h, color="C0", label="MoRPI-aided INS (this filter)")
+    ax.barh(y + h, [c.forward_percent for c in cells], h, color="C0", label="MoRPI-aided filter")
+    ax.plot([c.spec.paper_percent for c in cells], y, "k|", ms=9, label="paper (MoRPI)")
     ax.set_yticks(y, [c.label for c in cells], fontsize=7)
     ax.invert_yaxis()
     ax.set_xscale("log")
     ax.set_xlabel("mean end-point error [% of travelled distance]")
     ax.grid(True, axis="x", alpha=0.3)
-    ax.legend(fontsize=8, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=3, frameon=False)
+    ax.legend(fontsize=8, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=4, frameon=False)
+    fig.tight_layout()
+    return save(fig, path)
+
+
+def plot_aided_paths(cell, truth_xy, path):
+    """Test paths of one cell: MoRPI alone, forward and smoothed filter, against the true route.
+
+    Parameters
+    ----------
+    cell : field_aided.AidedCell
+    truth_xy : ndarray, shape (m, 2)
+        The true route's polyline [m].
+    path : path
+        PNG destination.
+    """
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(8, 4))
+    ax.plot(truth_xy[:, 0], truth_xy[:, 1], "k-", lw=2, label="true route")
+    for j, (_, fwd, sm, morpi, _) in enumerate(cell.paths):
+        lab = j == 0
+        ax.plot(morpi[:, 0], morpi[:, 1], "-", color="C1", lw=0.8, label="MoRPI alone" if lab else None)
+        ax.plot(fwd[:, 0], fwd[:, 1], "-", color="C0", lw=0.8, label="forward filter" if lab else None)
+        ax.plot(sm[:, 0], sm[:, 1], "--", color="C2", lw=0.8, label="smoothed" if lab else None)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title(cell.label, fontsize=9)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=7, ncol=4, loc="upper center", bbox_to_anchor=(0.5, -0.15), frameon=False)
+    fig.tight_layout()
+    return save(fig, path)
+
+
+def plot_aided_ellipses(cell, path, *, run: int = 0, every_s: float = 2.0):
+    """The filter's 2-sigma horizontal ellipses along one test run of a cell.
+
+    Parameters
+    ----------
+    cell : field_aided.AidedCell
+    path : path
+        PNG destination.
+    run : int
+        Which run of the cell.
+    every_s : float
+        Spacing of the ellipses [s].
+    """
+    import numpy as np
+
+    plt = pyplot()
+    t, fwd, sm, _, P = cell.paths[run]
+    fig, ax = plt.subplots(figsize=(8, 4))
+    ax.plot(fwd[:, 0], fwd[:, 1], "-", color="C0", lw=1, label="forward filter")
+    ang = np.linspace(0, 2 * np.pi, 60)
+    circle = np.stack([np.cos(ang), np.sin(ang)])
+    last = -np.inf
+    for k in range(t.size):
+        if t[k] - last < every_s and k != t.size - 1:
+            continue
+        last = t[k]
+        w, V = np.linalg.eigh(0.5 * (P[k] + P[k].T))
+        e = V @ (2.0 * np.sqrt(np.maximum(w, 0.0))[:, None] * circle)
+        ax.plot(fwd[k, 0] + e[0], fwd[k, 1] + e[1], "-", color="C3", lw=0.6)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title(f"{cell.label}: 2-sigma ellipses every {every_s:g} s ({cell.runs[run]['file']})", fontsize=8)
+    ax.grid(True, alpha=0.3)
     fig.tight_layout()
     return save(fig, path)
 

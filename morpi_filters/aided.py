@@ -1,0 +1,743 @@
+"""MoRPI-aided inertial navigation: one closed-loop error-state filter pass per recording.
+
+The 3D strapdown runs sample by sample on the real, irregular time steps
+(attitude by the rotation vector of the trapezoid gyro increment, velocity and
+position by the trapezoid rule). An error-state Kalman filter runs beside it
+with the states
+
+``[dp, dv, eps, ba, bg]`` (the slices of :mod:`morpi_filters.error_model`),
+``dc`` (:data:`CLONE`: the horizontal position error at the last step
+boundary) and ``k`` (:data:`GAIN`: the relative error of the MoRPI step gain).
+
+Conventions (those of :mod:`morpi_filters.error_model`): ``dp = p_hat - p``,
+``dv = v_hat - v``, ``C_hat = exp([eps x]) C``, ``ba = b_a - b_a_hat``,
+``bg = b_g - b_g_hat``. After every update the estimate is fed back into the
+nominal state (position, velocity, attitude, biases, clone) and those error
+states return to zero; the gain error stays a state.
+
+The covariance is propagated on an epoch grid (every ``epoch_s`` seconds of
+samples, 0.1 s by default) with the transition ``I + F T + (F T)^2 / 2`` of the
+interval's mean specific force and attitude; the nominal state is integrated at
+every sample. Updates happen at the epochs:
+
+* :class:`StepDisplacement`: the MoRPI step, ``L (cos psi, sin psi)`` (length
+  ``L`` from the trained gain, heading ``psi`` of the filter's attitude averaged
+  over the step) equals ``(1 + k)`` times the displacement since the clone;
+  step boundaries fall on the nearest epoch, so consecutive steps share them;
+* :class:`ZeroVelocity` and :class:`ZeroRate`: the rest windows the IMU itself
+  shows at the start and the end of a recording;
+* :class:`NonHolonomic`: the robot's lateral and vertical velocity are zero
+  (phone-to-robot tilt from the rest specific force, mounting yaw zero).
+
+Every measurement is a small object with its nonlinear model ``h(x, nom)``,
+Jacobian ``H(x, nom)`` and noise ``R``, batched over a leading axis of
+members. One predict/update core (:func:`kf_predict`, :func:`kf_update`,
+filterpy's ``KalmanFilter`` equations, Joseph form) serves every measurement,
+and :func:`rts_smooth` is filterpy's Rauch-Tung-Striebel recursion written for
+the fed-back filter. :func:`run_batch` runs many recordings (or one recording
+under many tunings) in one pass: numpy operations act on all members at once.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from .error_model import BA, BG, DP, DV, EPS, N_STATES
+from .errors import MorpiError, ParameterError
+
+#: Clone of the horizontal position error at the last step boundary.
+CLONE = slice(N_STATES, N_STATES + 2)
+#: Relative error of the step gain.
+GAIN = N_STATES + 2
+#: Dimension of the aided error state.
+N_AIDED = N_STATES + 3
+#: Sources of the MoRPI step direction (:attr:`AidTuning.step_heading`).
+STEP_HEADINGS = ("attitude", "gyro")
+#: 95 % point of the chi-square distribution with 2 degrees of freedom (the horizontal ellipse).
+CHI2_95_2DOF = 5.991464547107979
+
+
+# --------------------------------------------------------------------------- Kalman core (batched)
+
+def kf_predict(x, P, Phi, Q):
+    """Kalman prediction ``x = Phi x``, ``P = Phi P Phi^T + Q`` over a leading batch axis.
+
+    The equations of filterpy's ``KalmanFilter.predict`` (no control input).
+
+    Parameters
+    ----------
+    x : ndarray, shape (b, n)
+    P, Phi, Q : ndarray, shape (b, n, n)
+
+    Returns
+    -------
+    (x, P)
+    """
+    x = np.einsum("bij,bj->bi", Phi, x)
+    P = Phi @ P @ np.swapaxes(Phi, 1, 2) + Q
+    return x, P
+
+
+def kf_update(x, P, y, H, R):
+    """Kalman update with innovation `y` over a leading batch axis (Joseph form).
+
+    The equations of filterpy's ``KalmanFilter.update``: ``S = H P H^T + R``,
+    ``K = P H^T S^-1``, ``x = x + K y``, ``P = (I - K H) P (I - K H)^T + K R K^T``.
+
+    Parameters
+    ----------
+    x : ndarray, shape (b, n)
+    P : ndarray, shape (b, n, n)
+    y : ndarray, shape (b, m)
+        Innovation ``z - h(x)``.
+    H : ndarray, shape (b, m, n)
+    R : ndarray, shape (b, m, m)
+
+    Returns
+    -------
+    (x, P, S)
+    """
+    Ht = np.swapaxes(H, 1, 2)
+    PHt = P @ Ht
+    S = H @ PHt + R
+    K = np.swapaxes(np.linalg.solve(S, np.swapaxes(PHt, 1, 2)), 1, 2)
+    x = x + np.einsum("bij,bj->bi", K, y)
+    IKH = np.eye(P.shape[-1]) - K @ H
+    P = IKH @ P @ np.swapaxes(IKH, 1, 2) + K @ R @ np.swapaxes(K, 1, 2)
+    return x, 0.5 * (P + np.swapaxes(P, 1, 2)), S
+
+
+def rts_smooth(x_post, P_post, x_prior, P_prior, Phi, fed=None):
+    """Rauch-Tung-Striebel smoother over epochs ``0..m-1`` (filterpy's recursion).
+
+    ``Phi[k]`` propagates from epoch ``k - 1`` to ``k`` (filterpy's
+    ``Fs[k]``); ``x_prior[k]``, ``P_prior[k]`` are the predictions at epoch ``k``
+    before its update. With feedback, ``fed[k]`` is the correction moved into
+    the nominal state at epoch ``k`` (the smoothed error there is then
+    relative to the corrected nominal state).
+
+    Parameters
+    ----------
+    x_post, x_prior : ndarray, shape (m, n)
+    P_post, P_prior, Phi : ndarray, shape (m, n, n)
+    fed : ndarray, shape (m, n), optional
+
+    Returns
+    -------
+    (xs, Ps) : smoothed states and covariances, shapes (m, n) and (m, n, n)
+    """
+    xs = np.array(x_post, dtype=float)
+    Ps = np.array(P_post, dtype=float)
+    for k in range(xs.shape[0] - 2, -1, -1):
+        # a pseudo-inverse: states without uncertainty (an unused clone or gain) leave P_prior singular
+        G = P_post[k] @ Phi[k + 1].T @ np.linalg.pinv(P_prior[k + 1], hermitian=True)
+        ahead = xs[k + 1] if fed is None else xs[k + 1] + fed[k + 1]
+        xs[k] = x_post[k] + G @ (ahead - x_prior[k + 1])
+        Ps[k] = P_post[k] + G @ (Ps[k + 1] - P_prior[k + 1]) @ G.T
+    return xs, Ps
+
+
+def _rotvec(phi):
+    """``exp([phi x])`` for a batch of rotation vectors, shape (b, 3) -> (b, 3, 3) (Rodrigues)."""
+    th2 = np.einsum("bi,bi->b", phi, phi)
+    th = np.sqrt(th2)
+    small = th < 1e-6
+    safe = np.where(small, 1.0, th)
+    a = np.where(small, 1.0 - th2 / 6.0, np.sin(safe) / safe)
+    b = np.where(small, 0.5 - th2 / 24.0, (1.0 - np.cos(safe)) / (safe * safe))
+    K = _skew(phi)
+    return np.eye(3) + a[:, None, None] * K + b[:, None, None] * (K @ K)
+
+
+def _skew(v):
+    """Batched cross-product matrices, shape (b, 3) -> (b, 3, 3)."""
+    out = np.zeros(v.shape[:-1] + (3, 3))
+    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
+    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
+    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
+    return out
+
+
+# --------------------------------------------------------------------------- measurements
+
+@dataclass(frozen=True)
+class Nominal:
+    """Nominal (fed-back) navigation state the measurements linearize about, batched.
+
+    Attributes
+    ----------
+    C : ndarray, shape (b, 3, 3)
+        Body-to-navigation attitude.
+    v, p : ndarray, shape (b, 3)
+        Velocity [m/s] and position [m] in the navigation frame (z up).
+    clone : ndarray, shape (b, 2)
+        Horizontal position at the last step boundary [m].
+    """
+
+    C: np.ndarray
+    v: np.ndarray
+    p: np.ndarray
+    clone: np.ndarray
+
+
+@dataclass(frozen=True)
+class StepDisplacement:
+    """MoRPI step: ``z = (1 + k) (p_xy - c)`` with the true position ``p`` and clone ``c``.
+
+    Attributes
+    ----------
+    z : ndarray, shape (b, 2)
+        Measured displacement [m].
+    sigma : ndarray, shape (b,)
+        Noise per axis [m].
+    """
+
+    z: np.ndarray
+    sigma: np.ndarray
+
+    def h(self, x, nom: Nominal):
+        gain = 1.0 + x[:, GAIN]
+        return gain[:, None] * ((nom.p[:, :2] - x[:, DP][:, :2]) - (nom.clone - x[:, CLONE]))
+
+    def H(self, x, nom: Nominal):
+        gain = 1.0 + x[:, GAIN]
+        H = np.zeros((x.shape[0], 2, N_AIDED))
+        H[:, :, DP.start:DP.start + 2] = -gain[:, None, None] * np.eye(2)
+        H[:, :, CLONE] = gain[:, None, None] * np.eye(2)
+        H[:, :, GAIN] = (nom.p[:, :2] - x[:, DP][:, :2]) - (nom.clone - x[:, CLONE])
+        return H
+
+    def R(self):
+        return self.sigma[:, None, None] ** 2 * np.eye(2)
+
+
+@dataclass(frozen=True)
+class ZeroVelocity:
+    """Rest: the true velocity is zero, ``z = 0 = v_hat - dv``."""
+
+    sigma: np.ndarray
+
+    @property
+    def z(self):
+        return np.zeros((self.sigma.shape[0], 3))
+
+    def h(self, x, nom: Nominal):
+        return nom.v - x[:, DV]
+
+    def H(self, x, nom: Nominal):
+        H = np.zeros((x.shape[0], 3, N_AIDED))
+        H[:, :, DV] = -np.eye(3)
+        return H
+
+    def R(self):
+        return self.sigma[:, None, None] ** 2 * np.eye(3)
+
+
+@dataclass(frozen=True)
+class ZeroRate:
+    """Rest: the gyro reads its bias, ``z = mean(omega) - bg_hat = bg``.
+
+    Attributes
+    ----------
+    z : ndarray, shape (b, 3)
+        Mean bias-corrected angular rate over the epoch [rad/s].
+    sigma : ndarray, shape (b,)
+        Its noise per axis [rad/s] (the white-noise density over the epoch's duration).
+    """
+
+    z: np.ndarray
+    sigma: np.ndarray
+
+    def h(self, x, nom: Nominal):
+        return x[:, BG].copy()
+
+    def H(self, x, nom: Nominal):
+        H = np.zeros((x.shape[0], 3, N_AIDED))
+        H[:, :, BG] = np.eye(3)
+        return H
+
+    def R(self):
+        return self.sigma[:, None, None] ** 2 * np.eye(3)
+
+
+@dataclass(frozen=True)
+class NonHolonomic:
+    """Robot-frame lateral and vertical velocity zero: rows 2-3 of ``M C^T v`` (true ``C``, ``v``).
+
+    Attributes
+    ----------
+    M : ndarray, shape (b, 3, 3)
+        Phone body axes to robot axes (the tilt at rest, yaw zero).
+    sigma : ndarray, shape (b,)
+        Velocity noise [m/s].
+    """
+
+    M: np.ndarray
+    sigma: np.ndarray
+
+    @property
+    def z(self):
+        return np.zeros((self.sigma.shape[0], 2))
+
+    def h(self, x, nom: Nominal):
+        C_true = _rotvec(-x[:, EPS]) @ nom.C
+        vb = np.einsum("bji,bj->bi", C_true, nom.v - x[:, DV])
+        return np.einsum("bij,bj->bi", self.M, vb)[:, 1:]
+
+    def H(self, x, nom: Nominal):
+        # linearized at the fed-back state (eps = dv = 0)
+        A = (self.M @ np.swapaxes(nom.C, 1, 2))[:, 1:]
+        H = np.zeros((x.shape[0], 2, N_AIDED))
+        H[:, :, DV] = -A
+        H[:, :, EPS] = -A @ _skew(nom.v - x[:, DV])
+        return H
+
+    def R(self):
+        return self.sigma[:, None, None] ** 2 * np.eye(2)
+
+
+# --------------------------------------------------------------------------- inputs and tunables
+
+@dataclass(frozen=True)
+class AidTuning:
+    """Tunables of the aided filter (1 sigma, SI).
+
+    Attributes
+    ----------
+    accel_noise, gyro_noise : float
+        White-noise densities of the motion [m/s^2/sqrt(Hz)], [rad/s/sqrt(Hz)].
+    accel_walk, gyro_walk : float
+        Bias random walks [m/s^2/sqrt(s)], [rad/s/sqrt(s)].
+    step_sigma : float
+        Step displacement noise per axis [m].
+    nhc_sigma : float
+        Non-holonomic velocity noise [m/s].
+    zupt_sigma : float
+        Rest velocity noise [m/s].
+    gain_sigma : float
+        Prior relative gain error (0: the gain is taken as exact).
+    tilt0, ba0, bg0 : float
+        Initial roll/pitch [rad], accelerometer bias [m/s^2] and gyro bias [rad/s] uncertainty.
+    steps, nhc, rest : bool
+        Which aids run.
+    step_heading : str
+        Direction of the MoRPI step displacement: ``"attitude"`` (the filter's
+        attitude averaged over the step, the paper's heading equation) or
+        ``"gyro"`` (MoRPI's own z-gyro heading reading, :attr:`AidedInput.step_vector`).
+    """
+
+    accel_noise: float = 1e-2
+    gyro_noise: float = 1e-3
+    accel_walk: float = 1e-4
+    gyro_walk: float = 1e-5
+    step_sigma: float = 0.05
+    nhc_sigma: float = 0.05
+    zupt_sigma: float = 0.01
+    gain_sigma: float = 0.05
+    tilt0: float = 0.02
+    ba0: float = 0.2
+    bg0: float = 0.05
+    steps: bool = True
+    nhc: bool = True
+    rest: bool = True
+    step_heading: str = "attitude"
+
+    def __post_init__(self):
+        if self.step_heading not in STEP_HEADINGS:
+            raise ParameterError(f"AidTuning.step_heading={self.step_heading!r}: expected one of {STEP_HEADINGS}")
+        for k, v in asdict(self).items():
+            if isinstance(v, (bool, str)):
+                continue
+            if not (np.isfinite(v) and v >= 0):
+                raise ParameterError(f"AidTuning.{k}={v!r}: expected a finite value >= 0")
+        for k in ("step_sigma", "nhc_sigma", "zupt_sigma"):
+            if getattr(self, k) <= 0:
+                raise ParameterError(f"AidTuning.{k}={getattr(self, k)!r}: expected a value > 0")
+
+    def with_(self, **kw) -> "AidTuning":
+        """A copy with some fields changed."""
+        from dataclasses import replace
+
+        return replace(self, **kw)
+
+
+@dataclass(frozen=True, eq=False)
+class AidedInput:
+    """One recording prepared for the aided filter.
+
+    Attributes
+    ----------
+    time : ndarray, shape (n,)
+        Sample times [s], increasing.
+    f, omega : ndarray, shape (n, 3)
+        Specific force [m/s^2] and angular rate [rad/s] (calibrated as wished).
+    C0 : ndarray, shape (3, 3)
+        Initial attitude (roll and pitch from rest, yaw zero).
+    g : float
+        Gravity magnitude [m/s^2].
+    step_start, step_end, step_length : ndarray, shape (k,)
+        MoRPI steps: boundaries [s] and lengths [m] (empty: no steps).
+    rest : tuple of (float, float)
+        Rest windows [s].
+    step_vector : ndarray, shape (k, 2), optional
+        MoRPI's own step displacements (its heading reading) [m], for
+        ``step_heading="gyro"``.
+    """
+
+    time: np.ndarray
+    f: np.ndarray
+    omega: np.ndarray
+    C0: np.ndarray
+    g: float
+    step_start: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    step_end: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    step_length: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    rest: tuple = ()
+    step_vector: np.ndarray | None = None
+
+    def __post_init__(self):
+        t = np.asarray(self.time, float)
+        n = t.shape[0] if t.ndim == 1 else -1
+        if n < 2 or np.asarray(self.f).shape != (n, 3) or np.asarray(self.omega).shape != (n, 3):
+            raise MorpiError(f"AidedInput: expected time (n,) with n >= 2 and f, omega (n, 3); got "
+                             f"{t.shape}, {np.shape(self.f)}, {np.shape(self.omega)}")
+        if not np.all(np.diff(t) > 0):
+            raise MorpiError("AidedInput: time must increase strictly")
+        k = np.shape(self.step_length)
+        if np.shape(self.step_start) != k or np.shape(self.step_end) != k:
+            raise MorpiError("AidedInput: step_start, step_end and step_length must have one shape")
+        if self.step_vector is not None and np.shape(self.step_vector) != k + (2,):
+            raise MorpiError(f"AidedInput: step_vector must have shape {k + (2,)}")
+
+
+@dataclass(frozen=True)
+class AidedResult:
+    """The aided filter over one recording.
+
+    Attributes
+    ----------
+    time : ndarray, shape (m,)
+        Epoch times [s].
+    position : ndarray, shape (m, 3)
+        Forward filter position at the epochs [m].
+    P_xy : ndarray, shape (m, 2, 2)
+        Its horizontal covariance [m^2].
+    smoothed : ndarray or None, shape (m, 3)
+        Smoothed position at the epochs [m] (when asked).
+    P_xy_smoothed : ndarray or None, shape (m, 2, 2)
+    nis : dict
+        Measurement name -> (sum of NIS, number of updates, dof).
+    gain_error : float
+        Estimated relative gain error ``k``.
+    gain_sigma : float
+    bias_a, bias_g : ndarray, shape (3,)
+        Final bias estimates [m/s^2], [rad/s].
+    bias_a_sigma, bias_g_sigma : ndarray, shape (3,)
+    """
+
+    time: np.ndarray
+    position: np.ndarray
+    P_xy: np.ndarray
+    smoothed: np.ndarray | None
+    P_xy_smoothed: np.ndarray | None
+    nis: dict
+    gain_error: float
+    gain_sigma: float
+    bias_a: np.ndarray
+    bias_g: np.ndarray
+    bias_a_sigma: np.ndarray
+    bias_g_sigma: np.ndarray
+
+    @property
+    def end_point(self) -> np.ndarray:
+        """Last horizontal position, shape (2,) [m]."""
+        return self.position[-1, :2]
+
+    @property
+    def end_cov(self) -> np.ndarray:
+        """Its covariance, shape (2, 2) [m^2]."""
+        return self.P_xy[-1]
+
+
+# --------------------------------------------------------------------------- the batched pass
+
+def _epochs(inp: AidedInput, tun: AidTuning, epoch_s: float):
+    """A member's epoch samples, its step events and rest flags.
+
+    Epochs fall every ``epoch_s`` (in whole samples) and on the sample nearest
+    to each step boundary, so a step update compares the MoRPI length with the
+    displacement over the same samples.
+
+    Returns
+    -------
+    (epochs, ends, starts, rest) : sample indices; end sample -> [(start sample, step index)];
+        set of start samples; rest flag per sample
+    """
+    t = inp.time
+    n = t.size
+    m = max(1, int(round(epoch_s / float(np.median(np.diff(t))))))
+    grid = [np.arange(0, n, m), [n - 1]]
+    ends, starts = {}, set()
+    if tun.steps and inp.step_length.size:
+        def nearest(x):
+            j = np.clip(np.searchsorted(t, x), 1, n - 1)
+            return np.where(np.abs(t[j - 1] - x) <= np.abs(t[j] - x), j - 1, j)
+
+        a = nearest(np.asarray(inp.step_start, float))
+        b = nearest(np.asarray(inp.step_end, float))
+        for j in range(inp.step_length.size):
+            if b[j] > a[j] and np.isfinite(inp.step_length[j]):
+                ends.setdefault(int(b[j]), []).append((int(a[j]), j))
+                starts.add(int(a[j]))
+        grid += [np.array(sorted(starts), int), np.array(sorted(ends), int)]
+    rest = np.zeros(n, bool)
+    if tun.rest:
+        for t0, t1 in inp.rest:
+            rest[(t >= t0) & (t <= t1)] = True
+    return np.unique(np.concatenate(grid).astype(int)), ends, starts, rest
+
+
+def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth: bool = False):
+    """Run the aided filter on many members in one pass.
+
+    Parameters
+    ----------
+    inputs : sequence of AidedInput
+    tunings : AidTuning or sequence of AidTuning
+        One for all members, or one per member.
+    epoch_s : float
+        Covariance and update epoch [s] (rounded to whole samples per member).
+    smooth : bool
+        Also run the Rauch-Tung-Striebel smoother (keeps the covariances of
+        every epoch: about ``3 * 8 * 18^2`` bytes per epoch and member).
+
+    Returns
+    -------
+    list of AidedResult
+    """
+    inputs = list(inputs)
+    B = len(inputs)
+    if B == 0:
+        return []
+    tunings = [tunings] * B if isinstance(tunings, AidTuning) else list(tunings)
+    if len(tunings) != B:
+        raise ParameterError(f"run_batch: {len(tunings)} tunings for {B} inputs")
+    if not (np.isfinite(epoch_s) and epoch_s > 0):
+        raise ParameterError(f"epoch_s={epoch_s!r}: expected a positive duration [s]")
+    n = np.array([i.time.size for i in inputs])
+    N = int(n.max())
+    T = np.zeros((B, N))
+    F_b = np.zeros((B, N, 3))
+    W_b = np.zeros((B, N, 3))
+    for b, inp in enumerate(inputs):
+        T[b, :n[b]] = inp.time
+        T[b, n[b]:] = inp.time[-1]
+        F_b[b, :n[b]] = inp.f
+        W_b[b, :n[b]] = inp.omega
+    dtk = np.diff(T, axis=1)                      # 0 after each member's end
+    # epochs: every m_b samples from the first, and the last sample
+    is_epoch = np.zeros((B, N), bool)
+    ev = []
+    for b, inp in enumerate(inputs):
+        e = _epochs(inp, tunings[b], epoch_s)
+        is_epoch[b, e[0]] = True
+        ev.append(e)
+    tn = tunings
+    arr = lambda name: np.array([getattr(t, name) for t in tn], float)  # noqa: E731
+    q_a, q_g = arr("accel_noise") ** 2, arr("gyro_noise") ** 2
+    q_ba, q_bg = arr("accel_walk") ** 2, arr("gyro_walk") ** 2
+    step_sig, nhc_sig, zupt_sig = arr("step_sigma"), arr("nhc_sigma"), arr("zupt_sigma")
+    use_nhc = np.array([t.nhc for t in tn])
+    gyro_heading = [t.step_heading == "gyro" for t in tn]
+    for b, t in enumerate(tn):
+        if gyro_heading[b] and t.steps and inputs[b].step_vector is None:
+            raise ParameterError(f"member {b}: step_heading='gyro' needs AidedInput.step_vector")
+    gvec = np.zeros((B, 3))
+    gvec[:, 2] = [i.g for i in inputs]
+    gyro_sig_rest = arr("gyro_noise")           # density; divided by sqrt(epoch duration) at use
+
+    # nominal state
+    C = np.array([i.C0 for i in inputs], float)
+    M = C.copy()
+    v = np.zeros((B, 3))
+    p = np.zeros((B, 3))
+    clone = np.zeros((B, 2))
+    ba_hat = np.zeros((B, 3))
+    bg_hat = np.zeros((B, 3))
+    # error state
+    x = np.zeros((B, N_AIDED))
+    P = np.zeros((B, N_AIDED, N_AIDED))
+    I3 = np.eye(3)
+    P[:, DV, DV] = I3 * 1e-6
+    P[:, EPS, EPS] = I3 * (arr("tilt0") ** 2)[:, None, None]
+    P[:, EPS.stop - 1, EPS.stop - 1] = 1e-10      # the heading is zero by definition of the frame
+    P[:, BA, BA] = I3 * (arr("ba0") ** 2)[:, None, None]
+    P[:, BG, BG] = I3 * (arr("bg0") ** 2)[:, None, None]
+    P[:, GAIN, GAIN] = np.array([t.gain_sigma ** 2 if t.steps else 0.0 for t in tn])
+
+    # interval accumulators since the last epoch
+    acc_dt = np.zeros(B)
+    acc_fn = np.zeros((B, 3))
+    acc_C = np.zeros((B, 3, 3))
+    acc_w = np.zeros((B, 3))
+    head = np.zeros((B, 2))                       # running sum of the x axis's horizontal direction
+    head_at = [dict() for _ in range(B)]          # epoch sample -> running sum (step starts)
+    keep = [[] for _ in range(B)]                 # (k, p, P_xy)
+    hist = [[] for _ in range(B)] if smooth else None
+    nis = [dict() for _ in range(B)]
+    f_prev = F_b[:, 0] - ba_hat
+    w_prev = W_b[:, 0] - bg_hat
+    a_prev = np.einsum("bij,bj->bi", C, f_prev) - gvec
+    rest_flags = np.array([e[3] if e[3].size == N else np.r_[e[3], np.zeros(N - e[3].size, bool)] for e in ev])
+    ends = [e[1] for e in ev]
+    starts = [e[2] for e in ev]
+    nominal_now = lambda sel: Nominal(C[sel], v[sel], p[sel], clone[sel])  # noqa: E731
+
+    def update(sel, meas, name):
+        nom = nominal_now(sel)
+        xs = x[sel]
+        y = meas.z - meas.h(xs, nom)
+        xn, Pn, S = kf_update(xs, P[sel], y, meas.H(xs, nom), meas.R())
+        x[sel], P[sel] = xn, Pn
+        val = np.einsum("bi,bi->b", y, np.linalg.solve(S, y[..., None])[..., 0])
+        for j, b in enumerate(sel):
+            s, c, d = nis[b].get(name, (0.0, 0, y.shape[1]))
+            nis[b][name] = (s + float(val[j]), c + 1, d)
+
+    for k in range(N):
+        if k > 0:
+            dt = dtk[:, k - 1]
+            fk = F_b[:, k] - ba_hat
+            wk = W_b[:, k] - bg_hat
+            C_old = C
+            C = C @ _rotvec(0.5 * dt[:, None] * (w_prev + wk))
+            ak = np.einsum("bij,bj->bi", C, fk) - gvec
+            v_new = v + 0.5 * dt[:, None] * (a_prev + ak)
+            p = p + 0.5 * dt[:, None] * (v + v_new)
+            v = v_new
+            acc_dt += dt
+            acc_fn += dt[:, None] * np.einsum("bij,bj->bi", C_old, 0.5 * (f_prev + fk))
+            acc_C += dt[:, None, None] * C_old
+            acc_w += dt[:, None] * 0.5 * (w_prev + wk)
+            f_prev, w_prev, a_prev = fk, wk, ak
+        head += C[:, :2, 0]
+        sel = np.flatnonzero(is_epoch[:, k])
+        if sel.size == 0:
+            continue
+        # ---- predict the covariance over the interval
+        d = acc_dt[sel]
+        Phi = np.broadcast_to(np.eye(N_AIDED), (sel.size, N_AIDED, N_AIDED)).copy()
+        if k > 0:
+            Fd = np.zeros((sel.size, N_AIDED, N_AIDED))
+            Fd[:, DP, DV] = I3 * d[:, None, None]
+            Fd[:, DV, EPS] = -_skew(acc_fn[sel])
+            Fd[:, DV, BA] = acc_C[sel]
+            Fd[:, EPS, BG] = acc_C[sel]
+            Phi = Phi + Fd + 0.5 * (Fd @ Fd)
+            Q = np.zeros((sel.size, N_AIDED, N_AIDED))
+            Q[:, DV, DV] = I3 * (q_a[sel] * d)[:, None, None]
+            Q[:, EPS, EPS] = I3 * (q_g[sel] * d)[:, None, None]
+            Q[:, BA, BA] = I3 * (q_ba[sel] * d)[:, None, None]
+            Q[:, BG, BG] = I3 * (q_bg[sel] * d)[:, None, None]
+            x[sel], P[sel] = kf_predict(x[sel], P[sel], Phi, Q)
+        x_prior, P_prior = x[sel].copy(), P[sel].copy()
+        # ---- updates
+        touched = np.zeros(B, bool)
+        se = [b for b in sel if k in ends[b]]
+        for b in se:
+            for a, j in ends[b][k]:
+                if gyro_heading[b]:
+                    z = np.asarray(inputs[b].step_vector[j], float)[None]
+                else:
+                    hc, hs = head[b] - head_at[b][a]
+                    psi = np.arctan2(hs, hc)
+                    L = float(inputs[b].step_length[j])
+                    z = np.array([[L * np.cos(psi), L * np.sin(psi)]])
+                one = np.array([b])
+                update(one, StepDisplacement(z=z, sigma=step_sig[one]), "step")
+                touched[b] = True
+        rs = sel[rest_flags[sel, k]]
+        if rs.size and k > 0:
+            dr = np.maximum(acc_dt[rs], 1e-9)
+            update(rs, ZeroVelocity(sigma=zupt_sig[rs]), "zero velocity")
+            update(rs, ZeroRate(z=acc_w[rs] / dr[:, None], sigma=gyro_sig_rest[rs] / np.sqrt(dr)), "zero rate")
+            touched[rs] = True
+        ns = sel[~rest_flags[sel, k] & use_nhc[sel] & (k > 0) & (k < n[sel])]
+        if ns.size:
+            update(ns, NonHolonomic(M=M[ns], sigma=nhc_sig[ns]), "non-holonomic")
+            touched[ns] = True
+        # ---- feedback
+        fed = np.zeros((sel.size, N_AIDED))
+        tb = np.flatnonzero(touched)
+        if tb.size:
+            xe = x[tb]
+            p[tb] -= xe[:, DP]
+            v[tb] -= xe[:, DV]
+            C[tb] = _rotvec(-xe[:, EPS]) @ C[tb]
+            ba_hat[tb] += xe[:, BA]
+            bg_hat[tb] += xe[:, BG]
+            clone[tb] -= xe[:, CLONE]
+            pos = np.searchsorted(sel, tb)
+            fed[pos, :GAIN] = xe[:, :GAIN]
+            x[tb, :GAIN] = 0.0
+            f_prev[tb] = F_b[tb, k] - ba_hat[tb]
+            w_prev[tb] = W_b[tb, k] - bg_hat[tb]
+            a_prev[tb] = np.einsum("bij,bj->bi", C[tb], f_prev[tb]) - gvec[tb]
+        # ---- step starts: the clone takes the current horizontal position error
+        for b in sel:
+            if k in starts[b]:
+                Tm = np.eye(N_AIDED)
+                Tm[CLONE, :] = 0.0
+                Tm[CLONE, DP.start:DP.start + 2] = np.eye(2)
+                P[b] = Tm @ P[b] @ Tm.T
+                x[b] = Tm @ x[b]
+                clone[b] = p[b, :2]
+                head_at[b][k] = head[b].copy()
+                if smooth:
+                    # the clone is part of the transition into the next epoch
+                    pass
+        for j, b in enumerate(sel):
+            keep[b].append((k, p[b].copy(), P[b, :2, :2].copy()))
+            if smooth:
+                hist[b].append((x[b].copy(), P[b].copy(), x_prior[j], P_prior[j], Phi[j], fed[j],
+                                k in starts[b], v[b].copy()))
+        acc_dt[sel] = 0.0
+        acc_fn[sel] = 0.0
+        acc_C[sel] = 0.0
+        acc_w[sel] = 0.0
+
+    out = []
+    for b, inp in enumerate(inputs):
+        ks = np.array([k for k, _, _ in keep[b]])
+        pos = np.array([q for _, q, _ in keep[b]])
+        Pxy = np.array([q for _, _, q in keep[b]])
+        sm = Psm = None
+        if smooth:
+            sm, Psm = _smooth_member(hist[b], pos)
+        out.append(AidedResult(
+            time=inp.time[ks], position=pos, P_xy=Pxy, smoothed=sm, P_xy_smoothed=Psm, nis=nis[b],
+            gain_error=float(x[b, GAIN]), gain_sigma=float(np.sqrt(max(P[b, GAIN, GAIN], 0.0))),
+            bias_a=ba_hat[b].copy(), bias_g=bg_hat[b].copy(),
+            bias_a_sigma=np.sqrt(np.maximum(np.diag(P[b][BA, BA]), 0.0)),
+            bias_g_sigma=np.sqrt(np.maximum(np.diag(P[b][BG, BG]), 0.0))))
+    return out
+
+
+def _smooth_member(hist, pos):
+    """Smoothed positions of one member from its epoch history (see :func:`rts_smooth`).
+
+    At a step start the clone copies the position error: the transition into
+    the next epoch is ``Phi T`` (``T`` the clone copy), so the stored
+    posterior is the one after the copy.
+    """
+    x_post = np.array([h[0] for h in hist])
+    P_post = np.array([h[1] for h in hist])
+    x_prior = np.array([h[2] for h in hist])
+    P_prior = np.array([h[3] for h in hist])
+    Phi = np.array([h[4] for h in hist])
+    fed = np.array([h[5] for h in hist])
+    xs, Ps = rts_smooth(x_post, P_post, x_prior, P_prior, Phi, fed=fed)
+    sm = pos - xs[:, DP]
+    return sm, Ps[:, :2, :2]
