@@ -83,20 +83,6 @@ def main():
     print(f"MoRPI-aided filter, {runs} runs x {n} steps: batched {1e3 * tb:.0f} ms, run by run {1e3 * ts:.0f} ms "
           f"(x{ts / tb:.0f})")
 
-    # closed-loop aided INS on one simulated 20 s sine recording (2051 samples, 6 steps)
-    from morpi_filters import simulate as sm
-    from morpi_filters.eskf import morpi_aided_ins
-
-    tr = sm.sine()
-    d = sm.imu(tr, units.LSM6DSL, np.random.default_rng(2), bias_scale=(0.02, 0.02))
-    pk = tr.peak_times[tr.peak_side > 0]
-    L = np.full(pk.size - 1, tr.period)
-    for every in (1, 10):
-        c = best(lambda: morpi_aided_ins(d.time, d.f, d.omega, pk[:-1], pk[1:], L, units.LSM6DSL, every=every),
-                 repeat=3)
-        print(f"closed-loop aided INS, one {d.time[-1] - d.time[0]:.0f} s recording ({d.time.size} samples), "
-              f"filter every {every} sample(s): {1e3 * c:.0f} ms")
-
 
 if __name__ == "__main__":
     main()

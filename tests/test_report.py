@@ -13,7 +13,7 @@ import pytest
 from morpi_filters import cli
 
 ROOT = Path(__file__).resolve().parents[1]
-SECTIONS = ("tables", "assessment", "curves", "montecarlo", "drift")
+SECTIONS = ("tables", "aided", "assessment", "curves", "montecarlo", "drift")
 
 
 @pytest.fixture(scope="module")
@@ -45,7 +45,7 @@ def test_report_without_dataset_has_every_section(synthetic_report):
     for png in re.findall(r"!\[[^\]]*\]\(([^)]+\.png)\)", index):
         assert (synthetic_report / png).is_file(), png
     # Pages computed on the recordings say they are synthetic, on the page itself.
-    for name in ("tables", "curves", "montecarlo"):
+    for name in ("tables", "aided", "curves", "montecarlo"):
         assert (synthetic_report / name / "README.md").read_text().startswith("> **Synthetic data.**")
     # Nothing staged is left behind.
     assert not [p for p in synthetic_report.parent.iterdir() if p.name.startswith((".staging", ".previous"))]
@@ -73,7 +73,7 @@ def test_interrupted_report_keeps_previous(tmp_path, monkeypatch):
     monkeypatch.setattr(cli, "_section", fake_section)
     monkeypatch.setattr(cli, "_report_source", lambda args: None)
     assert cli.main(["report", "--out", str(out)]) == 130
-    assert calls == ["tables", "assessment", "curves"]
+    assert calls == ["tables", "aided", "assessment", "curves"]
     assert (out / "index.md").read_text() == "previous complete report"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["reports"]
     assert sorted(p.name for p in out.iterdir()) == [".morpi-output", "extra", "index.md", "tables"]
