@@ -32,10 +32,15 @@ from morpi_filters.field_aided import aided_study  # noqa: E402
 
 def _root(arg):
     if arg:
-        return Path(arg)
-    if os.environ.get(ds.DATA_ENV):
-        return Path(os.environ[ds.DATA_ENV])
-    return Path(__file__).resolve().parents[1].parent / "shared" / "morpi-dataset"
+        root = Path(arg)
+    elif os.environ.get(ds.DATA_ENV):
+        root = Path(os.environ[ds.DATA_ENV])
+    else:
+        root = Path(__file__).resolve().parents[1].parent / "shared" / "morpi-dataset"
+    if not root.is_dir() or not ds.catalogue(root):
+        # an empty root times nothing: both sides would return at once
+        sys.exit(f"bench_aided: no recordings under {root} (--data DIR or ${ds.DATA_ENV})")
+    return root
 
 
 def main(argv=None):
@@ -44,6 +49,7 @@ def main(argv=None):
     p.add_argument("--pairs", type=int, default=5)
     args = p.parse_args(argv)
     root = _root(args.data)
+    print(f"dataset {root}", flush=True)
     r = paired("aided study (tuning included) / morpi tables computation",
                lambda: aided_study(root), lambda: evaluate_tables(root), pairs=args.pairs, warmup=0, target=3.0)
     print(r.line())
