@@ -310,6 +310,9 @@ class AidTuning:
         White-noise densities of the motion [m/s^2/sqrt(Hz)], [rad/s/sqrt(Hz)].
     accel_walk, gyro_walk : float
         Bias random walks [m/s^2/sqrt(s)], [rad/s/sqrt(s)].
+    rest_gyro_noise : float
+        Gyro white-noise density at rest, for the zero-rate update
+        [rad/s/sqrt(Hz)] (0: `gyro_noise`).
     step_sigma : float
         Step displacement noise per axis [m].
     nhc_sigma : float
@@ -332,6 +335,7 @@ class AidTuning:
     gyro_noise: float = 1e-3
     accel_walk: float = 1e-4
     gyro_walk: float = 1e-5
+    rest_gyro_noise: float = 0.0
     step_sigma: float = 0.05
     nhc_sigma: float = 0.05
     zupt_sigma: float = 0.01
@@ -450,6 +454,10 @@ class AidedResult:
     bias_a_sigma: np.ndarray
     bias_g_sigma: np.ndarray
 
+    def index_at(self, t: float) -> int:
+        """Index of the last epoch at or before time `t` (the first epoch when none)."""
+        return max(int(np.searchsorted(self.time, t, side="right")) - 1, 0)
+
     @property
     def end_point(self) -> np.ndarray:
         """Last horizontal position, shape (2,) [m]."""
@@ -556,7 +564,8 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth: bool = False):
             raise ParameterError(f"member {b}: step_heading='gyro' needs AidedInput.step_vector")
     gvec = np.zeros((B, 3))
     gvec[:, 2] = [i.g for i in inputs]
-    gyro_sig_rest = arr("gyro_noise")           # density; divided by sqrt(epoch duration) at use
+    # the rest's own gyro density (no vibration); divided by sqrt(epoch duration) at use
+    gyro_sig_rest = np.array([t.rest_gyro_noise or t.gyro_noise for t in tn], float)
 
     # nominal state
     C = np.array([i.C0 for i in inputs], float)
@@ -584,15 +593,23 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth: bool = False):
     acc_w = np.zeros((B, 3))
     head = np.zeros((B, 2))                       # running sum of the x axis's horizontal direction
     head_at = [dict() for _ in range(B)]          # epoch sample -> running sum (step starts)
-    keep = [[] for _ in range(B)]                 # (k, p, P_xy)
+    keep = []                                     # per epoch: (k, members, p, P_xy)
     hist = [[] for _ in range(B)] if smooth else None
-    nis = [dict() for _ in range(B)]
+    nis_sum, nis_cnt, nis_dof = {}, {}, {}
     f_prev = F_b[:, 0] - ba_hat
     w_prev = W_b[:, 0] - bg_hat
     a_prev = np.einsum("bij,bj->bi", C, f_prev) - gvec
     rest_flags = np.array([e[3] if e[3].size == N else np.r_[e[3], np.zeros(N - e[3].size, bool)] for e in ev])
     ends = [e[1] for e in ev]
     starts = [e[2] for e in ev]
+    end_flag = np.zeros((B, N), bool)
+    start_flag = np.zeros((B, N), bool)
+    for b in range(B):
+        end_flag[b, list(ends[b])] = True
+        start_flag[b, list(starts[b])] = True
+    T_clone = np.eye(N_AIDED)
+    T_clone[CLONE, :] = 0.0
+    T_clone[CLONE, DP.start:DP.start + 2] = np.eye(2)
     nominal_now = lambda sel: Nominal(C[sel], v[sel], p[sel], clone[sel])  # noqa: E731
 
     def update(sel, meas, name):
@@ -602,9 +619,10 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth: bool = False):
         xn, Pn, S = kf_update(xs, P[sel], y, meas.H(xs, nom), meas.R())
         x[sel], P[sel] = xn, Pn
         val = np.einsum("bi,bi->b", y, np.linalg.solve(S, y[..., None])[..., 0])
-        for j, b in enumerate(sel):
-            s, c, d = nis[b].get(name, (0.0, 0, y.shape[1]))
-            nis[b][name] = (s + float(val[j]), c + 1, d)
+        if name not in nis_sum:
+            nis_sum[name], nis_cnt[name], nis_dof[name] = np.zeros(B), np.zeros(B, int), y.shape[1]
+        nis_sum[name][sel] += val
+        nis_cnt[name][sel] += 1
 
     for k in range(N):
         if k > 0:
@@ -645,19 +663,21 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth: bool = False):
         x_prior, P_prior = x[sel].copy(), P[sel].copy()
         # ---- updates
         touched = np.zeros(B, bool)
-        se = [b for b in sel if k in ends[b]]
-        for b in se:
-            for a, j in ends[b][k]:
+        se = sel[end_flag[sel, k]]
+        for r in range(max((len(ends[b][k]) for b in se), default=0)):
+            # members whose r-th step ends here, all in one update
+            mem = np.array([b for b in se if len(ends[b][k]) > r])
+            z = np.empty((mem.size, 2))
+            for i, b in enumerate(mem):
+                a, j = ends[b][k][r]
                 if gyro_heading[b]:
-                    z = np.asarray(inputs[b].step_vector[j], float)[None]
+                    z[i] = inputs[b].step_vector[j]
                 else:
                     hc, hs = head[b] - head_at[b][a]
                     psi = np.arctan2(hs, hc)
-                    L = float(inputs[b].step_length[j])
-                    z = np.array([[L * np.cos(psi), L * np.sin(psi)]])
-                one = np.array([b])
-                update(one, StepDisplacement(z=z, sigma=step_sig[one]), "step")
-                touched[b] = True
+                    z[i] = inputs[b].step_length[j] * np.array([np.cos(psi), np.sin(psi)])
+            update(mem, StepDisplacement(z=z, sigma=step_sig[mem]), "step")
+        touched[se] = True
         rs = sel[rest_flags[sel, k]]
         if rs.size and k > 0:
             dr = np.maximum(acc_dt[rs], 1e-9)
@@ -686,38 +706,39 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth: bool = False):
             w_prev[tb] = W_b[tb, k] - bg_hat[tb]
             a_prev[tb] = np.einsum("bij,bj->bi", C[tb], f_prev[tb]) - gvec[tb]
         # ---- step starts: the clone takes the current horizontal position error
-        for b in sel:
-            if k in starts[b]:
-                Tm = np.eye(N_AIDED)
-                Tm[CLONE, :] = 0.0
-                Tm[CLONE, DP.start:DP.start + 2] = np.eye(2)
-                P[b] = Tm @ P[b] @ Tm.T
-                x[b] = Tm @ x[b]
-                clone[b] = p[b, :2]
+        ss = sel[start_flag[sel, k]]
+        if ss.size:
+            P[ss] = T_clone @ P[ss] @ T_clone.T
+            x[ss] = x[ss] @ T_clone.T
+            clone[ss] = p[ss, :2]
+            for b in ss:
                 head_at[b][k] = head[b].copy()
-                if smooth:
-                    # the clone is part of the transition into the next epoch
-                    pass
-        for j, b in enumerate(sel):
-            keep[b].append((k, p[b].copy(), P[b, :2, :2].copy()))
-            if smooth:
-                hist[b].append((x[b].copy(), P[b].copy(), x_prior[j], P_prior[j], Phi[j], fed[j],
-                                k in starts[b], v[b].copy()))
+        keep.append((k, sel, p[sel].copy(), P[sel][:, :2, :2].copy()))
+        if smooth:
+            for j, b in enumerate(sel):
+                hist[b].append((x[b].copy(), P[b].copy(), x_prior[j], P_prior[j], Phi[j], fed[j]))
         acc_dt[sel] = 0.0
         acc_fn[sel] = 0.0
         acc_C[sel] = 0.0
         acc_w[sel] = 0.0
 
+    kk = np.concatenate([np.full(e[1].size, e[0]) for e in keep])
+    kb = np.concatenate([e[1] for e in keep])
+    kp = np.concatenate([e[2] for e in keep])
+    kP = np.concatenate([e[3] for e in keep])
+    order = np.argsort(kb, kind="stable")       # per member, epochs in time order
+    bounds = np.searchsorted(kb[order], np.arange(B + 1))
     out = []
     for b, inp in enumerate(inputs):
-        ks = np.array([k for k, _, _ in keep[b]])
-        pos = np.array([q for _, q, _ in keep[b]])
-        Pxy = np.array([q for _, _, q in keep[b]])
+        rows = order[bounds[b]:bounds[b + 1]]
+        pos = kp[rows]
         sm = Psm = None
         if smooth:
             sm, Psm = _smooth_member(hist[b], pos)
+        nis = {name: (float(nis_sum[name][b]), int(nis_cnt[name][b]), nis_dof[name])
+               for name in nis_sum if nis_cnt[name][b] > 0}
         out.append(AidedResult(
-            time=inp.time[ks], position=pos, P_xy=Pxy, smoothed=sm, P_xy_smoothed=Psm, nis=nis[b],
+            time=inp.time[kk[rows]], position=pos, P_xy=kP[rows], smoothed=sm, P_xy_smoothed=Psm, nis=nis,
             gain_error=float(x[b, GAIN]), gain_sigma=float(np.sqrt(max(P[b, GAIN, GAIN], 0.0))),
             bias_a=ba_hat[b].copy(), bias_g=bg_hat[b].copy(),
             bias_a_sigma=np.sqrt(np.maximum(np.diag(P[b][BA, BA]), 0.0)),

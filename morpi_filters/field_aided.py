@@ -27,7 +27,7 @@ __all__ = ["GRID", "ABLATIONS", "AidedCell", "AidedStudy", "aided_study", "choos
 #: Train-only grid: factor on the rest-window noise densities (the moving robot vibrates far above
 #: them), step displacement noise [m], whether the gain error is a state, and the source of the step
 #: direction.
-GRID = {"vibration": (30.0, 100.0, 300.0), "step_sigma": (0.02, 0.05), "gain_state": (True, False),
+GRID = {"vibration": (100.0, 300.0, 3000.0), "step_sigma": (0.02, 0.05), "gain_state": (True, False),
         "step_heading": ("attitude", "gyro")}
 #: Non-holonomic velocity noise [m/s]: the phone rides off the robot's turning axis, so its lateral
 #: velocity is about omega_z times the lever arm (0.5 rad/s x 0.2 m = 0.1 m/s) while turning.
@@ -61,18 +61,107 @@ def final_rest(rec):
     return float(rec.time[-1] - w.end_s), float(rec.time[-1] - w.start_s)
 
 
-def rest_noise(rec, window) -> tuple[float, float]:
-    """White-noise densities the rest window shows: RMS over the axes of ``std * sqrt(dt)``.
+#: A stretch is still when the moving standard deviation of the gyro (summed over the axes, over
+#: STILL_WINDOW_S) is at most STILL_FACTOR times its median over the initial rest window, and the
+#: moving mean stays as close to the rest's as STILL_FACTOR times the rest's own 95th percentile. For white
+#: noise the standard deviation of 25-50 samples exceeds twice its expected value with negligible
+#: probability; the phones' coarse gyro quantization is covered by taking the rest's own median.
+STILL_WINDOW_S, STILL_FACTOR, STILL_MIN_S = 0.5, 2.0, 0.5
+
+
+def still_spans(time, omega, motion, rest_slice) -> tuple:
+    """Stretches outside the motion where the gyro is as quiet as at rest [s].
+
+    Parameters
+    ----------
+    time : ndarray, shape (n,)
+    omega : ndarray, shape (n, 3)
+    motion : (float, float)
+        Start and end of the robot's motion [s].
+    rest_slice : (int, int)
+        Sample range of the initial rest window (the reference quietness).
 
     Returns
     -------
-    (accel [m/s^2/sqrt(Hz)], gyro [rad/s/sqrt(Hz)])
+    tuple of (start_s, end_s)
+        Still stretches of at least :data:`STILL_MIN_S`, before the motion's start or after its end.
+    """
+    from .steps import GRID_HZ, resample_uniform
+
+    grid, g = resample_uniform(time, omega)
+    k = max(2, int(round(STILL_WINDOW_S * GRID_HZ)))
+    if grid.size <= k:
+        return ()
+    c1 = np.vstack([np.zeros((1, 3)), np.cumsum(g, axis=0)])
+    c2 = np.vstack([np.zeros((1, 3)), np.cumsum(g * g, axis=0)])
+    mean = (c1[k:] - c1[:-k]) / k
+    sd = np.sqrt(np.maximum((c2[k:] - c2[:-k]) / k - mean * mean, 0.0)).sum(axis=1)
+    lo, hi = grid[: sd.size], grid[k - 1: k - 1 + sd.size]     # window j covers [lo[j], hi[j]]
+    i0, i1 = rest_slice
+    ref = (lo >= time[i0]) & (hi <= time[max(i1 - 1, i0)])
+    base = float(np.median(sd[ref])) if ref.any() else float(np.median(sd[: max(1, sd.size // 10)]))
+    # a slow turn (the robot settling) is quiet but not still: its mean rate leaves the rest's, by more
+    # than the scatter of the window means over the rest window allows
+    m0 = np.median(mean[ref], axis=0) if ref.any() else np.median(mean[: max(1, sd.size // 10)], axis=0)
+    dev = np.linalg.norm(mean - m0, axis=1)
+    dev_ref = float(np.percentile(dev[ref], 95)) if ref.sum() >= 5 else float(np.median(dev))
+    quiet = ((sd <= STILL_FACTOR * base) & (dev <= STILL_FACTOR * dev_ref)
+             & ((hi < motion[0]) | (lo > motion[1])))
+    spans = []
+    edges = np.flatnonzero(np.diff(np.r_[0, quiet.astype(int), 0]))
+    for a, b in zip(edges[::2], edges[1::2]):
+        t0, t1 = float(lo[a]), float(hi[b - 1])
+        if t1 - t0 >= STILL_MIN_S:
+            spans.append((t0, t1))
+    return tuple(spans)
+
+
+def gyro_drift(rec, window, rest) -> tuple:
+    """How far the gyro's rest mean moved between the initial rest and the last still stretch.
+
+    Returns
+    -------
+    (dm2, dt) : squared change of the mean per axis [(rad/s)^2], shape (3,), and the time between
+        the two stretches' centres [s]; ``(None, None)`` with one still stretch only.
+    """
+    if len(rest) < 2:
+        return (None, None)
+    t0, t1 = rest[-1]
+    m = (rec.time >= t0) & (rec.time <= t1)
+    first = rec.omega[window.i0:window.i1].mean(axis=0)
+    dm = rec.omega[m].mean(axis=0) - first
+    dt = 0.5 * (t0 + t1) - 0.5 * (rec.time[window.i0] + rec.time[window.i1 - 1])
+    return (dm * dm, float(dt))
+
+
+def rest_noise(rec, window, epoch_s: float = 0.1) -> tuple[float, float, float]:
+    """Noise densities the initial rest window shows.
+
+    Returns
+    -------
+    (accel, gyro, gyro_epoch)
+        RMS over the axes of ``std * sqrt(dt)`` for the accelerometer
+        [m/s^2/sqrt(Hz)] and the gyro [rad/s/sqrt(Hz)], and the gyro density
+        that the scatter of its `epoch_s` means implies (``std(mean) *
+        sqrt(epoch_s)``): the noise of a zero-rate update on one epoch, which
+        the quantization and slow wander of a phone gyro put above the white
+        part.
     """
     sl = slice(window.i0, window.i1)
-    dt = float(np.median(np.diff(rec.time[sl]))) if window.i1 - window.i0 > 2 else float(np.median(np.diff(rec.time)))
+    t = rec.time[sl]
+    dt = float(np.median(np.diff(t))) if t.size > 2 else float(np.median(np.diff(rec.time)))
     a = float(np.sqrt(np.mean(np.var(rec.f[sl], axis=0))) * np.sqrt(dt))
     g = float(np.sqrt(np.mean(np.var(rec.omega[sl], axis=0))) * np.sqrt(dt))
-    return a, g
+    block = np.floor((t - t[0]) / epoch_s).astype(int) if t.size else np.zeros(0, int)
+    nb = int(block.max()) + 1 if block.size else 0
+    if nb >= 4:
+        cnt = np.bincount(block, minlength=nb)
+        means = np.stack([np.bincount(block, rec.omega[sl][:, j], minlength=nb) for j in range(3)], axis=1)
+        means = means[cnt > 0] / cnt[cnt > 0, None]
+        ge = float(np.sqrt(np.mean(np.var(means, axis=0, ddof=1))) * np.sqrt(epoch_s))
+    else:
+        ge = g
+    return a, g, max(ge, g)
 
 
 @dataclass(frozen=True, eq=False)
@@ -83,6 +172,19 @@ class Prepared:
     input: aided.AidedInput
     morpi_xy: np.ndarray
     noise: tuple
+    stop_s: float
+    gyro_drift: tuple
+
+    def end(self, r: aided.AidedResult):
+        """The filter's horizontal position and covariance (forward, and smoothed) at ``stop_s``.
+
+        ``stop_s`` is the last step boundary, where MoRPI's own track ends: the
+        trained gain makes MoRPI's step sum match the route, so the filter is
+        read at the same instant (after it the robot creeps to a halt and the
+        phone may be handled).
+        """
+        j = r.index_at(self.stop_s)
+        return r.position[j, :2], r.P_xy[j], (None if r.smoothed is None else r.smoothed[j, :2])
 
 
 def prepare(data, rec, mode, method, config, gain) -> Prepared:
@@ -103,21 +205,28 @@ def prepare(data, rec, mode, method, config, gain) -> Prepared:
     crec, _ = data.calibrated(rec, mode)
     w = data.rest_window(rec)
     f_rest = crec.f[w.i0:w.i1].mean(axis=0)
-    # the robot stands before and after its motion (the gyro's vibration says when it moves)
-    a, b = data.activity(rec)
-    rest = tuple((t0, t1) for t0, t1 in ((float(crec.time[0]), a), (b, float(crec.time[-1]))) if t1 > t0)
+    # the robot stands before and after its motion (the gyro's vibration says when), and only where the
+    # gyro is as quiet as in the initial rest (the phone is handled after some runs); before the motion the calibration's own rest window (the stretch up to the onset may carry the
+    # motors' start), after it every still stretch
+    after = still_spans(crec.time, crec.omega, data.activity(rec), (w.i0, w.i1))
+    rest = ((float(w.start_s), float(w.end_s)),) + tuple(s for s in after if s[0] > w.end_s)
     s = data.steps(rec, mode, method, config)
     track = st.morpi_track(s, gain)
     inp = aided.AidedInput(time=crec.time, f=crec.f, omega=crec.omega, C0=coarse_level(f_rest),
                            g=float(np.linalg.norm(f_rest)), step_start=s.start_time, step_end=s.end_time,
                            step_length=track.length, rest=rest, step_vector=np.diff(track.position, axis=0))
-    cache[key] = Prepared(data.relpath(rec), inp, track.position, rest_noise(rec, w))
+    # read where MoRPI's track ends: the gain is trained on MoRPI's step sum, which covers the motion up
+    # to the last step boundary (the robot's creep after it is part of what the gain absorbs)
+    stop = float(s.end_time[-1]) if s.end_time.size else data.activity(rec)[1]
+    cache[key] = Prepared(data.relpath(rec), inp, track.position, rest_noise(rec, w), float(stop),
+                          gyro_drift(crec, w, rest))
     return cache[key]
 
 
 def _tuning(noise, info, gain_rel) -> aided.AidTuning:
-    a, g = noise
-    return aided.AidTuning(accel_noise=a * info["vibration"], gyro_noise=g * info["vibration"],
+    a, g, ge, walk = noise
+    return aided.AidTuning(accel_noise=a * info["vibration"], gyro_noise=g * info["vibration"], rest_gyro_noise=ge,
+                           gyro_walk=walk,
                            accel_walk=ACCEL_WALK, step_sigma=info["step_sigma"], nhc_sigma=NHC_SIGMA,
                            gain_sigma=float(gain_rel) if info["gain_state"] else 0.0,
                            step_heading=info["step_heading"])
@@ -148,8 +257,9 @@ def choose_tunables(data, train, method, mode, config, gain):
 
     Returns
     -------
-    (score_percent, info, noise) : the mean train error [%], the chosen grid point, and the median
-        rest-window noise densities (accel, gyro) of the train runs
+    (score_percent, info, noise) : the mean train error [%], the chosen grid point, and what the
+        train runs' rests show: the median noise densities (accel, gyro, gyro per epoch) and the
+        gyro bias walk [rad/s/sqrt(s)]
     """
     from . import dataset as ds
 
@@ -157,14 +267,19 @@ def choose_tunables(data, train, method, mode, config, gain):
     if not runs:
         raise MorpiError(f"{train[0]}/{train[1]}/train: no train run with steps for the aided filter")
     truth = ds.route(train[1])
-    noise = (float(np.median([r.noise[0] for r in runs])), float(np.median([r.noise[1] for r in runs])))
+    noise = tuple(float(np.median([r.noise[j] for r in runs])) for j in range(3))
+    # the gyro bias walk that the train runs' rest stretches show: E[dm^2] = q dt per axis
+    drift = [r.gyro_drift for r in runs if r.gyro_drift[1] is not None and r.gyro_drift[1] > 0]
+    walk = float(np.sqrt(np.mean([d[0].mean() / d[1] for d in drift]))) if drift else aided.AidTuning().gyro_walk
+    noise = noise + (walk,)
     cands = _candidates()
     rel = gain.std / gain.mean
     inputs = [r.input for _ in cands for r in runs]
     tunings = [_tuning(noise, c, rel) for c in cands for _ in runs]
     res = aided.run_batch(inputs, tunings)
-    d = np.array([r.end_point - truth.end_point_m for r in res])
-    m2 = np.array([x @ np.linalg.solve(r.end_cov, x) for x, r in zip(d, res)]).reshape(len(cands), len(runs))
+    ends = [runs[i % len(runs)].end(r) for i, r in enumerate(res)]
+    d = np.array([e[0] - truth.end_point_m for e in ends])
+    m2 = np.array([x @ np.linalg.solve(e[1], x) for x, e in zip(d, ends)]).reshape(len(cands), len(runs))
     err = np.linalg.norm(d, axis=1).reshape(len(cands), len(runs))
     score = err.mean(axis=1) / truth.distance_m * 100
     coverage = (m2 <= aided.CHI2_95_2DOF).mean(axis=1)
@@ -322,14 +437,15 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
                 ins_m = float(np.linalg.norm(ins - truth.end_point_m))
             except MorpiError:
                 ins_m = float("nan")
-            dxy = r.end_point - truth.end_point_m
-            m2 = float(dxy @ np.linalg.solve(r.end_cov, dxy))
+            end_xy, end_P, end_sm = p.end(r)
+            dxy = end_xy - truth.end_point_m
+            m2 = float(dxy @ np.linalg.solve(end_P, dxy))
             inside += m2 <= aided.CHI2_95_2DOF
             total += 1
             _merge_nis(nis, r.nis)
             _merge_nis(nis_all, r.nis)
             rows.append({"file": p.rel, "forward_m": float(np.linalg.norm(dxy)),
-                         "smoothed_m": float(np.linalg.norm(r.smoothed[-1, :2] - truth.end_point_m)),
+                         "smoothed_m": float(np.linalg.norm(end_sm - truth.end_point_m)),
                          "morpi_m": float(by_file[p.rel].end_error_m), "ins_m": ins_m,
                          "mahalanobis2": m2, "inside_95": bool(m2 <= aided.CHI2_95_2DOF),
                          "gain_error": r.gain_error, "gain_error_sigma": r.gain_sigma})
@@ -339,6 +455,7 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
             spec=sp, forward_percent=mean("forward_m"), smoothed_percent=mean("smoothed_m"),
             morpi_percent=mean("morpi_m"), ins_percent=mean("ins_m"), runs=tuple(rows),
             tuning={**info, "accel_noise": noise[0] * info["vibration"], "gyro_noise": noise[1] * info["vibration"],
+                    "rest_gyro_noise": noise[2], "gyro_walk": noise[3],
                     "gain_sigma": g.std / g.mean if info["gain_state"] else 0.0},
             train_percent=score, nis={k: (v[0] / max(v[1], 1), v[2]) for k, v in nis.items()}, paths=tuple(paths)))
         if ablation and sp.calibration == "GC":
@@ -347,7 +464,7 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
                     # without smoothing: the forward filter's end points
                     val = mean("forward_m")
                 else:
-                    e = [np.linalg.norm(abl_res[(i, p.rel, name)].end_point - truth.end_point_m) for p in runs]
+                    e = [np.linalg.norm(p.end(abl_res[(i, p.rel, name)])[0] - truth.end_point_m) for p in runs]
                     val = float(np.mean(e) / d)
                 abl.append({"cell": sp.label, "removed": name, "smoothed_percent": val})
     return AidedStudy(cells=tuple(cells), ablation=tuple(abl), coverage_95=inside / total if total else float("nan"),

@@ -196,9 +196,6 @@ def test_field_cell_json_contract_and_consistency(field_root):
     # the steps tie the INS down: from hundreds of % (INS alone) to MoRPI's level (within x2)
     assert c.forward_percent < 0.05 * c.ins_percent
     assert c.forward_percent < 2 * c.morpi_percent
-    for r in c.runs:
-        # the smoother's last estimate is the filter's
-        assert abs(r["smoothed_m"] - r["forward_m"]) < 1e-6
     payload = study_json(study)
     assert {"cells", "ablation", "coverage_95", "tunables"} <= set(payload)
     assert {"table", "phone", "p2p_m", "method", "calibration", "paper_percent", "morpi_percent",
