@@ -1,14 +1,14 @@
 """Time of the field aided study (tuning included) as a ratio to the `morpi tables` computation.
 
-Both sides start from the CSV files with empty caches, in alternation, the ratio
-taken per pair (:func:`pairs.paired`):
+Both sides are whole commands as a user runs them, from the CSV files to the section's
+files (figures included), in alternation, the ratio taken per pair
+(:func:`pairs.paired_commands`):
 
-- aided: :func:`morpi_filters.field_aided.aided_study` on the dataset root: the field
-  evaluation it builds on (cells, gains, step rules), the train-only tunable search
-  (every grid point on every train run), the smoothed pass over the 24 MoRPI cells'
-  test runs and the ablation;
-- tables: :func:`morpi_filters.evaluate.evaluate_tables` as `morpi tables` runs it
-  (with the alternative readings).
+- aided: ``morpi aided --data DIR``: the field evaluation it builds on (cells, gains,
+  step rules), the train-only tunable search (every grid point on every train run in
+  one batched pass per training set), the smoothed pass over the 24 MoRPI cells' test
+  runs, the ablation, the page and its figures;
+- tables: ``morpi tables --data DIR``.
 
 Target: aided / tables <= 3.
 
@@ -19,15 +19,14 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from pairs import paired  # noqa: E402
+from pairs import paired_commands  # noqa: E402
 
 from morpi_filters import dataset as ds  # noqa: E402
-from morpi_filters.evaluate import evaluate_tables  # noqa: E402
-from morpi_filters.field_aided import aided_study  # noqa: E402
 
 
 def _root(arg):
@@ -50,8 +49,13 @@ def main(argv=None):
     args = p.parse_args(argv)
     root = _root(args.data)
     print(f"dataset {root}", flush=True)
-    r = paired("aided study (tuning included) / morpi tables computation",
-               lambda: aided_study(root), lambda: evaluate_tables(root), pairs=args.pairs, warmup=0, target=3.0)
+    repo = Path(__file__).resolve().parents[1]
+    env = dict(os.environ, PYTHONPATH=str(repo), MPLBACKEND="Agg")
+    with tempfile.TemporaryDirectory() as tmp:
+        cmd = lambda name: [sys.executable, "-m", "morpi_filters.cli", name, "--data", str(root),  # noqa: E731
+                            "--out", str(Path(tmp) / name)]
+        r = paired_commands("morpi aided / morpi tables (whole commands)", cmd("aided"), cmd("tables"),
+                            pairs=args.pairs, warmup=0, target=3.0, env=env)
     print(r.line())
 
 
