@@ -5,11 +5,16 @@ steps, step rule and trained gain), the aided filter runs once over each test
 recording, forward and smoothed, beside MoRPI alone and the INS alone.
 
 Tunables are chosen per training set, method and calibration on the ``train``
-runs only (:func:`choose_tunables`): the noise densities start from the noise
-each train run shows in its rest windows, the grid (:data:`GRID`) scales them
-for the vibration of the moving robot and sets the step and constraint noise;
-the gain error's prior is the trained gain's spread. Nothing of a ``test``
-folder enters the choice.
+runs only (:func:`choose_tunables`): the noise densities, the zero-rate noise
+and the gyro bias walk come from what the train runs show at rest; the grid
+(:data:`GRID`) scales the densities for the vibration of the moving robot, sets
+the step noise, whether the gain error is a state and where the step direction
+comes from; the gain error's prior is the trained gain's spread. Nothing of a
+``test`` folder enters the choice.
+
+The rest updates run on the calibration's initial rest window and on every
+still stretch after the motion (:func:`still_spans`); the filter is read where
+MoRPI's own track ends (:meth:`Prepared.end`).
 """
 from __future__ import annotations
 
@@ -21,8 +26,8 @@ import numpy as np
 from . import aided
 from .errors import MorpiError
 
-__all__ = ["GRID", "ABLATIONS", "AidedCell", "AidedStudy", "aided_study", "choose_tunables", "prepare",
-           "final_rest"]
+__all__ = ["GRID", "ABLATIONS", "AidedCell", "AidedStudy", "Prepared", "aided_study", "choose_tunables", "prepare",
+           "still_spans", "rest_noise", "gyro_drift"]
 
 #: Train-only grid: factor on the rest-window noise densities (the moving robot vibrates far above
 #: them), step displacement noise [m], whether the gain error is a state, and the source of the step
@@ -36,29 +41,13 @@ NHC_SIGMA = 0.1
 #: grid point to be eligible: a filter that claims 95 % must hold it on the runs it is tuned on
 #: (the bound leaves room for the sampling spread of 10-15 train runs).
 MIN_TRAIN_COVERAGE = 0.85
-#: Accelerometer bias random walk [m/s^2/sqrt(s)]: lets the filter follow the specific-force offset of the
-#: moving robot (0.2-0.3 m/s^2 above the rest value while cruising) within a few seconds.
+#: Accelerometer bias random walk [m/s^2/sqrt(s)]: a slow wander of the phone's accelerometer bias
+#: (0.06 m/s^2 over a 40 s run, against the 0.2-0.3 m/s^2 offset of f_x while cruising, which it
+#: does not try to follow).
 ACCEL_WALK = 1e-2
 #: Aids removed in turn in the ablation (AidTuning fields set to these values).
 ABLATIONS = {"steps": {"steps": False}, "non-holonomic": {"nhc": False}, "rest updates": {"rest": False},
              "gain state": {"gain_sigma": 0.0}, "smoothing": {}}
-
-
-def final_rest(rec):
-    """The rest at the end of a recording: :func:`calibration.detect_rest` on the reversed samples.
-
-    Returns
-    -------
-    (start_s, end_s) : float
-        On the recording's clock.
-    """
-    from .calibration import detect_rest
-    from .dataset import Recording
-
-    t = rec.time[-1] - rec.time[::-1]
-    rev = Recording(time=t, f=rec.f[::-1].copy(), omega=rec.omega[::-1].copy(), source=f"{rec.source} (reversed)")
-    w = detect_rest(rev)
-    return float(rec.time[-1] - w.end_s), float(rec.time[-1] - w.start_s)
 
 
 #: A stretch is still when the moving standard deviation of the gyro (summed over the axes, over

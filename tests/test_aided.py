@@ -220,3 +220,25 @@ def test_tunables_do_not_see_the_test_folders(field_root):
         picks.append(choose_tunables(res.data, ("s6", "short_distance"), "MoRPI-G", "GC",
                                      res.selections["MoRPI-G"].config, g))
     assert picks[0] == picks[1]
+
+
+def test_still_spans_keep_quiet_stretches_and_refuse_motion_and_slow_turns():
+    from morpi_filters.field_aided import still_spans
+
+    rng = np.random.default_rng(7)
+    t = np.arange(0.0, 30.0, 0.01)
+    w = rng.normal(0.0, 1e-3, (t.size, 3)) + np.array([2e-3, -1e-3, 5e-4])   # white noise on a bias
+    moving = (t >= 5) & (t < 15)
+    w[moving] += rng.normal(0.0, 0.3, (moving.sum(), 3))                       # the robot drives
+    turn = (t >= 18) & (t < 21)
+    w[turn, 2] += 0.05                                                         # a slow, quiet turn
+    handled = (t >= 25) & (t < 26)
+    w[handled] += rng.normal(0.0, 0.5, (handled.sum(), 3))                     # the phone is picked up
+    spans = still_spans(t, w, (5.0, 15.0), (0, 300))
+    inside = lambda a, b: any(s0 <= a and b <= s1 for s0, s1 in spans)  # noqa: E731
+    # the quiet stretches are found (up to the 0.5 s window at their edges) ...
+    assert inside(0.5, 4.4) and inside(15.6, 17.4) and inside(21.6, 24.4) and inside(26.6, 29.4)
+    # ... and nothing of the motion, the slow turn or the handling is called still
+    for s0, s1 in spans:
+        for a, b in ((5, 15), (18, 21), (25, 26)):
+            assert s1 <= a or s0 >= b, (s0, s1)
