@@ -7,7 +7,7 @@ import numpy as np
 
 from ..montecarlo import Z99, DriftPage, GainErrorPage, _config_json, _stats_block, summarize
 from ..reporting import SectionSummary, write_json, write_text
-from ..units import DEG_S
+from ..units import DEG_S, MG
 from . import plots
 from .common import banner, fmt, md_table, save_figure
 
@@ -176,7 +176,7 @@ def report_drift(out, study: DriftPage) -> SectionSummary:
     write_json(out / "result.json", result)
     lines = ["# Closed-form vs strapdown drift\n"]
     lines.append(
-        f"An INS at rest for 15 s at 100 Hz with constant biases: accelerometer {spec.accel_bias / 9.80665e-3:g} mg "
+        f"An INS at rest for 15 s at 100 Hz with constant biases: accelerometer {spec.accel_bias / MG:g} mg "
         f"1 sigma per axis ({spec.name} datasheet), gyro bias levels from {bdeg[0]:g} to {bdeg[-1]:g} deg/s "
         f"1 sigma per axis; {d.draws} draws shared by every level. Each draw goes through the nonlinear "
         "strapdown (3D and planar 2D) and through the small-angle closed form of the 15-state model "
