@@ -1,7 +1,8 @@
 """Report pages: every markdown page, JSON payload and figure of ``reports/``.
 
-Studies return frozen results; the writers here turn them into files and
-compute nothing of their own. One module per page:
+Studies return frozen results; the writers here turn them into files. They
+evaluate, integrate and simulate nothing (at most a mean, a percentile or a
+minimum over what a result holds). One module per page:
 
 ========================  ===================================================  ==========================
 module                    writes                                               from
