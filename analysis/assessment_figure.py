@@ -12,7 +12,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from morpi_filters import plots
+from morpi_filters.report import plots
+from morpi_filters.report.common import save_figure
 from morpi_filters.assessment import CONVENTION, DEFAULT_TIMES, assessment_curves, improvements
 from morpi_filters.params import load_params
 
@@ -25,7 +26,7 @@ def main(argv=None) -> None:
     args = ap.parse_args(argv)
     params = load_params(args.params)
     curves = assessment_curves(params, DEFAULT_TIMES, args.convention)
-    plots.assessment_figure(curves, args.out)
+    save_figure(plots.assessment_figure(curves), args.out)
     print(f"figure: {args.out}")
     print("improvements [m]:", " ".join(f"{v:.2f}" for v in improvements(params, args.convention)))
 

@@ -14,7 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from morpi_filters import plots, units
+from morpi_filters import units
+from morpi_filters.report import plots
+from morpi_filters.report.common import save_figure
 from morpi_filters.curves import case_from_params, case_from_sensor, compute_curves
 from morpi_filters.params import load_params
 
@@ -39,7 +41,7 @@ def main():
             print(f"  {t:5.1f}  " + "  ".join(
                 f"{v[f'sigma_{k}_m'][i]:9.3f} {v[f'rms_closed_form_{k}_m'][i]:9.3f} {v[f'mc_rms_{k}_m'][i]:9.3f}"
                 for k in ("ins3d", "ins2d")) + f"  {v['sigma_morpi_m'][i]:9.3f} {v['mc_rms_morpi_m'][i]:9.3f}")
-        path = plots.plot_curves(cc, OUT / f"curves_{case.name}.png")
+        path = save_figure(plots.plot_curves(cc), OUT / f"curves_{case.name}.png")
         print(f"  figure: {path}")
 
 

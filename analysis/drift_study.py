@@ -14,7 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from morpi_filters import montecarlo as mc, plots
+from morpi_filters import montecarlo as mc
+from morpi_filters.report import plots
+from morpi_filters.report.common import save_figure
 from morpi_filters.units import DEG_S, sensor_for_phone
 
 
@@ -37,8 +39,9 @@ def main(argv=None) -> None:
               f"{100 * d.rel_2d[i, -1]:7.3f}% {on['2d', 0.01][i]:9.1f} {on['2d', 0.1][i]:9.1f}")
     args.out.mkdir(parents=True, exist_ok=True)
     for kind, rel in (("3d", d.rel_3d), ("2d", d.rel_2d)):
-        plots.drift_disagreement_map(d.gyro_bias / DEG_S, d.time, rel, args.out / f"drift_map_{kind}.png",
-                                     title=f"{kind.upper()} INS at rest, {spec.name}")
+        save_figure(plots.drift_disagreement_map(d.gyro_bias / DEG_S, d.time, rel,
+                                                 title=f"{kind.upper()} INS at rest, {spec.name}"),
+                    args.out / f"drift_map_{kind}.png")
     print(f"figures: {args.out}")
 
 

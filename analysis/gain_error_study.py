@@ -15,7 +15,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from morpi_filters import montecarlo as mc, plots
+from morpi_filters import montecarlo as mc
+from morpi_filters.report import plots
+from morpi_filters.report.common import save_figure
 from morpi_filters.units import sensor_for_phone
 
 
@@ -46,9 +48,9 @@ def main(argv=None) -> None:
             print(f"  {c['label']:12s} {m}: MC {v['mc_mean']:+.4f} m, ds {c['analytic_mean']:+.4f} m, "
                   f"difference {v['residual_mean']:+.5f} +/- {v['bound']:.5f} m")
     args.out.mkdir(parents=True, exist_ok=True)
-    plots.montecarlo_final_errors(r.columns, r.final, args.out / "final_errors.png")
-    plots.montecarlo_error_curves(r.time, r.bands, ["INS-3D", "INS-2D", "MoRPI-A", "MoRPI-G"],
-                                  args.out / "error_curves.png")
+    save_figure(plots.montecarlo_final_errors(r.columns, r.final), args.out / "final_errors.png")
+    save_figure(plots.montecarlo_error_curves(r.time, r.bands, ["INS-3D", "INS-2D", "MoRPI-A", "MoRPI-G"]),
+                args.out / "error_curves.png")
     print(f"figures: {args.out}")
 
 

@@ -8,7 +8,7 @@ Usage: ``python3 analysis/short_route_table.py [DATA_ROOT]`` (default: $MORPI_DA
 import sys
 
 from morpi_filters import MorpiError, dataset, evaluate
-from morpi_filters.reporting import fmt, md_table
+from morpi_filters.report.common import fmt, md_table
 
 try:
     root = dataset.resolve_data_root(sys.argv[1] if len(sys.argv) > 1 else None)

@@ -19,7 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from morpi_filters import plots, simulate, synthetic, units
+from morpi_filters import simulate, synthetic, units
+from morpi_filters.report import plots
+from morpi_filters.report.common import save_figure
 from morpi_filters.strapdown import ins2d, ins3d
 
 
@@ -48,7 +50,7 @@ def main(argv=None) -> None:
     }
     title = (f"simulated short route, {spec.name} ({args.phone}), seed {args.seed}: "
              f"{traj.distance:.2f} m travelled in {traj.stop_time - traj.start_time:.1f} s")
-    plots.simulation_run(truth, noisy, solutions, args.out, title=title)
+    save_figure(plots.simulation_run(truth, noisy, solutions, title=title), args.out)
     print(f"figure: {args.out}")
     for label, r in solutions.items():
         err = np.linalg.norm(r.position[-1, :2] - truth.position[-1, :2])

@@ -5,8 +5,9 @@ Both are measured in this one run, on the field dataset (``--data DIR`` or
 
 - parse: :func:`morpi_filters.dataset.load_csv` on every recording of the catalogue;
 - tables: everything `morpi tables` computes, from the CSV files to result.json and
-  the README text (:func:`evaluate.evaluate_tables`, the report's alternatives in
-  :func:`evaluate.result_json`, the page), without rendering the figures (reported separately);
+  the README text (:func:`evaluate.tables_study`: the evaluation, the report's alternatives
+  and the figures' data; :func:`report.tables.result_json` and the page), without rendering
+  the figures (reported separately);
 - figures: the section's PNG figures, for information.
 
 Target: tables / parse <= 5. Each timing is the best of ``--repeat`` runs, the two
@@ -41,13 +42,13 @@ def parse_all(root):
 
 
 def tables(root):
-    from morpi_filters.reporting import fmt, md_table
+    from morpi_filters.report import tables as page
 
     src = DataSource(root)
-    res = ev.evaluate_tables(root)
-    payload = ev.result_json(res, src)
-    ev._page(res, payload, src, [], fmt, md_table)
-    return res, payload
+    study = ev.tables_study(root)
+    payload = page.result_json(study, src)
+    page._page(study, payload, src, [])
+    return study, payload
 
 
 def best_of(fn, repeat):
@@ -78,7 +79,9 @@ def main(argv=None):
         t_tab = min(t_tab, dt)
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
-        ev._figures(res, Path(tmp))
+        from morpi_filters.report import tables as page
+
+        page._figures(res, Path(tmp))
         t_fig = time.perf_counter() - t0
     print(f"recordings: {len(recs)}")
     print(f"parse all CSVs (dataset.load_csv): {t_parse:.3f} s")

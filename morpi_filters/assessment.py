@@ -30,17 +30,17 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from .errors import MorpiError
 from .params import DEFAULT_PARAMS_FILE, ErrorParams, load_params
-from .reporting import SectionSummary, fmt, md_table, write_json, write_text
+from .reporting import write_json
 
 __all__ = [
     "PAPER_IMPROVEMENTS", "PaperNumber", "AssessmentCurves", "assessment_curves", "improvements",
-    "fit_paper_numbers", "FitResult", "write_fitted_params", "report_assessment", "morpi_error", "DEFAULT_TIMES",
+    "fit_paper_numbers", "FitResult", "write_fitted_params", "AssessmentStudy", "assessment_study", "morpi_error",
+    "DEFAULT_TIMES",
     "CONVENTION", "FIT_PRIOR", "FIT_BOUNDS",
 ]
 
@@ -234,7 +234,7 @@ def write_fitted_params(path=DEFAULT_PARAMS_FILE, **kw) -> FitResult:
     return fit
 
 
-# ----------------------------------------------------------------------------- report section
+# ----------------------------------------------------------------------------- the section's study
 
 def _check_times(times):
     if times is None:
@@ -245,120 +245,67 @@ def _check_times(times):
     return t
 
 
-def report_assessment(out, *, params_path=None, times=None) -> SectionSummary:
-    """Write the analytical-assessment section into folder `out`.
+@dataclass(frozen=True)
+class AssessmentStudy:
+    """Everything the assessment section shows, computed once.
 
-    Files: ``README.md`` (figure, paper-vs-ours table of the eight
-    improvements, what they determine), ``audit.md`` (generated audit of the
-    printed equations), ``result.json`` and ``assessment.png``.
+    Attributes
+    ----------
+    params : params.ErrorParams
+        The parameter file as read.
+    curves : AssessmentCurves
+        The closed-form curves over the requested times.
+    improvements_m : ndarray, shape (8,)
+        Our values of :data:`PAPER_IMPROVEMENTS` [m].
+    e3d_5s_m, e2d_5s_m : float
+        e_3D(5 s) and e_2D(5 s), b_gz terms dropped [m].
+    audit : symbolic.AuditResult
+        The audit of the printed equations under :data:`CONVENTION`.
+    dropped_terms : dict
+        ``{"3d": str, "2d": str}``: the b_gz terms the paper drops from e^2
+        (:func:`morpi_filters.symbolic.dropped_bgz_terms`).
+    conventions : tuple of (str, bool)
+        The audited sign conventions and whether each is physically consistent.
+    """
 
-    result.json
-    -----------
-    ``times`` [s]; ``e3d_m``, ``e2d_m`` (derivation, b_gz terms dropped as in
-    the paper); ``morpi_m`` {str(dG): list}; ``convention``; plus
-    ``e3d_bgz_m``, ``e2d_bgz_m`` (b_gz kept), ``params`` (SI, as read),
-    ``improvements`` (paper vs ours), ``audit`` (discrepancy list).
+    params: ErrorParams
+    curves: AssessmentCurves
+    improvements_m: np.ndarray
+    e3d_5s_m: float
+    e2d_5s_m: float
+    audit: object
+    dropped_terms: dict
+    conventions: tuple
+
+    @property
+    def times(self) -> np.ndarray:
+        """The times of the curves [s]."""
+        return self.curves.times
+
+
+def assessment_study(params_path=None, times=None) -> AssessmentStudy:
+    """Compute the analytical-assessment section: curves, the eight improvements and the audit.
 
     Parameters
     ----------
-    out : path-like
-        Staging folder of the section.
     params_path : path-like, optional
         Parameter file; default ``data/assessment_params.json``.
     times : sequence of float, optional
         Times of the curves [s]; default 0 to 15 s.
-    """
-    from . import plots
 
-    out = Path(out)
+    Returns
+    -------
+    AssessmentStudy
+    """
     params = load_params(params_path)
     t = _check_times(times)
     S = _symbolic()
     curves = assessment_curves(params, t)
-    shown = params.label
     ours = improvements(params)
     audit = S.audit(CONVENTION)
-    audit_md = S.audit_markdown(audit)
-
-    rows = []
-    for n, o in zip(PAPER_IMPROVEMENTS, ours):
-        rows.append([n.ins.upper() + " INS", f"{n.dG * 100:g}%", f"{n.t_ins:g}", f"{n.t_morpi:g}",
-                     fmt(n.paper_m), fmt(o, 3), fmt(o - n.paper_m, 3)])
+    dropped = S.dropped_bgz_terms(audit.reference)
     e3_5 = S.closed_form_errors(params, [5.0], "3d", CONVENTION)[0]
     e2_5 = S.closed_form_errors(params, [5.0], "2d", CONVENTION)[0]
-    n_disc = len(audit.discrepancies())
-
-    fig_name = "assessment.png"
-    plots.assessment_figure(curves, out / fig_name)
-
-    L = ["# Analytical assessment: 3D & 2D INS vs MoRPI-A distance error", "",
-         f"![Analytical assessment]({fig_name})", "",
-         "Closed-form horizontal distance error of the 3D INS and of the 2D (yaw-only) INS from the symbolic "
-         "derivation of the 15-state error model (`morpi_filters.symbolic`), and the MoRPI-A distance error "
-         "`dG * v * t` for the Weinberg gain errors of the parameter file. "
-         f"Sign convention `{curves.convention}` (navigation z up, f^n = (0, 0, +g) at rest, the paper's F "
-         "signs -(f^n x) and +C b_g); the b_gz terms are dropped as in the paper (the heading error is common "
-         "to all methods). The INS curves come from the derivation, not from the printed eq:error-3d, "
-         f"whose signs the [audit](audit.md) found inconsistent ({n_disc} discrepant terms under this convention).",
-         "", f"Parameters: `{shown}`", "",
-         md_table(["", "x", "y", "z"], [
-             ["dv0 [m/s]", *(fmt(v, 4) for v in params.dv0)],
-             ["b_a [m/s^2]", *(fmt(v, 4) for v in params.ba)],
-             ["b_g [rad/s]", *(f"{v:.3e}" for v in params.bg)],
-         ]),
-         f"g = {params.g} m/s^2, MoRPI-A speed v = {fmt(params.morpi_speed_mps, 4)} m/s, "
-         f"dG = {', '.join(f'{d:g}' for d in params.dG)}.", "",
-         "## The paper's eight improvements", "",
-         "Improvement = INS distance error at `t_INS` minus MoRPI-A distance error at `t_MoRPI` [m]. "
-         "The paper prints them to 0.01 m.", "",
-         md_table(["INS", "dG", "t_INS [s]", "t_MoRPI [s]", "paper [m]", "ours [m]", "ours - paper [m]"], rows),
-         f"Max |ours - paper| = {np.max(np.abs(ours - [n.paper_m for n in PAPER_IMPROVEMENTS])):.4f} m.", "",
-         "### What the eight numbers determine", "",
-         "Each number is `E - dG v T` with `E` = e_3D(5 s) or e_2D(5 s), `dG` = 0.10 or 0.05 and `T` = 5 s or "
-         "14 s. Eight numbers, three unknowns: they fix e_3D(5 s) (here "
-         f"{e3_5:.3f} m), e_2D(5 s) ({e2_5:.3f} m) and the MoRPI-A error rate per unit gain error, v "
-         f"({params.morpi_speed_mps:.3f} m/s; the paper's numbers imply 0.98-0.99 m/s, consistent to their "
-         "rounding). They do NOT determine the individual dv0, b_a, b_g components: any set with the same "
-         "|dv0 t + b_a t^2/2| and |... + tilt term| at 5 s gives the same eight numbers, and the curves between "
-         "0 and 15 s differ between such sets. The committed file is one plausible member of that family "
-         "(the bounded least-squares fit closest to a calibrated-IMU prior, "
-         "`morpi_filters.assessment.fit_paper_numbers`).", "",
-         "The MoRPI-A model is the paper's `ds = sum_k dG_A Df_k` with the gain error as a fraction of the "
-         "gain: `dG` times the distance travelled, i.e. `dG v t` (constant biases cancel in max - min, "
-         "eq:del_F). The rate the eight numbers imply, about 1 m per second, is what one 1 m peak-to-peak "
-         "period per second gives; it is a property of the paper's curve, not of the field runs (the indoor "
-         "periodic runs cover 6.3 m in about 14 s). For a run of known length L the MoRPI-A error is simply "
-         "`dG L`, whatever its duration.", "",
-         "Note: `e_2D < e_3D` holds for these parameters but not for every realisation (see the audit). "
-         "The fitted values are specific to the `z_up` convention: under `z_down` the same file gives a "
-         "different e_3D (flip the signs of b_gx, b_gy and b_az to get the same curves).", "",
-         "## Audit of the printed equations", "",
-         f"[audit.md](audit.md): {n_disc} printed terms differ from the derivation under `{curves.convention}`; "
-         "the b_gz cross terms of dp_x and dp_y and the cross terms of eq:error-3d are inconsistent under every "
-         "audited sign convention.", ""]
-    write_text(out / "README.md", "\n".join(L))
-    write_text(out / "audit.md", audit_md)
-    result = {
-        "times": t,
-        "e3d_m": curves.e3d, "e2d_m": curves.e2d,
-        "morpi_m": {f"{dG:g}": curves.morpi[dG] for dG in params.dG},
-        "convention": curves.convention,
-        "keep_bgz": False,
-        "e3d_bgz_m": curves.e3d_bgz, "e2d_bgz_m": curves.e2d_bgz,
-        "params": {"source": shown, "dv0_mps": params.dv0, "ba_mps2": params.ba, "bg_radps": params.bg,
-                   "g_mps2": params.g, "dG": list(params.dG), "morpi_speed_mps": params.morpi_speed_mps},
-        "improvements": [{"ins": n.ins, "dG": n.dG, "t_ins_s": n.t_ins, "t_morpi_s": n.t_morpi,
-                          "paper_m": n.paper_m, "ours_m": float(o)} for n, o in zip(PAPER_IMPROVEMENTS, ours)],
-        "audit": [{"equation": lab, "monomial": tc.monomial, "printed": tc.printed,
-                   "derived": tc.derived[audit.reference], "reproduced_by": list(tc.matches)}
-                  for lab, tc in audit.discrepancies()],
-    }
-    write_json(out / "result.json", result)
-    summary = (f"e_3D(5 s) = {e3_5:.2f} m and e_2D(5 s) = {e2_5:.2f} m from the symbolic derivation "
-               f"(`{curves.convention}`, b_gz dropped) vs MoRPI-A at dG = "
-               + ", ".join(f"{d:g}" for d in params.dG)
-               + f"; the paper's eight improvements reproduced within "
-               f"{np.max(np.abs(ours - [n.paper_m for n in PAPER_IMPROVEMENTS])):.3f} m. "
-               f"The audit lists {n_disc} printed terms that disagree with the derivation.")
-    return SectionSummary(name="assessment", title="Analytical assessment (3D & 2D INS vs MoRPI-A)",
-                          page="README.md", figures=(fig_name,), summary=summary, synthetic=False)
+    return AssessmentStudy(params=params, curves=curves, improvements_m=ours, e3d_5s_m=e3_5, e2d_5s_m=e2_5,
+                           audit=audit, dropped_terms=dropped,
+                           conventions=tuple((c.name, bool(c.physical)) for c in S.AUDIT_CONVENTIONS))

@@ -586,16 +586,6 @@ class RestSummary:
         return dict(n_total=self.n_total, n_moving_early=self.n_moving_early, n_disturbed=self.n_disturbed,
                     rows=[asdict(r) for r in self.rows])
 
-    def markdown(self) -> str:
-        """A markdown table of the windows (gyro shift in deg/s)."""
-        from .reporting import fmt, md_table
-
-        body = [[r.name, r.method, fmt(r.start_s), fmt(r.window_s), fmt(r.motion_s),
-                 fmt(None if r.gyro_shift is None else math.degrees(r.gyro_shift), 3), r.note or r.error]
-                for r in self.rows]
-        return md_table(["recording", "window", "start [s]", "length [s]", "motion onset [s]",
-                         "first-3 s gyro bias shift [deg/s]", "note"], body)
-
 
 def rest_windows_summary(recordings, *, max_window_s: float = 3.0, **kwargs) -> RestSummary:
     """Detect the rest window of each recording and tabulate them.

@@ -52,7 +52,7 @@ def _nonneg_int(name):
 MAX_RUNS = 1_000_000
 RUN_SECONDS, RUN_BYTES = 0.54e-3, 0.7e3
 
-#: Largest ``curves --times`` [s]. Measured cost of ``curves.report_curves``
+#: Largest ``curves --times`` [s]. Measured cost of the curves section
 #: per second of the last evaluation time (T = 100 s and 400 s on a 2-core
 #: machine): 17 ms and 1.4 MB of peak memory over a 0.22 GB base; 1000 s need
 #: about 20 s and 1.6 GB. ``assess`` evaluates closed forms only and has no bound.
@@ -203,33 +203,65 @@ def build_parser() -> argparse.ArgumentParser:
 
 # ----------------------------------------------------------------------------- sections
 
-def _section(name, out: Path, args, source=None, tables=None):
-    """Build one report section into folder `out` and return its summary.
+def _study(name, args, source=None, tables=None):
+    """Run the study of one report section and return its frozen result.
 
     `tables` is the field evaluation of ``source.root`` when ``morpi report``
     has computed it once for every section.
     """
     if name == "tables":
-        from .evaluate import report_tables
-        return report_tables(out, source, partial=getattr(args, "partial", False), result=tables)
+        from .evaluate import tables_study
+        return tables_study(source.root if source is not None else None, partial=getattr(args, "partial", False),
+                            result=tables)
+    if name == "aided":
+        from .dataset import missing_data_message
+        from .field_aided import aided_study
+        if source is None or source.root is None:
+            raise MorpiError(f"aided: no dataset configured; {missing_data_message()}")
+        return aided_study(source.root, result=tables)
+    if name == "assessment":
+        from .assessment import assessment_study
+        return assessment_study(params_path=getattr(args, "params", None), times=getattr(args, "times", None))
+    if name == "curves":
+        from .curves import curves_study
+        return curves_study(params_path=getattr(args, "params", None), times=getattr(args, "times", None),
+                            source=source, tables=tables)
+    if name == "montecarlo":
+        from .montecarlo import gain_error_page
+        return gain_error_page(runs=args.runs, seed=args.seed, chunk=getattr(args, "chunk", None),
+                               scheduler=getattr(args, "scheduler", None), source=source, tables=tables)
+    if name == "drift":
+        from .montecarlo import drift_page
+        return drift_page(scheduler=getattr(args, "scheduler", None))
+    raise ValueError(name)
+
+
+def _write(name, out: Path, study, source=None):
+    """Write one report section's files from its study into folder `out`; its summary."""
+    if name == "tables":
+        from .report.tables import report_tables
+        return report_tables(out, study, source)
     if name == "aided":
         from .report.aided import report_aided
-        return report_aided(out, source, tables=tables)
+        return report_aided(out, study, source)
     if name == "assessment":
-        from .assessment import report_assessment
-        return report_assessment(out, params_path=getattr(args, "params", None), times=getattr(args, "times", None))
+        from .report.assessment import report_assessment
+        return report_assessment(out, study)
     if name == "curves":
-        from .curves import report_curves
-        return report_curves(out, params_path=getattr(args, "params", None), times=getattr(args, "times", None),
-                             source=source, tables=tables)
+        from .report.curves import report_curves
+        return report_curves(out, study, source)
     if name == "montecarlo":
-        from .montecarlo import report_montecarlo
-        return report_montecarlo(out, runs=args.runs, seed=args.seed, chunk=getattr(args, "chunk", None),
-                                 scheduler=getattr(args, "scheduler", None), source=source, tables=tables)
+        from .report.montecarlo import report_montecarlo
+        return report_montecarlo(out, study, source)
     if name == "drift":
-        from .montecarlo import report_drift
-        return report_drift(out, scheduler=getattr(args, "scheduler", None))
+        from .report.montecarlo import report_drift
+        return report_drift(out, study)
     raise ValueError(name)
+
+
+def _section(name, out: Path, args, source=None, tables=None):
+    """Build one report section into folder `out`: run its study, write its files; its summary."""
+    return _write(name, out, _study(name, args, source, tables), source)
 
 
 def _field_source(args, required=True):
@@ -376,27 +408,11 @@ def _cmd_report(args):
             stage = outputs.folder(out / name, name)
             print(f"[{name}] ...", flush=True)
             summaries.append(_section(name, stage, sec_args, source, tables))
-        outputs.file(out / "index.md").write_text(_index(summaries, source))
+        from .report.index import index_page
+
+        outputs.file(out / "index.md").write_text(index_page(summaries, source))
     print(f"report: {out / 'index.md'}")
     return 0
-
-
-def _index(summaries, source) -> str:
-    lines = ["# morpi_filters report", ""]
-    if source is not None and source.synthetic:
-        from .reporting import SYNTHETIC_BANNER
-        lines += [SYNTHETIC_BANNER, ""]
-    elif source is not None:
-        lines += [f"Field dataset: `{source.root}`.", ""]
-    for s in summaries:
-        lines += [f"## [{s.title}]({s.name}/{s.page})", ""]
-        if s.synthetic:
-            lines += ["*Computed on synthetic data.*", ""]
-        if s.summary:
-            lines += [s.summary.strip(), ""]
-        for fig in s.figures:
-            lines += [f"![{s.title}: {fig}]({s.name}/{fig})", ""]
-    return "\n".join(lines)
 
 
 class Terminated(KeyboardInterrupt):

@@ -53,7 +53,7 @@ from .eskf import (
 
 __all__ = [
     "STEP_LENGTH_M", "DEFAULT_TIMES", "CurveCase", "CaseCurves", "case_from_params", "case_from_sensor",
-    "time_grid", "closed_form_mean_square", "closed_form_errors", "compute_curves", "report_curves",
+    "time_grid", "closed_form_mean_square", "closed_form_errors", "compute_curves", "CurvesStudy", "curves_study",
 ]
 
 #: Length of one MoRPI step [m]: the 1 m peak-to-peak period of the paper's periodic routes.
@@ -493,19 +493,40 @@ def _field_points(source, data=None):
     return pts, note
 
 
-#: Where the field comparison of the MoRPI-aided filter lives (one implementation, one page).
-AIDED_NOTE = ("The MoRPI-aided filter on the field recordings (forward and smoothed, against MoRPI alone and the "
-              "INS alone per table cell, with its ablation and consistency) is the `aided` section: "
-              "[../aided/README.md](../aided/README.md), `morpi aided`.")
+@dataclass(frozen=True)
+class CurvesStudy:
+    """The curves section computed once.
+
+    Attributes
+    ----------
+    params : params.ErrorParams
+        The parameter file (values read as 1 sigma).
+    times : ndarray, shape (m,)
+        Evaluation times [s].
+    cases : tuple of CaseCurves
+        The parameter-file case and the two IMU cases, each with the field end points.
+    field_points : dict
+        Method -> list of (duration [s], end-point error [m]) of the field
+        straight-line runs (:func:`_field_points`).
+    field_note : str
+        Where the field points come from, or why there are none.
+    synthetic : bool
+        Whether the recordings are synthetic.
+    """
+
+    params: object
+    times: np.ndarray
+    cases: tuple
+    field_points: dict
+    field_note: str
+    synthetic: bool = False
 
 
-def report_curves(out, *, params_path=None, times=None, source=None, tables=None):
-    """The ``curves`` report section (``morpi curves``, ``morpi report``).
+def curves_study(*, params_path=None, times=None, source=None, tables=None) -> CurvesStudy:
+    """Compute the ``curves`` section (``morpi curves``, ``morpi report``).
 
     Parameters
     ----------
-    out : path
-        Staging folder to write into (README.md, result.json, PNGs).
     params_path : path, optional
         Parameter file (values read as 1 sigma); default the committed one.
     times : sequence of float, optional
@@ -517,83 +538,14 @@ def report_curves(out, *, params_path=None, times=None, source=None, tables=None
 
     Returns
     -------
-    reporting.SectionSummary
+    CurvesStudy
     """
-    from pathlib import Path
-
-    from . import plots
     from .params import load_params
-    from .reporting import SectionSummary, fmt, md_table, write_json, write_text
 
-    out = Path(out)
     params = load_params(params_path)
     times = np.unique(np.asarray(DEFAULT_TIMES if not times else times, dtype=float))
     cases = [case_from_params(params), case_from_sensor(units.MPU6500, params), case_from_sensor(units.LSM6DSL, params)]
     field_pts, field_note = _field_points(source, tables.data if tables is not None else None)
-    figures, per_case, rows, field_rows = [], {}, [], []
-    for case in cases:
-        cc = replace(compute_curves(case, times), field=field_pts)
-        png = f"curves_{case.name}.png"
-        plots.plot_curves(cc, out / png)
-        figures.append(png)
-        v = cc.at_eval_times()
-        per_case[case.name] = {"title": case.title, "process_noise": case.noise is not None,
-                               "gain_sigma": case.gain_sigma, **v}
-        for k, p in field_pts.items():
-            if p:
-                d = float(np.mean([q[0] for q in p]))
-                field_rows.append([case.title, k, len(p), fmt(d), fmt(np.mean([q[1] for q in p])),
-                                   fmt(np.sqrt(np.mean([q[1] ** 2 for q in p]))),
-                                   fmt(np.interp(d, cc.times, cc.sigma[k]))])
-        rows.append([case.title, fmt(times[-1], 1)] + [fmt(v[f"{a}_{k}_m"][-1]) if f"{a}_{k}_m" in v else "-"
-                                                      for k in ("ins3d", "ins2d", "morpi")
-                                                      for a in ("sigma", "rms_closed_form", "mc_rms",
-                                                                "nonlinear_mc_rms")[: 4 if k != "morpi" else 3]])
-    main = per_case["params"]
-    result = {
-        "times": times,
-        "sigma_ins3d_m": main["sigma_ins3d_m"],
-        "sigma_ins2d_m": main["sigma_ins2d_m"],
-        "sigma_morpi_m": main["sigma_morpi_m"],
-        "rms_closed_form_ins3d_m": main["rms_closed_form_ins3d_m"],
-        "rms_closed_form_ins2d_m": main["rms_closed_form_ins2d_m"],
-        "rms_closed_form_morpi_m": main["rms_closed_form_morpi_m"],
-        "process_noise": bool(params.process_noise),
-        "params_file": params.label,
-        "step_length_m": STEP_LENGTH_M,
-        "mc_runs": MC_RUNS,
-        "mc_seed": MC_SEED,
-        "nonlinear_mc_runs": NL_RUNS,
-        "cases": per_case,
-        "field": {"note": field_note, "points_duration_s_error_m": field_pts},
-        "field_aided": {"note": AIDED_NOTE, "section": "aided"},
-    }
-    write_json(out / "result.json", result)
-    banner = source.banner if source is not None else ""
-    head = ["case", "t [s]", "3D sigma", "3D closed RMS", "3D MC RMS", "3D strapdown MC", "2D sigma", "2D closed RMS",
-            "2D MC RMS", "2D strapdown MC", "MoRPI sigma", "MoRPI-A closed RMS", "MoRPI-aided MC RMS"]
-    text = (
-        f"{banner}# Covariance curves: closed form, filter sigma, Monte Carlo\n\n"
-        f"Horizontal position error [m] of 3D INS, 2D INS and MoRPI-aided 3D INS on the paper's nominal "
-        f"straight-line trajectory (C = I, f^n = gravity), error parameters read as 1 sigma from "
-        f"`{params.label}`. Process noise: {'on' if params.process_noise else 'off'}. The gyro z bias is left "
-        f"out, as in the paper (common heading error). MoRPI steps of {STEP_LENGTH_M} m every "
-        f"{STEP_LENGTH_M / params.morpi_speed_mps:g} s, gain error 1 sigma {abs(params.dG[0]):g} as a constant "
-        f"augmented state. Monte Carlo: {MC_RUNS} seeded runs of the linear model (seed {MC_SEED}); for "
-        f"MoRPI-aided, the RMS of the filter's own estimation error. For the two IMU cases a second Monte "
-        f"Carlo ({NL_RUNS} runs, for evaluation times up to {NL_MAX_T:g} s) synthesizes the IMU at rest (`simulate.imu`, datasheet biases on all axes) and "
-        f"runs the nonlinear 3D/2D strapdown; where it departs from the filter sigma the linear error model "
-        f"no longer holds (large tilt from the gyro bias).\n\n"
-        f"At the last requested time:\n\n" + md_table(head, rows) + "\n"
-        + "".join(f"![{c.title}]({png})\n\n" for c, png in zip(cases, figures))
-        + f"{'Synthetic' if source is not None and source.synthetic else 'Field'} recordings: {field_note}.\n\n"
-        + (md_table(["case", "method", "runs", "mean duration [s]", "mean end error [m]", "RMS end error [m]",
-                     "filter 1 sigma at the mean duration [m]"], field_rows) if field_rows else "")
-        + "\n## MoRPI-aided INS on the field recordings\n\n" + AIDED_NOTE + "\n"
-    )
-    write_text(out / "README.md", text)
-    summary = (f"Filter sigma vs closed form vs Monte Carlo for 3D/2D INS and MoRPI-aided INS. "
-               f"At {fmt(times[-1], 0)} s (parameter file): 3D {fmt(main['sigma_ins3d_m'][-1])} m, "
-               f"2D {fmt(main['sigma_ins2d_m'][-1])} m, MoRPI-aided {fmt(main['sigma_morpi_m'][-1])} m (1 sigma).")
-    return SectionSummary(name="curves", title="Covariance curves", page="README.md", figures=tuple(figures),
-                          summary=summary, synthetic=bool(source is not None and source.synthetic))
+    curves = tuple(replace(compute_curves(case, times), field=field_pts) for case in cases)
+    return CurvesStudy(params=params, times=times, cases=curves, field_points=field_pts, field_note=field_note,
+                       synthetic=bool(source is not None and source.synthetic))

@@ -25,6 +25,7 @@ import numpy as np
 
 from .errors import DataError, MorpiError
 from .resources import project_data
+from .units import G0
 
 __all__ = [
     "COLUMNS", "MIN_SAMPLES", "ACCEL_LIMIT_MPS2", "GYRO_LIMIT_RADPS", "MAX_GAP_S", "TIME_LIMIT_S", "DATA_ENV", "Route", "Recording", "CatalogueEntry",
@@ -41,7 +42,7 @@ MIN_SAMPLES = 100
 #: two phones' IMUs (LSM6DSL in the Galaxy S8 and MPU-6500 in the S6, as named in the paper:
 #: both datasheets list +-2/4/8/16 g), plus a 5 % margin for scale-factor and offset errors.
 #: No real reading can exceed it; the field recordings peak at about 1 g.
-ACCEL_LIMIT_MPS2 = 16 * 9.80665 * 1.05
+ACCEL_LIMIT_MPS2 = 16 * G0 * 1.05
 #: Largest |angular rate| accepted [rad/s]: 2000 deg/s, the widest gyro full scale of both
 #: IMUs (datasheets: +-125/250/500/1000/2000 deg/s for the LSM6DSL, +-250/.../2000 for the
 #: MPU-6500), plus the same 5 % margin. The field recordings peak at about 12.3 rad/s.

@@ -47,7 +47,7 @@ from typing import Callable, Mapping
 
 from .dataset import PROJECT_DATA
 from .errors import MorpiError
-from .reporting import new_stage_dir
+from .reporting import new_stage_dir, swap_in
 
 __all__ = [
     "DEFAULT_URL", "CHECKSUMS_FILE", "sha256_file", "compute_checksums", "write_checksums", "load_checksums",
@@ -71,13 +71,20 @@ _HEADER = (
 
 # ----------------------------------------------------------------------------- checksums
 
+def _sha256_stream(read, write=None) -> str:
+    """sha256 hex digest of the bytes `read(n)` yields until empty; each block also goes to `write`."""
+    h = hashlib.sha256()
+    for block in iter(lambda: read(_CHUNK), b""):
+        h.update(block)
+        if write is not None:
+            write(block)
+    return h.hexdigest()
+
+
 def sha256_file(path) -> str:
     """sha256 hex digest of a file's bytes (the format of ``sha256sum``)."""
-    h = hashlib.sha256()
     with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(_CHUNK), b""):
-            h.update(block)
-    return h.hexdigest()
+        return _sha256_stream(fh.read)
 
 
 def compute_checksums(root) -> dict[str, str]:
@@ -312,7 +319,7 @@ def fetch_dataset(dest, *, url: str | None = None, checksums=None, timeout: floa
             raise MorpiError(f"{url}: archive does not match the dataset checksums: {'; '.join(problems)}")
         if dest.is_dir():
             dest.rmdir()   # empty (checked above); fails loudly if something appeared meanwhile
-        os.replace(tree, dest)
+        swap_in(tree, dest)
     except MorpiError:
         shutil.rmtree(stage, ignore_errors=True)
         raise
@@ -397,13 +404,9 @@ def _unpack(archive: Path, out: Path, url: str) -> dict[str, str]:
                 raise MorpiError(f"{url}: member {name!r} appears twice")
             target = out / rel
             target.parent.mkdir(parents=True, exist_ok=True)
-            h = hashlib.sha256()
             src = opener()
             with src, open(target, "xb") as fh:
-                for block in iter(lambda: src.read(_CHUNK), b""):
-                    h.update(block)
-                    fh.write(block)
-            got[rel] = h.hexdigest()
+                got[rel] = _sha256_stream(src.read, fh.write)
     except (zipfile.BadZipFile, zipfile.LargeZipFile, tarfile.TarError, zlib.error, EOFError) as exc:
         raise MorpiError(f"{url}: truncated or corrupt {arc.kind} archive ({exc or exc.__class__.__name__})") \
             from None

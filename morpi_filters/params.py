@@ -32,6 +32,7 @@ import numpy as np
 
 from .errors import ParameterError
 from .resources import project_data
+from .units import G0
 
 __all__ = ["ErrorParams", "DEFAULTS", "REQUIRED", "load_params", "params_from_dict", "DEFAULT_PARAMS_FILE",
            "BA_MAX_MPS2", "BG_MAX_RADPS", "DV0_MAX_MPS", "SPEED_MAX_MPS", "G_MIN_MPS2", "G_MAX_MPS2", "DG_MAX"]
@@ -92,7 +93,7 @@ class ErrorParams:
 #: times the larger datasheet offset of the two phones' IMUs (units.MPU6500: 60 mg zero-g
 #: offset, 6 deg/s zero-rate offset): 1 g and 100 deg/s. A larger "bias" is a broken sensor or
 #: a unit mistake (an accelerometer bias of 1 g flips the gravity it reads at rest).
-BA_MAX_MPS2 = 9.80665
+BA_MAX_MPS2 = G0
 BG_MAX_RADPS = 100 * math.pi / 180
 #: Initial velocity error and travel speed: MoRPI is for slow platforms (robots and walkers,
 #: the paper's robot moves at about 1 m/s); 10 m/s is twice a running pace.

@@ -1,4 +1,4 @@
-"""Writing reports safely: atomic files, staged folders, owned outputs, markdown helpers.
+"""Writing outputs safely: atomic files, staged folders, owned outputs.
 
 Every output file is written under a temporary name in its destination folder
 and renamed into place, so an interrupted run never leaves half a file. A
@@ -16,7 +16,8 @@ leftovers of a killed run are recognised and removed by the next run
 gives, not the private ones of temporary files.
 
 Each report section (tables, assessment, curves, montecarlo, drift) returns a
-:class:`SectionSummary`; ``morpi report`` collects them into ``index.md``.
+:class:`SectionSummary`; ``morpi report`` collects them into ``index.md``. The
+pages themselves are written by :mod:`morpi_filters.report`.
 """
 from __future__ import annotations
 
@@ -37,18 +38,9 @@ from .errors import MorpiError, ParameterError
 
 __all__ = [
     "SectionSummary", "DataSource", "atomic_path", "write_text", "write_json", "staged_dir",
-    "md_table", "fmt", "to_jsonable", "SYNTHETIC_BANNER", "MARKER", "Outputs", "check_output_dir",
+    "to_jsonable", "MARKER", "Outputs", "check_output_dir",
     "check_output_file", "remove_stale", "swap_in", "foreign_entry", "user_umask", "new_stage_dir", "new_temp_file",
 ]
-
-#: Shown at the top of every page computed on synthetic data.
-SYNTHETIC_BANNER = (
-    "> **Synthetic data.** No field dataset was configured, so this page was computed on a seeded "
-    "synthetic dataset made by `morpi simulate` with the paper's two IMU specifications. "
-    "To run it on the MoRPI field recordings: `morpi data fetch --dest DIR` (or clone the public "
-    "repository ansfl/MoRPI), then `morpi report --data DIR/data` or set `MORPI_DATA`."
-)
-
 
 @dataclass(frozen=True)
 class DataSource:
@@ -67,11 +59,6 @@ class DataSource:
     root: Path | None
     synthetic: bool = False
     seed: int | None = None
-
-    @property
-    def banner(self) -> str:
-        """The synthetic-data notice, or an empty string for field data."""
-        return SYNTHETIC_BANNER + "\n\n" if self.synthetic else ""
 
 
 @dataclass(frozen=True)
@@ -450,24 +437,3 @@ def swap_in(stage: Path, final: Path) -> None:
         shutil.rmtree(keep, ignore_errors=True)
     else:
         os.replace(stage, final)
-
-
-def fmt(x, digits: int = 2) -> str:
-    """Format a number for a markdown table (``-`` for None or NaN)."""
-    if x is None:
-        return "-"
-    try:
-        v = float(x)
-    except (TypeError, ValueError):
-        return str(x)
-    if not math.isfinite(v):
-        return "-"
-    return f"{v:.{digits}f}"
-
-
-def md_table(headers, rows) -> str:
-    """A GitHub markdown table from a header list and rows of cells."""
-    head = "| " + " | ".join(str(h) for h in headers) + " |"
-    sep = "|" + "|".join("---" for _ in headers) + "|"
-    body = ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
-    return "\n".join([head, sep, *body]) + "\n"

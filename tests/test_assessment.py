@@ -112,7 +112,9 @@ def printed_e3d(dv, ba, bg, g, t):
 
 
 def test_report_default_parameters(tmp_path):
-    s = A.report_assessment(tmp_path)
+    from morpi_filters.report.assessment import report_assessment
+
+    s = report_assessment(tmp_path, A.assessment_study())
     assert s.name == "assessment" and s.figures == ("assessment.png",) and not s.synthetic
     r = json.loads((tmp_path / "result.json").read_text())
     assert r["times"][0] == 0.0 and r["times"][-1] == 15.0

@@ -10,6 +10,7 @@ from morpi_filters.calibration import (LOCAL_GRAVITY, Calibration, RestWindow, c
                                        normal_gravity, rest_windows_summary)
 from morpi_filters.dataset import Recording, load_catalogue
 from morpi_filters.errors import MorpiError
+from morpi_filters.report.calibration import rest_windows_table
 
 GYRO_BIAS = np.array([0.012, -0.021, 0.0305])   # rad/s, of the order of the field recordings' biases
 ACCEL_BIAS = np.array([0.15, -0.22, 0.09])      # m/s^2
@@ -169,7 +170,7 @@ def test_summary_counts_and_shift():
     assert c.method == "none" and "no initial rest" in c.error
     js = summary.to_json()
     assert js["n_total"] == 3 and js["rows"][1]["method"] == "detected"
-    assert summary.markdown().count("\n") == 5
+    assert rest_windows_table(summary).count("\n") == 5
 
 
 @pytest.mark.field
@@ -191,7 +192,7 @@ def test_field_every_recording_gets_a_window(field_root):
     print(f"\n{summary.n_moving_early} of {summary.n_total} recordings move within their first 3 s; "
           f"{summary.n_disturbed} start with a brief disturbance; largest first-3 s gyro bias shift "
           f"{math.degrees(worst.gyro_shift):.2f} deg/s ({worst.name})")
-    assert summary.markdown().count("\n") == summary.n_total + 2
+    assert rest_windows_table(summary).count("\n") == summary.n_total + 2
 
 
 def test_noise_free_recording():

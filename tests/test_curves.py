@@ -10,10 +10,11 @@ from morpi_filters import units
 from morpi_filters.cli import main
 from morpi_filters.curves import (
     DEFAULT_TIMES, case_from_params, case_from_sensor, closed_form_errors, closed_form_mean_square,
-    compute_curves, report_curves, time_grid,
+    compute_curves, curves_study, time_grid,
 )
 from morpi_filters.errors import MorpiError
 from morpi_filters.params import params_from_dict
+from morpi_filters.report.curves import report_curves
 
 PARAMS = {"dv0_mps": [0.06, 0.03, 0.02], "ba_mps2": [0.08, 0.03, 0.03], "bg_radps": [0.002, 0.003, 0.004],
           "g_mps2": 9.81, "dG": [0.05, 0.10], "morpi_speed_mps": 0.5}
@@ -77,7 +78,7 @@ def test_closed_form_realisation_and_mean_square_by_hand():
 def test_report_contract(tmp_path):
     out = tmp_path / "out"
     out.mkdir()
-    s = report_curves(out, params_path=_write(tmp_path, process_noise=True), times=[2.0, 6.0])
+    s = report_curves(out, curves_study(params_path=_write(tmp_path, process_noise=True), times=[2.0, 6.0]))
     r = json.loads((out / "result.json").read_text())
     for key in ("times", "sigma_ins3d_m", "sigma_ins2d_m", "sigma_morpi_m",
                 "rms_closed_form_ins3d_m", "rms_closed_form_ins2d_m"):
@@ -129,12 +130,13 @@ def test_nonlinear_strapdown_monte_carlo_agrees_where_the_model_is_linear():
 
 
 def test_synthetic_source_banner_and_empty_field(tmp_path):
-    from morpi_filters.reporting import DataSource, SYNTHETIC_BANNER
+    from morpi_filters.report.common import SYNTHETIC_BANNER
+    from morpi_filters.reporting import DataSource
 
     out = tmp_path / "out"
     out.mkdir()
-    s = report_curves(out, params_path=_write(tmp_path), times=[1.0],
-                      source=DataSource(tmp_path / "empty", synthetic=True, seed=0))
+    src = DataSource(tmp_path / "empty", synthetic=True, seed=0)
+    s = report_curves(out, curves_study(params_path=_write(tmp_path), times=[1.0], source=src), src)
     text = (out / "README.md").read_text()
     assert text.startswith(SYNTHETIC_BANNER) and s.synthetic
     assert "no straight-line" in json.loads((out / "result.json").read_text())["field"]["note"]

@@ -14,6 +14,7 @@ from morpi_filters import dataset as ds
 from morpi_filters import evaluate as ev
 from morpi_filters import field as fd
 from morpi_filters import simulate, units
+from morpi_filters.report.tables import report_tables
 from morpi_filters.reporting import DataSource
 
 
@@ -241,9 +242,9 @@ def test_missing_folders_give_a_partial_report(field_root, tmp_path):
     out = tmp_path / "out"
     # Without --partial the missing folders stop the section, named in one line.
     with pytest.raises(DataError, match=r"s8/line_dataset: missing folder, expected 24 recording\(s\)") as ei:
-        ev.report_tables(out, DataSource(root))
+        ev.tables_study(root)
     assert "--partial" in str(ei.value) and "\n" not in str(ei.value)
-    summary = ev.report_tables(out, DataSource(root), partial=True)
+    summary = report_tables(out, ev.tables_study(root, partial=True), DataSource(root))
     page = (out / "README.md").read_text()
     payload = json.loads((out / "result.json").read_text())
     assert "Missing folders" in page and "s8/line_dataset" in page
@@ -259,7 +260,7 @@ def test_missing_folders_give_a_partial_report(field_root, tmp_path):
 
 def test_field_tables_end_to_end(field_root, tmp_path):
     out = tmp_path / "tables"
-    summary = ev.report_tables(out, DataSource(field_root))
+    summary = report_tables(out, ev.tables_study(field_root), DataSource(field_root))
     payload = json.loads((out / "result.json").read_text())
     page = (out / "README.md").read_text()
     assert summary.name == "tables" and not summary.synthetic
@@ -343,8 +344,8 @@ def test_unreadable_files_stop_the_tables_or_are_listed_with_partial(field_root,
     (test / "17.csv").write_text("not a recording\n")
     out = tmp_path / "out"
     with pytest.raises(DataError, match=r"17.csv: line 1: .*99.csv: line 1: missing column"):
-        ev.report_tables(out, DataSource(root))
-    ev.report_tables(out, DataSource(root), partial=True)
+        ev.tables_study(root)
+    report_tables(out, ev.tables_study(root, partial=True), DataSource(root))
     payload = json.loads((out / "result.json").read_text())
     cell = next(c for c in payload["cells"] if (c["table"], c["phone"], c["method"], c["calibration"])
                 == ("short_route", "s6", "MoRPI-G", "GC"))

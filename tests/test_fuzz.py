@@ -24,6 +24,7 @@ from morpi_filters import dataset as ds
 from morpi_filters import evaluate as ev
 from morpi_filters import synthetic
 from morpi_filters.errors import DataError, MorpiError
+from morpi_filters.report.tables import report_tables
 from morpi_filters.reporting import DataSource
 
 COLS = list(ds.COLUMNS)
@@ -382,7 +383,7 @@ def test_fuzz_through_the_tables(tiny_dataset, tmp_path):
     out); every one that loads is evaluated, and its cells must be finite and
     sane (:func:`evaluate.check_cells`) with the file among the runs or the
     failed runs of its cell. The first 3 rejections are run through the whole
-    section (:func:`evaluate.report_tables`, with and without ``partial``),
+    section (:func:`evaluate.tables_study` and its page, with and without ``partial``),
     the rest through :func:`evaluate.dataset_problems`, the same gate; the
     first 3 that load are evaluated (:func:`evaluate.evaluate_tables`).
     """
@@ -407,8 +408,8 @@ def test_fuzz_through_the_tables(tiny_dataset, tmp_path):
             assert any(str(target) in p for p in problems), names
             if full[kind] < 3:
                 with pytest.raises(DataError, match=str(target)):
-                    ev.report_tables(tmp_path / "out", DataSource(root))
-                ev.report_tables(tmp_path / "out", DataSource(root), partial=True)
+                    ev.tables_study(root)
+                report_tables(tmp_path / "out", ev.tables_study(root, partial=True), DataSource(root))
                 payload = json.loads((tmp_path / "out" / "result.json").read_text())
                 assert any(str(target) in x for x in payload["left_out"])
                 assert str(target) in (tmp_path / "out" / "README.md").read_text()

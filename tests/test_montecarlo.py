@@ -235,7 +235,9 @@ def test_drift_bad_levels():
 
 def test_report_montecarlo_contract(tmp_path, monkeypatch):
     monkeypatch.setattr(mc, "TRAINING_KS", (1, 4))
-    s = mc.report_montecarlo(tmp_path, runs=30, seed=2, chunk=16)
+    from morpi_filters.report.montecarlo import report_montecarlo
+
+    s = report_montecarlo(tmp_path, mc.gain_error_page(runs=30, seed=2, chunk=16))
     res = json.loads((tmp_path / "result.json").read_text())
     assert res["runs"] == 30 and res["seed"] == 2 and len(res["digest"]) == 64
     for m in ("ins3d", "ins2d", "morpi_a", "morpi_g"):
@@ -254,7 +256,9 @@ def test_report_montecarlo_contract(tmp_path, monkeypatch):
 def test_report_drift_contract(tmp_path, monkeypatch):
     real = mc.drift_map
     monkeypatch.setattr(mc, "drift_map", lambda levels, **kw: real(levels[::6], **{**kw, "draws": 4}))
-    s = mc.report_drift(tmp_path)
+    from morpi_filters.report.montecarlo import report_drift
+
+    s = report_drift(tmp_path, mc.drift_page())
     res = json.loads((tmp_path / "result.json").read_text())
     assert len(res["rel_3d"]) == len(res["gyro_bias_deg_s"]) and len(res["rel_3d"][0]) == len(res["time_s"])
     assert set(s.figures) == {"drift_map_3d.png", "drift_map_2d.png"}

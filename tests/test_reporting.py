@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from morpi_filters.reporting import atomic_path, md_table, staged_dir, write_json, write_text
+from morpi_filters.report.common import md_table
+from morpi_filters.reporting import atomic_path, staged_dir, write_json, write_text
 
 
 def test_write_json_converts_numpy_and_nonfinite(tmp_path):

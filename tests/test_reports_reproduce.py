@@ -18,7 +18,9 @@ from pathlib import Path
 import pytest
 
 from morpi_filters import evaluate as ev
-from morpi_filters.assessment import report_assessment
+from morpi_filters.assessment import assessment_study
+from morpi_filters.report.assessment import report_assessment
+from morpi_filters.report.tables import report_tables
 from morpi_filters.reporting import DataSource
 
 REPORTS = Path(__file__).resolve().parent.parent / "reports"
@@ -70,7 +72,7 @@ def test_diff_sees_a_moved_number():
 
 def test_committed_assessment_is_reproduced(tmp_path):
     committed = json.loads((REPORTS / "assessment" / "result.json").read_text())
-    report_assessment(tmp_path / "assessment")
+    report_assessment(tmp_path / "assessment", assessment_study())
     fresh = json.loads((tmp_path / "assessment" / "result.json").read_text())
     assert _diff(committed, fresh) == []
 
@@ -79,7 +81,7 @@ def test_committed_assessment_is_reproduced(tmp_path):
 def test_committed_tables_are_reproduced(field_root, tmp_path):
     committed = json.loads((REPORTS / "tables" / "result.json").read_text())
     assert committed["synthetic"] is False
-    ev.report_tables(tmp_path / "tables", DataSource(field_root))
+    report_tables(tmp_path / "tables", ev.tables_study(field_root), DataSource(field_root))
     fresh = json.loads((tmp_path / "tables" / "result.json").read_text())
     diffs = _diff(committed, fresh)
     assert diffs == [], f"{len(diffs)} difference(s), first: {diffs[:5]}"

@@ -381,7 +381,10 @@ def test_printed_e3d_is_not_the_square_of_printed_dp():
 
 
 def test_audit_markdown_lists_every_discrepancy():
-    md = S.audit_markdown()
+    from morpi_filters.report.assessment import audit_page
+
+    r = S.audit()
+    md = audit_page(r, S.dropped_bgz_terms(r.reference), [(c.name, c.physical) for c in S.AUDIT_CONVENTIONS])
     for _, lab, mono, *_ in PINS:
         assert f"| {lab} | `{mono}` |" in md
 

@@ -1,7 +1,21 @@
-"""Report pages: the home of the markdown pages, JSON payloads and figures of ``reports/``.
+"""Report pages: every markdown page, JSON payload and figure of ``reports/``.
 
-Studies return results; page writers turn them into files. Today the page
-writers still sit beside their studies (``evaluate.report_tables``,
-``curves.report_curves``, ``montecarlo.report_montecarlo`` and
-``report_drift``, ``assessment.report_assessment``) and move here one by one.
+Studies return frozen results; the writers here turn them into files. They
+evaluate, integrate and simulate nothing (at most a mean, a percentile or a
+minimum over what a result holds). One module per page:
+
+========================  ===================================================  ==========================
+module                    writes                                               from
+========================  ===================================================  ==========================
+:mod:`.tables`            ``tables/``: the paper's tables on the recordings     ``evaluate.tables_study``
+:mod:`.assessment`        ``assessment/``: closed-form assessment, audit        ``assessment.assessment_study``
+:mod:`.curves`            ``curves/``: covariance curves, MoRPI-aided INS       ``curves.curves_study``
+:mod:`.montecarlo`        ``montecarlo/`` and ``drift/``                        ``montecarlo.gain_error_page``,
+                                                                               ``montecarlo.drift_page``
+:mod:`.index`             ``index.md``                                          the sections' summaries
+========================  ===================================================  ==========================
+
+:mod:`.plots` draws every figure (the only matplotlib importer) and
+:mod:`.common` holds what the writers share (number formatting, markdown
+tables, the synthetic-data banner, saving a figure).
 """

@@ -6,7 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import MorpiError
+from ..reporting import SectionSummary, write_json, write_text
+from . import plots
+from .common import banner, fmt, md_table, save_figure
 
 
 def _nis(d: dict) -> dict:
@@ -45,21 +47,20 @@ def study_json(study) -> dict:
 
 
 def _figures(study, out: Path) -> list[str]:
-    from .. import plots
     from ..evaluate import _truth_polyline
 
     if not study.cells:
         return []
     names = ["aided_cells.png"]
-    plots.plot_aided_cells(study.cells, out / names[0])
+    save_figure(plots.plot_aided_cells(study.cells), out / names[0])
     for c in study.cells:
         if c.spec.calibration == "GC" and c.spec.method == "MoRPI-G":
             name = f"aided_paths_{c.spec.phone}_{c.spec.route}.png"
-            plots.plot_aided_paths(c, _truth_polyline(c.spec.route), out / name)
+            save_figure(plots.plot_aided_paths(c, _truth_polyline(c.spec.route)), out / name)
             names.append(name)
     first = next((c for c in study.cells if c.spec.calibration == "GC" and c.spec.method == "MoRPI-G"),
                  study.cells[0])
-    plots.plot_aided_ellipses(first, out / "aided_ellipses.png")
+    save_figure(plots.plot_aided_ellipses(first), out / "aided_ellipses.png")
     names.append("aided_ellipses.png")
     return names
 
@@ -73,7 +74,6 @@ def _ratio(cells, *, short: bool) -> float:
 
 def _page(study, source, figures) -> str:
     from .. import aided, field_aided
-    from ..reporting import fmt, md_table
 
     cells = study.cells
     better = sum(c.forward_percent < c.morpi_percent for c in cells)
@@ -94,9 +94,8 @@ def _page(study, source, figures) -> str:
         d = [a["smoothed_percent"] - base[a["cell"]] for a in study.ablation if a["removed"] == name]
         mean_rows.append([name, len(d), fmt(float(np.mean(d))), fmt(float(np.median(d)))])
     nis_rows = [[k, v[1], fmt(v[0]), fmt(v[0] / v[1])] for k, v in sorted(study.nis.items())]
-    banner = source.banner if source is not None else ""
     return (
-        f"{banner}# The MoRPI-aided inertial filter on the field recordings\n\n"
+        f"{banner(source)}# The MoRPI-aided inertial filter on the field recordings\n\n"
         "One closed-loop error-state Kalman filter pass per recording (`morpi_filters.aided`): the 3D strapdown "
         "at every IMU sample on the real time steps, the covariance and the updates on 0.1 s epochs and at every "
         "step boundary, and the estimated errors (position, velocity, attitude, biases) fed back after each "
@@ -138,40 +137,31 @@ def _page(study, source, figures) -> str:
         + "".join(f"\n![{f}]({f})\n" for f in figures))
 
 
-def report_aided(out, source, *, study=None, tables=None):
-    """Write the aided section: README.md, result.json and figures in `out`.
+def report_aided(out, study, source=None) -> SectionSummary:
+    """Write the aided section (README.md, result.json, figures) into `out`.
 
     Parameters
     ----------
     out : path
         Section folder.
-    source : reporting.DataSource
-    study : field_aided.AidedStudy, optional
-        A computed study (else computed here).
-    tables : evaluate.TablesResult, optional
-        The field evaluation to build on.
+    study : field_aided.AidedStudy
+        What :func:`morpi_filters.field_aided.aided_study` computed.
+    source : reporting.DataSource, optional
+        The recordings of the study (for the synthetic-data banner).
 
     Returns
     -------
     reporting.SectionSummary
     """
-    from .. import dataset as ds
-    from ..field_aided import aided_study
-    from ..reporting import SectionSummary, fmt, write_json, write_text
-
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    if study is None:
-        if source is None or source.root is None:
-            raise MorpiError(f"aided: no dataset configured; {ds.missing_data_message()}")
-        study = aided_study(source.root, result=tables)
     write_json(out / "result.json", study_json(study))
     figures = _figures(study, out)
     write_text(out / "README.md", _page(study, source, figures))
     cells = study.cells
     better = sum(c.smoothed_percent < c.morpi_percent for c in cells)
     gc = [c for c in cells if c.spec.calibration == "GC"]
-    summary = (f"The MoRPI-aided filter beats MoRPI alone in {better} of {len(cells)} MoRPI cells "
+    summary = (f"The MoRPI-aided filter (smoothed) beats MoRPI alone in {better} of {len(cells)} MoRPI cells "
                f"({sum(c.smoothed_percent < c.morpi_percent for c in gc)} of {len(gc)} GC); 95 % ellipse "
                f"coverage {fmt(study.coverage_95 * 100)} %.")
     return SectionSummary(name="aided", title="The MoRPI-aided inertial filter", page="README.md",

@@ -1,60 +1,53 @@
-"""Every figure of the package; the only module that imports matplotlib.
+"""Every figure of the package, as a library: data in, matplotlib objects out.
 
-Other modules return data (dataclasses, arrays); the functions here draw it and
-write PNG files atomically. matplotlib is imported lazily with the Agg backend,
-so importing the package never needs a display.
+Each function draws on the Axes it is given (``ax=``) or, without one, on a
+new :class:`matplotlib.figure.Figure`, and returns the Axes it drew on; a
+figure of several panels returns its Figure. Nothing here saves a file or
+selects a backend: figures are plain ``Figure`` objects (no pyplot state), and
+the page writers save them (:func:`morpi_filters.report.common.save_figure`).
+matplotlib is imported inside the functions, so importing this module does not
+load it.
 
 The file is organised by report section, each under its own heading comment.
 """
 from __future__ import annotations
 
-from pathlib import Path
-
 __all__ = [
-    "pyplot", "save", "plot_recording", "plot_tracks", "plot_path_sets", "assessment_figure", "plot_curves", "plot_aided_cells", "plot_aided_paths", "plot_aided_ellipses",
-    "simulation_run", "montecarlo_final_errors", "montecarlo_error_curves", "montecarlo_gain_vs_error",
-    "montecarlo_training_runs", "drift_disagreement_map",
+    "new_figure", "new_axes", "plot_recording", "plot_tracks", "plot_path_sets", "assessment_figure", "plot_curves",
+    "plot_aided_cells", "plot_aided_paths", "plot_aided_ellipses", "simulation_run", "montecarlo_final_errors", "montecarlo_error_curves",
+    "montecarlo_gain_vs_error", "montecarlo_training_runs", "drift_disagreement_map",
 ]
 
 
-def pyplot():
-    """Return ``matplotlib.pyplot`` with the non-interactive Agg backend."""
-    import matplotlib
+def new_figure(**kw):
+    """A new :class:`matplotlib.figure.Figure` (no pyplot, no backend)."""
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
-    return plt
+    return Figure(**kw)
 
 
-def save(fig, path, dpi: int = 120) -> Path:
-    """Save `fig` as PNG atomically and close it."""
-    from .reporting import atomic_path
-
-    path = Path(path)
-    plt = pyplot()
-    try:
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, dpi=dpi, format="png", bbox_inches="tight")
-    finally:
-        plt.close(fig)
-    return path
+def new_axes(ax=None, figsize=(6.4, 4.8)):
+    """`ax`, or the single Axes of a new Figure of size `figsize` [in]; and whether it is new."""
+    if ax is not None:
+        return ax, False
+    return new_figure(figsize=figsize).subplots(), True
 
 
-def _finish(fig, ax, path, title="", which="major"):
-    """Grid, legend and title of a one-axis figure, then save it."""
+def _finish(ax, own, title="", which="major"):
+    """Grid, legend and title of a one-axis plot; the layout is tightened on a Figure of our own."""
     ax.grid(True, which=which, alpha=0.3)
     ax.legend(fontsize=8)
     if title:
         ax.set_title(title, fontsize=10)
-    fig.tight_layout()
-    return save(fig, path)
+    if own:
+        ax.figure.tight_layout()
+    return ax
 
 
 # ============================================================================ tables (field pipeline)
 # Figures of reports/tables/: recordings, INS trajectories, MoRPI paths.
 
-def plot_recording(time, f, omega, path, *, title="", rest=None, motion=None, peaks=None, peak_signal="omega_z"):
+def plot_recording(time, f, omega, *, title="", rest=None, motion=None, peaks=None, peak_signal="omega_z"):
     """Specific force and angular rate of one recording, as in the paper's recording figures.
 
     Parameters
@@ -63,20 +56,23 @@ def plot_recording(time, f, omega, path, *, title="", rest=None, motion=None, pe
         [s]; shown from the first sample.
     f, omega : ndarray, shape (n, 3)
         Specific force [m/s^2] and angular rate [rad/s] in phone axes.
-    path : path
-        PNG file.
     rest : tuple of float, optional
         Initial rest window (start, end) [s], shaded.
     motion : tuple of float, optional
         Motion span (start, end) [s], dashed lines.
     peaks : ndarray, optional
         Peak times [s], marked on `peak_signal` (``"omega_z"`` or ``"f_y"``).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Two panels (specific force above, angular rate below).
     """
     import numpy as np
 
-    plt = pyplot()
     t = np.asarray(time) - time[0]
-    fig, axes = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
+    fig = new_figure(figsize=(8, 5.5))
+    axes = fig.subplots(2, 1, sharex=True)
     for ax, data, name, unit in ((axes[0], f, "f", "m/s$^2$"), (axes[1], omega, "\\omega", "rad/s")):
         for j, c in enumerate("xyz"):
             ax.plot(t, data[:, j], lw=0.8, label=f"${name}_{c}$")
@@ -97,10 +93,10 @@ def plot_recording(time, f, omega, path, *, title="", rest=None, motion=None, pe
     axes[1].legend(loc="upper right", fontsize=7, ncol=4)
     axes[1].set_xlabel("time from first sample [s]")
     axes[0].set_title(title)
-    return save(fig, path)
+    return fig
 
 
-def plot_tracks(tracks, truth, path, *, title="", equal=True):
+def plot_tracks(tracks, truth, *, title="", equal=True, ax=None):
     """Horizontal tracks against the true route.
 
     Parameters
@@ -109,13 +105,16 @@ def plot_tracks(tracks, truth, path, *, title="", equal=True):
         Label -> ndarray (k, 2) positions [m].
     truth : ndarray, shape (m, 2)
         True route polyline [m].
-    path : path
-        PNG file.
+    ax : matplotlib.axes.Axes, optional
+        Where to draw (default: a new 7 x 5 in Figure).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
     """
     import numpy as np
 
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(7, 5))
+    ax, _ = new_axes(ax, (7, 5))
     ax.plot(truth[:, 0], truth[:, 1], "k-", lw=2.5, alpha=0.4, label="true route")
     ax.plot(*truth[-1], "k*", ms=12)
     for label, p in tracks.items():
@@ -129,10 +128,10 @@ def plot_tracks(tracks, truth, path, *, title="", equal=True):
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
     ax.set_title(title)
-    return save(fig, path)
+    return ax
 
 
-def plot_path_sets(panels, path, *, ncols=3):
+def plot_path_sets(panels, *, ncols=3):
     """MoRPI paths of several test sets, one panel per set.
 
     Parameters
@@ -140,16 +139,18 @@ def plot_path_sets(panels, path, *, ncols=3):
     panels : list of dict
         Each with ``title``, ``truth`` (m, 2) and ``paths``: dict label -> list of (k, 2) arrays
         (one colour per label, one line per run).
-    path : path
-        PNG file.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
     import numpy as np
 
-    plt = pyplot()
     n = max(1, len(panels))
     ncols = min(ncols, n)
     nrows = (n + ncols - 1) // ncols
-    fig, axes = plt.subplots(nrows, ncols, figsize=(4.6 * ncols, 3.8 * nrows), squeeze=False)
+    fig = new_figure(figsize=(4.6 * ncols, 3.8 * nrows))
+    axes = fig.subplots(nrows, ncols, squeeze=False)
     for ax in axes.ravel()[n:]:
         ax.axis("off")
     for ax, pnl in zip(axes.ravel(), panels):
@@ -169,25 +170,29 @@ def plot_path_sets(panels, path, *, ncols=3):
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
     fig.tight_layout()
-    return save(fig, path)
+    return fig
 
 
 
 # ============================================================================ assessment (symbolic)
 # The analytical assessment figure.
 
-def assessment_figure(curves, path, title: str = "Analytical assessment of 3D & 2D INS vs. MoRPI-A distance error"):
-    """Draw e_3D, e_2D and MoRPI-A distance error over time and save a PNG.
+def assessment_figure(curves, title: str = "Analytical assessment of 3D & 2D INS vs. MoRPI-A distance error", *,
+                      ax=None):
+    """Draw e_3D, e_2D and MoRPI-A distance error over time.
 
     Parameters
     ----------
     curves : morpi_filters.assessment.AssessmentCurves
         ``times`` (n,) [s], ``e3d``, ``e2d`` (n,) [m], ``morpi`` {dG: (n,)} [m].
-    path : path-like
-        PNG file to write (atomically).
+    ax : matplotlib.axes.Axes, optional
+        Where to draw (default: a new 6.4 x 4.2 in Figure).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
     """
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    ax, _ = new_axes(ax, (6.4, 4.2))
     order = sorted(range(len(curves.times)), key=lambda i: curves.times[i])
     t = [curves.times[i] for i in order]
     ax.plot(t, [curves.e3d[i] for i in order], color="tab:red", lw=2, label="3D INS")
@@ -206,7 +211,7 @@ def assessment_figure(curves, path, title: str = "Analytical assessment of 3D & 
     ax.legend(loc="upper left", fontsize=9)
     ax.set_xlim(left=min(t) if t else 0.0)
     ax.set_ylim(bottom=0.0)
-    return save(fig, path)
+    return ax
 
 
 # ============================================================================ curves (filter covariance)
@@ -215,19 +220,21 @@ def assessment_figure(curves, path, title: str = "Analytical assessment of 3D & 
 _CURVE_PANELS = (("ins3d", "3D INS"), ("ins2d", "2D INS"), ("morpi", "MoRPI-aided INS"))
 
 
-def plot_curves(curves, path):
+def plot_curves(curves):
     """One figure per case: a panel per method, every error view on the same axes.
 
     Parameters
     ----------
     curves : curves.CaseCurves
-    path : path
-        PNG destination.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
     import numpy as np
 
-    plt = pyplot()
-    fig, axes = plt.subplots(1, 3, figsize=(13, 4.2), sharex=True)
+    fig = new_figure(figsize=(13, 4.2))
+    axes = fig.subplots(1, 3, sharex=True)
     for ax, (key, title) in zip(axes, _CURVE_PANELS):
         t = curves.times
         ax.plot(t, curves.sigma[key], color="C0", lw=2, label="filter 1 sigma")
@@ -252,28 +259,31 @@ def plot_curves(curves, path):
     axes[0].legend(fontsize=8)
     fig.suptitle(curves.case.title)
     fig.tight_layout()
-    return save(fig, path)
+    return fig
 
 
-def plot_aided_cells(cells, path):
-    """Field end-point error per MoRPI table cell: aided filter, MoRPI alone, INS alone, the paper.
+def plot_aided_cells(cells, *, ax=None):
+    """Field end-point error per MoRPI table cell: aided filter (smoothed), MoRPI alone, INS alone, the paper.
 
     Parameters
     ----------
     cells : sequence of field_aided.AidedCell
-    path : path
-        PNG destination.
+    ax : matplotlib.axes.Axes, optional
+        Where to draw (default: a new Figure 8 in wide, 0.32 in per cell high).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
     """
     import numpy as np
 
-    plt = pyplot()
     n = len(cells)
-    fig, ax = plt.subplots(figsize=(8, 0.32 * n + 1.5))
+    ax, own = new_axes(ax, (8, 0.32 * n + 1.5))
     y = np.arange(n)
     h = 0.27
     ax.barh(y - h, [c.ins_percent for c in cells], h, color="0.7", label="INS-3D alone")
     ax.barh(y, [c.morpi_percent for c in cells], h, color="C1", label="MoRPI alone")
-    ax.barh(y + h, [c.forward_percent for c in cells], h, color="C0", label="MoRPI-aided filter")
+    ax.barh(y + h, [c.smoothed_percent for c in cells], h, color="C0", label="MoRPI-aided filter (smoothed)")
     ax.plot([c.spec.paper_percent for c in cells], y, "k|", ms=9, label="paper (MoRPI)")
     ax.set_yticks(y, [c.label for c in cells], fontsize=7)
     ax.invert_yaxis()
@@ -281,11 +291,12 @@ def plot_aided_cells(cells, path):
     ax.set_xlabel("mean end-point error [% of travelled distance]")
     ax.grid(True, axis="x", alpha=0.3)
     ax.legend(fontsize=8, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=4, frameon=False)
-    fig.tight_layout()
-    return save(fig, path)
+    if own:
+        ax.figure.tight_layout()
+    return ax
 
 
-def plot_aided_paths(cell, truth_xy, path):
+def plot_aided_paths(cell, truth_xy, *, ax=None):
     """Test paths of one cell: MoRPI alone, forward and smoothed filter, against the true route.
 
     Parameters
@@ -293,45 +304,52 @@ def plot_aided_paths(cell, truth_xy, path):
     cell : field_aided.AidedCell
     truth_xy : ndarray, shape (m, 2)
         The true route's polyline [m].
-    path : path
-        PNG destination.
+    ax : matplotlib.axes.Axes, optional
+        Where to draw (default: a new 8 x 4 in Figure).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
     """
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(8, 4))
+    ax, own = new_axes(ax, (8, 4))
     ax.plot(truth_xy[:, 0], truth_xy[:, 1], "k-", lw=2, label="true route")
     for j, (_, fwd, sm, morpi, _) in enumerate(cell.paths):
-        lab = j == 0
-        ax.plot(morpi[:, 0], morpi[:, 1], "-", color="C1", lw=0.8, label="MoRPI alone" if lab else None)
-        ax.plot(fwd[:, 0], fwd[:, 1], "-", color="C0", lw=0.8, label="forward filter" if lab else None)
-        ax.plot(sm[:, 0], sm[:, 1], "--", color="C2", lw=0.8, label="smoothed" if lab else None)
+        first = j == 0
+        ax.plot(morpi[:, 0], morpi[:, 1], "-", color="C1", lw=0.8, label="MoRPI alone" if first else None)
+        ax.plot(fwd[:, 0], fwd[:, 1], "-", color="C0", lw=0.8, label="forward filter" if first else None)
+        ax.plot(sm[:, 0], sm[:, 1], "--", color="C2", lw=0.8, label="smoothed" if first else None)
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_title(cell.label, fontsize=9)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=7, ncol=4, loc="upper center", bbox_to_anchor=(0.5, -0.15), frameon=False)
-    fig.tight_layout()
-    return save(fig, path)
+    if own:
+        ax.figure.tight_layout()
+    return ax
 
 
-def plot_aided_ellipses(cell, path, *, run: int = 0, every_s: float = 2.0):
+def plot_aided_ellipses(cell, *, run: int = 0, every_s: float = 2.0, ax=None):
     """The filter's 2-sigma horizontal ellipses along one test run of a cell.
 
     Parameters
     ----------
     cell : field_aided.AidedCell
-    path : path
-        PNG destination.
     run : int
         Which run of the cell.
     every_s : float
         Spacing of the ellipses [s].
+    ax : matplotlib.axes.Axes, optional
+        Where to draw (default: a new 8 x 4 in Figure).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
     """
     import numpy as np
 
-    plt = pyplot()
-    t, fwd, sm, _, P = cell.paths[run]
-    fig, ax = plt.subplots(figsize=(8, 4))
+    ax, own = new_axes(ax, (8, 4))
+    t, fwd, _, _, P = cell.paths[run]
     ax.plot(fwd[:, 0], fwd[:, 1], "-", color="C0", lw=1, label="forward filter")
     ang = np.linspace(0, 2 * np.pi, 60)
     circle = np.stack([np.cos(ang), np.sin(ang)])
@@ -348,15 +366,16 @@ def plot_aided_ellipses(cell, path, *, run: int = 0, every_s: float = 2.0):
     ax.set_ylabel("y [m]")
     ax.set_title(f"{cell.label}: 2-sigma ellipses every {every_s:g} s ({cell.runs[run]['file']})", fontsize=8)
     ax.grid(True, alpha=0.3)
-    fig.tight_layout()
-    return save(fig, path)
+    if own:
+        ax.figure.tight_layout()
+    return ax
 
 
 # ============================================================================ montecarlo and drift
 # Gain-error distributions and the closed-form vs strapdown drift map.
 
 
-def montecarlo_final_errors(columns, final, path, *, title=""):
+def montecarlo_final_errors(columns, final, *, title=""):
     """Histograms of final horizontal errors, one panel per column.
 
     Parameters
@@ -365,16 +384,18 @@ def montecarlo_final_errors(columns, final, path, *, title=""):
         Column names (panel titles).
     final : ndarray, shape (runs, len(columns))
         Final errors [m].
-    path : path-like
-        PNG file to write.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
     import numpy as np
 
-    plt = pyplot()
     k = len(columns)
     ncol = min(k, 3)
     nrow = (k + ncol - 1) // ncol
-    fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol, 3.0 * nrow), squeeze=False)
+    fig = new_figure(figsize=(4.2 * ncol, 3.0 * nrow))
+    axes = fig.subplots(nrow, ncol, squeeze=False)
     for i, name in enumerate(columns):
         ax = axes[i // ncol][i % ncol]
         x = np.asarray(final[:, i], float)
@@ -389,10 +410,10 @@ def montecarlo_final_errors(columns, final, path, *, title=""):
     if title:
         fig.suptitle(title, fontsize=10)
     fig.tight_layout()
-    return save(fig, path)
+    return fig
 
 
-def montecarlo_error_curves(time, bands, labels, path, *, analytic=None, title=""):
+def montecarlo_error_curves(time, bands, labels, *, analytic=None, title="", ax=None):
     """Median and 5-95 % band of the error over time, log scale.
 
     Parameters
@@ -403,14 +424,18 @@ def montecarlo_error_curves(time, bands, labels, path, *, analytic=None, title="
         5th, 50th and 95th percentile of the horizontal errors over the runs
         [m] (``montecarlo.StudyResult.bands``).
     labels : sequence of str, length k
-    path : path-like
     analytic : dict, optional
         label -> (time (q,), value (q,)) curves drawn dashed.
+    ax : matplotlib.axes.Axes, optional
+        Where to draw (default: a new 7 x 4.2 in Figure).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
     """
     import numpy as np
 
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(7, 4.2))
+    ax, own = new_axes(ax, (7, 4.2))
     for i, lab in enumerate(labels):
         b = np.asarray(bands)[:, i, :]
         if not np.isfinite(b).any():
@@ -425,30 +450,34 @@ def montecarlo_error_curves(time, bands, labels, path, *, analytic=None, title="
     ax.set_yscale("log")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("horizontal position error [m]")
-    return _finish(fig, ax, path, title, which="both")
+    return _finish(ax, own, title, which="both")
 
 
-def montecarlo_gain_vs_error(dG, err, path, *, analytic_slope=None, label="MoRPI-A", title=""):
-    """Scatter of final distance error against the gain error, with the analytical line ds = dG * D."""
+def montecarlo_gain_vs_error(dG, err, *, analytic_slope=None, label="MoRPI-A", title="", ax=None):
+    """Scatter of final distance error against the gain error, with the analytical line ds = dG * D.
+
+    Draws on `ax` (default: a new 6 x 4 in Figure) and returns it.
+    """
     import numpy as np
 
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(6, 4))
+    ax, own = new_axes(ax, (6, 4))
     ax.plot(100 * np.asarray(dG), err, ".", ms=2, alpha=0.4, label=f"{label} Monte Carlo")
     if analytic_slope is not None:
         x = np.linspace(np.min(dG), np.max(dG), 50)
         ax.plot(100 * x, analytic_slope * x, "k--", lw=1, label="analytical ds = dG D")
     ax.set_xlabel("gain error dG [%]")
     ax.set_ylabel("distance error [m]")
-    return _finish(fig, ax, path, title)
+    return _finish(ax, own, title)
 
 
-def montecarlo_training_runs(k, rms_mc, rms_expected, labels, path, *, title=""):
-    """RMS distance error against the number of training runs behind the gain (log-log)."""
+def montecarlo_training_runs(k, rms_mc, rms_expected, labels, *, title="", ax=None):
+    """RMS distance error against the number of training runs behind the gain (log-log).
+
+    Draws on `ax` (default: a new 6 x 4 in Figure) and returns it.
+    """
     import numpy as np
 
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(6, 4))
+    ax, own = new_axes(ax, (6, 4))
     rms_mc = np.asarray(rms_mc)
     for i, lab in enumerate(labels):
         ax.plot(k, rms_mc[:, i], "o-", ms=4, label=f"{lab} Monte Carlo")
@@ -457,19 +486,21 @@ def montecarlo_training_runs(k, rms_mc, rms_expected, labels, path, *, title="")
     ax.set_yscale("log")
     ax.set_xlabel("training runs k")
     ax.set_ylabel("RMS distance error [m]")
-    return _finish(fig, ax, path, title, which="both")
+    return _finish(ax, own, title, which="both")
 
 
-def drift_disagreement_map(gyro_bias_deg_s, time, rel, path, *, title="", marks=()):
+def drift_disagreement_map(gyro_bias_deg_s, time, rel, *, title="", marks=(), ax=None):
     """Map of the relative disagreement (log colour) over gyro bias [deg/s] and time [s].
 
     `marks`: (bias_deg_s, time_s, text) points to annotate. Contours at 1 % and 10 %.
+    Draws on `ax` (default: a new 7 x 4.5 in Figure), with its colour bar beside it,
+    and returns it.
     """
     import numpy as np
     from matplotlib.colors import LogNorm
 
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    ax, own = new_axes(ax, (7, 4.5))
+    fig = ax.figure
     r = np.clip(np.asarray(rel, float), 1e-7, None)
     m = ax.pcolormesh(time, gyro_bias_deg_s, r, norm=LogNorm(vmin=1e-5, vmax=max(1.0, r.max())), shading="nearest",
                       cmap="viridis")
@@ -484,15 +515,16 @@ def drift_disagreement_map(gyro_bias_deg_s, time, rel, path, *, title="", marks=
     fig.colorbar(m, ax=ax, label="|dp strapdown - dp closed form| / |dp strapdown|")
     if title:
         ax.set_title(title, fontsize=10)
-    fig.tight_layout()
-    return save(fig, path)
+    if own:
+        fig.tight_layout()
+    return ax
 
 
 # ============================================================================ simulation
 # One simulated run: the true path against the INS, the periodic motion in f_y and omega_z,
 # and the INS position error over time.
 
-def simulation_run(truth, imu_data, solutions, path, *, title=None) -> Path:
+def simulation_run(truth, imu_data, solutions, *, title=None):
     """Figure of one simulated run and its strapdown solutions.
 
     Parameters
@@ -503,19 +535,18 @@ def simulation_run(truth, imu_data, solutions, path, *, title=None) -> Path:
         The synthesized readings of one run (unbatched).
     solutions : dict of str -> strapdown.InsResult
         INS solutions to draw, by label (e.g. ``"3D INS, noise-free"``).
-    path : str or Path
-        PNG file to write.
     title : str, optional
         Figure title.
 
     Returns
     -------
-    Path
+    matplotlib.figure.Figure
+        Four panels.
     """
     import numpy as np
 
-    plt = pyplot()
-    fig, ax = plt.subplots(2, 2, figsize=(11, 7.5))
+    fig = new_figure(figsize=(11, 7.5))
+    ax = fig.subplots(2, 2)
     t = imu_data.time - imu_data.time[0]
     a = ax[0, 0]
     a.plot(truth.position[:, 0], truth.position[:, 1], "k", lw=2, label="true path")
@@ -559,4 +590,4 @@ def simulation_run(truth, imu_data, solutions, path, *, title=None) -> Path:
     if title:
         fig.suptitle(title)
     fig.tight_layout()
-    return save(fig, path)
+    return fig

@@ -1,0 +1,294 @@
+"""The house rules of ARCHITECTURE.md, checked on the source: the import graph and one room per piece of maths.
+
+Every module of the package is parsed with ``ast`` (imports inside functions
+included); nothing is imported, so the checks see what the code says, not what
+one run happens to load.
+"""
+from __future__ import annotations
+
+import ast
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+PKG = Path(__file__).resolve().parents[1] / "morpi_filters"
+
+#: The flow of ARCHITECTURE.md as layers, lowest first. A module may import
+#: modules of its own layer or of lower layers, never of a higher one. Every
+#: module of ``report/`` is in the pages layer.
+LAYERS = (
+    ("foundation", {"errors", "units", "resources", "reporting", "parallel"}),
+    ("inputs", {"params", "dataset", "fetch"}),
+    ("calibration", {"calibration"}),
+    ("navigation", {"strapdown", "steps", "symbolic", "error_model", "eskf", "aided", "_batch_ins"}),
+    ("synthetic recordings", {"simulate", "synthetic"}),
+    ("field", {"field"}),
+    ("evaluation", {"evaluate"}),
+    ("studies", {"field_aided", "curves", "montecarlo", "assessment"}),
+    ("pages", {"report"}),
+    ("command", {"cli"}),
+)
+
+
+def _name(path: Path) -> str:
+    rel = path.relative_to(PKG).with_suffix("")
+    parts = [p for p in rel.parts if p != "__init__"]
+    return ".".join(parts) or "__init__"
+
+
+def _modules() -> dict:
+    """Module name (relative to the package, ``report.tables``) -> parsed tree."""
+    return {_name(f): ast.parse(f.read_text(), filename=str(f)) for f in sorted(PKG.rglob("*.py"))}
+
+
+def _imports(name: str, tree: ast.AST):
+    """(internal modules, external top-level packages) imported anywhere in the module."""
+    package = name.split(".")[:-1] if name != "__init__" else []
+    if (PKG / Path(*name.split("."))).is_dir():  # a package's __init__
+        package = name.split(".")
+    inside, outside = set(), set()
+    known = set(_modules_cache())
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            if node.level == 0:
+                top = node.module.split(".")[0]
+                if top == "morpi_filters":
+                    mod = node.module.split(".")[1:]
+                    for a in node.names:
+                        full = ".".join(mod + [a.name])
+                        inside.add(full if full in known else (".".join(mod) or "__init__"))
+                else:
+                    outside.add(top)
+                continue
+            base = package[: len(package) - (node.level - 1)]
+            mod = base + (node.module.split(".") if node.module else [])
+            for a in node.names:  # "from X import y": y is a module of X, or a name defined in X
+                full = ".".join(mod + [a.name])
+                inside.add(full if full in known else (".".join(mod) or "__init__"))
+        elif isinstance(node, ast.Import):
+            for a in node.names:
+                top = a.name.split(".")[0]
+                if top == "morpi_filters":
+                    inside.add(".".join(a.name.split(".")[1:]) or "__init__")
+                else:
+                    outside.add(top)
+    inside.discard(name)
+    return {m if m else "__init__" for m in inside}, outside
+
+
+_CACHE = {}
+
+
+def _modules_cache():
+    if not _CACHE:
+        _CACHE.update(_modules())
+    return _CACHE
+
+
+def _graph():
+    return {name: _imports(name, tree) for name, tree in _modules_cache().items()}
+
+
+def _layer(name: str) -> int:
+    if name == "__init__":
+        return 0
+    top = name.split(".")[0]
+    for i, (_, members) in enumerate(LAYERS):
+        if top in members:
+            return i
+    raise AssertionError(f"module {name} is in no layer: add it to LAYERS in tests/test_architecture.py "
+                         "and to the rooms of ARCHITECTURE.md")
+
+
+def test_every_module_has_a_layer_and_every_import_resolves():
+    mods = _modules_cache()
+    for name, (inside, _) in _graph().items():
+        _layer(name)
+        for m in inside:
+            assert m in mods, f"{name} imports {m}, which is not a module of the package"
+
+
+def test_nothing_imports_upward():
+    upward = [f"{name} ({LAYERS[_layer(name)][0]}) imports {m} ({LAYERS[_layer(m)][0]})"
+              for name, (inside, _) in _graph().items() for m in sorted(inside)
+              if m != "__init__" and _layer(m) > _layer(name)]
+    assert upward == []
+
+
+def test_no_import_cycles():
+    graph = {name: {m for m in inside if m != "__init__"} for name, (inside, _) in _graph().items()}
+    state, cycles = {}, []
+
+    def visit(node, stack):
+        state[node] = "open"
+        stack.append(node)
+        for nxt in sorted(graph[node]):
+            if state.get(nxt) == "open":
+                cycles.append(stack[stack.index(nxt):] + [nxt])
+            elif nxt not in state:
+                visit(nxt, stack)
+        stack.pop()
+        state[node] = "done"
+
+    for node in sorted(graph):
+        if node not in state:
+            visit(node, [])
+    assert cycles == []
+
+
+def test_the_graph_reader_sees_an_upward_import_and_a_cycle():
+    # the checks above can fail: an evaluate -> report import is upward, and two modules importing each other cycle
+    tree = ast.parse("def f():\n    from .report import tables\n")
+    inside, _ = _imports("evaluate", tree)
+    assert inside == {"report.tables"} and _layer("report.tables") > _layer("evaluate")
+    tree = ast.parse("from ..evaluate import TablesStudy\nfrom . import plots\n")
+    inside, _ = _imports("report.tables", tree)
+    assert inside == {"evaluate", "report.plots"}
+
+
+def test_only_report_plots_imports_matplotlib_and_only_symbolic_imports_sympy():
+    graph = _graph()
+    assert {n for n, (_, ext) in graph.items() if "matplotlib" in ext} == {"report.plots"}
+    assert {n for n, (_, ext) in graph.items() if "sympy" in ext} == {"symbolic"}
+
+
+def test_importing_the_package_loads_no_matplotlib_and_selects_no_backend():
+    # every module imported in a fresh interpreter: none of them may load matplotlib (the figures
+    # are drawn on demand) nor call matplotlib.use
+    names = ["morpi_filters." + n for n in _modules_cache() if n != "__init__"]
+    code = ("import importlib, sys\n"
+            f"for n in {names!r}:\n    importlib.import_module(n)\n"
+            "print('matplotlib' in sys.modules)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=PKG.parent, check=True)
+    assert out.stdout.strip() == "False"
+    for name, tree in _modules_cache().items():
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr == "use":
+                assert not (isinstance(node.func.value, ast.Name) and node.func.value.id == "matplotlib"), name
+
+
+#: Markdown a page is made of: a heading at the start of a line, a table row or separator, an
+#: image or a link target, a block quote at the start of the text.
+MARKDOWN = re.compile(r"(^|\n)#{1,6} |(^|\n)\|.*\||\|---|!\[|\]\(|^> ")
+
+
+def _strings(tree: ast.AST):
+    """(line, text) of the string literals of a module, docstrings left out.
+
+    An f-string is one text, each replacement field written ``{}``.
+    """
+    skip = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
+            body = node.body
+            if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant):
+                skip.add(id(body[0].value))
+        elif isinstance(node, ast.JoinedStr):
+            skip.update(id(v) for v in node.values)
+            yield node.lineno, "".join(v.value if isinstance(v, ast.Constant) else "{}" for v in node.values)
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in skip:
+            yield node.lineno, node.value
+
+
+#: Text outside ``report/`` that the rule lets through, each with its reason: the comment lines
+#: of the committed checksum file (``sha256sum`` format, not markdown), written by fetch; the
+#: README.md of a synthetic dataset, a file of the dataset beside its CSVs and manifest (as the
+#: field dataset has its own), not a report page.
+NOT_MARKDOWN = {("fetch", "# SHA-256 of each recording"), ("fetch", "# relative to that folder"),
+                ("fetch", "# morpi_filters.fetch.write_checksums"), ("synthetic", "# Synthetic MoRPI dataset\n")}
+
+
+def test_no_module_outside_report_writes_markdown():
+    found = [f"{name}:{line}: {text[:60]!r}" for name, tree in _modules_cache().items()
+             if not name.startswith("report") for line, text in _strings(tree) if MARKDOWN.search(text)
+             and not any(name == m and text.startswith(start) for m, start in NOT_MARKDOWN)]
+    assert found == []
+
+
+def test_the_markdown_rule_finds_the_pieces_of_a_page():
+    page = ast.parse('x = "## Title"\ny = f"| {a} | b |"\nz = "![fig](fig.png)"\nw = "> **Synthetic data.**"\n'
+                     'v = "|---|---|"\n')
+    assert sum(bool(MARKDOWN.search(t)) for _, t in _strings(page)) == 5
+    prose = ast.parse('x = "--times: 3 s must be >= 0 (see # of runs)"\ny = "a|b"\n')
+    assert not any(MARKDOWN.search(t) for _, t in _strings(prose))
+
+
+# ----------------------------------------------------------------------------- one room per piece of maths
+
+def _source() -> dict:
+    return {_name(f): f.read_text() for f in sorted(PKG.rglob("*.py"))}
+
+
+def _where(pattern: str) -> list:
+    """(module, line) of every match of `pattern` in the package's code (comments left out)."""
+    rx = re.compile(pattern)
+    hits = []
+    for name, text in _source().items():
+        for i, line in enumerate(text.splitlines(), 1):
+            code = line.split("#", 1)[0] if not line.lstrip().startswith(("'", '"')) else line
+            if rx.search(code):
+                hits.append((name, i))
+    return hits
+
+
+def _functions_calling(attr_chain: str) -> set:
+    """Qualified names of the functions whose body calls ``attr_chain`` (e.g. ``hashlib.sha256``)."""
+    out = set()
+    for name, tree in _modules_cache().items():
+        for fn in ast.walk(tree):
+            if not isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                continue
+            for node in ast.walk(fn):
+                if isinstance(node, ast.Call) and ast.unparse(node.func) == attr_chain:
+                    out.add(f"{name}.{fn.name}")
+    return out
+
+
+@pytest.mark.parametrize("concept, pattern, home", [
+    ("the Weinberg length (a fourth root)", r"def weinberg_length\b|\*\*\s*\(?\s*(0\.25|1\s*/\s*4)\b|sqrt\(\s*np\.sqrt",
+     {"steps"}),
+    ("the rate integrator", r"def integrate_rate\b", {"strapdown"}),
+    ("the gravity constant", r"\b9\.80665\b", {"units"}),
+    ("the gravity model (WGS84 normal gravity)", r"def normal_gravity\b|\b9\.78032", {"calibration"}),
+    ("the rotation-vector conversion (Rodrigues)", r"def rotvec_to_C\b|1(\.0)?\s*-\s*np\.cos\(", {"strapdown"}),
+    ("the atomic writer", r"def atomic_path\b", {"reporting"}),
+    ("the file checksum", r"def sha256_file\b|def _sha256_stream\b", {"fetch"}),
+])
+def test_one_definition(concept, pattern, home):
+    hits = _where(pattern)
+    assert {m for m, _ in hits} == home, f"{concept}: found at {hits}, expected only in {home}"
+
+
+def test_one_definition_counts():
+    # exactly one line each: a second copy inside the same module is a duplicate too
+    assert len(_where(r"def weinberg_length\b")) == 1
+    assert len(_where(r"\*\*\s*\(?\s*(0\.25|1\s*/\s*4)\b")) == 1        # the fourth root of weinberg_length
+    assert len(_where(r"def integrate_rate\b")) == 1
+    assert len(_where(r"\b9\.80665\b")) == 1
+    assert len(_where(r"def rotvec_to_C\b")) == 1
+    assert len(_where(r"1(\.0)?\s*-\s*np\.cos\(")) == 1                  # the (1 - cos t)/t^2 term of Rodrigues
+    assert len(_where(r"def atomic_path\b")) == 1
+    assert len(_where(r"def sha256_file\b")) == 1
+
+
+def test_the_heading_wrapper_uses_the_rate_integrator():
+    # steps.integrate_heading is MoRPI's name for the heading; it must delegate, not integrate on its own
+    tree = _modules_cache()["steps"]
+    fn = next(n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef) and n.name == "integrate_heading")
+    calls = {ast.unparse(n.func) for n in ast.walk(fn) if isinstance(n, ast.Call)}
+    assert "integrate_rate" in calls and not any("cumsum" in c or "trapz" in c or "trapezoid" in c for c in calls)
+
+
+def test_files_are_renamed_into_place_only_by_the_atomic_writer_and_the_staged_swaps():
+    renames = _functions_calling("os.replace") | _functions_calling("os.rename")
+    assert renames == {"reporting.atomic_path", "reporting.swap_in", "reporting.__exit__"}
+
+
+def test_sha256_is_computed_by_the_checksum_and_the_monte_carlo_digest_only():
+    # the file checksum (fetch) and the fingerprint of a study's per-run results (montecarlo.digest),
+    # two different things; nothing else hashes
+    assert _functions_calling("hashlib.sha256") == {"fetch._sha256_stream", "montecarlo.digest"}

@@ -1,0 +1,81 @@
+"""The figures as a library: each function draws on the Axes it is given, or returns a new Figure, and saves nothing."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+matplotlib = pytest.importorskip("matplotlib")
+
+from matplotlib.axes import Axes  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+
+from morpi_filters.report import plots  # noqa: E402
+from morpi_filters.report.common import save_figure  # noqa: E402
+
+
+class _Curves:
+    times = np.linspace(0.0, 15.0, 16)
+    e3d = 0.1 * times ** 2
+    e2d = 0.05 * times ** 2
+    morpi = {0.05: 0.05 * times, 0.10: 0.10 * times}
+
+
+class _Cell:
+    def __init__(self, i):
+        self.label, self.ins_percent, self.morpi_percent, self.aided_percent = f"cell {i}", 100.0 + i, 5.0 + i, 4.0 + i
+
+
+def _single_axes_calls():
+    rng = np.random.default_rng(0)
+    t = np.linspace(0.0, 10.0, 11)
+    bands = np.sort(rng.random((11, 2, 3)), axis=-1) + 0.1
+    return {
+        "plot_tracks": lambda ax: plots.plot_tracks({"INS": np.c_[t, 0.1 * t]}, np.array([[0.0, 0.0], [10.0, 0.0]]),
+                                                   title="tracks", ax=ax),
+        "assessment_figure": lambda ax: plots.assessment_figure(_Curves(), ax=ax),
+        "plot_aided_cells": lambda ax: plots.plot_aided_cells([_Cell(0), _Cell(1)], ax=ax),
+        "montecarlo_error_curves": lambda ax: plots.montecarlo_error_curves(t, bands, ["a", "b"], title="e", ax=ax),
+        "montecarlo_gain_vs_error": lambda ax: plots.montecarlo_gain_vs_error(rng.normal(0, 0.05, 50),
+                                                                              rng.normal(0, 0.3, 50),
+                                                                              analytic_slope=6.3, ax=ax),
+        "montecarlo_training_runs": lambda ax: plots.montecarlo_training_runs([1, 2, 5], np.array([[3.0, 2.0], [2.0, 1.5],
+                                                                                                   [1.0, 0.9]]),
+                                                                              [3.1, 2.1, 1.1], ["A", "G"], ax=ax),
+        "drift_disagreement_map": lambda ax: plots.drift_disagreement_map(np.logspace(-2, 1, 4), t,
+                                                                          np.logspace(-5, 0, 44).reshape(4, 11), ax=ax),
+    }
+
+
+@pytest.mark.parametrize("name", sorted(_single_axes_calls()))
+def test_single_axes_plots_draw_on_the_given_axes(name):
+    call = _single_axes_calls()[name]
+    fig = Figure()
+    ax = fig.subplots()
+    assert call(ax) is ax
+    assert ax.lines or ax.patches or ax.collections  # something was drawn there
+    own = call(None)  # without one: a new Figure of its own
+    assert isinstance(own, Axes) and own.figure is not fig and isinstance(own.figure, Figure)
+
+
+def test_multi_panel_plots_return_a_figure(tmp_path):
+    t = np.linspace(0.0, 5.0, 50)
+    f = np.c_[np.zeros(50), np.sin(t), np.full(50, 9.8)]
+    fig = plots.plot_recording(t + 100.0, f, 0.1 * f, rest=(100.0, 101.0), peaks=np.array([102.0, 103.0]))
+    assert isinstance(fig, Figure) and len(fig.axes) == 2
+    panels = [{"title": "p", "truth": np.array([[0.0, 0.0], [5.0, 0.0]]), "paths": {"A": [np.c_[t, 0 * t]]}}]
+    assert isinstance(plots.plot_path_sets(panels), Figure)
+    fig = plots.montecarlo_final_errors(["a", "b"], np.abs(np.random.default_rng(1).normal(size=(40, 2))))
+    assert isinstance(fig, Figure) and not list(tmp_path.iterdir())  # drawing writes nothing
+    path = save_figure(fig, tmp_path / "f.png")
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["f.png"]  # no temporary file left beside it
+
+
+def test_drawing_uses_no_pyplot():
+    # Figures are plain matplotlib.figure.Figure objects: nothing is registered with pyplot
+    import sys
+
+    before = "matplotlib.pyplot" in sys.modules and len(sys.modules["matplotlib.pyplot"].get_fignums())
+    plots.assessment_figure(_Curves())
+    after = "matplotlib.pyplot" in sys.modules and len(sys.modules["matplotlib.pyplot"].get_fignums())
+    assert before == after
