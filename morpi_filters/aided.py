@@ -46,6 +46,7 @@ import numpy as np
 
 from .error_model import BA, BG, DP, DV, EPS, N_STATES
 from .errors import MorpiError, ParameterError
+from .strapdown import rotvec_to_C
 
 #: Clone of the horizontal position error at the last step boundary.
 CLONE = slice(N_STATES, N_STATES + 2)
@@ -137,18 +138,6 @@ def rts_smooth(x_post, P_post, x_prior, P_prior, Phi, fed=None):
         xs[k] = x_post[k] + G @ (ahead - x_prior[k + 1])
         Ps[k] = P_post[k] + G @ (Ps[k + 1] - P_prior[k + 1]) @ G.T
     return xs, Ps
-
-
-def _rotvec(phi):
-    """``exp([phi x])`` for a batch of rotation vectors, shape (b, 3) -> (b, 3, 3) (Rodrigues)."""
-    th2 = np.einsum("bi,bi->b", phi, phi)
-    th = np.sqrt(th2)
-    small = th < 1e-6
-    safe = np.where(small, 1.0, th)
-    a = np.where(small, 1.0 - th2 / 6.0, np.sin(safe) / safe)
-    b = np.where(small, 0.5 - th2 / 24.0, (1.0 - np.cos(safe)) / (safe * safe))
-    K = _skew(phi)
-    return np.eye(3) + a[:, None, None] * K + b[:, None, None] * (K @ K)
 
 
 def _skew(v):
@@ -282,7 +271,7 @@ class NonHolonomic:
         return np.zeros((self.sigma.shape[0], 2))
 
     def h(self, x, nom: Nominal):
-        C_true = _rotvec(-x[:, EPS]) @ nom.C
+        C_true = rotvec_to_C(-x[:, EPS]) @ nom.C
         vb = np.einsum("bji,bj->bi", C_true, nom.v - x[:, DV])
         return np.einsum("bij,bj->bi", self.M, vb)[:, 1:]
 
@@ -630,7 +619,7 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth: bool = False):
             fk = F_b[:, k] - ba_hat
             wk = W_b[:, k] - bg_hat
             C_old = C
-            C = C @ _rotvec(0.5 * dt[:, None] * (w_prev + wk))
+            C = C @ rotvec_to_C(0.5 * dt[:, None] * (w_prev + wk))
             ak = np.einsum("bij,bj->bi", C, fk) - gvec
             v_new = v + 0.5 * dt[:, None] * (a_prev + ak)
             p = p + 0.5 * dt[:, None] * (v + v_new)
@@ -695,7 +684,7 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth: bool = False):
             xe = x[tb]
             p[tb] -= xe[:, DP]
             v[tb] -= xe[:, DV]
-            C[tb] = _rotvec(-xe[:, EPS]) @ C[tb]
+            C[tb] = rotvec_to_C(-xe[:, EPS]) @ C[tb]
             ba_hat[tb] += xe[:, BA]
             bg_hat[tb] += xe[:, BG]
             clone[tb] -= xe[:, CLONE]

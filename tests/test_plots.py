@@ -22,7 +22,13 @@ class _Curves:
 
 class _Cell:
     def __init__(self, i):
-        self.label, self.ins_percent, self.morpi_percent, self.aided_percent = f"cell {i}", 100.0 + i, 5.0 + i, 4.0 + i
+        self.label, self.ins_percent, self.morpi_percent = f"cell {i}", 100.0 + i, 5.0 + i
+        self.forward_percent, self.smoothed_percent = 4.5 + i, 4.0 + i
+        self.spec = type("Spec", (), {"paper_percent": 4.8 + i})()
+        t = np.linspace(0.0, 10.0, 11)
+        xy = np.c_[0.6 * t, 0.01 * t]
+        self.paths = ((t, xy, xy + 0.01, xy - 0.01, np.broadcast_to(np.eye(2) * 1e-3, (11, 2, 2))),)
+        self.runs = ({"file": "run.csv"},)
 
 
 def _single_axes_calls():
@@ -34,6 +40,8 @@ def _single_axes_calls():
                                                    title="tracks", ax=ax),
         "assessment_figure": lambda ax: plots.assessment_figure(_Curves(), ax=ax),
         "plot_aided_cells": lambda ax: plots.plot_aided_cells([_Cell(0), _Cell(1)], ax=ax),
+        "plot_aided_paths": lambda ax: plots.plot_aided_paths(_Cell(0), np.array([[0.0, 0.0], [6.0, 0.0]]), ax=ax),
+        "plot_aided_ellipses": lambda ax: plots.plot_aided_ellipses(_Cell(0), ax=ax),
         "montecarlo_error_curves": lambda ax: plots.montecarlo_error_curves(t, bands, ["a", "b"], title="e", ax=ax),
         "montecarlo_gain_vs_error": lambda ax: plots.montecarlo_gain_vs_error(rng.normal(0, 0.05, 50),
                                                                               rng.normal(0, 0.3, 50),
