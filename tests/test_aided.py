@@ -242,3 +242,35 @@ def test_still_spans_keep_quiet_stretches_and_refuse_motion_and_slow_turns():
     for s0, s1 in spans:
         for a, b in ((5, 15), (18, 21), (25, 26)):
             assert s1 <= a or s0 >= b, (s0, s1)
+
+
+@pytest.mark.field
+def test_tunables_and_gains_ignore_corrupted_test_recordings(field_root, tmp_path):
+    """Every test recording corrupted (gyro sign flipped, f_y scaled): the same gains and tunables."""
+    from dataclasses import replace
+
+    from morpi_filters import dataset as ds
+    from morpi_filters.evaluate import evaluate_tables
+    from morpi_filters.field_aided import choose_tunables
+
+    root = tmp_path / "corrupted"
+    for e in ds.catalogue(field_root):
+        dest = root / e.relpath
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        if e.split == "test":
+            rec = e.load()
+            f = rec.f.copy()
+            f[:, 1] *= 1.5
+            ds.write_csv(dest, replace(rec, f=f, omega=-rec.omega))
+        else:
+            dest.symlink_to(e.path)
+    picks = []
+    for r in (field_root, root):
+        res = evaluate_tables(r, alternatives=False)
+        gains = {(g.phone, g.route, g.method, g.calibration): (g.mean, g.std) for g in res.gains}
+        chosen = [choose_tunables(res.data, ("s8", "short_distance"), m, cal, res.selections[m].config,
+                                  next(g for g in res.gains if (g.phone, g.route, g.method, g.calibration)
+                                       == ("s8", "short_distance", m, cal)))
+                  for m, cal in (("MoRPI-G", "GC"), ("MoRPI-A", "RD"))]
+        picks.append((gains, chosen))
+    assert picks[0] == picks[1]
