@@ -496,7 +496,7 @@ def _epochs(inp: AidedInput, tun: AidTuning, epoch_s: float):
     return np.unique(np.concatenate(grid).astype(int)), ends, starts, rest
 
 
-def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth: bool = False):
+def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
     """Run the aided filter on many members in one pass.
 
     Parameters
@@ -506,8 +506,9 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth: bool = False):
         One for all members, or one per member.
     epoch_s : float
         Covariance and update epoch [s] (rounded to whole samples per member).
-    smooth : bool
-        Also run the Rauch-Tung-Striebel smoother (keeps the covariances of
+    smooth : bool or sequence of bool
+        Also run the Rauch-Tung-Striebel smoother, for every member or for
+        those flagged (keeps the covariances of
         every epoch: about ``3 * 8 * 18^2`` bytes per epoch and member).
 
     Returns
@@ -583,7 +584,10 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth: bool = False):
     head = np.zeros((B, 2))                       # running sum of the x axis's horizontal direction
     head_at = [dict() for _ in range(B)]          # epoch sample -> running sum (step starts)
     keep = []                                     # per epoch: (k, members, p, P_xy)
-    hist = [[] for _ in range(B)] if smooth else None
+    keep_hist = np.broadcast_to(np.asarray(smooth, bool), (B,)).copy()
+    if keep_hist.shape != (B,):
+        raise ParameterError(f"run_batch: smooth must be a bool or {B} bools")
+    hist = [[] for _ in range(B)]
     nis_sum, nis_cnt, nis_dof = {}, {}, {}
     f_prev = F_b[:, 0] - ba_hat
     w_prev = W_b[:, 0] - bg_hat
@@ -634,22 +638,12 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth: bool = False):
         if sel.size == 0:
             continue
         # ---- predict the covariance over the interval
-        d = acc_dt[sel]
-        Phi = np.broadcast_to(np.eye(N_AIDED), (sel.size, N_AIDED, N_AIDED)).copy()
+        Phi = None
         if k > 0:
-            Fd = np.zeros((sel.size, N_AIDED, N_AIDED))
-            Fd[:, DP, DV] = I3 * d[:, None, None]
-            Fd[:, DV, EPS] = -_skew(acc_fn[sel])
-            Fd[:, DV, BA] = acc_C[sel]
-            Fd[:, EPS, BG] = acc_C[sel]
-            Phi = Phi + Fd + 0.5 * (Fd @ Fd)
-            Q = np.zeros((sel.size, N_AIDED, N_AIDED))
-            Q[:, DV, DV] = I3 * (q_a[sel] * d)[:, None, None]
-            Q[:, EPS, EPS] = I3 * (q_g[sel] * d)[:, None, None]
-            Q[:, BA, BA] = I3 * (q_ba[sel] * d)[:, None, None]
-            Q[:, BG, BG] = I3 * (q_bg[sel] * d)[:, None, None]
+            Phi = _transition(acc_dt[sel], acc_fn[sel], acc_C[sel])
+            Q = _process_noise(acc_dt[sel], q_a[sel], q_g[sel], q_ba[sel], q_bg[sel])
             x[sel], P[sel] = kf_predict(x[sel], P[sel], Phi, Q)
-        x_prior, P_prior = x[sel].copy(), P[sel].copy()
+        P_first = P[sel].copy() if k == 0 else None
         # ---- updates
         touched = np.zeros(B, bool)
         se = sel[end_flag[sel, k]]
@@ -703,9 +697,13 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth: bool = False):
             for b in ss:
                 head_at[b][k] = head[b].copy()
         keep.append((k, sel, p[sel].copy(), P[sel][:, :2, :2].copy()))
-        if smooth:
-            for j, b in enumerate(sel):
-                hist[b].append((x[b].copy(), P[b].copy(), x_prior[j], P_prior[j], Phi[j], fed[j]))
+        if keep_hist.any():
+            # what the smoother needs: the posterior, the correction fed back and the interval's terms
+            # (the transition and the prediction are rebuilt from them, :func:`_smooth_member`)
+            for j in np.flatnonzero(keep_hist[sel]):
+                b = sel[j]
+                hist[b].append((x[b].copy(), P[b].copy() if P_first is None else (P[b].copy(), P_first[j]),
+                                fed[j], acc_dt[b], acc_fn[b].copy(), acc_C[b].copy()))
         acc_dt[sel] = 0.0
         acc_fn[sel] = 0.0
         acc_C[sel] = 0.0
@@ -722,8 +720,8 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth: bool = False):
         rows = order[bounds[b]:bounds[b + 1]]
         pos = kp[rows]
         sm = Psm = None
-        if smooth:
-            sm, Psm = _smooth_member(hist[b], pos)
+        if keep_hist[b]:
+            sm, Psm = _smooth_member(hist[b], pos, (q_a[b], q_g[b], q_ba[b], q_bg[b]))
         nis = {name: (float(nis_sum[name][b]), int(nis_cnt[name][b]), nis_dof[name])
                for name in nis_sum if nis_cnt[name][b] > 0}
         out.append(AidedResult(
@@ -735,19 +733,60 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth: bool = False):
     return out
 
 
-def _smooth_member(hist, pos):
+def _transition(d, fn, Cm):
+    """``Phi = I + F T + (F T)^2 / 2`` of epoch intervals, batched.
+
+    Parameters
+    ----------
+    d : ndarray, shape (b,)
+        Interval durations [s].
+    fn : ndarray, shape (b, 3)
+        Integral of the navigation-frame specific force over the interval [m/s].
+    Cm : ndarray, shape (b, 3, 3)
+        Integral of the attitude over the interval [s].
+    """
+    Fd = np.zeros((d.shape[0], N_AIDED, N_AIDED))
+    Fd[:, DP, DV] = np.eye(3) * d[:, None, None]
+    Fd[:, DV, EPS] = -_skew(fn)
+    Fd[:, DV, BA] = Cm
+    Fd[:, EPS, BG] = Cm
+    return np.eye(N_AIDED) + Fd + 0.5 * (Fd @ Fd)
+
+
+def _process_noise(d, q_a, q_g, q_ba, q_bg):
+    """Discrete process noise of epoch intervals (white noise and bias walks times the duration), batched."""
+    Q = np.zeros((d.shape[0], N_AIDED, N_AIDED))
+    I3 = np.eye(3)
+    Q[:, DV, DV] = I3 * (q_a * d)[:, None, None]
+    Q[:, EPS, EPS] = I3 * (q_g * d)[:, None, None]
+    Q[:, BA, BA] = I3 * (q_ba * d)[:, None, None]
+    Q[:, BG, BG] = I3 * (q_bg * d)[:, None, None]
+    return Q
+
+
+def _smooth_member(hist, pos, q):
     """Smoothed positions of one member from its epoch history (see :func:`rts_smooth`).
 
-    At a step start the clone copies the position error: the transition into
-    the next epoch is ``Phi T`` (``T`` the clone copy), so the stored
-    posterior is the one after the copy.
+    The transitions and predictions are rebuilt from the stored interval
+    terms, as the forward pass computed them. At a step start the clone
+    copies the position error after the update; the stored posterior is the
+    one after the copy, which the next transition propagates.
     """
+    m = len(hist)
     x_post = np.array([h[0] for h in hist])
-    P_post = np.array([h[1] for h in hist])
-    x_prior = np.array([h[2] for h in hist])
-    P_prior = np.array([h[3] for h in hist])
-    Phi = np.array([h[4] for h in hist])
-    fed = np.array([h[5] for h in hist])
+    P0_post, P0_prior = hist[0][1]
+    P_post = np.array([P0_post] + [h[1] for h in hist[1:]])
+    fed = np.array([h[2] for h in hist])
+    d = np.array([h[3] for h in hist])
+    Phi = _transition(d, np.array([h[4] for h in hist]), np.array([h[5] for h in hist]))
+    Phi[0] = np.eye(N_AIDED)
+    Q = _process_noise(d, *(np.full(m, v) for v in q))
+    x_prior = np.empty_like(x_post)
+    x_prior[0] = 0.0                              # the filter starts from a zero error state
+    x_prior[1:] = np.einsum("bij,bj->bi", Phi[1:], x_post[:-1])
+    P_prior = np.empty_like(P_post)
+    P_prior[0] = P0_prior
+    P_prior[1:] = Phi[1:] @ P_post[:-1] @ np.swapaxes(Phi[1:], 1, 2) + Q[1:]
     xs, Ps = rts_smooth(x_post, P_post, x_prior, P_prior, Phi, fed=fed)
     sm = pos - xs[:, DP]
     return sm, Ps[:, :2, :2]

@@ -394,22 +394,24 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
             todo.append((cell, g, score, info, noise, runs, by_file))
     if not todo:
         return AidedStudy((), (), float("nan"), {}, note="No MoRPI table cell could be evaluated on these recordings.")
-    # one smoothed pass per cell (the smoother keeps every epoch's covariances: a cell's runs at a time)
-    results = {}
-    for i, (cell, g, score, info, noise, runs, by_file) in enumerate(todo):
-        out = aided.run_batch([p.input for p in runs], _tuning(noise, info, g.std / g.mean), smooth=True)
-        for p, r in zip(runs, out):
-            results[(i, p.rel)] = r
-    abl_res = {}
-    if ablation:
-        # one pass per route (members of one length: little padding)
-        for route in sorted({c.spec.route for c, *_ in todo}):
-            items = [(i, p, name) for i, (c, *rest) in enumerate(todo) if c.spec.calibration == "GC"
-                     and c.spec.route == route for name, change in ABLATIONS.items() if change for p in rest[4]]
-            tun = [_tuning(todo[i][4], todo[i][3], todo[i][1].std / todo[i][1].mean).with_(**ABLATIONS[name])
-                   for i, _, name in items]
-            out = aided.run_batch([p.input for _, p, _ in items], tun)
-            for (i, p, name), r in zip(items, out):
+    # one pass per route: every cell's test runs (smoothed) and, for the GC cells, each aid removed in turn
+    results, abl_res = {}, {}
+    for route in sorted({c.spec.route for c, *_ in todo}):
+        items = []
+        for i, (cell, g, score, info, noise, runs, by_file) in enumerate(todo):
+            if cell.spec.route != route:
+                continue
+            base = _tuning(noise, info, g.std / g.mean)
+            items += [(i, p, None, base) for p in runs]
+            if ablation and cell.spec.calibration == "GC":
+                items += [(i, p, name, base.with_(**change)) for name, change in ABLATIONS.items() if change
+                          for p in runs]
+        out = aided.run_batch([p.input for _, p, _, _ in items], [t for *_, t in items],
+                              smooth=[name is None for _, _, name, _ in items])
+        for (i, p, name, _), r in zip(items, out):
+            if name is None:
+                results[(i, p.rel)] = r
+            else:
                 abl_res[(i, p.rel, name)] = r
     cells, abl, nis_all = [], [], {}
     inside = total = 0
