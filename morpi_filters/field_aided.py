@@ -26,7 +26,8 @@ import numpy as np
 from . import aided
 from .errors import MorpiError
 
-__all__ = ["GRID", "ABLATIONS", "AidedCell", "AidedStudy", "Prepared", "aided_study", "choose_tunables", "prepare",
+__all__ = ["GRID", "ABLATIONS", "AidedCell", "AidedStudy", "Prepared", "aided_study", "choose_tunables",
+           "choose_tunables_many", "prepare",
            "still_spans", "rest_noise", "gyro_drift"]
 
 #: Train-only grid: factor on the rest-window noise densities (the moving robot vibrates far above
@@ -250,31 +251,51 @@ def choose_tunables(data, train, method, mode, config, gain):
         train runs' rests show: the median noise densities (accel, gyro, gyro per epoch) and the
         gyro bias walk [rad/s/sqrt(s)]
     """
+    return choose_tunables_many(data, [(train, method, mode, config, gain)])[0]
+
+
+def choose_tunables_many(data, requests) -> list:
+    """:func:`choose_tunables` for several (train, method, mode, config, gain) at once, in one batch.
+
+    A request without train runs gives a MorpiError in its place of the returned list.
+    """
     from . import dataset as ds
 
-    runs = _prepared_runs(data, train[0], train[1], "train", mode, method, config, gain.mean)
-    if not runs:
-        raise MorpiError(f"{train[0]}/{train[1]}/train: no train run with steps for the aided filter")
-    truth = ds.route(train[1])
-    noise = tuple(float(np.median([r.noise[j] for r in runs])) for j in range(3))
-    # the gyro bias walk that the train runs' rest stretches show: E[dm^2] = q dt per axis
-    drift = [r.gyro_drift for r in runs if r.gyro_drift[1] is not None and r.gyro_drift[1] > 0]
-    walk = float(np.sqrt(np.mean([d[0].mean() / d[1] for d in drift]))) if drift else aided.AidTuning().gyro_walk
-    noise = noise + (walk,)
     cands = _candidates()
-    rel = gain.std / gain.mean
-    inputs = [r.input for _ in cands for r in runs]
-    tunings = [_tuning(noise, c, rel) for c in cands for _ in runs]
+    plans, inputs, tunings = [], [], []
+    for train, method, mode, config, gain in requests:
+        runs = _prepared_runs(data, train[0], train[1], "train", mode, method, config, gain.mean)
+        if not runs:
+            plans.append(MorpiError(f"{train[0]}/{train[1]}/train: no train run with steps for the aided filter"))
+            continue
+        noise = tuple(float(np.median([r.noise[j] for r in runs])) for j in range(3))
+        # the gyro bias walk that the train runs' rest stretches show: E[dm^2] = q dt per axis
+        drift = [r.gyro_drift for r in runs if r.gyro_drift[1] is not None and r.gyro_drift[1] > 0]
+        walk = (float(np.sqrt(np.mean([d[0].mean() / d[1] for d in drift]))) if drift
+                else aided.AidTuning().gyro_walk)
+        noise = noise + (walk,)
+        rel = gain.std / gain.mean
+        plans.append((len(inputs), runs, ds.route(train[1]), noise))
+        inputs += [r.input for _ in cands for r in runs]
+        tunings += [_tuning(noise, c, rel) for c in cands for _ in runs]
     res = aided.run_batch(inputs, tunings)
-    ends = [runs[i % len(runs)].end(r) for i, r in enumerate(res)]
-    d = np.array([e[0] - truth.end_point_m for e in ends])
-    m2 = np.array([x @ np.linalg.solve(e[1], x) for x, e in zip(d, ends)]).reshape(len(cands), len(runs))
-    err = np.linalg.norm(d, axis=1).reshape(len(cands), len(runs))
-    score = err.mean(axis=1) / truth.distance_m * 100
-    coverage = (m2 <= aided.CHI2_95_2DOF).mean(axis=1)
-    eligible = coverage >= MIN_TRAIN_COVERAGE
-    j = int(np.argmin(np.where(eligible, score, np.inf))) if eligible.any() else int(np.argmin(score))
-    return float(score[j]), cands[j], noise
+    out = []
+    for plan in plans:
+        if isinstance(plan, MorpiError):
+            out.append(plan)
+            continue
+        start, runs, truth, noise = plan
+        mine = res[start:start + len(cands) * len(runs)]
+        ends = [runs[i % len(runs)].end(r) for i, r in enumerate(mine)]
+        d = np.array([e[0] - truth.end_point_m for e in ends])
+        m2 = np.array([x @ np.linalg.solve(e[1], x) for x, e in zip(d, ends)]).reshape(len(cands), len(runs))
+        err = np.linalg.norm(d, axis=1).reshape(len(cands), len(runs))
+        score = err.mean(axis=1) / truth.distance_m * 100
+        coverage = (m2 <= aided.CHI2_95_2DOF).mean(axis=1)
+        eligible = coverage >= MIN_TRAIN_COVERAGE
+        j = int(np.argmin(np.where(eligible, score, np.inf))) if eligible.any() else int(np.argmin(score))
+        out.append((float(score[j]), cands[j], noise))
+    return out
 
 
 @dataclass(frozen=True)
@@ -370,22 +391,24 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
     res = result if result is not None else evaluate_tables(root, alternatives=False)
     data = res.data
     gmap = {(g.phone, g.route, g.method, g.calibration): g for g in res.gains}
+    wanted = [c for c in res.cells if c.spec.train is not None and c.runs
+              and (labels is None or c.spec.label in labels)
+              and (c.spec.train[0], c.spec.train[1], c.spec.method, c.spec.calibration) in gmap]
+    # the tunables of every training set, method and calibration: one batched search per training set
     chosen = {}
+    for train in sorted({c.spec.train for c in wanted}):
+        keys = sorted({(c.spec.train, c.spec.method, c.spec.calibration) for c in wanted if c.spec.train == train})
+        picks = choose_tunables_many(data, [(tr, m, cal, res.selections[m].config, gmap[(tr[0], tr[1], m, cal)])
+                                            for tr, m, cal in keys])
+        chosen.update({k: v for k, v in zip(keys, picks) if not isinstance(v, MorpiError)})
     todo = []
-    for cell in res.cells:
+    for cell in wanted:
         sp = cell.spec
-        if sp.train is None or not cell.runs or (labels is not None and sp.label not in labels):
-            continue
-        g = gmap.get((sp.train[0], sp.train[1], sp.method, sp.calibration))
-        if g is None:
-            continue
+        g = gmap[(sp.train[0], sp.train[1], sp.method, sp.calibration)]
         config = res.selections[sp.method].config
         key = (sp.train, sp.method, sp.calibration)
         if key not in chosen:
-            try:
-                chosen[key] = choose_tunables(data, sp.train, sp.method, sp.calibration, config, g)
-            except MorpiError:
-                continue
+            continue
         score, info, noise = chosen[key]
         by_file = {r.file: r for r in cell.runs}
         runs = [p for p in _prepared_runs(data, sp.phone, sp.route, sp.split, sp.calibration, sp.method, config,
