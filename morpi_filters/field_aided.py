@@ -247,9 +247,7 @@ def choose_tunables(data, train, method, mode, config, gain):
 
     Returns
     -------
-    (score_percent, info, noise) : the mean train error [%], the chosen grid point, and what the
-        train runs' rests show: the median noise densities (accel, gyro, gyro per epoch) and the
-        gyro bias walk [rad/s/sqrt(s)]
+    TunableChoice
     """
     return choose_tunables_many(data, [(train, method, mode, config, gain)])[0]
 
@@ -289,13 +287,49 @@ def choose_tunables_many(data, requests) -> list:
         ends = [runs[i % len(runs)].end(r) for i, r in enumerate(mine)]
         d = np.array([e[0] - truth.end_point_m for e in ends])
         m2 = np.array([x @ np.linalg.solve(e[1], x) for x, e in zip(d, ends)]).reshape(len(cands), len(runs))
-        err = np.linalg.norm(d, axis=1).reshape(len(cands), len(runs))
-        score = err.mean(axis=1) / truth.distance_m * 100
-        coverage = (m2 <= aided.CHI2_95_2DOF).mean(axis=1)
-        eligible = coverage >= MIN_TRAIN_COVERAGE
-        j = int(np.argmin(np.where(eligible, score, np.inf))) if eligible.any() else int(np.argmin(score))
-        out.append((float(score[j]), cands[j], noise))
+        err = np.linalg.norm(d, axis=1).reshape(len(cands), len(runs)) / truth.distance_m * 100
+        inside = m2 <= aided.CHI2_95_2DOF
+        j = _select(err, inside)
+        # nested leave-one-out: each train run scored by the grid point chosen without it
+        loo = [err[_select(np.delete(err, i, axis=1), np.delete(inside, i, axis=1)), i] for i in range(len(runs))]
+        morpi = float(np.mean([np.linalg.norm(r.morpi_xy[-1] - truth.end_point_m) for r in runs])
+                      / truth.distance_m * 100)
+        out.append(TunableChoice(float(err[j].mean()), float(np.mean(loo)) if len(runs) > 1 else float("nan"),
+                                 morpi, cands[j], noise))
     return out
+
+
+def _select(err, inside) -> int:
+    """The grid point of least mean error among those whose ellipse holds enough train end points."""
+    score = err.mean(axis=1)
+    eligible = inside.mean(axis=1) >= MIN_TRAIN_COVERAGE
+    return int(np.argmin(np.where(eligible, score, np.inf))) if eligible.any() else int(np.argmin(score))
+
+
+@dataclass(frozen=True)
+class TunableChoice:
+    """The tunables chosen on a training set's train runs.
+
+    Attributes
+    ----------
+    score_percent : float
+        Mean train end-point error of the chosen grid point [% of the route].
+    loo_percent : float
+        Nested leave-one-out: each train run's error under the grid point chosen without it [%].
+    morpi_percent : float
+        MoRPI alone on the same train runs with the same gain [%].
+    info : dict
+        The grid point (:data:`GRID`).
+    noise : tuple
+        What the train runs' rests show: noise densities (accel, gyro, gyro per epoch) and the gyro
+        bias walk [rad/s/sqrt(s)].
+    """
+
+    score_percent: float
+    loo_percent: float
+    morpi_percent: float
+    info: dict
+    noise: tuple
 
 
 @dataclass(frozen=True)
@@ -314,6 +348,10 @@ class AidedCell:
         The grid point chosen on the train runs, and the noise densities used.
     train_percent : float
         Its mean train end-point error [%].
+    train_loo_percent : float
+        The same with the tunables chosen in a nested leave-one-out over the train runs [%].
+    train_morpi_percent : float
+        MoRPI alone on those train runs [%].
     nis : dict
         Measurement name -> (mean NIS per update, dof).
     paths : tuple
@@ -328,6 +366,8 @@ class AidedCell:
     runs: tuple
     tuning: dict
     train_percent: float
+    train_loo_percent: float
+    train_morpi_percent: float
     nis: dict
     paths: tuple
 
@@ -409,19 +449,20 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
         key = (sp.train, sp.method, sp.calibration)
         if key not in chosen:
             continue
-        score, info, noise = chosen[key]
+        choice = chosen[key]
+        score, info, noise = choice.score_percent, choice.info, choice.noise
         by_file = {r.file: r for r in cell.runs}
         runs = [p for p in _prepared_runs(data, sp.phone, sp.route, sp.split, sp.calibration, sp.method, config,
                                           g.mean) if p.rel in by_file]
         if runs:
-            todo.append((cell, g, score, info, noise, runs, by_file))
+            todo.append((cell, g, score, info, noise, runs, by_file, choice))
     if not todo:
         return AidedStudy((), (), float("nan"), {}, note="No MoRPI table cell could be evaluated on these recordings.")
     # one pass per route: every cell's test runs (smoothed) and, for the GC cells, each aid removed in turn
     results, abl_res = {}, {}
     for route in sorted({c.spec.route for c, *_ in todo}):
         items = []
-        for i, (cell, g, score, info, noise, runs, by_file) in enumerate(todo):
+        for i, (cell, g, score, info, noise, runs, by_file, _) in enumerate(todo):
             if cell.spec.route != route:
                 continue
             base = _tuning(noise, info, g.std / g.mean)
@@ -438,7 +479,7 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
                 abl_res[(i, p.rel, name)] = r
     cells, abl, nis_all = [], [], {}
     inside = total = 0
-    for i, (cell, g, score, info, noise, runs, by_file) in enumerate(todo):
+    for i, (cell, g, score, info, noise, runs, by_file, choice) in enumerate(todo):
         sp = cell.spec
         truth = ds.route(sp.route)
         d = truth.distance_m / 100
@@ -471,7 +512,8 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
             tuning={**info, "accel_noise": noise[0] * info["vibration"], "gyro_noise": noise[1] * info["vibration"],
                     "rest_gyro_noise": noise[2], "gyro_walk": noise[3],
                     "gain_sigma": g.std / g.mean if info["gain_state"] else 0.0},
-            train_percent=score, nis={k: (v[0] / max(v[1], 1), v[2]) for k, v in nis.items()}, paths=tuple(paths)))
+            train_percent=score, train_loo_percent=choice.loo_percent, train_morpi_percent=choice.morpi_percent,
+            nis={k: (v[0] / max(v[1], 1), v[2]) for k, v in nis.items()}, paths=tuple(paths)))
         if ablation and sp.calibration == "GC":
             for name, change in ABLATIONS.items():
                 if not change:

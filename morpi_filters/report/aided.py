@@ -33,7 +33,9 @@ def study_json(study) -> dict:
                       "calibration": sp.calibration, "route": sp.route, "label": sp.label,
                       "paper_percent": sp.paper_percent, "morpi_percent": c.morpi_percent,
                       "forward_percent": c.forward_percent, "smoothed_percent": c.smoothed_percent,
-                      "ins_percent": c.ins_percent, "train_percent": c.train_percent, "nis": _nis(c.nis),
+                      "ins_percent": c.ins_percent, "train_percent": c.train_percent,
+                      "train_loo_percent": c.train_loo_percent, "train_morpi_percent": c.train_morpi_percent,
+                      "nis": _nis(c.nis),
                       "runs": list(c.runs)})
     return {"cells": cells, "ablation": list(study.ablation), "coverage_95": study.coverage_95,
             "nis": _nis(study.nis), "note": study.note,
@@ -82,7 +84,8 @@ def _page(study, source, figures) -> str:
     gc_better = sum(c.smoothed_percent < c.morpi_percent for c in gc)
     below_paper = [c for c in gc if c.spec.method == "MoRPI-G" and c.smoothed_percent <= c.spec.paper_percent]
     rows = [[c.label, len(c.runs), fmt(c.smoothed_percent), fmt(c.forward_percent), fmt(c.morpi_percent),
-             fmt(c.ins_percent, 0), fmt(c.spec.paper_percent), fmt(c.train_percent),
+             fmt(c.ins_percent, 0), fmt(c.spec.paper_percent), fmt(c.train_percent), fmt(c.train_loo_percent),
+             fmt(c.train_morpi_percent),
              ", ".join(f"{k} {v:g}" if not isinstance(v, str) else f"{k} {v}"
                        for k, v in c.tuning.items() if k in field_aided.GRID)] for c in cells]
     base = {c.label: c.smoothed_percent for c in cells}
@@ -123,8 +126,11 @@ def _page(study, source, figures) -> str:
         f"routes (the routes the tunables are trained on), {fmt(_ratio(gc, short=False))} on the long and L "
         "routes. The ablation below shows what each aid contributes.\n\n"
         "## Cells (test runs, mean end-point error in % of the route's distance)\n\n"
+        + "`train` is the filter's mean end-point error on the training set's train runs with the chosen "
+        "tunables, `train LOO` the same with the tunables chosen without the run scored (nested "
+        "leave-one-out), `train MoRPI` MoRPI alone on those runs.\n\n"
         + md_table(["cell", "runs", "smoothed", "forward", "MoRPI alone", "INS alone", "paper", "train",
-                    "tunables (train)"], rows)
+                    "train LOO", "train MoRPI", "tunables (train)"], rows)
         + "\n\n## Ablation (GC cells, each aid removed in turn, smoothed end point)\n\n"
         "Mean change over the GC cells (positive: the aid helps):\n\n"
         + md_table(["removed", "cells", "mean change [pp]", "median change [pp]"], mean_rows)
