@@ -302,6 +302,10 @@ class AidTuning:
     rest_gyro_noise : float
         Gyro white-noise density at rest, for the zero-rate update
         [rad/s/sqrt(Hz)] (0: `gyro_noise`).
+    accel_jump : float
+        Change of the accelerometer's apparent bias when the robot starts or
+        stops moving, 1 sigma per axis [m/s^2] (the phone tilts on its mount
+        under way: its specific force shifts by a step, not a walk).
     step_sigma : float
         Step displacement noise per axis [m].
     nhc_sigma : float
@@ -325,6 +329,7 @@ class AidTuning:
     accel_walk: float = 1e-4
     gyro_walk: float = 1e-5
     rest_gyro_noise: float = 0.0
+    accel_jump: float = 0.0
     step_sigma: float = 0.05
     nhc_sigma: float = 0.05
     zupt_sigma: float = 0.01
@@ -600,6 +605,8 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
     for b in range(B):
         end_flag[b, list(ends[b])] = True
         start_flag[b, list(starts[b])] = True
+    jump2 = arr("accel_jump") ** 2
+    was_rest = rest_flags[:, 0].copy()
     T_clone = np.eye(N_AIDED)
     T_clone[CLONE, :] = 0.0
     T_clone[CLONE, DP.start:DP.start + 2] = np.eye(2)
@@ -642,7 +649,12 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
         if k > 0:
             Phi = _transition(acc_dt[sel], acc_fn[sel], acc_C[sel])
             Q = _process_noise(acc_dt[sel], q_a[sel], q_g[sel], q_ba[sel], q_bg[sel])
+            jq = np.where(rest_flags[sel, k] != was_rest[sel], jump2[sel], 0.0)
+            Q[:, BA, BA] += np.eye(3) * jq[:, None, None]
             x[sel], P[sel] = kf_predict(x[sel], P[sel], Phi, Q)
+        else:
+            jq = np.zeros(sel.size)
+        was_rest[sel] = rest_flags[sel, k]
         P_first = P[sel].copy() if k == 0 else None
         # ---- updates
         touched = np.zeros(B, bool)
@@ -703,7 +715,7 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
             for j in np.flatnonzero(keep_hist[sel]):
                 b = sel[j]
                 hist[b].append((x[b].copy(), P[b].copy() if P_first is None else (P[b].copy(), P_first[j]),
-                                fed[j], acc_dt[b], acc_fn[b].copy(), acc_C[b].copy()))
+                                fed[j], acc_dt[b], acc_fn[b].copy(), acc_C[b].copy(), jq[j]))
         acc_dt[sel] = 0.0
         acc_fn[sel] = 0.0
         acc_C[sel] = 0.0
@@ -781,6 +793,7 @@ def _smooth_member(hist, pos, q):
     Phi = _transition(d, np.array([h[4] for h in hist]), np.array([h[5] for h in hist]))
     Phi[0] = np.eye(N_AIDED)
     Q = _process_noise(d, *(np.full(m, v) for v in q))
+    Q[:, BA, BA] += np.eye(3) * np.array([h[6] for h in hist])[:, None, None]
     x_prior = np.empty_like(x_post)
     x_prior[0] = 0.0                              # the filter starts from a zero error state
     x_prior[1:] = np.einsum("bij,bj->bi", Phi[1:], x_post[:-1])

@@ -164,6 +164,7 @@ class Prepared:
     noise: tuple
     stop_s: float
     gyro_drift: tuple
+    motion_shift: np.ndarray
 
     def end(self, r: aided.AidedResult):
         """The filter's horizontal position and covariance (forward, and smoothed) at ``stop_s``.
@@ -208,15 +209,19 @@ def prepare(data, rec, mode, method, config, gain) -> Prepared:
     # read where MoRPI's track ends: the gain is trained on MoRPI's step sum, which covers the motion up
     # to the last step boundary (the robot's creep after it is part of what the gain absorbs)
     stop = float(s.end_time[-1]) if s.end_time.size else data.activity(rec)[1]
+    a, b = data.activity(rec)
+    moving = (crec.time >= a) & (crec.time <= b)
+    # the specific force's mean shift under way (the run starts and ends at rest: no net acceleration)
+    shift = crec.f[moving].mean(axis=0) - f_rest if moving.any() else np.zeros(3)
     cache[key] = Prepared(data.relpath(rec), inp, track.position, rest_noise(rec, w), float(stop),
-                          gyro_drift(crec, w, rest))
+                          gyro_drift(crec, w, rest), shift)
     return cache[key]
 
 
 def _tuning(noise, info, gain_rel) -> aided.AidTuning:
-    a, g, ge, walk = noise
+    a, g, ge, walk, jump = noise
     return aided.AidTuning(accel_noise=a * info["vibration"], gyro_noise=g * info["vibration"], rest_gyro_noise=ge,
-                           gyro_walk=walk,
+                           gyro_walk=walk, accel_jump=jump,
                            accel_walk=ACCEL_WALK, step_sigma=info["step_sigma"], nhc_sigma=NHC_SIGMA,
                            gain_sigma=float(gain_rel) if info["gain_state"] else 0.0,
                            step_heading=info["step_heading"])
@@ -271,7 +276,9 @@ def choose_tunables_many(data, requests) -> list:
         drift = [r.gyro_drift for r in runs if r.gyro_drift[1] is not None and r.gyro_drift[1] > 0]
         walk = (float(np.sqrt(np.mean([d[0].mean() / d[1] for d in drift]))) if drift
                 else aided.AidTuning().gyro_walk)
-        noise = noise + (walk,)
+        # the step of the apparent accelerometer bias between rest and motion: RMS of the train runs' shifts
+        jump = float(np.sqrt(np.mean([r.motion_shift ** 2 for r in runs])))
+        noise = noise + (walk, jump)
         rel = gain.std / gain.mean
         plans.append((len(inputs), runs, ds.route(train[1]), noise))
         inputs += [r.input for _ in cands for r in runs]
@@ -321,8 +328,9 @@ class TunableChoice:
     info : dict
         The grid point (:data:`GRID`).
     noise : tuple
-        What the train runs' rests show: noise densities (accel, gyro, gyro per epoch) and the gyro
-        bias walk [rad/s/sqrt(s)].
+        What the train runs show: noise densities at rest (accel, gyro, gyro per epoch), the gyro
+        bias walk [rad/s/sqrt(s)] and the shift of the mean specific force between rest and motion
+        [m/s^2] (the accelerometer bias step of :class:`aided.AidTuning`).
     """
 
     score_percent: float
@@ -510,7 +518,7 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
             spec=sp, forward_percent=mean("forward_m"), smoothed_percent=mean("smoothed_m"),
             morpi_percent=mean("morpi_m"), ins_percent=mean("ins_m"), runs=tuple(rows),
             tuning={**info, "accel_noise": noise[0] * info["vibration"], "gyro_noise": noise[1] * info["vibration"],
-                    "rest_gyro_noise": noise[2], "gyro_walk": noise[3],
+                    "rest_gyro_noise": noise[2], "gyro_walk": noise[3], "accel_jump": noise[4],
                     "gain_sigma": g.std / g.mean if info["gain_state"] else 0.0},
             train_percent=score, train_loo_percent=choice.loo_percent, train_morpi_percent=choice.morpi_percent,
             nis={k: (v[0] / max(v[1], 1), v[2]) for k, v in nis.items()}, paths=tuple(paths)))
