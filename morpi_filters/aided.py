@@ -449,8 +449,8 @@ class AidedResult:
     bias_g_sigma: np.ndarray
 
     def index_at(self, t: float) -> int:
-        """Index of the last epoch at or before time `t` (the first epoch when none)."""
-        return max(int(np.searchsorted(self.time, t, side="right")) - 1, 0)
+        """Index of the epoch nearest to time `t` (a step boundary is an epoch: its own sample)."""
+        return int(np.argmin(np.abs(self.time - t)))
 
     @property
     def end_point(self) -> np.ndarray:

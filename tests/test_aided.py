@@ -297,3 +297,14 @@ def test_accelerometer_step_under_way_is_absorbed_when_modelled():
     assert e1 < 0.5 * e0, out
     # and the step innovations agree with their covariance (NIS per dof near 1, far above it without)
     assert nis1 < 3.0 < nis0, out
+
+
+def test_the_filter_is_read_at_the_step_boundary_epoch():
+    """A step boundary is an epoch of its own; reading there gives the updated position, not the one before."""
+    traj = simulate.sine(4.0, period=1.0, amplitude=0.1, rate_hz=100.0)
+    inp = _exact_input(traj)
+    (r,) = aided.run_batch([inp], aided.AidTuning(step_sigma=0.01, gain_sigma=0.0))
+    for te in inp.step_end:
+        j = r.index_at(te)
+        # the nearest sample to the boundary (100 Hz: within 5 ms)
+        assert abs(r.time[j] - te) <= 0.005 + 1e-12
