@@ -16,18 +16,22 @@ nominal state (position, velocity, attitude, biases, clone) and those error
 states return to zero; the gain error stays a state.
 
 The covariance is propagated on an epoch grid (every ``epoch_s`` seconds of
-samples, 0.1 s by default) with the transition ``I + F T + (F T)^2 / 2`` of the
-interval's mean specific force and attitude; the nominal state is integrated at
-every sample. Updates happen at the epochs:
+samples, 0.1 s by default, and every step boundary's own sample) with the
+transition ``I + F T + (F T)^2 / 2`` of the interval's mean specific force and
+attitude; the nominal state is integrated at every sample. Updates happen at
+the epochs:
 
 * :class:`StepDisplacement`: the MoRPI step, ``L (cos psi, sin psi)`` (length
-  ``L`` from the trained gain, heading ``psi`` of the filter's attitude averaged
-  over the step) equals ``(1 + k)`` times the displacement since the clone;
-  step boundaries fall on the nearest epoch, so consecutive steps share them;
-* :class:`ZeroVelocity` and :class:`ZeroRate`: the rest windows the IMU itself
-  shows at the start and the end of a recording;
+  ``L`` from the trained gain; heading ``psi`` of the filter's attitude averaged
+  over the step, or MoRPI's own step vector) equals ``(1 + k)`` times the
+  displacement since the clone;
+* :class:`ZeroVelocity` and :class:`ZeroRate`: the still stretches the caller
+  names (``AidedInput.rest``);
 * :class:`NonHolonomic`: the robot's lateral and vertical velocity are zero
   (phone-to-robot tilt from the rest specific force, mounting yaw zero).
+
+The accelerometer bias may step when the robot starts or stops moving
+(``AidTuning.accel_jump``): the phone's apparent specific force shifts under way.
 
 Every measurement is a small object with its nonlinear model ``h(x, nom)``,
 Jacobian ``H(x, nom)`` and noise ``R``, batched over a leading axis of
