@@ -387,3 +387,28 @@ def test_leveled_ins_is_computed_for_the_3d_cells(field_root):
     # the L route starts on a slope: the rest tilt is several degrees there, about level indoors
     tilt = {r["table"]: r["mean_rest_tilt_deg"] for r in rows}
     assert tilt["ins_l_shape"] > 5.0 > tilt["ins_straight"]
+
+
+@pytest.mark.field
+def test_paper_claims_beside_ours(field_root, paper_tex):
+    """Each claim quotes the paper (its numbers appear in the source) and ours comes from the data."""
+    from morpi_filters import dataset as ds
+    from morpi_filters.evaluate import evaluate_tables, paper_claims
+
+    res = evaluate_tables(field_root, alternatives=False)
+    claims = paper_claims(res)
+    assert len(claims) >= 8   # the issue's bar
+    text = paper_tex.read_text()
+    for c in claims:
+        assert set(c) == {"claim", "paper", "ours", "holds", "evidence"}
+        for v in (c["paper"] if isinstance(c["paper"], list) else [c["paper"]]):
+            # every paper value is printed in the paper (4.6 as "4.60"); three are written otherwise there:
+            # 6.1 is its 28.6 / 4.68 ("a factor of six"), 0.025 m is "2.5cm", 103 is "One hundred and three"
+            if v not in (6.1, 0.025, 103):
+                assert f"{v:g}" in text or f"{v:.2f}" in text, v
+    by = {c["claim"]: c for c in claims}
+    # ours from independent counts: the catalogue and the cells
+    assert by["143 trajectories were recorded"]["ours"] == len(ds.catalogue(field_root))
+    g = [res.cell("short_route", p, 1.0, "MoRPI-G", "GC").ours_percent for p in ("s8", "s6")]
+    assert by["MoRPI-G averages 4.68 % over the two phones"]["ours"] == round(sum(g) / 2, 2)
+    assert by["MoRPI-G averages 4.68 % over the two phones"]["holds"] == (abs(sum(g) / 2 - 4.68) <= 1.0)

@@ -72,6 +72,25 @@ def _figures(study: TablesStudy, out: Path) -> list[str]:
     return figs
 
 
+def _claims_section(claims) -> list:
+    """The paper's numeric claims beside ours (:func:`morpi_filters.evaluate.paper_claims`)."""
+    if not claims:
+        return []
+
+    def show(v):
+        if isinstance(v, (list, tuple)):
+            return " / ".join(show(x) for x in v)
+        return "-" if v is None else (f"{v:g}" if isinstance(v, (int, float)) else str(v))
+
+    held = sum(c["holds"] is True for c in claims)
+    rows = [[c["claim"], show(c["paper"]), show(c["ours"]),
+             {True: "yes", False: "**no**", None: "-"}[c["holds"]], c["evidence"]] for c in claims]
+    return ["## The paper's claims", "",
+            f"Each numeric claim of the paper's results and conclusions, ours beside it: {held} of "
+            f"{len(claims)} hold on these recordings.", "",
+            md_table(["claim", "paper", "ours", "holds", "evidence"], rows), ""]
+
+
 def _page(study: TablesStudy, payload, source, figures) -> str:
     res = study.result
     L = [banner(source)]
@@ -169,6 +188,7 @@ def _page(study: TablesStudy, payload, source, figures) -> str:
                         for k, v in row["improvement_pp"].items())
         rows.append([row["method"], fmt(row["paper_error_m"]), fmt(row["ours_error_m"]), row["cell"] or "-", imp])
     L += [md_table(["method", "paper m", "ours m", "our cell", "improvement pp"], rows)]
+    L += _claims_section(study.claims)
     L += ["## Trained gains", "", "Per training set, method and calibration: mean and std over the train runs "
           "(each run's gain makes its summed steps equal the known distance). RD and GC gains coincide: GC "
           "removes a constant from omega_z and leaves f_y alone, which changes no peak and no max - min; "
@@ -273,11 +293,10 @@ def _page(study: TablesStudy, payload, source, figures) -> str:
         for f in figures:
             L += [f"![{f}]({f})", "", captions.get(f, ""), ""]
     L += ["## MoRPI-aided INS", "",
-          "The same MoRPI cells with the MoRPI steps as pseudo-measurements of an error-state filter around the "
-          "3D INS (`morpi_filters.eskf.morpi_aided_ins`, filter tunables chosen on the train runs only), beside "
-          "MoRPI alone and INS alone, are in the covariance-curves section of the report: "
-          "[curves/README.md](../curves/README.md#morpi-aided-ins-on-the-field-recordings) "
-          "(written by `morpi curves --data DIR` or `morpi report`).", ""]
+          "The same MoRPI cells with the MoRPI steps as measurements of a closed-loop error-state filter around "
+          "the 3D INS (non-holonomic and rest updates, smoothing; tunables chosen on the train runs only), beside "
+          "MoRPI alone and INS alone, with the contribution of each aid, are the aided section of the report: "
+          "[aided/README.md](../aided/README.md) (written by `morpi aided --data DIR` or `morpi report`).", ""]
     return "\n".join(L)
 
 
@@ -322,6 +341,7 @@ def result_json(study: TablesStudy, source=None) -> dict:
         "step_rule_nested": study.nested,
         "rule_sensitivity": study.rule_sensitivity,
         "ins_leveled": study.ins_leveled,
+        "claims": list(study.claims),
     }
 
 
