@@ -1,19 +1,19 @@
-"""Time of the `morpi tables` computation as a ratio to parsing the 143 CSVs.
+"""Time of `morpi tables` as a ratio to the true floor of its input: pandas' parse of the 143 CSVs.
 
-Both are measured in this one run, on the field dataset (``--data DIR`` or
-``$MORPI_DATA``, else ``../shared/morpi-dataset``):
+Measured in one run on the field dataset (``--data DIR`` or ``$MORPI_DATA``, else
+``../shared/morpi-dataset``), each ratio over alternating pairs (:mod:`pairs`):
 
-- parse: :func:`morpi_filters.dataset.load_csv` on every recording of the catalogue;
-- tables: everything `morpi tables` computes, from the CSV files to result.json and
+- computation: everything `morpi tables` computes, from the CSV files to result.json and
   the README text (:func:`evaluate.tables_study`: the evaluation, the report's alternatives
-  and the figures' data; :func:`report.tables.result_json` and the page), without rendering
-  the figures (reported separately);
-- figures: the section's PNG figures, for information.
+  and the figures' data; :func:`report.tables.result_json` and the page), without the PNGs,
+  against ``pandas.read_csv`` of every recording in the same process (target <= 8x);
+- whole command: ``morpi tables --data DIR`` (figures included) against a fresh interpreter
+  that imports pandas and parses every recording (target <= 12x);
+- for information: the project's own loader against pandas' parse.
 
-Target: tables / parse <= 5. Each timing is the best of ``--repeat`` runs, the two
-interleaved so that a change of machine load affects both.
+pandas is the benchmark's floor, not a dependency of the package: ``pip install pandas``.
 
-Usage: ``PYTHONPATH=. python3 benchmarks/bench_tables.py [--data DIR] [--repeat N] [--profile]``
+Usage: ``PYTHONPATH=. python3 benchmarks/bench_tables.py [--data DIR] [--pairs N] [--profile]``
 """
 from __future__ import annotations
 
@@ -21,12 +21,15 @@ import argparse
 import os
 import sys
 import tempfile
-import time
 from pathlib import Path
 
-from morpi_filters import dataset as ds
-from morpi_filters import evaluate as ev
-from morpi_filters.reporting import DataSource
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from pairs import paired, paired_commands, python_command  # noqa: E402
+
+from morpi_filters import dataset as ds  # noqa: E402
+from morpi_filters import evaluate as ev  # noqa: E402
+from morpi_filters.reporting import DataSource  # noqa: E402
 
 
 def _root(arg):
@@ -37,8 +40,14 @@ def _root(arg):
     return Path(__file__).resolve().parents[1].parent / "shared" / "morpi-dataset"
 
 
-def parse_all(root):
-    return [ds.load_csv(e.path) for e in ds.catalogue(root)]
+def parse_floor(paths):
+    import pandas as pd
+
+    return [pd.read_csv(p) for p in paths]
+
+
+def parse_ours(paths):
+    return [ds.load_csv(p) for p in paths]
 
 
 def tables(root):
@@ -51,43 +60,36 @@ def tables(root):
     return study, payload
 
 
-def best_of(fn, repeat):
-    best, out = float("inf"), None
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
-
-
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", help="dataset root")
-    ap.add_argument("--repeat", type=int, default=5)
-    ap.add_argument("--profile", action="store_true", help="print the top of a cProfile of the tables step")
+    ap.add_argument("--pairs", type=int, default=5)
+    ap.add_argument("--profile", action="store_true", help="print the top of a cProfile of the computation")
     args = ap.parse_args(argv)
     root = _root(args.data)
-    if not root.is_dir():
-        print(f"no dataset at {root}; {ds.missing_data_message()}", file=sys.stderr)
+    paths = [e.path for e in ds.catalogue(root)] if root.is_dir() else []
+    if not paths:
+        print(f"no recordings under {root}; {ds.missing_data_message()}", file=sys.stderr)
         return 2
-    # interleaved, so a change of machine load hits both timings alike; best of each
-    t_parse = t_tab = float("inf")
-    for _ in range(args.repeat):
-        dt, recs = best_of(lambda: parse_all(root), 1)
-        t_parse = min(t_parse, dt)
-        dt, (res, _) = best_of(lambda: tables(root), 1)
-        t_tab = min(t_tab, dt)
+    try:
+        import pandas  # noqa: F401
+    except ImportError:
+        print("bench_tables: the floor is pandas' parse: pip install pandas", file=sys.stderr)
+        return 2
+    print(f"recordings: {len(paths)}")
+    lines = [paired("tables computation / pandas parse", lambda: tables(root), lambda: parse_floor(paths),
+                    pairs=args.pairs, target=8.0),
+             paired("load_csv / pandas parse (for information)", lambda: parse_ours(paths),
+                    lambda: parse_floor(paths), pairs=args.pairs)]
+    repo = Path(__file__).resolve().parents[1]
+    env = dict(os.environ, PYTHONPATH=str(repo), MPLBACKEND="Agg")
     with tempfile.TemporaryDirectory() as tmp:
-        t0 = time.perf_counter()
-        from morpi_filters.report import tables as page
-
-        page._figures(res, Path(tmp))
-        t_fig = time.perf_counter() - t0
-    print(f"recordings: {len(recs)}")
-    print(f"parse all CSVs (dataset.load_csv): {t_parse:.3f} s")
-    print(f"tables computation, no figures:    {t_tab:.3f} s")
-    print(f"figures (for information):         {t_fig:.3f} s")
-    print(f"ratio tables / parse: {t_tab / t_parse:.2f}x (target <= 5x)")
+        cmd = [sys.executable, "-m", "morpi_filters.cli", "tables", "--data", str(root), "--out", str(Path(tmp) / "t")]
+        floor = python_command("import pandas, sys; [pandas.read_csv(p) for p in sys.argv[1:]]") + [str(p) for p in paths]
+        lines.append(paired_commands("morpi tables (whole command) / pandas parse (fresh process)", cmd, floor,
+                                     pairs=args.pairs, target=12.0, env=env))
+    for r in lines:
+        print(r.line())
     if args.profile:
         import cProfile
         import pstats
