@@ -107,6 +107,23 @@ class Route:
     slope_deg: float = 0.0
     slope_length_m: float = 0.0
 
+    @property
+    def polyline(self) -> np.ndarray:
+        """The route's centre line: the corners of its straight legs, from the origin [m], shape (legs + 1, 2).
+
+        Examples
+        --------
+        >>> route("L_shape").polyline.tolist()
+        [[0.0, 0.0], [18.0, 0.0], [18.0, -10.0]]
+        """
+        pts = [np.zeros(2)]
+        heading = 0.0
+        for i, length in enumerate(self.segments_m):
+            if i > 0:
+                heading += np.radians(self.turn_deg)
+            pts.append(pts[-1] + length * np.array([np.cos(heading), np.sin(heading)]))
+        return np.array(pts)
+
 
 @dataclass(frozen=True, eq=False)
 class Recording:

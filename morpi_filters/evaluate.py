@@ -618,17 +618,6 @@ def other_rule(result: TablesResult, rule: str = "joint") -> dict:
 DEVIATION_PP = 2.5
 
 
-def _truth_polyline(route_name: str) -> np.ndarray:
-    r = ds.route(route_name)
-    pts = [np.zeros(2)]
-    heading = 0.0
-    for i, L in enumerate(r.segments_m):
-        if i > 0:
-            heading += np.radians(r.turn_deg)
-        pts.append(pts[-1] + L * np.array([np.cos(heading), np.sin(heading)]))
-    return np.array(pts)
-
-
 def _config_json(cfg: st.StepConfig) -> dict:
     return {k: getattr(cfg, k) for k in ("heading", "segment", "ends", "min_period_s", "prominence",
                                           "cutoff_hz", "amplitude_from")}
@@ -998,7 +987,7 @@ def _figure_data(res: TablesResult):
             except MorpiError:
                 pass
         tracks.append(TrackView(name=name, title=f"INS on {data.relpath(r)} (median 2D GAC run)", tracks=ins,
-                                truth=_truth_polyline(route)))
+                                truth=ds.route(route).polyline))
     # MoRPI paths of every test set (GC), both methods
     panels = []
     for table, phone, p2p in (("short_route", "s8", 1.0), ("short_route", "s8", 1.5), ("short_route", "s6", 1.0),
@@ -1018,7 +1007,7 @@ def _figure_data(res: TablesResult):
                     pass
             paths[f"{m} GC"] = runs
         if paths:
-            panels.append({"title": f"{table} {phone} {p2p:g} m", "truth": _truth_polyline(route_name),
+            panels.append({"title": f"{table} {phone} {p2p:g} m", "truth": ds.route(route_name).polyline,
                            "paths": paths})
     return tuple(recordings), tuple(tracks), tuple(panels)
 

@@ -41,7 +41,7 @@ class SensorSpec:
     name : str
         IMU model.
     phone : str
-        Dataset phone folder (``"s6"`` or ``"s8"``).
+        Dataset phone folder (``"s6"`` or ``"s8"``; empty for another IMU).
     gyro_bias : float
         Turn-on gyro bias, 1 sigma per axis [rad/s].
     gyro_noise : float
@@ -61,6 +61,67 @@ class SensorSpec:
     accel_bias: float
     accel_noise: float
     rate_hz: float = 100.0
+
+    @classmethod
+    def from_datasheet(cls, name: str, *, gyro_bias_deg_s: float, gyro_noise_deg_s_sqrt_hz: float,
+                       accel_bias_mg: float, accel_noise_ug_sqrt_hz: float, rate_hz: float = 100.0,
+                       phone: str | None = None) -> "SensorSpec":
+        """A spec from the units a datasheet prints.
+
+        Parameters
+        ----------
+        name : str
+            IMU model.
+        gyro_bias_deg_s : float
+            Turn-on gyro bias [deg/s].
+        gyro_noise_deg_s_sqrt_hz : float
+            Gyro noise density [deg/s/sqrt(Hz)] (a datasheet in deg/h/sqrt(Hz):
+            divide by 3600).
+        accel_bias_mg : float
+            Turn-on accelerometer bias [mg].
+        accel_noise_ug_sqrt_hz : float
+            Accelerometer noise density [ug/sqrt(Hz)].
+        rate_hz : float
+            Sampling rate [Hz].
+        phone : str, optional
+            A dataset phone folder, when the IMU is one of the dataset's.
+
+        Returns
+        -------
+        SensorSpec
+            In SI.
+
+        Raises
+        ------
+        ParameterError
+            A negative, zero-rate or non-finite value, naming it.
+
+        Examples
+        --------
+        >>> s = SensorSpec.from_datasheet("LSM6DSL", gyro_bias_deg_s=3, gyro_noise_deg_s_sqrt_hz=0.004,
+        ...                               accel_bias_mg=40, accel_noise_ug_sqrt_hz=130)
+        >>> s.gyro_bias == LSM6DSL.gyro_bias and s.accel_noise == LSM6DSL.accel_noise
+        True
+        >>> round(s.gyro_bias, 5)      # 3 deg/s in rad/s
+        0.05236
+        """
+        from .errors import ParameterError
+
+        given = {"gyro_bias_deg_s": gyro_bias_deg_s, "gyro_noise_deg_s_sqrt_hz": gyro_noise_deg_s_sqrt_hz,
+                 "accel_bias_mg": accel_bias_mg, "accel_noise_ug_sqrt_hz": accel_noise_ug_sqrt_hz,
+                 "rate_hz": rate_hz}
+        for key, v in given.items():
+            try:
+                ok = math.isfinite(float(v)) and float(v) >= 0 and (key != "rate_hz" or float(v) > 0)
+            except (TypeError, ValueError):
+                ok = False
+            if not ok:
+                what = "a positive rate" if key == "rate_hz" else "a finite value >= 0"
+                raise ParameterError(f"SensorSpec.from_datasheet: {key}={v!r}, expected {what}")
+        return cls(name=str(name), phone="" if phone is None else str(phone),
+                   gyro_bias=float(gyro_bias_deg_s) * DEG_S, gyro_noise=float(gyro_noise_deg_s_sqrt_hz) * DEG_S_SQRT_HZ,
+                   accel_bias=float(accel_bias_mg) * MG, accel_noise=float(accel_noise_ug_sqrt_hz) * UG_SQRT_HZ,
+                   rate_hz=float(rate_hz))
 
 
 #: Samsung Galaxy S6 IMU: 6 deg/s, 0.01 deg/s/sqrt(Hz), 60 mg, 300 ug/sqrt(Hz).

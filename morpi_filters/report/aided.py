@@ -49,7 +49,7 @@ def study_json(study) -> dict:
 
 
 def _figures(study, out: Path) -> list[str]:
-    from ..evaluate import _truth_polyline
+    from ..dataset import route
 
     if not study.cells:
         return []
@@ -58,7 +58,7 @@ def _figures(study, out: Path) -> list[str]:
     for c in study.cells:
         if c.spec.calibration == "GC" and c.spec.method == "MoRPI-G":
             name = f"aided_paths_{c.spec.phone}_{c.spec.route}.png"
-            save_figure(plots.plot_aided_paths(c, _truth_polyline(c.spec.route)), out / name)
+            save_figure(plots.plot_aided_paths(c, route(c.spec.route).polyline), out / name)
             names.append(name)
     first = next((c for c in study.cells if c.spec.calibration == "GC" and c.spec.method == "MoRPI-G"),
                  study.cells[0])
