@@ -624,9 +624,9 @@ def train_gain(steps_list, distances):
 
     Returns
     -------
-    mean, std : float
-        [m / unit^(1/4)]; std with ddof=0.
-    per_run : ndarray, shape (runs,)
+    (mean, std, per_run) : (float, float, ndarray of shape (runs,))
+        A flat 3-tuple: the mean and std (ddof=0) of the per-run gains, and the
+        per-run gains [m / unit^(1/4)].
     """
     steps_list = list(steps_list)
     if not steps_list:

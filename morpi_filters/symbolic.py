@@ -501,7 +501,8 @@ def closed_form_errors(params, times, kind: str = "3d", convention="z_up", keep_
     Parameters
     ----------
     params : ErrorParams or dict
-        ``dv0``, ``ba``, ``bg``, ``g`` (see :mod:`morpi_filters.params`).
+        An :class:`morpi_filters.params.ErrorParams`, or a dict with the keys
+        ``dv0_mps``, ``ba_mps2``, ``bg_radps`` (3 values each, SI) and ``g_mps2``.
     times : array_like, shape (n,)
         Times since alignment [s].
     kind : {"3d", "2d", "dp", "dp2d"}
