@@ -39,7 +39,7 @@ from .reporting import write_json
 
 __all__ = [
     "PAPER_IMPROVEMENTS", "PaperNumber", "AssessmentCurves", "assessment_curves", "improvements",
-    "fit_paper_numbers", "FitResult", "write_fitted_params", "AssessmentStudy", "assessment_study", "morpi_error",
+    "fit_paper_numbers", "FitResult", "write_fitted_params", "AssessmentStudy", "assessment_study", "morpi_distance_error",
     "DEFAULT_TIMES",
     "CONVENTION", "FIT_PRIOR", "FIT_BOUNDS",
 ]
@@ -87,7 +87,7 @@ def _symbolic():
     return symbolic
 
 
-def morpi_error(dG: float, speed_mps: float, times) -> np.ndarray:
+def morpi_distance_error(dG: float, speed_mps: float, times) -> np.ndarray:
     """MoRPI-A distance error ``dG * v * t`` [m], shape (n,)."""
     return float(dG) * float(speed_mps) * np.asarray(times, dtype=float)
 
@@ -129,7 +129,7 @@ def assessment_curves(params: ErrorParams, times=None, convention: str = CONVENT
         e2d=cf(params, t, "2d", convention, keep_bgz=False),
         e3d_bgz=cf(params, t, "3d", convention, keep_bgz=True),
         e2d_bgz=cf(params, t, "2d", convention, keep_bgz=True),
-        morpi={dG: morpi_error(dG, params.morpi_speed_mps, t) for dG in params.dG},
+        morpi={dG: morpi_distance_error(dG, params.morpi_speed_mps, t) for dG in params.dG},
         convention=S.convention(convention).name,
     )
 
@@ -140,7 +140,7 @@ def improvements(params: ErrorParams, convention: str = CONVENTION, numbers=PAPE
     out = []
     for n in numbers:
         e = S.closed_form_errors(params, [n.t_ins], n.ins, convention, keep_bgz=False)[0]
-        out.append(e - morpi_error(n.dG, params.morpi_speed_mps, n.t_morpi))
+        out.append(e - morpi_distance_error(n.dG, params.morpi_speed_mps, n.t_morpi))
     return np.array(out)
 
 

@@ -53,7 +53,7 @@ from .eskf import (
 
 __all__ = [
     "STEP_LENGTH_M", "DEFAULT_TIMES", "CurveCase", "CaseCurves", "case_from_params", "case_from_sensor",
-    "time_grid", "closed_form_mean_square", "closed_form_errors", "compute_curves", "CurvesStudy", "curves_study",
+    "time_grid", "case_mean_square", "error_realisation", "compute_curves", "CurvesStudy", "curves_study",
 ]
 
 #: Length of one MoRPI step [m]: the 1 m peak-to-peak period of the paper's periodic routes.
@@ -161,7 +161,7 @@ def _keys(dv0, ba, bg, g):
             "bg_radps": [float(v) for v in bg], "g_mps2": float(g)}
 
 
-def closed_form_mean_square(case: CurveCase, t, kind):
+def case_mean_square(case: CurveCase, t, kind):
     """Expected squared horizontal error of the paper's linearized closed form.
 
     ``E[dp_x^2 + dp_y^2]`` for independent zero-mean errors with the case's
@@ -195,7 +195,7 @@ def closed_form_mean_square(case: CurveCase, t, kind):
                                             linearized=True, keep_bgz=False)
 
 
-def closed_form_errors(dv0, ba, bg, dG, g, speed, t, kind):
+def error_realisation(dv0, ba, bg, dG, g, speed, t, kind):
     """Horizontal error of one realisation of the paper's closed form (z up, ``b_gz`` dropped).
 
     From :func:`morpi_filters.symbolic.closed_form_errors`: the paper's
@@ -432,11 +432,11 @@ def compute_curves(case: CurveCase, times=DEFAULT_TIMES, runs=MC_RUNS, rng=None,
     grid, steps, at = time_grid(times, FILTER_DT, period)
     res = _run_methods(case, grid, steps, model)
     sigma = {k: r.horizontal_sigma for k, r in res.items()}
-    rms = {k: np.sqrt(closed_form_mean_square(case, grid, k)) for k in ("ins3d", "ins2d", "morpi")}
+    rms = {k: np.sqrt(case_mean_square(case, grid, k)) for k in ("ins3d", "ins2d", "morpi")}
     real = {}
     if case.realisation is not None:
         dv0, ba, bg, dG = case.realisation
-        real = {k: closed_form_errors(dv0, ba, bg, dG, case.g, case.speed, grid, k)
+        real = {k: error_realisation(dv0, ba, bg, dG, case.g, case.speed, grid, k)
                 for k in ("ins3d", "ins2d", "morpi")}
     mc_t, mc, mc_at = np.zeros(0), {}, np.zeros(0, int)
     r_lin, r_nl = rng.spawn(2)

@@ -22,7 +22,7 @@ specific force at rest: ``"z_up"`` (this package, ``f^n = (0, 0, +g)``) or
 
 What is derived
 ---------------
-* :func:`system_matrix`: F for constant symbols ``C_ij``, ``f_i`` or for
+* :func:`system_matrix_symbols`: F for constant symbols ``C_ij``, ``f_i`` or for
   time-varying sympy Functions ``C_ij(t)``, ``f_i(t)``.
 * :func:`phi_blocks`, :func:`phi_block_form`: the transition matrix from the
   paper's block integrals (P, Q, T, S, R, M, plus N for the misalignment row
@@ -68,8 +68,8 @@ import sympy as sp
 from .errors import MorpiError
 
 __all__ = [
-    "Convention", "convention", "CONVENTIONS", "AUDIT_CONVENTIONS", "symbols", "skew",
-    "system_matrix", "phi_blocks", "phi_block_form", "phi_exponential", "verify_phi", "PhiCheck",
+    "Convention", "convention", "CONVENTIONS", "AUDIT_CONVENTIONS", "symbols", "skew_symbols",
+    "system_matrix_symbols", "phi_blocks", "phi_block_form", "phi_exponential", "verify_phi", "PhiCheck",
     "position_error", "distance_error_squared", "morpi_error", "lambdified", "phi_numeric",
     "closed_form_errors", "closed_form_mean_square", "paper_equations", "audit", "AuditResult",
     "TermCheck", "EquationAudit", "KINDS",
@@ -193,8 +193,8 @@ def symbols() -> _Symbols:
     return _Symbols(t, t0, g, dv, ba, bg, dG, v)
 
 
-def skew(v) -> sp.Matrix:
-    """The cross-product matrix ``(v x)`` of a 3-vector: ``skew(a) * b = a x b``."""
+def skew_symbols(v) -> sp.Matrix:
+    """The cross-product matrix ``(v x)`` of a 3-vector: ``skew_symbols(a) * b = a x b``."""
     x, y, z = v
     return sp.Matrix([[0, -z, y], [z, 0, -x], [-y, x, 0]])
 
@@ -214,7 +214,7 @@ def _generic_C_f(time_varying: bool, t=None):
     return C, f
 
 
-def system_matrix(conv="z_up", C=None, f=None, time_varying: bool = False) -> sp.Matrix:
+def system_matrix_symbols(conv="z_up", C=None, f=None, time_varying: bool = False) -> sp.Matrix:
     """The 15x15 error-state system matrix F built from its blocks.
 
     Parameters
@@ -235,7 +235,7 @@ def system_matrix(conv="z_up", C=None, f=None, time_varying: bool = False) -> sp
     Z, I = sp.zeros(3), sp.eye(3)
     return _blocks_to_matrix([
         [Z, I, Z, Z, Z],
-        [Z, Z, c.misalignment_sign * skew(f), C, Z],
+        [Z, Z, c.misalignment_sign * skew_symbols(f), C, Z],
         [Z, Z, Z, Z, c.gyro_sign * C],
         [Z, Z, Z, Z, Z],
         [Z, Z, Z, Z, Z],
@@ -260,7 +260,7 @@ def phi_blocks(conv="z_up", C=None, f=None, time_varying: bool = False, evaluate
 
     Parameters
     ----------
-    conv, C, f, time_varying : see :func:`system_matrix`
+    conv, C, f, time_varying : see :func:`system_matrix_symbols`
         C and f may be expressions in the symbol ``t`` (they are re-expressed in
         the integration variable).
     evaluate : bool
@@ -278,7 +278,7 @@ def phi_blocks(conv="z_up", C=None, f=None, time_varying: bool = False, evaluate
     C = C0 if C is None else sp.Matrix(C)
     f = f0 if f is None else sp.Matrix(f)
     u, w = sp.symbols("s tau", real=True)
-    A_of = lambda x: (c.misalignment_sign * skew(f)).subs(t, x)  # noqa: E731
+    A_of = lambda x: (c.misalignment_sign * skew_symbols(f)).subs(t, x)  # noqa: E731
     C_of = lambda x: C.subs(t, x)  # noqa: E731
     S = _integral(A_of, t0, t, u)
     R = _integral(C_of, t0, t, u)
@@ -322,7 +322,7 @@ def phi_exponential(conv="z_up", C=None, f=None) -> sp.Matrix:
         If F is not nilpotent of order 4 (C or f depend on t).
     """
     s = symbols()
-    F = system_matrix(conv, C, f)
+    F = system_matrix_symbols(conv, C, f)
     if F.has(s.t):
         raise ValueError("phi_exponential needs constant C and f")
     tau = s.t - s.t0
@@ -352,7 +352,7 @@ def verify_phi(conv="z_up", time_varying: bool = False) -> PhiCheck:
     """
     s = symbols()
     Phi = phi_block_form(conv, time_varying=time_varying)
-    F = system_matrix(conv, time_varying=time_varying)
+    F = system_matrix_symbols(conv, time_varying=time_varying)
     d = Phi.diff(s.t) - F * Phi
     # bound integration variables are renamed canonically so that equal
     # integrals written with different dummy names cancel
@@ -398,7 +398,7 @@ def phi_numeric(C, f, t, conv="z_up") -> np.ndarray:
 def _cubic_poly_blocks(conv: Convention, f: sp.Matrix, t):
     """Q and T blocks of Phi(t, 0) for C = I and constant f (cheap, no integrate)."""
     Q = sp.eye(3) * t**2 / 2
-    T = conv.misalignment_sign * conv.gyro_sign * skew(f) * t**3 / 6
+    T = conv.misalignment_sign * conv.gyro_sign * skew_symbols(f) * t**3 / 6
     return Q, T
 
 

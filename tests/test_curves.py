@@ -9,7 +9,7 @@ import pytest
 from morpi_filters import units
 from morpi_filters.cli import main
 from morpi_filters.curves import (
-    DEFAULT_TIMES, case_from_params, case_from_sensor, closed_form_errors, closed_form_mean_square,
+    DEFAULT_TIMES, case_from_params, case_from_sensor, case_mean_square, error_realisation,
     compute_curves, curves_study, time_grid,
 )
 from morpi_filters.errors import MorpiError
@@ -60,7 +60,7 @@ def test_monte_carlo_rms_agrees_with_sigma():
 def test_closed_form_realisation_and_mean_square_by_hand():
     p = params_from_dict(PARAMS)
     t = np.array([2.0])
-    e = closed_form_errors(p.dv0, p.ba, p.bg, 0.05, p.g, 0.5, t, "ins3d")
+    e = error_realisation(p.dv0, p.ba, p.bg, 0.05, p.g, 0.5, t, "ins3d")
     alpha = 9.81 + 0.03  # the paper's alpha = g + b_az for one realisation
     dx = 0.06 * 2 + 0.08 * 2 + alpha * 0.003 * 8 / 6
     dy = 0.03 * 2 + 0.03 * 2 - alpha * 0.002 * 8 / 6
@@ -69,10 +69,10 @@ def test_closed_form_realisation_and_mean_square_by_hand():
     # linearized mean square by hand (alpha = g), b_gz dropped
     ms = ((0.06 ** 2 + 0.03 ** 2) * 4 + (0.08 ** 2 + 0.03 ** 2) * 16 / 4
           + 9.81 ** 2 * (0.002 ** 2 + 0.003 ** 2) * 64 / 36)
-    assert closed_form_mean_square(case, t, "ins3d")[0] == pytest.approx(ms, rel=1e-12)  # the same closed form through two call paths: float rounding
-    assert closed_form_mean_square(case, t, "morpi")[0] == pytest.approx((0.05 * 0.5 * 2) ** 2)  # (dG v t)^2 exactly; pytest's default 1e-6 relative
+    assert case_mean_square(case, t, "ins3d")[0] == pytest.approx(ms, rel=1e-12)  # the same closed form through two call paths: float rounding
+    assert case_mean_square(case, t, "morpi")[0] == pytest.approx((0.05 * 0.5 * 2) ** 2)  # (dG v t)^2 exactly; pytest's default 1e-6 relative
     with pytest.raises(MorpiError, match="kind"):
-        closed_form_mean_square(case, t, "ins4d")
+        case_mean_square(case, t, "ins4d")
 
 
 def test_report_contract(tmp_path):

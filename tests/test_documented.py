@@ -24,3 +24,21 @@ def test_train_gain_returns_a_flat_triple():
     assert len(out) == 3 and isinstance(mean, float) and isinstance(std, float)
     assert per_run.shape == (2,) and std == 0.0 and mean == per_run[0]
 
+
+
+def test_no_two_public_functions_share_a_name():
+    """A function name exported by two modules is one function (one vocabulary across the package)."""
+    import importlib
+    import inspect
+    import pkgutil
+
+    import morpi_filters
+
+    seen = {}
+    for info in pkgutil.walk_packages(morpi_filters.__path__, "morpi_filters."):
+        module = importlib.import_module(info.name)
+        for name in getattr(module, "__all__", ()):
+            obj = getattr(module, name, None)
+            if inspect.isfunction(obj) or inspect.isclass(obj):
+                other = seen.setdefault(name, (info.name, obj))
+                assert other[1] is obj, f"{name}: {other[0]} and {info.name} define different things"

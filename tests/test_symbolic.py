@@ -90,16 +90,16 @@ def test_ode_check_can_fail():
     # Phi of one sign convention against F of another must not satisfy dPhi/dt = F Phi
     s = S.symbols()
     Phi = S.phi_block_form("z_up", time_varying=True)
-    F = S.system_matrix(S.Convention("z_up", 1, 1), time_varying=True)
+    F = S.system_matrix_symbols(S.Convention("z_up", 1, 1), time_varying=True)
     d = Phi.diff(s.t) - F * Phi
     assert not all(sp.expand(e.as_dummy()) == 0 for e in d)
 
 
 def test_F_is_built_from_the_paper_blocks():
-    F = S.system_matrix("z_up")
+    F = S.system_matrix_symbols("z_up")
     C, f = S._generic_C_f(False)
     assert F[0:3, 3:6] == sp.eye(3)
-    assert F[3:6, 6:9] == -S.skew(f)  # -(f^n x), the paper's sign
+    assert F[3:6, 6:9] == -S.skew_symbols(f)  # -(f^n x), the paper's sign
     assert F[3:6, 9:12] == C and F[6:9, 12:15] == C
     assert (F**4).is_zero_matrix and not (F**3).is_zero_matrix
 
@@ -399,7 +399,7 @@ def test_time_varying_block_form_matches_numerical_integration():
     f = sp.Matrix([sp.cos(2 * t) / 2, sp.Rational(1, 5), sp.Rational(981, 100)])
     for conv in (S.Convention("z_up"), S.Convention("z_up", 1, -1)):
         Phi = sp.lambdify(t, S.phi_block_form(conv, C=C, f=f).subs(s.t0, 0), "numpy")
-        Fn = sp.lambdify(t, S.system_matrix(conv, C=C, f=f), "numpy")
+        Fn = sp.lambdify(t, S.system_matrix_symbols(conv, C=C, f=f), "numpy")
         sol = solve_ivp(lambda tt, y: (np.asarray(Fn(tt), float) @ y.reshape(15, 15)).ravel(), (0, 4.0),
                         np.eye(15).ravel(), method="DOP853", rtol=1e-12, atol=1e-14)  # solver tolerances of the reference transition matrix
         ref = sol.y[:, -1].reshape(15, 15)
