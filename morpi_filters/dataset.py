@@ -29,7 +29,7 @@ from .units import G0
 
 __all__ = [
     "COLUMNS", "MIN_SAMPLES", "ACCEL_LIMIT_MPS2", "GYRO_LIMIT_RADPS", "MAX_GAP_S", "TIME_LIMIT_S", "DATA_ENV", "Route", "Recording", "CatalogueEntry",
-    "load_csv", "write_csv", "routes", "route", "catalogue", "load_catalogue",
+    "load_csv", "load_recording", "write_csv", "routes", "route", "catalogue", "load_catalogue",
     "resolve_data_root", "missing_data_message", "check_tree", "PROJECT_DATA",
     "layout", "expected_layout", "layout_problems", "folder_key",
 ]
@@ -570,6 +570,48 @@ def catalogue(root) -> list[CatalogueEntry]:
 
 def _natural_key(stem: str):
     return (0, int(stem), "") if stem.isdigit() else (1, 0, stem)
+
+
+def load_recording(path) -> tuple[Recording, "Route | None"]:
+    """Load one recording by path, with its labels and ground truth read from where it lies.
+
+    A file at ``.../<phone>/<route>[/<split>]/<n>.csv`` of the MoRPI layout
+    gets its phone, route and split and the route's ground truth; anywhere
+    else it loads without labels, with a warning saying so.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    (Recording, Route or None)
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, numpy as np
+    >>> folder = pathlib.Path(tempfile.mkdtemp()) / "s8" / "short_distance" / "test"
+    >>> folder.mkdir(parents=True)
+    >>> t = np.arange(200) * 0.01
+    >>> write_csv(folder / "1.csv", Recording(time=t, f=np.tile([0, 0, 9.8], (200, 1)),
+    ...                                       omega=np.zeros((200, 3)), source="example"))
+    >>> rec, truth = load_recording(folder / "1.csv")
+    >>> rec.phone, rec.route, rec.split, truth.distance_m
+    ('s8', 'short_distance', 'test', 6.3)
+    """
+    import warnings
+
+    path = Path(path)
+    known = routes()
+    for depth in (4, 3):
+        parts = path.resolve().parts[-depth:]
+        labels = _split_parts(Path(*parts)) if len(parts) == depth else None
+        if labels is not None and labels[1] in known:
+            phone, route_name, split = labels
+            return load_csv(path, phone=phone, route=route_name, split=split), known[route_name]
+    warnings.warn(f"{path}: not in the MoRPI layout (<phone>/<route>[/<split>]/<n>.csv): loaded without "
+                  "phone, route, split or ground truth", stacklevel=2)
+    return load_csv(path), None
 
 
 def load_catalogue(root, *, phone=None, route=None, split=None) -> list[Recording]:

@@ -228,6 +228,19 @@ class MorpiTrack:
         """Last position, shape (2,) [m]."""
         return self.position[-1]
 
+    def error(self, route) -> float:
+        """End-point error against a route's ground truth [m] (the tables' measure).
+
+        Parameters
+        ----------
+        route : dataset.Route or str
+            The route or its folder name.
+        """
+        from .dataset import route as route_of
+
+        r = route_of(route) if isinstance(route, str) else route
+        return float(np.linalg.norm(self.end_point - np.asarray(r.end_point_m, float)))
+
 
 # --------------------------------------------------------------------------- signals
 
