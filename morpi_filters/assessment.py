@@ -153,7 +153,7 @@ FIT_PRIOR = {
     "bg_radps": ([0.003, 0.003, 0.002], 0.003),  # ~0.17 deg/s residual
     "morpi_speed_mps": (1.0, 1.0),
 }
-#: Bounds of the fitted components (|value| <=): the paper's turn-on biases (60 mg, 6 deg/s).
+#: Bounds of the fitted components (absolute value at most): the paper's turn-on biases (60 mg, 6 deg/s).
 FIT_BOUNDS = {"dv0_mps": 0.3, "ba_mps2": 0.6, "bg_radps": 0.105, "morpi_speed_mps": (0.1, 3.0)}
 
 

@@ -1,6 +1,6 @@
 """Initial rest detection and zero-order sensor calibration (RD, GC, GAC).
 
-The MoRPI paper [1]_ calibrates every recording on "the first three seconds",
+The MoRPI paper [1] calibrates every recording on "the first three seconds",
 when the robot stands still: the gyro bias is the mean angular rate (GC), and
 with the phone assumed level the accelerometer bias is the mean specific force
 minus local gravity on the z axis (GAC). Several field recordings start moving
@@ -48,17 +48,17 @@ Gravity
 -------
 :data:`LOCAL_GRAVITY` is normal gravity on the WGS84 ellipsoid at the
 experiment site (University of Haifa, latitude 32.8 deg N), from Somigliana's
-closed formula [2]_, computed by :func:`normal_gravity`.
+closed formula [2], computed by :func:`normal_gravity`.
 
 References
 ----------
-.. [1] A. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
-   IEEE Journal of Indoor and Seamless Positioning and Navigation, 2023
-   (sections "Straight Line Trajectory" and "Periodic Motion").
-.. [2] National Imagery and Mapping Agency, "Department of Defense World
-   Geodetic System 1984", NIMA TR8350.2, 3rd ed., 2000, eq. (4-1) and
-   Table 3.4 (normal gravity on the ellipsoid, Somigliana's formula), and
-   eq. (4-3) (its height correction).
+- [1] A. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
+  IEEE Journal of Indoor and Seamless Positioning and Navigation, 2023
+  (sections "Straight Line Trajectory" and "Periodic Motion").
+- [2] National Imagery and Mapping Agency, "Department of Defense World
+  Geodetic System 1984", NIMA TR8350.2, 3rd ed., 2000, eq. (4-1) and
+  Table 3.4 (normal gravity on the ellipsoid, Somigliana's formula), and
+  eq. (4-3) (its height correction).
 """
 from __future__ import annotations
 
@@ -100,11 +100,11 @@ _WGS84_E2 = 6.69437999014e-3              # first eccentricity squared
 def normal_gravity(latitude_deg: float, height_m: float = 0.0) -> float:
     """Normal gravity of the WGS84 ellipsoid [m/s^2].
 
-    Somigliana's closed formula on the ellipsoid ([2]_ eq. 4-1)::
+    Somigliana's closed formula on the ellipsoid ([2] eq. 4-1)::
 
         gamma = gamma_e (1 + k sin^2 phi) / sqrt(1 - e^2 sin^2 phi)
 
-    and, above it, the second-order height correction of [2]_ eq. (4-3)::
+    and, above it, the second-order height correction of [2] eq. (4-3)::
 
         gamma_h = gamma (1 - 2/a (1 + f + m - 2 f sin^2 phi) h + 3 h^2 / a^2)
 
@@ -491,7 +491,7 @@ def calibrate(rec: Recording, mode: str, *, window: RestWindow | None = None,
         ``"RD"``: raw data, no correction. ``"GC"``: gyro bias = mean angular
         rate over the window. ``"GAC"``: GC plus accelerometer bias = mean
         specific force over the window minus ``(0, 0, g_local)`` (the phone is
-        assumed level, z up; paper [1]_).
+        assumed level, z up; paper [1]).
     window : RestWindow, optional
         The window to average over; found with :func:`detect_rest` when None
         (not used for RD).

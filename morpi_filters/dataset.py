@@ -38,12 +38,12 @@ __all__ = [
 COLUMNS = ("time", "f_x", "f_y", "f_z", "g_x", "g_y", "g_z")
 #: Fewest samples a recording may have (1 s at the nominal 100 Hz).
 MIN_SAMPLES = 100
-#: Largest |specific force| accepted [m/s^2]: 16 g, the widest accelerometer full scale of the
+#: Largest absolute specific force accepted [m/s^2]: 16 g, the widest accelerometer full scale of the
 #: two phones' IMUs (LSM6DSL in the Galaxy S8 and MPU-6500 in the S6, as named in the paper:
 #: both datasheets list +-2/4/8/16 g), plus a 5 % margin for scale-factor and offset errors.
 #: No real reading can exceed it; the field recordings peak at about 1 g.
 ACCEL_LIMIT_MPS2 = 16 * G0 * 1.05
-#: Largest |angular rate| accepted [rad/s]: 2000 deg/s, the widest gyro full scale of both
+#: Largest absolute angular rate accepted [rad/s]: 2000 deg/s, the widest gyro full scale of both
 #: IMUs (datasheets: +-125/250/500/1000/2000 deg/s for the LSM6DSL, +-250/.../2000 for the
 #: MPU-6500), plus the same 5 % margin. The field recordings peak at about 12.3 rad/s.
 GYRO_LIMIT_RADPS = 2000 * math.pi / 180 * 1.05
@@ -51,7 +51,7 @@ GYRO_LIMIT_RADPS = 2000 * math.pi / 180 * 1.05
 #: their largest gap is 0.023 s; a gap of 1 s (100 missing samples) means lost data, which the
 #: strapdown integration would bridge with one Euler step and report as motion.
 MAX_GAP_S = 1.0
-#: Largest |time stamp| accepted [s] (about 3 years). Recordings count from the start or from
+#: Largest absolute time stamp accepted [s] (about 3 years). Recordings count from the start or from
 #: the phone's boot; beyond this a float64 time stamp is no plausible clock reading (and its
 #: resolution, 1.5e-8 s at 1e8 s, would start to eat into the 10 ms sample interval).
 TIME_LIMIT_S = 1e8

@@ -7,7 +7,7 @@ The error state (package convention, see :mod:`morpi_filters`) is::
 indexed through the named slices :data:`DP`, :data:`DV`, :data:`EPS`,
 :data:`BA`, :data:`BG`. The navigation frame is z up (gravity
 ``g^n = (0, 0, -g)``, a body at rest has ``f^n = (0, 0, +g)``); earth and
-transport rates are neglected, as in the paper [1]_.
+transport rates are neglected, as in the paper [1].
 
 Sign conventions
 ----------------
@@ -20,7 +20,7 @@ Every error is *computed minus true*:
   the true one (``psi_hat = psi + eps_z``);
 * ``b_a = f_measured - f_true`` and ``b_g = w_measured - w_true`` (body frame).
 
-With these definitions the error dynamics are those of the paper's F [1]_::
+With these definitions the error dynamics are those of the paper's F [1]::
 
     dp_dot  = dv
     dv_dot  = -(f^n x) eps + C b_a + C w_a
@@ -57,12 +57,12 @@ which is the horizontal, heading-only restriction of the 15-state model.
 
 References
 ----------
-.. [1] A. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
-   IEEE J. Indoor and Seamless Positioning and Navigation, 2023.
-.. [2] P. D. Groves, "Principles of GNSS, Inertial, and Multisensor Integrated
-   Navigation Systems", 2nd ed., Artech House, 2013, ch. 14.
-.. [3] C. F. van Loan, "Computing integrals involving the matrix exponential",
-   IEEE Trans. Automatic Control, 23(3), 1978. doi:10.1109/TAC.1978.1101743
+- [1] A. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
+  IEEE J. Indoor and Seamless Positioning and Navigation, 2023.
+- [2] P. D. Groves, "Principles of GNSS, Inertial, and Multisensor Integrated
+  Navigation Systems", 2nd ed., Artech House, 2013, ch. 14.
+- [3] C. F. van Loan, "Computing integrals involving the matrix exponential",
+  IEEE Trans. Automatic Control, 23(3), 1978. doi:10.1109/TAC.1978.1101743
 """
 from __future__ import annotations
 
@@ -169,7 +169,7 @@ def system_matrix(C, f):
     Returns
     -------
     F : ndarray, shape (15, 15) or (n, 15, 15)
-        ``dx_dot = F dx`` with the blocks of the module docstring [1]_.
+        ``dx_dot = F dx`` with the blocks of the module docstring [1].
     """
     C, f = _check_traj(C, f)
     F = np.zeros(C.shape[:-2] + (N_STATES, N_STATES))
@@ -374,7 +374,7 @@ def discretize(F, G, Q, dt):
     Notes
     -----
     With ``M = [[-F, G Q G^T], [0, F^T]] dt`` and ``expm(M) = [[., B12], [0, B22]]``,
-    ``Phi = B22^T`` and ``Qd = Phi B12`` [3]_. ``Qd`` is symmetrized.
+    ``Phi = B22^T`` and ``Qd = Phi B12`` [3]. ``Qd`` is symmetrized.
     """
     F = np.asarray(F, dtype=float)
     G = np.asarray(G, dtype=float)

@@ -53,14 +53,14 @@ Augmented state layout: the 15 core states, then :data:`C_DP` (3),
 
 References
 ----------
-.. [1] A. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
-   IEEE J. Indoor and Seamless Positioning and Navigation, 2023.
-.. [2] R. Labbe, FilterPy, ``filterpy.kalman.KalmanFilter`` (predict/update overrides, Joseph form).
-.. [3] S. I. Roumeliotis and J. W. Burdick, "Stochastic cloning: a generalized
-   framework for processing relative state measurements", ICRA 2002.
-   doi:10.1109/ROBOT.2002.1014801
-.. [4] Y. Bar-Shalom, X. R. Li and T. Kirubarajan, "Estimation with Applications
-   to Tracking and Navigation", Wiley, 2001, sec. 5.4 (NEES, NIS, chi-square bands).
+- [1] A. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
+  IEEE J. Indoor and Seamless Positioning and Navigation, 2023.
+- [2] R. Labbe, FilterPy, ``filterpy.kalman.KalmanFilter`` (predict/update overrides, Joseph form).
+- [3] S. I. Roumeliotis and J. W. Burdick, "Stochastic cloning: a generalized
+  framework for processing relative state measurements", ICRA 2002.
+  doi:10.1109/ROBOT.2002.1014801
+- [4] Y. Bar-Shalom, X. R. Li and T. Kirubarajan, "Estimation with Applications
+  to Tracking and Navigation", Wiley, 2001, sec. 5.4 (NEES, NIS, chi-square bands).
 """
 from __future__ import annotations
 
@@ -600,7 +600,7 @@ def nis(result: FilterResult):
 def chi2_band(dof, runs, confidence=0.95):
     """Two-sided band of the run-averaged NEES/NIS of a consistent filter.
 
-    ``runs * mean`` is chi-square with ``runs * dof`` degrees of freedom [4]_.
+    ``runs * mean`` is chi-square with ``runs * dof`` degrees of freedom [4].
 
     Returns
     -------

@@ -773,7 +773,7 @@ class TablesStudy:
         Label of each cell further than :data:`DEVIATION_PP` from the paper ->
         what its explanation quotes: ``heading_drift_deg`` and
         ``heading_final_deg`` (MoRPI: mean raw-gyro heading drift over the
-        motion, mean |GC heading at the end - the route's turn|), or
+        motion, mean absolute GC heading at the end minus the route's turn), or
         ``tilt_deg``, ``tilt_m`` and ``along_m`` (planar INS after GAC: mean
         tilt about y during the motion, its double-integrated share of
         gravity, mean along-track overshoot).

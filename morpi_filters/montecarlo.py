@@ -67,11 +67,11 @@ Pieces from other modules
 
 References
 ----------
-.. [1] A. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial
-   Navigation," IEEE J. Indoor and Seamless Positioning and Navigation, 2023.
-.. [2] H. Weinberg, "Using the ADXL202 in pedometer and personal navigation
-   applications," Analog Devices AN-602, 2002.
-.. [3] NumPy Enhancement Proposal 19 / SPEC 7: seeding with SeedSequence.spawn.
+- [1] A. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial
+  Navigation," IEEE J. Indoor and Seamless Positioning and Navigation, 2023.
+- [2] H. Weinberg, "Using the ADXL202 in pedometer and personal navigation
+  applications," Analog Devices AN-602, 2002.
+- [3] NumPy Enhancement Proposal 19 / SPEC 7: seeding with SeedSequence.spawn.
 """
 from __future__ import annotations
 
@@ -391,7 +391,7 @@ def reference_gains(cfg: StudyConfig):
 
     Each training run gives ``G_j = D / sum_k df_k`` (D: true peak-to-peak
     distance, df_k: Weinberg term of step k); the reference gain is the mean of
-    the G_j, as in the paper's gain calculation [1]_. Uses one Generator seeded
+    the G_j, as in the paper's gain calculation [1]. Uses one Generator seeded
     with a fixed constant, so the gains are a property of the path and sensor.
 
     Returns
@@ -660,7 +660,7 @@ def run_study(runs: int, seed: int, config: StudyConfig | None = None, *, chunk:
     seed : int
         Study seed; run i uses ``SeedSequence(seed).spawn(N)[i]``.
     config : StudyConfig, optional
-        What to simulate (default: :class:`StudyConfig`()).
+        What to simulate (default: a :class:`StudyConfig` with its defaults).
     chunk : int, optional
         Runs per batch (bounds memory; results do not depend on it). Default:
         as many as fit a 32 MiB noise block.
@@ -995,7 +995,7 @@ def drift_map(gyro_bias=None, *, spec: SensorSpec = MPU6500, duration: float = 1
     level and the accelerometer ones by ``spec.accel_bias``. The strapdown
     integrates the biased IMU at `rate_hz` (no noise); the closed form is the
     small-angle error polynomial of the 15-state model with C = I and
-    f^n = (0, 0, g) [1]_, including the gyro-z terms.
+    f^n = (0, 0, g) [1], including the gyro-z terms.
 
     Parameters
     ----------

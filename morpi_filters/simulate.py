@@ -44,10 +44,10 @@ IMU synthesis
 
 References
 ----------
-.. [1] A. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
-   IEEE Journal of Indoor and Seamless Positioning and Navigation, 2023.
-.. [2] P. D. Groves, "Principles of GNSS, Inertial, and Multisensor Integrated
-   Navigation Systems", 2nd ed., Artech House, 2013 (ch. 4: IMU error model).
+- [1] A. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
+  IEEE Journal of Indoor and Seamless Positioning and Navigation, 2023.
+- [2] P. D. Groves, "Principles of GNSS, Inertial, and Multisensor Integrated
+  Navigation Systems", 2nd ed., Artech House, 2013 (ch. 4: IMU error model).
 """
 from __future__ import annotations
 
@@ -500,7 +500,7 @@ def l_route(legs=(18.0, 10.0), *, turn_deg: float = 90.0, turn_radius: float = 1
     legs : (float, float)
         Leg lengths [m] (the field route: 18 m then 10 m).
     turn_deg : float
-        Heading change [deg], positive to the left, 0 < |turn_deg| < 180.
+        Heading change [deg], positive to the left, 0 < abs(turn_deg) < 180.
     turn_radius : float
         Radius of the turn's constant-curvature part [m]; curvature ramps in
         and out over a third of the turn's arc length each side.
@@ -728,7 +728,7 @@ def imu(traj: Trajectory, spec: units.SensorSpec, rng, *, runs: int | None = Non
         omega = (1 + s_g) * M^T omega_b + b_g + b_g(t) + v_g(t) + sigma_g,k z
 
     (``b(t)``: bias random walk plus Gauss-Markov bias instability, ``v(t)``:
-    vibration while moving) and the model of [2]_ for the rest.
+    vibration while moving) and the model of [2] for the rest.
 
     with ``sigma_k = density / sqrt(dt_k)`` the white-noise standard deviation
     of sample k from its actual interval ``dt_k`` (the interval before it;

@@ -2,7 +2,7 @@
 
 The error state is ``[dp(3), dv(3), eps(3), b_a(3), b_g(3)]`` (navigation frame
 for dp, dv, eps; body frame for the biases). Earth and transport rates are
-neglected, as in the paper's analytical assessment [1]_. The system matrix is
+neglected, as in the paper's analytical assessment [1]. The system matrix is
 built from its blocks::
 
         [ 0  I   0            0   0        ]
@@ -12,7 +12,7 @@ built from its blocks::
         [ 0  0   0            0   0        ]
 
 The paper prints ``sm = -1`` (``-(f^n x)``) and ``sg = +1`` (``eps_dot = C b_g``);
-Titterton and Weston [2]_ write ``sm = +1`` and ``sg = -1`` with the opposite
+Titterton and Weston [2] write ``sm = +1`` and ``sg = -1`` with the opposite
 definition of the misalignment. Both describe the same physics: the product
 ``k = sm * sg = -1`` is what a real strapdown does (a pair with ``k = +1``
 contradicts the nonlinear mechanization; it is kept only so that the audit can
@@ -50,12 +50,12 @@ more than ``import sympy`` (``benchmarks/bench_symbolic.py``).
 
 References
 ----------
-.. [1] A. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
-   IEEE J-ISPIN, 2023, section "Analytical Assessment".
-.. [2] D. H. Titterton and J. L. Weston, *Strapdown Inertial Navigation
-   Technology*, 2nd ed., IET, 2004, ch. 12.
-.. [3] J. A. Farrell, *Aided Navigation: GPS with High Rate Sensors*,
-   McGraw-Hill, 2008.
+- [1] A. Etzion and I. Klein, "MoRPI: Mobile Robot Pure Inertial Navigation",
+  IEEE J-ISPIN, 2023, section "Analytical Assessment".
+- [2] D. H. Titterton and J. L. Weston, *Strapdown Inertial Navigation
+  Technology*, 2nd ed., IET, 2004, ch. 12.
+- [3] J. A. Farrell, *Aided Navigation: GPS with High Rate Sensors*,
+  McGraw-Hill, 2008.
 """
 from __future__ import annotations
 
@@ -96,7 +96,7 @@ class Convention:
         ``dv_dot = misalignment_sign * (f^n x) eps + C b_a``; the paper prints -1.
     gyro_sign : {-1, +1}
         ``eps_dot = gyro_sign * C b_g``; the paper prints +1 (b_g measured minus
-        true with eps defined by ``C_est = (I + eps x) C``); -1 in [2]_.
+        true with eps defined by ``C_est = (I + eps x) C``); -1 in [2].
     """
 
     gravity: str = "z_up"

@@ -9,9 +9,9 @@ module                    writes                                               f
 ========================  ===================================================  ==========================
 :mod:`.tables`            ``tables/``: the paper's tables on the recordings     ``evaluate.tables_study``
 :mod:`.assessment`        ``assessment/``: closed-form assessment, audit        ``assessment.assessment_study``
-:mod:`.curves`            ``curves/``: covariance curves, MoRPI-aided INS       ``curves.curves_study``
-:mod:`.montecarlo`        ``montecarlo/`` and ``drift/``                        ``montecarlo.gain_error_page``,
-                                                                               ``montecarlo.drift_page``
+:mod:`.curves`            ``curves/``: covariance curves                        ``curves.curves_study``
+:mod:`.aided`             ``aided/``: the MoRPI-aided filter on the field       ``field_aided.aided_study``
+:mod:`.montecarlo`        ``montecarlo/`` and ``drift/``                        ``gain_error_page``, ``drift_page``
 :mod:`.index`             ``index.md``                                          the sections' summaries
 ========================  ===================================================  ==========================
 
