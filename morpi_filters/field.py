@@ -18,7 +18,6 @@ import numpy as np
 
 from . import dataset as ds
 from . import steps as st
-from . import units
 from .errors import MorpiError
 
 __all__ = ["SHORT_SETS", "RULES", "INS_SPANS", "LEVELED", "Gain", "Selection", "FieldData", "select_config",
@@ -112,6 +111,8 @@ class FieldData:
         self._rec: dict = {}
         self._cal: dict = {}
         self._prep: dict = {}
+        #: Per-recording results of the studies built on this data (keyed by the study), reused across cells.
+        self.study_cache: dict = {}
         self._ins: dict = {}
         self._steps: dict = {}
         self._peaks: dict = {}

@@ -190,15 +190,15 @@ def prepare(data, rec, mode, method, config, gain) -> Prepared:
     from .strapdown import coarse_level
 
     key = (rec.source, mode, method, config, float(gain), "aided")
-    cache = data._prep
+    cache = data.study_cache
     if key in cache:
         return cache[key]
     crec, _ = data.calibrated(rec, mode)
     w = data.rest_window(rec)
     f_rest = crec.f[w.i0:w.i1].mean(axis=0)
-    # the robot stands before and after its motion (the gyro's vibration says when), and only where the
-    # gyro is as quiet as in the initial rest (the phone is handled after some runs); before the motion the calibration's own rest window (the stretch up to the onset may carry the
-    # motors' start), after it every still stretch
+    # rest updates: before the motion the calibration's own rest window (the stretch up to the onset may
+    # carry the motors' start), after it every stretch where the gyro is as quiet as at rest (the phone
+    # is handled after some runs)
     after = still_spans(crec.time, crec.omega, data.activity(rec), (w.i0, w.i1))
     rest = ((float(w.start_s), float(w.end_s)),) + tuple(s for s in after if s[0] > w.end_s)
     s = data.steps(rec, mode, method, config)
@@ -232,13 +232,15 @@ def _candidates():
     return [dict(zip(keys, vals)) for vals in product(*(GRID[k] for k in keys))]
 
 
-def _prepared_runs(data, phone, route, split, mode, method, config, gain):
+def _prepared_runs(data, phone, route, split, mode, method, config, gain, failed=None):
+    """The folder's recordings prepared for the filter; those without steps go to `failed` (one line each)."""
     out = []
     for rec in data.recordings(phone, route, split):
         try:
             out.append(prepare(data, rec, mode, method, config, gain))
-        except MorpiError:
-            continue
+        except MorpiError as exc:
+            if failed is not None:
+                failed.append(str(exc))
     return out
 
 
@@ -364,6 +366,8 @@ class AidedCell:
         Measurement name -> (mean NIS per update, dof).
     paths : tuple
         Per run: (epoch time, forward xy, smoothed xy, MoRPI xy, forward P_xy) for figures.
+    failed : tuple of str
+        Runs of the tables' cell the filter could not run, one line each.
     """
 
     spec: object
@@ -378,6 +382,7 @@ class AidedCell:
     train_morpi_percent: float
     nis: dict
     paths: tuple
+    failed: tuple = ()
 
     @property
     def label(self) -> str:
@@ -460,17 +465,21 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
         choice = chosen[key]
         score, info, noise = choice.score_percent, choice.info, choice.noise
         by_file = {r.file: r for r in cell.runs}
+        failed = []
         runs = [p for p in _prepared_runs(data, sp.phone, sp.route, sp.split, sp.calibration, sp.method, config,
-                                          g.mean) if p.rel in by_file]
+                                          g.mean, failed) if p.rel in by_file]
+        # every run of the tables' cell is evaluated, or named
+        failed += [f"{rel}: not prepared for the aided filter" for rel in sorted(set(by_file) - {p.rel for p in runs})
+                   if not any(rel in m for m in failed)]
         if runs:
-            todo.append((cell, g, score, info, noise, runs, by_file, choice))
+            todo.append((cell, g, score, info, noise, runs, by_file, choice, tuple(failed)))
     if not todo:
         return AidedStudy((), (), float("nan"), {}, note="No MoRPI table cell could be evaluated on these recordings.")
     # one pass per route: every cell's test runs (smoothed) and, for the GC cells, each aid removed in turn
     results, abl_res = {}, {}
     for route in sorted({c.spec.route for c, *_ in todo}):
         items = []
-        for i, (cell, g, score, info, noise, runs, by_file, _) in enumerate(todo):
+        for i, (cell, g, score, info, noise, runs, by_file, _, _) in enumerate(todo):
             if cell.spec.route != route:
                 continue
             base = _tuning(noise, info, g.std / g.mean)
@@ -487,7 +496,7 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
                 abl_res[(i, p.rel, name)] = r
     cells, abl, nis_all = [], [], {}
     inside = total = 0
-    for i, (cell, g, score, info, noise, runs, by_file, choice) in enumerate(todo):
+    for i, (cell, g, score, info, noise, runs, by_file, choice, failed) in enumerate(todo):
         sp = cell.spec
         truth = ds.route(sp.route)
         d = truth.distance_m / 100
@@ -521,7 +530,7 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
                     "rest_gyro_noise": noise[2], "gyro_walk": noise[3], "accel_jump": noise[4],
                     "gain_sigma": g.std / g.mean if info["gain_state"] else 0.0},
             train_percent=score, train_loo_percent=choice.loo_percent, train_morpi_percent=choice.morpi_percent,
-            nis={k: (v[0] / max(v[1], 1), v[2]) for k, v in nis.items()}, paths=tuple(paths)))
+            nis={k: (v[0] / max(v[1], 1), v[2]) for k, v in nis.items()}, paths=tuple(paths), failed=failed))
         if ablation and sp.calibration == "GC":
             for name, change in ABLATIONS.items():
                 if not change:

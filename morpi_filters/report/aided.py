@@ -36,7 +36,7 @@ def study_json(study) -> dict:
                       "ins_percent": c.ins_percent, "train_percent": c.train_percent,
                       "train_loo_percent": c.train_loo_percent, "train_morpi_percent": c.train_morpi_percent,
                       "nis": _nis(c.nis),
-                      "runs": list(c.runs)})
+                      "runs": list(c.runs), "failed": list(c.failed)})
     return {"cells": cells, "ablation": list(study.ablation), "coverage_95": study.coverage_95,
             "nis": _nis(study.nis), "note": study.note,
             "tunables": {"grid": {k: list(v) for k, v in field_aided.GRID.items()},
