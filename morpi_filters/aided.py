@@ -79,6 +79,13 @@ def kf_predict(x, P, Phi, Q):
     Returns
     -------
     (x, P)
+
+    Examples
+    --------
+    >>> Phi = np.array([[[1.0, 1.0], [0.0, 1.0]]])          # position integrates velocity over 1 s
+    >>> x, P = kf_predict(np.array([[0.0, 1.0]]), np.eye(2)[None], Phi, np.zeros((1, 2, 2)))
+    >>> x.tolist(), P[0].tolist()
+    ([[1.0, 1.0]], [[2.0, 1.0], [1.0, 1.0]])
     """
     x = np.einsum("bij,bj->bi", Phi, x)
     P = Phi @ P @ np.swapaxes(Phi, 1, 2) + Q
@@ -359,7 +366,14 @@ class AidTuning:
                 raise ParameterError(f"AidTuning.{k}={getattr(self, k)!r}: expected a value > 0")
 
     def with_(self, **kw) -> "AidTuning":
-        """A copy with some fields changed."""
+        """A copy with some fields changed.
+
+        Examples
+        --------
+        >>> t = AidTuning(step_sigma=0.02).with_(nhc=False)
+        >>> t.step_sigma, t.nhc
+        (0.02, False)
+        """
         from dataclasses import replace
 
         return replace(self, **kw)

@@ -121,6 +121,11 @@ def normal_gravity(latitude_deg: float, height_m: float = 0.0) -> float:
     -------
     float
         Normal gravity [m/s^2].
+
+    Examples
+    --------
+    >>> round(normal_gravity(0.0), 4), round(normal_gravity(90.0), 4)   # WGS84: equator and pole
+    (9.7803, 9.8322)
     """
     if not (-90.0 <= latitude_deg <= 90.0) or not math.isfinite(latitude_deg):
         raise MorpiError(f"latitude_deg={latitude_deg!r}: expected a latitude in [-90, 90] degrees")

@@ -494,7 +494,14 @@ def routes() -> dict[str, Route]:
 
 
 def route(name: str) -> Route:
-    """Ground truth of one route (see :func:`routes`)."""
+    """Ground truth of one route (see :func:`routes`).
+
+    Examples
+    --------
+    >>> r = route("short_distance")
+    >>> r.kind, r.distance_m, r.p2p_m, r.end_point_m.tolist()
+    ('periodic', 6.3, 1.0, [6.3, 0.0])
+    """
     r = routes()
     if name not in r:
         raise MorpiError(f"route {name!r}: unknown, expected one of {sorted(r)}")

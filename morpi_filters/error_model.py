@@ -132,6 +132,11 @@ def skew(v):
     -------
     ndarray, shape (3, 3) or (n, 3, 3)
         ``skew(v) @ u == cross(v, u)``.
+
+    Examples
+    --------
+    >>> (skew([1.0, 2.0, 3.0]) @ [4.0, 5.0, 6.0]).tolist()     # the cross product
+    [-3.0, 6.0, -3.0]
     """
     v = np.asarray(v, dtype=float)
     if v.shape[-1] != 3:

@@ -164,7 +164,14 @@ class CellSpec:
 
 
 def cell_specs() -> list[CellSpec]:
-    """The 32 cells with their data sources."""
+    """The 32 cells with their data sources.
+
+    Examples
+    --------
+    >>> specs = cell_specs()
+    >>> len(specs), specs[0].label
+    (32, 'ins_straight s8 INS-3D RD')
+    """
     out = []
     for table, phone, p2p, method, cal, pct in PAPER_CELLS:
         if table == "ins_straight":

@@ -374,6 +374,11 @@ def weinberg_length(vmax, vmin, gain):
     -------
     ndarray
         Step lengths [m].
+
+    Examples
+    --------
+    >>> float(weinberg_length(3.0, -13.0, 0.5))     # 0.5 * 16 ** 0.25
+    1.0
     """
     d = np.asarray(vmax, dtype=float) - np.asarray(vmin, dtype=float)
     if np.any(d < 0):
@@ -653,7 +658,13 @@ def train_gain(steps_list, distances):
 
 
 def dead_reckon(length, heading, p0=(0.0, 0.0)):
-    """Positions ``x += s cos(dpsi), y += s sin(dpsi)``, shape (k + 1, 2) [m]."""
+    """Positions ``x += s cos(dpsi), y += s sin(dpsi)``, shape (k + 1, 2) [m].
+
+    Examples
+    --------
+    >>> dead_reckon([1.0, 2.0], [0.0, np.pi / 2]).round(12).tolist()
+    [[0.0, 0.0], [1.0, 0.0], [1.0, 2.0]]
+    """
     length = np.asarray(length, float)
     heading = np.asarray(heading, float)
     d = np.column_stack([length * np.cos(heading), length * np.sin(heading)])

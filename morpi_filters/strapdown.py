@@ -123,6 +123,12 @@ def rotvec_to_C(phi) -> np.ndarray:
     ndarray, shape (..., 3, 3)
         ``I + a [phi x] + b [phi x]^2`` with ``a = sin(t)/t``,
         ``b = (1 - cos(t))/t^2``, ``t = |phi|`` (Taylor series for small t).
+
+    Examples
+    --------
+    >>> C = rotvec_to_C([0.0, 0.0, np.pi / 2])      # a quarter turn about z
+    >>> (C @ [1.0, 0.0, 0.0]).round(12).tolist()
+    [0.0, 1.0, 0.0]
     """
     phi = np.asarray(phi, dtype=float)
     t2 = np.einsum("...i,...i->...", phi, phi)
@@ -182,6 +188,11 @@ def coarse_level(f_rest) -> np.ndarray:
     Returns
     -------
     C_bn : ndarray, shape (3, 3)
+
+    Examples
+    --------
+    >>> bool(np.allclose(coarse_level([0.0, 0.0, 9.81]), np.eye(3)))   # a level phone
+    True
     """
     f = np.asarray(f_rest, dtype=float)
     if f.shape != (3,) or not np.all(np.isfinite(f)) or not np.linalg.norm(f) > 0:
@@ -296,6 +307,11 @@ def integrate_rate(time, rate, x0=0.0) -> np.ndarray:
     -------
     ndarray, shape (..., n)
         The integral [unit], ``x0`` at ``time[0]``.
+
+    Examples
+    --------
+    >>> integrate_rate([0.0, 0.5, 2.0], [0.1, 0.1, 0.1]).round(12).tolist()
+    [0.0, 0.05, 0.2]
     """
     time = _check_time(time)
     r = np.asarray(rate, dtype=float)

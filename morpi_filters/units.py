@@ -133,7 +133,13 @@ SENSORS = {"s6": MPU6500, "s8": LSM6DSL}
 
 
 def sensor_for_phone(phone: str) -> SensorSpec:
-    """Return the datasheet spec of a dataset phone (``"s6"`` or ``"s8"``)."""
+    """Return the datasheet spec of a dataset phone (``"s6"`` or ``"s8"``).
+
+    Examples
+    --------
+    >>> sensor_for_phone("s8").name, sensor_for_phone("s6").name
+    ('LSM6DSL', 'MPU-6500')
+    """
     from .errors import MorpiError
 
     try:
