@@ -110,6 +110,12 @@ def kf_update(x, P, y, H, R):
     Returns
     -------
     (x, P, S)
+
+    Examples
+    --------
+    >>> x, P, S = kf_update(np.zeros((1, 1)), np.eye(1)[None], np.ones((1, 1)), np.eye(1)[None], np.eye(1)[None])
+    >>> x.tolist(), P.tolist(), S.tolist()       # equal prior and measurement variances: half way
+    ([[0.5]], [[[0.5]]], [[[2.0]]])
     """
     Ht = np.swapaxes(H, 1, 2)
     PHt = P @ Ht
@@ -537,6 +543,15 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
     Returns
     -------
     list of AidedResult
+
+    Examples
+    --------
+    >>> t = np.arange(301) * 0.01                     # three seconds standing still
+    >>> still = AidedInput(time=t, f=np.tile([0.0, 0.0, 9.8], (301, 1)), omega=np.zeros((301, 3)), C0=np.eye(3),
+    ...                    g=9.8, rest=((0.0, 3.0),))
+    >>> (r,) = run_batch([still], AidTuning())
+    >>> r.end_point.tolist(), sorted(r.nis)
+    ([0.0, 0.0], ['zero rate', 'zero velocity'])
     """
     inputs = list(inputs)
     B = len(inputs)

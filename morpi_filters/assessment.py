@@ -88,7 +88,13 @@ def _symbolic():
 
 
 def morpi_distance_error(dG: float, speed_mps: float, times) -> np.ndarray:
-    """MoRPI-A distance error ``dG * v * t`` [m], shape (n,)."""
+    """MoRPI-A distance error ``dG * v * t`` [m], shape (n,).
+
+    Examples
+    --------
+    >>> morpi_distance_error(0.1, 0.5, [0.0, 2.0]).tolist()      # 10 % of 1 m
+    [0.0, 0.1]
+    """
     return float(dG) * float(speed_mps) * np.asarray(times, dtype=float)
 
 

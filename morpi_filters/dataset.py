@@ -482,7 +482,14 @@ def _routes_file() -> dict:
 
 
 def routes() -> dict[str, Route]:
-    """Ground truth of every route, by route folder name."""
+    """Ground truth of every route, by route folder name.
+
+    Examples
+    --------
+    >>> r = routes()
+    >>> len(r), r["long_distance"].distance_m
+    (6, 13.0)
+    """
     out = {}
     for name, r in _routes_file()["routes"].items():
         out[name] = Route(name=name, kind=r["kind"], environment=r["environment"], p2p_m=r["p2p_m"],
@@ -509,7 +516,14 @@ def route(name: str) -> Route:
 
 
 def layout() -> dict[str, int]:
-    """Expected folders of the MoRPI dataset and their number of runs."""
+    """Expected folders of the MoRPI dataset and their number of runs.
+
+    Examples
+    --------
+    >>> folders = layout()
+    >>> folders["s8/short_distance/test"], sum(folders.values())
+    (11, 143)
+    """
     return {k: v["runs"] for k, v in _routes_file()["layout"].items()}
 
 
@@ -541,7 +555,13 @@ def resolve_data_root(data=None, *, required: bool = True) -> Path | None:
 
 
 def missing_data_message() -> str:
-    """How to get the field recordings, in one sentence."""
+    """How to get the field recordings, in one sentence.
+
+    Examples
+    --------
+    >>> "morpi data fetch" in missing_data_message()
+    True
+    """
     return _HOW_TO_GET
 
 
@@ -655,7 +675,13 @@ def expected_layout(root) -> dict[str, int]:
 
 
 def folder_key(phone: str, route_name: str, split: str | None) -> str:
-    """The layout name of a folder: ``phone/route[/split]``."""
+    """The layout name of a folder: ``phone/route[/split]``.
+
+    Examples
+    --------
+    >>> folder_key("s8", "short_distance", "test"), folder_key("s6", "L_line", None)
+    ('s8/short_distance/test', 's6/L_line')
+    """
     return "/".join([phone, route_name] + ([split] if split else []))
 
 

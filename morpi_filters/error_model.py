@@ -175,6 +175,12 @@ def system_matrix(C, f):
     -------
     F : ndarray, shape (15, 15) or (n, 15, 15)
         ``dx_dot = F dx`` with the blocks of the module docstring [1].
+
+    Examples
+    --------
+    >>> F = system_matrix(np.eye(3), [0.0, 0.0, 9.8])
+    >>> F.shape, float(F[0, 3]), float(F[3, 7])      # dp' = dv; dv'_x = g * eps_y (z up)
+    ((15, 15), 1.0, 9.8)
     """
     C, f = _check_traj(C, f)
     F = np.zeros(C.shape[:-2] + (N_STATES, N_STATES))
@@ -232,6 +238,13 @@ def noise_density(spec, accel_bias_walk=0.0, gyro_bias_walk=0.0):
     -------
     Q : ndarray, shape (12, 12)
         Diagonal, in the order of :func:`noise_coupling`.
+
+    Examples
+    --------
+    >>> from morpi_filters.units import LSM6DSL
+    >>> Q = noise_density(LSM6DSL)
+    >>> Q.shape, bool(Q[0, 0] == LSM6DSL.accel_noise ** 2)
+    ((12, 12), True)
     """
     q = [_nonneg("accel_noise", spec.accel_noise), _nonneg("gyro_noise", spec.gyro_noise),
          _nonneg("accel_bias_walk", accel_bias_walk), _nonneg("gyro_bias_walk", gyro_bias_walk)]

@@ -220,6 +220,12 @@ def initial_covariance(dv0=0.0, ba=0.0, bg=0.0, dp0=0.0, eps0=0.0):
     Returns
     -------
     P0 : ndarray, shape (15, 15)
+
+    Examples
+    --------
+    >>> P0 = initial_covariance(dv0=0.1)
+    >>> P0.shape, float(P0[3, 3]), float(P0[0, 0])
+    ((15, 15), 0.010000000000000002, 0.0)
     """
     from .error_model import BA, BG, DV
 
@@ -605,6 +611,11 @@ def chi2_band(dof, runs, confidence=0.95):
     Returns
     -------
     (lo, hi) : tuple of float
+
+    Examples
+    --------
+    >>> [round(float(v), 3) for v in chi2_band(2, 100)]
+    [1.627, 2.411]
     """
     a = (1.0 - confidence) / 2.0
     return (chi2.ppf(a, runs * dof) / runs, chi2.ppf(1.0 - a, runs * dof) / runs)

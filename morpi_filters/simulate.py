@@ -431,6 +431,12 @@ def straight(length: float = 6.3, *, speed: float = _SPEED["straight"], ramp: fl
     Returns
     -------
     Trajectory
+
+    Examples
+    --------
+    >>> traj = straight(6.3)
+    >>> round(float(traj.position[-1, 0]), 9), float(traj.velocity[-1, 0])    # ends at rest, 6.3 m along x
+    (6.3, 0.0)
     """
     length = _positive("length", length)
     return _build("straight", _Path((length, 0.0), 0.0, 1.0, 0.0, 0.0, None, None, None),
@@ -477,6 +483,12 @@ def sine(length: float = 6.3, *, period: float = 1.0, amplitude: float = 0.1, sp
     -------
     Trajectory
         With ``peak_times`` the times of the lateral extremes.
+
+    Examples
+    --------
+    >>> traj = sine(6.3, period=1.0, amplitude=0.1)
+    >>> round(float(traj.position[-1, 0]), 9), round(float(abs(traj.position[:, 1]).max()), 3)
+    (6.3, 0.1)
     """
     length = _positive("length", length)
     period, amplitude, taper = _check_sine(period, amplitude, taper, length)
@@ -516,6 +528,11 @@ def l_route(legs=(18.0, 10.0), *, turn_deg: float = 90.0, turn_radius: float = 1
     Returns
     -------
     Trajectory
+
+    Examples
+    --------
+    >>> l_route().position[-1, :2].round(9).tolist()   # 18 m along x, then 10 m across
+    [18.0, 10.0]
     """
     try:
         legs = tuple(float(v) for v in legs)

@@ -129,7 +129,13 @@ class StepConfig:
             raise MorpiError(f"StepConfig.cutoff_hz={self.cutoff_hz}: expected None or 0 < f < {GRID_HZ / 2} Hz")
 
     def with_(self, **kw) -> "StepConfig":
-        """A copy with some fields changed."""
+        """A copy with some fields changed.
+
+    Examples
+    --------
+    >>> StepConfig().with_(prominence=0.3).prominence
+    0.3
+    """
         return replace(self, **kw)
 
 
@@ -259,6 +265,12 @@ def resample_uniform(time, values, rate_hz: float = GRID_HZ):
     grid : ndarray, shape (m,)
         ``time[0] + j / rate_hz`` up to ``time[-1]`` [s].
     out : ndarray, shape (m,) or (m, k)
+
+    Examples
+    --------
+    >>> grid, x = resample_uniform([0.0, 0.015, 0.03], [0.0, 1.5, 3.0])
+    >>> grid.round(12).tolist(), x.round(12).tolist()
+    ([0.0, 0.01, 0.02, 0.03], [0.0, 1.0, 2.0, 3.0])
     """
     time = np.asarray(time, dtype=float)
     values = np.asarray(values, dtype=float)
@@ -282,7 +294,13 @@ def _median(x) -> float:
 
 
 def lowpass(x, cutoff_hz: float, rate_hz: float = GRID_HZ, order: int = 2):
-    """Zero-phase Butterworth low-pass of a uniformly sampled signal (axis 0)."""
+    """Zero-phase Butterworth low-pass of a uniformly sampled signal (axis 0).
+
+    Examples
+    --------
+    >>> float(lowpass(np.ones(200), 1.0)[100].round(6))      # a constant passes unchanged
+    1.0
+    """
     sos = _butter(int(order), float(cutoff_hz), float(rate_hz))
     if x.shape[0] <= 3 * (2 * sos.shape[0] + 1):
         return np.asarray(x, dtype=float)
@@ -391,6 +409,11 @@ def integrate_heading(time, omega_z, psi0: float = 0.0):
 
     The rule of the INS (:func:`morpi_filters.strapdown.integrate_rate`), so
     MoRPI and the planar INS read the same gyro the same way.
+
+    Examples
+    --------
+    >>> integrate_heading([0.0, 1.0, 2.0], [0.1, 0.1, 0.1]).round(12).tolist()
+    [0.0, 0.1, 0.2]
     """
     from .strapdown import integrate_rate
 
@@ -676,6 +699,16 @@ def dead_reckon(length, heading, p0=(0.0, 0.0)):
 
 
 def morpi_track(steps: Steps, gain: float) -> MorpiTrack:
-    """Dead-reckon a run's steps with a trained gain."""
+    """Dead-reckon a run's steps with a trained gain.
+
+    Examples
+    --------
+    >>> from morpi_filters import simulate, units
+    >>> traj = simulate.sine(6.3, period=1.0, amplitude=0.1)
+    >>> rec = simulate.imu(traj, units.LSM6DSL, np.random.default_rng(0), bias_scale=(0.0, 0.0)).recording()
+    >>> track = morpi_track(extract_steps(rec, "MoRPI-G", DEFAULT_CONFIGS["MoRPI-G"]), gain=1.0)
+    >>> track.position.shape[1], track.length.shape == track.steps.weight.shape
+    (2, True)
+    """
     length = gain * steps.weight * steps.fraction
     return MorpiTrack(steps=steps, gain=float(gain), length=length, position=dead_reckon(length, steps.heading))

@@ -398,6 +398,13 @@ def ins3d(time, f, omega, *, C0=None, v0=None, p0=None, g: float = units.G0) -> 
     The loop runs over time only; all runs advance together.
     Memory: ``C_bn`` holds ``runs * n * 9`` floats; chunk large Monte Carlo
     batches.
+
+    Examples
+    --------
+    >>> t = np.arange(101) * 0.01                     # one second at rest, level, exact gravity
+    >>> r = ins3d(t, np.tile([0.0, 0.0, 9.80665], (101, 1)), np.zeros((101, 3)), g=9.80665)
+    >>> r.position.shape, float(np.abs(r.position).max())
+    ((101, 3), 0.0)
     """
     time = _check_time(time)
     n = time.shape[0]

@@ -135,7 +135,13 @@ class Convention:
 
 def convention(spec="z_up") -> Convention:
     """Parse a convention: a :class:`Convention`, ``"z_up"``, ``"z_down"`` or a
-    :attr:`Convention.name` such as ``"z_up,mis+1,gyro-1"``."""
+    :attr:`Convention.name` such as ``"z_up,mis+1,gyro-1"``.
+
+    Examples
+    --------
+    >>> convention("z_up").gravity, convention("z_down").gravity
+    ('z_up', 'z_down')
+    """
     if isinstance(spec, Convention):
         return spec
     if not isinstance(spec, str):
@@ -194,7 +200,16 @@ def symbols() -> _Symbols:
 
 
 def skew_symbols(v) -> sp.Matrix:
-    """The cross-product matrix ``(v x)`` of a 3-vector: ``skew_symbols(a) * b = a x b``."""
+    """The cross-product matrix ``(v x)`` of a 3-vector: ``skew_symbols(a) * b = a x b``.
+
+    Examples
+    --------
+    >>> skew_symbols([1, 2, 3]) * sp.Matrix([4, 5, 6])      # the cross product
+    Matrix([
+    [-3],
+    [ 6],
+    [-3]])
+    """
     x, y, z = v
     return sp.Matrix([[0, -z, y], [z, 0, -x], [-y, x, 0]])
 

@@ -20,9 +20,7 @@ def report_assessment(out, study: AssessmentStudy) -> SectionSummary:
     improvements, what they determine), ``audit.md`` (generated audit of the
     printed equations), ``result.json`` and ``assessment.png``.
 
-    result.json
-    -----------
-    ``times`` [s]; ``e3d_m``, ``e2d_m`` (derivation, b_gz terms dropped as in
+    What ``result.json`` holds: ``times`` [s]; ``e3d_m``, ``e2d_m`` (derivation, b_gz terms dropped as in
     the paper); ``morpi_m`` {str(dG): list}; ``convention``; plus
     ``e3d_bgz_m``, ``e2d_bgz_m`` (b_gz kept), ``params`` (SI, as read),
     ``improvements`` (paper vs ours), ``audit`` (discrepancy list).

@@ -23,7 +23,13 @@ def banner(source) -> str:
 
 
 def fmt(x, digits: int = 2) -> str:
-    """Format a number for a markdown table (``-`` for None or NaN)."""
+    """Format a number for a markdown table (``-`` for None or NaN).
+
+    Examples
+    --------
+    >>> fmt(3.14159), fmt(None), fmt(float("nan"))
+    ('3.14', '-', '-')
+    """
     if x is None:
         return "-"
     try:
@@ -36,7 +42,15 @@ def fmt(x, digits: int = 2) -> str:
 
 
 def md_table(headers, rows) -> str:
-    """A GitHub markdown table from a header list and rows of cells."""
+    """A GitHub markdown table from a header list and rows of cells.
+
+    Examples
+    --------
+    >>> print(md_table(["method", "error %"], [["MoRPI-G", "4.22"]]).rstrip())
+    | method | error % |
+    |---|---|
+    | MoRPI-G | 4.22 |
+    """
     head = "| " + " | ".join(str(h) for h in headers) + " |"
     sep = "|" + "|".join("---" for _ in headers) + "|"
     body = ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
