@@ -402,7 +402,7 @@ def ins3d(time, f, omega, *, C0=None, v0=None, p0=None, g: float = units.G0) -> 
     Examples
     --------
     >>> t = np.arange(101) * 0.01                     # one second at rest, level, exact gravity
-    >>> r = ins3d(t, np.tile([0.0, 0.0, 9.80665], (101, 1)), np.zeros((101, 3)), g=9.80665)
+    >>> r = ins3d(t, np.tile([0.0, 0.0, units.G0], (101, 1)), np.zeros((101, 3)), g=units.G0)
     >>> r.position.shape, float(np.abs(r.position).max())
     ((101, 3), 0.0)
     """
