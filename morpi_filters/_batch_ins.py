@@ -1,9 +1,10 @@
 """Batched strapdown kernel of the Monte Carlo gain-error study.
 
-The INS errors of a level straight line, vectorized over runs: time-major
-planes ``(n, R)`` (n samples, R runs), a quaternion attitude step and
-trapezoid integration. It does what :func:`morpi_filters.strapdown.ins3d` and
-:func:`morpi_filters.strapdown.ins2d` do for that case without keeping every
+The horizontal INS positions of a level path that starts along x (C_bn = I
+at the start: the study's sine path or straight line), vectorized over runs:
+time-major planes ``(n, R)`` (n samples, R runs), a quaternion attitude step
+and trapezoid integration. It does what :func:`morpi_filters.strapdown.ins3d`
+and :func:`morpi_filters.strapdown.ins2d` do for that case without keeping every
 C_bn matrix (the general strapdown costs about 8 times the drawing of the
 random numbers); the tests check it against them. Every operation is
 elementwise over runs in a fixed order, so a run's result does not depend on
@@ -14,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["quat_increments", "attitude_blocks", "attitude", "prefix_rows", "cos_sin", "double_integral_at",
-           "straight_errors_3d", "straight_errors_2d"]
+           "horizontal_3d", "horizontal_2d"]
 
 
 def quat_increments(wx, wy, wz, h):
@@ -172,14 +173,15 @@ def double_integral_at(a, h, keep):
     return out
 
 
-def straight_errors_3d(h, f, w, keep):
-    """Horizontal position of a 3D strapdown from rest, for a level straight line (C_bn = I).
+def horizontal_3d(h, f, w, keep):
+    """Horizontal position of a 3D strapdown from rest, starting at C_bn = I.
 
-    The truth has C_bn = I and no rotation, so the horizontal position is the
-    double integral of ``C f`` with C propagated from the measured rates
-    (exact rotation by the trapezoid mean rate of each interval) and
-    trapezoid integration (:func:`double_integral_at`);
-    the caller subtracts the same integral of the true ``f``. It agrees with
+    The horizontal position is the double integral of ``C f`` with C
+    propagated from the measured rates (exact rotation by the trapezoid mean
+    rate of each interval) and trapezoid integration
+    (:func:`double_integral_at`); gravity acts along the navigation z axis
+    only, so it does not enter. The caller subtracts the same computation on
+    the true signals, so the difference is the error the sensor errors cause. It agrees with
     :func:`morpi_filters.strapdown.ins3d` to their O(dt) integration-rule
     difference (tests/test_montecarlo.py).
 
@@ -227,13 +229,19 @@ def straight_errors_3d(h, f, w, keep):
     return double_integral_at(ax, h, keep), double_integral_at(ay, h, keep)
 
 
-def straight_errors_2d(f, psi, h, keep):
-    """Horizontal position of the planar INS from rest on the straight line (true heading 0).
+def horizontal_2d(f, psi, h, keep, heading=None):
+    """Horizontal position of the planar INS from rest, starting at heading 0.
 
-    `psi` (n, R) is the heading integrated from the measured z rate; f_x, f_y
-    are rotated by it and integrated twice. Planes as in :func:`straight_errors_3d`.
+    The heading is ``heading[:, None] + psi``: `heading` (n,), the same for
+    every run (the true heading integrated by the same rule; zero when None),
+    and `psi` (n, R), the part each run's z-rate error adds (small: its
+    cos/sin come from :func:`cos_sin`). f_x, f_y are rotated by it and
+    integrated twice. Planes as in :func:`horizontal_3d`.
     """
     c, s = cos_sin(psi)
+    if heading is not None:
+        ch, sh = np.cos(heading)[:, None], np.sin(heading)[:, None]
+        c, s = c * ch - s * sh, s * ch + c * sh
     ax = c * f[0]
     ax -= s * f[1]
     ay = s * f[0]

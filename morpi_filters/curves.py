@@ -52,9 +52,14 @@ from .eskf import (
 )
 
 __all__ = [
-    "STEP_LENGTH_M", "DEFAULT_TIMES", "CurveCase", "CaseCurves", "case_from_params", "case_from_sensor",
+    "STEP_LENGTH_M", "DEFAULT_TIMES", "CURVE_METHODS", "horizontal_sigma", "CurveCase", "CaseCurves", "case_from_params", "case_from_sensor",
     "time_grid", "case_mean_square", "error_realisation", "compute_curves", "CurvesStudy", "curves_study",
 ]
+
+#: The curves' methods, in the package's names: the filter's horizontal 1 sigma of each, and
+#: the closed forms (for "MoRPI-aided INS", the paper's MoRPI distance error ``dG v t``).
+CURVE_METHODS = ("INS-3D", "INS-2D", "MoRPI-aided INS")
+_SYMBOLIC_KIND = {"INS-3D": "3d", "INS-2D": "2d"}
 
 #: Length of one MoRPI step [m]: the 1 m peak-to-peak period of the paper's periodic routes.
 STEP_LENGTH_M = 1.0
@@ -178,7 +183,8 @@ def case_mean_square(case: CurveCase, t, kind):
     case : CurveCase
     t : array_like, shape (n,)
         Times [s].
-    kind : {"ins3d", "ins2d", "morpi"}
+    kind : {"INS-3D", "INS-2D", "MoRPI-aided INS"}
+        A name of :data:`CURVE_METHODS` (``"MoRPI-aided INS"``: the paper's MoRPI distance error).
 
     Returns
     -------
@@ -187,11 +193,11 @@ def case_mean_square(case: CurveCase, t, kind):
     from . import symbolic
 
     t = np.asarray(t, dtype=float)
-    if kind == "morpi":
+    if kind == "MoRPI-aided INS":
         return (case.gain_sigma * case.speed * t) ** 2
-    if kind not in ("ins3d", "ins2d"):
-        raise MorpiError(f"kind {kind!r}: expected 'ins3d', 'ins2d' or 'morpi'")
-    return symbolic.closed_form_mean_square(_keys(case.dv0, case.ba, case.bg, case.g), t, kind[3:], "z_up",
+    if kind not in ("INS-3D", "INS-2D"):
+        raise MorpiError(f"kind {kind!r}: expected one of {', '.join(CURVE_METHODS)}")
+    return symbolic.closed_form_mean_square(_keys(case.dv0, case.ba, case.bg, case.g), t, _SYMBOLIC_KIND[kind], "z_up",
                                             linearized=True, keep_bgz=False)
 
 
@@ -208,11 +214,11 @@ def error_realisation(dv0, ba, bg, dG, g, speed, t, kind):
     from . import symbolic
 
     t = np.asarray(t, dtype=float)
-    if kind == "morpi":
+    if kind == "MoRPI-aided INS":
         return np.abs(dG) * speed * t
-    if kind not in ("ins3d", "ins2d"):
-        raise MorpiError(f"kind {kind!r}: expected 'ins3d', 'ins2d' or 'morpi'")
-    return symbolic.closed_form_errors(_keys(dv0, ba, bg, g), t, kind[3:], "z_up", keep_bgz=False)
+    if kind not in ("INS-3D", "INS-2D"):
+        raise MorpiError(f"kind {kind!r}: expected one of {', '.join(CURVE_METHODS)}")
+    return symbolic.closed_form_errors(_keys(dv0, ba, bg, g), t, _SYMBOLIC_KIND[kind], "z_up", keep_bgz=False)
 
 
 def time_grid(times, dt, step_period=None):
@@ -259,7 +265,7 @@ class CaseCurves:
     times : ndarray, shape (n,)
         Dense grid [s].
     sigma : dict of str -> ndarray, shape (n,)
-        Filter horizontal 1 sigma per method (``ins3d, ins2d, morpi``) [m].
+        Filter horizontal 1 sigma per method (:data:`CURVE_METHODS`) [m].
     rms_closed_form : dict of str -> ndarray, shape (n,)
         Closed-form RMS per method [m].
     realisation : dict of str -> ndarray, shape (n,)
@@ -299,20 +305,20 @@ class CaseCurves:
         Returns
         -------
         dict
-            ``sigma_<method>_m``, ``rms_closed_form_<method>_m``,
-            ``closed_form_error_<method>_m`` (with a realisation) and
-            ``mc_rms_<method>_m`` (with a Monte Carlo), each shape (m,).
+            ``sigma_m``, ``rms_closed_form_m``, and when computed
+            ``closed_form_error_m`` (a realisation), ``mc_rms_m`` (linear Monte
+            Carlo) and ``nonlinear_mc_rms_m`` (strapdown Monte Carlo): each a
+            dict from method name (:data:`CURVE_METHODS`) to an ndarray of shape (m,).
         """
-        out = {}
-        for k in ("ins3d", "ins2d", "morpi"):
-            out[f"sigma_{k}_m"] = self.sigma[k][self.eval_index]
-            out[f"rms_closed_form_{k}_m"] = self.rms_closed_form[k][self.eval_index]
-            if k in self.realisation:
-                out[f"closed_form_error_{k}_m"] = self.realisation[k][self.eval_index]
-            if k in self.mc_rms:
-                out[f"mc_rms_{k}_m"] = self.mc_rms[k][self.mc_eval_index]
-            if k in self.nl_rms:
-                out[f"nonlinear_mc_rms_{k}_m"] = self.nl_rms[k][self.nl_eval_index]
+        out = {"sigma_m": {}, "rms_closed_form_m": {}}
+        for k in CURVE_METHODS:
+            out["sigma_m"][k] = self.sigma[k][self.eval_index]
+            out["rms_closed_form_m"][k] = self.rms_closed_form[k][self.eval_index]
+            for key, src, idx in (("closed_form_error_m", self.realisation, self.eval_index),
+                                  ("mc_rms_m", self.mc_rms, self.mc_eval_index),
+                                  ("nonlinear_mc_rms_m", self.nl_rms, self.nl_eval_index)):
+                if k in src:
+                    out.setdefault(key, {})[k] = src[k][idx]
         return out
 
 
@@ -336,17 +342,21 @@ def _steps(grid):
     return np.round(np.diff(grid), 12)
 
 
-def _run_methods(case, grid, steps, model):
+def _run_methods(case, grid, steps, model, only=None):
     (F3, G3, Q3, P3), (F2, G2, Q2, P2) = _models(case)
     dts = _steps(grid)
-    D3, D2 = discretize(F3, G3, Q3, dts), discretize(F2, G2, Q2, dts)
-    out = {
-        "ins3d": run_filter(D3.Phi, D3.Qd, P3, grid),
-        "ins2d": run_filter(D2.Phi, D2.Qd, P2, grid),
-    }
-    Phi_a, Qd_a = augment(D3.Phi, D3.Qd, model)
-    meas = [step_update(i, STEP_LENGTH_M, 0.0, model, case.speed) for i in steps]
-    out["morpi"] = run_filter(Phi_a, Qd_a, augment_covariance(P3, model), grid, meas)
+    out = {}
+    if only in (None, "INS-3D", "MoRPI-aided INS"):
+        D3 = discretize(F3, G3, Q3, dts)
+        if only in (None, "INS-3D"):
+            out["INS-3D"] = run_filter(D3.Phi, D3.Qd, P3, grid)
+        if only in (None, "MoRPI-aided INS"):
+            Phi_a, Qd_a = augment(D3.Phi, D3.Qd, model)
+            meas = [step_update(i, STEP_LENGTH_M, 0.0, model, case.speed) for i in steps]
+            out["MoRPI-aided INS"] = run_filter(Phi_a, Qd_a, augment_covariance(P3, model), grid, meas)
+    if only in (None, "INS-2D"):
+        D2 = discretize(F2, G2, Q2, dts)
+        out["INS-2D"] = run_filter(D2.Phi, D2.Qd, P2, grid)
     return out
 
 
@@ -361,19 +371,19 @@ def _monte_carlo(case, times, model, runs, rng):
     D3 = discretize(F3, G3, Q3, dts)
     Phi_a, Qd_a = augment(D3.Phi, D3.Qd, model)
     P0a = augment_covariance(P3, model)
-    sq = {k: np.zeros(n + 1) for k in ("ins3d", "ins2d", "morpi")}
+    sq = {k: np.zeros(n + 1) for k in CURVE_METHODS}
     sizes = [min(MC_CHUNK, runs - i) for i in range(0, runs, MC_CHUNK)]
     for size, sub in zip(sizes, rng.spawn(len(sizes))):
         rng3, rng2, rngs, rngg = sub.spawn(4)
         X3 = simulate_linear(F3, G3, Q3, P3, dts, n, size, rng3)
         X2 = simulate_linear(F2, G2, Q2, P2, dts, n, size, rng2)
-        sq["ins3d"] += (X3[..., 0] ** 2 + X3[..., 1] ** 2).sum(axis=0)
-        sq["ins2d"] += (X2[..., 0] ** 2 + X2[..., 1] ** 2).sum(axis=0)
+        sq["INS-3D"] += (X3[..., 0] ** 2 + X3[..., 1] ** 2).sum(axis=0)
+        sq["INS-2D"] += (X2[..., 0] ** 2 + X2[..., 1] ** 2).sum(axis=0)
         gain = model.gain_sigma * rngg.standard_normal(size)
         meas = simulate_steps(X3, steps, STEP_LENGTH_M, 0.0, model, case.speed, gain, rngs)
         r = run_filter(Phi_a, Qd_a, P0a, grid, meas)
         e = r.x[..., DP][..., :2] - X3[..., DP][..., :2]
-        sq["morpi"] += (e ** 2).sum(axis=-1).sum(axis=0)
+        sq["MoRPI-aided INS"] += (e ** 2).sum(axis=-1).sum(axis=0)
     return grid, {k: np.sqrt(v / runs) for k, v in sq.items()}, at
 
 
@@ -396,12 +406,68 @@ def _nonlinear_monte_carlo(case, times, runs, rng):
                noise_scale=1.0 if case.noise is not None else 0.0)
     v0 = r_v0.standard_normal((runs, 3)) * case.dv0
     rms = {}
-    for key, fn, kw in (("ins3d", ins3d, {"g": case.g}), ("ins2d", ins2d, {})):
+    for key, fn, kw in (("INS-3D", ins3d, {"g": case.g}), ("INS-2D", ins2d, {})):
         res = fn(data.time, data.f, data.omega, v0=v0, **kw)
         e = np.asarray(res.position)[..., :2] - traj.at(data.time).position[:, :2]
         rms[key] = np.sqrt((e ** 2).sum(axis=-1).mean(axis=0))
     at = np.searchsorted(np.round(data.time, 9), np.round(np.asarray(times, float), 9))
     return data.time, rms, at.clip(0, data.time.size - 1)
+
+
+def horizontal_sigma(errors, times, method: str = "INS-3D") -> np.ndarray:
+    """The error-state filter's horizontal position 1 sigma at `times`, in one call.
+
+    The covariance of the 15-state filter (3D INS) or the 8-state planar one
+    (2D INS, with its own initial covariance: horizontal velocity, horizontal
+    accelerometer biases, gyro z bias), or the 3D filter with the MoRPI step
+    updates (``"MoRPI-aided INS"``: steps of :data:`STEP_LENGTH_M` at the
+    parameters' speed, gain error as an augmented state), on the paper's
+    nominal trajectory, from an error-parameter set read as 1 sigma.
+
+    Parameters
+    ----------
+    errors : params.ErrorParams or CurveCase or units.SensorSpec
+        The 1-sigma errors: a parameter file's set (:func:`morpi_filters.params.load_params`,
+        ``params_from_dict``), a prepared case, or an IMU's datasheet biases
+        (with the default parameter file's initial velocity error, gravity,
+        gain error and speed).
+    times : array_like, shape (m,)
+        Times [s], >= 0, the last > 0.
+    method : {"INS-3D", "INS-2D", "MoRPI-aided INS"}
+
+    Returns
+    -------
+    ndarray, shape (m,)
+        ``sqrt(var dp_x + var dp_y)`` [m] at the sorted, unique `times`.
+
+    Examples
+    --------
+    >>> from morpi_filters import params, symbolic
+    >>> p = params.load_params()
+    >>> sigma = horizontal_sigma(p, [5.0, 15.0], "INS-3D")
+    >>> rms = np.sqrt(case_mean_square(case_from_params(p), [5.0, 15.0], "INS-3D"))
+    >>> bool(np.allclose(sigma, rms, rtol=1e-9))
+    True
+    """
+    from .params import ErrorParams, load_params
+
+    if method not in CURVE_METHODS:
+        raise MorpiError(f"method {method!r}: expected one of {', '.join(CURVE_METHODS)}")
+    if isinstance(errors, units.SensorSpec):
+        case = case_from_sensor(errors, load_params())
+    elif isinstance(errors, ErrorParams):
+        case = case_from_params(errors)
+    elif isinstance(errors, CurveCase):
+        case = errors
+    else:
+        raise MorpiError(f"errors: {type(errors).__name__}, expected params.ErrorParams, curves.CurveCase or "
+                         "units.SensorSpec")
+    times = np.unique(np.asarray(times, dtype=float))
+    if times.size == 0 or not np.all(np.isfinite(times)) or times.min() < 0 or times.max() <= 0:
+        raise MorpiError(f"times: expected finite times >= 0 s with the last > 0, got {times.tolist()}")
+    grid, steps, at = time_grid(times, FILTER_DT, STEP_LENGTH_M / case.speed)
+    res = _run_methods(case, grid, steps, StepModel(gain_sigma=case.gain_sigma), only=method)
+    return res[method].horizontal_sigma[at]
 
 
 def compute_curves(case: CurveCase, times=DEFAULT_TIMES, runs=MC_RUNS, rng=None, nonlinear_runs=NL_RUNS) -> CaseCurves:
@@ -432,12 +498,12 @@ def compute_curves(case: CurveCase, times=DEFAULT_TIMES, runs=MC_RUNS, rng=None,
     grid, steps, at = time_grid(times, FILTER_DT, period)
     res = _run_methods(case, grid, steps, model)
     sigma = {k: r.horizontal_sigma for k, r in res.items()}
-    rms = {k: np.sqrt(case_mean_square(case, grid, k)) for k in ("ins3d", "ins2d", "morpi")}
+    rms = {k: np.sqrt(case_mean_square(case, grid, k)) for k in CURVE_METHODS}
     real = {}
     if case.realisation is not None:
         dv0, ba, bg, dG = case.realisation
         real = {k: error_realisation(dv0, ba, bg, dG, case.g, case.speed, grid, k)
-                for k in ("ins3d", "ins2d", "morpi")}
+                for k in CURVE_METHODS}
     mc_t, mc, mc_at = np.zeros(0), {}, np.zeros(0, int)
     r_lin, r_nl = rng.spawn(2)
     if runs:
@@ -474,19 +540,19 @@ def _field_points(source, data=None):
     if not recs:
         return {}, f"{source.root}: no straight-line (s8/line_dataset) recordings"
     truth = ds.route("line_dataset")
-    pts, skipped = {"ins3d": [], "ins2d": []}, 0
+    pts, skipped = {"INS-3D": [], "INS-2D": []}, 0
     for rec in recs:
-        for key, method in (("ins3d", "INS-3D"), ("ins2d", "INS-2D")):
+        for key in ("INS-3D", "INS-2D"):
             try:
-                res = data.ins(rec, "GAC", method)
+                res = data.ins(rec, "GAC", key)
             except MorpiError:
                 skipped += 1
                 continue
             end = np.asarray(res.position)[-1, :2]
             pts[key].append((float(res.time[-1] - res.time[0]), float(np.linalg.norm(end - truth.end_point_m))))
-    if not pts["ins3d"]:
+    if not pts["INS-3D"]:
         return {}, f"{source.root}: no straight-line recording could be integrated"
-    note = (f"{len(pts['ins3d'])} straight-line recordings ({truth.distance_m:g} m, GAC calibration, INS over the "
+    note = (f"{len(pts['INS-3D'])} straight-line recordings ({truth.distance_m:g} m, GAC calibration, INS over the "
             f"robot's motion as in the tables section); end-point error against duration"
             + (f"; {skipped} INS runs skipped (no rest or no motion found)" if skipped else "")
             + ". MoRPI runs are compared per table cell below")

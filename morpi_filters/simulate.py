@@ -62,13 +62,32 @@ from .strapdown import rotvec_to_C
 
 __all__ = [
     "Trajectory", "ImuData", "straight", "sine", "l_route", "route_trajectory", "imu",
-    "sample_times",
+    "sample_times", "paper_speed",
 ]
 
 # typical driven speeds [m/s] along the centreline, from the paper's average durations over 6.3 m:
 # ~5 s straight, ~14.5 s with 1 m periods, ~11 s with 1.5 m periods (1 s ramps at both ends)
 _SPEED = {"straight": 6.3 / 4.0, 1.0: 6.3 / 13.5, 1.5: 6.3 / 10.0}
 _L_SPEED = 0.6          # the field L recordings last 45-90 s for 28 m
+
+
+
+def paper_speed(period: float | None = None) -> float:
+    """Cruise speed of the paper's robot [m/s]: on a straight line, or on a sine of `period` metres.
+
+    From the paper's average durations over 6.3 m with 1 s ramps: about 5 s on
+    a straight line, 14.5 s with 1 m periods and 11 s with 1.5 m periods;
+    other periods scale with the square root of the period from 1 m.
+
+    Examples
+    --------
+    >>> round(paper_speed(1.0), 4), round(paper_speed(), 4)
+    (0.4667, 1.575)
+    """
+    if period is None:
+        return _SPEED["straight"]
+    period = _positive("period", period)
+    return _SPEED.get(period, _SPEED[1.0] * period ** 0.5)
 
 
 # --------------------------------------------------------------------------- smooth steps
@@ -493,7 +512,7 @@ def sine(length: float = 6.3, *, period: float = 1.0, amplitude: float = 0.1, sp
     length = _positive("length", length)
     period, amplitude, taper = _check_sine(period, amplitude, taper, length)
     if speed is None:
-        speed = _SPEED.get(period, _SPEED[1.0] * period ** 0.5)
+        speed = paper_speed(period)
     return _build("sine", _Path((length, 0.0), 0.0, 1.0, 0.0, 0.0, period, amplitude, taper),
                   speed=speed, ramp=ramp, rest=rest, rate_hz=rate_hz, t0=t0, g=g, period=period, amplitude=amplitude)
 

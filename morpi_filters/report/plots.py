@@ -217,7 +217,7 @@ def assessment_figure(curves, title: str = "Analytical assessment of 3D & 2D INS
 # ============================================================================ curves (filter covariance)
 # Closed form, filter sigma, Monte Carlo RMS and field end-point errors on one axis.
 
-_CURVE_PANELS = (("ins3d", "3D INS"), ("ins2d", "2D INS"), ("morpi", "MoRPI-aided INS"))
+_CURVE_PANELS = (("INS-3D", "3D INS"), ("INS-2D", "2D INS"), ("MoRPI-aided INS", "MoRPI-aided INS"))
 
 
 def plot_curves(curves):
