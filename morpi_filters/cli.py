@@ -60,6 +60,23 @@ MAX_CURVE_TIME = 1000.0
 CURVE_SECONDS, CURVE_BYTES, CURVE_BASE_BYTES = 17e-3, 1.4e6, 0.22e9
 
 
+#: Longest ``montecarlo --duration`` [s]: the cost of a run grows with its samples, and the
+#: ``--runs`` bound above is measured on the default 15 s.
+MAX_MC_SECONDS = 600.0
+
+
+def _bounded_float(name, lo, hi):
+    def parse(text):
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name}: {text!r} is not a number") from None
+        if not (lo <= v <= hi):
+            raise argparse.ArgumentTypeError(f"{name}: {text} is outside [{lo:g}, {hi:g}]")
+        return v
+    return parse
+
+
 def _duration(seconds):
     if seconds < 120:
         return f"{seconds:.0f} s"
@@ -173,6 +190,11 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--chunk", metavar="K", type=_positive_int("--chunk"), default=None,
                    help="runs per batch (results do not depend on it)")
     s.add_argument("--scheduler", metavar="ADDRESS", help="run on a Dask cluster at this address")
+    s.add_argument("--duration", metavar="S", type=_bounded_float("--duration", 2.0, MAX_MC_SECONDS), default=None,
+                   help=f"time of the sine path from start to stop [s] (default 15 s for 6.3 m; at most "
+                        f"{MAX_MC_SECONDS:g} s)")
+    s.add_argument("--speed", metavar="V", type=_bounded_float("--speed", 0.01, 10.0), default=None,
+                   help="cruise speed [m/s] (default the paper's for 1 m periods)")
     data_arg(s)
     partial_arg(s)
     out_args(s, "montecarlo")
@@ -229,7 +251,8 @@ def _study(name, args, source=None, tables=None):
     if name == "montecarlo":
         from .montecarlo import gain_error_page
         return gain_error_page(runs=args.runs, seed=args.seed, chunk=getattr(args, "chunk", None),
-                               scheduler=getattr(args, "scheduler", None), source=source, tables=tables)
+                               scheduler=getattr(args, "scheduler", None), source=source, tables=tables,
+                               duration=getattr(args, "duration", None), speed_mps=getattr(args, "speed", None))
     if name == "drift":
         from .montecarlo import drift_page
         return drift_page(scheduler=getattr(args, "scheduler", None))

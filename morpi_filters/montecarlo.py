@@ -1387,7 +1387,8 @@ class GainErrorPage:
     synthetic: bool = False
 
 
-def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, source=None, tables=None) -> GainErrorPage:
+def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, source=None, tables=None,
+                    duration: float | None = None, speed_mps: float | None = None) -> GainErrorPage:
     """Compute the gain-error Monte Carlo section.
 
     Two studies with the same seed: the primary one after a zero-order
@@ -1397,7 +1398,8 @@ def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, source=
     gains (from the dataset when the field gain training is available,
     otherwise an assumed value, stated on the page). Then the gain-training
     study over k training runs. `tables` (an ``evaluate.TablesResult`` of
-    ``source.root``) gives the trained gains when already computed.
+    ``source.root``) gives the trained gains when already computed;
+    `duration` and `speed_mps` shape the sine path as in :class:`StudyConfig`.
 
     Returns
     -------
@@ -1411,7 +1413,8 @@ def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, source=
         spread, mismatch = ASSUMED_SPREAD, ASSUMED_MISMATCH
     gains = (GainError("dG = 5 %", 0.05), GainError("dG = 10 %", 0.10),
              GainError("training spread", mismatch, spread))
-    cal = StudyConfig(gains=gains, calibration="GAC")
+    cal = StudyConfig(gains=gains, calibration="GAC", duration=duration, speed_mps=speed_mps)
+    cal.validate()
     raw = replace(cal, calibration="RD")
     # one pass over the random numbers: every study of the page is a set of columns of the same draws
     tcfg = training_configs(TRAINING_KS, mismatch=mismatch, spread=spread, config=cal)

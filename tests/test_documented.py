@@ -78,3 +78,102 @@ def test_a_track_measures_its_error_against_a_route():
     truth = ds.route("short_distance")
     assert track.error(truth) == track.error("short_distance")
     assert track.error(truth) == float(np.hypot(*(track.end_point - truth.end_point_m)))
+
+
+# ----------------------------------------------------------------------------- promised keys and shapes
+
+def _returns(func) -> str:
+    """The Returns section of a numpydoc docstring."""
+    import inspect
+    import re
+
+    doc = inspect.getdoc(func) or ""
+    m = re.search(r"Returns\n-------\n(.*?)(?:\n\n[A-Z][A-Za-z ]+\n-+\n|\Z)", doc, re.S)
+    assert m, f"{func.__qualname__}: no Returns section"
+    return m.group(1)
+
+
+def _documented_keys(func) -> set:
+    """Every ``key`` (double-backticked, optionally quoted name) the Returns section promises."""
+    import re
+
+    return {m.group(1) for m in re.finditer(r'``"?([A-Za-z][A-Za-z0-9_\-]*)"?``', _returns(func))}
+
+
+def _keys(obj) -> set:
+    """Keys of a dict, of a list of dicts, and of the dicts inside them (two levels)."""
+    items = obj if isinstance(obj, list) else [obj]
+    out = set()
+    for d in items:
+        out |= set(d)
+        for v in d.values():
+            if isinstance(v, dict):
+                out |= set(v)
+    return out
+
+
+def _shape(func) -> tuple:
+    """The first ``shape (...)`` the Returns section promises, as a tuple of strings."""
+    import re
+
+    m = re.search(r"shape \(([^)]*)\)", _returns(func))
+    assert m, f"{func.__qualname__}: no shape in Returns"
+    return tuple(p.strip() for p in m.group(1).split(",") if p.strip())
+
+
+def test_dict_returns_hold_exactly_the_documented_keys():
+    from morpi_filters import curves, params
+    from morpi_filters import montecarlo as mc
+
+    p = params.load_params()
+    cc = curves.compute_curves(curves.case_from_params(p), times=[1.0, 2.0], runs=20, nonlinear_runs=0,
+                               rng=np.random.default_rng(0))
+    got = cc.at_eval_times()
+    doc = _documented_keys(curves.CaseCurves.at_eval_times)
+    assert set(got) <= doc and {"sigma_m", "rms_closed_form_m", "closed_form_error_m", "mc_rms_m"} <= set(got)
+    assert all(set(v) == set(curves.CURVE_METHODS) for k, v in got.items() if k != "nonlinear_mc_rms_m")
+    r = mc.run_study(30, 0, mc.StudyConfig(training_runs=20, gains=(mc.GainError("g", 0.05, 0.01),)))
+    checks = mc.distance_law_check(r)
+    assert _keys(checks) == _documented_keys(mc.distance_law_check)
+    stats = mc.final_statistics(r)
+    assert set(stats) == set(mc.METHODS)
+    assert all(set(v) == {"mean", "std", "median", "p95"} for v in stats.values())
+
+
+def test_array_returns_have_the_documented_shapes():
+    from morpi_filters import curves, error_model, eskf, params
+    from morpi_filters import montecarlo as mc
+
+    p = params.load_params()
+    times = [1.0, 2.0, 3.0]
+    for method in curves.CURVE_METHODS:
+        assert _shape(curves.horizontal_sigma) == ("m",)
+        assert curves.horizontal_sigma(p, times, method).shape == (len(times),)
+    case = curves.case_from_params(p)
+    assert _shape(curves.case_mean_square) == ("n",) and curves.case_mean_square(case, times, "INS-2D").shape == (3,)
+    C, f = error_model.paper_trajectory(9.81)
+    for fn, args, want in ((error_model.system_matrix, (C, f), (15, 15)), (error_model.noise_coupling, (C,), (15, 12)),
+                           (eskf.initial_covariance, (0.1, 0.01, 0.001), (15, 15))):
+        assert tuple(int(d) for d in _shape(fn)[-2:]) == want
+        assert fn(*args).shape == want
+    assert "(length_m, speed_mps, duration)" in (mc.StudyConfig.motion.__doc__ or "")
+    assert len(mc.StudyConfig().motion()) == 3
+    lo, hi = eskf.chi2_band(2, 100)
+    assert "(lo, hi)" in _returns(eskf.chi2_band) and lo < 2 < hi
+
+
+def test_analysis_scripts_and_the_tutorial_use_public_names_only():
+    import ast
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    scripts = sorted((root / "analysis").glob("*.py")) + [root / "docs" / "tutorial.py"]
+    assert len(scripts) >= 6
+    for path in scripts:
+        tree = ast.parse(path.read_text())
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("morpi_filters"):
+                assert not any(p.startswith("_") for p in node.module.split(".")), (path.name, node.module)
+                assert not any(a.name.startswith("_") for a in node.names), (path.name, node.lineno)
+            if isinstance(node, ast.Attribute) and node.attr.startswith("_") and not node.attr.startswith("__"):
+                raise AssertionError(f"{path.name}:{node.lineno}: private name {node.attr}")
