@@ -73,7 +73,7 @@ from .units import SENSORS
 
 __all__ = [
     "MODES", "SITE_LATITUDE_DEG", "LOCAL_GRAVITY", "normal_gravity", "RestWindow", "Calibration",
-    "detect_rest", "calibrate", "rest_windows_summary", "RestRow", "RestSummary", "noise_sigma",
+    "detect_rest", "calibrate", "calibrated", "rest_windows_summary", "RestRow", "RestSummary", "noise_sigma",
 ]
 
 #: Calibration modes: raw data, gyro calibration, gyro and accelerometer calibration.
@@ -530,6 +530,34 @@ def calibrate(rec: Recording, mode: str, *, window: RestWindow | None = None,
     if mode == "GAC":
         accel_bias = rec.f[sl].mean(axis=0) - np.array([0.0, 0.0, g_local])
     return Calibration(mode=mode, gyro_bias=gyro_bias, accel_bias=accel_bias, window=window)
+
+
+def calibrated(rec: Recording, mode: str, *, window: RestWindow | None = None,
+               g_local: float = LOCAL_GRAVITY) -> tuple[Recording, Calibration]:
+    """A recording with its biases removed, in one call: :func:`calibrate`, then :meth:`Calibration.apply`.
+
+    Parameters
+    ----------
+    rec : Recording
+    mode : {"RD", "GC", "GAC"}
+    window, g_local
+        As in :func:`calibrate`.
+
+    Returns
+    -------
+    (Recording, Calibration)
+        The calibrated recording and the biases that were removed.
+
+    Examples
+    --------
+    >>> t = np.arange(500) * 0.01
+    >>> rec = Recording(time=t, f=np.tile([0.0, 0.0, 9.8], (500, 1)), omega=np.tile([0.0, 0.0, 0.01], (500, 1)))
+    >>> crec, cal = calibrated(rec, "GC", window=RestWindow(0.0, 2.99, 0, 300, "full"))
+    >>> round(float(cal.gyro_bias[2]), 12), round(float(abs(crec.omega[:, 2]).max()), 12)
+    (0.01, 0.0)
+    """
+    cal = calibrate(rec, mode, window=window, g_local=g_local)
+    return cal.apply(rec), cal
 
 
 @dataclass(frozen=True)
