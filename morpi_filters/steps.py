@@ -79,10 +79,9 @@ METHODS = {"MoRPI-A": ("f", 1), "MoRPI-G": ("omega", 2)}
 class StepConfig:
     """Every tunable of the step pipeline.
 
-    The defaults are the MoRPI-A rule :func:`morpi_filters.field.select_config`
-    picks from the train runs of the MoRPI field dataset; the MoRPI-G rule is
-    :data:`DEFAULT_CONFIGS` ``["MoRPI-G"]``. A test keeps both in step with
-    the search.
+    The rule :func:`morpi_filters.field.select_config` picks from the train
+    runs of the MoRPI field dataset (one for both methods) is
+    :data:`DEFAULT_CONFIGS`; a test keeps it in step with the search.
 
     Attributes
     ----------
@@ -257,8 +256,8 @@ class MorpiTrack:
 #: The step rule of each method that :func:`morpi_filters.field.select_config`
 #: picks on the field train runs (the defaults of :func:`extract_steps`).
 DEFAULT_CONFIGS = {
-    "MoRPI-A": StepConfig(ends="whole", prominence=0.2),
-    "MoRPI-G": StepConfig(cutoff_hz=1.0),
+    "MoRPI-A": StepConfig(prominence=0.2),
+    "MoRPI-G": StepConfig(prominence=0.2),
 }
 
 def resample_uniform(time, values, rate_hz: float = GRID_HZ):
