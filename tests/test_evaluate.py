@@ -281,16 +281,19 @@ def test_field_tables_end_to_end(field_root, tmp_path):
         assert g["mean"] == pytest.approx(np.mean(g["per_run"])) and g["std"] >= 0  # the gain is the mean of its runs: pytest's default 1e-6 relative
     # the reproduction bar of the six GC MoRPI cells of the short route: within 2.5 percentage
     # points of the paper's table "weinberg results short". The set of misses is pinned so a change
-    # either way shows. It is empty: s8 1.5 m MoRPI-G GC missed on the low side (3.46 % against
-    # 6.67 %) while MoRPI-A's steps ran over its own, longer motion span (the accelerometer settling
-    # after start-up opened it at the first sample in 44 of the 109 periodic runs, and closed it
-    # seconds after the robot stopped), so the partial end steps counted rest as travel; with one
-    # motion window per recording (after the detected rest, to the robot's stop) and the heading
-    # from its start, the train runs choose other rules and that cell is within the bar.
+    # either way shows. Before the motion windows were shared, s8 1.5 m MoRPI-G GC missed on the low
+    # side (3.46 % against 6.67 %): MoRPI-A's steps ran over their own, longer motion span (the
+    # accelerometer settling after start-up opened it at the first sample in 44 of the 109 periodic
+    # runs and closed it seconds after the robot stopped), so its partial end steps counted rest as
+    # travel and the search's rules were fitted to that. With one motion window per recording
+    # (after the detected rest, to the robot's stop) and the heading from its start, the nested
+    # train-only check prefers one rule for both methods; under that rule s8 1.5 m MoRPI-G GC is
+    # within the bar and s8 1.5 m MoRPI-A GC misses on the low side (ours is lower than the paper's).
     gc = [c for c in cells if c["table"] == "short_route" and c["calibration"] == "GC"]
     assert len(gc) == 6
     misses = [c for c in gc if abs(c["ours_percent"] - c["paper_percent"]) > 2.5]
-    assert [(c["phone"], c["p2p_m"], c["method"]) for c in misses] == []
+    assert [(c["phone"], c["p2p_m"], c["method"]) for c in misses] == [("s8", 1.5, "MoRPI-A")]
+    assert misses[0]["ours_percent"] < misses[0]["paper_percent"]
     # every run carries the windows it used; the motion starts after the rest ends
     for c in cells:
         for r in c["runs"]:
@@ -452,18 +455,21 @@ def test_one_motion_window_per_recording_after_the_rest(field_root):
 
 @pytest.mark.field
 def test_morpi_heading_starts_at_the_motion_onset(field_root):
-    """The heading is zero before the window and the trapezoid integral of the z rate from its start after."""
+    """The heading is zero before the window and the integral of the z rate from its start after."""
     for origin in ("motion", "start"):
         data = fd.FieldData(field_root, heading_from=origin)
         r = data.recordings("s8", "short_distance", "test")[0]
         psi = data.heading(r, "RD")
         a, b = data.activity(r)
         i0 = int(np.searchsorted(r.time, a)) if origin == "motion" else 0
-        i1 = int(np.searchsorted(r.time, b, side="right"))
+        # from the first sample the heading runs through the whole recording
+        i1 = int(np.searchsorted(r.time, b, side="right")) if origin == "motion" else r.n
         w = r.omega[:, 2]
         ref = np.concatenate([[0.0], np.cumsum(0.5 * (w[i0 + 1:i1] + w[i0:i1 - 1]) * np.diff(r.time[i0:i1]))])
         assert np.all(psi[:i0] == 0.0)
-        np.testing.assert_allclose(psi[i0:i1], ref, atol=1e-12)  # the same sums: rounding only
+        # integrate_rate is higher-order than the trapezoid; they differ by ~2e-4 rad over a run, an
+        # origin error would be the drift through the rest (several degrees on the raw S8 gyro)
+        np.testing.assert_allclose(psi[i0:i1], ref, atol=1e-3)
         assert np.all(psi[i1:] == psi[i1 - 1])
 
 
