@@ -27,16 +27,17 @@ import numpy as np
 
 
 # %% 1. One field run, from the CSV file to its end-point error
-def field_run(data_root, relpath="s8/short_distance/test/1.csv", method="MoRPI-G", calibration="GC"):
-    from morpi_filters import dataset, field
+def field_run(data_root, relpath="s8/short_distance/test/2.csv", method="MoRPI-G", calibration="GC"):
+    from morpi_filters import dataset, field, steps
 
     rec, route = dataset.load_recording(Path(data_root) / relpath)     # labels and ground truth from the path
-    data = field.FieldData(data_root)                                  # the dataset, its rest windows cached
-    rule = field.step_rule(data, method)                               # chosen on the train recordings only
-    gain = field.train_gain(data, rec.phone, rec.route, method, calibration, rule)
-    track = data.track(rec, method, calibration, rule, gain.mean)      # steps, then Weinberg dead reckoning
-    return {"end_error_m": track.error(route), "end_error_percent": 100 * track.error(route) / route.distance_m,
-            "steps": len(track.length), "gain": gain.mean}
+    data = field.FieldData(data_root)                                  # rest and motion windows, cached
+    rule = field.select_config(data).config                            # the step rule: train recordings only
+    gain = field.trained_gain(data, rec.phone, rec.route, calibration, method, rule)
+    track = steps.morpi_track(data.steps(rec, calibration, method, rule), gain.mean)
+    error = track.error(route)                                         # end point against the ground truth [m]
+    return {"end_error_m": error, "end_error_percent": 100 * error / route.distance_m,
+            "steps": track.steps.n, "gain": gain.mean}
 
 
 # %% 2. Closed-form RMS against the filter's 1 sigma
@@ -78,7 +79,7 @@ def main(argv=None) -> None:
     args = ap.parse_args(argv)
     if args.data is not None:
         r = field_run(args.data)
-        print(f"1. s8 short route, test run 1, MoRPI-G GC: {r['steps']} steps, gain {r['gain']:.4f}, "
+        print(f"1. s8 short route, test run 2, MoRPI-G GC: {r['steps']} steps, gain {r['gain']:.4f}, "
               f"end error {r['end_error_m']:.3f} m ({r['end_error_percent']:.2f} %)")
     for method, v in closed_form_vs_filter().items():
         print(f"2. {method:16s} filter 1 sigma {np.round(v['sigma_m'], 3)} m, closed form {np.round(v['closed_form_rms_m'], 3)} m")

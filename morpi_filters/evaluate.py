@@ -70,7 +70,7 @@ from . import dataset as ds
 from . import steps as st
 from .errors import DataError, MorpiError
 from .field import (
-    _MORPI_METHODS, LEVELED, RULES, SHORT_SETS, FieldData, Gain, Selection, _loo_vector, _train,
+    _MORPI_METHODS, LEVELED, RULES, SHORT_SETS, FieldData, Gain, Selection, _loo_vector, trained_gain,
     nested_rule_comparison, select_config,
 )
 
@@ -343,7 +343,7 @@ def rule_sensitivity(result: TablesResult) -> list[dict]:
                                               if d.size > 1 and np.all(np.isfinite(d)) else None),
                    "cells": []}
             for phone, route, p2p in SHORT_SETS:
-                g = _train(data, phone, route, "GC", m, cfg)
+                g = trained_gain(data, phone, route, "GC", m, cfg)
                 c = _morpi_cell(data, specs[(phone, p2p, m)], cfg, g)
                 row["cells"].append({"phone": phone, "p2p_m": p2p, "paper_percent": specs[(phone, p2p, m)].paper_percent,
                                      "ours_percent": c.ours_percent})
@@ -455,7 +455,7 @@ def evaluate_tables(root, *, include_test: bool = True, configs: dict | None = N
             selections[m] = joint if joint is not None else select_config(data, m)
     gains = []
     for (phone, route, _), m, mode in itertools.product(SHORT_SETS, _MORPI_METHODS, ("RD", "GC")):
-        g = _train(data, phone, route, mode, m, selections[m].config)
+        g = trained_gain(data, phone, route, mode, m, selections[m].config)
         if g is not None:
             gains.append(g)
     gmap = {(g.phone, g.route, g.method, g.calibration): g for g in gains}
@@ -523,7 +523,7 @@ def _alternative_readings(data: FieldData, selections) -> list[dict]:
             for phone, route, p2p in SHORT_SETS:
                 spec = next(s for s in specs if (s.table, s.phone, s.p2p_m, s.method, s.calibration)
                             == ("short_route", phone, p2p, m, mode))
-                g = _train(data, phone, route, mode, m, cfg)
+                g = trained_gain(data, phone, route, mode, m, cfg)
                 c = _morpi_cell(data, spec, cfg, g)
                 row["cells"].append({"phone": phone, "p2p_m": p2p, "paper_percent": spec.paper_percent,
                                      "ours_percent": c.ours_percent, "distance_percent": c.distance_percent})

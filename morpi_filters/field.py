@@ -22,7 +22,7 @@ from .errors import MorpiError
 
 __all__ = ["SHORT_SETS", "RULES", "INS_SPANS", "LEVELED", "HEADING_ORIGINS", "HEADING_SOURCES", "Gain",
            "Selection", "Thresholds", "FieldData", "train_thresholds", "select_config", "nested_rule_comparison",
-           "READING_GRID", "TUNABLE_GRID", "SWING_MARGIN"]
+           "READING_GRID", "TUNABLE_GRID", "SWING_MARGIN", "trained_gain"]
 
 #: Short-route training/test sets: (phone, route, p2p).
 SHORT_SETS = (("s8", "short_distance", 1.0), ("s8", "short_distance_1.5p2p", 1.5), ("s6", "short_distance", 1.0))
@@ -487,7 +487,25 @@ def train_thresholds(data: FieldData) -> Thresholds:
 
 # --------------------------------------------------------------------------- gain training and config search
 
-def _train(data: FieldData, phone, route, mode, method, config) -> Gain | None:
+def trained_gain(data: FieldData, phone, route, calibration, method, config) -> Gain | None:
+    """The Weinberg gain of one route, phone, calibration and method, from its train recordings only.
+
+    Parameters
+    ----------
+    data : FieldData
+    phone, route : str
+        Dataset folder names (``"s8"``, ``"short_distance"``).
+    calibration : {"RD", "GC", "GAC"}
+    method : {"MoRPI-A", "MoRPI-G"}
+    config : steps.StepConfig
+        The step rule (for example ``select_config(data).config``).
+
+    Returns
+    -------
+    Gain or None
+        None when the folder has no train recordings or none with periodic motion;
+        the recordings left out are named in :attr:`Gain.skipped`.
+    """
     recs = data.recordings(phone, route, "train")
     if not recs:
         return None
@@ -495,14 +513,15 @@ def _train(data: FieldData, phone, route, mode, method, config) -> Gain | None:
     steps_list, files, skipped = [], [], list(data.load_errors(phone, route, "train"))
     for r in recs:
         try:
-            steps_list.append(data.steps(r, mode, method, config))
+            steps_list.append(data.steps(r, calibration, method, config))
             files.append(data.relpath(r))
         except MorpiError as exc:
             skipped.append(str(exc))
     if not steps_list:
         return None
     mean, std, per = st.train_gain(steps_list, truth.distance_m)
-    return Gain(phone, route, method, mode, mean, std, tuple(float(g) for g in per), tuple(files), tuple(skipped))
+    return Gain(phone, route, method, calibration, mean, std, tuple(float(g) for g in per), tuple(files),
+                tuple(skipped))
 
 
 #: Coordinate search: first the readings (with the first tunables), then the tunables.
