@@ -148,12 +148,15 @@ def rts_smooth(x_post, P_post, x_prior, P_prior, Phi, fed=None):
     """
     xs = np.array(x_post, dtype=float)
     Ps = np.array(P_post, dtype=float)
+    if xs.shape[0] < 2:
+        return xs, Ps
+    # the smoother gains depend on the forward pass only: all of them in one batched call. A
+    # pseudo-inverse: states without uncertainty (an unused clone or gain) leave P_prior singular.
+    G = P_post[:-1] @ np.swapaxes(Phi[1:], 1, 2) @ np.linalg.pinv(P_prior[1:], hermitian=True)
     for k in range(xs.shape[0] - 2, -1, -1):
-        # a pseudo-inverse: states without uncertainty (an unused clone or gain) leave P_prior singular
-        G = P_post[k] @ Phi[k + 1].T @ np.linalg.pinv(P_prior[k + 1], hermitian=True)
         ahead = xs[k + 1] if fed is None else xs[k + 1] + fed[k + 1]
-        xs[k] = x_post[k] + G @ (ahead - x_prior[k + 1])
-        Ps[k] = P_post[k] + G @ (Ps[k + 1] - P_prior[k + 1]) @ G.T
+        xs[k] = x_post[k] + G[k] @ (ahead - x_prior[k + 1])
+        Ps[k] = P_post[k] + G[k] @ (Ps[k + 1] - P_prior[k + 1]) @ G[k].T
     return xs, Ps
 
 
