@@ -145,6 +145,14 @@ class Recording:
         Route folder name, key of :func:`routes`.
     split : str or None
         ``"train"``, ``"test"`` or None for folders without a split.
+
+    Examples
+    --------
+    >>> t = 10.0 + np.arange(201) * 0.01
+    >>> rec = Recording(time=t, f=np.tile([0.0, 0.0, 9.8], (201, 1)), omega=np.zeros((201, 3)),
+    ...                 source="/data/s8/L_shape/test/3.csv", phone="s8", route="L_shape", split="test")
+    >>> rec.n, round(rec.duration, 9), round(rec.rate_hz, 6), rec.name, rec.ground_truth.distance_m
+    (201, 2.0, 100.0, 's8/L_shape/test/3.csv', 28.0)
     """
 
     time: np.ndarray
@@ -196,7 +204,19 @@ class Recording:
 
 @dataclass(frozen=True)
 class CatalogueEntry:
-    """A recording's place in the dataset layout, before it is read."""
+    """A recording's place in the dataset layout, before it is read.
+
+    Attributes
+    ----------
+    path : Path
+        The CSV file.
+    relpath : str
+        Its POSIX path below the dataset root.
+    phone, route : str
+        Labels read from the folders.
+    split : str or None
+        ``"train"``, ``"test"``, or None for a folder without a split.
+    """
 
     path: Path
     relpath: str
