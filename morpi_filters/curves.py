@@ -128,11 +128,32 @@ def _drop_bgz(bg):
 def case_from_params(params, noise_spec=PARAMS_NOISE_SPEC) -> CurveCase:
     """The case of a parameter file (values read as 1 sigma).
 
+    The absolute values of the file's dv0, b_a and b_g become the 1 sigmas
+    (the gyro z sigma set to zero, as in the paper), ``dG[0]`` the gain-error
+    sigma and ``morpi_speed_mps`` the speed; the signed values are kept as the
+    case's one realisation.
+
     Parameters
     ----------
     params : params.ErrorParams
-    noise_spec : units.SensorSpec
-        Noise used when ``params.process_noise`` is true.
+        The error parameters.
+    noise_spec : units.SensorSpec, optional
+        Noise used when ``params.process_noise`` is true (default
+        :data:`PARAMS_NOISE_SPEC`, the MPU-6500).
+
+    Returns
+    -------
+    CurveCase
+        A case named ``"params"`` whose title names the file.
+
+    Examples
+    --------
+    >>> from morpi_filters.params import params_from_dict
+    >>> p = params_from_dict({"dv0_mps": [0.03, -0.04, 0.0], "ba_mps2": [0.0] * 3,
+    ...                       "bg_radps": [0.001, 0.002, 0.003], "g_mps2": 9.81, "dG": [-0.1]})
+    >>> case = case_from_params(p)
+    >>> case.name, case.dv0.tolist(), case.bg.tolist(), case.gain_sigma, case.noise is None
+    ('params', [0.03, 0.04, 0.0], [0.001, 0.002, 0.0], 0.1, True)
     """
     return CurveCase(
         name="params", title=f"parameter file {params.label}", dv0=np.abs(params.dv0), ba=np.abs(params.ba),
@@ -148,10 +169,27 @@ def case_from_sensor(spec, params) -> CurveCase:
     Parameters
     ----------
     spec : units.SensorSpec
-        Turn-on biases as 1 sigma per axis; its noise when
-        ``params.process_noise`` is true.
+        Turn-on biases as 1 sigma per axis (the gyro z sigma set to zero, as in
+        the paper); its noise when ``params.process_noise`` is true.
     params : params.ErrorParams
-        Initial velocity error, gravity, gain error, speed.
+        Initial velocity error (absolute values, as 1 sigma), gravity, gain
+        error (``dG[0]``) and speed.
+
+    Returns
+    -------
+    CurveCase
+        A case named after the IMU (lower case, no hyphen), without a
+        realisation, with `spec` kept for the nonlinear Monte Carlo.
+
+    Examples
+    --------
+    >>> from morpi_filters import units
+    >>> from morpi_filters.params import load_params
+    >>> case = case_from_sensor(units.LSM6DSL, load_params())
+    >>> case.name, case.title
+    ('lsm6dsl', 'LSM6DSL (S8)')
+    >>> bool(np.all(case.ba == units.LSM6DSL.accel_bias)), float(case.bg[2])
+    (True, 0.0)
     """
     return CurveCase(
         name=spec.name.lower().replace("-", ""), title=f"{spec.name} ({spec.phone.upper()})",
@@ -175,20 +213,39 @@ def case_mean_square(case: CurveCase, t, kind):
 
         (s_vx^2 + s_vy^2) t^2 + (s_ax^2 + s_ay^2) t^4 / 4 + g^2 (s_gx^2 + s_gy^2) t^6 / 36
 
-    and for MoRPI-A the paper's ``ds = dG v t`` (:func:`symbolic.morpi_error`):
-    ``(s_G speed t)^2``.
+    and for ``"MoRPI-aided INS"`` the paper's MoRPI-A distance error
+    ``ds = dG v t`` (:func:`morpi_filters.symbolic.morpi_error`): ``(s_G speed t)^2``.
 
     Parameters
     ----------
     case : CurveCase
+        The 1-sigma errors.
     t : array_like, shape (n,)
         Times [s].
     kind : {"INS-3D", "INS-2D", "MoRPI-aided INS"}
-        A name of :data:`CURVE_METHODS` (``"MoRPI-aided INS"``: the paper's MoRPI distance error).
+        A name of :data:`CURVE_METHODS`.
 
     Returns
     -------
-    ndarray, shape (n,)  [m^2]
+    ndarray, shape (n,)
+        Mean squared horizontal error [m^2].
+
+    Raises
+    ------
+    MorpiError
+        For a `kind` not in :data:`CURVE_METHODS`.
+
+    Examples
+    --------
+    A velocity error of 1 sigma (0.03, 0.04) m/s grows as (0.05 t)^2:
+
+    >>> from morpi_filters.params import params_from_dict
+    >>> p = params_from_dict({"dv0_mps": [0.03, 0.04, 0.0], "ba_mps2": [0.0] * 3, "bg_radps": [0.0] * 3,
+    ...                       "g_mps2": 9.81, "dG": [0.1], "morpi_speed_mps": 0.5})
+    >>> np.sqrt(case_mean_square(case_from_params(p), [0.0, 1.0, 2.0], "INS-3D")).round(12).tolist()
+    [0.0, 0.05, 0.1]
+    >>> case_mean_square(case_from_params(p), [4.0], "MoRPI-aided INS").round(12).tolist()  # (0.1 * 0.5 * 4)^2
+    [0.04]
     """
     from . import symbolic
 
@@ -205,11 +262,44 @@ def error_realisation(dv0, ba, bg, dG, g, speed, t, kind):
     """Horizontal error of one realisation of the paper's closed form (z up, ``b_gz`` dropped).
 
     From :func:`morpi_filters.symbolic.closed_form_errors`: the paper's
-    polynomials with ``alpha = g + b_az``; MoRPI-A: ``|dG| speed t``.
+    polynomials with ``alpha = g + b_az``; for ``"MoRPI-aided INS"`` the
+    MoRPI-A distance error ``|dG| speed t``.
+
+    Parameters
+    ----------
+    dv0 : array_like, shape (3,)
+        Initial velocity error [m/s].
+    ba : array_like, shape (3,)
+        Accelerometer bias [m/s^2].
+    bg : array_like, shape (3,)
+        Gyro bias [rad/s] (the z component does not enter).
+    dG : float
+        Relative Weinberg gain error (MoRPI only).
+    g : float
+        Gravity magnitude [m/s^2].
+    speed : float
+        Speed along the path [m/s] (MoRPI only).
+    t : array_like, shape (n,)
+        Times [s].
+    kind : {"INS-3D", "INS-2D", "MoRPI-aided INS"}
+        A name of :data:`CURVE_METHODS`.
 
     Returns
     -------
-    ndarray, shape (n,)  [m]
+    ndarray, shape (n,)
+        Horizontal distance error [m].
+
+    Raises
+    ------
+    MorpiError
+        For a `kind` not in :data:`CURVE_METHODS`.
+
+    Examples
+    --------
+    >>> error_realisation([0.03, 0.04, 0.0], [0.0] * 3, [0.0] * 3, 0.1, 9.81, 0.5, [0.0, 2.0], "INS-2D").round(12).tolist()
+    [0.0, 0.1]
+    >>> error_realisation([0.0] * 3, [0.0] * 3, [0.0] * 3, -0.1, 9.81, 0.5, [2.0], "MoRPI-aided INS").round(12).tolist()
+    [0.1]
     """
     from . import symbolic
 
@@ -224,23 +314,33 @@ def error_realisation(dv0, ba, bg, dG, g, speed, t, kind):
 def time_grid(times, dt, step_period=None):
     """Epochs of a run: a uniform grid plus the requested times and step times.
 
+    Times are merged after rounding to 1e-9 s, so a requested time or a step
+    time that falls on the uniform grid is one epoch.
+
     Parameters
     ----------
     times : array_like, shape (m,)
-        Requested times [s], >= 0.
+        Requested times [s], >= 0; the grid ends at the largest.
     dt : float
         Nominal step [s].
     step_period : float, optional
-        MoRPI step period [s].
+        MoRPI step period [s]: steps at ``step_period``, ``2 step_period``, ...
+        up to the last time.
 
     Returns
     -------
     grid : ndarray, shape (n + 1,)
-        Sorted, unique, starting at 0.
+        Epoch times [s]: sorted, unique, starting at 0.
     steps : ndarray of int
         Epoch indices of the MoRPI steps (empty without `step_period`).
     at : ndarray of int, shape (m,)
         Epoch index of each requested time.
+
+    Examples
+    --------
+    >>> grid, steps, at = time_grid([0.5, 1.0], 0.3, step_period=0.4)
+    >>> grid.tolist(), steps.tolist(), at.tolist()
+    ([0.0, 0.3, 0.4, 0.5, 0.6, 0.8, 0.9, 1.0], [2, 5], [3, 7])
     """
     times = np.asarray(times, dtype=float)
     T = float(times.max()) if times.size else 0.0
@@ -309,6 +409,18 @@ class CaseCurves:
             ``closed_form_error_m`` (a realisation), ``mc_rms_m`` (linear Monte
             Carlo) and ``nonlinear_mc_rms_m`` (strapdown Monte Carlo): each a
             dict from method name (:data:`CURVE_METHODS`) to an ndarray of shape (m,).
+
+        Examples
+        --------
+        Without Monte Carlo runs and without a realisation (an IMU case),
+        only the filter sigma and the closed-form RMS are there:
+
+        >>> from morpi_filters import units
+        >>> from morpi_filters.params import load_params
+        >>> case = case_from_sensor(units.LSM6DSL, load_params())
+        >>> at = compute_curves(case, times=[1.0, 2.0], runs=0, nonlinear_runs=0).at_eval_times()
+        >>> sorted(at), [v.shape for v in at["sigma_m"].values()]
+        (['rms_closed_form_m', 'sigma_m'], [(2,), (2,), (2,)])
         """
         out = {"sigma_m": {}, "rms_closed_form_m": {}}
         for k in CURVE_METHODS:
@@ -433,7 +545,8 @@ def horizontal_sigma(errors, times, method: str = "INS-3D") -> np.ndarray:
         gain error and speed).
     times : array_like, shape (m,)
         Times [s], >= 0, the last > 0.
-    method : {"INS-3D", "INS-2D", "MoRPI-aided INS"}
+    method : {"INS-3D", "INS-2D", "MoRPI-aided INS"}, optional
+        A name of :data:`CURVE_METHODS` (default ``"INS-3D"``).
 
     Returns
     -------
@@ -442,7 +555,10 @@ def horizontal_sigma(errors, times, method: str = "INS-3D") -> np.ndarray:
 
     Examples
     --------
-    >>> from morpi_filters import params, symbolic
+    The 3D filter without process noise propagates the closed form's
+    covariance exactly:
+
+    >>> from morpi_filters import params
     >>> p = params.load_params()
     >>> sigma = horizontal_sigma(p, [5.0, 15.0], "INS-3D")
     >>> rms = np.sqrt(case_mean_square(case_from_params(p), [5.0, 15.0], "INS-3D"))
@@ -476,18 +592,47 @@ def compute_curves(case: CurveCase, times=DEFAULT_TIMES, runs=MC_RUNS, rng=None,
     Parameters
     ----------
     case : CurveCase
-    times : array_like, shape (m,)
-        Requested times [s], >= 0, last > 0; they are epochs of every grid.
-    runs : int
-        Monte Carlo runs (0 skips the Monte Carlo).
+        The 1-sigma errors (and, optionally, one realisation and an IMU spec).
+    times : array_like, shape (m,), optional
+        Requested times [s], >= 0, last > 0; they are epochs of every grid
+        (default :data:`DEFAULT_TIMES`, 0 to 15 s).
+    runs : int, optional
+        Linear Monte Carlo runs (default :data:`MC_RUNS`; 0 skips the Monte Carlo).
     rng : numpy.random.Generator, optional
-        Seed of the Monte Carlo (default ``MC_SEED``).
-    nonlinear_runs : int
-        Runs of the nonlinear (strapdown) Monte Carlo of an IMU case (0 skips it).
+        Generator of the Monte Carlo draws (default one seeded with :data:`MC_SEED`).
+    nonlinear_runs : int, optional
+        Runs of the nonlinear (strapdown) Monte Carlo of an IMU case (default
+        :data:`NL_RUNS`; 0 skips it). It runs only when ``case.spec`` is set and
+        the last time is at most :data:`NL_MAX_T`.
 
     Returns
     -------
     CaseCurves
+        The filter sigma and the closed-form RMS of every method on the filter's
+        grid (:data:`FILTER_DT` plus the times and step times), the realisation
+        when the case has one, and the Monte Carlo curves that were run.
+
+    Raises
+    ------
+    MorpiError
+        For empty, non-finite or negative times, or a last time of 0.
+
+    Examples
+    --------
+    With only an initial velocity error, the filter's 1 sigma of both INS equals
+    the closed form ``|s_dv| t``; the MoRPI steps bound the aided one:
+
+    >>> from morpi_filters.params import params_from_dict
+    >>> p = params_from_dict({"dv0_mps": [0.03, 0.04, 0.0], "ba_mps2": [0.0] * 3, "bg_radps": [0.0] * 3,
+    ...                       "g_mps2": 9.81, "dG": [0.1], "morpi_speed_mps": 0.5})
+    >>> cc = compute_curves(case_from_params(p), times=[1.0, 2.0], runs=20, rng=np.random.default_rng(0))
+    >>> at = cc.at_eval_times()
+    >>> sorted(at)
+    ['closed_form_error_m', 'mc_rms_m', 'rms_closed_form_m', 'sigma_m']
+    >>> {k: v.round(6).tolist() for k, v in at["sigma_m"].items() if k != "MoRPI-aided INS"}
+    {'INS-3D': [0.05, 0.1], 'INS-2D': [0.05, 0.1]}
+    >>> bool(at["sigma_m"]["MoRPI-aided INS"][1] < 0.1)
+    True
     """
     times = np.unique(np.asarray(times, dtype=float))
     if times.size == 0 or not np.all(np.isfinite(times)) or times.min() < 0 or times.max() <= 0:
@@ -591,20 +736,27 @@ class CurvesStudy:
 def curves_study(*, params_path=None, times=None, source=None, tables=None) -> CurvesStudy:
     """Compute the ``curves`` section (``morpi curves``, ``morpi report``).
 
+    Runs :func:`compute_curves` with its default Monte Carlo sizes on three
+    cases: the parameter file, the MPU-6500 and the LSM6DSL. That takes
+    seconds, so this function has no example; see :func:`compute_curves`.
+
     Parameters
     ----------
-    params_path : path, optional
+    params_path : path-like, optional
         Parameter file (values read as 1 sigma); default the committed one.
     times : sequence of float, optional
-        Evaluation times [s] (default 0..15 s).
-    source : reporting.DataSource or None
-        Recordings for the field end points.
+        Evaluation times [s] (default :data:`DEFAULT_TIMES`, 0 to 15 s).
+    source : reporting.DataSource or None, optional
+        Recordings for the field end points (none when None).
     tables : evaluate.TablesResult, optional
-        The field evaluation of ``source.root`` when already computed.
+        The field evaluation of ``source.root`` when already computed (its
+        cached recordings are reused).
 
     Returns
     -------
     CurvesStudy
+        The parameters, the sorted unique times, the three cases' curves (each
+        carrying the field end points) and the field note.
     """
     from .params import load_params
 

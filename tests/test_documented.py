@@ -177,3 +177,67 @@ def test_analysis_scripts_and_the_tutorial_use_public_names_only():
                 assert not any(a.name.startswith("_") for a in node.names), (path.name, node.lineno)
             if isinstance(node, ast.Attribute) and node.attr.startswith("_") and not node.attr.startswith("__"):
                 raise AssertionError(f"{path.name}:{node.lineno}: private name {node.attr}")
+
+
+# ----------------------------------------------------------------------------- numpydoc sections
+
+#: Modules whose public functions must carry complete numpydoc sections (issue 13, item 6).
+_SECTIONED_MODULES = ("_batch_ins", "assessment", "calibration", "cli", "curves", "dataset", "error_model", "fetch",
+                      "parallel", "params")
+#: Public functions of those modules without an Examples section, and why.
+_NO_EXAMPLE = {
+    "assessment.fit_paper_numbers": "a bounded least-squares fit of several seconds (tests/test_assessment.py runs it)",
+    "assessment.write_fitted_params": "runs fit_paper_numbers (seconds) and writes the committed parameter file",
+    "curves.curves_study": "three cases with the default Monte Carlo sizes (seconds); compute_curves shows one case",
+}
+
+
+def _sections(doc: str) -> dict:
+    """numpydoc section title -> body, of a docstring already dedented by inspect.getdoc."""
+    import re
+
+    parts = re.split(r"^([A-Z][A-Za-z ]+)\n-+\n", doc, flags=re.M)
+    return {parts[i]: parts[i + 1] for i in range(1, len(parts) - 1, 2)}
+
+
+def _documented_parameters(body: str) -> set:
+    """Names of the entries of a Parameters section (``a, b : type`` documents a and b)."""
+    names = set()
+    for line in body.splitlines():
+        if line and not line[0].isspace():
+            names |= {n.strip().lstrip("*") for n in line.split(" : ")[0].split(",")}
+    return names
+
+
+def _public_functions(modules):
+    import importlib
+    import inspect
+
+    for short in modules:
+        module = importlib.import_module(f"morpi_filters.{short}")
+        for name in module.__all__:
+            obj = getattr(module, name)
+            if inspect.isfunction(obj) and obj.__module__ == module.__name__:
+                yield f"{short}.{name}", obj
+
+
+def test_public_functions_have_parameters_returns_and_examples():
+    import inspect
+
+    checked, problems = 0, []
+    for qual, func in _public_functions(_SECTIONED_MODULES):
+        checked += 1
+        sections = _sections(inspect.getdoc(func) or "")
+        params = {p.name for p in inspect.signature(func).parameters.values()}
+        if params:
+            got = _documented_parameters(sections.get("Parameters", ""))
+            if got != params:
+                problems.append(f"{qual}: Parameters documents {sorted(got)}, the signature has {sorted(params)}")
+        if not ({"Returns", "Yields"} & set(sections)):
+            problems.append(f"{qual}: no Returns (or Yields) section")
+        if "Examples" not in sections and qual not in _NO_EXAMPLE:
+            problems.append(f"{qual}: no Examples section")
+        if "Examples" in sections and qual in _NO_EXAMPLE:
+            problems.append(f"{qual}: has Examples now; remove it from _NO_EXAMPLE")
+    assert checked >= 60, checked
+    assert not problems, "\n".join(problems)
