@@ -387,11 +387,18 @@ def choose_tunables(data, train, method, mode, config, gain):
 
     Returns
     -------
-    TunableChoice or MorpiError
-        The choice, or (not raised) the error of a training set without a
-        train run with steps.
+    TunableChoice
+
+    Raises
+    ------
+    MorpiError
+        The training set has no train run with steps (:func:`choose_tunables_many`
+        returns that error in its list; this single-request form raises it).
     """
-    return choose_tunables_many(data, [(train, method, mode, config, gain)])[0]
+    choice = choose_tunables_many(data, [(train, method, mode, config, gain)])[0]
+    if isinstance(choice, MorpiError):
+        raise choice
+    return choice
 
 
 def choose_tunables_many(data, requests) -> list:
