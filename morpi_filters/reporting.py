@@ -494,7 +494,7 @@ def check_output_dir(folder, option: str = "--out") -> Path:
     >>> check_output_dir(d / "reports") == d / "reports"
     True
     >>> _ = (d / "thesis.tex").write_text("")
-    >>> check_output_dir(d, "--out")
+    >>> check_output_dir(d, "--out")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
     morpi_filters.errors.ParameterError: --out ...: holds thesis.tex, which morpi did not write (no .morpi-output marker); refusing to replace it, choose a new or empty folder
@@ -540,7 +540,7 @@ def check_output_file(path, option: str = "--json") -> Path:
     >>> d = Path(tempfile.mkdtemp())
     >>> check_output_file(d / "out.json").name
     'out.json'
-    >>> check_output_file(d)
+    >>> check_output_file(d)  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
     morpi_filters.errors.ParameterError: --json ...: is a folder, expected a file name
