@@ -148,10 +148,29 @@ SENSORS = {"s6": MPU6500, "s8": LSM6DSL}
 def sensor_for_phone(phone: str) -> SensorSpec:
     """Return the datasheet spec of a dataset phone (``"s6"`` or ``"s8"``).
 
+    Parameters
+    ----------
+    phone : str
+        Dataset phone folder: ``"s6"`` (Galaxy S6, MPU-6500) or ``"s8"``
+        (Galaxy S8, LSM6DSL).
+
+    Returns
+    -------
+    SensorSpec
+        The paper's datasheet figures for that phone's IMU, in SI
+        (:data:`MPU6500` or :data:`LSM6DSL`; the same object, not a copy).
+
+    Raises
+    ------
+    MorpiError
+        Any other phone name; the message lists the known ones.
+
     Examples
     --------
     >>> sensor_for_phone("s8").name, sensor_for_phone("s6").name
     ('LSM6DSL', 'MPU-6500')
+    >>> round(sensor_for_phone("s6").accel_bias / G0 * 1000, 6)    # 60 mg back in mg
+    60.0
     """
     from .errors import MorpiError
 

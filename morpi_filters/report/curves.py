@@ -33,6 +33,8 @@ def report_curves(out, study: CurvesStudy, source=None) -> SectionSummary:
     Returns
     -------
     reporting.SectionSummary
+        Name ``"curves"``, its page, one figure per case and a summary
+        (no example: a curves study takes seconds).
     """
     out = Path(out)
     params, times = study.params, study.times

@@ -29,6 +29,8 @@ def report_montecarlo(out, study: GainErrorPage, source=None) -> SectionSummary:
     Returns
     -------
     reporting.SectionSummary
+        The section's name, page, figures and summary (no example: the
+        study and its figures take seconds).
     """
     out = Path(out)
     runs, seed = study.runs, study.seed
@@ -155,6 +157,8 @@ def report_drift(out, study: DriftPage) -> SectionSummary:
     Returns
     -------
     reporting.SectionSummary
+        The section's name, page, figures and summary (no example: the
+        study and its figures take seconds).
     """
     out = Path(out)
     spec, d, growth, onset = study.spec, study.drift, study.growth, study.onset

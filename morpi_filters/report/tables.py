@@ -31,6 +31,8 @@ def report_tables(out, study: TablesStudy, source) -> SectionSummary:
     Returns
     -------
     reporting.SectionSummary
+        Name ``"tables"``, its page, figures and summary (no example: the
+        study needs a dataset).
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -379,7 +381,28 @@ def _cell_json(c: Cell) -> dict:
 
 
 def result_json(study: TablesStudy, source=None) -> dict:
-    """The section's JSON contract (cells, gains, selection, comparison, alternatives), read from `study`."""
+    """The section's JSON contract (cells, gains, selection, comparison, alternatives), read from `study`.
+
+    Needs a :class:`morpi_filters.evaluate.TablesStudy` of a dataset, so there is no example.
+
+    Parameters
+    ----------
+    study : evaluate.TablesStudy
+        What :func:`morpi_filters.evaluate.tables_study` computed.
+    source : reporting.DataSource, optional
+        The dataset (its root and whether it is synthetic).
+
+    Returns
+    -------
+    dict
+        ``data_root``, ``synthetic``, ``missing_folders``, ``cells``,
+        ``gains`` (per training set: ``train_set``, ``phone``, ``route``,
+        ``method``, ``calibration``, ``mean``, ``std``, ``per_run``, ``files``,
+        ``skipped``, ``unit``), ``step_rule``, ``comparison``, ``readings``,
+        ``ins_full_span``, ``other_rule``, ``step_rule_nested``,
+        ``rule_sensitivity``, ``ins_leveled``, ``claims``, ``thresholds`` and
+        ``heading_readings``.
+    """
     result = study.result
     return {
         "data_root": None if source is None else str(source.root),
