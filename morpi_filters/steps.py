@@ -84,7 +84,8 @@ class StepConfig:
     """Every tunable of the step pipeline.
 
     The rule :func:`morpi_filters.field.select_config` picks from the train
-    runs of the MoRPI field dataset (one for both methods) is
+    runs of the MoRPI field dataset (one per method, the way of choosing the
+    nested train-only check prefers) is
     :data:`DEFAULT_CONFIGS`; a test keeps it in step with the search.
 
     Attributes
@@ -272,8 +273,8 @@ class MorpiTrack:
 #: The step rule of each method that :func:`morpi_filters.field.select_config`
 #: picks on the field train runs (the defaults of :func:`extract_steps`).
 DEFAULT_CONFIGS = {
-    "MoRPI-A": StepConfig(prominence=0.2),
-    "MoRPI-G": StepConfig(prominence=0.2),
+    "MoRPI-A": StepConfig(ends="whole", prominence=0.2),
+    "MoRPI-G": StepConfig(heading="turns", cutoff_hz=1.0),
 }
 
 def resample_uniform(time, values, rate_hz: float = GRID_HZ):
