@@ -751,15 +751,14 @@ def turn_stretches(boundary_time, boundary_heading, threshold: float, per_period
     """The turning stretches of a run, with the full periods around them [s].
 
     A full period (:func:`period_changes`) whose heading change exceeds
-    `threshold` in magnitude is turning; overlapping or touching turning
-    periods merge into one stretch, so a turn spread over several periods is
-    one stretch. A stretch spans a whole number of periods (between extrema
-    an odd count of half-period steps is extended by the neighbouring half
-    step that turns the more the stretch's way), so its ends have the same
-    phase of the sine. The full period just before and just after the
-    stretch are returned with it: the turn is measured between their mean
-    headings (:func:`turn_heading`), where the zigzag cancels whatever the
-    boundaries' phase jitter.
+    `threshold` in magnitude is turning; turning periods that overlap or
+    touch merge into one stretch, which is widened by one full period on each
+    side (a turn eases in and out through periods below the threshold), and
+    stretches that then overlap merge. A turn spread over several periods is
+    so one stretch. The full periods just before and after each stretch are
+    returned with it: the turn is measured between their mean headings
+    (:func:`turn_heading`), where the zigzag of the sine cancels whatever
+    the phase of the boundaries.
 
     Parameters
     ----------
@@ -775,38 +774,34 @@ def turn_stretches(boundary_time, boundary_heading, threshold: float, per_period
     list of (float, float, float, float)
         ``(before, start, end, after)`` per stretch, in time order,
         non-overlapping: the stretch is ``[start, end]``, the full periods
-        around it ``[before, start]`` and ``[end, after]`` (empty, ``before
-        == start`` or ``after == end``, at the run's first or last boundary).
+        around it ``[before, start]`` and ``[end, after]`` (shorter or
+        empty at the run's first or last boundary).
 
     Examples
     --------
-    >>> t = np.arange(10.0)
-    >>> psi = np.radians([0, 20, 0, 20, 60, 90, 110, 90, 110, 90])   # zigzag, a 90 deg turn, zigzag
+    >>> t = np.arange(14.0)      # zigzag, a 90 deg turn over three half periods, zigzag
+    >>> psi = np.radians([0, 20, 0, 20, 0, 20, 60, 90, 110, 90, 110, 90, 110, 90])
     >>> turn_stretches(t, psi, np.radians(45), 2)
-    [(0.0, 2.0, 6.0, 8.0)]
+    [(0.0, 2.0, 10.0, 12.0)]
     """
     bt = np.asarray(boundary_time, float)
     h = np.asarray(boundary_heading, float)
     c = period_changes(h, per_period)
     on = np.flatnonzero(np.abs(c) > threshold)
-    out = []
     if on.size == 0:
-        return out
+        return []
+    last = h.shape[0] - 1
+    spans = []
     # window j covers boundaries [j, j + per_period]; windows overlapping or touching merge
     breaks = np.flatnonzero(np.diff(on) > per_period)
     for a, b in zip(np.r_[on[0], on[breaks + 1]], np.r_[on[breaks], on[-1]] + per_period):
-        a, b = int(a), int(b)
-        if (b - a) % per_period:
-            sign = np.sign(h[b] - h[a])
-            after = sign * (h[b + 1] - h[b]) if b + 1 < h.shape[0] else -np.inf
-            before = sign * (h[a] - h[a - 1]) if a >= 1 else -np.inf
-            if after >= before and np.isfinite(after):
-                b += 1
-            elif np.isfinite(before):
-                a -= 1
-        out.append((float(bt[max(a - per_period, 0)]), float(bt[a]), float(bt[b]),
-                    float(bt[min(b + per_period, bt.shape[0] - 1)])))
-    return out
+        a, b = max(int(a) - per_period, 0), min(int(b) + per_period, last)
+        if spans and a <= spans[-1][1]:
+            spans[-1] = (spans[-1][0], b)
+        else:
+            spans.append((a, b))
+    return [(float(bt[max(a - per_period, 0)]), float(bt[a]), float(bt[b]), float(bt[min(b + per_period, last)]))
+            for a, b in spans]
 
 
 def turn_heading(time, t, psi, stretches) -> np.ndarray:
