@@ -204,7 +204,7 @@ def test_nested_rule_comparison_matches_a_search_without_the_held_out_run(field_
             for m in ("MoRPI-A", "MoRPI-G"):
                 cfg = part.selections[m].config
                 # the nested check keeps the detection thresholds of all train runs, the tree sets its own
-                # without the held-out run: the turn threshold may differ (s6/14 holds the largest
+                # without the held-out run: the turn threshold may differ (s8/short_distance/train/6 holds the largest
                 # full-period change, 34.1 deg: 49 deg without it, 51 with it). No straight train run has
                 # a period beyond either, so the steps, gains and errors below are the same.
                 ref = fd.select_config(data, m if rule == "per_method" else fd._MORPI_METHODS, exclude=(rel,)).config
