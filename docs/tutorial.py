@@ -32,7 +32,7 @@ def field_run(data_root, relpath="s8/short_distance/test/2.csv", method="MoRPI-G
 
     rec, route = dataset.load_recording(Path(data_root) / relpath)     # labels and ground truth from the path
     data = field.FieldData(data_root)                                  # rest and motion windows, cached
-    rule = field.select_config(data).config                            # the step rule: train recordings only
+    rule = field.select_config(data, method).config                    # the method's step rule: train runs only
     gain = field.trained_gain(data, rec.phone, rec.route, calibration, method, rule)
     track = steps.morpi_track(data.steps(rec, calibration, method, rule), gain.mean)
     error = track.error(route)                                         # end point against the ground truth [m]

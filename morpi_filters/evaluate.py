@@ -24,10 +24,10 @@ Tunables
     :mod:`morpi_filters.steps`) is chosen by :func:`select_config` from the
     short-route ``train`` runs only: a coordinate search scored by the
     leave-one-out end-point error on the train runs (each held-out run is
-    dead-reckoned with the gain of the other runs of its set). By default one
-    rule serves both methods (``rule="joint"``, the paper's "in the same
-    manner" reading); each method's own rule (``"per_method"``) is reported
-    beside it. The default is the way of choosing that
+    dead-reckoned with the gain of the other runs of its set). Either each
+    method gets its own rule (``rule="per_method"``) or one rule serves both
+    (``"joint"``, the paper's "in the same manner" reading); the other is
+    reported beside the default. The default is the way of choosing that
     :func:`nested_rule_comparison` prefers: nested leave-one-out over the
     train runs, without the bias of scoring on the runs a rule was chosen
     on (a rule per method always has the lower plain train error). And
@@ -78,7 +78,7 @@ __all__ = [
     "TABLES", "PAPER_CELLS", "PAPER_COMPARISON", "CellSpec", "RunResult", "Cell",
     "TablesResult", "evaluate_tables", "TablesStudy", "RecordingView", "TrackView", "tables_study",
     "training_gain_spread", "rule_sensitivity", "comparison", "ins_full_span", "ins_leveled", "other_rule",
-    "DEVIATION_PP", "check_cells", "dataset_problems", "heading_readings",
+    "DEVIATION_PP", "check_cells", "dataset_problems", "heading_readings", "turn_reading",
 ]
 
 # --------------------------------------------------------------------------- the paper's numbers
@@ -294,7 +294,7 @@ class TablesResult:
     readings: tuple
     missing: tuple
     data: "FieldData" = field(repr=False, default=None)
-    rule: str = "joint"
+    rule: str = "per_method"
 
     def cell(self, table, phone, p2p_m, method, calibration) -> Cell:
         for c in self.cells:
@@ -409,7 +409,7 @@ def _morpi_cell(data: FieldData, spec: CellSpec, config, gain: Gain | None) -> C
 
 
 def evaluate_tables(root, *, include_test: bool = True, configs: dict | None = None,
-                    data: FieldData | None = None, ins_span: str = "motion", rule: str = "joint",
+                    data: FieldData | None = None, ins_span: str = "motion", rule: str = "per_method",
                     alternatives: bool = True) -> TablesResult:
     """Compute every table cell of the paper on a dataset root.
 
@@ -426,9 +426,10 @@ def evaluate_tables(root, *, include_test: bool = True, configs: dict | None = N
     ins_span : str
         INS integration span (:class:`FieldData`).
     rule : str
-        ``"joint"`` (default): one step rule for both methods, the choice the
-        nested train-only check prefers (:func:`nested_rule_comparison`);
-        ``"per_method"``: each method's own rule (:func:`select_config`).
+        ``"per_method"`` (default): each method's own rule
+        (:func:`select_config`), the choice the nested train-only check
+        prefers (:func:`nested_rule_comparison`); ``"joint"``: one step rule
+        for both methods.
     alternatives : bool
         Also compute the short-route cells under every reading.
 
@@ -686,6 +687,65 @@ def heading_readings(result: TablesResult) -> dict:
             "cells": cells, "train": train}
 
 
+def turn_reading(result: TablesResult) -> dict:
+    """The long-route and L-route MoRPI cells under every heading reading, with the turn threshold.
+
+    Each MoRPI cell of the long route and the L route is recomputed with the
+    chosen step rule of its method and the heading reading replaced by each of
+    :data:`morpi_filters.steps.HEADINGS` (``"change"``: the step's own heading
+    change; ``"turns"``: that plus the turns so far), gains retrained under
+    each on the train runs. ``train`` gives each reading's leave-one-out train
+    error per method (what the search sees); ``threshold`` where the turn
+    threshold comes from (:func:`morpi_filters.field.train_thresholds`); and
+    ``l_route_turns_deg`` the turn the ``"turns"`` reading finds in each L-route
+    test run (GC), against the route's turn. The test cells are shown, never
+    used for a choice.
+    """
+    from .field import TURN_MARGIN
+
+    data = result.data
+    chosen = {m: s.config for m, s in result.selections.items()}
+    under = {}
+    for h in st.HEADINGS:
+        cfgs = {m: c.with_(heading=h) for m, c in chosen.items()}
+        under[h] = cfgs, evaluate_tables(data.root, data=data, configs=cfgs, alternatives=False)
+    cells = []
+    for c in result.cells:
+        s = c.spec
+        if s.method not in _MORPI_METHODS or s.table not in ("long_route", "morpi_l_shape"):
+            continue
+        key = (s.table, s.phone, s.p2p_m, s.method, s.calibration)
+        cells.append({"table": s.table, "phone": s.phone, "p2p_m": s.p2p_m, "method": s.method,
+                      "calibration": s.calibration, "paper_percent": s.paper_percent,
+                      "chosen_heading": chosen[s.method].heading, "chosen_percent": c.ours_percent,
+                      **{f"{h}_percent": under[h][1].cell(*key).ours_percent for h in st.HEADINGS}})
+    train = {m: {h: (lambda v: None if v is None or not v.size else float(v.mean()))(
+        _loo_vector(data, m, under[h][0][m])) for h in st.HEADINGS} for m in _MORPI_METHODS}
+    th = data.thresholds
+    turns = {}
+    truth = ds.route("L_shape")
+    for m in _MORPI_METHODS:
+        cfg = under["turns"][0][m]
+        found = []
+        for r in data.recordings("s6", "L_shape", "test"):
+            try:
+                s = data.steps(r, "GC", m, cfg)
+            except MorpiError:
+                continue
+            psi = data.heading(r, "GC")
+            bt = s.peaks.grid_time[s.peaks.grid_index]
+            stretches = st.turn_stretches(bt, np.interp(bt, r.time, psi), np.radians(cfg.turn_deg),
+                                          2 if cfg.segment == "extrema" else 1)
+            found.append({"file": data.relpath(r), "stretches": len(stretches),
+                          "turn_deg": float(np.degrees(st.turn_heading([r.time[-1]], r.time, psi, stretches)[0]))})
+        turns[m] = found
+    return {"threshold": {"turn_deg": th.turn_deg, "margin": TURN_MARGIN,
+                          "largest_train_period_change_deg": max(th.period_changes_deg) if th.period_changes_deg
+                          else None, "n_train_values": len(th.period_changes_deg)},
+            "headings": list(st.HEADINGS), "cells": cells, "train": train,
+            "route_turn_deg": truth.turn_deg, "l_route_turns_deg": turns}
+
+
 # --------------------------------------------------------------------------- checks and shared pieces
 
 #: Cells further than this from the paper are listed and explained on the page [percentage points].
@@ -695,7 +755,7 @@ DEVIATION_PP = 2.5
 
 def _config_json(cfg: st.StepConfig) -> dict:
     return {k: getattr(cfg, k) for k in ("heading", "segment", "ends", "min_period_s", "prominence",
-                                          "cutoff_hz", "amplitude_from")}
+                                          "cutoff_hz", "amplitude_from", "turn_deg")}
 
 
 def _heading_stats(c: Cell, res: TablesResult) -> tuple[float, float]:
@@ -856,6 +916,8 @@ class TablesStudy:
         :func:`paper_claims`.
     heading_readings : dict
         :func:`heading_readings`.
+    turn_reading : dict
+        :func:`turn_reading`.
     """
 
     result: TablesResult
@@ -873,6 +935,7 @@ class TablesStudy:
     cell_notes: dict = field(default_factory=dict)
     claims: tuple = ()
     heading_readings: dict = field(default_factory=dict)
+    turn_reading: dict = field(default_factory=dict)
 
 
 def tables_study(root, *, partial: bool = False, result: TablesResult | None = None) -> TablesStudy:
@@ -919,7 +982,7 @@ def tables_study(root, *, partial: bool = False, result: TablesResult | None = N
                        ins_full_span=full, other_rule=other, nested=nested, rule_sensitivity=sens,
                        ins_leveled=leveled, recordings=recordings, tracks=tracks, path_panels=panels,
                        cell_notes=_cell_notes(res), claims=tuple(paper_claims(res)),
-                       heading_readings=heading_readings(res))
+                       heading_readings=heading_readings(res), turn_reading=turn_reading(res))
 
 
 #: Agreement bands of :func:`paper_claims` (each with its reason).

@@ -22,7 +22,7 @@ from .errors import MorpiError
 
 __all__ = ["SHORT_SETS", "RULES", "INS_SPANS", "LEVELED", "HEADING_ORIGINS", "HEADING_SOURCES", "Gain",
            "Selection", "Thresholds", "FieldData", "train_thresholds", "select_config", "nested_rule_comparison",
-           "READING_GRID", "TUNABLE_GRID", "SWING_MARGIN", "trained_gain"]
+           "READING_GRID", "TUNABLE_GRID", "SWING_MARGIN", "TURN_MARGIN", "trained_gain"]
 
 #: Short-route training/test sets: (phone, route, p2p).
 SHORT_SETS = (("s8", "short_distance", 1.0), ("s8", "short_distance_1.5p2p", 1.5), ("s6", "short_distance", 1.0))
@@ -40,6 +40,9 @@ HEADING_ORIGINS = ("motion", "start")
 HEADING_SOURCES = ("gyro", "attitude")
 #: The least heading swing of a periodic run is this fraction of the smallest swing of the train runs.
 SWING_MARGIN = 0.75
+#: A full period turns (the ``"turns"`` heading reading) when its heading change exceeds this multiple of
+#: the largest full-period heading change of the straight train runs.
+TURN_MARGIN = 1.5
 _MORPI_METHODS = tuple(st.METHODS)
 
 
@@ -111,6 +114,12 @@ class Thresholds:
         Per train run, its median heading swing per period [deg].
     files : tuple of str
         The train runs, relative to the dataset root.
+    turn_deg : float
+        Least full-period heading change of a turn [deg]
+        (:attr:`morpi_filters.steps.StepConfig.turn_deg`).
+    period_changes_deg : tuple of float
+        Per train run and method (MoRPI-A runs first, then MoRPI-G), its
+        largest absolute full-period heading change [deg].
     """
 
     accel_floor: float
@@ -118,10 +127,13 @@ class Thresholds:
     rest_std: tuple = ()
     swings_deg: tuple = ()
     files: tuple = ()
+    turn_deg: float = st.StepConfig().turn_deg
+    period_changes_deg: tuple = ()
 
 
 #: Used when a root has no train runs (no gains either, so no MoRPI cell): the library's defaults.
-_DEFAULT_THRESHOLDS = Thresholds(accel_floor=0.1, min_swing_deg=st.StepConfig().min_swing_deg)
+_DEFAULT_THRESHOLDS = Thresholds(accel_floor=0.1, min_swing_deg=st.StepConfig().min_swing_deg,
+                                 turn_deg=st.StepConfig().turn_deg)
 
 
 class FieldData:
@@ -459,9 +471,19 @@ def train_thresholds(data: FieldData) -> Thresholds:
         MoRPI-G signal, the search's start rule, no swing limit); the least
         swing of a periodic run is :data:`SWING_MARGIN` times the smallest
         of them, rounded down to a whole degree.
+    Turns
+        The train runs are all straight, so whatever heading change they show
+        over one full period is not a turn: the drift over the period and
+        the phase jitter of the step boundaries. Each train run's largest
+        absolute full-period change (:func:`morpi_filters.steps.period_changes`;
+        GC heading, the search's start rule with half-period steps between
+        extrema, so that max-to-max and min-to-min periods are both seen,
+        both methods' boundaries) is measured; the least turn is
+        :data:`TURN_MARGIN` times the largest of them, rounded down to a
+        whole degree.
 
     Only ``train`` folders are read; a root without them gets the library's
-    defaults (0.1 m/s^2, 15 deg; it has no gains either).
+    defaults (0.1 m/s^2, 15 deg, 51 deg; it has no gains either).
     """
     floor, rest_std, files = _train_accel_floor(data)
     data._accel_floor = floor if data._accel_floor is None else data._accel_floor
@@ -478,11 +500,36 @@ def train_thresholds(data: FieldData) -> Thresholds:
             if np.isfinite(sw):
                 swings.append(float(sw))
                 sfiles.append(e.relpath)
+    changes, cfiles = _train_period_changes(data)
+    turn = float(np.floor(TURN_MARGIN * max(changes))) if changes else _DEFAULT_THRESHOLDS.turn_deg
     if not swings:
         return Thresholds(accel_floor=data.accel_floor(), min_swing_deg=_DEFAULT_THRESHOLDS.min_swing_deg,
-                          rest_std=rest_std, files=files)
+                          rest_std=rest_std, files=files, turn_deg=turn, period_changes_deg=tuple(changes))
     return Thresholds(accel_floor=data.accel_floor(), min_swing_deg=float(np.floor(SWING_MARGIN * min(swings))),
-                      rest_std=rest_std, swings_deg=tuple(swings), files=tuple(sorted(set(files) | set(sfiles))))
+                      rest_std=rest_std, swings_deg=tuple(swings),
+                      files=tuple(sorted(set(files) | set(sfiles) | set(cfiles))), turn_deg=turn,
+                      period_changes_deg=tuple(changes))
+
+
+def _train_period_changes(data: FieldData) -> tuple[list, list]:
+    """Per train run and method, the largest absolute full-period heading change [deg], and the runs' paths."""
+    cfg = _START.with_(segment="extrema", min_swing_deg=0.0)
+    changes, files = [], []
+    for m in _MORPI_METHODS:
+        for e in data.train_entries():
+            for r in data.recordings(e.phone, e.route, e.split):
+                if data.relpath(r) != e.relpath:
+                    continue
+                try:
+                    s = data.steps(r, "GC", m, cfg)
+                except MorpiError:
+                    continue
+                bt = s.peaks.grid_time[s.peaks.grid_index]
+                c = st.period_changes(np.interp(bt, r.time, data.heading(r, "GC")), 2)
+                if c.size:
+                    changes.append(float(np.degrees(np.abs(c).max())))
+                    files.append(e.relpath)
+    return changes, files
 
 
 # --------------------------------------------------------------------------- gain training and config search
@@ -525,7 +572,7 @@ def trained_gain(data: FieldData, phone, route, calibration, method, config) -> 
 
 
 #: Coordinate search: first the readings (with the first tunables), then the tunables.
-READING_GRID = {"heading": ("absolute", "mean"), "segment": st.SEGMENTS, "ends": st.ENDS}
+READING_GRID = {"heading": ("absolute", "mean", "turns"), "segment": st.SEGMENTS, "ends": st.ENDS}
 TUNABLE_GRID = {"cutoff_hz": (1.0, 2.0, 3.0), "prominence": (0.2, 0.35, 0.5), "min_period_s": (0.5, 1.0)}
 _START = st.StepConfig(heading="absolute", segment="maxima", ends="drop", cutoff_hz=2.0, prominence=0.35,
                        min_period_s=0.5)
@@ -599,8 +646,9 @@ def _loo_score(data: FieldData, method, config, mode="GC", exclude=frozenset()) 
 def select_config(data: FieldData, methods=_MORPI_METHODS, *, exclude=()) -> Selection:
     """Choose the step rule from the short-route train runs only.
 
-    A coordinate search: the paper's readings (heading absolute or mean over
-    the step; segments between maxima or extrema; partial end steps dropped,
+    A coordinate search: the paper's readings (heading absolute, mean over
+    the step, or the step's own change plus the turns so far, ``"turns"``;
+    segments between maxima or extrema; partial end steps dropped,
     fractional or whole) are scored with the start tunables, then each tunable
     (low-pass cut-off, prominence fraction, least period) is scanned in turn
     with the best readings. The score is the leave-one-out end-point error of
@@ -608,7 +656,8 @@ def select_config(data: FieldData, methods=_MORPI_METHODS, *, exclude=()) -> Sel
     methods (the default) one rule serves MoRPI-A and MoRPI-G, as the paper
     extracts both "in the same manner". The heading reading "change" is not a
     candidate: it cannot represent a turn (the L route), so it is reported as
-    an alternative only. Ties keep the earlier config.
+    an alternative only; ``"turns"`` is its turn-following form, with the
+    turn threshold of :func:`train_thresholds`. Ties keep the earlier config.
 
     Parameters
     ----------
@@ -627,7 +676,8 @@ def select_config(data: FieldData, methods=_MORPI_METHODS, *, exclude=()) -> Sel
         vals = [_loo_score(data, m, cfg, exclude=exclude) for m in methods]
         return float(np.mean([v for v, _ in vals])), int(sum(n for _, n in vals))
 
-    start = _START.with_(min_swing_deg=data.thresholds.min_swing_deg)
+    th = data.thresholds
+    start = _START.with_(min_swing_deg=th.min_swing_deg, turn_deg=th.turn_deg)
     trials = []
     best, best_score, n = start, float("inf"), 0
     keys = list(READING_GRID)
@@ -648,7 +698,7 @@ def select_config(data: FieldData, methods=_MORPI_METHODS, *, exclude=()) -> Sel
             if sc < best_score:
                 best, best_score, n = cfg, sc, n_
     if not np.isfinite(best_score):
-        best = st.StepConfig(min_swing_deg=data.thresholds.min_swing_deg)
+        best = st.StepConfig(min_swing_deg=th.min_swing_deg, turn_deg=th.turn_deg)
     return Selection("+".join(methods), best, best_score, tuple(trials), n)
 
 

@@ -26,7 +26,11 @@ Readings of the paper
     ``heading`` (what Delta psi_k is)
         ``"absolute"``: the heading accumulated since the start, taken at the
         step's end peak; ``"mean"``: its mean over the step; ``"change"``: the
-        heading change inside the step (end minus start).
+        heading change inside the step (end minus start); ``"turns"``: the
+        step's heading change plus the turn heading at the step's start
+        (:func:`turn_heading`: the heading followed only through the
+        stretches whose full-period heading change exceeds
+        :attr:`StepConfig.turn_deg`, held still elsewhere).
     ``segment`` (where a step starts and ends)
         ``"maxima"``: between consecutive maxima (one period); ``"extrema"``:
         between consecutive extrema (half periods, two per period).
@@ -63,12 +67,12 @@ __all__ = [
     "GRID_HZ", "HEADINGS", "SEGMENTS", "ENDS", "METHODS", "StepConfig", "Peaks", "Steps", "MorpiTrack",
     "resample_uniform", "lowpass", "detect_peaks", "weinberg_length", "integrate_heading",
     "motion_span", "activity_span", "PreparedSignal", "prepare_signal", "extract_steps", "train_gain",
-    "dead_reckon", "morpi_track", "DEFAULT_CONFIGS",
+    "dead_reckon", "morpi_track", "DEFAULT_CONFIGS", "period_changes", "turn_stretches", "turn_heading",
 ]
 
 #: Rate of the uniform grid peak detection works on [Hz].
 GRID_HZ = 100.0
-HEADINGS = ("absolute", "mean", "change")
+HEADINGS = ("absolute", "mean", "change", "turns")
 SEGMENTS = ("maxima", "extrema")
 ENDS = ("drop", "fraction", "whole")
 #: MoRPI method -> (signal attribute, column).
@@ -80,7 +84,8 @@ class StepConfig:
     """Every tunable of the step pipeline.
 
     The rule :func:`morpi_filters.field.select_config` picks from the train
-    runs of the MoRPI field dataset (one for both methods) is
+    runs of the MoRPI field dataset (one per method, the way of choosing the
+    nested train-only check prefers) is
     :data:`DEFAULT_CONFIGS`; a test keeps it in step with the search.
 
     Attributes
@@ -104,6 +109,15 @@ class StepConfig:
         = 64 deg (A = 0.1 m, lambda = 1 m); on the field recordings the
         periodic runs swing by 20 deg or more, the straight runs by 11 deg or
         less, hence 15 deg.
+    turn_deg : float
+        Least heading change over one full period (two half-period steps
+        between extrema, one step between maxima) that counts as a turn for
+        the ``"turns"`` heading reading [deg]. On a straight sine the
+        full-period change is the gyro drift over a period plus what is left
+        of the zigzag between two boundaries of the same phase; the default
+        is what :func:`morpi_filters.field.train_thresholds` sets on the
+        straight train runs of the field dataset (1.5 times the largest
+        full-period change they show, 34 deg).
     """
 
     heading: str = "mean"
@@ -114,6 +128,7 @@ class StepConfig:
     cutoff_hz: float | None = 3.0
     amplitude_from: str = "raw"
     min_swing_deg: float = 15.0
+    turn_deg: float = 51.0
 
     def __post_init__(self):
         for name, allowed in (("heading", HEADINGS), ("segment", SEGMENTS), ("ends", ENDS),
@@ -126,6 +141,8 @@ class StepConfig:
             raise MorpiError(f"StepConfig.prominence={self.prominence}: expected a fraction >= 0")
         if self.cutoff_hz is not None and not 0 < self.cutoff_hz < GRID_HZ / 2:
             raise MorpiError(f"StepConfig.cutoff_hz={self.cutoff_hz}: expected None or 0 < f < {GRID_HZ / 2} Hz")
+        if not 0 < self.turn_deg < 360:
+            raise MorpiError(f"StepConfig.turn_deg={self.turn_deg}: expected a heading change 0 < turn_deg < 360 [deg]")
 
     def with_(self, **kw) -> "StepConfig":
         """A copy with some fields changed.
@@ -256,8 +273,8 @@ class MorpiTrack:
 #: The step rule of each method that :func:`morpi_filters.field.select_config`
 #: picks on the field train runs (the defaults of :func:`extract_steps`).
 DEFAULT_CONFIGS = {
-    "MoRPI-A": StepConfig(prominence=0.2),
-    "MoRPI-G": StepConfig(prominence=0.2),
+    "MoRPI-A": StepConfig(ends="whole", prominence=0.2),
+    "MoRPI-G": StepConfig(heading="turns", cutoff_hz=1.0),
 }
 
 def resample_uniform(time, values, rate_hz: float = GRID_HZ):
@@ -680,6 +697,11 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
         dpsi = psi_e
     elif config.heading == "change":
         dpsi = psi_e - psi_s
+    elif config.heading == "turns":
+        bt = grid[bounds]
+        stretches = turn_stretches(bt, np.interp(bt, t, psi), np.radians(config.turn_deg),
+                                   2 if config.segment == "extrema" else 1)
+        dpsi = psi_e - psi_s + turn_heading(st, t, psi, stretches)
     else:
         cpsi = np.concatenate([[0.0], np.cumsum(0.5 * (psi[1:] + psi[:-1]) * np.diff(t))])
         span = et - st
@@ -690,6 +712,143 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
                   properties={"prominence_threshold": prom})
     return Steps(start_time=st, end_time=et, weight=weight, fraction=frac, heading=dpsi, peaks=peaks,
                  motion=(m0, m1), swing_deg=med)
+
+
+def period_changes(boundary_heading, per_period: int) -> np.ndarray:
+    """Heading change over each full period of consecutive step boundaries [rad].
+
+    Parameters
+    ----------
+    boundary_heading : array_like, shape (k,)
+        Heading at the step boundaries (the peaks, partial end steps left
+        out) [rad].
+    per_period : int
+        Steps per full period: 2 for half-period steps between extrema, 1 for
+        steps between maxima.
+
+    Returns
+    -------
+    ndarray, shape (k - per_period,)
+        ``psi[j + per_period] - psi[j]``: sliding windows, one starting at
+        each boundary. Between two boundaries of the same phase the sine's
+        zigzag cancels, so on a straight run what is left is the drift over a
+        period and the phase jitter of the boundaries.
+
+    Examples
+    --------
+    >>> period_changes([0.0, 0.4, 0.1, 0.5, 1.1, 1.4], 2).round(12).tolist()
+    [0.1, 0.1, 1.0, 0.9]
+    """
+    h = np.asarray(boundary_heading, float)
+    if per_period not in (1, 2):
+        raise MorpiError(f"per_period={per_period!r}: expected 1 (steps between maxima) or 2 (between extrema)")
+    if h.shape[0] <= per_period:
+        return np.empty(0)
+    return h[per_period:] - h[:-per_period]
+
+
+def turn_stretches(boundary_time, boundary_heading, threshold: float, per_period: int) -> list:
+    """The turning stretches of a run, with the full periods around them [s].
+
+    A full period (:func:`period_changes`) whose heading change exceeds
+    `threshold` in magnitude is turning; turning periods that overlap or
+    touch merge into one stretch, which is widened by one full period on each
+    side (a turn eases in and out through periods below the threshold), and
+    stretches that then overlap merge. A turn spread over several periods is
+    so one stretch. The full periods just before and after each stretch are
+    returned with it: the turn is measured between their mean headings
+    (:func:`turn_heading`), where the zigzag of the sine cancels whatever
+    the phase of the boundaries.
+
+    Parameters
+    ----------
+    boundary_time, boundary_heading : array_like, shape (k,)
+        Step boundaries [s] and the heading there [rad].
+    threshold : float
+        Least full-period heading change of a turn [rad].
+    per_period : int
+        Steps per full period (2 between extrema, 1 between maxima).
+
+    Returns
+    -------
+    list of (float, float, float, float)
+        ``(before, start, end, after)`` per stretch, in time order,
+        non-overlapping: the stretch is ``[start, end]``, the full periods
+        around it ``[before, start]`` and ``[end, after]`` (shorter or
+        empty at the run's first or last boundary).
+
+    Examples
+    --------
+    >>> t = np.arange(14.0)      # zigzag, a 90 deg turn over three half periods, zigzag
+    >>> psi = np.radians([0, 20, 0, 20, 0, 20, 60, 90, 110, 90, 110, 90, 110, 90])
+    >>> turn_stretches(t, psi, np.radians(45), 2)
+    [(0.0, 2.0, 10.0, 12.0)]
+    """
+    bt = np.asarray(boundary_time, float)
+    h = np.asarray(boundary_heading, float)
+    c = period_changes(h, per_period)
+    on = np.flatnonzero(np.abs(c) > threshold)
+    if on.size == 0:
+        return []
+    last = h.shape[0] - 1
+    spans = []
+    # window j covers boundaries [j, j + per_period]; windows overlapping or touching merge
+    breaks = np.flatnonzero(np.diff(on) > per_period)
+    for a, b in zip(np.r_[on[0], on[breaks + 1]], np.r_[on[breaks], on[-1]] + per_period):
+        a, b = max(int(a) - per_period, 0), min(int(b) + per_period, last)
+        if spans and a <= spans[-1][1]:
+            spans[-1] = (spans[-1][0], b)
+        else:
+            spans.append((a, b))
+    return [(float(bt[max(a - per_period, 0)]), float(bt[a]), float(bt[b]), float(bt[min(b + per_period, last)]))
+            for a, b in spans]
+
+
+def turn_heading(time, t, psi, stretches) -> np.ndarray:
+    """The heading followed only through the turning stretches, at `time` [rad].
+
+    Zero before the first stretch; between stretches it holds the sum of the
+    turns passed. A stretch's turn is the mean heading over the full period
+    after it minus the mean over the full period before it (the heading at
+    the stretch's end or start when there is no such period); inside the
+    stretch it grows with the heading, in proportion to how much of the
+    stretch's heading change is done. The gyro drift outside the stretches
+    and their neighbouring periods never enters it.
+
+    Parameters
+    ----------
+    time : array_like
+        Where to read it [s].
+    t, psi : array_like, shape (n,)
+        The heading on its samples [s], [rad].
+    stretches : sequence of (float, float, float, float)
+        :func:`turn_stretches`.
+
+    Examples
+    --------
+    >>> t = np.array([0.0, 1.0, 2.0, 3.0, 4.0]); psi = np.array([0.0, 0.2, 1.2, 1.4, 1.2])
+    >>> turn_heading([0.0, 1.5, 4.0], t, psi, [(0.0, 1.0, 2.0, 4.0)]).round(12).tolist()
+    [0.0, 0.6, 1.2]
+    """
+    time = np.asarray(time, float)
+    t = np.asarray(t, float)
+    psi = np.asarray(psi, float)
+    out = np.zeros(time.shape)
+    if not len(stretches):
+        return out
+    cpsi = np.concatenate([[0.0], np.cumsum(0.5 * (psi[1:] + psi[:-1]) * np.diff(t))])
+
+    def mean(a, b):
+        if b - a <= 1e-9:
+            return float(np.interp(a, t, psi))
+        return float((np.interp(b, t, cpsi) - np.interp(a, t, cpsi)) / (b - a))
+
+    for before, a, b, after in stretches:
+        turn = mean(b, after) - mean(before, a)
+        pa, pb = np.interp([a, b], t, psi)
+        done = (np.interp(np.clip(time, a, b), t, psi) - pa) / (pb - pa) if pb != pa else (time >= b) * 1.0
+        out += turn * np.clip(done, 0.0, 1.0)
+    return out
 
 
 def train_gain(steps_list, distances):

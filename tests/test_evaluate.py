@@ -203,8 +203,12 @@ def test_nested_rule_comparison_matches_a_search_without_the_held_out_run(field_
             part = ev.evaluate_tables(tree, alternatives=False, rule=rule)
             for m in ("MoRPI-A", "MoRPI-G"):
                 cfg = part.selections[m].config
-                assert cfg == fd.select_config(data, m if rule == "per_method" else fd._MORPI_METHODS,
-                                               exclude=(rel,)).config
+                # the nested check keeps the detection thresholds of all train runs, the tree sets its own
+                # without the held-out run: the turn threshold may differ (s8/short_distance/train/6 holds the largest
+                # full-period change, 34.1 deg: 49 deg without it, 51 with it). No straight train run has
+                # a period beyond either, so the steps, gains and errors below are the same.
+                ref = fd.select_config(data, m if rule == "per_method" else fd._MORPI_METHODS, exclude=(rel,)).config
+                assert cfg.with_(turn_deg=ref.turn_deg) == ref
                 gain = part.gain(phone, route, m, "GC").mean
                 end = st.morpi_track(data.steps(run, "GC", m, cfg), gain).end_point
                 err = np.linalg.norm(np.asarray(end[:2]) - truth.end_point_m) / truth.distance_m * 100
@@ -289,10 +293,15 @@ def test_field_tables_end_to_end(field_root, tmp_path):
     # (after the detected rest, to the robot's stop) and the heading from its start, the nested
     # train-only check prefers one rule for both methods; under that rule s8 1.5 m MoRPI-G GC is
     # within the bar and s8 1.5 m MoRPI-A GC misses on the low side (ours is lower than the paper's).
+    # With the "turns" heading reading among the search's candidates (the step's own heading change
+    # plus the turns, blind to the gyro drift between turns), MoRPI-G's own search picks it and the
+    # nested check prefers a rule per method; MoRPI-A's rule (mean heading, whole end steps) brings
+    # s8 1.5 m MoRPI-A GC within the bar (6.52 % against 8.25 %), and MoRPI-G's drift-free heading takes
+    # s8 1.5 m MoRPI-G GC below it (3.26 % against 6.67 %): the miss is on the low side.
     gc = [c for c in cells if c["table"] == "short_route" and c["calibration"] == "GC"]
     assert len(gc) == 6
     misses = [c for c in gc if abs(c["ours_percent"] - c["paper_percent"]) > 2.5]
-    assert [(c["phone"], c["p2p_m"], c["method"]) for c in misses] == [("s8", 1.5, "MoRPI-A")]
+    assert [(c["phone"], c["p2p_m"], c["method"]) for c in misses] == [("s8", 1.5, "MoRPI-G")]
     assert misses[0]["ours_percent"] < misses[0]["paper_percent"]
     # every run carries the windows it used; the motion starts after the rest ends
     for c in cells:
@@ -521,3 +530,39 @@ def test_corrupted_test_recordings_change_no_threshold_window_rule_or_gain(field
     moved = [c.spec.label for c, d in zip(full.cells, bad.cells)
              if c.spec.split == "test" and c.runs and d.runs and c.ours_percent != d.ours_percent]
     assert moved
+
+
+@pytest.mark.field
+def test_turns_reading_finds_the_l_turn_and_no_turn_on_the_straight_routes(field_root):
+    """With the turn threshold of the train runs, the "turns" reading (each method's chosen rule) finds no
+    turning stretch in any of the 99 straight periodic runs (train and test, short and long routes; GC and
+    RD) and exactly one in each L-route run, of 90 deg within 20 deg (the gyro heading of the phone on the
+    hand-driven car: see test_routes_turn_as_the_recordings_do). The threshold comes from the train runs."""
+    from morpi_filters import steps as st
+
+    data = fd.FieldData(field_root)
+    th = data.thresholds
+    assert len(th.period_changes_deg) == 80     # 40 train runs, two methods
+    assert th.turn_deg == np.floor(fd.TURN_MARGIN * max(th.period_changes_deg))
+    for m in ("MoRPI-A", "MoRPI-G"):
+        cfg = fd.select_config(data, m).config.with_(heading="turns")
+        assert cfg.turn_deg == th.turn_deg
+        n_straight = 0
+        for k in sorted(data.folders(), key=str):
+            if k[1] not in _PERIODIC:
+                continue
+            for r in data.recordings(*k):
+                for mode in ("GC", "RD"):
+                    s = data.steps(r, mode, m, cfg)
+                    psi = data.heading(r, mode)
+                    bt = s.peaks.grid_time[s.peaks.grid_index]
+                    found = st.turn_stretches(bt, np.interp(bt, r.time, psi), np.radians(cfg.turn_deg),
+                                              2 if cfg.segment == "extrema" else 1)
+                    if k[1] == "L_shape":
+                        assert len(found) == 1, (data.relpath(r), m, mode)
+                        turn = np.degrees(st.turn_heading([r.time[-1]], r.time, psi, found)[0])
+                        assert turn == pytest.approx(ds.route("L_shape").turn_deg, abs=20.0), (data.relpath(r), m)
+                    else:
+                        assert found == [], (data.relpath(r), m, mode)
+                        n_straight += mode == "GC"
+        assert n_straight == 99

@@ -284,3 +284,109 @@ def test_noise_free_simulated_sine_distance_within_half_percent(method):
     gain, _, _ = st.train_gain([st.extract_steps(train, method, cfg, rest_end_time=train.time[0] + 2.5)], 6.3)
     track = st.morpi_track(st.extract_steps(test, method, cfg, rest_end_time=test.time[0] + 2.5), gain)
     assert track.distance == pytest.approx(6.3, rel=0.005)  # 0.5 % of 6.3 m (3 cm): the change of peak values and step fractions with the sampling grid
+
+
+# ----------------------------------------------------------------------------- the "turns" heading reading
+
+def test_turn_stretches_take_a_turn_spread_over_several_periods_in_full():
+    # boundaries every half period (extrema), heading zigzag of +-20 deg around a centreline that turns
+    # by 90 deg at an even pace over three full periods (30 deg each), then keeps straight
+    k = np.arange(24)
+    centre = np.clip((k - 6) / 6.0, 0.0, 1.0) * 90.0
+    psi = np.radians(centre + 20.0 * (-1.0) ** k)
+    t = 0.5 * k
+    stretches = st.turn_stretches(t, psi, np.radians(25.0), 2)
+    assert len(stretches) == 1
+    before, a, b, after = stretches[0]
+    # the turning periods start at boundaries 6..10 (30 deg each; those starting at 5 and 11 turn by 15 deg),
+    # so the stretch spans boundaries 6..12 widened by a period each side, 4..14, and the periods around it
+    assert (a, b) == (2.0, 7.0) and (before, after) == (1.0, 8.0)
+    # the sampled heading: the boundaries' values, linear in between; the mean over a whole period of
+    # the zigzag is its centreline, so the turn comes out at 90 deg
+    tt = np.linspace(0.0, t[-1], 2301)
+    end = st.turn_heading([t[-1]], tt, np.interp(tt, t, psi), stretches)[0]
+    assert np.degrees(end) == pytest.approx(90.0, abs=1e-6)  # exact piecewise-linear means: float rounding
+    # a threshold above every period's change (30 deg plus nothing from the zigzag) finds no turn
+    assert st.turn_stretches(t, psi, np.radians(31.0), 2) == []
+
+
+def test_turns_reading_ignores_drift_and_zigzag_without_a_turn():
+    # a zigzag of +-25 deg drifting 2 deg per period: no period turns beyond 10 deg, the turn heading stays 0
+    k = np.arange(30)
+    psi = np.radians(25.0 * (-1.0) ** k + 1.0 * k)
+    assert st.turn_stretches(0.5 * k, psi, np.radians(10.0), 2) == []
+    np.testing.assert_array_equal(st.turn_heading(0.5 * k, 0.5 * k, psi, []), 0.0)
+    with pytest.raises(MorpiError, match="StepConfig.turn_deg="):
+        st.StepConfig(turn_deg=0.0)
+
+
+def _simulated(traj, seed, *, bias_dps=0.0, pattern="uniform"):
+    """A noise-free simulated recording of `traj`, with a constant z gyro bias [deg/s] added."""
+    from morpi_filters import simulate, units
+
+    r = simulate.imu(traj, units.LSM6DSL, np.random.default_rng(seed), sampling=pattern, bias_scale=0.0,
+                     noise_scale=0.0).recording(0)
+    omega = r.omega.copy()
+    omega[:, 2] += np.radians(bias_dps)
+    return Recording(time=r.time, f=r.f, omega=omega, source=f"sim-{seed}.csv")
+
+
+def _track(train_traj, test_traj, method, heading, *, bias_dps, train_m=10.0):
+    """Gain trained on a bias-free straight sine of `train_m` m, then the biased test run dead-reckoned."""
+    cfg = st.StepConfig(heading=heading)
+    train = _simulated(train_traj, 1)
+    gain, _, _ = st.train_gain([st.extract_steps(train, method, cfg, rest_end_time=train.time[0] + 2.5)], train_m)
+    test = _simulated(test_traj, 2, bias_dps=bias_dps, pattern="s6")
+    return st.morpi_track(st.extract_steps(test, method, cfg, rest_end_time=test.time[0] + 2.5), gain)
+
+
+@pytest.mark.parametrize("method", tuple(st.METHODS))
+def test_turns_reading_follows_the_simulated_l_route(method):
+    """The simulated L route (18 m, a 90 deg left turn of radius 1 m, 10 m) with a 0.1 deg/s z gyro bias.
+
+    "change" points the second leg along the first and misses by about the turn (the end point
+    (28, 0) against (18, 10): 14 m). "turns" ends within 1 m of the truth: the Weinberg distance
+    from the 10 m training sine is 3.6 % long on this route (28.6 m of steps against the 27.6 m
+    centreline, which cuts the corner), 0.65 m along the first leg and 0.36 m along the second
+    (0.74 m together), and a 1.5 deg error of the turn moves the 10 m second leg's end by 0.26 m.
+    """
+    from morpi_filters import simulate
+
+    L = simulate.l_route(period=1.0, amplitude=0.1)
+    train = simulate.sine(10.0, period=1.0, amplitude=0.1, speed=simulate._L_SPEED)
+    truth = L.position[-1, :2]
+    change = _track(train, L, method, "change", bias_dps=0.1)
+    turns = _track(train, L, method, "turns", bias_dps=0.1)
+    assert np.linalg.norm(change.end_point - truth) > 12.0
+    assert np.linalg.norm(turns.end_point - truth) < 1.0
+    # the turn itself: one stretch, 90 deg within 1.5 deg (the bias over the 8.3 s between the middles of the
+    # periods around the stretch adds 0.8 deg)
+    s = turns.steps
+    rec = _simulated(L, 2, bias_dps=0.1, pattern="s6")
+    psi = st.integrate_heading(rec.time, rec.omega[:, 2])
+    bt = s.peaks.grid_time[s.peaks.grid_index]
+    stretches = st.turn_stretches(bt, np.interp(bt, rec.time, psi), np.radians(st.StepConfig().turn_deg), 2)
+    assert len(stretches) == 1
+    assert np.degrees(st.turn_heading([rec.time[-1]], rec.time, psi, stretches)[0]) == pytest.approx(90.0, abs=1.5)
+
+
+@pytest.mark.parametrize("method", tuple(st.METHODS))
+def test_turns_reading_drifts_less_than_absolute_on_a_biased_straight_sine(method):
+    """A 13 m straight sine with a 0.3 deg/s z gyro bias (a heading drift of about 8 deg over the motion).
+
+    "absolute" bends with the drift (its end point moves sideways by about half the drift times the
+    distance, 1.1 m); "turns" finds no turn, equals "change" and ends within 0.25 m (the Weinberg distance
+    over 13 m from a 10 m training run): at most a third of "absolute"'s error.
+    """
+    from morpi_filters import simulate
+
+    straight = simulate.sine(13.0, period=1.0, amplitude=0.1, speed=simulate._L_SPEED)
+    train = simulate.sine(10.0, period=1.0, amplitude=0.1, speed=simulate._L_SPEED)
+    truth = straight.position[-1, :2]
+    absolute = _track(train, straight, method, "absolute", bias_dps=0.3)
+    turns = _track(train, straight, method, "turns", bias_dps=0.3)
+    change = _track(train, straight, method, "change", bias_dps=0.3)
+    e_abs = np.linalg.norm(absolute.end_point - truth)
+    e_turns = np.linalg.norm(turns.end_point - truth)
+    np.testing.assert_array_equal(turns.steps.heading, change.steps.heading)
+    assert e_turns < 0.25 and e_turns < e_abs / 3, (e_turns, e_abs)

@@ -114,6 +114,52 @@ def _heading_section(payload) -> list:
     return L
 
 
+def _turn_section(payload) -> list:
+    """Long-route and L-route MoRPI cells under every heading reading (:func:`morpi_filters.evaluate.turn_reading`)."""
+    tr = payload.get("turn_reading") or {}
+    if not tr.get("cells"):
+        return []
+    th = tr["threshold"]
+    heads = tr["headings"]
+    L = ["## A heading that follows turns", "",
+         "The `change` reading (each step's direction is its own heading change) never accumulates the gyro's "
+         "drift, but it cannot follow a turn: on the L route it points the second leg along the first. The "
+         "`turns` reading adds to each step's own change the turns so far: a full period (two half-period steps "
+         "between extrema, one step between maxima) turns when its heading change exceeds "
+         f"{fmt(th['turn_deg'], 0)} deg; turning periods that overlap merge into one stretch, widened by a period "
+         "on each side (a turn eases in and out below the threshold), whose turn is the mean heading over the "
+         "period after it minus the mean over the period before it (the zigzag cancels "
+         "from a period's mean), so a turn spread over several periods counts in full. The threshold comes "
+         "from the train runs only, which are all straight: "
+         + (f"{th['margin']:g} times the largest full-period heading change they show "
+            f"({fmt(th['largest_train_period_change_deg'], 1)} deg over {th['n_train_values']} runs and methods, "
+            "GC, half-period steps at the search's start rule), rounded down (`field.train_thresholds`). "
+            if th["largest_train_period_change_deg"] is not None else "none here, so the library's default. ")
+         + "The search scores `turns` with the other readings.", ""]
+    rows = []
+    for c in tr["cells"]:
+        rows.append([c["table"], c["phone"], c["method"], c["calibration"], fmt(c["paper_percent"]),
+                     f"{fmt(c['chosen_percent'])} ({c['chosen_heading']})"]
+                    + [fmt(c[f"{h}_percent"]) for h in heads])
+    L += ["Mean end-point error [%] of the test runs under each heading reading, the rest of each method's chosen "
+          "rule kept, gains retrained under each:", "",
+          md_table(["table", "phone", "method", "cal", "paper %", "chosen %"] + [f"{h} %" for h in heads], rows)]
+    L += ["Train leave-one-out error [%] of each reading (short-route train runs, GC; what the search sees): "
+          + "; ".join(f"{m}: " + ", ".join(f"`{h}` {fmt(v)}" for h, v in t.items()) for m, t in tr["train"].items())
+          + ".", ""]
+    lines = []
+    for m, runs in tr["l_route_turns_deg"].items():
+        if runs:
+            v = np.array([r["turn_deg"] for r in runs])
+            lines.append(f"- {m}: {fmt(float(v.mean()), 1)} deg on average (from {fmt(float(v.min()), 1)} to "
+                         f"{fmt(float(v.max()), 1)}; {sum(r['stretches'] == 1 for r in runs)} of {len(runs)} runs "
+                         "with exactly one turning stretch)")
+    if lines:
+        L += [f"The turn the `turns` reading finds on each L-route test run (GC; the route turns "
+              f"{fmt(tr['route_turn_deg'], 0)} deg):", ""] + lines + [""]
+    return L
+
+
 def _claims_section(claims) -> list:
     """The paper's numeric claims beside ours (:func:`morpi_filters.evaluate.paper_claims`)."""
     if not claims:
@@ -160,7 +206,9 @@ def _page(study: TablesStudy, payload, source, figures) -> str:
               f"deviation inside each run's gyro-only rest), and a run counts as periodic when its median heading "
               f"swing per period reaches {fmt(th['min_swing_deg'], 0)} deg (three quarters of the smallest swing "
               + (f"of the {len(sw)} train runs, {fmt(min(sw), 1)} deg" if sw else "the train runs show")
-              + ", rounded down). The gyro thresholds are in noise sigmas of each recording's own rest.", ""]
+              + ", rounded down). The gyro thresholds are in noise sigmas of each recording's own rest. "
+              f"A full period turns when its heading change exceeds {fmt(th['turn_deg'], 0)} deg (the `turns` "
+              "heading reading, below).", ""]
     sel_txt = []
     seen = set()
     for m, s in res.selections.items():
@@ -271,7 +319,8 @@ def _page(study: TablesStudy, payload, source, figures) -> str:
         L += ["Mean |ours - paper| over the three GC cells of each method: "
               + "; ".join(f"{m}: closest to the paper `{r['heading']}/{r['segment']}/{r['ends']}` "
                           f"({fmt(d)} pp), selected rule {fmt(sd)} pp" for m, (r, d, sd) in closest.items()) + ".", ""]
-    L += ["`change` cannot follow a turn (the L route ends 10 m sideways), so it is not a candidate of the search.", ""]
+    L += ["`change` cannot follow a turn (the L route ends 10 m sideways), so it is not a candidate of the search; "
+          "`turns`, the same reading with the turns added, is (see the section on a heading that follows turns).", ""]
     sens = payload["rule_sensitivity"]
     if sens:
         L += ["## How much the step rule moves the short-route cells", "",
@@ -310,6 +359,7 @@ def _page(study: TablesStudy, payload, source, figures) -> str:
             L += [f"Range of each cell over the rules within {TRAIN_SE_BAND:g} standard errors of the selected one:",
                   ""] + lines + [""]
     L += _heading_section(payload)
+    L += _turn_section(payload)
     L += ["## INS integration span", "", "The INS cells integrated over the robot's motion (default) and over the "
           "whole recording (rests included).", ""]
     L += [md_table(["table", "method", "cal", "paper %", "motion span %", "full recording %"],
@@ -427,6 +477,7 @@ def result_json(study: TablesStudy, source=None) -> dict:
         "claims": list(study.claims),
         "thresholds": _thresholds_json(result),
         "heading_readings": study.heading_readings,
+        "turn_reading": study.turn_reading,
     }
 
 
@@ -437,7 +488,8 @@ def _thresholds_json(result) -> dict | None:
     t = result.data.thresholds
     return {"accel_floor_mps2": t.accel_floor, "min_swing_deg": t.min_swing_deg,
             "train_rest_accel_std_mps2": list(t.rest_std), "train_swings_deg": list(t.swings_deg),
-            "train_files": list(t.files)}
+            "train_files": list(t.files), "turn_deg": t.turn_deg,
+            "train_period_changes_deg": list(t.period_changes_deg)}
 
 
 
@@ -495,6 +547,13 @@ def _explain(c, res, notes: dict, other: dict | None = None, sens: list | None =
                 f"and on the unknown details of the paper's mechanization; the INS is not tuned to the paper's "
                 f"values.{leak}")
     drift, final = notes[s.label]["heading_drift_deg"], notes[s.label]["heading_final_deg"]
+    if s.calibration == "RD" and res.selections[s.method].config.heading in ("change", "turns"):
+        h = res.selections[s.method].config.heading
+        return (f"Ours is {side} the paper. Raw gyro: the z bias turns the integrated heading by {drift:.0f} deg on "
+                f"average over the motion, but the chosen `{h}` reading takes each step's own heading change"
+                + (" and only the turns" if h == "turns" else "")
+                + f", so that drift hardly enters; the distance error is {c.distance_percent:.2f} %. The paper's "
+                "RD errors are above its GC errors, as a heading accumulated from the raw gyro gives.")
     if s.calibration == "RD":
         alt_txt = ""
         cfg = res.selections[s.method].config
@@ -505,7 +564,8 @@ def _explain(c, res, notes: dict, other: dict | None = None, sens: list | None =
                      None)
             if v is not None:
                 alt_txt = (f" Tried: the heading-change reading (the heading change inside each step, blind to a "
-                           f"constant bias over a whole run) gives {v:.2f} % here, but it cannot follow a turn.")
+                           f"constant bias over a whole run) gives {v:.2f} % here, but it cannot follow a turn "
+                           f"(the `turns` reading adds the turns; section on a heading that follows turns).")
         return (f"Ours is {side} the paper. Raw gyro: the z bias turns into a heading drift of {drift:.0f} deg on "
                 f"average over the motion, which bends the dead-reckoned path; the distance error is only "
                 f"{c.distance_percent:.2f} %.{alt_txt} The paper's RD errors are close to its GC errors, which a "
