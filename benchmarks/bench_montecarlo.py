@@ -58,7 +58,9 @@ def page_configs():
 
 
 def measure(pairs: int = 5, quick: bool = False, runs: int = 10_000, seed: int = 0):
-    """The paired ratios of this benchmark (list of :class:`pairs.PairedRatio`)."""
+    """The paired ratios of this benchmark (list of :class:`pairs.PairedRatio`); `quick`: at most 2000 runs."""
+    if quick:
+        runs = min(runs, 2000)
     cfg = mc.StudyConfig()
     n = int(round(cfg.duration * cfg.rate_hz)) + 1
     chunk = min(mc._default_chunk(n), runs)

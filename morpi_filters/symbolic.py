@@ -249,9 +249,11 @@ def system_matrix_symbols(conv="z_up", C=None, f=None, time_varying: bool = Fals
         Use Functions of ``t`` for the default C and f.
     """
     c = convention(conv)
-    C0, f0 = _generic_C_f(time_varying, symbols().t)
-    C = C0 if C is None else sp.Matrix(C)
-    f = f0 if f is None else sp.Matrix(f)
+    if C is None or f is None:
+        C0, f0 = _generic_C_f(time_varying, symbols().t)
+        C = C0 if C is None else C
+        f = f0 if f is None else f
+    C, f = sp.Matrix(C), sp.Matrix(f)
     Z, I = sp.zeros(3), sp.eye(3)
     return _blocks_to_matrix([
         [Z, I, Z, Z, Z],
@@ -369,7 +371,9 @@ def phi_exponential(conv="z_up", C=None, f=None, t0=None) -> sp.Matrix:
     Phi, power = sp.eye(n), sp.eye(n)
     for k in range(1, n + 1):
         power = power * F
-        if power.is_zero_matrix:
+        # entries of a power of F are sums of products of its entries; a vanishing one is
+        # an exact zero or expands to one (cheaper than the assumptions behind is_zero_matrix)
+        if all(e == 0 or sp.expand(e) == 0 for e in power):
             return Phi
         Phi += power * (tau**k / sp.factorial(k))
     raise ValueError("F is not nilpotent")
@@ -440,6 +444,14 @@ def phi_numeric(C, f, t, conv="z_up") -> np.ndarray:
 # ----------------------------------------------------------------------------- position error
 
 @functools.lru_cache(maxsize=None)
+def _phi_at_rest(c: Convention) -> sp.Matrix:
+    """``Phi(t, 0)`` with C = I and ``f^n = (b_ax, b_ay, +-g + b_az)`` (the paper's eq:asp1-3)."""
+    s = symbols()
+    f = sp.Matrix([s.ba[0], s.ba[1], c.gravity_sign * s.g + s.ba[2]])
+    return phi_exponential(c, C=sp.eye(3), f=f, t0=0)
+
+
+@functools.lru_cache(maxsize=None)
 def position_error(conv="z_up", ins: str = "3d", keep_bgz: bool = True) -> sp.Matrix:
     """Position error under the paper's assumptions (eq:asp1-3), t0 = 0.
 
@@ -465,14 +477,13 @@ def position_error(conv="z_up", ins: str = "3d", keep_bgz: bool = True) -> sp.Ma
     c = convention(conv)
     s = symbols()
     dv, ba, bg = sp.Matrix(s.dv), sp.Matrix(s.ba), sp.Matrix(s.bg)
-    f = sp.Matrix([ba[0], ba[1], c.gravity_sign * s.g + ba[2]])
     if not keep_bgz:
         bg = sp.Matrix([bg[0], bg[1], 0])
     if ins == "2d":
         bg = sp.Matrix([0, 0, bg[2]])
     elif ins != "3d":
         raise MorpiError(f"position_error: ins must be '3d' or '2d', got {ins!r}")
-    Phi = phi_exponential(c, C=sp.eye(3), f=f, t0=0)
+    Phi = _phi_at_rest(c)
     x0 = sp.Matrix([0, 0, 0, *dv, 0, 0, 0, *ba, *bg])
     dp = sp.expand(Phi[0:3, :] * x0)
     return dp[:2, :] if ins == "2d" else dp
