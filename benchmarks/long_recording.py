@@ -7,15 +7,14 @@ the ratio taken per pair (:func:`pairs.paired_commands`):
 - ours: :func:`morpi_filters.dataset.load_csv` (every check of ``morpi check``);
 - floor: ``pandas.read_csv`` of the same file (parse only), when pandas is installed.
 
-The peak resident memory of ``load_csv`` is read from ``resource.getrusage`` in
-its own process. Target: under 100 MB.
+The peak resident memory of a fresh process running ``load_csv`` is read by
+``/usr/bin/time -v`` (:func:`pairs.run_peak`). Target: under 100 MB.
 
 Usage: ``PYTHONPATH=. python3 benchmarks/long_recording.py [--pairs N]``
 """
 from __future__ import annotations
 
 import argparse
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -23,12 +22,11 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import numpy as np  # noqa: E402
-from pairs import paired_commands, python_command  # noqa: E402
+from pairs import paired_commands, python_command, run_peak  # noqa: E402
 
 from morpi_filters import dataset as ds  # noqa: E402
 
-PEAK = ("import resource, sys; from morpi_filters import dataset as ds; r = ds.load_csv(sys.argv[1]); "
-        "print(r.time.size, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)")
+PEAK = "import sys; from morpi_filters import dataset as ds; r = ds.load_csv(sys.argv[1]); assert r.time.size == 360_000"
 
 
 def measure(pairs: int = 5, quick: bool = False):
@@ -50,10 +48,8 @@ def measure(pairs: int = 5, quick: bool = False):
         f = np.c_[rng.normal(0, 0.05, (n, 2)), 9.8 + rng.normal(0, 0.05, n)]
         ds.write_csv(path, ds.Recording(time=t, f=f, omega=rng.normal(0, 0.01, (n, 3)), source=str(path)))
         env = {"PYTHONPATH": str(repo), "PATH": "/usr/bin:/bin"}
-        out = subprocess.run([sys.executable, "-c", PEAK, str(path)], capture_output=True, text=True, env=env,
-                             check=True).stdout.split()
-        peak = int(out[1]) / 1024
-        rows.append({"name": f"load_csv (morpi check), one hour at 100 Hz ({int(out[0])} rows, "
+        _, peak = run_peak([sys.executable, "-c", PEAK, str(path)], env=env)
+        rows.append({"name": f"load_csv (morpi check), one hour at 100 Hz ({n} rows, "
                              f"{path.stat().st_size / 1e6:.0f} MB of CSV): peak memory",
                      "min": peak, "median": peak, "max": peak, "unit": "MB", "pairs": 1, "target": 100.0,
                      "met": peak < 100.0})

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["PairedRatio", "paired", "paired_commands", "paired_reported", "python_command", "run_command",
-           "run_reporting"]
+           "run_reporting", "run_peak"]
 
 
 @dataclass(frozen=True)
@@ -149,6 +149,36 @@ def paired_reported(name, argv_a, argv_b, *, pairs: int = 5, warmup: int = 1, ta
     env = dict(os.environ if env is None else env)
     return paired(name, lambda: run_reporting(argv_a, env=env, cwd=cwd), lambda: run_reporting(argv_b, env=env, cwd=cwd),
                   pairs=pairs, warmup=warmup, target=target, self_timed=True)
+
+
+#: A launcher that runs a command and prints its peak resident memory [kB] from ``wait4``, for
+#: machines without ``/usr/bin/time``.
+_LAUNCHER = ("import os, subprocess, sys; p = subprocess.Popen(sys.argv[1:], stdout=subprocess.DEVNULL); "
+             "_, st, ru = os.wait4(p.pid, 0); sys.stderr.write(f'Maximum resident set size (kbytes): {ru.ru_maxrss}\\n'); "
+             "sys.exit(os.waitstatus_to_exitcode(st))")
+
+
+def run_peak(argv, *, env=None, cwd=None) -> tuple[float, float]:
+    """Run a command; return its wall time [s] and its peak resident memory [MB].
+
+    The command is started by a small launcher (``/usr/bin/time -v``, else a short
+    Python one) that reads the peak from ``wait4``. Started straight from this process,
+    the child's ``ru_maxrss`` would include this process's own resident memory (Linux
+    keeps the high-water mark across fork and exec), so a large benchmark process
+    would inflate the figure.
+    """
+    launcher = ["/usr/bin/time", "-v"] if os.access("/usr/bin/time", os.X_OK) else [sys.executable, "-c", _LAUNCHER]
+    t0 = time.perf_counter()
+    r = subprocess.run(launcher + list(map(str, argv)), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env,
+                       cwd=cwd)
+    dt = time.perf_counter() - t0
+    err = r.stderr.decode(errors="replace")
+    if r.returncode != 0:
+        raise RuntimeError(f"{' '.join(map(str, argv))} exited {r.returncode}: {err[-500:]}")
+    kb = [ln.split(":")[-1] for ln in err.splitlines() if "Maximum resident set size (kbytes)" in ln]
+    if not kb:
+        raise RuntimeError(f"no peak memory reported for {' '.join(map(str, argv))}")
+    return dt, int(kb[-1]) / 1024
 
 
 def python_command(code: str) -> list[str]:

@@ -1,8 +1,8 @@
 """How the cost of the field tables and of Monte Carlo grows with the size of the work.
 
 Each point is one whole command in a fresh process, as a user runs it, with its
-wall time and its peak resident memory (``ru_maxrss`` of that child, read with
-``os.wait4``):
+wall time and its peak resident memory (``ru_maxrss`` of that child, read by
+``/usr/bin/time -v``: :func:`pairs.run_peak`):
 
 - ``morpi tables --data DIR`` on 1x, 2x, 5x (and 10x) the field dataset: a
   temporary root holding, for every recording ``<phone>/<route>[/<split>]/<n>.csv``,
@@ -21,35 +21,20 @@ from __future__ import annotations
 
 import argparse
 import os
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench_aided import _root  # noqa: E402
+from pairs import run_peak  # noqa: E402
 
 from morpi_filters import dataset as ds  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 COPIES = (1, 2, 5)
 RUNS = (1_000, 10_000, 100_000)
-
-
-def run_measured(argv, *, env=None, cwd=None) -> tuple[float, float]:
-    """Run a command to completion; return (wall time [s], peak resident memory [MB]) of that child."""
-    t0 = time.perf_counter()
-    p = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env, cwd=cwd)
-    err = p.stderr.read()
-    _, status, usage = os.wait4(p.pid, 0)
-    dt = time.perf_counter() - t0
-    p.returncode = os.waitstatus_to_exitcode(status)
-    p.stderr.close()
-    if p.returncode != 0:
-        raise RuntimeError(f"{' '.join(map(str, argv))} exited {p.returncode}: {err.decode()[-500:]}")
-    return dt, usage.ru_maxrss / 1024  # Linux: kilobytes
 
 
 def copied_dataset(root: Path, k: int, dest: Path) -> tuple[Path, int]:
@@ -77,14 +62,14 @@ def measure(quick: bool = False, data=None, copies=None, runs=None) -> list[dict
             croot, n = copied_dataset(root, k, tmp / f"x{k}")
             cmd = [sys.executable, "-m", "morpi_filters.cli", "tables", "--data", str(croot),
                    "--out", str(tmp / f"tables{k}"), "--partial"]
-            dt, mb = run_measured(cmd, env=env, cwd=tmp)
+            dt, mb = run_peak(cmd, env=env, cwd=tmp)
             rows.append({"command": "morpi tables --data", "size": f"{k}x ({n} recordings)", "seconds": dt,
                          "peak_mb": mb})
             print(f"tables {k}x: {dt:.1f} s, {mb:.0f} MB", flush=True)
         for n in runs:
             cmd = [sys.executable, "-m", "morpi_filters.cli", "montecarlo", "--runs", str(n),
                    "--out", str(tmp / f"mc{n}")]
-            dt, mb = run_measured(cmd, env=env, cwd=tmp)
+            dt, mb = run_peak(cmd, env=env, cwd=tmp)
             rows.append({"command": "morpi montecarlo --runs", "size": f"{n:,} runs", "seconds": dt, "peak_mb": mb})
             print(f"montecarlo {n}: {dt:.1f} s, {mb:.0f} MB", flush=True)
     return rows
