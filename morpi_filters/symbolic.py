@@ -33,7 +33,8 @@ What is derived
   form too).
 * :func:`position_error`: dp under the paper's assumptions (C = I,
   ``f^n = g_rest + b_a`` as in eq:asp2, zero initial position and misalignment,
-  initial velocity error), for the 3D INS and the 2D (yaw-only) INS, with or
+  initial velocity error), the position rows of the series Phi applied to the
+  initial error state, for the 3D INS and the 2D (yaw-only) INS, with or
   without the ``b_gz`` terms (the paper drops them: the heading error is common
   to all methods).
 * :func:`distance_error_squared`: ``e^2 = dp_x^2 + dp_y^2``.
