@@ -130,10 +130,12 @@ def write_readme(path: Path, rows, notes, failures, scale_rows, *, command: str,
     if quick:
         md += ["**Smoke run (`--quick`): one pair per comparison and smaller work; these numbers are not the",
                "benchmark's.**", ""]
-    md += ["| Benchmark | A / B | min | median | max | pairs | target | |", "|---|---|---|---|---|---|---|---|"]
+    md += ["| Benchmark | A / B | min | median | max | pairs | A, B (median) | target | met |",
+           "|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
+        sides = f"{r['a_s']:.3g} s, {r['b_s']:.3g} s" if "a_s" in r else "-"
         md.append(f"| `{r['benchmark']}` | {r['name']} | {_fmt(r['min'], r['unit'])} | {_fmt(r['median'], r['unit'])} "
-                  f"| {_fmt(r['max'], r['unit'])} | {r['pairs']} | {_target(r)} | {_met(r)} |")
+                  f"| {_fmt(r['max'], r['unit'])} | {r['pairs']} | {sides} | {_target(r)} | {_met(r)} |")
     md.append("")
     if notes:
         md += ["Notes:", ""] + [f"- `{b}`: {n}" for b, n in notes] + [""]
@@ -142,7 +144,7 @@ def write_readme(path: Path, rows, notes, failures, scale_rows, *, command: str,
     if scale_rows:
         md += ["## Scale study", "",
                "`benchmarks/scale.py`: one whole command per point in a fresh process, its wall time and peak",
-               "resident memory (`ru_maxrss` of that child). `morpi tables` runs on k linked copies of every",
+               "resident memory (read by `/usr/bin/time -v`). `morpi tables` runs on k linked copies of every",
                "recording (with `--partial`, since the folders then hold more runs than the field layout).", "",
                "| Command | Size | Time | Peak memory |", "|---|---|---|---|"]
         md += [f"| `{r['command']}` | {r['size']} | {r['seconds']:.1f} s | {r['peak_mb']:.0f} MB |" for r in scale_rows]
@@ -194,9 +196,9 @@ def main(argv=None):
     scale_rows = []
     if args.scale:
         print("== scale study", flush=True)
-        import scale
-
         try:
+            import scale
+
             scale_rows = scale.measure(quick=args.quick, data=args.data)
         except (Exception, SystemExit) as e:  # noqa: BLE001
             traceback.print_exc()
