@@ -39,8 +39,9 @@ def main():
         print("  t [s]   3D sigma / closed / MC       2D sigma / closed / MC       MoRPI-aided sigma / MC")
         for i, t in enumerate(cc.eval_times):
             print(f"  {t:5.1f}  " + "  ".join(
-                f"{v[f'sigma_{k}_m'][i]:9.3f} {v[f'rms_closed_form_{k}_m'][i]:9.3f} {v[f'mc_rms_{k}_m'][i]:9.3f}"
-                for k in ("ins3d", "ins2d")) + f"  {v['sigma_morpi_m'][i]:9.3f} {v['mc_rms_morpi_m'][i]:9.3f}")
+                f"{v['sigma_m'][k][i]:9.3f} {v['rms_closed_form_m'][k][i]:9.3f} {v['mc_rms_m'][k][i]:9.3f}"
+                for k in ("INS-3D", "INS-2D")) + f"  {v['sigma_m']['MoRPI-aided INS'][i]:9.3f} "
+                f"{v['mc_rms_m']['MoRPI-aided INS'][i]:9.3f}")
         path = save_figure(plots.plot_curves(cc), OUT / f"curves_{case.name}.png")
         print(f"  figure: {path}")
 

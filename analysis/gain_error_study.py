@@ -3,7 +3,7 @@
 Usage (from the project root)::
 
     PYTHONPATH=. python3 analysis/gain_error_study.py [--runs N] [--seed S] [--sensor s6|s8]
-        [--calibration none|gyro|gyro+accel] [--scheduler ADDRESS] [--out DIR]
+        [--calibration RD|GC|GAC] [--duration S] [--speed V] [--scheduler ADDRESS] [--out DIR]
 
 Runs one seeded study with the paper's gain errors (5 % and 10 %) and a spread
 scenario, prints the final-error statistics and the MoRPI distance error next
@@ -26,7 +26,9 @@ def main(argv=None) -> None:
     ap.add_argument("--runs", type=int, default=2000)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--sensor", default="s6", help="dataset phone whose IMU datasheet to use (s6 or s8)")
-    ap.add_argument("--calibration", default="gyro+accel", choices=mc.CALIBRATIONS)
+    ap.add_argument("--calibration", default="GAC", choices=mc.CALIBRATIONS)
+    ap.add_argument("--duration", type=float, default=None, help="time of the sine path [s] (default 15)")
+    ap.add_argument("--speed", type=float, default=None, help="cruise speed [m/s] (default the paper's)")
     ap.add_argument("--spread", type=float, default=mc.ASSUMED_SPREAD, help="per-run gain spread (fraction)")
     ap.add_argument("--scheduler", default=None, help="Dask scheduler address")
     ap.add_argument("--out", type=Path, default=Path("reports/analysis/gain_error"))
@@ -34,22 +36,25 @@ def main(argv=None) -> None:
 
     gains = (mc.GainError("dG = 5 %", 0.05), mc.GainError("dG = 10 %", 0.10),
              mc.GainError("spread", 0.0, args.spread))
-    cfg = mc.StudyConfig(spec=sensor_for_phone(args.sensor), gains=gains, calibration=args.calibration)
+    cfg = mc.StudyConfig(spec=sensor_for_phone(args.sensor), gains=gains, calibration=args.calibration,
+                         duration=args.duration, speed_mps=args.speed)
     r = mc.run_study(args.runs, args.seed, cfg, scheduler=args.scheduler)
-    print(f"{r.runs} runs, seed {r.seed}, {cfg.spec.name}, calibration {cfg.calibration}: digest {r.digest}")
+    length, speed, duration = r.config.motion()
+    print(f"{r.runs} runs, seed {r.seed}, {cfg.spec.name}, calibration {cfg.calibration}, {length:.2f} m in "
+          f"{duration:g} s at {speed:.3f} m/s: digest {r.digest}")
     print(f"{'method':28s} {'mean':>9s} {'std':>9s} {'median':>9s} {'p95':>9s}  [m]")
     for c in r.columns:
         st = mc.summarize(r.column(c))
         print(f"{c:28s} {st['mean']:9.3f} {st['std']:9.3f} {st['median']:9.3f} {st['p95']:9.3f}")
     print(f"MoRPI distance error vs ds = dG D (D = {r.distance:.3f} m), bound z std / sqrt(N), z = {mc.Z99:.3f}:")
-    for c in mc._distance_check(r):
-        for m in ("morpi_a", "morpi_g"):
+    for c in mc.distance_law_check(r):
+        for m in ("MoRPI-A", "MoRPI-G"):
             v = c[m]
             print(f"  {c['label']:12s} {m}: MC {v['mc_mean']:+.4f} m, ds {c['analytic_mean']:+.4f} m, "
                   f"difference {v['residual_mean']:+.5f} +/- {v['bound']:.5f} m")
     args.out.mkdir(parents=True, exist_ok=True)
     save_figure(plots.montecarlo_final_errors(r.columns, r.final), args.out / "final_errors.png")
-    save_figure(plots.montecarlo_error_curves(r.time, r.bands, ["INS-3D", "INS-2D", "MoRPI-A", "MoRPI-G"]),
+    save_figure(plots.montecarlo_error_curves(r.time, r.bands, list(mc.METHODS)),
                 args.out / "error_curves.png")
     print(f"figures: {args.out}")
 

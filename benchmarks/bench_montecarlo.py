@@ -52,8 +52,8 @@ def page_configs():
     """The studies ``morpi montecarlo`` runs without a dataset (assumed gain spread)."""
     gains = (mc.GainError("dG = 5 %", 0.05), mc.GainError("dG = 10 %", 0.10),
              mc.GainError("training spread", mc.ASSUMED_MISMATCH, mc.ASSUMED_SPREAD))
-    cal = mc.StudyConfig(gains=gains, calibration="gyro+accel")
-    return (cal, replace(cal, calibration="none"),
+    cal = mc.StudyConfig(gains=gains, calibration="GAC")
+    return (cal, replace(cal, calibration="RD"),
             *mc.training_configs(mc.TRAINING_KS, mismatch=mc.ASSUMED_MISMATCH, spread=mc.ASSUMED_SPREAD, config=cal))
 
 

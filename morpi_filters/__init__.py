@@ -8,6 +8,20 @@ Navigation", IEEE J-ISPIN, 2023).
 
 Conventions (stated once, used everywhere)
 ------------------------------------------
+Names
+    Every module, the ``morpi`` command and the JSON files use the same
+    names, as strings:
+
+    * methods: ``"INS-3D"`` and ``"INS-2D"`` (3D and yaw-only strapdown),
+      ``"MoRPI-A"`` (Weinberg steps on the y specific force) and ``"MoRPI-G"``
+      (on the z angular rate), ``"MoRPI-aided INS"`` (the error-state filter
+      with MoRPI step updates);
+    * calibrations: ``"RD"`` (raw data), ``"GC"`` (gyro bias from the initial
+      rest), ``"GAC"`` (gyro and accelerometer biases from the rest);
+    * splits and routes: the dataset's folder names (``"train"``, ``"test"``;
+      ``"short_distance"``, ``"L_shape"``, ... in ``data/routes.json``).
+
+    Monte Carlo columns add the gain scenario: ``"MoRPI-A[dG = 5 %]"``.
 Frames
     ``b``: body = phone axes. x forward (direction of travel at the start),
     y to the left, z up (out of the screen). A level phone at rest reads

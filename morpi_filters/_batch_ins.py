@@ -1,9 +1,10 @@
 """Batched strapdown kernel of the Monte Carlo gain-error study.
 
-The INS errors of a level straight line, vectorized over runs: time-major
-planes ``(n, R)`` (n samples, R runs), a quaternion attitude step and
-trapezoid integration. It does what :func:`morpi_filters.strapdown.ins3d` and
-:func:`morpi_filters.strapdown.ins2d` do for that case without keeping every
+The horizontal INS positions of a level path that starts along x (C_bn = I
+at the start: the study's sine path or straight line), vectorized over runs:
+time-major planes ``(n, R)`` (n samples, R runs), a quaternion attitude step
+and trapezoid integration. It does what :func:`morpi_filters.strapdown.ins3d`
+and :func:`morpi_filters.strapdown.ins2d` do for that case without keeping every
 C_bn matrix (the general strapdown costs about 8 times the drawing of the
 random numbers); the tests check it against them. Every operation is
 elementwise over runs in a fixed order, so a run's result does not depend on
@@ -14,17 +15,39 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["quat_increments", "attitude_blocks", "attitude", "prefix_rows", "cos_sin", "double_integral_at",
-           "straight_errors_3d", "straight_errors_2d"]
+           "horizontal_3d", "horizontal_2d"]
 
 
 def quat_increments(wx, wy, wz, h):
-    """Attitude increments exp(omega h / 2) as quaternion planes (4 arrays like wx).
+    """Attitude increments exp(omega h / 2) as quaternion planes.
 
     The half-angle x = |omega| h / 2 enters through Taylor series of cos x and
     sin(x) / x to x^4 (truncation below x^6 / 720 <= 1.4e-15 for x <= 0.01,
     i.e. |omega| <= 2 rad/s at 100 Hz); elements with a larger x are
     recomputed with sin/cos. The rule is elementwise, so the result of a run
     does not depend on its neighbours in the chunk.
+
+    Parameters
+    ----------
+    wx, wy, wz : ndarray, any shape (the same for the three)
+        Body angular rate held over the interval, per axis [rad/s].
+    h : float
+        Length of the interval [s].
+
+    Returns
+    -------
+    p0, p1, p2, p3 : tuple of 4 ndarray, each shaped like `wx`
+        Scalar-first unit quaternion of the rotation by the angle |omega| h
+        about omega: ``p0 = cos(x)`` and ``(p1, p2, p3) = sin(x) omega / |omega|``.
+
+    Examples
+    --------
+    Half a turn about z (pi rad/s for 1 s) is the quaternion (0, 0, 0, 1):
+
+    >>> import numpy as np
+    >>> z = np.zeros(1)
+    >>> [round(float(p[0]), 12) for p in quat_increments(z, z, np.array([np.pi]), 1.0)]
+    [0.0, 0.0, 0.0, 1.0]
     """
     x2 = wx * wx
     x2 += wy * wy
@@ -50,13 +73,43 @@ def quat_increments(wx, wy, wz, h):
 def attitude_blocks(wx, wy, wz, h, block: int = 64):
     """Quaternions of body-to-n from rest, q_{k+1} = q_k (x) exp(omega_k h / 2), block by block.
 
-    Time-major planes (n, R) of the rate held over each of the n intervals.
-    Yields ``(k0, q)`` with q of shape (m, 4, R) holding rows k0 .. k0+m-1 of
-    the n + 1 attitudes; consecutive blocks cover every row once. Each step is
-    a matrix-vector product with the 4x4 right-multiplication matrix of the
-    increment: one multiply and three adds, elementwise over runs in a fixed
-    order, so a run's result does not depend on the chunk size (einsum's
-    does). Working block by block keeps the data in cache for the caller.
+    Each step is a matrix-vector product with the 4x4 right-multiplication
+    matrix of the increment (:func:`quat_increments`): one multiply and three
+    adds, elementwise over runs in a fixed order, so a run's result does not
+    depend on the chunk size (einsum's does). Working block by block keeps the
+    data in cache for the caller. The first attitude is the identity (1, 0, 0, 0).
+
+    Parameters
+    ----------
+    wx, wy, wz : ndarray, shape (n, R)
+        Time-major planes of the body rate held over each of the n intervals,
+        per axis, for R runs [rad/s].
+    h : float
+        Interval length [s].
+    block : int, optional
+        Rows propagated per block (default 64).
+
+    Yields
+    ------
+    k0 : int
+        Index of the first attitude row of the block.
+    q : ndarray, shape (m, 4, R)
+        Rows k0 .. k0+m-1 of the n + 1 attitudes (scalar first). Consecutive
+        blocks cover every row once; the last block holds one row more than the
+        others would (the attitude after the last interval). The array is a view
+        of a buffer reused by the next block: copy it to keep it.
+
+    Examples
+    --------
+    Four intervals of 0.5 s at pi/2 rad/s about z make half a turn:
+
+    >>> import numpy as np
+    >>> w0, wz = np.zeros((4, 1)), np.full((4, 1), np.pi / 2)
+    >>> blocks = [(k0, q.copy()) for k0, q in attitude_blocks(w0, w0, wz, 0.5, block=2)]
+    >>> [(k0, q.shape) for k0, q in blocks]
+    [(0, (2, 4, 1)), (2, (3, 4, 1))]
+    >>> (np.round(blocks[-1][1][-1, :, 0], 12) + 0.0).tolist()
+    [0.0, 0.0, 0.0, 1.0]
     """
     n, R = wx.shape
     M = np.empty((block, 4, 4, R))
@@ -90,16 +143,63 @@ def attitude_blocks(wx, wy, wz, h, block: int = 64):
 
 
 def attitude(wx, wy, wz, h, block: int = 64):
-    """All n + 1 quaternions (n + 1, 4, R) of :func:`attitude_blocks`."""
+    """All n + 1 quaternions of :func:`attitude_blocks` in one array.
+
+    Parameters
+    ----------
+    wx, wy, wz : ndarray, shape (n, R)
+        Time-major planes of the body rate held over each interval [rad/s].
+    h : float
+        Interval length [s].
+    block : int, optional
+        Rows propagated per block (default 64); the result does not depend on it.
+
+    Returns
+    -------
+    ndarray, shape (n + 1, 4, R)
+        Scalar-first body-to-n quaternions, the identity at row 0.
+
+    Examples
+    --------
+    A quarter turn about z in two steps of 0.5 s at pi/2 rad/s:
+
+    >>> import numpy as np
+    >>> w0, wz = np.zeros((2, 1)), np.full((2, 1), np.pi / 2)
+    >>> q = attitude(w0, w0, wz, 0.5)
+    >>> q.shape
+    (3, 4, 1)
+    >>> np.round(q[:, :, 0], 6).tolist()
+    [[1.0, 0.0, 0.0, 0.0], [0.92388, 0.0, 0.0, 0.382683], [0.707107, 0.0, 0.0, 0.707107]]
+    """
     return np.concatenate([q.copy() for _, q in attitude_blocks(wx, wy, wz, h, block)], axis=0)
 
 
 def prefix_rows(a, out):
-    """out[0] = 0, out[k] = a[0] + ... + a[k-1] along axis 0 of time-major (n, R) planes.
+    """Exclusive prefix sums along axis 0 of time-major planes, in place.
 
-    A loop of row additions: the same sequential sums as ``np.cumsum(axis=0)``
-    but about 2.5 times faster on (n, R) planes, whose column-wise
-    accumulation numpy runs with strided access.
+    ``out[0] = 0`` and ``out[k] = a[0] + ... + a[k-1]``: a loop of row
+    additions, the same sequential sums as ``np.cumsum(axis=0)`` but about 2.5
+    times faster on (n, R) planes, whose column-wise accumulation numpy runs
+    with strided access.
+
+    Parameters
+    ----------
+    a : ndarray, shape (n, R)
+        Rows to accumulate.
+    out : ndarray, shape (m, R), m <= n + 1
+        Array written in place; its length sets how many sums are formed.
+
+    Returns
+    -------
+    ndarray, shape (m, R)
+        `out` itself.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> a = np.array([[1.0], [2.0], [3.0]])
+    >>> prefix_rows(a, np.empty((4, 1)))[:, 0].tolist()
+    [0.0, 1.0, 3.0, 6.0]
     """
     out[0] = 0.0
     for k in range(1, out.shape[0]):
@@ -108,13 +208,33 @@ def prefix_rows(a, out):
 
 
 def cos_sin(psi, block: int = 32):
-    """cos and sin of time-major angles (n, R), exact trig only every `block` rows.
+    """cos and sin of time-major angles, exact trig only every `block` rows.
 
     Within a block, ``cos(b + d) = cos b cos d - sin b sin d`` (and likewise
     sin) with the offset d from the block's first row through Taylor series
     to d^10 (truncation below d^12 / 12! <= 1e-17 for |d| <= 0.2); elements
     with a larger offset are recomputed with cos/sin (an elementwise rule).
     About three times faster than ``np.cos`` and ``np.sin`` of every element.
+
+    Parameters
+    ----------
+    psi : ndarray, shape (n, R)
+        Angles [rad], time on axis 0.
+    block : int, optional
+        Rows per block sharing one exact cos/sin evaluation (default 32).
+
+    Returns
+    -------
+    c, s : tuple of 2 ndarray, each shape (n, R)
+        cos(psi) and sin(psi).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> psi = np.linspace(0.0, 3.0, 100).reshape(50, 2)
+    >>> c, s = cos_sin(psi, block=8)
+    >>> bool(np.allclose(c, np.cos(psi), atol=1e-14) and np.allclose(s, np.sin(psi), atol=1e-14))
+    True
     """
     n, R = psi.shape
     c, s = np.empty((n, R)), np.empty((n, R))
@@ -146,13 +266,36 @@ def cos_sin(psi, block: int = 32):
 
 
 def double_integral_at(a, h, keep):
-    """Trapezoid double integral from rest, at rows `keep`: (len(keep), R).
+    """Trapezoid double integral from rest, evaluated at chosen rows.
 
     ``v_{k+1} = v_k + h (a_k + a_{k+1}) / 2`` and
     ``p_{k+1} = p_k + v_k h + h^2 (a_k / 3 + a_{k+1} / 6)`` (a linear in each
     interval), evaluated in closed form from two prefix sums:
     ``p_k = h^2 (Q_k + P_k + a_k / 6 - a_0 (k / 2 + 1 / 6))`` for k >= 1, with
-    ``P_k = sum_{i<k} a_i`` and ``Q_k = sum_{j<k} P_j``.
+    ``P_k = sum_{i<k} a_i`` and ``Q_k = sum_{j<k} P_j``; ``p_0 = 0``.
+
+    Parameters
+    ----------
+    a : ndarray, shape (n, R)
+        Acceleration samples, time-major [m/s^2].
+    h : float
+        Sampling interval [s].
+    keep : ndarray of int, shape (K,)
+        Increasing row indices in [0, n) to return; at least one must be
+        positive.
+
+    Returns
+    -------
+    ndarray, shape (K, R)
+        Position at the rows `keep`, from rest at the origin [m].
+
+    Examples
+    --------
+    A constant 1 m/s^2 is integrated exactly: t^2 / 2 at t = 0, 0.5 and 1 s.
+
+    >>> import numpy as np
+    >>> double_integral_at(np.ones((11, 1)), 0.1, np.array([0, 5, 10]))[:, 0].round(12).tolist()
+    [0.0, 0.125, 0.5]
     """
     n, R = a.shape
     P = np.empty((n, R))
@@ -172,14 +315,15 @@ def double_integral_at(a, h, keep):
     return out
 
 
-def straight_errors_3d(h, f, w, keep):
-    """Horizontal position of a 3D strapdown from rest, for a level straight line (C_bn = I).
+def horizontal_3d(h, f, w, keep):
+    """Horizontal position of a 3D strapdown from rest, starting at C_bn = I.
 
-    The truth has C_bn = I and no rotation, so the horizontal position is the
-    double integral of ``C f`` with C propagated from the measured rates
-    (exact rotation by the trapezoid mean rate of each interval) and
-    trapezoid integration (:func:`double_integral_at`);
-    the caller subtracts the same integral of the true ``f``. It agrees with
+    The horizontal position is the double integral of ``C f`` with C
+    propagated from the measured rates (exact rotation by the trapezoid mean
+    rate of each interval) and trapezoid integration
+    (:func:`double_integral_at`); gravity acts along the navigation z axis
+    only, so it does not enter. The caller subtracts the same computation on
+    the true signals, so the difference is the error the sensor errors cause. It agrees with
     :func:`morpi_filters.strapdown.ins3d` to their O(dt) integration-rule
     difference (tests/test_montecarlo.py).
 
@@ -190,12 +334,24 @@ def straight_errors_3d(h, f, w, keep):
     f, w : sequence of 3 ndarrays, shape (n, R)
         Measured specific force [m/s^2] and angular rate [rad/s] planes, time-major.
     keep : ndarray of int
-        Rows to return.
+        Rows to return (increasing, at least one positive).
 
     Returns
     -------
-    x, y : ndarray, shape (len(keep), R)
+    x, y : tuple of 2 ndarray, each shape (len(keep), R)
         Horizontal position from rest at the origin [m].
+
+    Examples
+    --------
+    A level phone with 1 m/s^2 forward for 1 s, no rotation, travels 0.5 m:
+
+    >>> import numpy as np
+    >>> n = 11
+    >>> f = [np.ones((n, 1)), np.zeros((n, 1)), np.full((n, 1), 9.81)]
+    >>> w = [np.zeros((n, 1))] * 3
+    >>> x, y = horizontal_3d(0.1, f, w, np.array([n - 1]))
+    >>> round(float(x[0, 0]), 12), round(float(y[0, 0]), 12)
+    (0.5, 0.0)
     """
     # trapezoid rate of each interval: h (w_k + w_k+1) / 2 = (h / 2) (w_k + w_k+1)
     ws = [np.add(c[:-1], c[1:]) for c in w]
@@ -227,13 +383,49 @@ def straight_errors_3d(h, f, w, keep):
     return double_integral_at(ax, h, keep), double_integral_at(ay, h, keep)
 
 
-def straight_errors_2d(f, psi, h, keep):
-    """Horizontal position of the planar INS from rest on the straight line (true heading 0).
+def horizontal_2d(f, psi, h, keep, heading=None):
+    """Horizontal position of the planar INS from rest, starting at heading 0.
 
-    `psi` (n, R) is the heading integrated from the measured z rate; f_x, f_y
-    are rotated by it and integrated twice. Planes as in :func:`straight_errors_3d`.
+    The heading is ``heading[:, None] + psi``: `heading` the same for every
+    run (the true heading integrated by the same rule; zero when None), and
+    `psi` the part each run's z-rate error adds (small: its cos/sin come from
+    :func:`cos_sin`). f_x, f_y are rotated by it and integrated twice
+    (:func:`double_integral_at`).
+
+    Parameters
+    ----------
+    f : sequence of at least 2 ndarrays, shape (n, R)
+        Specific force planes f_x, f_y in the body frame [m/s^2], time-major;
+        further entries (f_z) are not used.
+    psi : ndarray, shape (n, R)
+        Heading added to `heading`, per run [rad].
+    h : float
+        Sampling interval [s].
+    keep : ndarray of int
+        Rows to return (increasing, at least one positive).
+    heading : ndarray, shape (n,), optional
+        Heading shared by all runs [rad]; zero when None.
+
+    Returns
+    -------
+    x, y : tuple of 2 ndarray, each shape (len(keep), R)
+        Horizontal position from rest at the origin [m].
+
+    Examples
+    --------
+    1 m/s^2 along the body x axis for 1 s, heading 90 degrees: 0.5 m along y.
+
+    >>> import numpy as np
+    >>> n = 11
+    >>> f = [np.ones((n, 1)), np.zeros((n, 1))]
+    >>> x, y = horizontal_2d(f, np.zeros((n, 1)), 0.1, np.array([n - 1]), heading=np.full(n, np.pi / 2))
+    >>> round(float(x[0, 0]), 12), round(float(y[0, 0]), 12)
+    (0.0, 0.5)
     """
     c, s = cos_sin(psi)
+    if heading is not None:
+        ch, sh = np.cos(heading)[:, None], np.sin(heading)[:, None]
+        c, s = c * ch - s * sh, s * ch + c * sh
     ax = c * f[0]
     ax -= s * f[1]
     ay = s * f[0]

@@ -88,7 +88,21 @@ def _symbolic():
 
 
 def morpi_distance_error(dG: float, speed_mps: float, times) -> np.ndarray:
-    """MoRPI-A distance error ``dG * v * t`` [m], shape (n,).
+    """MoRPI-A distance error ``dG * v * t``.
+
+    Parameters
+    ----------
+    dG : float
+        Weinberg gain error, as a fraction of the gain (0.1 is 10 %).
+    speed_mps : float
+        Distance travelled per second along the path [m/s].
+    times : array_like, shape (n,)
+        Times since the start [s].
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Distance error at each time [m] (the sign of `dG`).
 
     Examples
     --------
@@ -125,7 +139,39 @@ class AssessmentCurves:
 
 
 def assessment_curves(params: ErrorParams, times=None, convention: str = CONVENTION) -> AssessmentCurves:
-    """Evaluate e_3D, e_2D (from the derivation) and MoRPI-A over `times`."""
+    """Evaluate e_3D, e_2D (from the derivation) and MoRPI-A over `times`.
+
+    The INS curves are
+    :func:`morpi_filters.symbolic.closed_form_errors` with the b_gz terms
+    dropped (``e3d``, ``e2d``) and kept (``e3d_bgz``, ``e2d_bgz``); the MoRPI-A
+    curves are :func:`morpi_distance_error` for each gain error of
+    ``params.dG`` at ``params.morpi_speed_mps``. The first call loads sympy.
+
+    Parameters
+    ----------
+    params : ErrorParams
+        One error realisation (the values are used as they are, not as sigmas).
+    times : array_like, shape (n,), optional
+        Times [s]; :data:`DEFAULT_TIMES` (0 to 15 s by 0.1 s) when None.
+    convention : str, optional
+        Sign convention of the derivation (default :data:`CONVENTION`, ``"z_up"``).
+
+    Returns
+    -------
+    AssessmentCurves
+        The curves over `times`, each of shape (n,) [m], and the convention's name.
+
+    Examples
+    --------
+    With an initial velocity error alone, both INS drift as ``|dv0_xy| t``:
+
+    >>> from morpi_filters.params import params_from_dict
+    >>> p = params_from_dict({"dv0_mps": [0.03, 0.04, 0.0], "ba_mps2": [0.0] * 3, "bg_radps": [0.0] * 3,
+    ...                       "g_mps2": 9.81, "dG": [0.1], "morpi_speed_mps": 0.5})
+    >>> c = assessment_curves(p, [0.0, 1.0, 2.0])
+    >>> c.e3d.round(12).tolist(), c.e2d.round(12).tolist(), c.morpi[0.1].round(12).tolist(), c.convention
+    ([0.0, 0.05, 0.1], [0.0, 0.05, 0.1], [0.0, 0.05, 0.1], 'z_up')
+    """
     S = _symbolic()
     t = DEFAULT_TIMES if times is None else np.asarray(times, dtype=float)
     cf = S.closed_form_errors
@@ -141,7 +187,36 @@ def assessment_curves(params: ErrorParams, times=None, convention: str = CONVENT
 
 
 def improvements(params: ErrorParams, convention: str = CONVENTION, numbers=PAPER_IMPROVEMENTS) -> np.ndarray:
-    """Our values of the paper's eight improvements [m], shape (8,)."""
+    """Our values of the paper's improvements, ``e_INS(t_ins) - dG v t_morpi``.
+
+    Parameters
+    ----------
+    params : ErrorParams
+        One error realisation; ``params.morpi_speed_mps`` is v.
+    convention : str, optional
+        Sign convention of the derivation (default :data:`CONVENTION`).
+    numbers : sequence of PaperNumber, optional
+        The improvements to evaluate (default :data:`PAPER_IMPROVEMENTS`, the
+        paper's eight); ``paper_m`` is not read.
+
+    Returns
+    -------
+    ndarray, shape (len(numbers),)
+        INS distance error (b_gz terms dropped) minus MoRPI-A distance error [m].
+
+    Examples
+    --------
+    With a horizontal dv0 of 0.05 m/s the INS error at 5 s is 0.25 m; at 0.5 m/s
+    MoRPI-A with a 10 % gain error loses 0.25 m in 5 s and 0.7 m in 14 s:
+
+    >>> from morpi_filters.params import params_from_dict
+    >>> p = params_from_dict({"dv0_mps": [0.03, 0.04, 0.0], "ba_mps2": [0.0] * 3, "bg_radps": [0.0] * 3,
+    ...                       "g_mps2": 9.81, "morpi_speed_mps": 0.5})
+    >>> improvements(p).round(6).tolist()
+    [0.0, 0.0, 0.125, 0.125, -0.45, -0.45, -0.1, -0.1]
+    >>> improvements(p, numbers=[PaperNumber("2d", 0.1, 2.0, 1.0, 0.0)]).round(6).tolist()
+    [0.05]
+    """
     S = _symbolic()
     out = []
     for n in numbers:
@@ -192,7 +267,26 @@ def fit_paper_numbers(g_mps2: float = 9.81, convention: str = CONVENTION, digits
     :data:`FIT_PRIOR` (which picks one point of the solution family: the data
     fix only e_3D(5 s), e_2D(5 s) and the MoRPI-A error rate). The vertical
     components stay at the prior (b_gz is dropped as in the paper; b_az enters
-    only through alpha). Values are rounded to `digits` significant digits.
+    only through alpha). The fitted values are rounded to `digits` significant
+    digits before the improvements are recomputed. Takes a few seconds, so it
+    has no example here (``tests/test_assessment.py`` runs it).
+
+    Parameters
+    ----------
+    g_mps2 : float, optional
+        Gravity magnitude written to the parameters [m/s^2] (default 9.81).
+    convention : str, optional
+        Sign convention of the derivation (default :data:`CONVENTION`).
+    digits : int, optional
+        Significant digits kept of each fitted value (default 6).
+
+    Returns
+    -------
+    FitResult
+        The parameter mapping (keys ``dv0_mps``, ``ba_mps2``, ``bg_radps``,
+        ``g_mps2``, ``dG``, ``morpi_speed_mps``, ``process_noise``), our eight
+        improvements from it, the paper's eight and the largest absolute
+        difference [m].
     """
     from scipy.optimize import least_squares
 
@@ -230,7 +324,26 @@ def fit_paper_numbers(g_mps2: float = 9.81, convention: str = CONVENTION, digits
 
 
 def write_fitted_params(path=DEFAULT_PARAMS_FILE, **kw) -> FitResult:
-    """Run :func:`fit_paper_numbers` once and write the parameter file atomically."""
+    """Run :func:`fit_paper_numbers` once and write the parameter file atomically.
+
+    The file holds the fitted mapping plus a ``"note"`` naming the fit and its
+    largest difference from the paper. Takes a few seconds (the fit), so it
+    has no example here.
+
+    Parameters
+    ----------
+    path : path-like, optional
+        File written (default :data:`~morpi_filters.params.DEFAULT_PARAMS_FILE`,
+        the committed ``data/assessment_params.json``).
+    **kw
+        Keyword arguments of :func:`fit_paper_numbers` (``g_mps2``,
+        ``convention``, ``digits``).
+
+    Returns
+    -------
+    FitResult
+        The fit that was written.
+    """
     fit = fit_paper_numbers(**kw)
     d = dict(fit.params)
     d["note"] = ("Fitted by morpi_filters.assessment.fit_paper_numbers to the paper's eight improvements "
@@ -285,7 +398,7 @@ class AssessmentStudy:
 
     @property
     def times(self) -> np.ndarray:
-        """The times of the curves [s]."""
+        """The times of the curves [s], ``curves.times``, shape (n,)."""
         return self.curves.times
 
 
@@ -297,11 +410,31 @@ def assessment_study(params_path=None, times=None) -> AssessmentStudy:
     params_path : path-like, optional
         Parameter file; default ``data/assessment_params.json``.
     times : sequence of float, optional
-        Times of the curves [s]; default 0 to 15 s.
+        Times of the curves [s], finite and >= 0; default 0 to 15 s by 0.1 s.
 
     Returns
     -------
     AssessmentStudy
+        The parameters, the curves over `times`, our eight improvements,
+        e_3D(5 s) and e_2D(5 s), the audit of the printed equations, the
+        dropped b_gz terms and the audited conventions.
+
+    Raises
+    ------
+    MorpiError
+        For an empty, non-finite or negative time grid, and every error of
+        :func:`~morpi_filters.params.load_params`.
+
+    Examples
+    --------
+    The committed parameters reproduce the paper's eight printed improvements
+    to 0.01 m:
+
+    >>> s = assessment_study(times=[0.0, 5.0])
+    >>> s.improvements_m.round(2).tolist()
+    [2.95, 0.91, 3.2, 1.15, 2.07, 0.02, 2.76, 0.71]
+    >>> s.times.tolist(), bool(s.curves.e3d[1] == s.e3d_5s_m), sorted(s.dropped_terms)
+    ([0.0, 5.0], True, ['2d', '3d'])
     """
     params = load_params(params_path)
     t = _check_times(times)

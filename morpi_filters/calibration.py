@@ -73,7 +73,7 @@ from .units import SENSORS
 
 __all__ = [
     "MODES", "SITE_LATITUDE_DEG", "LOCAL_GRAVITY", "normal_gravity", "RestWindow", "Calibration",
-    "detect_rest", "calibrate", "rest_windows_summary", "RestRow", "RestSummary", "noise_sigma",
+    "detect_rest", "calibrate", "calibrated", "rest_windows_summary", "RestRow", "RestSummary", "noise_sigma",
 ]
 
 #: Calibration modes: raw data, gyro calibration, gyro and accelerometer calibration.
@@ -114,13 +114,18 @@ def normal_gravity(latitude_deg: float, height_m: float = 0.0) -> float:
     ----------
     latitude_deg : float
         Geodetic latitude [deg], in [-90, 90].
-    height_m : float
-        Height above the ellipsoid [m].
+    height_m : float, optional
+        Height above the ellipsoid [m] (default 0).
 
     Returns
     -------
     float
         Normal gravity [m/s^2].
+
+    Raises
+    ------
+    MorpiError
+        For a latitude outside [-90, 90] degrees or not finite.
 
     Examples
     --------
@@ -225,6 +230,13 @@ class Calibration:
         Recording
             Same time stamps and labels; ``f - accel_bias`` and
             ``omega - gyro_bias``. The input is not modified.
+
+        Examples
+        --------
+        >>> rec = Recording(time=np.arange(3) * 0.01, f=np.tile([0.1, 0.0, 9.9], (3, 1)), omega=np.zeros((3, 3)))
+        >>> cal = Calibration("GAC", gyro_bias=np.zeros(3), accel_bias=np.array([0.1, 0.0, 0.1]), window=None)
+        >>> cal.apply(rec).f[0].round(12).tolist(), rec.f[0].tolist()
+        ([0.0, 0.0, 9.8], [0.1, 0.0, 9.9])
         """
         return replace(rec, time=rec.time.copy(), f=rec.f - self.accel_bias, omega=rec.omega - self.gyro_bias)
 
@@ -248,6 +260,16 @@ def noise_sigma(x: np.ndarray) -> np.ndarray:
         so that quantized signals (many zero differences), for which a median
         absolute deviation collapses to zero, are still measured. Never below
         the signal's resolution / sqrt(12) (its smallest non-zero step).
+        With fewer than three rows: the smallest positive float per column.
+
+    Examples
+    --------
+    White noise of standard deviation 0.1 on top of a slow drift:
+
+    >>> rng = np.random.default_rng(0)
+    >>> x = 0.1 * rng.standard_normal((10000, 2)) + np.linspace(0.0, 5.0, 10000)[:, None]
+    >>> noise_sigma(x).round(1).tolist()
+    [0.1, 0.1]
     """
     d = np.diff(np.asarray(x, dtype=float), axis=0)
     if d.shape[0] < 2:
@@ -341,7 +363,9 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
     Parameters
     ----------
     rec : Recording
-        The recording (real, non-uniform time stamps).
+        The recording (real, non-uniform time stamps). When ``rec.phone``
+        names a known IMU (:data:`morpi_filters.units.SENSORS`) its datasheet
+        noise bounds the noise sigmas from below.
     max_window_s : float
         Longest window returned [s] (the paper calibrates on the first 3 s).
     min_window_s : float
@@ -380,12 +404,30 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
     Returns
     -------
     RestWindow
+        The window's samples and time stamps, how it was chosen
+        (``"full"``, ``"detected"`` or ``"short"``), a note, and the motion
+        onset on the recording's clock.
 
     Raises
     ------
     MorpiError
         Naming the recording, when it moves from its first samples (fewer than
         `min_samples` samples at rest), or for a bad parameter.
+
+    Examples
+    --------
+    A phone at rest for 2 s that then swings about z at 1 Hz (0.5 rad/s
+    amplitude): the window ends a guard before the first gyro sample beyond
+    6 sigmas of the rest noise, 2.01 s after the start.
+
+    >>> rng = np.random.default_rng(0)
+    >>> t = 100.0 + np.arange(600) * 0.01
+    >>> f = [0.0, 0.0, 9.8] + 0.01 * rng.standard_normal((600, 3))
+    >>> w = [0.0, 0.0, 0.02] + 0.001 * rng.standard_normal((600, 3))
+    >>> w[200:, 2] += 0.5 * np.sin(2 * np.pi * (t[200:] - t[200]))
+    >>> win = detect_rest(Recording(time=t, f=f, omega=w))
+    >>> win.method, win.i0, win.i1, round(win.motion_s - 100.0, 2), round(win.duration_s, 2)
+    ('detected', 0, 197, 2.01, 1.96)
     """
     for name, v in (("max_window_s", max_window_s), ("min_window_s", min_window_s), ("window_s", window_s),
                     ("noise_s", 1.0 if noise_s is None else noise_s), ("k_std", k_std), ("k_dev", k_dev),
@@ -500,18 +542,32 @@ def calibrate(rec: Recording, mode: str, *, window: RestWindow | None = None,
     window : RestWindow, optional
         The window to average over; found with :func:`detect_rest` when None
         (not used for RD).
-    g_local : float
-        Local gravity magnitude [m/s^2].
+    g_local : float, optional
+        Local gravity magnitude [m/s^2] (default :data:`LOCAL_GRAVITY`).
 
     Returns
     -------
     Calibration
+        The mode, the gyro bias [rad/s] and accelerometer bias [m/s^2] (zeros
+        where the mode does not estimate them) and the window (None for RD).
 
     Raises
     ------
     MorpiError
         For an unknown `mode`, a bad `g_local`, a window outside the
         recording, or a recording without initial rest.
+
+    Examples
+    --------
+    A level phone at rest reading f_z = 9.9 m/s^2 where gravity is 9.8 m/s^2:
+
+    >>> rec = Recording(time=np.arange(400) * 0.01, f=np.tile([0.0, 0.05, 9.9], (400, 1)),
+    ...                 omega=np.tile([0.001, 0.0, -0.002], (400, 1)))
+    >>> cal = calibrate(rec, "GAC", g_local=9.8)
+    >>> cal.window.method, cal.gyro_bias.round(12).tolist(), cal.accel_bias.round(12).tolist()
+    ('full', [0.001, 0.0, -0.002], [0.0, 0.05, 0.1])
+    >>> calibrate(rec, "GC").accel_bias.tolist(), calibrate(rec, "RD").window is None
+    ([0.0, 0.0, 0.0], True)
     """
     if mode not in MODES:
         raise MorpiError(f"mode={mode!r}: unknown calibration mode, expected one of {', '.join(MODES)}")
@@ -530,6 +586,40 @@ def calibrate(rec: Recording, mode: str, *, window: RestWindow | None = None,
     if mode == "GAC":
         accel_bias = rec.f[sl].mean(axis=0) - np.array([0.0, 0.0, g_local])
     return Calibration(mode=mode, gyro_bias=gyro_bias, accel_bias=accel_bias, window=window)
+
+
+def calibrated(rec: Recording, mode: str, *, window: RestWindow | None = None,
+               g_local: float = LOCAL_GRAVITY) -> tuple[Recording, Calibration]:
+    """A recording with its biases removed, in one call: :func:`calibrate`, then :meth:`Calibration.apply`.
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording to calibrate.
+    mode : {"RD", "GC", "GAC"}
+        Calibration mode (see :func:`calibrate`).
+    window : RestWindow, optional
+        As in :func:`calibrate`.
+    g_local : float, optional
+        As in :func:`calibrate` [m/s^2].
+
+    Returns
+    -------
+    recording : Recording
+        The calibrated recording (a new object).
+    calibration : Calibration
+        The biases that were removed.
+
+    Examples
+    --------
+    >>> t = np.arange(500) * 0.01
+    >>> rec = Recording(time=t, f=np.tile([0.0, 0.0, 9.8], (500, 1)), omega=np.tile([0.0, 0.0, 0.01], (500, 1)))
+    >>> crec, cal = calibrated(rec, "GC", window=RestWindow(0.0, 2.99, 0, 300, "full"))
+    >>> round(float(cal.gyro_bias[2]), 12), round(float(abs(crec.omega[:, 2]).max()), 12)
+    (0.01, 0.0)
+    """
+    cal = calibrate(rec, mode, window=window, g_local=g_local)
+    return cal.apply(rec), cal
 
 
 @dataclass(frozen=True)
@@ -587,7 +677,14 @@ class RestSummary:
     n_total: int
 
     def to_json(self) -> dict:
-        """Counts and rows as plain JSON-ready values."""
+        """Counts and rows as plain JSON-ready values.
+
+        Returns
+        -------
+        dict
+            ``n_total``, ``n_moving_early``, ``n_disturbed`` (int) and ``rows``
+            (a list with one dict per :class:`RestRow`, keyed by its fields).
+        """
         return dict(n_total=self.n_total, n_moving_early=self.n_moving_early, n_disturbed=self.n_disturbed,
                     rows=[asdict(r) for r in self.rows])
 
@@ -598,16 +695,29 @@ def rest_windows_summary(recordings, *, max_window_s: float = 3.0, **kwargs) -> 
     Parameters
     ----------
     recordings : iterable of Recording
-    max_window_s : float
-        Passed to :func:`detect_rest`; also the horizon of ``n_moving_early``
-        and of the paper's fixed window in ``gyro_shift``.
+        The recordings to examine.
+    max_window_s : float, optional
+        Passed to :func:`detect_rest` [s] (default 3); also the horizon of
+        ``n_moving_early`` and of the paper's fixed window in ``gyro_shift``.
     **kwargs
         Further :func:`detect_rest` parameters.
 
     Returns
     -------
     RestSummary
-        Recordings without a rest are listed with their error, not raised.
+        One :class:`RestRow` per recording and the counts. Recordings without
+        a rest are listed with their error (method ``"none"``), not raised.
+
+    Examples
+    --------
+    One recording at rest throughout, one that turns from its first sample:
+
+    >>> t = np.arange(500) * 0.01
+    >>> still = Recording(time=t, f=np.tile([0.0, 0.0, 9.8], (500, 1)), omega=np.zeros((500, 3)), source="still")
+    >>> turning = Recording(time=t, f=still.f, omega=np.c_[0 * t, 0 * t, np.sin(10 * t)], source="turning")
+    >>> s = rest_windows_summary([still, turning])
+    >>> s.n_total, s.n_moving_early, [(r.method, r.motion_s) for r in s.rows]
+    (2, 1, [('full', None), ('none', None)])
     """
     rows, early, disturbed, total = [], 0, 0, 0
     for rec in recordings:

@@ -60,6 +60,23 @@ MAX_CURVE_TIME = 1000.0
 CURVE_SECONDS, CURVE_BYTES, CURVE_BASE_BYTES = 17e-3, 1.4e6, 0.22e9
 
 
+#: Longest ``montecarlo --duration`` [s]: the cost of a run grows with its samples, and the
+#: ``--runs`` bound above is measured on the default 15 s.
+MAX_MC_SECONDS = 600.0
+
+
+def _bounded_float(name, lo, hi):
+    def parse(text):
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name}: {text!r} is not a number") from None
+        if not (lo <= v <= hi):
+            raise argparse.ArgumentTypeError(f"{name}: {text} is outside [{lo:g}, {hi:g}]")
+        return v
+    return parse
+
+
 def _duration(seconds):
     if seconds < 120:
         return f"{seconds:.0f} s"
@@ -109,7 +126,24 @@ def _path(option):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The argument parser of ``morpi`` (exposed for tests and docs)."""
+    """The argument parser of ``morpi`` (exposed for tests and docs).
+
+    One subcommand per section (``tables``, ``aided``, ``assess``,
+    ``curves``, ``montecarlo``, ``drift``) plus ``check``, ``simulate``,
+    ``data fetch`` and ``report``; each option's type checks its value and
+    its limit (run counts, times, durations, speeds) while parsing.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        A new parser; a subcommand is required.
+
+    Examples
+    --------
+    >>> args = build_parser().parse_args(["montecarlo", "--runs", "100", "--speed", "0.5"])
+    >>> args.command, args.runs, args.seed, args.speed, args.duration, args.out.as_posix()
+    ('montecarlo', 100, 0, 0.5, None, 'reports/montecarlo')
+    """
     p = argparse.ArgumentParser(
         prog="morpi",
         description="MoRPI error models side by side: symbolic closed form, error-state filter, "
@@ -173,6 +207,11 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--chunk", metavar="K", type=_positive_int("--chunk"), default=None,
                    help="runs per batch (results do not depend on it)")
     s.add_argument("--scheduler", metavar="ADDRESS", help="run on a Dask cluster at this address")
+    s.add_argument("--duration", metavar="S", type=_bounded_float("--duration", 2.0, MAX_MC_SECONDS), default=None,
+                   help=f"time of the sine path from start to stop [s] (default 15 s for 6.3 m; at most "
+                        f"{MAX_MC_SECONDS:g} s)")
+    s.add_argument("--speed", metavar="V", type=_bounded_float("--speed", 0.01, 10.0), default=None,
+                   help="cruise speed [m/s] (default the paper's for 1 m periods)")
     data_arg(s)
     partial_arg(s)
     out_args(s, "montecarlo")
@@ -229,7 +268,8 @@ def _study(name, args, source=None, tables=None):
     if name == "montecarlo":
         from .montecarlo import gain_error_page
         return gain_error_page(runs=args.runs, seed=args.seed, chunk=getattr(args, "chunk", None),
-                               scheduler=getattr(args, "scheduler", None), source=source, tables=tables)
+                               scheduler=getattr(args, "scheduler", None), source=source, tables=tables,
+                               duration=getattr(args, "duration", None), speed_mps=getattr(args, "speed", None))
     if name == "drift":
         from .montecarlo import drift_page
         return drift_page(scheduler=getattr(args, "scheduler", None))
@@ -428,7 +468,46 @@ def _on_sigterm(signum, frame):
 
 
 def main(argv=None) -> int:
-    """Entry point of the ``morpi`` console script."""
+    """Entry point of the ``morpi`` console script.
+
+    Parses `argv`, runs the subcommand and turns what can go wrong into an
+    exit status: a :class:`~morpi_filters.errors.MorpiError` is printed as
+    one line ``morpi: error: ...`` on stderr and gives its ``exit_code``
+    (1 bad data, 2 bad parameters); SIGINT gives 130 and SIGTERM 143 (caught
+    while `main` runs in the main thread), with previous outputs left in
+    place. Bad command-line syntax exits through argparse (status 2).
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments after ``morpi``; ``sys.argv[1:]`` when None.
+
+    Returns
+    -------
+    int
+        The exit status: 0 on success.
+
+    Examples
+    --------
+    ``morpi check`` on a synthetic dataset folder whose manifest lists one
+    recording, which is present and valid:
+
+    >>> import json, pathlib, tempfile
+    >>> import numpy as np
+    >>> from morpi_filters.dataset import Recording, write_csv
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> manifest = {"generator": "morpi_filters.simulate", "files": {"s6/L_line/1.csv": ""}}
+    >>> _ = (root / "manifest.json").write_text(json.dumps(manifest))
+    >>> (root / "s6" / "L_line").mkdir(parents=True)
+    >>> t = np.arange(100) * 0.01
+    >>> write_csv(root / "s6/L_line/1.csv", Recording(time=t, f=np.tile([0.0, 0.0, 9.8], (100, 1)),
+    ...                                                omega=np.zeros((100, 3))))
+    >>> main(["check", "--data", str(root)])
+    1 recording(s) OK, 0 problem(s) under ...
+    0
+    >>> main(["check", "--data", str(root / "missing")])     # one line on stderr, status of a MorpiError
+    2
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
     previous = None

@@ -52,9 +52,14 @@ from .eskf import (
 )
 
 __all__ = [
-    "STEP_LENGTH_M", "DEFAULT_TIMES", "CurveCase", "CaseCurves", "case_from_params", "case_from_sensor",
+    "STEP_LENGTH_M", "DEFAULT_TIMES", "CURVE_METHODS", "horizontal_sigma", "CurveCase", "CaseCurves", "case_from_params", "case_from_sensor",
     "time_grid", "case_mean_square", "error_realisation", "compute_curves", "CurvesStudy", "curves_study",
 ]
+
+#: The curves' methods, in the package's names: the filter's horizontal 1 sigma of each, and
+#: the closed forms (for "MoRPI-aided INS", the paper's MoRPI distance error ``dG v t``).
+CURVE_METHODS = ("INS-3D", "INS-2D", "MoRPI-aided INS")
+_SYMBOLIC_KIND = {"INS-3D": "3d", "INS-2D": "2d"}
 
 #: Length of one MoRPI step [m]: the 1 m peak-to-peak period of the paper's periodic routes.
 STEP_LENGTH_M = 1.0
@@ -123,11 +128,32 @@ def _drop_bgz(bg):
 def case_from_params(params, noise_spec=PARAMS_NOISE_SPEC) -> CurveCase:
     """The case of a parameter file (values read as 1 sigma).
 
+    The absolute values of the file's dv0, b_a and b_g become the 1 sigmas
+    (the gyro z sigma set to zero, as in the paper), ``dG[0]`` the gain-error
+    sigma and ``morpi_speed_mps`` the speed; the signed values are kept as the
+    case's one realisation.
+
     Parameters
     ----------
     params : params.ErrorParams
-    noise_spec : units.SensorSpec
-        Noise used when ``params.process_noise`` is true.
+        The error parameters.
+    noise_spec : units.SensorSpec, optional
+        Noise used when ``params.process_noise`` is true (default
+        :data:`PARAMS_NOISE_SPEC`, the MPU-6500).
+
+    Returns
+    -------
+    CurveCase
+        A case named ``"params"`` whose title names the file.
+
+    Examples
+    --------
+    >>> from morpi_filters.params import params_from_dict
+    >>> p = params_from_dict({"dv0_mps": [0.03, -0.04, 0.0], "ba_mps2": [0.0] * 3,
+    ...                       "bg_radps": [0.001, 0.002, 0.003], "g_mps2": 9.81, "dG": [-0.1]})
+    >>> case = case_from_params(p)
+    >>> case.name, case.dv0.tolist(), case.bg.tolist(), case.gain_sigma, case.noise is None
+    ('params', [0.03, 0.04, 0.0], [0.001, 0.002, 0.0], 0.1, True)
     """
     return CurveCase(
         name="params", title=f"parameter file {params.label}", dv0=np.abs(params.dv0), ba=np.abs(params.ba),
@@ -143,10 +169,27 @@ def case_from_sensor(spec, params) -> CurveCase:
     Parameters
     ----------
     spec : units.SensorSpec
-        Turn-on biases as 1 sigma per axis; its noise when
-        ``params.process_noise`` is true.
+        Turn-on biases as 1 sigma per axis (the gyro z sigma set to zero, as in
+        the paper); its noise when ``params.process_noise`` is true.
     params : params.ErrorParams
-        Initial velocity error, gravity, gain error, speed.
+        Initial velocity error (absolute values, as 1 sigma), gravity, gain
+        error (``dG[0]``) and speed.
+
+    Returns
+    -------
+    CurveCase
+        A case named after the IMU (lower case, no hyphen), without a
+        realisation, with `spec` kept for the nonlinear Monte Carlo.
+
+    Examples
+    --------
+    >>> from morpi_filters import units
+    >>> from morpi_filters.params import load_params
+    >>> case = case_from_sensor(units.LSM6DSL, load_params())
+    >>> case.name, case.title
+    ('lsm6dsl', 'LSM6DSL (S8)')
+    >>> bool(np.all(case.ba == units.LSM6DSL.accel_bias)), float(case.bg[2])
+    (True, 0.0)
     """
     return CurveCase(
         name=spec.name.lower().replace("-", ""), title=f"{spec.name} ({spec.phone.upper()})",
@@ -170,28 +213,48 @@ def case_mean_square(case: CurveCase, t, kind):
 
         (s_vx^2 + s_vy^2) t^2 + (s_ax^2 + s_ay^2) t^4 / 4 + g^2 (s_gx^2 + s_gy^2) t^6 / 36
 
-    and for MoRPI-A the paper's ``ds = dG v t`` (:func:`symbolic.morpi_error`):
-    ``(s_G speed t)^2``.
+    and for ``"MoRPI-aided INS"`` the paper's MoRPI-A distance error
+    ``ds = dG v t`` (:func:`morpi_filters.symbolic.morpi_error`): ``(s_G speed t)^2``.
 
     Parameters
     ----------
     case : CurveCase
+        The 1-sigma errors.
     t : array_like, shape (n,)
         Times [s].
-    kind : {"ins3d", "ins2d", "morpi"}
+    kind : {"INS-3D", "INS-2D", "MoRPI-aided INS"}
+        A name of :data:`CURVE_METHODS`.
 
     Returns
     -------
-    ndarray, shape (n,)  [m^2]
+    ndarray, shape (n,)
+        Mean squared horizontal error [m^2].
+
+    Raises
+    ------
+    MorpiError
+        For a `kind` not in :data:`CURVE_METHODS`.
+
+    Examples
+    --------
+    A velocity error of 1 sigma (0.03, 0.04) m/s grows as (0.05 t)^2:
+
+    >>> from morpi_filters.params import params_from_dict
+    >>> p = params_from_dict({"dv0_mps": [0.03, 0.04, 0.0], "ba_mps2": [0.0] * 3, "bg_radps": [0.0] * 3,
+    ...                       "g_mps2": 9.81, "dG": [0.1], "morpi_speed_mps": 0.5})
+    >>> np.sqrt(case_mean_square(case_from_params(p), [0.0, 1.0, 2.0], "INS-3D")).round(12).tolist()
+    [0.0, 0.05, 0.1]
+    >>> case_mean_square(case_from_params(p), [4.0], "MoRPI-aided INS").round(12).tolist()  # (0.1 * 0.5 * 4)^2
+    [0.04]
     """
     from . import symbolic
 
     t = np.asarray(t, dtype=float)
-    if kind == "morpi":
+    if kind == "MoRPI-aided INS":
         return (case.gain_sigma * case.speed * t) ** 2
-    if kind not in ("ins3d", "ins2d"):
-        raise MorpiError(f"kind {kind!r}: expected 'ins3d', 'ins2d' or 'morpi'")
-    return symbolic.closed_form_mean_square(_keys(case.dv0, case.ba, case.bg, case.g), t, kind[3:], "z_up",
+    if kind not in ("INS-3D", "INS-2D"):
+        raise MorpiError(f"kind {kind!r}: expected one of {', '.join(CURVE_METHODS)}")
+    return symbolic.closed_form_mean_square(_keys(case.dv0, case.ba, case.bg, case.g), t, _SYMBOLIC_KIND[kind], "z_up",
                                             linearized=True, keep_bgz=False)
 
 
@@ -199,42 +262,85 @@ def error_realisation(dv0, ba, bg, dG, g, speed, t, kind):
     """Horizontal error of one realisation of the paper's closed form (z up, ``b_gz`` dropped).
 
     From :func:`morpi_filters.symbolic.closed_form_errors`: the paper's
-    polynomials with ``alpha = g + b_az``; MoRPI-A: ``|dG| speed t``.
+    polynomials with ``alpha = g + b_az``; for ``"MoRPI-aided INS"`` the
+    MoRPI-A distance error ``|dG| speed t``.
+
+    Parameters
+    ----------
+    dv0 : array_like, shape (3,)
+        Initial velocity error [m/s].
+    ba : array_like, shape (3,)
+        Accelerometer bias [m/s^2].
+    bg : array_like, shape (3,)
+        Gyro bias [rad/s] (the z component does not enter).
+    dG : float
+        Relative Weinberg gain error (MoRPI only).
+    g : float
+        Gravity magnitude [m/s^2].
+    speed : float
+        Speed along the path [m/s] (MoRPI only).
+    t : array_like, shape (n,)
+        Times [s].
+    kind : {"INS-3D", "INS-2D", "MoRPI-aided INS"}
+        A name of :data:`CURVE_METHODS`.
 
     Returns
     -------
-    ndarray, shape (n,)  [m]
+    ndarray, shape (n,)
+        Horizontal distance error [m].
+
+    Raises
+    ------
+    MorpiError
+        For a `kind` not in :data:`CURVE_METHODS`.
+
+    Examples
+    --------
+    >>> error_realisation([0.03, 0.04, 0.0], [0.0] * 3, [0.0] * 3, 0.1, 9.81, 0.5, [0.0, 2.0], "INS-2D").round(12).tolist()
+    [0.0, 0.1]
+    >>> error_realisation([0.0] * 3, [0.0] * 3, [0.0] * 3, -0.1, 9.81, 0.5, [2.0], "MoRPI-aided INS").round(12).tolist()
+    [0.1]
     """
     from . import symbolic
 
     t = np.asarray(t, dtype=float)
-    if kind == "morpi":
+    if kind == "MoRPI-aided INS":
         return np.abs(dG) * speed * t
-    if kind not in ("ins3d", "ins2d"):
-        raise MorpiError(f"kind {kind!r}: expected 'ins3d', 'ins2d' or 'morpi'")
-    return symbolic.closed_form_errors(_keys(dv0, ba, bg, g), t, kind[3:], "z_up", keep_bgz=False)
+    if kind not in ("INS-3D", "INS-2D"):
+        raise MorpiError(f"kind {kind!r}: expected one of {', '.join(CURVE_METHODS)}")
+    return symbolic.closed_form_errors(_keys(dv0, ba, bg, g), t, _SYMBOLIC_KIND[kind], "z_up", keep_bgz=False)
 
 
 def time_grid(times, dt, step_period=None):
     """Epochs of a run: a uniform grid plus the requested times and step times.
 
+    Times are merged after rounding to 1e-9 s, so a requested time or a step
+    time that falls on the uniform grid is one epoch.
+
     Parameters
     ----------
     times : array_like, shape (m,)
-        Requested times [s], >= 0.
+        Requested times [s], >= 0; the grid ends at the largest.
     dt : float
         Nominal step [s].
     step_period : float, optional
-        MoRPI step period [s].
+        MoRPI step period [s]: steps at ``step_period``, ``2 step_period``, ...
+        up to the last time.
 
     Returns
     -------
     grid : ndarray, shape (n + 1,)
-        Sorted, unique, starting at 0.
+        Epoch times [s]: sorted, unique, starting at 0.
     steps : ndarray of int
         Epoch indices of the MoRPI steps (empty without `step_period`).
     at : ndarray of int, shape (m,)
         Epoch index of each requested time.
+
+    Examples
+    --------
+    >>> grid, steps, at = time_grid([0.5, 1.0], 0.3, step_period=0.4)
+    >>> grid.tolist(), steps.tolist(), at.tolist()
+    ([0.0, 0.3, 0.4, 0.5, 0.6, 0.8, 0.9, 1.0], [2, 5], [3, 7])
     """
     times = np.asarray(times, dtype=float)
     T = float(times.max()) if times.size else 0.0
@@ -259,7 +365,7 @@ class CaseCurves:
     times : ndarray, shape (n,)
         Dense grid [s].
     sigma : dict of str -> ndarray, shape (n,)
-        Filter horizontal 1 sigma per method (``ins3d, ins2d, morpi``) [m].
+        Filter horizontal 1 sigma per method (:data:`CURVE_METHODS`) [m].
     rms_closed_form : dict of str -> ndarray, shape (n,)
         Closed-form RMS per method [m].
     realisation : dict of str -> ndarray, shape (n,)
@@ -299,20 +405,32 @@ class CaseCurves:
         Returns
         -------
         dict
-            ``sigma_<method>_m``, ``rms_closed_form_<method>_m``,
-            ``closed_form_error_<method>_m`` (with a realisation) and
-            ``mc_rms_<method>_m`` (with a Monte Carlo), each shape (m,).
+            ``sigma_m``, ``rms_closed_form_m``, and when computed
+            ``closed_form_error_m`` (a realisation), ``mc_rms_m`` (linear Monte
+            Carlo) and ``nonlinear_mc_rms_m`` (strapdown Monte Carlo): each a
+            dict from method name (:data:`CURVE_METHODS`) to an ndarray of shape (m,).
+
+        Examples
+        --------
+        Without Monte Carlo runs and without a realisation (an IMU case),
+        only the filter sigma and the closed-form RMS are there:
+
+        >>> from morpi_filters import units
+        >>> from morpi_filters.params import load_params
+        >>> case = case_from_sensor(units.LSM6DSL, load_params())
+        >>> at = compute_curves(case, times=[1.0, 2.0], runs=0, nonlinear_runs=0).at_eval_times()
+        >>> sorted(at), [v.shape for v in at["sigma_m"].values()]
+        (['rms_closed_form_m', 'sigma_m'], [(2,), (2,), (2,)])
         """
-        out = {}
-        for k in ("ins3d", "ins2d", "morpi"):
-            out[f"sigma_{k}_m"] = self.sigma[k][self.eval_index]
-            out[f"rms_closed_form_{k}_m"] = self.rms_closed_form[k][self.eval_index]
-            if k in self.realisation:
-                out[f"closed_form_error_{k}_m"] = self.realisation[k][self.eval_index]
-            if k in self.mc_rms:
-                out[f"mc_rms_{k}_m"] = self.mc_rms[k][self.mc_eval_index]
-            if k in self.nl_rms:
-                out[f"nonlinear_mc_rms_{k}_m"] = self.nl_rms[k][self.nl_eval_index]
+        out = {"sigma_m": {}, "rms_closed_form_m": {}}
+        for k in CURVE_METHODS:
+            out["sigma_m"][k] = self.sigma[k][self.eval_index]
+            out["rms_closed_form_m"][k] = self.rms_closed_form[k][self.eval_index]
+            for key, src, idx in (("closed_form_error_m", self.realisation, self.eval_index),
+                                  ("mc_rms_m", self.mc_rms, self.mc_eval_index),
+                                  ("nonlinear_mc_rms_m", self.nl_rms, self.nl_eval_index)):
+                if k in src:
+                    out.setdefault(key, {})[k] = src[k][idx]
         return out
 
 
@@ -336,17 +454,21 @@ def _steps(grid):
     return np.round(np.diff(grid), 12)
 
 
-def _run_methods(case, grid, steps, model):
+def _run_methods(case, grid, steps, model, only=None):
     (F3, G3, Q3, P3), (F2, G2, Q2, P2) = _models(case)
     dts = _steps(grid)
-    D3, D2 = discretize(F3, G3, Q3, dts), discretize(F2, G2, Q2, dts)
-    out = {
-        "ins3d": run_filter(D3.Phi, D3.Qd, P3, grid),
-        "ins2d": run_filter(D2.Phi, D2.Qd, P2, grid),
-    }
-    Phi_a, Qd_a = augment(D3.Phi, D3.Qd, model)
-    meas = [step_update(i, STEP_LENGTH_M, 0.0, model, case.speed) for i in steps]
-    out["morpi"] = run_filter(Phi_a, Qd_a, augment_covariance(P3, model), grid, meas)
+    out = {}
+    if only in (None, "INS-3D", "MoRPI-aided INS"):
+        D3 = discretize(F3, G3, Q3, dts)
+        if only in (None, "INS-3D"):
+            out["INS-3D"] = run_filter(D3.Phi, D3.Qd, P3, grid)
+        if only in (None, "MoRPI-aided INS"):
+            Phi_a, Qd_a = augment(D3.Phi, D3.Qd, model)
+            meas = [step_update(i, STEP_LENGTH_M, 0.0, model, case.speed) for i in steps]
+            out["MoRPI-aided INS"] = run_filter(Phi_a, Qd_a, augment_covariance(P3, model), grid, meas)
+    if only in (None, "INS-2D"):
+        D2 = discretize(F2, G2, Q2, dts)
+        out["INS-2D"] = run_filter(D2.Phi, D2.Qd, P2, grid)
     return out
 
 
@@ -361,19 +483,19 @@ def _monte_carlo(case, times, model, runs, rng):
     D3 = discretize(F3, G3, Q3, dts)
     Phi_a, Qd_a = augment(D3.Phi, D3.Qd, model)
     P0a = augment_covariance(P3, model)
-    sq = {k: np.zeros(n + 1) for k in ("ins3d", "ins2d", "morpi")}
+    sq = {k: np.zeros(n + 1) for k in CURVE_METHODS}
     sizes = [min(MC_CHUNK, runs - i) for i in range(0, runs, MC_CHUNK)]
     for size, sub in zip(sizes, rng.spawn(len(sizes))):
         rng3, rng2, rngs, rngg = sub.spawn(4)
         X3 = simulate_linear(F3, G3, Q3, P3, dts, n, size, rng3)
         X2 = simulate_linear(F2, G2, Q2, P2, dts, n, size, rng2)
-        sq["ins3d"] += (X3[..., 0] ** 2 + X3[..., 1] ** 2).sum(axis=0)
-        sq["ins2d"] += (X2[..., 0] ** 2 + X2[..., 1] ** 2).sum(axis=0)
+        sq["INS-3D"] += (X3[..., 0] ** 2 + X3[..., 1] ** 2).sum(axis=0)
+        sq["INS-2D"] += (X2[..., 0] ** 2 + X2[..., 1] ** 2).sum(axis=0)
         gain = model.gain_sigma * rngg.standard_normal(size)
         meas = simulate_steps(X3, steps, STEP_LENGTH_M, 0.0, model, case.speed, gain, rngs)
         r = run_filter(Phi_a, Qd_a, P0a, grid, meas)
         e = r.x[..., DP][..., :2] - X3[..., DP][..., :2]
-        sq["morpi"] += (e ** 2).sum(axis=-1).sum(axis=0)
+        sq["MoRPI-aided INS"] += (e ** 2).sum(axis=-1).sum(axis=0)
     return grid, {k: np.sqrt(v / runs) for k, v in sq.items()}, at
 
 
@@ -396,12 +518,72 @@ def _nonlinear_monte_carlo(case, times, runs, rng):
                noise_scale=1.0 if case.noise is not None else 0.0)
     v0 = r_v0.standard_normal((runs, 3)) * case.dv0
     rms = {}
-    for key, fn, kw in (("ins3d", ins3d, {"g": case.g}), ("ins2d", ins2d, {})):
+    for key, fn, kw in (("INS-3D", ins3d, {"g": case.g}), ("INS-2D", ins2d, {})):
         res = fn(data.time, data.f, data.omega, v0=v0, **kw)
         e = np.asarray(res.position)[..., :2] - traj.at(data.time).position[:, :2]
         rms[key] = np.sqrt((e ** 2).sum(axis=-1).mean(axis=0))
     at = np.searchsorted(np.round(data.time, 9), np.round(np.asarray(times, float), 9))
     return data.time, rms, at.clip(0, data.time.size - 1)
+
+
+def horizontal_sigma(errors, times, method: str = "INS-3D") -> np.ndarray:
+    """The error-state filter's horizontal position 1 sigma at `times`, in one call.
+
+    The covariance of the 15-state filter (3D INS) or the 8-state planar one
+    (2D INS, with its own initial covariance: horizontal velocity, horizontal
+    accelerometer biases, gyro z bias), or the 3D filter with the MoRPI step
+    updates (``"MoRPI-aided INS"``: steps of :data:`STEP_LENGTH_M` at the
+    parameters' speed, gain error as an augmented state), on the paper's
+    nominal trajectory, from an error-parameter set read as 1 sigma.
+
+    Parameters
+    ----------
+    errors : params.ErrorParams or CurveCase or units.SensorSpec
+        The 1-sigma errors: a parameter file's set (:func:`morpi_filters.params.load_params`,
+        ``params_from_dict``), a prepared case, or an IMU's datasheet biases
+        (with the default parameter file's initial velocity error, gravity,
+        gain error and speed).
+    times : array_like, shape (m,)
+        Times [s], >= 0, the last > 0.
+    method : {"INS-3D", "INS-2D", "MoRPI-aided INS"}, optional
+        A name of :data:`CURVE_METHODS` (default ``"INS-3D"``).
+
+    Returns
+    -------
+    ndarray, shape (m,)
+        ``sqrt(var dp_x + var dp_y)`` [m] at the sorted, unique `times`.
+
+    Examples
+    --------
+    The 3D filter without process noise propagates the closed form's
+    covariance exactly:
+
+    >>> from morpi_filters import params
+    >>> p = params.load_params()
+    >>> sigma = horizontal_sigma(p, [5.0, 15.0], "INS-3D")
+    >>> rms = np.sqrt(case_mean_square(case_from_params(p), [5.0, 15.0], "INS-3D"))
+    >>> bool(np.allclose(sigma, rms, rtol=1e-9))
+    True
+    """
+    from .params import ErrorParams, load_params
+
+    if method not in CURVE_METHODS:
+        raise MorpiError(f"method {method!r}: expected one of {', '.join(CURVE_METHODS)}")
+    if isinstance(errors, units.SensorSpec):
+        case = case_from_sensor(errors, load_params())
+    elif isinstance(errors, ErrorParams):
+        case = case_from_params(errors)
+    elif isinstance(errors, CurveCase):
+        case = errors
+    else:
+        raise MorpiError(f"errors: {type(errors).__name__}, expected params.ErrorParams, curves.CurveCase or "
+                         "units.SensorSpec")
+    times = np.unique(np.asarray(times, dtype=float))
+    if times.size == 0 or not np.all(np.isfinite(times)) or times.min() < 0 or times.max() <= 0:
+        raise MorpiError(f"times: expected finite times >= 0 s with the last > 0, got {times.tolist()}")
+    grid, steps, at = time_grid(times, FILTER_DT, STEP_LENGTH_M / case.speed)
+    res = _run_methods(case, grid, steps, StepModel(gain_sigma=case.gain_sigma), only=method)
+    return res[method].horizontal_sigma[at]
 
 
 def compute_curves(case: CurveCase, times=DEFAULT_TIMES, runs=MC_RUNS, rng=None, nonlinear_runs=NL_RUNS) -> CaseCurves:
@@ -410,18 +592,47 @@ def compute_curves(case: CurveCase, times=DEFAULT_TIMES, runs=MC_RUNS, rng=None,
     Parameters
     ----------
     case : CurveCase
-    times : array_like, shape (m,)
-        Requested times [s], >= 0, last > 0; they are epochs of every grid.
-    runs : int
-        Monte Carlo runs (0 skips the Monte Carlo).
+        The 1-sigma errors (and, optionally, one realisation and an IMU spec).
+    times : array_like, shape (m,), optional
+        Requested times [s], >= 0, last > 0; they are epochs of every grid
+        (default :data:`DEFAULT_TIMES`, 0 to 15 s).
+    runs : int, optional
+        Linear Monte Carlo runs (default :data:`MC_RUNS`; 0 skips the Monte Carlo).
     rng : numpy.random.Generator, optional
-        Seed of the Monte Carlo (default ``MC_SEED``).
-    nonlinear_runs : int
-        Runs of the nonlinear (strapdown) Monte Carlo of an IMU case (0 skips it).
+        Generator of the Monte Carlo draws (default one seeded with :data:`MC_SEED`).
+    nonlinear_runs : int, optional
+        Runs of the nonlinear (strapdown) Monte Carlo of an IMU case (default
+        :data:`NL_RUNS`; 0 skips it). It runs only when ``case.spec`` is set and
+        the last time is at most :data:`NL_MAX_T`.
 
     Returns
     -------
     CaseCurves
+        The filter sigma and the closed-form RMS of every method on the filter's
+        grid (:data:`FILTER_DT` plus the times and step times), the realisation
+        when the case has one, and the Monte Carlo curves that were run.
+
+    Raises
+    ------
+    MorpiError
+        For empty, non-finite or negative times, or a last time of 0.
+
+    Examples
+    --------
+    With only an initial velocity error, the filter's 1 sigma of both INS equals
+    the closed form ``|s_dv| t``; the MoRPI steps bound the aided one:
+
+    >>> from morpi_filters.params import params_from_dict
+    >>> p = params_from_dict({"dv0_mps": [0.03, 0.04, 0.0], "ba_mps2": [0.0] * 3, "bg_radps": [0.0] * 3,
+    ...                       "g_mps2": 9.81, "dG": [0.1], "morpi_speed_mps": 0.5})
+    >>> cc = compute_curves(case_from_params(p), times=[1.0, 2.0], runs=20, rng=np.random.default_rng(0))
+    >>> at = cc.at_eval_times()
+    >>> sorted(at)
+    ['closed_form_error_m', 'mc_rms_m', 'rms_closed_form_m', 'sigma_m']
+    >>> {k: v.round(6).tolist() for k, v in at["sigma_m"].items() if k != "MoRPI-aided INS"}
+    {'INS-3D': [0.05, 0.1], 'INS-2D': [0.05, 0.1]}
+    >>> bool(at["sigma_m"]["MoRPI-aided INS"][1] < 0.1)
+    True
     """
     times = np.unique(np.asarray(times, dtype=float))
     if times.size == 0 or not np.all(np.isfinite(times)) or times.min() < 0 or times.max() <= 0:
@@ -432,12 +643,12 @@ def compute_curves(case: CurveCase, times=DEFAULT_TIMES, runs=MC_RUNS, rng=None,
     grid, steps, at = time_grid(times, FILTER_DT, period)
     res = _run_methods(case, grid, steps, model)
     sigma = {k: r.horizontal_sigma for k, r in res.items()}
-    rms = {k: np.sqrt(case_mean_square(case, grid, k)) for k in ("ins3d", "ins2d", "morpi")}
+    rms = {k: np.sqrt(case_mean_square(case, grid, k)) for k in CURVE_METHODS}
     real = {}
     if case.realisation is not None:
         dv0, ba, bg, dG = case.realisation
         real = {k: error_realisation(dv0, ba, bg, dG, case.g, case.speed, grid, k)
-                for k in ("ins3d", "ins2d", "morpi")}
+                for k in CURVE_METHODS}
     mc_t, mc, mc_at = np.zeros(0), {}, np.zeros(0, int)
     r_lin, r_nl = rng.spawn(2)
     if runs:
@@ -474,19 +685,19 @@ def _field_points(source, data=None):
     if not recs:
         return {}, f"{source.root}: no straight-line (s8/line_dataset) recordings"
     truth = ds.route("line_dataset")
-    pts, skipped = {"ins3d": [], "ins2d": []}, 0
+    pts, skipped = {"INS-3D": [], "INS-2D": []}, 0
     for rec in recs:
-        for key, method in (("ins3d", "INS-3D"), ("ins2d", "INS-2D")):
+        for key in ("INS-3D", "INS-2D"):
             try:
-                res = data.ins(rec, "GAC", method)
+                res = data.ins(rec, "GAC", key)
             except MorpiError:
                 skipped += 1
                 continue
             end = np.asarray(res.position)[-1, :2]
             pts[key].append((float(res.time[-1] - res.time[0]), float(np.linalg.norm(end - truth.end_point_m))))
-    if not pts["ins3d"]:
+    if not pts["INS-3D"]:
         return {}, f"{source.root}: no straight-line recording could be integrated"
-    note = (f"{len(pts['ins3d'])} straight-line recordings ({truth.distance_m:g} m, GAC calibration, INS over the "
+    note = (f"{len(pts['INS-3D'])} straight-line recordings ({truth.distance_m:g} m, GAC calibration, INS over the "
             f"robot's motion as in the tables section); end-point error against duration"
             + (f"; {skipped} INS runs skipped (no rest or no motion found)" if skipped else "")
             + ". MoRPI runs are compared per table cell below")
@@ -525,20 +736,27 @@ class CurvesStudy:
 def curves_study(*, params_path=None, times=None, source=None, tables=None) -> CurvesStudy:
     """Compute the ``curves`` section (``morpi curves``, ``morpi report``).
 
+    Runs :func:`compute_curves` with its default Monte Carlo sizes on three
+    cases: the parameter file, the MPU-6500 and the LSM6DSL. That takes
+    seconds, so this function has no example; see :func:`compute_curves`.
+
     Parameters
     ----------
-    params_path : path, optional
+    params_path : path-like, optional
         Parameter file (values read as 1 sigma); default the committed one.
     times : sequence of float, optional
-        Evaluation times [s] (default 0..15 s).
-    source : reporting.DataSource or None
-        Recordings for the field end points.
+        Evaluation times [s] (default :data:`DEFAULT_TIMES`, 0 to 15 s).
+    source : reporting.DataSource or None, optional
+        Recordings for the field end points (none when None).
     tables : evaluate.TablesResult, optional
-        The field evaluation of ``source.root`` when already computed.
+        The field evaluation of ``source.root`` when already computed (its
+        cached recordings are reused).
 
     Returns
     -------
     CurvesStudy
+        The parameters, the sorted unique times, the three cases' curves (each
+        carrying the field end points) and the field note.
     """
     from .params import load_params
 

@@ -145,6 +145,14 @@ class Recording:
         Route folder name, key of :func:`routes`.
     split : str or None
         ``"train"``, ``"test"`` or None for folders without a split.
+
+    Examples
+    --------
+    >>> t = 10.0 + np.arange(201) * 0.01
+    >>> rec = Recording(time=t, f=np.tile([0.0, 0.0, 9.8], (201, 1)), omega=np.zeros((201, 3)),
+    ...                 source="/data/s8/L_shape/test/3.csv", phone="s8", route="L_shape", split="test")
+    >>> rec.n, round(rec.duration, 9), round(rec.rate_hz, 6), rec.name, rec.ground_truth.distance_m
+    (201, 2.0, 100.0, 's8/L_shape/test/3.csv', 28.0)
     """
 
     time: np.ndarray
@@ -196,7 +204,19 @@ class Recording:
 
 @dataclass(frozen=True)
 class CatalogueEntry:
-    """A recording's place in the dataset layout, before it is read."""
+    """A recording's place in the dataset layout, before it is read.
+
+    Attributes
+    ----------
+    path : Path
+        The CSV file.
+    relpath : str
+        Its POSIX path below the dataset root.
+    phone, route : str
+        Labels read from the folders.
+    split : str or None
+        ``"train"``, ``"test"``, or None for a folder without a split.
+    """
 
     path: Path
     relpath: str
@@ -205,29 +225,56 @@ class CatalogueEntry:
     split: str | None
 
     def load(self) -> Recording:
-        """Read and validate the file."""
+        """Read and validate the file, with the entry's labels.
+
+        Returns
+        -------
+        Recording
+            :func:`load_csv` of ``path`` with ``phone``, ``route`` and ``split`` set.
+
+        Raises
+        ------
+        DataError
+            Every error of :func:`load_csv`.
+
+        Examples
+        --------
+        >>> import pathlib, tempfile
+        >>> root = pathlib.Path(tempfile.mkdtemp())
+        >>> (root / "s6" / "L_line").mkdir(parents=True)
+        >>> t = np.arange(100) * 0.01
+        >>> write_csv(root / "s6" / "L_line" / "1.csv",
+        ...           Recording(time=t, f=np.tile([0.0, 0.0, 9.8], (100, 1)), omega=np.zeros((100, 3))))
+        >>> rec = catalogue(root)[0].load()
+        >>> rec.name, rec.n
+        ('s6/L_line/1.csv', 100)
+        """
         return load_csv(self.path, phone=self.phone, route=self.route, split=self.split)
 
 
 # --------------------------------------------------------------------------- loading
 
 def load_csv(path, *, phone=None, route=None, split=None, min_samples: int = MIN_SAMPLES) -> Recording:
-    """Read one recording and validate it.
+    r"""Read one recording and validate it.
 
     Parameters
     ----------
     path : str or Path
         CSV file whose header names the columns ``time,f_x,f_y,f_z,g_x,g_y,g_z``
         (in any order; standard CSV: quoted fields, a UTF-8 byte-order mark
-        and CRLF line ends are accepted).
+        and CRLF line ends are accepted): time [s], specific force [m/s^2] and
+        angular rate [rad/s] in phone axes.
     phone, route, split : str, optional
-        Catalogue labels stored on the result.
-    min_samples : int
-        Fewest data rows accepted.
+        Catalogue labels stored on the result (not checked against the path;
+        :func:`load_recording` reads them from it).
+    min_samples : int, optional
+        Fewest data rows accepted (default :data:`MIN_SAMPLES`).
 
     Returns
     -------
     Recording
+        The samples in the column order of :data:`COLUMNS`, ``source`` set to
+        the path.
 
     Raises
     ------
@@ -239,6 +286,24 @@ def load_csv(path, *, phone=None, route=None, split=None, min_samples: int = MIN
         or :data:`GYRO_LIMIT_RADPS`, a time beyond :data:`TIME_LIMIT_S`, a
         non-increasing or repeated time stamp, a gap above :data:`MAX_GAP_S`,
         or fewer than `min_samples` rows.
+
+    Examples
+    --------
+    Columns in another order are read; a repeated time stamp is named by line:
+
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "r.csv")
+    >>> with open(path, "w") as fh:
+    ...     _ = fh.write("f_x,f_y,f_z,g_x,g_y,g_z,time\n0,0,9.8,0,0,0.1,0.00\n0,0,9.8,0,0,0.1,0.01\n")
+    >>> rec = load_csv(path, min_samples=2)
+    >>> rec.time.tolist(), rec.f[0].tolist(), rec.omega[0].tolist()
+    ([0.0, 0.01], [0.0, 0.0, 9.8], [0.0, 0.0, 0.1])
+    >>> with open(path, "a") as fh:
+    ...     _ = fh.write("0,0,9.8,0,0,0.1,0.01\n")
+    >>> load_csv(path, min_samples=2)
+    Traceback (most recent call last):
+    ...
+    morpi_filters.errors.DataError: ...: line 4: repeated time stamp 0.01 (line 3 has 0.01), expected strictly increasing time
     """
     path = Path(path)
     data = _fast_parse(path) if path.is_file() else None
@@ -463,7 +528,36 @@ def _slow_parse(body: list[str], header: list[str], name: str) -> np.ndarray:
 
 
 def write_csv(path, recording: Recording) -> None:
-    """Write a recording in the dataset's CSV format (atomically: temp file, then rename)."""
+    """Write a recording in the dataset's CSV format (atomically: temp file, then rename).
+
+    The header is :data:`COLUMNS`; every value is written with 17 significant
+    digits, so :func:`load_csv` reads back the same floats. The recording's
+    labels are not written (they come from where the file lies).
+
+    Parameters
+    ----------
+    path : str or Path
+        File to write; its folder must exist.
+    recording : Recording
+        The samples to write.
+
+    Returns
+    -------
+    None
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "r.csv")
+    >>> t = 0.1 + np.arange(100) * 0.01
+    >>> rec = Recording(time=t, f=np.tile([0.1, 0.0, 9.8], (100, 1)), omega=np.full((100, 3), 1 / 3))
+    >>> write_csv(path, rec)
+    >>> back = load_csv(path)
+    >>> bool(np.array_equal(back.time, rec.time) and np.array_equal(back.omega, rec.omega))
+    True
+    >>> open(path).readline().strip()
+    'time,f_x,f_y,f_z,g_x,g_y,g_z'
+    """
     from .reporting import atomic_path
 
     data = np.column_stack([recording.time, recording.f, recording.omega])
@@ -484,6 +578,13 @@ def _routes_file() -> dict:
 def routes() -> dict[str, Route]:
     """Ground truth of every route, by route folder name.
 
+    Read from the project's ``data/routes.json``.
+
+    Returns
+    -------
+    dict of str -> Route
+        One :class:`Route` per route folder name of the dataset.
+
     Examples
     --------
     >>> r = routes()
@@ -503,6 +604,21 @@ def routes() -> dict[str, Route]:
 def route(name: str) -> Route:
     """Ground truth of one route (see :func:`routes`).
 
+    Parameters
+    ----------
+    name : str
+        Route folder name, a key of :func:`routes`.
+
+    Returns
+    -------
+    Route
+        The route's kind, environment, distances, end point and legs.
+
+    Raises
+    ------
+    MorpiError
+        For an unknown route name.
+
     Examples
     --------
     >>> r = route("short_distance")
@@ -517,6 +633,12 @@ def route(name: str) -> Route:
 
 def layout() -> dict[str, int]:
     """Expected folders of the MoRPI dataset and their number of runs.
+
+    Returns
+    -------
+    dict of str -> int
+        Folder (``phone/route[/split]``, as :func:`folder_key` writes it) to
+        the number of recordings it holds in the public dataset.
 
     Examples
     --------
@@ -533,10 +655,35 @@ def resolve_data_root(data=None, *, required: bool = True) -> Path | None:
     A folder without ``s6``/``s8`` whose ``data/`` has them (the root of an
     ansfl/MoRPI clone) stands for that ``data/`` folder.
 
+    Parameters
+    ----------
+    data : str or Path, optional
+        The folder given by the user (``--data``); a leading ``~`` is expanded.
+        When None, the environment variable :data:`DATA_ENV` is read.
+    required : bool, optional
+        Raise when neither is set (default True); otherwise return None.
+
+    Returns
+    -------
+    Path or None
+        The dataset root; None when nothing is configured and not `required`.
+
     Raises
     ------
     MorpiError
         When `required` and neither is set, or the folder does not exist.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> clone = pathlib.Path(tempfile.mkdtemp())
+    >>> (clone / "data" / "s8").mkdir(parents=True)
+    >>> resolve_data_root(clone) == clone / "data"
+    True
+    >>> resolve_data_root(clone / "nowhere")
+    Traceback (most recent call last):
+    ...
+    morpi_filters.errors.MorpiError: --data=...nowhere: not a directory; get the field recordings ...
     """
     source = "--data"
     if data is None:
@@ -556,6 +703,12 @@ def resolve_data_root(data=None, *, required: bool = True) -> Path | None:
 
 def missing_data_message() -> str:
     """How to get the field recordings, in one sentence.
+
+    Returns
+    -------
+    str
+        The sentence (it names ``morpi data fetch``, ``--data`` and
+        :data:`DATA_ENV`).
 
     Examples
     --------
@@ -580,7 +733,29 @@ def catalogue(root) -> list[CatalogueEntry]:
     """List the recordings under a dataset root, in a stable order.
 
     Files outside the MoRPI layout (``<phone>/<route>[/<split>]/<n>.csv``)
-    and routes without ground truth are left out.
+    and routes without ground truth are left out. Nothing is read but the
+    folder names.
+
+    Parameters
+    ----------
+    root : str or Path
+        The dataset root (the folder holding ``s6`` and ``s8``).
+
+    Returns
+    -------
+    list of CatalogueEntry
+        Sorted by phone, route, split, then file number (``2.csv`` before
+        ``10.csv``).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> for rel in ("s8/L_shape/test/10.csv", "s8/L_shape/test/2.csv", "s6/L_line/1.csv", "notes/x.csv"):
+    ...     (root / rel).parent.mkdir(parents=True, exist_ok=True)
+    ...     (root / rel).touch()
+    >>> [(e.relpath, e.split) for e in catalogue(root)]
+    [('s6/L_line/1.csv', None), ('s8/L_shape/test/2.csv', 'test'), ('s8/L_shape/test/10.csv', 'test')]
     """
     root = Path(root)
     known = routes()
@@ -609,10 +784,24 @@ def load_recording(path) -> tuple[Recording, "Route | None"]:
     Parameters
     ----------
     path : str or Path
+        The CSV file.
 
     Returns
     -------
-    (Recording, Route or None)
+    recording : Recording
+        The validated recording (:func:`load_csv`), labelled when in the layout.
+    truth : Route or None
+        The route's ground truth; None outside the layout.
+
+    Raises
+    ------
+    DataError
+        Every error of :func:`load_csv`.
+
+    Warns
+    -----
+    UserWarning
+        When the file is not in the MoRPI layout.
 
     Examples
     --------
@@ -642,7 +831,40 @@ def load_recording(path) -> tuple[Recording, "Route | None"]:
 
 
 def load_catalogue(root, *, phone=None, route=None, split=None) -> list[Recording]:
-    """Load every recording under `root` that matches the given labels."""
+    """Load every recording under `root` that matches the given labels.
+
+    Parameters
+    ----------
+    root : str or Path
+        The dataset root.
+    phone, route, split : str, optional
+        Keep only recordings with these labels; None matches any. ``split`` is
+        ``"train"`` or ``"test"`` (folders without a split never match one).
+
+    Returns
+    -------
+    list of Recording
+        Labelled recordings in the order of :func:`catalogue`.
+
+    Raises
+    ------
+    DataError
+        For the first file that does not load (:func:`load_csv`).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> t = np.arange(100) * 0.01
+    >>> rec = Recording(time=t, f=np.tile([0.0, 0.0, 9.8], (100, 1)), omega=np.zeros((100, 3)))
+    >>> for rel in ("s8/short_distance/train/1.csv", "s8/short_distance/test/1.csv", "s6/L_line/1.csv"):
+    ...     (root / rel).parent.mkdir(parents=True, exist_ok=True)
+    ...     write_csv(root / rel, rec)
+    >>> [r.name for r in load_catalogue(root, phone="s8", split="test")]
+    ['s8/short_distance/test/1.csv']
+    >>> len(load_catalogue(root)), len(load_catalogue(root, split="train"))
+    (3, 1)
+    """
     out = []
     for e in catalogue(root):
         if (phone is None or e.phone == phone) and (route is None or e.route == route) and \
@@ -656,7 +878,29 @@ def expected_layout(root) -> dict[str, int]:
 
     The MoRPI layout (:func:`layout`), except for a synthetic dataset written
     by :func:`morpi_filters.synthetic.write_dataset`, whose ``manifest.json``
-    lists its files (it may hold fewer runs per folder).
+    lists its files (it may hold fewer runs per folder). An unreadable
+    manifest, or one from another generator, is ignored.
+
+    Parameters
+    ----------
+    root : str or Path
+        The dataset root.
+
+    Returns
+    -------
+    dict of str -> int
+        Folder (``phone/route[/split]``) to its number of recordings.
+
+    Examples
+    --------
+    >>> import json, pathlib, tempfile
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> expected_layout(root) == layout()
+    True
+    >>> files = {"s6/L_line/1.csv": "", "s6/L_line/2.csv": "", "s8/line_dataset/1.csv": ""}
+    >>> _ = (root / "manifest.json").write_text(json.dumps({"generator": "morpi_filters.simulate", "files": files}))
+    >>> expected_layout(root)
+    {'s6/L_line': 2, 's8/line_dataset': 1}
     """
     man = Path(root) / "manifest.json"
     if man.is_file():
@@ -677,6 +921,20 @@ def expected_layout(root) -> dict[str, int]:
 def folder_key(phone: str, route_name: str, split: str | None) -> str:
     """The layout name of a folder: ``phone/route[/split]``.
 
+    Parameters
+    ----------
+    phone : str
+        ``"s6"`` or ``"s8"``.
+    route_name : str
+        Route folder name.
+    split : str or None
+        ``"train"``, ``"test"``, or None for a folder without a split.
+
+    Returns
+    -------
+    str
+        The key used by :func:`layout` and :func:`expected_layout`.
+
     Examples
     --------
     >>> folder_key("s8", "short_distance", "test"), folder_key("s6", "L_line", None)
@@ -690,7 +948,35 @@ def layout_problems(root, entries=None) -> list[str]:
 
     A folder of the layout that is absent, a folder holding another number of
     recordings, and CSV files outside the layout (which no command reads) are
-    named. No recording at all is one line saying so.
+    named. No recording at all is one line saying so (with a hint when
+    ``root/data`` holds the dataset). Files are not read.
+
+    Parameters
+    ----------
+    root : str or Path
+        The dataset root.
+    entries : list of CatalogueEntry, optional
+        ``catalogue(root)`` when already listed.
+
+    Returns
+    -------
+    list of str
+        The problems, one line each; empty when the layout is complete.
+
+    Examples
+    --------
+    A synthetic dataset promising two runs of ``s6/L_line`` but holding one,
+    plus a stray file:
+
+    >>> import json, pathlib, tempfile
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> files = {"s6/L_line/1.csv": "", "s6/L_line/2.csv": ""}
+    >>> _ = (root / "manifest.json").write_text(json.dumps({"generator": "morpi_filters.simulate", "files": files}))
+    >>> for rel in ("s6/L_line/1.csv", "notes/x.csv"):
+    ...     (root / rel).parent.mkdir(parents=True, exist_ok=True)
+    ...     (root / rel).touch()
+    >>> [line.replace(str(root), "ROOT")[:50] for line in layout_problems(root)]
+    ['ROOT/s6/L_line: 1 recording(s), expected 2', 'ROOT/notes: 1 CSV file(s) outside the MoRPI layout']
     """
     root = Path(root)
     entries = catalogue(root) if entries is None else entries
@@ -726,7 +1012,12 @@ def layout_problems(root, entries=None) -> list[str]:
 
 
 def check_tree(root) -> tuple[list[str], int]:
-    """Validate every recording under `root` and the folder layout.
+    r"""Validate every recording under `root` and the folder layout.
+
+    Parameters
+    ----------
+    root : str or Path
+        The dataset root.
 
     Returns
     -------
@@ -736,6 +1027,21 @@ def check_tree(root) -> tuple[list[str], int]:
         no recordings at all).
     n_ok : int
         Number of files that loaded cleanly.
+
+    Examples
+    --------
+    >>> import json, pathlib, tempfile
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> files = {"s6/L_line/1.csv": "", "s6/L_line/2.csv": ""}
+    >>> _ = (root / "manifest.json").write_text(json.dumps({"generator": "morpi_filters.simulate", "files": files}))
+    >>> (root / "s6" / "L_line").mkdir(parents=True)
+    >>> t = np.arange(100) * 0.01
+    >>> write_csv(root / "s6/L_line/1.csv", Recording(time=t, f=np.tile([0.0, 0.0, 9.8], (100, 1)),
+    ...                                                omega=np.zeros((100, 3))))
+    >>> _ = (root / "s6/L_line/2.csv").write_text("time,f_x\n")
+    >>> problems, n_ok = check_tree(root)
+    >>> n_ok, [p.replace(str(root), "ROOT") for p in problems]
+    (1, ['ROOT/s6/L_line/2.csv: line 1: missing column(s) f_y, f_z, g_x, g_y, g_z; expected the header time,f_x,f_y,f_z,g_x,g_y,g_z (in any order)'])
     """
     root = Path(root)
     entries = catalogue(root)

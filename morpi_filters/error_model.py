@@ -127,11 +127,17 @@ def skew(v):
     Parameters
     ----------
     v : array_like, shape (3,) or (n, 3)
+        One vector or a stack of vectors (any unit; the matrix carries it).
 
     Returns
     -------
     ndarray, shape (3, 3) or (n, 3, 3)
         ``skew(v) @ u == cross(v, u)``.
+
+    Raises
+    ------
+    MorpiError
+        When the last axis is not of length 3.
 
     Examples
     --------
@@ -194,14 +200,32 @@ def system_matrix(C, f):
 def noise_coupling(C):
     """Noise coupling G of ``w = [w_a, w_g, w_ba, w_bg]``.
 
+    The accelerometer and gyro white noises enter the velocity and the
+    misalignment rows through ``C_b^n``; the bias random walks drive the bias
+    states directly.
+
     Parameters
     ----------
     C : array_like, shape (3, 3) or (n, 3, 3)
-        ``C_b^n`` per epoch.
+        Body-to-navigation rotation ``C_b^n`` per epoch.
 
     Returns
     -------
     G : ndarray, shape (15, 12) or (n, 15, 12)
+        ``dx_dot = F dx + G w``.
+
+    Raises
+    ------
+    MorpiError
+        For a `C` of another shape.
+
+    Examples
+    --------
+    >>> G = noise_coupling(np.eye(3))
+    >>> G.shape, G[DV, 0:3].tolist() == np.eye(3).tolist(), float(G[BG, 9:12].trace())
+    ((15, 12), True, 3.0)
+    >>> noise_coupling(np.broadcast_to(np.eye(3), (4, 3, 3))).shape
+    (4, 15, 12)
     """
     C = np.asarray(C, dtype=float)
     if C.shape[-2:] != (3, 3) or C.ndim not in (2, 3):
@@ -260,6 +284,9 @@ def _rot2(psi):
 def planar_system_matrix(psi, f_xy):
     """System matrix of the planar (2D INS) error model.
 
+    The blocks are those of the module docstring: ``dp' = dv``,
+    ``dv' = dpsi J f^n_xy + C(psi) b_a,xy`` and ``dpsi' = b_gz``.
+
     Parameters
     ----------
     psi : float or array_like, shape (n,)
@@ -270,6 +297,23 @@ def planar_system_matrix(psi, f_xy):
     Returns
     -------
     F : ndarray, shape (8, 8) or (n, 8, 8)
+        ``dx_dot = F dx`` over the states :data:`PLANAR_STATE_NAMES`.
+
+    Raises
+    ------
+    MorpiError
+        For an `f_xy` whose shape does not match `psi`.
+
+    Examples
+    --------
+    A forward specific force of 1 m/s^2 turns a heading error into a lateral
+    velocity error (``dv_y' = f_x dpsi``):
+
+    >>> F = planar_system_matrix(0.0, [1.0, 0.0])
+    >>> F.shape, float(F[0, 2]), float(F[3, 4]), float(F[4, 7])
+    ((8, 8), 1.0, 1.0, 1.0)
+    >>> planar_system_matrix([0.0, 0.1], np.zeros((2, 2))).shape
+    (2, 8, 8)
     """
     C = _rot2(psi)
     f_xy = np.asarray(f_xy, dtype=float)
@@ -286,9 +330,24 @@ def planar_system_matrix(psi, f_xy):
 def planar_noise_coupling(psi):
     """Noise coupling of ``w = [w_ax, w_ay, w_gz, w_bax, w_bay, w_bgz]``.
 
+    Parameters
+    ----------
+    psi : float or array_like, shape (n,)
+        Heading [rad]; the horizontal accelerometer noise enters the velocity
+        rows through its rotation ``C(psi)``.
+
     Returns
     -------
     G : ndarray, shape (8, 6) or (n, 8, 6)
+        ``dx_dot = F dx + G w`` over the states :data:`PLANAR_STATE_NAMES`.
+
+    Examples
+    --------
+    At a heading of 90 degrees the body x noise drives the navigation y velocity:
+
+    >>> G = planar_noise_coupling(np.pi / 2)
+    >>> G.shape, np.round(G[P2_DV, 0], 12).tolist()
+    ((8, 6), [0.0, 1.0])
     """
     C = _rot2(psi)
     G = np.zeros(C.shape[:-2] + (N_PLANAR, N_PLANAR_NOISE))
@@ -300,7 +359,35 @@ def planar_noise_coupling(psi):
 
 
 def planar_noise_density(spec, accel_bias_walk=0.0, gyro_bias_walk=0.0):
-    """Planar counterpart of :func:`noise_density`, shape (6, 6)."""
+    """Planar counterpart of :func:`noise_density`.
+
+    Parameters
+    ----------
+    spec : units.SensorSpec
+        ``accel_noise`` [m/s^2/sqrt(Hz)] and ``gyro_noise`` [rad/s/sqrt(Hz)]
+        are used.
+    accel_bias_walk : float, optional
+        Accelerometer bias random walk [m/s^2/sqrt(s)] (default none).
+    gyro_bias_walk : float, optional
+        Gyro bias random walk [rad/s/sqrt(s)] (default none).
+
+    Returns
+    -------
+    Q : ndarray, shape (6, 6)
+        Diagonal, in the order of :func:`planar_noise_coupling`.
+
+    Raises
+    ------
+    MorpiError
+        For a negative or non-finite value.
+
+    Examples
+    --------
+    >>> from morpi_filters.units import LSM6DSL
+    >>> Q = planar_noise_density(LSM6DSL, gyro_bias_walk=1e-4)
+    >>> Q.shape, bool(Q[2, 2] == LSM6DSL.gyro_noise ** 2), float(Q[5, 5]), float(Q[3, 3])
+    ((6, 6), True, 1e-08, 0.0)
+    """
     a, g = _nonneg("accel_noise", spec.accel_noise), _nonneg("gyro_noise", spec.gyro_noise)
     ab, gb = _nonneg("accel_bias_walk", accel_bias_walk), _nonneg("gyro_bias_walk", gyro_bias_walk)
     return np.diag(np.square([a, a, g, ab, ab, gb]))
@@ -319,7 +406,17 @@ def paper_trajectory(g, n=None):
     Returns
     -------
     C : ndarray, shape (3, 3) or (n, 3, 3)
+        Body-to-navigation rotation (identity).
     f : ndarray, shape (3,) or (n, 3)
+        Specific force in the navigation frame [m/s^2].
+
+    Examples
+    --------
+    >>> C, f = paper_trajectory(9.81)
+    >>> C.tolist() == np.eye(3).tolist(), f.tolist()
+    (True, [0.0, 0.0, 9.81])
+    >>> [a.shape for a in paper_trajectory(9.81, n=5)]
+    [(5, 3, 3), (5, 3)]
     """
     C, f = np.eye(3), np.array([0.0, 0.0, float(g)])
     if n is None:
@@ -377,9 +474,12 @@ def discretize(F, G, Q, dt):
     Parameters
     ----------
     F : array_like, shape (k, k) or (n, k, k)
+        System matrix.
     G : array_like, shape (k, m) or (n, k, m)
+        Noise coupling.
     Q : array_like, shape (m, m) or (n, m, m)
-        Spectral density of the white noise.
+        Spectral density of the white noise (e.g. [m^2/s^3] for an acceleration
+        noise).
     dt : float or array_like, shape (n,)
         Step(s) [s], >= 0; an array gives one step per epoch (real,
         non-uniform time steps).
@@ -387,12 +487,31 @@ def discretize(F, G, Q, dt):
     Returns
     -------
     Discretized
-        ``Phi`` and ``Qd``; stacks when any input is a stack.
+        ``Phi`` and ``Qd``, shape (k, k); stacks (n, k, k) when any input is a
+        stack. It unpacks as ``Phi, Qd = discretize(...)``.
+
+    Raises
+    ------
+    MorpiError
+        For inconsistent shapes, a negative or non-finite step, or stacks of
+        different leading axes.
 
     Notes
     -----
     With ``M = [[-F, G Q G^T], [0, F^T]] dt`` and ``expm(M) = [[., B12], [0, B22]]``,
     ``Phi = B22^T`` and ``Qd = Phi B12`` [3]. ``Qd`` is symmetrized.
+
+    Examples
+    --------
+    A double integrator driven by white acceleration of density q has the
+    textbook ``Phi = [[1, dt], [0, 1]]`` and
+    ``Qd = q [[dt^3 / 3, dt^2 / 2], [dt^2 / 2, dt]]``:
+
+    >>> Phi, Qd = discretize([[0.0, 1.0], [0.0, 0.0]], [[0.0], [1.0]], [[1.0]], 2.0)
+    >>> Phi.tolist(), np.round(Qd, 6).tolist()
+    ([[1.0, 2.0], [0.0, 1.0]], [[2.666667, 2.0], [2.0, 2.0]])
+    >>> discretize(np.zeros((2, 2)), np.eye(2), np.eye(2), [0.1, 0.2, 0.1]).Qd.shape
+    (3, 2, 2)
     """
     F = np.asarray(F, dtype=float)
     G = np.asarray(G, dtype=float)
@@ -444,15 +563,21 @@ def simulate_linear(F, G, Q, P0, dt, n_steps, runs, rng, keep=None):
     Parameters
     ----------
     F : array_like, shape (k, k) or (n_steps, k, k)
+        System matrix (one, or one per step).
     G : array_like, shape (k, m) or (n_steps, k, m)
+        Noise coupling (one, or one per step).
     Q : array_like, shape (m, m)
+        Spectral density of the white noise.
     P0 : array_like, shape (k, k)
         Initial covariance (positive semi-definite).
     dt : float or array_like, shape (n_steps,)
         Step(s) [s], > 0.
     n_steps : int
+        Number of steps.
     runs : int
+        Number of independent runs.
     rng : numpy.random.Generator
+        Source of every draw (initial states first, then the noise step by step).
     keep : array_like of int, optional
         Epochs (0..n_steps) to return; all by default.
 
@@ -460,6 +585,22 @@ def simulate_linear(F, G, Q, P0, dt, n_steps, runs, rng, keep=None):
     -------
     ndarray, shape (runs, n_steps + 1, k) or (runs, len(keep), k)
         Error states at the epochs ``0..n_steps`` (or at `keep`).
+
+    Raises
+    ------
+    MorpiError
+        For a step that is not finite and > 0, or a step array of another
+        length than `n_steps`.
+
+    Examples
+    --------
+    Without noise, a velocity error drawn from P0 moves the position by
+    ``v t``, exactly, in every run:
+
+    >>> F, G = [[0.0, 1.0], [0.0, 0.0]], [[0.0], [1.0]]
+    >>> X = simulate_linear(F, G, [[0.0]], np.diag([0.0, 1.0]), 0.5, 4, 3, np.random.default_rng(0))
+    >>> X.shape, bool(np.allclose(X[:, -1, 0], 2.0 * X[:, 0, 1]))
+    ((3, 5, 2), True)
     """
     F = np.asarray(F, dtype=float)
     G = np.asarray(G, dtype=float)

@@ -24,12 +24,13 @@ Tunables
     :mod:`morpi_filters.steps`) is chosen by :func:`select_config` from the
     short-route ``train`` runs only: a coordinate search scored by the
     leave-one-out end-point error on the train runs (each held-out run is
-    dead-reckoned with the gain of the other runs of its set). By default each
-    method gets its own rule (``rule="per_method"``), the choice with the lower
-    train error; one rule for both methods (``"joint"``, the paper's "in the
-    same manner" reading) is reported beside it. :func:`nested_rule_comparison`
-    checks that choice without the bias of scoring on the runs a rule was
-    chosen on (nested leave-one-out over the train runs), and
+    dead-reckoned with the gain of the other runs of its set). By default one
+    rule serves both methods (``rule="joint"``, the paper's "in the same
+    manner" reading); each method's own rule (``"per_method"``) is reported
+    beside it. The default is the way of choosing that
+    :func:`nested_rule_comparison` prefers: nested leave-one-out over the
+    train runs, without the bias of scoring on the runs a rule was chosen
+    on (a rule per method always has the lower plain train error). And
     :func:`rule_sensitivity` shows how far each rule the search tried moves
     the short-route cells. Nothing of a ``test`` folder enters the choice, so
     the result is the same with the test folders absent.
@@ -69,7 +70,7 @@ from . import dataset as ds
 from . import steps as st
 from .errors import DataError, MorpiError
 from .field import (
-    _MORPI_METHODS, LEVELED, RULES, SHORT_SETS, FieldData, Gain, Selection, _loo_vector, _train,
+    _MORPI_METHODS, LEVELED, RULES, SHORT_SETS, FieldData, Gain, Selection, _loo_vector, trained_gain,
     nested_rule_comparison, select_config,
 )
 
@@ -77,7 +78,7 @@ __all__ = [
     "TABLES", "PAPER_CELLS", "PAPER_COMPARISON", "CellSpec", "RunResult", "Cell",
     "TablesResult", "evaluate_tables", "TablesStudy", "RecordingView", "TrackView", "tables_study",
     "training_gain_spread", "rule_sensitivity", "comparison", "ins_full_span", "ins_leveled", "other_rule",
-    "DEVIATION_PP", "check_cells", "dataset_problems",
+    "DEVIATION_PP", "check_cells", "dataset_problems", "heading_readings",
 ]
 
 # --------------------------------------------------------------------------- the paper's numbers
@@ -207,6 +208,9 @@ class RunResult:
         Estimated travelled distance [m] and ``|estimate - truth|`` in %.
     n_steps : int or None
         Steps used (MoRPI), partial end steps included.
+    rest_window_s, motion_window_s : tuple of float or None
+        The detected initial rest window and the motion window the run used,
+        each (start, end) in seconds of the recording's own time.
     """
 
     file: str
@@ -216,6 +220,8 @@ class RunResult:
     distance_m: float
     distance_error_percent: float
     n_steps: int | None = None
+    rest_window_s: tuple | None = None
+    motion_window_s: tuple | None = None
 
 
 @dataclass(frozen=True)
@@ -288,6 +294,7 @@ class TablesResult:
     readings: tuple
     missing: tuple
     data: "FieldData" = field(repr=False, default=None)
+    rule: str = "joint"
 
     def cell(self, table, phone, p2p_m, method, calibration) -> Cell:
         for c in self.cells:
@@ -309,7 +316,7 @@ def rule_sensitivity(result: TablesResult) -> list[dict]:
     """How the step rules the search tried move the short-route GC cells.
 
     For every config the search scored for a method (:attr:`Selection.trials`):
-    its train leave-one-out error, the paired difference to the selected
+    the method's own train leave-one-out error, the paired difference to the selected
     rule's with its standard error (over the same train runs), and the three
     short-route GC test cells with the gains trained under it. The train
     columns are what the choice sees; the test cells are shown, never used.
@@ -323,8 +330,10 @@ def rule_sensitivity(result: TablesResult) -> list[dict]:
         if not sel.trials:
             continue
         base = _loo_vector(data, m, sel.config)
-        for cfg, score in sorted(sel.trials, key=lambda t: t[1]):
-            vec = _loo_vector(data, m, cfg)
+        vecs = [(cfg, _loo_vector(data, m, cfg)) for cfg, _ in sel.trials]
+        # the method's own train error (with one rule for both methods the search scored their mean)
+        own = [(cfg, vec, float(vec.mean()) if vec is not None and vec.size else float("inf")) for cfg, vec in vecs]
+        for cfg, vec, score in sorted(own, key=lambda t: t[2]):
             ok = base is not None and vec is not None and vec.size == base.size > 1
             d = vec - base if ok else np.full(1, np.nan)
             row = {"method": m, "config": _config_json(cfg), "selected": cfg == sel.config,
@@ -334,7 +343,7 @@ def rule_sensitivity(result: TablesResult) -> list[dict]:
                                               if d.size > 1 and np.all(np.isfinite(d)) else None),
                    "cells": []}
             for phone, route, p2p in SHORT_SETS:
-                g = _train(data, phone, route, "GC", m, cfg)
+                g = trained_gain(data, phone, route, "GC", m, cfg)
                 c = _morpi_cell(data, specs[(phone, p2p, m)], cfg, g)
                 row["cells"].append({"phone": phone, "p2p_m": p2p, "paper_percent": specs[(phone, p2p, m)].paper_percent,
                                      "ours_percent": c.ours_percent})
@@ -344,12 +353,18 @@ def rule_sensitivity(result: TablesResult) -> list[dict]:
 
 # --------------------------------------------------------------------------- cells
 
-def _run_result(rel, end, truth, distance, n_steps=None) -> RunResult:
+def _run_result(rel, end, truth, distance, n_steps=None, data=None, rec=None, full_span=False) -> RunResult:
     e = float(np.linalg.norm(np.asarray(end[:2]) - truth.end_point_m))
+    rest = motion = None
+    if data is not None:
+        w = data.rest_window(rec)
+        rest = (float(w.start_s), float(w.end_s))
+        motion = ((float(rec.time[0]), float(rec.time[-1])) if full_span
+                  else tuple(float(v) for v in data.activity(rec)))
     return RunResult(file=rel, end_point=(float(end[0]), float(end[1])), end_error_m=e,
                      end_error_percent=e / truth.distance_m * 100, distance_m=float(distance),
                      distance_error_percent=abs(distance - truth.distance_m) / truth.distance_m * 100,
-                     n_steps=n_steps)
+                     n_steps=n_steps, rest_window_s=rest, motion_window_s=motion)
 
 
 def _ins_cell(data: FieldData, spec: CellSpec) -> Cell:
@@ -367,7 +382,8 @@ def _ins_cell(data: FieldData, spec: CellSpec) -> Cell:
             continue
         p = np.asarray(res.position)[:, :2]
         dist = float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1)))
-        runs.append(_run_result(data.relpath(r), p[-1], truth, dist))
+        runs.append(_run_result(data.relpath(r), p[-1], truth, dist, data=data, rec=r,
+                                full_span=data.ins_span == "full"))
     return Cell(spec, tuple(runs), failed=tuple(failed))
 
 
@@ -388,12 +404,12 @@ def _morpi_cell(data: FieldData, spec: CellSpec, config, gain: Gain | None) -> C
             failed.append(str(exc))
             continue
         tr = st.morpi_track(s, gain.mean)
-        runs.append(_run_result(data.relpath(r), tr.end_point, truth, tr.distance, s.n))
+        runs.append(_run_result(data.relpath(r), tr.end_point, truth, tr.distance, s.n, data=data, rec=r))
     return Cell(spec, tuple(runs), gain=gain.mean, failed=tuple(failed))
 
 
 def evaluate_tables(root, *, include_test: bool = True, configs: dict | None = None,
-                    data: FieldData | None = None, ins_span: str = "motion", rule: str = "per_method",
+                    data: FieldData | None = None, ins_span: str = "motion", rule: str = "joint",
                     alternatives: bool = True) -> TablesResult:
     """Compute every table cell of the paper on a dataset root.
 
@@ -410,9 +426,9 @@ def evaluate_tables(root, *, include_test: bool = True, configs: dict | None = N
     ins_span : str
         INS integration span (:class:`FieldData`).
     rule : str
-        ``"per_method"``: each method's own rule (:func:`select_config`, the
-        default: its train error is never above the joint rule's); ``"joint"``:
-        one step rule for both methods.
+        ``"joint"`` (default): one step rule for both methods, the choice the
+        nested train-only check prefers (:func:`nested_rule_comparison`);
+        ``"per_method"``: each method's own rule (:func:`select_config`).
     alternatives : bool
         Also compute the short-route cells under every reading.
 
@@ -439,7 +455,7 @@ def evaluate_tables(root, *, include_test: bool = True, configs: dict | None = N
             selections[m] = joint if joint is not None else select_config(data, m)
     gains = []
     for (phone, route, _), m, mode in itertools.product(SHORT_SETS, _MORPI_METHODS, ("RD", "GC")):
-        g = _train(data, phone, route, mode, m, selections[m].config)
+        g = trained_gain(data, phone, route, mode, m, selections[m].config)
         if g is not None:
             gains.append(g)
     gmap = {(g.phone, g.route, g.method, g.calibration): g for g in gains}
@@ -451,7 +467,7 @@ def evaluate_tables(root, *, include_test: bool = True, configs: dict | None = N
             g = gmap.get((spec.train[0], spec.train[1], spec.method, spec.calibration))
             cells.append(_morpi_cell(data, spec, selections[spec.method].config, g))
     readings = _alternative_readings(data, selections) if alternatives else []
-    return TablesResult(tuple(cells), tuple(gains), selections, tuple(readings), tuple(missing), data)
+    return TablesResult(tuple(cells), tuple(gains), selections, tuple(readings), tuple(missing), data, rule)
 
 
 def training_gain_spread(source, result: TablesResult | None = None) -> tuple[float, float]:
@@ -507,7 +523,7 @@ def _alternative_readings(data: FieldData, selections) -> list[dict]:
             for phone, route, p2p in SHORT_SETS:
                 spec = next(s for s in specs if (s.table, s.phone, s.p2p_m, s.method, s.calibration)
                             == ("short_route", phone, p2p, m, mode))
-                g = _train(data, phone, route, mode, m, cfg)
+                g = trained_gain(data, phone, route, mode, m, cfg)
                 c = _morpi_cell(data, spec, cfg, g)
                 row["cells"].append({"phone": phone, "p2p_m": p2p, "paper_percent": spec.paper_percent,
                                      "ours_percent": c.ours_percent, "distance_percent": c.distance_percent})
@@ -606,8 +622,10 @@ def ins_leveled(result: TablesResult) -> list[dict]:
     return out
 
 
-def other_rule(result: TablesResult, rule: str = "joint") -> dict:
-    """The MoRPI cells again under another step rule (default: one rule for both methods)."""
+def other_rule(result: TablesResult, rule: str | None = None) -> dict:
+    """The MoRPI cells again under another way of choosing the step rule (default: the one `result` did not use)."""
+    if rule is None:
+        rule = next(r for r in RULES if r != result.rule)
     alt = evaluate_tables(result.data.root, data=result.data, rule=rule, alternatives=False)
     return {"rule": rule,
             "step_rule": {m: {"config": _config_json(s.config), "train_loo_percent": s.score}
@@ -616,6 +634,56 @@ def other_rule(result: TablesResult, rule: str = "joint") -> dict:
                        "calibration": c.spec.calibration, "paper_percent": c.spec.paper_percent,
                        "ours_percent": c.ours_percent, "distance_error_percent": c.distance_percent}
                       for c in alt.cells if c.spec.method in _MORPI_METHODS]}
+
+
+def heading_readings(result: TablesResult) -> dict:
+    """Every MoRPI cell under three readings of the heading, with the step rules and gains of the train runs.
+
+    ``from_motion``: the z gyro integrated from the motion window's start
+    (the cells of the tables); ``from_start``: the z gyro integrated from the
+    first sample, through the initial rest (the project's earlier reading);
+    ``attitude``: the yaw of the attitude matrix of the 3D mechanization
+    started level with the rest specific force, from the motion window's
+    start (the paper's heading equation). The step rules are the ones the
+    search chose; the gains are retrained under each reading on the train
+    runs, as the detection thresholds are kept. ``train`` compares the
+    two heading sources on what the choice may see: per method, the
+    leave-one-out train error of the chosen rule under each, and their paired
+    difference (attitude minus gyro) with its standard error over the train runs.
+    """
+    from .field import FieldData
+
+    data = result.data
+    configs = {m: s.config for m, s in result.selections.items()}
+    alt = {}
+    for name, kw in (("from_start", {"heading_from": "start"}), ("attitude", {"heading_source": "attitude"})):
+        d = FieldData(data.root, include_test=any(e.split == "test" for e in data._entries),
+                      ins_span=data.ins_span, thresholds=data.thresholds, **kw)
+        alt[name] = evaluate_tables(data.root, data=d, configs=configs, alternatives=False)
+    cells = []
+    for c in result.cells:
+        s = c.spec
+        if s.method not in _MORPI_METHODS:
+            continue
+        key = (s.table, s.phone, s.p2p_m, s.method, s.calibration)
+        cells.append({"table": s.table, "phone": s.phone, "p2p_m": s.p2p_m, "method": s.method,
+                      "calibration": s.calibration, "paper_percent": s.paper_percent,
+                      "from_motion_percent": c.ours_percent,
+                      "from_start_percent": alt["from_start"].cell(*key).ours_percent,
+                      "attitude_percent": alt["attitude"].cell(*key).ours_percent})
+    train = {}
+    for m in _MORPI_METHODS:
+        g = _loo_vector(data, m, configs[m])
+        a = _loo_vector(alt["attitude"].data, m, configs[m])
+        ok = g is not None and a is not None and g.size == a.size > 1
+        d = a - g if ok else None
+        train[m] = {"gyro_loo_percent": None if g is None or not g.size else float(g.mean()),
+                    "attitude_loo_percent": None if a is None or not a.size else float(a.mean()),
+                    "difference_pp": float(d.mean()) if ok else None,
+                    "difference_se_pp": float(d.std(ddof=1) / np.sqrt(d.size)) if ok else None,
+                    "n_train_runs": int(g.size) if g is not None else 0}
+    return {"used": {"heading_from": data.heading_from, "heading_source": data.heading_source},
+            "cells": cells, "train": train}
 
 
 # --------------------------------------------------------------------------- checks and shared pieces
@@ -786,6 +854,8 @@ class TablesStudy:
         gravity, mean along-track overshoot).
     claims : tuple of dict
         :func:`paper_claims`.
+    heading_readings : dict
+        :func:`heading_readings`.
     """
 
     result: TablesResult
@@ -802,6 +872,7 @@ class TablesStudy:
     path_panels: tuple = ()
     cell_notes: dict = field(default_factory=dict)
     claims: tuple = ()
+    heading_readings: dict = field(default_factory=dict)
 
 
 def tables_study(root, *, partial: bool = False, result: TablesResult | None = None) -> TablesStudy:
@@ -847,7 +918,8 @@ def tables_study(root, *, partial: bool = False, result: TablesResult | None = N
     return TablesStudy(result=res, partial=bool(partial), left_out=tuple(left_out), comparison=comp,
                        ins_full_span=full, other_rule=other, nested=nested, rule_sensitivity=sens,
                        ins_leveled=leveled, recordings=recordings, tracks=tracks, path_panels=panels,
-                       cell_notes=_cell_notes(res), claims=tuple(paper_claims(res)))
+                       cell_notes=_cell_notes(res), claims=tuple(paper_claims(res)),
+                       heading_readings=heading_readings(res))
 
 
 #: Agreement bands of :func:`paper_claims` (each with its reason).

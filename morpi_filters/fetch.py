@@ -82,7 +82,31 @@ def _sha256_stream(read, write=None) -> str:
 
 
 def sha256_file(path) -> str:
-    """sha256 hex digest of a file's bytes (the format of ``sha256sum``)."""
+    """sha256 hex digest of a file's bytes (the format of ``sha256sum``).
+
+    The file is read in blocks of 1 MiB, so its size does not matter.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+
+    Returns
+    -------
+    str
+        64 lowercase hex digits.
+
+    Examples
+    --------
+    The FIPS 180-2 test vector of "abc":
+
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "abc.txt")
+    >>> with open(path, "wb") as fh:
+    ...     _ = fh.write(b"abc")
+    >>> sha256_file(path)
+    'ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad'
+    """
     with open(path, "rb") as fh:
         return _sha256_stream(fh.read)
 
@@ -97,8 +121,24 @@ def compute_checksums(root) -> dict[str, str]:
 
     Returns
     -------
-    dict
-        Relative POSIX path -> lowercase hex digest, sorted by path.
+    dict of str -> str
+        Relative POSIX path -> lowercase hex digest, sorted by path. Files other
+        than ``*.csv`` are not listed.
+
+    Raises
+    ------
+    MorpiError
+        When `root` is not a directory.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> (root / "s8" / "line_dataset").mkdir(parents=True)
+    >>> _ = (root / "s8" / "line_dataset" / "1.csv").write_bytes(b"abc")
+    >>> _ = (root / "README.md").write_text("not a recording")
+    >>> compute_checksums(root)
+    {'s8/line_dataset/1.csv': 'ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad'}
     """
     root = Path(root)
     if not root.is_dir():
@@ -108,7 +148,30 @@ def compute_checksums(root) -> dict[str, str]:
 
 
 def write_checksums(path, checksums: Mapping[str, str]) -> Path:
-    """Write checksums in ``sha256sum`` format with a short header (atomically)."""
+    """Write checksums in ``sha256sum`` format with a short header (atomically).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write (:data:`CHECKSUMS_FILE` for the committed one).
+    checksums : mapping of str -> str
+        Relative path -> hex digest; written sorted by path.
+
+    Returns
+    -------
+    Path
+        The file written.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "sums.txt")
+    >>> sums = {"s6/L_line/2.csv": "b" * 64, "s6/L_line/1.csv": "a" * 64}
+    >>> load_checksums(write_checksums(path, sums)) == sums
+    True
+    >>> [line[:8] + " ... " + line[66:].strip() for line in open(path) if not line.startswith("#")]
+    ['aaaaaaaa ... s6/L_line/1.csv', 'bbbbbbbb ... s6/L_line/2.csv']
+    """
     from .reporting import write_text
 
     body = "".join(f"{h}  {rel}\n" for rel, h in sorted(checksums.items()))
@@ -118,16 +181,32 @@ def write_checksums(path, checksums: Mapping[str, str]) -> Path:
 def load_checksums(path=None) -> dict[str, str]:
     """Read a checksum file written by :func:`write_checksums`.
 
+    Blank lines and lines starting with ``#`` are skipped; digits are read
+    case-insensitively.
+
     Parameters
     ----------
     path : str or Path, optional
         Default :data:`CHECKSUMS_FILE`.
+
+    Returns
+    -------
+    dict of str -> str
+        Relative path -> lowercase hex digest, in the file's order.
 
     Raises
     ------
     MorpiError
         Naming the file and line of a malformed entry, an unsafe path or a
         repeated path, or when the file is missing or empty.
+
+    Examples
+    --------
+    The committed file lists the 143 field recordings:
+
+    >>> sums = load_checksums()
+    >>> len(sums), "s8/line_dataset/1.csv" in sums
+    (143, True)
     """
     path = Path(CHECKSUMS_FILE if path is None else path)
     try:
@@ -169,15 +248,30 @@ def verify_tree(root, checksums=None) -> list[str]:
     root : str or Path
         Folder holding the recordings (``root/s8/line_dataset/1.csv``).
     checksums : mapping or path, optional
-        Relative path -> SHA-256; default the committed file.
+        Relative path -> SHA-256 (a mapping, or a file in the format of
+        :func:`write_checksums`); default the committed :data:`CHECKSUMS_FILE`.
 
     Returns
     -------
     list of str
-        Problems (missing file, unexpected file, mismatch); empty when the
-        folder's CSV files are exactly the expected ones with the expected
-        contents (other files, such as a README, are not recordings and are
-        not compared; a linked CSV never matches).
+        Problems (missing file, unexpected file, mismatch), one line per kind
+        with a count and an example; empty when the folder's CSV files are
+        exactly the expected ones with the expected contents (other files, such
+        as a README, are not recordings and are not compared; a linked CSV never
+        matches).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> (root / "s6" / "L_line").mkdir(parents=True)
+    >>> _ = (root / "s6" / "L_line" / "1.csv").write_bytes(b"abc")
+    >>> sums = compute_checksums(root)
+    >>> verify_tree(root, sums)
+    []
+    >>> _ = (root / "s6" / "L_line" / "1.csv").write_bytes(b"abd")
+    >>> verify_tree(root, sums)
+    ['checksum mismatch in 1 file(s), e.g. s6/L_line/1.csv']
     """
     expected = _resolve_checksums(checksums)
     root = Path(root)
@@ -271,8 +365,8 @@ def fetch_dataset(dest, *, url: str | None = None, checksums=None, timeout: floa
     checksums : mapping or path, optional
         Relative path -> SHA-256 of every expected recording; default the
         committed :data:`CHECKSUMS_FILE`.
-    timeout : float
-        Seconds to wait for the server at each step.
+    timeout : float, optional
+        Seconds to wait for the server at each step (default 60).
     progress : callable, optional
         Receives one-line progress messages; default: printed to stdout
         (stderr is left to the one-line error).
@@ -288,6 +382,30 @@ def fetch_dataset(dest, *, url: str | None = None, checksums=None, timeout: floa
         One line naming the URL or the destination, for any failure listed
         in the module docstring. Nothing is left behind: `dest` is either
         untouched or absent, and no staging or temporary file remains.
+
+    Examples
+    --------
+    Offline, from a ``file://`` archive laid out as the repository's
+    (``<top>/data/...``), checked against its own checksums:
+
+    >>> import hashlib, pathlib, tempfile, zipfile
+    >>> work = pathlib.Path(tempfile.mkdtemp())
+    >>> with zipfile.ZipFile(work / "repo.zip", "w") as zf:
+    ...     zf.writestr("MoRPI-main/README.md", "a repository")
+    ...     zf.writestr("MoRPI-main/data/s6/L_line/1.csv", "abc")
+    >>> sums = {"s6/L_line/1.csv": hashlib.sha256(b"abc").hexdigest()}
+    >>> root = fetch_dataset(work / "dest", url=(work / "repo.zip").as_uri(), checksums=sums,
+    ...                      progress=lambda msg: None)
+    >>> root == work / "dest" / "data", sorted(p.name for p in root.rglob("*"))
+    (True, ['1.csv', 'L_line', 's6'])
+    >>> sums["s6/L_line/1.csv"] = "0" * 64
+    >>> fetch_dataset(work / "other", url=(work / "repo.zip").as_uri(), checksums=sums,
+    ...               progress=lambda msg: None)
+    Traceback (most recent call last):
+    ...
+    morpi_filters.errors.MorpiError: file://...: archive does not match the dataset checksums: checksum mismatch in 1 file(s), e.g. s6/L_line/1.csv
+    >>> (work / "other").exists()
+    False
     """
     say = progress or (lambda msg: print(msg, flush=True))
     url = DEFAULT_URL if url is None else url

@@ -20,8 +20,9 @@ from . import dataset as ds
 from . import steps as st
 from .errors import MorpiError
 
-__all__ = ["SHORT_SETS", "RULES", "INS_SPANS", "LEVELED", "Gain", "Selection", "FieldData", "select_config",
-           "nested_rule_comparison", "READING_GRID", "TUNABLE_GRID"]
+__all__ = ["SHORT_SETS", "RULES", "INS_SPANS", "LEVELED", "HEADING_ORIGINS", "HEADING_SOURCES", "Gain",
+           "Selection", "Thresholds", "FieldData", "train_thresholds", "select_config", "nested_rule_comparison",
+           "READING_GRID", "TUNABLE_GRID", "SWING_MARGIN", "trained_gain"]
 
 #: Short-route training/test sets: (phone, route, p2p).
 SHORT_SETS = (("s8", "short_distance", 1.0), ("s8", "short_distance_1.5p2p", 1.5), ("s6", "short_distance", 1.0))
@@ -32,6 +33,13 @@ RULES = ("per_method", "joint")
 INS_SPANS = ("motion", "full")
 #: INS start that measures the tilt at rest instead of assuming a level phone (3D INS only).
 LEVELED = "GC+level"
+#: Where the MoRPI heading is integrated from: the motion onset (default) or the first sample.
+HEADING_ORIGINS = ("motion", "start")
+#: What the MoRPI heading is read from: the integrated z gyro (default), or the yaw of the attitude
+#: matrix of the 3D mechanization started level with the rest specific force (the paper's equation).
+HEADING_SOURCES = ("gyro", "attitude")
+#: The least heading swing of a periodic run is this fraction of the smallest swing of the train runs.
+SWING_MARGIN = 0.75
 _MORPI_METHODS = tuple(st.METHODS)
 
 
@@ -84,6 +92,38 @@ class Selection:
     n_train: int
 
 
+@dataclass(frozen=True)
+class Thresholds:
+    """The detection thresholds the train runs set (:func:`train_thresholds`).
+
+    Attributes
+    ----------
+    accel_floor : float
+        Lowest accelerometer threshold of the rest detection [m/s^2]
+        (:func:`morpi_filters.calibration.detect_rest`).
+    min_swing_deg : float
+        Least median heading swing per period of a periodic run [deg]
+        (:attr:`morpi_filters.steps.StepConfig.min_swing_deg`).
+    rest_std : tuple of float
+        Per train run, the largest accelerometer moving standard deviation
+        inside its gyro-only rest window [m/s^2].
+    swings_deg : tuple of float
+        Per train run, its median heading swing per period [deg].
+    files : tuple of str
+        The train runs, relative to the dataset root.
+    """
+
+    accel_floor: float
+    min_swing_deg: float
+    rest_std: tuple = ()
+    swings_deg: tuple = ()
+    files: tuple = ()
+
+
+#: Used when a root has no train runs (no gains either, so no MoRPI cell): the library's defaults.
+_DEFAULT_THRESHOLDS = Thresholds(accel_floor=0.1, min_swing_deg=st.StepConfig().min_swing_deg)
+
+
 class FieldData:
     """Lazy, cached access to a dataset root: recordings, calibrations, INS runs, step signals.
 
@@ -97,15 +137,34 @@ class FieldData:
     include_test : bool
         False hides every ``test`` folder (as if absent).
     ins_span : str
-        ``"motion"``: the INS integrates from the start to the end of the
-        robot's motion (:func:`morpi_filters.steps.activity_span`, the rests
-        are left out; default); ``"full"``: the whole recording.
+        ``"motion"``: the INS integrates over the recording's motion window
+        (:meth:`activity`, the rests are left out; default); ``"full"``: the
+        whole recording.
+    heading_from : str
+        ``"motion"``: the MoRPI heading starts at zero at the motion window's
+        start (default); ``"start"``: it is integrated from the first sample,
+        through the initial rest.
+    heading_source : str
+        ``"gyro"``: the integrated z angular rate (default); ``"attitude"``:
+        the yaw of the attitude matrix of the 3D mechanization
+        (:func:`morpi_filters.strapdown.ins3d`), started with the roll and
+        pitch of the rest specific force.
+    thresholds : Thresholds, optional
+        Detection thresholds to use instead of :func:`train_thresholds` of
+        this root's train runs.
     """
 
-    def __init__(self, root, *, include_test: bool = True, ins_span: str = "motion"):
-        if ins_span not in INS_SPANS:
-            raise MorpiError(f"ins_span={ins_span!r}: expected one of {INS_SPANS}")
+    def __init__(self, root, *, include_test: bool = True, ins_span: str = "motion", heading_from: str = "motion",
+                 heading_source: str = "gyro", thresholds: Thresholds | None = None):
+        for name, v, allowed in (("ins_span", ins_span, INS_SPANS), ("heading_from", heading_from, HEADING_ORIGINS),
+                                 ("heading_source", heading_source, HEADING_SOURCES)):
+            if v not in allowed:
+                raise MorpiError(f"{name}={v!r}: expected one of {allowed}")
         self.ins_span = ins_span
+        self.heading_from = heading_from
+        self.heading_source = heading_source
+        self._thresholds = thresholds
+        self._accel_floor = None if thresholds is None else thresholds.accel_floor
         self.root = Path(root)
         self._entries = [e for e in ds.catalogue(self.root) if include_test or e.split != "test"]
         self._rec: dict = {}
@@ -154,13 +213,30 @@ class FieldData:
                 self._rec[key] = rec.source
         return self._rec[key]
 
+    @property
+    def thresholds(self) -> Thresholds:
+        """The detection thresholds in use (:func:`train_thresholds` unless given)."""
+        if self._thresholds is None:
+            self._thresholds = train_thresholds(self)
+        return self._thresholds
+
+    def accel_floor(self) -> float:
+        """The rest detection's accelerometer floor [m/s^2] (:func:`train_thresholds`)."""
+        if self._accel_floor is None:
+            self._accel_floor = _train_accel_floor(self)[0]
+        return self._accel_floor
+
+    def train_entries(self) -> list:
+        """The catalogue entries of every ``train`` folder."""
+        return [e for e in self._entries if e.split == "train"]
+
     def rest_window(self, rec):
         """The initial rest window (calibration.detect_rest), found once per recording."""
         from .calibration import detect_rest
 
         key = (rec.source, "rest")
         if key not in self._cal:
-            self._cal[key] = detect_rest(rec)
+            self._cal[key] = detect_rest(rec, accel_floor=self.accel_floor())
         return self._cal[key]
 
     def rest_specific_force(self, rec) -> np.ndarray:
@@ -193,23 +269,47 @@ class FieldData:
         key = (rec.source, mode, method, cutoff_hz)
         if key not in self._prep:
             crec, _ = self.calibrated(rec, mode)
-            motion = self._motion(rec, method)
+            motion = self.activity(rec)
             other = (rec.source, "GC" if mode == "RD" else "RD", method, cutoff_hz)
             if other in self._prep and mode in ("RD", "GC"):
                 from dataclasses import replace
 
-                self._prep[key] = replace(self._prep[other], heading=st.integrate_heading(crec.time, crec.omega[:, 2]))
+                self._prep[key] = replace(self._prep[other], heading=self.heading(rec, mode))
             else:
-                self._prep[key] = st.prepare_signal(crec, method, cutoff_hz, motion=motion)
+                self._prep[key] = st.prepare_signal(crec, method, cutoff_hz, motion=motion,
+                                                    heading=self.heading(rec, mode))
         return self._prep[key]
 
-    def _motion(self, rec, method):
-        # the span is measured from the deviation from the rest mean, so a constant bias does not change it:
-        # one span per recording and method serves RD and GC
-        key = (rec.source, method, "motion")
+    def heading(self, rec, mode: str) -> np.ndarray:
+        """The MoRPI heading on the recording's samples [rad], shape (n,), for RD or GC.
+
+        Read as the instance's `heading_source` says, from the instance's
+        `heading_from`: with ``"motion"`` it is zero up to the motion window's
+        start (:meth:`activity`) and integrated from there; after the window's
+        end it holds its last value.
+        """
+        key = (rec.source, mode, "heading")
         if key not in self._prep:
-            attr, col = st.METHODS[method]
-            self._prep[key] = st.motion_span(rec.time, getattr(rec, attr)[:, col], self.rest_end(rec))
+            crec, _ = self.calibrated(rec, mode)
+            t = crec.time
+            a, b = self.activity(rec) if self.heading_from == "motion" else (t[0], t[-1])
+            i0 = int(np.searchsorted(t, a))
+            i1 = int(np.searchsorted(t, b, side="right"))
+            if i1 - i0 < 2:
+                raise MorpiError(f"{rec.source}: no motion found for the heading")
+            psi = np.zeros(t.shape[0])
+            if self.heading_source == "gyro":
+                part = st.integrate_heading(t[i0:i1], crec.omega[i0:i1, 2])
+            else:
+                from .strapdown import coarse_level, ins3d
+
+                f_rest = self.rest_specific_force(rec)
+                part = ins3d(t[i0:i1], crec.f[i0:i1], crec.omega[i0:i1], C0=coarse_level(f_rest),
+                             g=float(np.linalg.norm(f_rest))).heading
+                part = np.asarray(part) - part[0]
+            psi[i0:i1] = part
+            psi[i1:] = part[-1]
+            self._prep[key] = psi
         return self._prep[key]
 
     def steps(self, rec, mode, method, config):
@@ -227,10 +327,17 @@ class FieldData:
         return out
 
     def activity(self, rec) -> tuple:
-        """Start and end of the robot's motion [s] (gyro vibration)."""
+        """The recording's motion window (start, end) [s]: one per recording, for the INS, MoRPI-A and MoRPI-G.
+
+        The gyro's vibration (:func:`morpi_filters.steps.activity_span`)
+        against its level in the detected initial rest window
+        (:meth:`rest_window`); the window starts after the rest ends and ends
+        when the robot stops, before the final rest.
+        """
         key = (rec.source, "activity")
         if key not in self._prep:
-            self._prep[key] = st.activity_span(rec.time, rec.omega)
+            w = self.rest_window(rec)
+            self._prep[key] = st.activity_span(rec.time, rec.omega, rest=(w.start_s, w.end_s))
         return self._prep[key]
 
     def ins(self, rec, mode: str, method: str, span: str | None = None):
@@ -298,9 +405,107 @@ class FieldData:
         v = np.concatenate([[0.0], np.cumsum(0.5 * (a[1:] + a[:-1]) * dt)])
         return float(np.degrees(np.mean(np.arcsin(s)))), float(np.sum(0.5 * (v[1:] + v[:-1]) * dt))
 
+# --------------------------------------------------------------------------- thresholds from the train runs
+
+def _train_accel_floor(data: FieldData) -> tuple[float, tuple, tuple]:
+    """The rest detection's accelerometer floor from the train runs, with the per-run values behind it.
+
+    Each train run's rest is found on the gyro alone (accelerometer floor
+    out of reach); inside it, the largest moving standard deviation of the
+    accelerometer axes (over the detector's window) is what the settling of
+    the phone's filtered accelerometer channels reaches at rest. The floor is
+    ``k_std`` (the detector's threshold in noise sigmas) times the median of
+    those values over the train runs.
+    """
+    import inspect
+
+    from .calibration import _moving_stats, detect_rest
+
+    par = inspect.signature(detect_rest).parameters
+    k_std, half = par["k_std"].default, par["window_s"].default / 2.0
+    vals, files = [], []
+    for e in data.train_entries():
+        recs = [r for r in data.recordings(e.phone, e.route, e.split) if data.relpath(r) == e.relpath]
+        if not recs:
+            continue
+        r = recs[0]
+        try:
+            w = detect_rest(r, accel_floor=1e9)
+        except MorpiError:
+            continue
+        _, sd = _moving_stats(r.time - r.time[0], r.f, half)
+        vals.append(float(sd[w.i0:w.i1].max()))
+        files.append(e.relpath)
+    if not vals:
+        return _DEFAULT_THRESHOLDS.accel_floor, (), ()
+    return float(k_std * np.median(vals)), tuple(vals), tuple(files)
+
+
+def train_thresholds(data: FieldData) -> Thresholds:
+    """The detection thresholds of the rest and of periodic motion, set on the train runs only.
+
+    Rest detection
+        The gyro thresholds are in noise sigmas measured on each recording
+        (:func:`morpi_filters.calibration.detect_rest`: ``k_std``, ``k_dev``),
+        and the motion window's threshold is a multiple of the gyro's level
+        in the recording's own rest (:func:`morpi_filters.steps.activity_span`).
+        The accelerometer's floor cannot be set from its white noise: the
+        phones filter their accelerometer channels, which settle slowly
+        after start-up. It is ``k_std`` times the median, over the train
+        runs, of the largest accelerometer moving standard deviation inside
+        each run's gyro-only rest window.
+    Periodic motion
+        Each train run's median heading swing per period is measured (GC,
+        MoRPI-G signal, the search's start rule, no swing limit); the least
+        swing of a periodic run is :data:`SWING_MARGIN` times the smallest
+        of them, rounded down to a whole degree.
+
+    Only ``train`` folders are read; a root without them gets the library's
+    defaults (0.1 m/s^2, 15 deg; it has no gains either).
+    """
+    floor, rest_std, files = _train_accel_floor(data)
+    data._accel_floor = floor if data._accel_floor is None else data._accel_floor
+    swings, sfiles = [], []
+    cfg = _START.with_(min_swing_deg=0.0)
+    for e in data.train_entries():
+        for r in data.recordings(e.phone, e.route, e.split):
+            if data.relpath(r) != e.relpath:
+                continue
+            try:
+                sw = data.steps(r, "GC", "MoRPI-G", cfg).swing_deg
+            except MorpiError:
+                continue
+            if np.isfinite(sw):
+                swings.append(float(sw))
+                sfiles.append(e.relpath)
+    if not swings:
+        return Thresholds(accel_floor=data.accel_floor(), min_swing_deg=_DEFAULT_THRESHOLDS.min_swing_deg,
+                          rest_std=rest_std, files=files)
+    return Thresholds(accel_floor=data.accel_floor(), min_swing_deg=float(np.floor(SWING_MARGIN * min(swings))),
+                      rest_std=rest_std, swings_deg=tuple(swings), files=tuple(sorted(set(files) | set(sfiles))))
+
+
 # --------------------------------------------------------------------------- gain training and config search
 
-def _train(data: FieldData, phone, route, mode, method, config) -> Gain | None:
+def trained_gain(data: FieldData, phone, route, calibration, method, config) -> Gain | None:
+    """The Weinberg gain of one route, phone, calibration and method, from its train recordings only.
+
+    Parameters
+    ----------
+    data : FieldData
+    phone, route : str
+        Dataset folder names (``"s8"``, ``"short_distance"``).
+    calibration : {"RD", "GC", "GAC"}
+    method : {"MoRPI-A", "MoRPI-G"}
+    config : steps.StepConfig
+        The step rule (for example ``select_config(data).config``).
+
+    Returns
+    -------
+    Gain or None
+        None when the folder has no train recordings or none with periodic motion;
+        the recordings left out are named in :attr:`Gain.skipped`.
+    """
     recs = data.recordings(phone, route, "train")
     if not recs:
         return None
@@ -308,14 +513,15 @@ def _train(data: FieldData, phone, route, mode, method, config) -> Gain | None:
     steps_list, files, skipped = [], [], list(data.load_errors(phone, route, "train"))
     for r in recs:
         try:
-            steps_list.append(data.steps(r, mode, method, config))
+            steps_list.append(data.steps(r, calibration, method, config))
             files.append(data.relpath(r))
         except MorpiError as exc:
             skipped.append(str(exc))
     if not steps_list:
         return None
     mean, std, per = st.train_gain(steps_list, truth.distance_m)
-    return Gain(phone, route, method, mode, mean, std, tuple(float(g) for g in per), tuple(files), tuple(skipped))
+    return Gain(phone, route, method, calibration, mean, std, tuple(float(g) for g in per), tuple(files),
+                tuple(skipped))
 
 
 #: Coordinate search: first the readings (with the first tunables), then the tunables.
@@ -421,11 +627,12 @@ def select_config(data: FieldData, methods=_MORPI_METHODS, *, exclude=()) -> Sel
         vals = [_loo_score(data, m, cfg, exclude=exclude) for m in methods]
         return float(np.mean([v for v, _ in vals])), int(sum(n for _, n in vals))
 
+    start = _START.with_(min_swing_deg=data.thresholds.min_swing_deg)
     trials = []
-    best, best_score, n = _START, float("inf"), 0
+    best, best_score, n = start, float("inf"), 0
     keys = list(READING_GRID)
     for combo in itertools.product(*(READING_GRID[k] for k in keys)):
-        cfg = _START.with_(**dict(zip(keys, combo)))
+        cfg = start.with_(**dict(zip(keys, combo)))
         sc, n_ = score(cfg)
         trials.append((cfg, sc))
         if sc < best_score:
@@ -441,7 +648,7 @@ def select_config(data: FieldData, methods=_MORPI_METHODS, *, exclude=()) -> Sel
             if sc < best_score:
                 best, best_score, n = cfg, sc, n_
     if not np.isfinite(best_score):
-        best = st.StepConfig()
+        best = st.StepConfig(min_swing_deg=data.thresholds.min_swing_deg)
     return Selection("+".join(methods), best, best_score, tuple(trials), n)
 
 

@@ -62,10 +62,17 @@ STILL_WINDOW_S, STILL_FACTOR, STILL_MIN_S = 0.5, 2.0, 0.5
 def still_spans(time, omega, motion, rest_slice) -> tuple:
     """Stretches outside the motion where the gyro is as quiet as at rest [s].
 
+    The gyro is resampled on the uniform step grid; a window of
+    :data:`STILL_WINDOW_S` is still when its summed standard deviation and
+    the distance of its mean from the rest's stay within :data:`STILL_FACTOR`
+    of what the initial rest window shows.
+
     Parameters
     ----------
     time : ndarray, shape (n,)
+        Sample times [s].
     omega : ndarray, shape (n, 3)
+        Angular rate [rad/s].
     motion : (float, float)
         Start and end of the robot's motion [s].
     rest_slice : (int, int)
@@ -74,7 +81,20 @@ def still_spans(time, omega, motion, rest_slice) -> tuple:
     Returns
     -------
     tuple of (start_s, end_s)
-        Still stretches of at least :data:`STILL_MIN_S`, before the motion's start or after its end.
+        Still stretches of at least :data:`STILL_MIN_S`, before the motion's start or after its end
+        [s], in time order; empty when the recording is shorter than one window.
+
+    Examples
+    --------
+    Ten seconds of gyro noise with a 0.5 rad/s yaw swing from 3 s to 6 s:
+
+    >>> rng = np.random.default_rng(0)
+    >>> t = np.arange(1000) * 0.01
+    >>> omega = rng.normal(0.0, 0.002, (1000, 3))
+    >>> moving = (t >= 3.0) & (t <= 6.0)
+    >>> omega[moving, 2] += 0.5 * np.sin(2 * np.pi * (t[moving] - 3.0))
+    >>> still_spans(t, omega, (3.0, 6.0), (0, 300))
+    ((0.0, 2.99), (6.01, 9.99))
     """
     from .steps import GRID_HZ, resample_uniform
 
@@ -109,10 +129,39 @@ def still_spans(time, omega, motion, rest_slice) -> tuple:
 def gyro_drift(rec, window, rest) -> tuple:
     """How far the gyro's rest mean moved between the initial rest and the last still stretch.
 
+    Parameters
+    ----------
+    rec : dataset.Recording
+        The (calibrated) recording.
+    window : calibration.RestWindow
+        Its initial rest window (samples ``window.i0:window.i1``).
+    rest : sequence of (float, float)
+        Still stretches [s], the initial rest first (as :func:`prepare` builds them).
+
     Returns
     -------
-    (dm2, dt) : squared change of the mean per axis [(rad/s)^2], shape (3,), and the time between
-        the two stretches' centres [s]; ``(None, None)`` with one still stretch only.
+    dm2 : ndarray, shape (3,) or None
+        Squared change of the mean per axis [(rad/s)^2].
+    dt : float or None
+        Time between the two stretches' centres [s]; ``(None, None)`` with
+        one still stretch only.
+
+    Examples
+    --------
+    A gyro x offset of 0.01 rad/s appears after 7 s:
+
+    >>> from morpi_filters.calibration import RestWindow
+    >>> from morpi_filters.dataset import Recording
+    >>> t = np.arange(1000) * 0.01
+    >>> omega = np.zeros((1000, 3))
+    >>> omega[t > 7.0, 0] = 0.01
+    >>> rec = Recording(time=t, f=np.tile([0.0, 0.0, 9.8], (1000, 1)), omega=omega, source="example")
+    >>> win = RestWindow(0.0, 2.99, 0, 300, "full")
+    >>> dm2, dt = gyro_drift(rec, win, ((0.0, 2.99), (7.5, 9.99)))
+    >>> np.sqrt(dm2).round(12).tolist(), round(dt, 9)          # centres 1.495 s and 8.745 s
+    ([0.01, 0.0, 0.0], 7.25)
+    >>> gyro_drift(rec, win, ((0.0, 2.99),))
+    (None, None)
     """
     if len(rest) < 2:
         return (None, None)
@@ -127,6 +176,15 @@ def gyro_drift(rec, window, rest) -> tuple:
 def rest_noise(rec, window, epoch_s: float = 0.1) -> tuple[float, float, float]:
     """Noise densities the initial rest window shows.
 
+    Parameters
+    ----------
+    rec : dataset.Recording
+        The raw recording.
+    window : calibration.RestWindow
+        Its initial rest window.
+    epoch_s : float
+        Length of the epochs whose gyro means give `gyro_epoch` [s].
+
     Returns
     -------
     (accel, gyro, gyro_epoch)
@@ -135,7 +193,22 @@ def rest_noise(rec, window, epoch_s: float = 0.1) -> tuple[float, float, float]:
         that the scatter of its `epoch_s` means implies (``std(mean) *
         sqrt(epoch_s)``): the noise of a zero-rate update on one epoch, which
         the quantization and slow wander of a phone gyro put above the white
-        part.
+        part. `gyro_epoch` is at least `gyro`, and equals it when the window
+        holds fewer than 4 epochs. ``dt`` is the median sample interval.
+
+    Examples
+    --------
+    White noise of 0.05 m/s^2 and 0.002 rad/s at 100 Hz has densities
+    ``0.05 * sqrt(0.01) = 0.005`` and ``0.0002``:
+
+    >>> from morpi_filters.calibration import RestWindow
+    >>> from morpi_filters.dataset import Recording
+    >>> rng = np.random.default_rng(0)
+    >>> f = rng.normal(0.0, 0.05, (1000, 3)) + [0.0, 0.0, 9.8]
+    >>> rec = Recording(time=np.arange(1000) * 0.01, f=f, omega=rng.normal(0.0, 0.002, (1000, 3)), source="x")
+    >>> a, g, ge = rest_noise(rec, RestWindow(0.0, 2.99, 0, 300, "full"))
+    >>> round(a, 3), round(g, 4), ge >= g
+    (0.005, 0.0002, True)
     """
     sl = slice(window.i0, window.i1)
     t = rec.time[sl]
@@ -173,6 +246,20 @@ class Prepared:
         trained gain makes MoRPI's step sum match the route, so the filter is
         read at the same instant (after it the robot creeps to a halt and the
         phone may be handled).
+
+        Parameters
+        ----------
+        r : aided.AidedResult
+            The filter's run on this recording's :attr:`input`.
+
+        Returns
+        -------
+        xy : ndarray, shape (2,)
+            Forward horizontal position [m].
+        P_xy : ndarray, shape (2, 2)
+            Its covariance [m^2].
+        smoothed_xy : ndarray, shape (2,) or None
+            Smoothed horizontal position [m] (None without smoothing).
         """
         j = r.index_at(self.stop_s)
         return r.position[j, :2], r.P_xy[j], (None if r.smoothed is None else r.smoothed[j, :2])
@@ -180,6 +267,34 @@ class Prepared:
 
 def prepare(data, rec, mode, method, config, gain) -> Prepared:
     """The aided filter's input for one recording, calibration, method and gain.
+
+    Needs a :class:`~morpi_filters.field.FieldData` (the dataset's cached
+    per-recording work), so there is no example. The result is cached in
+    ``data.study_cache``.
+
+    Parameters
+    ----------
+    data : field.FieldData
+        The dataset's cached calibrations, rest windows, steps and motion windows.
+    rec : dataset.Recording
+        The raw recording.
+    mode : {"RD", "GC", "GAC"}
+        Calibration.
+    method : {"MoRPI-A", "MoRPI-G"}
+        MoRPI method whose steps drive the step updates.
+    config : steps.StepConfig
+        The method's step rule.
+    gain : float
+        Trained Weinberg gain [m / unit^(1/4)].
+
+    Returns
+    -------
+    Prepared
+        The :class:`aided.AidedInput` (calibrated IMU, coarse-level attitude,
+        steps, rest stretches), MoRPI's track, the rest noise
+        (:func:`rest_noise`), the read-out time (the last step boundary),
+        the gyro drift (:func:`gyro_drift`) and the specific force's mean shift
+        between rest and motion [m/s^2].
 
     Raises
     ------
@@ -252,17 +367,58 @@ def choose_tunables(data, train, method, mode, config, gain):
     :data:`MIN_TRAIN_COVERAGE` of the train runs compete (all of them when none
     does).
 
+    Needs a :class:`~morpi_filters.field.FieldData`, so there is no example.
+
+    Parameters
+    ----------
+    data : field.FieldData
+        The dataset's cached per-recording work.
+    train : (str, str)
+        Phone and route of the training set (its ``train`` folder is read).
+    method : {"MoRPI-A", "MoRPI-G"}
+        MoRPI method.
+    mode : {"RD", "GC", "GAC"}
+        Calibration.
+    config : steps.StepConfig
+        The method's step rule.
+    gain : field.Gain
+        The trained gain (``mean`` sets the step lengths, ``std / mean``
+        the gain error's prior).
+
     Returns
     -------
     TunableChoice
+
+    Raises
+    ------
+    MorpiError
+        The training set has no train run with steps (:func:`choose_tunables_many`
+        returns that error in its list; this single-request form raises it).
     """
-    return choose_tunables_many(data, [(train, method, mode, config, gain)])[0]
+    choice = choose_tunables_many(data, [(train, method, mode, config, gain)])[0]
+    if isinstance(choice, MorpiError):
+        raise choice
+    return choice
 
 
 def choose_tunables_many(data, requests) -> list:
     """:func:`choose_tunables` for several (train, method, mode, config, gain) at once, in one batch.
 
     A request without train runs gives a MorpiError in its place of the returned list.
+    Needs a :class:`~morpi_filters.field.FieldData`, so there is no example.
+
+    Parameters
+    ----------
+    data : field.FieldData
+        The dataset's cached per-recording work.
+    requests : sequence of tuple
+        ``(train, method, mode, config, gain)`` as the arguments of
+        :func:`choose_tunables`.
+
+    Returns
+    -------
+    list of TunableChoice or MorpiError
+        One per request, in order.
     """
     from . import dataset as ds
 
@@ -437,6 +593,9 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
     Returns
     -------
     AidedStudy
+        The cells in the tables' order, the ablation rows (GC cells only, when
+        `ablation`), the 95 % coverage over the test runs and the NIS per
+        measurement; empty with a ``note`` when no cell qualifies.
     """
     from . import dataset as ds
     from .evaluate import evaluate_tables

@@ -5,19 +5,20 @@ Two studies live here.
 Gain-error study (:func:`run_study`, :func:`gain_error_page`)
     For each of N runs: draw the IMU's turn-on biases and white noise from a
     :class:`~morpi_filters.units.SensorSpec` and one standard-normal number
-    for the Weinberg gain error, then navigate
-
-    * INS-3D and INS-2D on a straight line at constant speed (the paper's
-      baseline trajectory), and
-    * MoRPI-A (Weinberg on ``f_y``) and MoRPI-G (Weinberg on ``omega_z``) on a
-      sine path of the same duration, heading from the integrated gyro z,
-
-    and record the horizontal position error over time. The reference gains
-    are trained on noisy runs of the same path and sensor (so the sensor
+    for the Weinberg gain error, then navigate one sine path (its duration,
+    length or speed set by :class:`StudyConfig`) with INS-3D, INS-2D, MoRPI-A
+    (Weinberg on ``f_y``) and MoRPI-G (Weinberg on ``omega_z``; MoRPI heading
+    from the integrated gyro z), and record the horizontal position error over
+    time. (``StudyConfig(ins_path="straight")`` puts the INS on the paper's
+    straight baseline of the same length and speed instead.) The reference
+    gains are trained on noisy runs of the same path and sensor (so the sensor
     noise's inflation of ``max - min`` is part of the gain, as in practice);
     each gain scenario multiplies them by ``1 + dG`` with
     ``dG = mean + std * z``. All scenarios share the run's draws (common
-    random numbers).
+    random numbers). Results are labelled by the package's method names
+    (:data:`METHODS`) and the scenarios' labels: :meth:`StudyResult.final_error`,
+    :meth:`StudyResult.distance_error_of`, :meth:`StudyResult.curve`, and
+    :func:`distance_law_check` tests the MoRPI distance law ``ds = dG D``.
 
 Drift study (:func:`drift_map`, :func:`drift_page`)
     The same kind of bias draws through the nonlinear strapdown on a
@@ -54,16 +55,16 @@ Digest
     for each gain scenario in order).
 
 Pieces from other modules
-    Trajectories come from :mod:`morpi_filters.simulate` (``straight``,
-    ``sine``); the drift study integrates with
+    Trajectories come from :mod:`morpi_filters.simulate` (``sine``,
+    ``straight``); the drift study integrates with
     :func:`morpi_filters.strapdown.ins3d` / ``ins2d`` and evaluates
     :func:`morpi_filters.symbolic.closed_form_errors`. The gain-error study
-    propagates the INS errors of its level straight line with a specialised
-    kernel (:mod:`morpi_filters._batch_ins`: a
-    quaternion attitude step vectorized over runs and trapezoid integration),
-    because the general strapdown, which keeps every C_bn matrix, costs about
-    8 times the drawing of the random numbers; the tests check the kernel
-    against strapdown.ins3d / ins2d.
+    propagates the INS with a specialised kernel
+    (:mod:`morpi_filters._batch_ins`: a quaternion attitude step vectorized
+    over runs and trapezoid integration; the true signals go through the same
+    rules once and are subtracted), because the general strapdown, which
+    keeps every C_bn matrix, costs about 8 times the drawing of the random
+    numbers; the tests check the kernel against strapdown.ins3d / ins2d.
 
 References
 ----------
@@ -94,13 +95,24 @@ __all__ = [
     "digest", "child_seed", "reference_gains", "training_runs_study", "training_configs", "training_summary",
     "TrainingStudy", "band_quantiles", "BAND_PERCENTILES", "BAND_BINS_PER_DECADE",
     "DriftMap", "drift_map", "GainErrorPage", "gain_error_page", "DriftPage", "drift_page", "Z99",
+    "final_statistics", "distance_law_check", "INS_PATHS",
 ]
 
-#: Error series columns of :attr:`StudyResult.errors`.
-METHODS = ("ins3d", "ins2d", "morpi_a", "morpi_g")
+#: Error series columns of :attr:`StudyResult.errors` (the package's method names).
+METHODS = ("INS-3D", "INS-2D", "MoRPI-A", "MoRPI-G")
 
-#: Bias calibrations a study can assume (see StudyConfig.calibration).
-CALIBRATIONS = ("none", "gyro", "gyro+accel")
+#: Bias calibrations a study can assume (see StudyConfig.calibration): the field tables' names.
+CALIBRATIONS = ("RD", "GC", "GAC")
+
+#: Paths INS-3D and INS-2D can drive (see StudyConfig.ins_path).
+INS_PATHS = ("sine", "straight")
+
+#: Smooth speed ramp at each end of the path [s] (simulate's default).
+RAMP_S = 1.0
+
+#: The paper's short route when neither duration nor length is given: 6.3 m in 15 s.
+DEFAULT_LENGTH_M = 6.3
+DEFAULT_DURATION_S = 15.0
 
 #: Per-run numbers drawn before the noise block: 3 accelerometer biases, 3 gyro biases, 1 gain.
 _N_HEAD = 7
@@ -147,75 +159,199 @@ class GainError:
 class StudyConfig:
     """What one gain-error study simulates.
 
+    The robot drives a sine path from rest to rest (1 s smooth ramps at both
+    ends, cruise in between), and every method navigates that same path. Its
+    motion is fixed by any two of `duration`, `length_m` and `speed_mps`; the
+    third follows from ``duration = length_m / speed_mps + RAMP_S``. Left
+    unset: the paper's 6.3 m in 15 s; a `duration` or `length_m` alone keeps
+    the paper's cruise speed for the period (:func:`morpi_filters.simulate.paper_speed`).
+    :meth:`motion` gives the three values; a study's result holds its config
+    with all three filled in.
+
     Attributes
     ----------
     spec : SensorSpec
-        IMU error figures (biases 1 sigma per axis, noise densities).
-    duration : float
-        Length of every run [s].
+        IMU error figures (biases 1 sigma per axis, noise densities), for
+        example :meth:`~morpi_filters.units.SensorSpec.from_datasheet`.
+    duration : float, optional
+        Time from the start of the motion to the stop [s]: the run lasts this long.
+    length_m : float, optional
+        Start-to-end distance of the path along its centreline [m].
+    speed_mps : float, optional
+        Cruise speed along the centreline [m/s].
     rate_hz : float
         Sampling rate [Hz]; the noise standard deviation is ``density * sqrt(rate_hz)``.
-    length_m : float
-        Start-to-end distance of both paths [m] (the paper's short route, 6.3 m).
     period_m : float
         Sine-path period (peak-to-peak step) [m].
     amplitude_m : float
         Sine-path lateral amplitude [m].
+    ins_path : {"sine", "straight"}
+        Path of INS-3D and INS-2D: the same sine path as MoRPI (default), or
+        the paper's baseline, a straight line of the same length, speed and duration.
     gains : tuple of GainError
-        Gain scenarios; the first is the primary one (``morpi_a``/``morpi_g``).
+        Gain scenarios; the first is the primary one (the MoRPI series).
     keep_every : int
         Keep every k-th sample of the error series (the final sample is always kept).
     ins : bool
         Whether to run INS-3D and INS-2D (False for MoRPI-only studies).
     training_runs : int
         Noisy training runs that fix the reference gains.
-    calibration : str
-        ``"none"``: the datasheet turn-on biases act in full. ``"gyro"`` (the
-        paper's GC) or ``"gyro+accel"`` (GAC): a zero-order calibration on
-        `cal_seconds` of rest leaves a residual bias equal to the mean of the
-        white noise over that window, ``density / sqrt(cal_seconds)`` per axis
-        (drawn from the same per-run bias numbers).
+    calibration : {"RD", "GC", "GAC"}
+        ``"RD"``: raw data, the datasheet turn-on biases act in full.
+        ``"GC"`` (gyro calibration) or ``"GAC"`` (gyro and accelerometer): a
+        zero-order calibration on `cal_seconds` of rest leaves a residual bias
+        equal to the mean of the white noise over that window,
+        ``density / sqrt(cal_seconds)`` per axis (drawn from the same per-run
+        bias numbers).
     cal_seconds : float
         Length of the stationary calibration window [s].
+
+    Examples
+    --------
+    >>> cfg = StudyConfig(duration=20.0, period_m=1.0)
+    >>> length, speed, duration = cfg.motion()
+    >>> round(length, 3), round(speed, 4), duration
+    (8.867, 0.4667, 20.0)
     """
 
     spec: SensorSpec = MPU6500
-    duration: float = 15.0
+    duration: float | None = None
     rate_hz: float = 100.0
-    length_m: float = 6.3
+    length_m: float | None = None
     period_m: float = 1.0
     amplitude_m: float = 0.1
     gains: tuple = (GainError("dG = 5 %", 0.05), GainError("dG = 10 %", 0.10))
     keep_every: int = 10
     ins: bool = True
     training_runs: int = 4000
-    calibration: str = "none"
+    calibration: str = "RD"
     cal_seconds: float = 3.0
+    speed_mps: float | None = None
+    ins_path: str = "sine"
+
+    def motion(self) -> tuple:
+        """(length_m, speed_mps, duration) of the path [m, m/s, s], from the two that fix it.
+
+        Returns
+        -------
+        tuple of float
+            ``(length_m, speed_mps, duration)`` with ``duration = length_m /
+            speed_mps + RAMP_S``.
+
+        Raises
+        ------
+        MorpiError
+            When all three are given and disagree, or the motion is impossible
+            (shorter than its two ramps).
+        """
+        given = {k: getattr(self, k) for k in ("duration", "length_m", "speed_mps") if getattr(self, k) is not None}
+        for k, v in given.items():
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) \
+                    or not (math.isfinite(v) and v > 0):
+                raise MorpiError(f"StudyConfig.{k}: {v!r}, expected a finite number > 0")
+        T, L, v = (None if given.get(k) is None else float(given[k]) for k in ("duration", "length_m", "speed_mps"))
+        if T is None and L is None:
+            L = DEFAULT_LENGTH_M
+            if v is None:
+                T = DEFAULT_DURATION_S
+        if v is None and (T is None or L is None):
+            from .simulate import paper_speed
+
+            v = paper_speed(self.period_m)
+        if T is None:
+            T = L / v + RAMP_S
+        elif L is None:
+            L = v * (T - RAMP_S)
+        elif v is None:
+            v = L / (T - RAMP_S) if T > RAMP_S else math.inf
+        elif abs(L / v + RAMP_S - T) > 1e-9 * T:
+            raise MorpiError(f"StudyConfig: duration {T:g} s, length_m {L:g} m and speed_mps {v:g} m/s disagree "
+                             f"(duration = length_m / speed_mps + {RAMP_S:g} s ramps); expected at most two of them")
+        if not (T >= 2 * RAMP_S and L / v >= RAMP_S):
+            raise MorpiError(f"StudyConfig.duration: {T:g} s for {L:g} m; expected at least {2 * RAMP_S:g} s "
+                             f"(the path starts and stops with {RAMP_S:g} s ramps)")
+        return L, v, T
+
+    def resolved(self) -> "StudyConfig":
+        """This config with `duration`, `length_m` and `speed_mps` all filled in (see :meth:`motion`).
+
+        Returns
+        -------
+        StudyConfig
+            A copy; the other fields are unchanged.
+
+        Examples
+        --------
+        >>> c = StudyConfig().resolved()                    # the paper's 6.3 m in 15 s
+        >>> c.length_m, round(c.speed_mps, 12), c.duration  # 6.3 m / (15 s - 1 s of ramps)
+        (6.3, 0.45, 15.0)
+        """
+        L, v, T = self.motion()
+        return replace(self, length_m=L, speed_mps=v, duration=T)
 
     def bias_sigmas(self) -> tuple:
-        """(accelerometer, gyro) bias 1 sigma per axis after calibration [m/s^2, rad/s]."""
+        """(accelerometer, gyro) bias 1 sigma per axis after calibration [m/s^2, rad/s].
+
+        Returns
+        -------
+        tuple of float
+            ``"RD"``: the datasheet turn-on biases; ``"GC"``: the gyro one
+            replaced by ``gyro_noise / sqrt(cal_seconds)``; ``"GAC"``: both
+            replaced by ``noise / sqrt(cal_seconds)``.
+
+        Examples
+        --------
+        >>> sa, sg = StudyConfig(calibration="GAC", cal_seconds=4.0).bias_sigmas()
+        >>> sa == MPU6500.accel_noise / 2, sg == MPU6500.gyro_noise / 2
+        (True, True)
+        """
         ra = self.spec.accel_noise / math.sqrt(self.cal_seconds)
         rg = self.spec.gyro_noise / math.sqrt(self.cal_seconds)
-        return ({"none": self.spec.accel_bias, "gyro": self.spec.accel_bias, "gyro+accel": ra}[self.calibration],
-                {"none": self.spec.gyro_bias, "gyro": rg, "gyro+accel": rg}[self.calibration])
+        return ({"RD": self.spec.accel_bias, "GC": self.spec.accel_bias, "GAC": ra}[self.calibration],
+                {"RD": self.spec.gyro_bias, "GC": rg, "GAC": rg}[self.calibration])
 
     def validate(self) -> None:
-        """Raise MorpiError naming the first bad parameter."""
-        for name in ("duration", "rate_hz", "length_m", "period_m", "amplitude_m"):
+        """Raise MorpiError naming the first bad parameter.
+
+        Returns
+        -------
+        None
+
+        Raises
+        ------
+        MorpiError
+            A bad sensor, rate, path, motion, gain scenario, calibration or
+            run count, or a path shorter than 3 periods.
+
+        Examples
+        --------
+        >>> StudyConfig(length_m=2.0).validate()
+        Traceback (most recent call last):
+        ...
+        morpi_filters.errors.MorpiError: StudyConfig.length_m: 2 m holds fewer than 3 periods of 1.0 m (one tapered period at each end plus one step)
+        """
+        if not isinstance(self.spec, SensorSpec):
+            raise MorpiError(f"StudyConfig.spec: {self.spec!r}, expected a SensorSpec")
+        for name in ("rate_hz", "period_m", "amplitude_m"):
             v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            if isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise MorpiError(f"StudyConfig.{name}: {v!r}, expected a finite number > 0")
-        if self.duration * self.rate_hz < 2:
-            raise MorpiError(f"StudyConfig.duration: {self.duration} s at {self.rate_hz} Hz gives fewer than 2 samples")
-        if 3 * self.period_m > self.length_m:
-            raise MorpiError(f"StudyConfig.length_m: {self.length_m} m holds fewer than 3 periods of "
+        length, _, duration = self.motion()
+        if duration * self.rate_hz < 2:
+            raise MorpiError(f"StudyConfig.duration: {duration} s at {self.rate_hz} Hz gives fewer than 2 samples")
+        if 3 * self.period_m > length:
+            raise MorpiError(f"StudyConfig.length_m: {length:g} m holds fewer than 3 periods of "
                              f"{self.period_m} m (one tapered period at each end plus one step)")
+        if self.ins_path not in INS_PATHS:
+            raise MorpiError(f"StudyConfig.ins_path: {self.ins_path!r}, expected one of {INS_PATHS}")
         if not self.gains or not all(isinstance(g, GainError) for g in self.gains):
             raise MorpiError("StudyConfig.gains: expected a non-empty tuple of GainError")
         for g in self.gains:
             if not (math.isfinite(g.mean) and math.isfinite(g.std) and g.std >= 0 and g.mean > -1):
                 raise MorpiError(f"StudyConfig.gains: {g.label!r}: mean {g.mean}, std {g.std}; expected finite, "
                                  "std >= 0, mean > -1")
+        if len({g.label for g in self.gains}) != len(self.gains):
+            raise MorpiError("StudyConfig.gains: two scenarios share a label; expected distinct labels")
         if not (isinstance(self.keep_every, int) and self.keep_every >= 1):
             raise MorpiError(f"StudyConfig.keep_every: {self.keep_every!r}, expected a whole number >= 1")
         if self.calibration not in CALIBRATIONS:
@@ -293,19 +429,163 @@ class StudyResult:
     bands: np.ndarray | None = None
 
     def column(self, name: str) -> np.ndarray:
-        """Final errors of one column, shape (runs,)."""
+        """Final errors of one column, shape (runs,): ``"INS-3D"``, ``"INS-2D"`` or ``"MoRPI-A[<gain label>]"``.
+
+        Parameters
+        ----------
+        name : str
+            A name of :attr:`columns`.
+
+        Returns
+        -------
+        ndarray, shape (runs,)
+            Final horizontal position error [m] (a view into :attr:`final`).
+
+        Raises
+        ------
+        MorpiError
+            For a name not in `columns`.
+        """
+        if name not in self.columns:
+            raise MorpiError(f"column {name!r}: expected one of {', '.join(self.columns)}")
         return self.final[:, self.columns.index(name)]
+
+    def _gain_index(self, gain) -> int:
+        labels = [g.label for g in self.config.gains]
+        if gain is None:
+            return 0
+        if gain not in labels:
+            raise MorpiError(f"gain {gain!r}: expected one of {', '.join(map(repr, labels))}")
+        return labels.index(gain)
+
+    def final_error(self, method: str, gain: str | None = None) -> np.ndarray:
+        """Final horizontal error of one method [m], shape (runs,).
+
+        Parameters
+        ----------
+        method : {"INS-3D", "INS-2D", "MoRPI-A", "MoRPI-G"}
+        gain : str, optional
+            Label of the gain scenario of a MoRPI method (default: the first).
+
+        Returns
+        -------
+        ndarray, shape (runs,)
+            The column of :attr:`final` [m] (NaN for the INS methods when
+            ``config.ins`` is False).
+
+        Raises
+        ------
+        MorpiError
+            An unknown method or gain label.
+        """
+        if method in METHODS[:2]:
+            return self.column(method)
+        if method not in METHODS:
+            raise MorpiError(f"method {method!r}: expected one of {', '.join(METHODS)}")
+        return self.column(f"{method}[{self.config.gains[self._gain_index(gain)].label}]")
+
+    def distance_error_of(self, method: str, gain: str | None = None) -> np.ndarray:
+        """Along-track distance error ``sum(s_k) - D`` of a MoRPI method [m], shape (runs,).
+
+        Parameters
+        ----------
+        method : {"MoRPI-A", "MoRPI-G"}
+        gain : str, optional
+            Label of the gain scenario (default: the first).
+
+        Returns
+        -------
+        ndarray, shape (runs,)
+            The slice of :attr:`distance_error` [m].
+
+        Raises
+        ------
+        MorpiError
+            A method other than the two MoRPI ones, or an unknown gain label.
+        """
+        if method not in METHODS[2:]:
+            raise MorpiError(f"method {method!r}: expected 'MoRPI-A' or 'MoRPI-G'")
+        return self.distance_error[:, self._gain_index(gain), METHODS.index(method) - 2]
+
+    def curve(self, method: str, statistic: str = "rms") -> np.ndarray:
+        """Horizontal error over :attr:`time` of one method, primary gain scenario [m], shape (m,).
+
+        Parameters
+        ----------
+        method : {"INS-3D", "INS-2D", "MoRPI-A", "MoRPI-G"}
+        statistic : {"rms", "p5", "p50", "p95"}
+            Root mean square over the runs, or a percentile band of :attr:`bands`.
+
+        Returns
+        -------
+        ndarray, shape (m,)
+            The column of :attr:`rms` or of :attr:`bands` [m].
+
+        Raises
+        ------
+        MorpiError
+            An unknown method or statistic.
+        """
+        if method not in METHODS:
+            raise MorpiError(f"method {method!r}: expected one of {', '.join(METHODS)}")
+        j = METHODS.index(method)
+        if statistic == "rms":
+            return self.rms[:, j]
+        names = tuple(f"p{p:g}" for p in BAND_PERCENTILES)
+        if statistic not in names:
+            raise MorpiError(f"statistic {statistic!r}: expected 'rms' or one of {', '.join(names)}")
+        return self.bands[:, j, names.index(statistic)]
 
 
 # ----------------------------------------------------------------------------- seeding
 
 def child_seed(seed: int, i: int) -> np.random.SeedSequence:
-    """The seed of run `i`: identical to ``SeedSequence(seed).spawn(i + 1)[i]``."""
+    """The seed of run `i`: identical to ``SeedSequence(seed).spawn(i + 1)[i]``.
+
+    Built directly with ``spawn_key=(i,)``, so run i's seed needs neither the
+    other runs' seeds nor the run count.
+
+    Parameters
+    ----------
+    seed : int
+        Study seed (>= 0).
+    i : int
+        Run index (>= 0).
+
+    Returns
+    -------
+    numpy.random.SeedSequence
+
+    Examples
+    --------
+    >>> a = child_seed(7, 2).generate_state(4)
+    >>> b = np.random.SeedSequence(7).spawn(3)[2].generate_state(4)
+    >>> bool((a == b).all())
+    True
+    """
     return np.random.SeedSequence(seed, spawn_key=(i,))
 
 
 def digest(final: np.ndarray) -> str:
-    """sha256 hex digest of per-run final errors, shape (runs, columns), float64 little-endian, C order."""
+    """sha256 hex digest of per-run final errors, shape (runs, columns), float64 little-endian, C order.
+
+    Parameters
+    ----------
+    final : array_like, shape (runs, columns)
+        Final errors [m]; converted to little-endian float64.
+
+    Returns
+    -------
+    str
+        64 hexadecimal characters.
+
+    Examples
+    --------
+    >>> digest(np.zeros((0, 4))) == hashlib.sha256(b"").hexdigest()     # no bytes at all
+    True
+    >>> digest([[1.0]]) == hashlib.sha256(np.float64(1.0).tobytes()).hexdigest()
+    True
+    """
     a = np.ascontiguousarray(np.asarray(final, dtype="<f8"))
     return hashlib.sha256(a.tobytes(order="C")).hexdigest()
 
@@ -326,8 +606,13 @@ class _Path:
 
 
 def _time_grid(cfg: StudyConfig) -> np.ndarray:
-    n = int(round(cfg.duration * cfg.rate_hz)) + 1
+    n = _samples(cfg.motion()[2], cfg.rate_hz)
     return np.arange(n) / cfg.rate_hz
+
+
+def _samples(duration: float, rate_hz: float) -> int:
+    """Samples of a run from t = 0 until the first sample at or after `duration`."""
+    return int(math.ceil(duration * rate_hz - 1e-9)) + 1
 
 
 def _as_path(traj, t: np.ndarray, peaks: np.ndarray) -> _Path:
@@ -335,27 +620,31 @@ def _as_path(traj, t: np.ndarray, peaks: np.ndarray) -> _Path:
 
 
 @functools.lru_cache(maxsize=8)
-def _paths_cached(length, period, amplitude, duration, rate_hz):
+def _paths_cached(length, speed, period, amplitude, duration, rate_hz, ins_path):
     from . import simulate
 
-    t = np.arange(int(round(duration * rate_hz)) + 1) / rate_hz
-    st = simulate.straight(length, rest=0.0, rate_hz=rate_hz).at(t)
-    if np.abs(st.omega_b).max() > 0 or np.abs(st.pitch).max() > 0 or np.abs(st.heading).max() > 0:
-        raise MorpiError("simulate.straight: expected a level path along x (the INS kernel assumes C_bn = I)")
-    sn = simulate.sine(length, period=period, amplitude=amplitude, rest=0.0, rate_hz=rate_hz)
-    if sn.end_time > t[-1] + 1e-9:
-        raise MorpiError(f"StudyConfig.duration: {duration} s is shorter than the sine path's "
-                         f"{sn.end_time:.2f} s; expected a longer duration or a shorter length_m")
+    t = np.arange(_samples(duration, rate_hz)) / rate_hz
+    sn = simulate.sine(length, period=period, amplitude=amplitude, speed=speed, rest=0.0, rate_hz=rate_hz)
+    if abs(sn.end_time - duration) > 1e-9 * duration:
+        raise MorpiError(f"StudyConfig: the sine path lasts {sn.end_time:.6g} s, expected {duration:.6g} s")
+    sine = sn.at(t)
+    if np.abs(sine.heading[0]) > 1e-12 or np.abs(sine.pitch).max() > 0:
+        raise MorpiError("simulate.sine: expected a level path starting along x (the INS kernel starts at C_bn = I)")
     # f_y maxima: the right-hand lateral extremes (centripetal acceleration to the left)
     pt = sn.peak_times[sn.peak_side < 0]
     peaks = np.unique(np.rint(pt * rate_hz).astype(int))
-    return _as_path(st, t, np.array([0, t.size - 1])), _as_path(sn.at(t), t, peaks)
+    sine = _as_path(sine, t, peaks)
+    if ins_path == "sine":
+        return sine, sine
+    st = simulate.straight(length, speed=speed, rest=0.0, rate_hz=rate_hz).at(t)
+    return _as_path(st, t, np.array([0, t.size - 1])), sine
 
 
 def _paths(cfg: StudyConfig):
-    """(straight, sine, backend name) sampled on the study's time grid."""
-    st, sn = _paths_cached(cfg.length_m, cfg.period_m, cfg.amplitude_m, cfg.duration, cfg.rate_hz)
-    return st, sn, "simulate.straight / simulate.sine (rest 0 s, sampled on the study grid)"
+    """(path of the INS, sine path of MoRPI, backend name) sampled on the study's time grid."""
+    L, v, T = cfg.motion()
+    ins, sn = _paths_cached(L, v, cfg.period_m, cfg.amplitude_m, T, cfg.rate_hz, cfg.ins_path)
+    return ins, sn, f"simulate.sine / simulate.{cfg.ins_path} (rest 0 s, sampled on the study grid)"
 
 
 # ----------------------------------------------------------------------------- mechanizations
@@ -394,20 +683,33 @@ def reference_gains(cfg: StudyConfig):
     the G_j, as in the paper's gain calculation [1]. Uses one Generator seeded
     with a fixed constant, so the gains are a property of the path and sensor.
 
+    Parameters
+    ----------
+    cfg : StudyConfig
+        Sensor, path, rate and ``training_runs`` of the training set.
+
     Returns
     -------
     gains : tuple of float
-        (G_A, G_G).
+        (G_A [m/(m/s^2)^(1/4)], G_G [m/(rad/s)^(1/4)]).
     cv : tuple of float
         Coefficient of variation of the per-run gains (spread / mean).
+
+    Examples
+    --------
+    >>> (ga, gg), (cv_a, cv_g) = reference_gains(StudyConfig(training_runs=20))
+    >>> bool(ga > 0 and gg > 0 and cv_a < 0.01 and cv_g < 0.01)
+    True
+    >>> reference_gains(StudyConfig(training_runs=20)) == ((ga, gg), (cv_a, cv_g))   # a fixed seed
+    True
     """
-    return _reference_gains(cfg.spec, cfg.length_m, cfg.period_m, cfg.amplitude_m, cfg.duration, cfg.rate_hz,
-                            cfg.training_runs)
+    L, v, _ = cfg.motion()
+    return _reference_gains(cfg.spec, L, v, cfg.period_m, cfg.amplitude_m, cfg.rate_hz, cfg.training_runs)
 
 
 @functools.lru_cache(maxsize=16)
-def _reference_gains(spec, length_m, period_m, amplitude_m, duration, rate_hz, training_runs):
-    cfg = StudyConfig(spec=spec, length_m=length_m, period_m=period_m, amplitude_m=amplitude_m, duration=duration,
+def _reference_gains(spec, length_m, speed_mps, period_m, amplitude_m, rate_hz, training_runs):
+    cfg = StudyConfig(spec=spec, length_m=length_m, speed_mps=speed_mps, period_m=period_m, amplitude_m=amplitude_m,
                       rate_hz=rate_hz, training_runs=training_runs)
     _, sine, _ = _paths(cfg)
     rng = np.random.Generator(np.random.PCG64(np.random.SeedSequence(_TRAINING_SEED)))
@@ -433,7 +735,9 @@ def _reference_gains(spec, length_m, period_m, amplitude_m, duration, rate_hz, t
 class _Payload:
     configs: tuple          # StudyConfig of each study; they share the draws and the paths
     seed: int
-    straight: _Path
+    ins_path: _Path         # the path INS-3D and INS-2D drive
+    ins_heading: np.ndarray | None   # its heading integrated by the kernel's rule (None: straight)
+    ins_truth: tuple        # ((x, y) 3D, (x, y) 2D) of the kernels on its true signals, at `keep`
     sine: _Path
     gain_ref: tuple
     keep: np.ndarray
@@ -479,44 +783,58 @@ def _chunk(payload: _Payload, a: int, b: int) -> list:
         for c in range(6):
             np.multiply(zr[:, c, :].T, sa if c < 3 else sg, out=err[c])
             err[c] += ba[:, c] if c < 3 else bg[:, c - 3]
-        # heading error integrated from the gyro-z error (on the straight line: the whole heading)
+        # heading error integrated from the gyro-z error
         # (trapezoid: psi_k = h (sum_{i<k} w_i + (w_k - w_0) / 2))
         psi = bi.prefix_rows(err[5], np.empty((n, R)))
         psi += 0.5 * err[5]
         psi -= 0.5 * err[5, 0]
         psi *= h
-        ins_e = None
-        if any(payload.configs[i].ins for i in members):
-            ins_e = _ins_errors(payload, err, psi, h, keep)
         # MoRPI on the sine path: Weinberg terms from the measured signals (constant biases cancel in
         # max - min); heading = true heading + integrated gyro-z error.
         pk = sine.peaks
         dfa = _weinberg_terms(err[1], sine.f_b[:, 1], pk)          # (R, K)
         dfg = _weinberg_terms(err[5], sine.omega_b[:, 2], pk)
-        del err
         hd = (psi[pk[1:]] + sine.psi[pk[1:], None]).T                # (R, K) heading at each step's end peak
-        del psi
         trig = (np.cos(hd), np.sin(hd))
+        ins_e = None
+        if any(payload.configs[i].ins for i in members):
+            ins_e = _ins_errors(payload, err, psi, h, keep)
+        del err, psi
         for i in members:
             out[i] = _study_chunk(payload, payload.configs[i], ins_e, dfa, dfg, trig, zg, R)
     return out
 
 
 def _ins_errors(payload, err, psi, h, keep):
-    """INS-3D and INS-2D horizontal errors (R, m) on the level straight line from rest.
+    """INS-3D and INS-2D horizontal errors (R, m) on the INS path from rest.
 
-    The true motion is f_b = (a_x(t), 0, g), omega_b = 0, C_bn = I; the truth
-    goes through the same integration rule, so the difference is the error of
-    the mechanization. Overwrites ``err[0]`` and ``err[2]``.
+    The measured signals are the true ones of the path plus `err`; both go
+    through the same integration rules (the truth once, in
+    :func:`_ins_truth`), so the difference is the error the sensor errors
+    cause. Overwrites `err` with the measured signals.
     """
-    st = payload.straight
-    err[0] += st.f_b[:, 0, None]
-    err[2] += st.f_b[:, 2, None]
-    f = [err[0], err[1], err[2]]
-    w = [err[3], err[4], err[5]]
-    tx = bi.double_integral_at(st.f_b[:, 0, None], h, keep)            # (m, 1)
-    return [np.hypot(x - tx, y).T for x, y in (bi.straight_errors_3d(h, f, w, keep),
-                                                bi.straight_errors_2d(f, psi, h, keep))]
+    path = payload.ins_path
+    for c in range(3):
+        err[c] += path.f_b[:, c, None]
+        if path.omega_b[:, c].any():
+            err[3 + c] += path.omega_b[:, c, None]
+    f, w = [err[0], err[1], err[2]], [err[3], err[4], err[5]]
+    (x3, y3), (x2, y2) = payload.ins_truth
+    return [np.hypot(x - tx, y - ty).T for (x, y), tx, ty in (
+        (bi.horizontal_3d(h, f, w, keep), x3, y3),
+        (bi.horizontal_2d(f, psi, h, keep, heading=payload.ins_heading), x2, y2))]
+
+
+def _ins_truth(path: _Path, h: float, keep: np.ndarray):
+    """(trapezoid heading (n,) or None, ((x, y) of the 3D kernel, (x, y) of the 2D kernel)) on the true signals."""
+    f = [path.f_b[:, c, None].copy() for c in range(3)]
+    w = [path.omega_b[:, c, None].copy() for c in range(3)]
+    heading = None
+    if path.omega_b[:, 2].any():
+        wz = path.omega_b[:, 2]
+        heading = np.concatenate([[0.0], np.cumsum(0.5 * h * (wz[1:] + wz[:-1]))])
+    zero = np.zeros((path.time.size, 1))
+    return heading, (bi.horizontal_3d(h, f, w, keep), bi.horizontal_2d(f, zero, h, keep, heading=heading))
 
 
 def _study_chunk(payload, cfg, ins_e, dfa, dfg, trig, zg, R) -> dict:
@@ -585,9 +903,14 @@ def _band_counts(series) -> tuple:
 def band_quantiles(counts, q=BAND_PERCENTILES) -> np.ndarray:
     """Percentiles from histogram counts over :data:`_BAND_EDGES`.
 
+    The bins are the first one from 0 to ``BAND_RANGE_M[0]`` and then
+    ``10 * BAND_BINS_PER_DECADE`` log-spaced ones up to ``BAND_RANGE_M[1]``
+    (401 in all) [m].
+
     Parameters
     ----------
-    counts : ndarray, shape (..., bins)
+    counts : ndarray, shape (..., 401)
+        Counts per bin.
     q : sequence of float
         Percentiles in [0, 100].
 
@@ -596,6 +919,22 @@ def band_quantiles(counts, q=BAND_PERCENTILES) -> np.ndarray:
     ndarray, shape (..., len(q))
         Interpolated geometrically inside a bin (linearly in the first bin,
         which starts at 0); NaN where the counts are all zero.
+
+    Examples
+    --------
+    Everything in the first bin (0 to 1 um) reads linearly; nothing at all is NaN:
+
+    >>> counts = np.zeros((2, 401))
+    >>> counts[0, 0] = 10
+    >>> (band_quantiles(counts, q=(50.0, 100.0)) * 1e6).round(9).tolist()
+    [[0.5, 1.0], [nan, nan]]
+
+    Everything in the bin from 1 to ``10 ** (1 / 40)`` m reads geometrically:
+
+    >>> one = np.zeros(401)
+    >>> one[241] = 4
+    >>> round(float(band_quantiles(one, q=(50.0,))[0]), 12) == round(10 ** (1 / 80), 12)
+    True
     """
     counts = np.asarray(counts, float)
     cum = np.cumsum(counts, axis=-1)
@@ -634,6 +973,15 @@ def _default_chunk(n: int) -> int:
     return max(1, _CHUNK_BYTES // (8 * (_N_HEAD + 6 * n)))
 
 
+def _study_seed(seed) -> int:
+    """A study seed from an int, or drawn once from a numpy Generator (``rng``)."""
+    if isinstance(seed, np.random.Generator):
+        return int(seed.integers(0, 2**63))
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise MorpiError(f"seed: {seed!r}, expected a whole number >= 0 or a numpy.random.Generator")
+    return int(seed)
+
+
 def _check_runs(runs, seed, chunk):
     if isinstance(runs, bool) or not isinstance(runs, (int, np.integer)) or runs < 1:
         raise MorpiError(f"runs: {runs!r}, expected a whole number >= 1")
@@ -645,8 +993,8 @@ def _check_runs(runs, seed, chunk):
 
 #: StudyConfig fields that fix the draws and the paths: the studies of one
 #: :func:`run_studies` call must agree on them.
-_SHARED_FIELDS = ("spec", "duration", "rate_hz", "length_m", "period_m", "amplitude_m", "keep_every",
-                  "training_runs", "cal_seconds")
+_SHARED_FIELDS = ("spec", "duration", "rate_hz", "length_m", "speed_mps", "period_m", "amplitude_m", "ins_path",
+                  "keep_every", "training_runs", "cal_seconds")
 
 
 def run_study(runs: int, seed: int, config: StudyConfig | None = None, *, chunk: int | None = None,
@@ -657,8 +1005,9 @@ def run_study(runs: int, seed: int, config: StudyConfig | None = None, *, chunk:
     ----------
     runs : int
         Number of runs N (axis 0 of every output).
-    seed : int
-        Study seed; run i uses ``SeedSequence(seed).spawn(N)[i]``.
+    seed : int or numpy.random.Generator
+        Study seed; run i uses ``SeedSequence(seed).spawn(N)[i]``. A
+        Generator (``rng``) gives the seed by one draw of ``rng.integers(0, 2**63)``.
     config : StudyConfig, optional
         What to simulate (default: a :class:`StudyConfig` with its defaults).
     chunk : int, optional
@@ -677,6 +1026,30 @@ def run_study(runs: int, seed: int, config: StudyConfig | None = None, *, chunk:
     Returns
     -------
     StudyResult
+        With the config resolved (:meth:`StudyConfig.resolved`), the final
+        errors of every method and scenario, the per-epoch RMS and bands, the
+        distance errors, the applied gain errors and the digest.
+
+    Raises
+    ------
+    MorpiError
+        A bad run count, seed, chunk or config.
+
+    Examples
+    --------
+    A MoRPI-only study with a 5 % gain error: the distance error is about
+    5 % of the distance, and the numbers do not depend on the chunk size.
+
+    >>> cfg = StudyConfig(training_runs=20, ins=False, gains=(GainError("dG = 5 %", 0.05),))
+    >>> r = run_study(40, 3, cfg)
+    >>> r.columns
+    ('INS-3D', 'INS-2D', 'MoRPI-A[dG = 5 %]', 'MoRPI-G[dG = 5 %]')
+    >>> r.final.shape, r.rms.shape == (r.time.size, 4), r.errors is None
+    ((40, 4), True, True)
+    >>> round(float(r.distance_error_of("MoRPI-G").mean() / r.distance), 2)
+    0.05
+    >>> run_study(40, 3, cfg, chunk=7).digest == r.digest
+    True
     """
     return run_studies(runs, seed, (StudyConfig() if config is None else config,), chunk=chunk, workers=workers,
                        scheduler=scheduler, progress=progress, series=series)[0]
@@ -702,6 +1075,7 @@ def run_studies(runs: int, seed: int, configs, *, chunk: int | None = None, work
     runs, seed, chunk, workers, scheduler, progress, series
         As in :func:`run_study`.
     configs : sequence of StudyConfig
+        The studies; they must agree on the fields that fix the draws and paths.
     label : str
         Name of the progress line.
 
@@ -709,6 +1083,20 @@ def run_studies(runs: int, seed: int, configs, *, chunk: int | None = None, work
     -------
     tuple of StudyResult
         One per config, in order.
+
+    Raises
+    ------
+    MorpiError
+        An empty or invalid config list, configs that differ in a shared
+        field, or a bad run count, seed or chunk.
+
+    Examples
+    --------
+    >>> raw = StudyConfig(training_runs=20, ins=False)
+    >>> gac = replace(raw, calibration="GAC")
+    >>> both = run_studies(20, 5, (raw, gac))
+    >>> [r.config.calibration for r in both], both[1].digest == run_study(20, 5, gac).digest
+    (['RD', 'GAC'], True)
     """
     t0 = _time.perf_counter()
     configs = tuple(configs)
@@ -716,20 +1104,24 @@ def run_studies(runs: int, seed: int, configs, *, chunk: int | None = None, work
         raise MorpiError("configs: expected a non-empty sequence of StudyConfig")
     for c in configs:
         c.validate()
+    configs = tuple(c.resolved() for c in configs)
+    for c in configs:
         for name in _SHARED_FIELDS:
             if getattr(c, name) != getattr(configs[0], name):
                 raise MorpiError(f"configs: StudyConfig.{name} differs between studies of one pass "
                                  f"({getattr(configs[0], name)!r} and {getattr(c, name)!r}); run them separately")
+    seed = _study_seed(seed)
     _check_runs(runs, seed, chunk)
-    runs, seed = int(runs), int(seed)
+    runs = int(runs)
     cfg = configs[0]
-    straight, sine, traj_backend = _paths(cfg)
+    ins_path, sine, traj_backend = _paths(cfg)
     if sine.peaks.size < 2:
         raise MorpiError("StudyConfig: the sine path has fewer than two period boundaries")
     n = sine.time.size
     keep = np.unique(np.r_[np.arange(0, n, cfg.keep_every), n - 1])
     gain_ref, cv = reference_gains(cfg)
-    payload = _Payload(configs, seed, straight, sine, gain_ref, keep, bool(series))
+    ins_heading, ins_truth = _ins_truth(ins_path, 1.0 / cfg.rate_hz, keep)
+    payload = _Payload(configs, seed, ins_path, ins_heading, ins_truth, sine, gain_ref, keep, bool(series))
     chunk = _default_chunk(n) if chunk is None else int(chunk)
     ranges = chunk_ranges(runs, min(chunk, runs))
     prog = Progress(runs, label, runs > 1000 if progress is None else progress)
@@ -739,7 +1131,7 @@ def run_studies(runs: int, seed: int, configs, *, chunk: int | None = None, work
     out = []
     for c, red in zip(configs, acc):
         final = red.cat("final")
-        columns = ("ins3d", "ins2d") + tuple(f"{m}[{g.label}]" for g in c.gains for m in ("morpi_a", "morpi_g"))
+        columns = METHODS[:2] + tuple(f"{m}[{g.label}]" for g in c.gains for m in METHODS[2:])
         with np.errstate(invalid="ignore", divide="ignore"):
             rms = np.where(red.count > 0, np.sqrt(red.sumsq / np.maximum(red.count, 1)), np.nan)
         out.append(StudyResult(
@@ -748,8 +1140,9 @@ def run_studies(runs: int, seed: int, configs, *, chunk: int | None = None, work
             distance=_chord_sum(sine), steps=int(sine.peaks.size - 1), gain_ref=gain_ref, gain_ref_cv=cv,
             digest=digest(final),
             backends={"trajectories": traj_backend,
-                      "ins": "montecarlo straight-line kernel (quaternion attitude, trapezoid integration; "
-                             "matches strapdown.ins3d/ins2d to 1e-6 of the error without noise)"},
+                      "ins": f"batched strapdown kernel on the {c.ins_path} path (quaternion attitude, "
+                             "trapezoid integration, the truth through the same rules; tested against "
+                             "strapdown.ins3d/ins2d)"},
             elapsed=_time.perf_counter() - t0, rms=rms, bands=band_quantiles(red.hist)))
     return tuple(out)
 
@@ -791,7 +1184,24 @@ class _Reduction:
 
 
 def summarize(x: np.ndarray) -> dict:
-    """mean, std (ddof=1), median and 95th percentile of a sample (NaN-free) [same unit as x]."""
+    """mean, std (ddof=1), median and 95th percentile of a sample (NaN-free) [same unit as x].
+
+    Parameters
+    ----------
+    x : array_like, shape (n,)
+        The sample, n >= 1.
+
+    Returns
+    -------
+    dict
+        ``mean``, ``std`` (sample standard deviation, 0.0 for one value),
+        ``median`` and ``p95`` (linear interpolation), as floats.
+
+    Examples
+    --------
+    >>> {k: round(v, 6) for k, v in summarize([1.0, 2.0, 3.0, 4.0]).items()}
+    {'mean': 2.5, 'std': 1.290994, 'median': 2.5, 'p95': 3.85}
+    """
     x = np.asarray(x, float)
     return {"mean": float(x.mean()), "std": float(x.std(ddof=1)) if x.size > 1 else 0.0,
             "median": float(np.median(x)), "p95": float(np.percentile(x, 95))}
@@ -841,6 +1251,33 @@ def training_runs_study(ks, *, mismatch: float, spread: float, runs: int, seed: 
 
     Each k reuses the study seed, so the runs share their sensor draws and only
     the gain differs (common random numbers).
+
+    Parameters
+    ----------
+    ks : sequence of int
+        Numbers of training runs, each >= 1.
+    mismatch : float
+        Motion mismatch between training and use (fraction of the gain).
+    spread : float
+        Per-run gain spread, 1 sigma (fraction), >= 0.
+    runs, seed, chunk, scheduler, progress
+        As in :func:`run_study`.
+    config : StudyConfig, optional
+        Path and sensor (default :class:`StudyConfig`); its INS and gain
+        scenarios are replaced.
+
+    Returns
+    -------
+    TrainingStudy
+
+    Examples
+    --------
+    >>> t = training_runs_study([1, 4], mismatch=0.0, spread=0.05, runs=20, seed=0,
+    ...                         config=StudyConfig(training_runs=20))
+    >>> round(float(t.rms_expected[0] / t.rms_expected[1]), 12)     # sqrt(4 / 1)
+    2.0
+    >>> t.rms_distance.shape, t.final.shape
+    ((2, 2), (2, 2, 4))
     """
     base = StudyConfig() if config is None else config
     cfgs = training_configs(ks, mismatch=mismatch, spread=spread, config=base)
@@ -850,7 +1287,34 @@ def training_runs_study(ks, *, mismatch: float, spread: float, runs: int, seed: 
 
 
 def training_configs(ks, *, mismatch: float, spread: float, config: StudyConfig | None = None) -> tuple:
-    """The MoRPI-only study configs of :func:`training_runs_study`, one per k (for :func:`run_studies`)."""
+    """The MoRPI-only study configs of :func:`training_runs_study`, one per k (for :func:`run_studies`).
+
+    Parameters
+    ----------
+    ks : sequence of int
+        Numbers of training runs, each >= 1.
+    mismatch, spread : float
+        As in :func:`training_runs_study`.
+    config : StudyConfig, optional
+        The base config (default :class:`StudyConfig`).
+
+    Returns
+    -------
+    tuple of StudyConfig
+        Copies of `config` with ``ins=False`` and one gain scenario
+        ``GainError("k = <k>", mismatch, spread / sqrt(k))``.
+
+    Raises
+    ------
+    MorpiError
+        An empty `ks` or one below 1, a negative spread or a non-finite value.
+
+    Examples
+    --------
+    >>> cfgs = training_configs([1, 4], mismatch=0.02, spread=0.1)
+    >>> [(c.gains[0].label, c.gains[0].mean, c.gains[0].std, c.ins) for c in cfgs]
+    [('k = 1', 0.02, 0.1, False), ('k = 4', 0.02, 0.05, False)]
+    """
     ks = np.asarray(ks, int)
     if ks.ndim != 1 or ks.size == 0 or (ks < 1).any():
         raise MorpiError(f"ks: {ks.tolist()!r}, expected whole numbers >= 1")
@@ -862,7 +1326,29 @@ def training_configs(ks, *, mismatch: float, spread: float, config: StudyConfig 
 
 
 def training_summary(ks, results, *, mismatch: float, spread: float) -> TrainingStudy:
-    """A :class:`TrainingStudy` from the results of the :func:`training_configs` studies."""
+    """A :class:`TrainingStudy` from the results of the :func:`training_configs` studies.
+
+    Parameters
+    ----------
+    ks : sequence of int
+        The numbers of training runs given to :func:`training_configs`.
+    results : sequence of StudyResult
+        The studies of those configs, in the same order.
+    mismatch, spread : float
+        As given to :func:`training_configs`.
+
+    Returns
+    -------
+    TrainingStudy
+
+    Examples
+    --------
+    >>> ks = [2, 8]
+    >>> cfgs = training_configs(ks, mismatch=0.0, spread=0.04, config=StudyConfig(training_runs=20))
+    >>> t = training_summary(ks, run_studies(20, 1, cfgs), mismatch=0.0, spread=0.04)
+    >>> t.k.tolist(), bool(np.allclose(t.rms_expected, t.distance * 0.04 / np.sqrt(ks)))
+    ([2, 8], True)
+    """
     ks = np.asarray(ks, int)
     rms, fin, dig = [], [], []
     D = results[0].distance
@@ -870,7 +1356,7 @@ def training_summary(ks, results, *, mismatch: float, spread: float) -> Training
         label = r.config.gains[0].label
         rms.append(np.sqrt(np.mean(r.distance_error[:, 0, :] ** 2, axis=0)))
         fin.append([[summarize(r.column(f"{m}[{label}]"))[q] for q in ("mean", "std", "median", "p95")]
-                    for m in ("morpi_a", "morpi_g")])
+                    for m in METHODS[2:]])
         dig.append(r.digest)
     return TrainingStudy(ks, float(mismatch), float(spread), np.array(rms),
                          D * np.sqrt(mismatch ** 2 + spread ** 2 / ks), np.array(fin), tuple(dig), float(D))
@@ -916,7 +1402,20 @@ class DriftMap:
 
     def onset(self, which: str = "3d", level: float = 0.01) -> np.ndarray:
         """Time [s] from which the median disagreement stays above `level` to the end, per bias
-        (NaN: below it at the end)."""
+        (NaN: below it at the end).
+
+        Parameters
+        ----------
+        which : {"3d", "2d"}
+            Which mechanization's disagreement (anything but ``"3d"`` reads ``"2d"``).
+        level : float
+            Relative disagreement threshold (0.01 is 1 %).
+
+        Returns
+        -------
+        ndarray, shape (L,)
+            One time per gyro bias level [s].
+        """
         rel = self.rel_3d if which == "3d" else self.rel_2d
         out = np.full(rel.shape[0], np.nan)
         for i, row in enumerate(rel):
@@ -1006,8 +1505,10 @@ def drift_map(gyro_bias=None, *, spec: SensorSpec = MPU6500, duration: float = 1
         Source of the accelerometer bias sigma.
     duration, rate_hz : float
         Length [s] and sampling rate [Hz].
-    draws, seed : int
-        Bias draws per level and their seed.
+    draws : int
+        Bias draws per level.
+    seed : int or numpy.random.Generator
+        Their seed (a Generator gives it by one draw, as in :func:`run_study`).
     keep_every : int
         Keep every k-th sample in time.
     chunk, scheduler, progress
@@ -1016,12 +1517,30 @@ def drift_map(gyro_bias=None, *, spec: SensorSpec = MPU6500, duration: float = 1
     Returns
     -------
     DriftMap
+        Medians and 90th percentiles over the draws of the relative
+        disagreement per level and kept time, and the median final errors.
+
+    Raises
+    ------
+    MorpiError
+        Bad levels, duration, rate, draw count, seed or chunk.
+
+    Examples
+    --------
+    Over 2 s the two models agree to well below 1 % at 0.1 and 1 deg/s:
+
+    >>> d = drift_map([0.1 * DEG_S, 1.0 * DEG_S], draws=4, duration=2.0)
+    >>> d.rel_3d.shape, bool((d.rel_3d[:, -1] < 0.01).all()), d.onset("3d").tolist()
+    ((2, 20), True, [nan, nan])
+    >>> bool(np.allclose(d.final_3d[:, 0], d.final_3d[:, 1], rtol=0.01))
+    True
     """
     levels = np.logspace(-2, 1, 25) * DEG_S if gyro_bias is None else np.asarray(gyro_bias, float)
     if levels.ndim != 1 or levels.size == 0 or not np.all(np.isfinite(levels)) or (levels <= 0).any():
         raise MorpiError("gyro_bias: expected a 1-D list of finite levels > 0 [rad/s]")
     if not (math.isfinite(duration) and duration > 0 and math.isfinite(rate_hz) and duration * rate_hz >= 2):
         raise MorpiError(f"duration/rate_hz: {duration!r} s at {rate_hz!r} Hz, expected at least 2 samples")
+    seed = _study_seed(seed)
     _check_runs(draws, seed, chunk)
     n = int(round(duration * rate_hz)) + 1
     t = np.arange(n) / rate_hz
@@ -1071,22 +1590,60 @@ def _field_gain_spread(source, tables=None):
     return float(spread), float(mismatch), f"per-run training gains of {source.root}"
 
 
-def _stats_block(result: StudyResult) -> dict:
+def final_statistics(result: StudyResult) -> dict:
+    """Statistics of the final horizontal error of each method, primary gain scenario.
+
+    Parameters
+    ----------
+    result : StudyResult
+
+    Returns
+    -------
+    dict
+        Method name (:data:`METHODS`) -> :func:`summarize` of its final
+        errors [m] (None for the INS methods when ``config.ins`` is False).
+
+    Examples
+    --------
+    >>> r = run_study(20, 0, StudyConfig(training_runs=20))
+    >>> sorted(final_statistics(r)), sorted(final_statistics(r)["MoRPI-G"])
+    (['INS-2D', 'INS-3D', 'MoRPI-A', 'MoRPI-G'], ['mean', 'median', 'p95', 'std'])
+    """
     g0 = result.config.gains[0].label
-    return {
-        "ins3d": summarize(result.column("ins3d")) if result.config.ins else None,
-        "ins2d": summarize(result.column("ins2d")) if result.config.ins else None,
-        "morpi_a": summarize(result.column(f"morpi_a[{g0}]")),
-        "morpi_g": summarize(result.column(f"morpi_g[{g0}]")),
-    }
+    out = {m: (summarize(result.column(m)) if result.config.ins else None) for m in METHODS[:2]}
+    out.update({m: summarize(result.column(f"{m}[{g0}]")) for m in METHODS[2:]})
+    return out
 
 
-def _distance_check(result: StudyResult) -> list:
-    """Monte Carlo MoRPI distance error against the analytical ds = dG D for the same dG draws.
+def distance_law_check(result: StudyResult) -> list:
+    """Check the MoRPI distance law ``ds = dG D`` on a study's own gain draws.
 
-    Per scenario: the analytical mean is ``mean_i(dG_i) D`` (``dG D`` for a
-    fixed gain error); the check is ``|mean_i(x_i - dG_i D)| <= z std_i(x_i - dG_i D) / sqrt(N)``
-    with z = :data:`Z99`.
+    A Weinberg gain off by the fraction dG scales every step, so the distance
+    error of a run is ``dG D`` plus what the sensor noise adds to the peak
+    amplitudes. Per gain scenario and MoRPI method, the residual
+    ``x_i - dG_i D`` of the simulated distance errors x_i must have a mean
+    within ``Z99 * std / sqrt(N)`` of zero (a two-sided 99 % test).
+
+    Parameters
+    ----------
+    result : StudyResult
+
+    Returns
+    -------
+    list of dict
+        One per gain scenario, with keys ``label``, ``dG_mean``, ``dG_std``,
+        ``analytic_mean`` (``mean_i(dG_i) D`` [m]), ``analytic_expected``
+        (``dG_mean D``), ``analytic_std_gain_only`` and, for ``"MoRPI-A"`` and
+        ``"MoRPI-G"``, a dict with ``mc_mean``, ``mc_std``, ``residual_mean``,
+        ``residual_std``, ``bound`` [m] and ``within`` (bool).
+
+    Examples
+    --------
+    >>> r = run_study(200, 1, StudyConfig(training_runs=50, ins=False,
+    ...                                   gains=(GainError("dG = 5 %", 0.05, 0.01),)))
+    >>> row = distance_law_check(r)[0]
+    >>> row["label"], row["MoRPI-A"]["within"], row["MoRPI-G"]["within"]
+    ('dG = 5 %', True, True)
     """
     rows = []
     N = result.runs
@@ -1096,7 +1653,7 @@ def _distance_check(result: StudyResult) -> list:
         row = {"label": g.label, "dG_mean": g.mean, "dG_std": g.std,
                "analytic_mean": float(ds.mean()), "analytic_expected": g.mean * D,
                "analytic_std_gain_only": float(ds.std(ddof=1)) if N > 1 else 0.0}
-        for m, name in enumerate(("morpi_a", "morpi_g")):
+        for m, name in enumerate(METHODS[2:]):
             x = result.distance_error[:, s_i, m]
             res = x - ds
             sd = float(res.std(ddof=1)) if N > 1 else float("inf")
@@ -1110,8 +1667,9 @@ def _distance_check(result: StudyResult) -> list:
 
 def _config_json(cfg: StudyConfig) -> dict:
     sa, sg = cfg.bias_sigmas()
-    return {"sensor": cfg.spec.name, "duration_s": cfg.duration, "rate_hz": cfg.rate_hz, "length_m": cfg.length_m,
-            "period_m": cfg.period_m, "amplitude_m": cfg.amplitude_m, "calibration": cfg.calibration,
+    length, speed, duration = cfg.motion()
+    return {"sensor": cfg.spec.name, "duration_s": duration, "rate_hz": cfg.rate_hz, "length_m": length,
+            "speed_mps": speed, "ins_path": cfg.ins_path, "period_m": cfg.period_m, "amplitude_m": cfg.amplitude_m, "calibration": cfg.calibration,
             "cal_seconds": cfg.cal_seconds, "accel_bias_sigma_mps2": sa, "gyro_bias_sigma_radps": sg,
             "accel_noise_sigma_mps2": cfg.spec.accel_noise * math.sqrt(cfg.rate_hz),
             "gyro_noise_sigma_radps": cfg.spec.gyro_noise * math.sqrt(cfg.rate_hz),
@@ -1132,7 +1690,7 @@ class GainErrorPage:
     training : TrainingStudy
         The gain from k training runs.
     checks : list of dict
-        :func:`_distance_check` of `calibrated`.
+        :func:`distance_law_check` of `calibrated`.
     spread, mismatch : float
         Per-run gain spread and motion mismatch of the training scenario (fractions).
     spread_note : str
@@ -1156,7 +1714,8 @@ class GainErrorPage:
     synthetic: bool = False
 
 
-def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, source=None, tables=None) -> GainErrorPage:
+def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, source=None, tables=None,
+                    duration: float | None = None, speed_mps: float | None = None) -> GainErrorPage:
     """Compute the gain-error Monte Carlo section.
 
     Two studies with the same seed: the primary one after a zero-order
@@ -1166,12 +1725,45 @@ def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, source=
     gains (from the dataset when the field gain training is available,
     otherwise an assumed value, stated on the page). Then the gain-training
     study over k training runs. `tables` (an ``evaluate.TablesResult`` of
-    ``source.root``) gives the trained gains when already computed.
+    ``source.root``) gives the trained gains when already computed;
+    `duration` and `speed_mps` shape the sine path as in :class:`StudyConfig`.
+
+    Parameters
+    ----------
+    runs : int
+        Monte Carlo runs per study.
+    seed : int or numpy.random.Generator
+        Study seed, as in :func:`run_study`.
+    chunk, scheduler
+        As in :func:`run_study`.
+    source : reporting.DataSource, optional
+        The dataset whose per-run training gains give the spread scenario
+        (None: the assumed spread and mismatch).
+    tables : evaluate.TablesResult, optional
+        Already computed tables of ``source.root``.
+    duration : float, optional
+        Motion time [s].
+    speed_mps : float, optional
+        Cruise speed [m/s].
 
     Returns
     -------
     GainErrorPage
+
+    Raises
+    ------
+    MorpiError
+        A bad run count, seed, chunk or path shape.
+
+    Examples
+    --------
+    >>> page = gain_error_page(runs=10, seed=0)
+    >>> page.assumed, page.spread == ASSUMED_SPREAD, page.calibrated.config.calibration, page.raw.config.calibration
+    (True, True, 'GAC', 'RD')
+    >>> [row["label"] for row in page.checks]
+    ['dG = 5 %', 'dG = 10 %', 'training spread']
     """
+    seed = _study_seed(seed)
     _check_runs(runs, seed, chunk)
     spread, mismatch, spread_note = _field_gain_spread(source, tables)
     assumed = spread is None
@@ -1179,13 +1771,14 @@ def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, source=
         spread, mismatch = ASSUMED_SPREAD, ASSUMED_MISMATCH
     gains = (GainError("dG = 5 %", 0.05), GainError("dG = 10 %", 0.10),
              GainError("training spread", mismatch, spread))
-    cal = StudyConfig(gains=gains, calibration="gyro+accel")
-    raw = replace(cal, calibration="none")
+    cal = StudyConfig(gains=gains, calibration="GAC", duration=duration, speed_mps=speed_mps)
+    cal.validate()
+    raw = replace(cal, calibration="RD")
     # one pass over the random numbers: every study of the page is a set of columns of the same draws
     tcfg = training_configs(TRAINING_KS, mismatch=mismatch, spread=spread, config=cal)
     r, rr, *tres = run_studies(runs, seed, (cal, raw, *tcfg), chunk=chunk, scheduler=scheduler)
     tr = training_summary(TRAINING_KS, tres, mismatch=mismatch, spread=spread)
-    return GainErrorPage(runs=runs, seed=seed, calibrated=r, raw=rr, training=tr, checks=_distance_check(r),
+    return GainErrorPage(runs=runs, seed=seed, calibrated=r, raw=rr, training=tr, checks=distance_law_check(r),
                          spread=spread, mismatch=mismatch, spread_note=spread_note, assumed=assumed,
                          synthetic=bool(getattr(source, "synthetic", False)))
 
@@ -1226,9 +1819,23 @@ class DriftPage:
 def drift_page(*, scheduler=None, spec: SensorSpec = MPU6500) -> DriftPage:
     """Compute the closed-form vs strapdown drift section.
 
+    Runs :func:`drift_map` on 25 log-spaced gyro bias levels from 0.01 to
+    10 deg/s plus the datasheet's (32 draws, 15 s); it takes seconds, so
+    there is no example here.
+
+    Parameters
+    ----------
+    scheduler : str or distributed.Client, optional
+        As in :func:`run_study`.
+    spec : SensorSpec
+        Accelerometer bias sigma and the extra datasheet gyro bias level.
+
     Returns
     -------
     DriftPage
+        The map, the log-log growth slopes per kind (``slope_in_bias_at_end``,
+        ``slope_in_time``, ``slope_in_time_bias_deg_s``) and the onset times
+        at 1 % and 10 % (keys ``3d_1pct``, ``3d_10pct``, ``2d_1pct``, ``2d_10pct``).
     """
     d = drift_map(_drift_levels(spec), spec=spec, scheduler=scheduler)
     bdeg = d.gyro_bias / DEG_S

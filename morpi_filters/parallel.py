@@ -17,7 +17,32 @@ __all__ = ["Progress", "chunk_ranges", "execute"]
 
 
 class Progress:
-    """A one-line progress indicator on stderr (rewritten in place on a terminal)."""
+    """A one-line progress indicator on stderr (rewritten in place on a terminal).
+
+    On a terminal the line is rewritten after every update and ends with the
+    elapsed time; elsewhere (a log file, a pipe) one line is printed each time
+    another tenth of the runs is done.
+
+    Parameters
+    ----------
+    total : int
+        Number of runs of the whole study.
+    label : str
+        Text at the start of the line (the study's name).
+    enabled : bool
+        When False, updates only count and nothing is written.
+
+    Examples
+    --------
+    >>> import contextlib, io
+    >>> err = io.StringIO()
+    >>> with contextlib.redirect_stderr(err):
+    ...     p = Progress(200, "drift", enabled=True)
+    ...     for _ in range(4):
+    ...         p.update(50)
+    >>> p.done, err.getvalue().splitlines()
+    (200, ['drift: 50/200 runs (25 %)', 'drift: 100/200 runs (50 %)', 'drift: 150/200 runs (75 %)', 'drift: 200/200 runs (100 %)'])
+    """
 
     def __init__(self, total: int, label: str, enabled: bool):
         self.total, self.label, self.enabled = total, label, enabled
@@ -27,6 +52,24 @@ class Progress:
         self.last_tenth = -1
 
     def update(self, k: int) -> None:
+        """Count `k` more runs done and refresh the line.
+
+        Parameters
+        ----------
+        k : int
+            Runs finished since the last update.
+
+        Returns
+        -------
+        None
+
+        Examples
+        --------
+        >>> p = Progress(10, "gain error", enabled=False)
+        >>> p.update(3); p.update(4)
+        >>> p.done
+        7
+        """
         self.done += k
         if not self.enabled:
             return
@@ -46,6 +89,28 @@ class Progress:
 # ----------------------------------------------------------------------------- chunk execution
 
 def chunk_ranges(runs: int, chunk: int):
+    """Split `runs` into consecutive ranges of at most `chunk` runs.
+
+    Parameters
+    ----------
+    runs : int
+        Number of runs.
+    chunk : int
+        Largest number of runs in a range (> 0).
+
+    Returns
+    -------
+    list of (int, int)
+        Half-open ranges ``(a, b)`` covering ``0 .. runs`` in order; the last
+        one may be shorter; empty when `runs` is 0.
+
+    Examples
+    --------
+    >>> chunk_ranges(10, 4)
+    [(0, 4), (4, 8), (8, 10)]
+    >>> chunk_ranges(0, 4)
+    []
+    """
     return [(a, min(a + chunk, runs)) for a in range(0, runs, chunk)]
 
 
@@ -53,10 +118,51 @@ def execute(fn, payload, ranges, *, workers=1, scheduler=None, progress=None, re
     """Run ``fn(payload, a, b)`` for every range, in range order.
 
     With `reduce`, each result is handed to ``reduce(result)`` in range order
-    as soon as it and every earlier one are done, and not kept (None is
-    returned); without it, the list of results is returned. `scheduler` is a
-    Dask scheduler address (or a ``distributed.Client``); otherwise `workers`
-    threads run the ranges locally.
+    as soon as it and every earlier one are done, and not kept; without it,
+    the list of results is returned. `scheduler` is a Dask scheduler address
+    (or a ``distributed.Client``); otherwise `workers` threads run the ranges
+    locally (at most two ranges per worker in flight).
+
+    Parameters
+    ----------
+    fn : callable
+        ``fn(payload, a, b)`` computes runs ``a .. b-1``; it must be pure (the
+        result may not depend on which thread or machine runs it).
+    payload : object
+        The data every call shares (sent once to each Dask worker).
+    ranges : sequence of (int, int)
+        The ranges, e.g. from :func:`chunk_ranges`.
+    workers : int, optional
+        Local threads (default 1: run in the calling thread).
+    scheduler : str or distributed.Client, optional
+        Run on this Dask cluster instead of local threads.
+    progress : Progress, optional
+        Updated with ``b - a`` as each range is handed on.
+    reduce : callable, optional
+        Receives each result in range order instead of keeping it.
+
+    Returns
+    -------
+    list or None
+        The results of `fn` in range order; None when `reduce` is given.
+
+    Raises
+    ------
+    MorpiError
+        When `scheduler` is given and Dask is not installed or the scheduler
+        cannot be reached.
+
+    Examples
+    --------
+    Four threads give the results in range order:
+
+    >>> def total(payload, a, b):
+    ...     return sum(payload[a:b])
+    >>> execute(total, list(range(10)), chunk_ranges(10, 3), workers=4)
+    [3, 12, 21, 9]
+    >>> seen = []
+    >>> execute(total, list(range(10)), chunk_ranges(10, 3), workers=2, reduce=seen.append), seen
+    (None, [3, 12, 21, 9])
     """
     kept = []
     sink = reduce if reduce is not None else kept.append

@@ -80,7 +80,16 @@ class ErrorParams:
 
     @property
     def label(self) -> str:
-        """The source as shown in reports: project-relative for the committed file."""
+        """The source as shown in reports: project-relative for the committed file.
+
+        Examples
+        --------
+        >>> load_params().label
+        'data/assessment_params.json'
+        >>> params_from_dict({"dv0_mps": [0] * 3, "ba_mps2": [0] * 3, "bg_radps": [0] * 3,
+        ...                   "g_mps2": 9.8}, name="mine.json").label
+        'mine.json'
+        """
         try:
             if Path(self.source).resolve() == DEFAULT_PARAMS_FILE.resolve():
                 return "data/" + DEFAULT_PARAMS_FILE.name
@@ -144,6 +153,23 @@ def _vector(name, key, v, n, bound, unit):
 def params_from_dict(d: dict, name: str = "<dict>") -> ErrorParams:
     """Validate a parameter mapping (see the module docstring).
 
+    Parameters
+    ----------
+    d : dict
+        The parsed JSON object: the keys of :data:`REQUIRED`, optionally those
+        of :data:`DEFAULTS` and a ``"note"`` text; values in the SI units of
+        their key names (``dv0_mps`` [m/s], ``ba_mps2`` [m/s^2], ``bg_radps``
+        [rad/s], ``g_mps2`` [m/s^2], ``morpi_speed_mps`` [m/s], ``dG`` as
+        fractions of the gain).
+    name : str, optional
+        Where the mapping came from, used in error messages and kept as
+        :attr:`ErrorParams.source` (default ``"<dict>"``).
+
+    Returns
+    -------
+    ErrorParams
+        The validated values, missing optional keys filled from :data:`DEFAULTS`.
+
     Raises
     ------
     ParameterError
@@ -152,6 +178,17 @@ def params_from_dict(d: dict, name: str = "<dict>") -> ErrorParams:
         physical bound (:data:`BA_MAX_MPS2`, :data:`BG_MAX_RADPS`,
         :data:`DV0_MAX_MPS`, :data:`SPEED_MAX_MPS`, :data:`G_MIN_MPS2` ..
         :data:`G_MAX_MPS2`, :data:`DG_MAX`), or too many gain errors.
+
+    Examples
+    --------
+    >>> p = params_from_dict({"dv0_mps": [0.03, 0.04, 0.0], "ba_mps2": [0.0] * 3,
+    ...                       "bg_radps": [0.0] * 3, "g_mps2": 9.81})
+    >>> p.dv0.tolist(), p.dG, p.morpi_speed_mps, p.process_noise
+    ([0.03, 0.04, 0.0], (0.05, 0.1), 1.0, False)
+    >>> params_from_dict({"dv0_mps": [0.0] * 3, "ba_mps2": [0.0] * 3, "bg_radps": [0.0] * 3, "g_mps2": 1.6})
+    Traceback (most recent call last):
+    ...
+    morpi_filters.errors.ParameterError: <dict>: key 'g_mps2': 1.6 must be a positive gravity magnitude on the Earth's surface, between 9.7 and 9.9 m/s^2
     """
     if not isinstance(d, dict):
         raise ParameterError(f"{name}: expected a JSON object with keys {sorted(REQUIRED)}")
@@ -202,7 +239,18 @@ def _unique_keys(pairs):
 
 
 def load_params(path=None) -> ErrorParams:
-    """Read and validate a parameter file (default: :data:`DEFAULT_PARAMS_FILE`).
+    """Read and validate a parameter file.
+
+    Parameters
+    ----------
+    path : path-like, optional
+        The JSON parameter file; :data:`DEFAULT_PARAMS_FILE` (the committed
+        ``data/assessment_params.json``) when None.
+
+    Returns
+    -------
+    ErrorParams
+        The validated values, with ``source`` set to the path.
 
     Raises
     ------
@@ -210,6 +258,19 @@ def load_params(path=None) -> ErrorParams:
         For a missing, unreadable, oversized or non-JSON file, NaN or
         Infinity, a repeated key, nesting or integers beyond what JSON parsing
         accepts, and every case of :func:`params_from_dict`.
+
+    Examples
+    --------
+    >>> import json, os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "p.json")
+    >>> with open(path, "w") as fh:
+    ...     json.dump({"dv0_mps": [0.1, 0, 0], "ba_mps2": [0, 0, 0], "bg_radps": [0, 0, 0],
+    ...                "g_mps2": 9.8, "dG": [0.1]}, fh)
+    >>> p = load_params(path)
+    >>> p.dv0.tolist(), p.g, p.dG, p.source == path
+    ([0.1, 0.0, 0.0], 9.8, (0.1,), True)
+    >>> load_params().label
+    'data/assessment_params.json'
     """
     path = Path(path) if path is not None else DEFAULT_PARAMS_FILE
     try:

@@ -100,6 +100,28 @@ def atomic_path(path):
     The file gets the permissions of a file the user creates (``0o666``
     minus the umask); its temporary name carries this process's id, so a
     run that was killed leaves a name :func:`remove_stale` recognises.
+    Missing parent folders are created.
+
+    Parameters
+    ----------
+    path : str or Path
+        Final file path.
+
+    Yields
+    ------
+    Path
+        An empty temporary file in the same folder, to write.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> out = Path(tempfile.mkdtemp()) / "sub" / "a.txt"
+    >>> with atomic_path(out) as tmp:
+    ...     _ = tmp.write_text("done")
+    ...     out.exists()                      # not yet in place while writing
+    False
+    >>> out.read_text(), sorted(p.name for p in out.parent.iterdir())
+    ('done', ['a.txt'])
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -114,14 +136,53 @@ def atomic_path(path):
 
 
 def write_text(path, text: str) -> Path:
-    """Write text atomically."""
+    """Write text atomically (see :func:`atomic_path`).
+
+    Parameters
+    ----------
+    path : str or Path
+        Destination file; missing parent folders are created.
+    text : str
+        Content.
+
+    Returns
+    -------
+    Path
+        `path`.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> p = write_text(Path(tempfile.mkdtemp()) / "note.md", "# title")
+    >>> p.name, p.read_text()
+    ('note.md', '# title')
+    """
     with atomic_path(path) as tmp:
         Path(tmp).write_text(text)
     return Path(path)
 
 
 def to_jsonable(obj):
-    """Convert numpy scalars/arrays and non-finite floats (to None) for JSON."""
+    """Convert numpy scalars/arrays and non-finite floats (to None) for JSON.
+
+    Parameters
+    ----------
+    obj : object
+        Nested dicts, lists and tuples of numbers, numpy scalars and arrays,
+        paths and other JSON values.
+
+    Returns
+    -------
+    object
+        The same structure with dict keys as str, tuples and arrays as lists,
+        numpy integers and booleans as Python ones, floats as float (NaN and
+        inf as None), paths as str; anything else unchanged.
+
+    Examples
+    --------
+    >>> to_jsonable({1: np.array([1.5, np.nan]), "n": np.int64(3), "ok": np.bool_(True), "p": Path("a/b")})
+    {'1': [1.5, None], 'n': 3, 'ok': True, 'p': 'a/b'}
+    """
     if isinstance(obj, dict):
         return {str(k): to_jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
@@ -141,7 +202,27 @@ def to_jsonable(obj):
 
 
 def write_json(path, obj) -> Path:
-    """Write JSON atomically (numpy converted, NaN and inf written as null)."""
+    """Write JSON atomically (numpy converted, NaN and inf written as null).
+
+    Parameters
+    ----------
+    path : str or Path
+        Destination file.
+    obj : object
+        Anything :func:`to_jsonable` converts to JSON values.
+
+    Returns
+    -------
+    Path
+        `path`; the file holds the JSON indented by 2, ending with a newline.
+
+    Examples
+    --------
+    >>> import json, tempfile
+    >>> p = write_json(Path(tempfile.mkdtemp()) / "r.json", {"rms_m": np.float64(0.25), "bad": float("inf")})
+    >>> json.loads(p.read_text())
+    {'rms_m': 0.25, 'bad': None}
+    """
     text = json.dumps(to_jsonable(obj), indent=2, allow_nan=False)
     return write_text(path, text + "\n")
 
@@ -156,6 +237,29 @@ def staged_dir(final, tool: str = "morpi"):
     must be absent, empty or marked as an earlier output (see
     :func:`check_output_dir`), otherwise a :class:`ParameterError` is raised
     before anything is written.
+
+    Parameters
+    ----------
+    final : str or Path
+        The output folder.
+    tool : str
+        Writer named in the marker file.
+
+    Yields
+    ------
+    Path
+        The staging folder to fill.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> final = Path(tempfile.mkdtemp()) / "section"
+    >>> with staged_dir(final) as stage:
+    ...     _ = (stage / "README.md").write_text("page")
+    ...     final.exists()
+    False
+    >>> sorted(p.name for p in final.iterdir())
+    ['.morpi-output', 'README.md']
     """
     with Outputs(tool) as outputs:
         yield outputs.folder(final)
@@ -178,6 +282,17 @@ def user_umask() -> int:
     Read from ``/proc/self/status`` where the kernel reports it; elsewhere by
     setting and restoring it once (the first call, before any thread of this
     package writes).
+
+    Returns
+    -------
+    int
+        The umask bits (e.g. ``0o022``); cached after the first call.
+
+    Examples
+    --------
+    >>> m = user_umask()
+    >>> 0 <= m <= 0o777, user_umask() == m
+    (True, True)
     """
     with contextlib.suppress(OSError, ValueError):
         with open("/proc/self/status") as fh:
@@ -193,6 +308,23 @@ def new_stage_dir(final) -> Path:
     """Create an empty staging folder beside `final` with the user's folder permissions.
 
     Its name, ``.staging-<name>-<pid>-XXXXXXXX``, carries this process's id.
+
+    Parameters
+    ----------
+    final : str or Path
+        The folder being built; its parent must exist.
+
+    Returns
+    -------
+    Path
+        The new empty folder, in ``final.parent``.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> stage = new_stage_dir(Path(tempfile.mkdtemp()) / "tables")
+    >>> stage.name.startswith(f".staging-tables-{os.getpid()}-"), list(stage.iterdir())
+    (True, [])
     """
     final = Path(final)
     stage = Path(tempfile.mkdtemp(prefix=f".staging-{final.name}-{os.getpid()}-", dir=final.parent))
@@ -201,7 +333,25 @@ def new_stage_dir(final) -> Path:
 
 
 def new_temp_file(final) -> Path:
-    """Create an empty temporary file beside `final` with the user's file permissions."""
+    """Create an empty temporary file beside `final` with the user's file permissions.
+
+    Parameters
+    ----------
+    final : str or Path
+        The file being written; its folder must exist.
+
+    Returns
+    -------
+    Path
+        ``.staging-<name>-<pid>-XXXXXXXX.tmp`` in the same folder, empty.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> tmp = new_temp_file(Path(tempfile.mkdtemp()) / "a.json")
+    >>> tmp.suffix, tmp.stat().st_size
+    ('.tmp', 0)
+    """
     final = Path(final)
     fd, tmp = tempfile.mkstemp(prefix=f".staging-{final.name}-{os.getpid()}-", suffix=".tmp", dir=final.parent)
     try:
@@ -230,10 +380,24 @@ def remove_stale(folder) -> list:
     whose process is no longer alive is removed; entries of live processes
     are left alone.
 
+    Parameters
+    ----------
+    folder : str or Path
+        Folder to clean; a missing or unreadable one is left alone.
+
     Returns
     -------
     list of Path
         Leftovers that could not be removed.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> d = Path(tempfile.mkdtemp())
+    >>> (d / ".staging-tables-999999999-abcdefgh").mkdir()        # no such process
+    >>> mine = new_stage_dir(d / "curves")                         # this process: kept
+    >>> remove_stale(d), [p.name == mine.name for p in d.iterdir()]
+    ([], [True])
     """
     folder = Path(folder)
     try:
@@ -260,6 +424,30 @@ def foreign_entry(folder):
 
     A folder may be replaced when it does not exist, is empty, or holds
     :data:`MARKER`. Staging leftovers of morpi runs do not count.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The candidate output folder.
+
+    Returns
+    -------
+    Path or None
+        None when the folder may be replaced; else `folder` itself (a file,
+        a symbolic link or unreadable) or its first entry by name.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> d = Path(tempfile.mkdtemp())
+    >>> foreign_entry(d / "new") is None, foreign_entry(d) is None
+    (True, True)
+    >>> _ = (d / "notes.txt").write_text("mine")
+    >>> foreign_entry(d).name
+    'notes.txt'
+    >>> _ = (d / MARKER).write_text("")
+    >>> foreign_entry(d) is None
+    True
     """
     folder = Path(folder)
     if not folder.exists() and not folder.is_symlink():
@@ -279,10 +467,37 @@ def foreign_entry(folder):
 def check_output_dir(folder, option: str = "--out") -> Path:
     """Refuse an output folder a command may not replace, before anything is computed.
 
-    Raises :class:`ParameterError` when `folder` is an empty name, exists
-    as something other than a folder, holds files without the marker, or
-    cannot be created (its nearest existing parent does not accept a new
-    file: read-only, not a folder, or a virtual system folder).
+    Parameters
+    ----------
+    folder : str or Path
+        The output folder.
+    option : str
+        Command-line option named in the message.
+
+    Returns
+    -------
+    Path
+        `folder`.
+
+    Raises
+    ------
+    ParameterError
+        When `folder` is an empty name, exists as something other than a
+        folder, holds files without the marker, or cannot be created (its
+        nearest existing parent does not accept a new file: read-only, not a
+        folder, or a virtual system folder).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> d = Path(tempfile.mkdtemp())
+    >>> check_output_dir(d / "reports") == d / "reports"
+    True
+    >>> _ = (d / "thesis.tex").write_text("")
+    >>> check_output_dir(d, "--out")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    morpi_filters.errors.ParameterError: --out ...: holds thesis.tex, which morpi did not write (no .morpi-output marker); refusing to replace it, choose a new or empty folder
     """
     if str(folder) == "":
         raise ParameterError(f"{option}: empty path, expected a folder name")
@@ -299,7 +514,37 @@ def check_output_dir(folder, option: str = "--out") -> Path:
 
 
 def check_output_file(path, option: str = "--json") -> Path:
-    """Refuse an output file path before anything is computed (empty, a folder, unwritable place)."""
+    """Refuse an output file path before anything is computed (empty, a folder, unwritable place).
+
+    Parameters
+    ----------
+    path : str or Path
+        The output file.
+    option : str
+        Command-line option named in the message.
+
+    Returns
+    -------
+    Path
+        `path`.
+
+    Raises
+    ------
+    ParameterError
+        An empty name, a folder, an existing non-regular file, or a place
+        where no file can be created.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> d = Path(tempfile.mkdtemp())
+    >>> check_output_file(d / "out.json").name
+    'out.json'
+    >>> check_output_file(d)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    morpi_filters.errors.ParameterError: --json ...: is a folder, expected a file name
+    """
     if str(path) == "":
         raise ParameterError(f"{option}: empty path, expected a file name")
     path = Path(path)
@@ -340,6 +585,18 @@ class Outputs:
     ----------
     tool : str
         What the marker file names as the writer (e.g. ``"morpi tables"``).
+
+    Examples
+    --------
+    >>> import json, tempfile
+    >>> d = Path(tempfile.mkdtemp())
+    >>> with Outputs("morpi example") as out:
+    ...     _ = (out.folder(d / "tables") / "README.md").write_text("page")
+    ...     _ = out.file(d / "result.json").write_text("{}")
+    ...     sorted(p.name for p in d.iterdir() if not p.name.startswith("."))   # nothing in place yet
+    []
+    >>> sorted(p.name for p in d.iterdir())
+    ['result.json', 'tables']
     """
 
     def __init__(self, tool: str):
@@ -363,7 +620,20 @@ class Outputs:
         self._made.extend(missing)   # deepest first
 
     def folder(self, final, section: str | None = None) -> Path:
-        """A staging folder for output folder `final`, holding the marker already."""
+        """A staging folder for output folder `final`, holding the marker already.
+
+        Parameters
+        ----------
+        final : str or Path
+            The output folder (checked with :func:`check_output_dir`).
+        section : str, optional
+            What the marker names (default the folder's name).
+
+        Returns
+        -------
+        Path
+            The staging folder, swapped in at the end of the block.
+        """
         final = Path(final)
         check_output_dir(final)
         self._mkdirs(final.parent)
@@ -377,6 +647,16 @@ class Outputs:
 
         The folder itself is kept: entries a command does not write stay
         untouched. It must pass :func:`check_output_dir`; it gets the marker.
+
+        Parameters
+        ----------
+        folder : str or Path
+            The report folder.
+
+        Returns
+        -------
+        Path
+            `folder` (created if missing).
         """
         folder = check_output_dir(Path(folder))
         self._mkdirs(folder)
@@ -386,7 +666,18 @@ class Outputs:
         return folder
 
     def file(self, final) -> Path:
-        """A temporary file beside `final`, renamed to `final` at the end."""
+        """A temporary file beside `final`, renamed to `final` at the end.
+
+        Parameters
+        ----------
+        final : str or Path
+            The output file (checked with :func:`check_output_file`).
+
+        Returns
+        -------
+        Path
+            The temporary file to write.
+        """
         final = check_output_file(final)
         self._mkdirs(final.parent)
         tmp = new_temp_file(final)
@@ -429,7 +720,32 @@ class Outputs:
 
 
 def swap_in(stage: Path, final: Path) -> None:
-    """Rename the staging folder `stage` to `final`; a folder already at `final` is replaced."""
+    """Rename the staging folder `stage` to `final`; a folder already at `final` is replaced.
+
+    The old folder is first moved aside (``.previous-...``) and removed after
+    the rename, so `final` always names a complete folder.
+
+    Parameters
+    ----------
+    stage : Path
+        The complete staging folder.
+    final : Path
+        Destination, in the same file system.
+
+    Returns
+    -------
+    None
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> d = Path(tempfile.mkdtemp())
+    >>> (d / "out").mkdir(); _ = (d / "out" / "old.md").write_text("old")
+    >>> stage = new_stage_dir(d / "out"); _ = (stage / "new.md").write_text("new")
+    >>> swap_in(stage, d / "out")
+    >>> sorted(p.name for p in d.iterdir()), [p.name for p in (d / "out").iterdir()]
+    (['out'], ['new.md'])
+    """
     if final.is_dir():
         keep = Path(tempfile.mkdtemp(prefix=f".previous-{final.name}-{os.getpid()}-", dir=final.parent))
         os.replace(final, keep / final.name)

@@ -25,6 +25,15 @@ def project_data() -> Path:
     Path
         ``morpi_filters/data`` inside an installed package, else the
         ``data/`` folder next to the package in a source checkout.
+        The result is cached: every call returns the same object.
+
+    Examples
+    --------
+    >>> folder = project_data()
+    >>> {"routes.json", "assessment_params.json", "dataset_checksums.txt"} <= {p.name for p in folder.iterdir()}
+    True
+    >>> project_data() is folder
+    True
     """
     packaged = resources.files(__package__) / "data"
     if packaged.is_dir():

@@ -62,13 +62,51 @@ from .strapdown import rotvec_to_C
 
 __all__ = [
     "Trajectory", "ImuData", "straight", "sine", "l_route", "route_trajectory", "imu",
-    "sample_times",
+    "sample_times", "paper_speed",
 ]
 
 # typical driven speeds [m/s] along the centreline, from the paper's average durations over 6.3 m:
 # ~5 s straight, ~14.5 s with 1 m periods, ~11 s with 1.5 m periods (1 s ramps at both ends)
 _SPEED = {"straight": 6.3 / 4.0, 1.0: 6.3 / 13.5, 1.5: 6.3 / 10.0}
 _L_SPEED = 0.6          # the field L recordings last 45-90 s for 28 m
+
+
+
+def paper_speed(period: float | None = None) -> float:
+    """Cruise speed of the paper's robot [m/s]: on a straight line, or on a sine of `period` metres.
+
+    From the paper's average durations over 6.3 m with 1 s ramps: about 5 s on
+    a straight line, 14.5 s with 1 m periods and 11 s with 1.5 m periods;
+    other periods scale with the square root of the period from 1 m.
+
+    Parameters
+    ----------
+    period : float, optional
+        Period length of the sine path [m]; None for a straight line.
+
+    Returns
+    -------
+    float
+        Cruise speed along the centreline [m/s].
+
+    Raises
+    ------
+    MorpiError
+        A period that is not a positive finite number.
+
+    Examples
+    --------
+    >>> round(paper_speed(1.0), 4), round(paper_speed(), 4)     # 6.3 m in 13.5 s and in 4 s
+    (0.4667, 1.575)
+    >>> round(paper_speed(1.5), 4)                              # 6.3 m in 10 s
+    0.63
+    >>> round(paper_speed(4.0) / paper_speed(1.0), 12)          # sqrt(4) for a period not in the paper
+    2.0
+    """
+    if period is None:
+        return _SPEED["straight"]
+    period = _positive("period", period)
+    return _SPEED.get(period, _SPEED[1.0] * period ** 0.5)
 
 
 # --------------------------------------------------------------------------- smooth steps
@@ -333,7 +371,25 @@ class Trajectory:
         return float(self._model[1].end)
 
     def at(self, time) -> "Trajectory":
-        """The same trajectory sampled at other times (any times; rest outside the motion)."""
+        """The same trajectory sampled at other times (any times; rest outside the motion).
+
+        Parameters
+        ----------
+        time : array_like, shape (m,)
+            Finite sample times [s], in any order.
+
+        Returns
+        -------
+        Trajectory
+            A copy with every sampled field (``time``, ``position``, ...,
+            ``omega_b``) evaluated at `time`; the path and speed law are shared.
+
+        Examples
+        --------
+        >>> traj = straight(6.3)
+        >>> traj.at([0.0, 1e6]).position[:, 0].round(9).tolist()    # at the start, and long after the stop
+        [0.0, 6.3]
+        """
         time = np.asarray(time, dtype=float)
         if time.ndim != 1 or not np.isfinite(time).all():
             raise MorpiError("time: expected a 1-D array of finite sample times")
@@ -431,12 +487,21 @@ def straight(length: float = 6.3, *, speed: float = _SPEED["straight"], ramp: fl
     Returns
     -------
     Trajectory
+        ``kind`` ``"straight"``, sampled at `rate_hz` from `t0` to the end
+        of the second rest.
+
+    Raises
+    ------
+    MorpiError
+        A non-positive or non-finite length, speed, ramp or rest.
 
     Examples
     --------
     >>> traj = straight(6.3)
     >>> round(float(traj.position[-1, 0]), 9), float(traj.velocity[-1, 0])    # ends at rest, 6.3 m along x
     (6.3, 0.0)
+    >>> round(traj.start_time, 9)                                # after the 3 s rest
+    3.0
     """
     length = _positive("length", length)
     return _build("straight", _Path((length, 0.0), 0.0, 1.0, 0.0, 0.0, None, None, None),
@@ -482,18 +547,28 @@ def sine(length: float = 6.3, *, period: float = 1.0, amplitude: float = 0.1, sp
     Returns
     -------
     Trajectory
-        With ``peak_times`` the times of the lateral extremes.
+        ``kind`` ``"sine"``, with ``peak_times`` and ``peak_side`` the times
+        and sides of the lateral extremes and ``period_times`` the period
+        boundaries.
+
+    Raises
+    ------
+    MorpiError
+        A bad length, period or amplitude, an amplitude too large for the
+        period (path slope ``2 pi A / P`` above 1.5) or a taper that does not fit.
 
     Examples
     --------
     >>> traj = sine(6.3, period=1.0, amplitude=0.1)
     >>> round(float(traj.position[-1, 0]), 9), round(float(abs(traj.position[:, 1]).max()), 3)
     (6.3, 0.1)
+    >>> traj.peak_times.size, traj.peak_side[:2].tolist()    # at x = 0.25, 0.75, ..., 6.25 m; left first
+    (13, [1.0, -1.0])
     """
     length = _positive("length", length)
     period, amplitude, taper = _check_sine(period, amplitude, taper, length)
     if speed is None:
-        speed = _SPEED.get(period, _SPEED[1.0] * period ** 0.5)
+        speed = paper_speed(period)
     return _build("sine", _Path((length, 0.0), 0.0, 1.0, 0.0, 0.0, period, amplitude, taper),
                   speed=speed, ramp=ramp, rest=rest, rate_hz=rate_hz, t0=t0, g=g, period=period, amplitude=amplitude)
 
@@ -528,11 +603,24 @@ def l_route(legs=(18.0, 10.0), *, turn_deg: float = 90.0, turn_radius: float = 1
     Returns
     -------
     Trajectory
+        ``kind`` ``"l_route"``, ending at ``(legs[0], legs[1])`` rotated by
+        the turn, and lower by ``slope_length tan(slope_deg)`` (approached
+        through the 1 m easing) when there is a slope.
+
+    Raises
+    ------
+    MorpiError
+        A bad leg, turn, radius or slope, only one of `period` and
+        `amplitude`, or a geometry that does not fit (turn radius or slope
+        too long for the legs, amplitude above half the radius).
 
     Examples
     --------
     >>> l_route().position[-1, :2].round(9).tolist()   # 18 m along x, then 10 m across
     [18.0, 10.0]
+    >>> end = l_route(turn_deg=-90.0, slope_deg=15.0).position[-1]
+    >>> end.round(6).tolist(), round(5.0 * math.tan(math.radians(15.0)), 6)   # 5 m of 15 deg downhill
+    ([18.0, -10.0, -1.339746], 1.339746)
     """
     try:
         legs = tuple(float(v) for v in legs)
@@ -588,6 +676,26 @@ def route_trajectory(name: str, *, speed: float | None = None, period: float | N
         Override the route's typical speed and its designed period and amplitude.
     **kwargs
         Passed to :func:`straight`, :func:`sine` or :func:`l_route`.
+
+    Returns
+    -------
+    Trajectory
+        A :func:`l_route` for a two-segment route (with its turn, slope and,
+        for a periodic route, its sine), else a :func:`sine` for a periodic
+        route or a :func:`straight` line, over the route's ``distance_m``.
+
+    Raises
+    ------
+    MorpiError
+        An unknown route name, or a bad override.
+
+    Examples
+    --------
+    >>> traj = route_trajectory("L_shape")          # 18 m, a right turn, 10 m; 15 deg downhill at first
+    >>> traj.kind, traj.period, traj.position[-1].round(6).tolist()
+    ('l_route', 1.0, [18.0, -10.0, -1.339746])
+    >>> route_trajectory("short_distance_1.5p2p").amplitude
+    0.2
     """
     r = dataset.route(name)
     period = r.p2p_m if period is None else period
@@ -629,6 +737,20 @@ def sample_times(t_start: float, t_end: float, rng, *, pattern: str = "uniform",
     Returns
     -------
     ndarray, shape (n,)
+        Increasing sample times [s], the first `t_start`, none after `t_end`.
+
+    Raises
+    ------
+    MorpiError
+        An unknown pattern, or a non-positive `rate_hz` for ``"uniform"``.
+
+    Examples
+    --------
+    >>> sample_times(0.0, 0.05, None).round(12).tolist()
+    [0.0, 0.01, 0.02, 0.03, 0.04, 0.05]
+    >>> dt = np.diff(sample_times(0.0, 60.0, np.random.default_rng(0), pattern="s6"))
+    >>> bool(dt.min() >= 0.0095 and dt.max() <= 0.0223 + 1e-12)      # the two clipped ranges
+    True
     """
     span = float(t_end) - float(t_start)
     if pattern == "uniform":
@@ -701,7 +823,30 @@ class ImuData:
         return None if self.f.ndim == 2 else int(self.f.shape[0])
 
     def recording(self, run: int = 0, *, source: str = "<synthetic>", phone=None, route=None, split=None):
-        """One run as a :class:`~morpi_filters.dataset.Recording`."""
+        """One run as a :class:`~morpi_filters.dataset.Recording`.
+
+        Parameters
+        ----------
+        run : int
+            Run index (ignored when unbatched).
+        source : str
+            Name the recording reports in messages.
+        phone, route, split : str, optional
+            Dataset labels; `phone` defaults to the spec's phone.
+
+        Returns
+        -------
+        dataset.Recording
+            Copies of the time stamps and of the run's specific force and
+            angular rate.
+
+        Examples
+        --------
+        >>> data = imu(straight(), units.LSM6DSL, np.random.default_rng(0), runs=2)
+        >>> rec = data.recording(1)
+        >>> rec.phone, bool((rec.f == data.f[1]).all())
+        ('s8', True)
+        """
         f = self.f if self.f.ndim == 2 else self.f[run]
         w = self.omega if self.omega.ndim == 2 else self.omega[run]
         return dataset.Recording(time=self.time.copy(), f=np.ascontiguousarray(f), omega=np.ascontiguousarray(w),
@@ -796,11 +941,29 @@ def imu(traj: Trajectory, spec: units.SensorSpec, rng, *, runs: int | None = Non
     Returns
     -------
     ImuData
+        Readings of shape (n, 3), or (runs, n, 3) when `runs` is given, on
+        the shared time stamps, with the drawn biases, scale factors,
+        misalignment and bias drifts and the truth at those times.
 
     Raises
     ------
     MorpiError
         For a bad parameter (named in the message).
+
+    Examples
+    --------
+    Without errors the sensor reads the true specific force and rate:
+
+    >>> traj = straight(6.3)
+    >>> perfect = imu(traj, units.LSM6DSL, np.random.default_rng(0), bias_scale=0.0, noise_scale=0.0)
+    >>> bool(np.array_equal(perfect.f, perfect.truth.f_b)), perfect.runs
+    (True, None)
+
+    Four runs on the S6's irregular time stamps, shared by the runs:
+
+    >>> data = imu(traj, units.MPU6500, np.random.default_rng(0), runs=4, sampling="s6")
+    >>> data.f.shape[0], data.f.shape[1] == data.time.size, data.gyro_bias.shape
+    (4, True, (4, 3))
     """
     if runs is not None:
         if isinstance(runs, bool) or not isinstance(runs, (int, np.integer)) or runs < 1:

@@ -79,10 +79,9 @@ METHODS = {"MoRPI-A": ("f", 1), "MoRPI-G": ("omega", 2)}
 class StepConfig:
     """Every tunable of the step pipeline.
 
-    The defaults are the MoRPI-A rule :func:`morpi_filters.field.select_config`
-    picks from the train runs of the MoRPI field dataset; the MoRPI-G rule is
-    :data:`DEFAULT_CONFIGS` ``["MoRPI-G"]``. A test keeps both in step with
-    the search.
+    The rule :func:`morpi_filters.field.select_config` picks from the train
+    runs of the MoRPI field dataset (one for both methods) is
+    :data:`DEFAULT_CONFIGS`; a test keeps it in step with the search.
 
     Attributes
     ----------
@@ -183,6 +182,9 @@ class Steps:
         The detected peaks.
     motion : tuple of float
         Motion start and end time [s].
+    swing_deg : float
+        Median heading swing per period (max - min of the heading between two
+        consecutive maxima of the signal) [deg]; NaN with fewer than two maxima.
     """
 
     start_time: np.ndarray
@@ -192,6 +194,7 @@ class Steps:
     heading: np.ndarray
     peaks: Peaks
     motion: tuple
+    swing_deg: float = float("nan")
 
     @property
     def n(self) -> int:
@@ -253,8 +256,8 @@ class MorpiTrack:
 #: The step rule of each method that :func:`morpi_filters.field.select_config`
 #: picks on the field train runs (the defaults of :func:`extract_steps`).
 DEFAULT_CONFIGS = {
-    "MoRPI-A": StepConfig(),
-    "MoRPI-G": StepConfig(segment="maxima", prominence=0.2, cutoff_hz=1.0),
+    "MoRPI-A": StepConfig(prominence=0.2),
+    "MoRPI-G": StepConfig(prominence=0.2),
 }
 
 def resample_uniform(time, values, rate_hz: float = GRID_HZ):
@@ -504,15 +507,38 @@ def prepare_signal(rec, method: str, cutoff_hz: float | None, *, rest_end_time: 
 
 
 def activity_span(time, omega, *, window_s: float = 0.5, factor: float = 10.0, floor: float = 0.02,
-                  rest_s: float = 2.0, min_pause_s: float = 1.5):
+                  rest_s: float = 2.0, min_pause_s: float = 1.5, rest=None):
     """Start and end time of the main motion from the gyro's vibration [s].
 
     The moving standard deviation (over `window_s`, on the uniform grid) of the
     angular rate, summed over the axes, is compared with `factor` times its
-    median over the first `rest_s` seconds (and at least `floor` rad/s).
-    Active stretches separated by pauses shorter than `min_pause_s` are merged
-    and the longest one is the motion (handling of the phone after the robot
-    stopped is left out). The whole recording when nothing is active.
+    median at rest (and at least `floor` rad/s). Active stretches separated by
+    pauses shorter than `min_pause_s` are merged and the longest one is the
+    motion (handling of the phone after the robot stopped is left out). The
+    whole recording when nothing is active.
+
+    Parameters
+    ----------
+    time : array_like, shape (n,)
+        Sample times [s].
+    omega : array_like, shape (n, 3)
+        Angular rate [rad/s].
+    rest : (float, float), optional
+        The recording's initial rest window (start, end) [s], as
+        :func:`morpi_filters.calibration.detect_rest` finds it. The rest level
+        of the moving standard deviation is then its median over the windows
+        inside the rest (every window ending by the rest's end when the rest
+        is shorter than `window_s`), and only windows ending after the rest's
+        end can open the motion, so the motion starts after the rest ends.
+        Without it the rest level is taken over the first `rest_s` seconds.
+
+    Examples
+    --------
+    >>> t = np.arange(0.0, 10.0, 0.01)
+    >>> w = np.zeros((t.size, 3)); w[(t > 4) & (t < 7), 2] = np.sin(40 * t[(t > 4) & (t < 7)])
+    >>> a, b = activity_span(t, w, rest=(0.0, 3.0))
+    >>> bool(4.0 < a < 4.6 and 6.4 < b < 7.0)
+    True
     """
     time = np.asarray(time, float)
     grid, w = resample_uniform(time, omega)
@@ -523,9 +549,23 @@ def activity_span(time, omega, *, window_s: float = 0.5, factor: float = 10.0, f
     c2 = np.vstack([np.zeros((1, 3)), np.cumsum(w * w, axis=0)])
     mean = (c1[k:] - c1[:-k]) / k
     sd = np.sqrt(np.maximum((c2[k:] - c2[:-k]) / k - mean * mean, 0.0)).sum(axis=1)
-    n_rest = max(1, int(rest_s * GRID_HZ) - k)
-    thr = max(factor * float(np.median(sd[:n_rest])), floor)
+    first = 0
+    if rest is None:
+        n_rest = max(1, int(rest_s * GRID_HZ) - k)
+        base = sd[:n_rest]
+    else:
+        r0, r1 = float(rest[0]), float(rest[1])
+        if not r1 >= r0:
+            raise MorpiError(f"rest={rest!r}: expected a window (start, end) with end >= start [s]")
+        # window j covers the grid samples [j, j + k): the windows inside the rest; for a rest shorter
+        # than a window, every window ending by the rest's end (the median passes over a brief tap)
+        j0 = min(int(np.searchsorted(grid, r0)), sd.shape[0] - 1)
+        j1 = int(np.searchsorted(grid, r1, side="right")) - k
+        base = sd[j0:j1 + 1] if j1 >= j0 else (sd[:j1 + 1] if j1 >= 0 else sd[:1])
+        first = int(np.searchsorted(grid, r1, side="right"))
+    thr = max(factor * float(np.median(base)), floor)
     on = np.flatnonzero(sd > thr)
+    on = on[on + k - 1 >= first]    # an active window marks the motion from its last sample on
     if on.size == 0:
         return float(time[0]), float(time[-1])
     # window j covers grid samples [j, j + k): the first active window ends at the onset and the
@@ -626,6 +666,7 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
         frac = np.concatenate([[parts[0]], frac, [parts[1]]])
     psi = p.heading
     bi = np.searchsorted(t, grid[imax])
+    med = float("nan")
     if bi.size >= 2:
         swing = np.degrees(np.maximum.reduceat(psi, bi[:-1])[:bi.size - 1]
                            - np.minimum.reduceat(psi, bi[:-1])[:bi.size - 1])
@@ -648,7 +689,7 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
     peaks = Peaks(grid_time=grid, grid_signal=g, grid_index=bounds, index=idx,
                   properties={"prominence_threshold": prom})
     return Steps(start_time=st, end_time=et, weight=weight, fraction=frac, heading=dpsi, peaks=peaks,
-                 motion=(m0, m1))
+                 motion=(m0, m1), swing_deg=med)
 
 
 def train_gain(steps_list, distances):

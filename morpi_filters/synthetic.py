@@ -151,7 +151,29 @@ def write_dataset(out, *, seed: int = 0, runs_per_folder: int | None = None) -> 
     Returns
     -------
     Path
-        The dataset root (`out`).
+        The dataset root (`out`). It holds ``<phone>/<route>[/<split>]/<run>.csv``
+        for every folder of the layout, a ``README.md``, ``manifest.json`` (seed,
+        generator version, every file's sha256 and each run's speed, period,
+        amplitude, distance and motion times) and the ``.morpi-output`` marker.
+
+    Raises
+    ------
+    MorpiError
+        A negative or non-integer `seed`, or a `runs_per_folder` below 1.
+    ParameterError
+        `out` exists and holds files morpi did not write.
+
+    Examples
+    --------
+    One run per folder (about half a second):
+
+    >>> import tempfile
+    >>> root = write_dataset(Path(tempfile.mkdtemp()) / "synthetic", seed=1, runs_per_folder=1)
+    >>> files = sorted(p.relative_to(root).as_posix() for p in root.rglob("*.csv"))
+    >>> len(files) == len(dataset.layout()), files[0]
+    (True, 's6/L_line/1.csv')
+    >>> dataset.load_csv(root / files[0]).f.shape[1]
+    3
     """
     out = Path(out)
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
@@ -214,12 +236,21 @@ def ensure_synthetic_dataset(cache_dir, *, seed: int = 0) -> Path:
 
     Reuses the folder when its manifest has this seed and generator version,
     it holds the full layout, and every file's sha256 matches; otherwise
-    (re)writes it with :func:`write_dataset`.
+    (re)writes it with :func:`write_dataset` and the field dataset's full
+    run count per folder. Writing takes seconds, so there is no example here.
+
+    Parameters
+    ----------
+    cache_dir : str or Path
+        Folder of the cached dataset; created or replaced under the rules of
+        :func:`write_dataset`.
+    seed : int
+        Seed of the synthetic recordings.
 
     Returns
     -------
     Path
-        The dataset root.
+        The dataset root (`cache_dir`).
     """
     cache_dir = Path(cache_dir)
     if cache_dir.is_dir() and _verify(cache_dir, int(seed)):

@@ -63,8 +63,9 @@ class SensorSpec:
     rate_hz: float = 100.0
 
     @classmethod
-    def from_datasheet(cls, name: str, *, gyro_bias_deg_s: float, gyro_noise_deg_s_sqrt_hz: float,
-                       accel_bias_mg: float, accel_noise_ug_sqrt_hz: float, rate_hz: float = 100.0,
+    def from_datasheet(cls, name: str, *, gyro_bias_deg_s: float, accel_bias_mg: float,
+                       accel_noise_ug_sqrt_hz: float, gyro_noise_deg_s_sqrt_hz: float | None = None,
+                       gyro_noise_deg_h_sqrt_hz: float | None = None, rate_hz: float = 100.0,
                        phone: str | None = None) -> "SensorSpec":
         """A spec from the units a datasheet prints.
 
@@ -74,9 +75,8 @@ class SensorSpec:
             IMU model.
         gyro_bias_deg_s : float
             Turn-on gyro bias [deg/s].
-        gyro_noise_deg_s_sqrt_hz : float
-            Gyro noise density [deg/s/sqrt(Hz)] (a datasheet in deg/h/sqrt(Hz):
-            divide by 3600).
+        gyro_noise_deg_s_sqrt_hz, gyro_noise_deg_h_sqrt_hz : float
+            Gyro noise density [deg/s/sqrt(Hz)] or [deg/h/sqrt(Hz)]: exactly one of the two.
         accel_bias_mg : float
             Turn-on accelerometer bias [mg].
         accel_noise_ug_sqrt_hz : float
@@ -104,9 +104,22 @@ class SensorSpec:
         True
         >>> round(s.gyro_bias, 5)      # 3 deg/s in rad/s
         0.05236
+        >>> t = SensorSpec.from_datasheet("LSM6DSL", gyro_bias_deg_s=3, gyro_noise_deg_h_sqrt_hz=14.4,
+        ...                               accel_bias_mg=40, accel_noise_ug_sqrt_hz=130)
+        >>> bool(abs(t.gyro_noise - s.gyro_noise) < 1e-15)
+        True
         """
         from .errors import ParameterError
 
+        if (gyro_noise_deg_s_sqrt_hz is None) == (gyro_noise_deg_h_sqrt_hz is None):
+            raise ParameterError("SensorSpec.from_datasheet: give exactly one of gyro_noise_deg_s_sqrt_hz and "
+                                 "gyro_noise_deg_h_sqrt_hz")
+        if gyro_noise_deg_s_sqrt_hz is None:
+            try:
+                gyro_noise_deg_s_sqrt_hz = float(gyro_noise_deg_h_sqrt_hz) / 3600.0
+            except (TypeError, ValueError):
+                raise ParameterError(f"SensorSpec.from_datasheet: gyro_noise_deg_h_sqrt_hz={gyro_noise_deg_h_sqrt_hz!r}, "
+                                     "expected a finite value >= 0") from None
         given = {"gyro_bias_deg_s": gyro_bias_deg_s, "gyro_noise_deg_s_sqrt_hz": gyro_noise_deg_s_sqrt_hz,
                  "accel_bias_mg": accel_bias_mg, "accel_noise_ug_sqrt_hz": accel_noise_ug_sqrt_hz,
                  "rate_hz": rate_hz}
@@ -135,10 +148,29 @@ SENSORS = {"s6": MPU6500, "s8": LSM6DSL}
 def sensor_for_phone(phone: str) -> SensorSpec:
     """Return the datasheet spec of a dataset phone (``"s6"`` or ``"s8"``).
 
+    Parameters
+    ----------
+    phone : str
+        Dataset phone folder: ``"s6"`` (Galaxy S6, MPU-6500) or ``"s8"``
+        (Galaxy S8, LSM6DSL).
+
+    Returns
+    -------
+    SensorSpec
+        The paper's datasheet figures for that phone's IMU, in SI
+        (:data:`MPU6500` or :data:`LSM6DSL`; the same object, not a copy).
+
+    Raises
+    ------
+    MorpiError
+        Any other phone name; the message lists the known ones.
+
     Examples
     --------
     >>> sensor_for_phone("s8").name, sensor_for_phone("s6").name
     ('LSM6DSL', 'MPU-6500')
+    >>> round(sensor_for_phone("s6").accel_bias / G0 * 1000, 6)    # 60 mg back in mg
+    60.0
     """
     from .errors import MorpiError
 

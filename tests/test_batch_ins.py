@@ -12,37 +12,59 @@ def _planes(a):
     return [np.ascontiguousarray(a[:, :, i].T) for i in range(3)]
 
 
-@pytest.mark.parametrize("noise, tol", [
+@pytest.mark.parametrize("path, noise, tol", [
     # biases only: the kernel and strapdown.ins3d differ only by strapdown's Hermite end slopes
-    # and coning term, O(dt^2); measured 1.4e-7 relative, bar 1e-6.
-    (0.0, 1e-6),
+    # and coning term, O(dt^2). Measured 3.9e-7 relative on the straight line (bar 1e-6) and
+    # 1.9e-5 on the sine, whose heading turns at up to 1.6 rad/s (bar 1e-4).
+    ("straight", 0.0, 1e-6),
+    ("sine", 0.0, 1e-4),
     # with white noise the two rules integrate each noise sample slightly differently;
-    # measured up to 5e-5 relative on 4 runs, bar 3e-4.
-    (1.0, 3e-4),
+    # measured up to 1.6e-4 relative on 4 runs on either path, bar 3e-4.
+    ("straight", 1.0, 3e-4),
+    ("sine", 1.0, 3e-4),
 ])
-def test_straight_line_kernels_match_strapdown(noise, tol):
+def test_path_kernels_match_strapdown(path, noise, tol):
+    # each side's error is its position from the measured signals minus its position from the
+    # true ones, the same subtraction the study makes
     from morpi_filters import strapdown
 
-    cfg = mc.StudyConfig()
-    st = mc._paths(cfg)[0]
-    n, R, h = st.time.size, 4, 1.0 / cfg.rate_hz
+    cfg = mc.StudyConfig(ins_path=path)
+    ins_path = mc._paths(cfg)[0]
+    assert (np.abs(ins_path.omega_b[:, 2]).max() > 0.1) == (path == "sine")
+    n, R, h = ins_path.time.size, 4, 1.0 / cfg.rate_hz
     keep = np.array([0, 500, n - 1])
     rng = np.random.default_rng(3)
-    f = st.f_b + 0.5 * rng.standard_normal((R, 1, 3)) + noise * 0.03 * rng.standard_normal((R, n, 3))
-    w = 0.05 * rng.standard_normal((R, 1, 3)) + noise * 0.002 * rng.standard_normal((R, n, 3))
-    tx = bi.double_integral_at(st.f_b[:, 0, None], h, keep)
-    x, y = bi.straight_errors_3d(h, _planes(f), _planes(w), keep)
-    p = strapdown.ins3d(st.time, f, w).position
-    e_sd = np.hypot(p[:, keep, 0] - st.position[keep, 0], p[:, keep, 1] - st.position[keep, 1])
-    np.testing.assert_allclose(np.hypot(x - tx, y).T[:, 1:], e_sd[:, 1:], rtol=tol)
-    wz = w[:, :, 2].T
+    f0, w0 = ins_path.f_b, ins_path.omega_b
+    f = f0 + 0.5 * rng.standard_normal((R, 1, 3)) + noise * 0.03 * rng.standard_normal((R, n, 3))
+    w = w0 + 0.05 * rng.standard_normal((R, 1, 3)) + noise * 0.002 * rng.standard_normal((R, n, 3))
+    heading, ((tx3, ty3), (tx2, ty2)) = mc._ins_truth(ins_path, h, keep)
+    x, y = bi.horizontal_3d(h, _planes(f), _planes(w), keep)
+    t = ins_path.time
+    p, p0 = strapdown.ins3d(t, f, w).position, strapdown.ins3d(t, f0, w0).position
+    e_sd = np.hypot(p[:, keep, 0] - p0[keep, 0], p[:, keep, 1] - p0[keep, 1])
+    np.testing.assert_allclose(np.hypot(x - tx3, y - ty3).T[:, 1:], e_sd[:, 1:], rtol=tol)
+    # the planar INS: the heading is the truth's (same rule) plus the integrated rate error
+    wz = (w - w0)[:, :, 2].T
     psi = np.zeros((n, R))
     psi[1:] = np.cumsum(wz[:-1], axis=0)
     psi = h * (psi + 0.5 * (wz - wz[0]))
-    x, y = bi.straight_errors_2d(_planes(f), psi, h, keep)
-    p = strapdown.ins2d(st.time, f, w).position
-    e_sd = np.hypot(p[:, keep, 0] - st.position[keep, 0], p[:, keep, 1] - st.position[keep, 1])
-    np.testing.assert_allclose(np.hypot(x - tx, y).T[:, 1:], e_sd[:, 1:], rtol=tol)
+    x, y = bi.horizontal_2d(_planes(f), psi, h, keep, heading=heading)
+    p, p0 = strapdown.ins2d(t, f, w).position, strapdown.ins2d(t, f0, w0).position
+    e_sd = np.hypot(p[:, keep, 0] - p0[keep, 0], p[:, keep, 1] - p0[keep, 1])
+    np.testing.assert_allclose(np.hypot(x - tx2, y - ty2).T[:, 1:], e_sd[:, 1:], rtol=tol)
+
+
+def test_truth_through_the_kernels_follows_the_path():
+    # the kernels on the error-free signals retrace the simulated path: what the study
+    # subtracts is the path itself up to the integration rule (trapezoid, O(dt^2))
+    cfg = mc.StudyConfig(duration=20.0)
+    sine = mc._paths(cfg)[1]
+    keep = np.arange(0, sine.time.size, 100)
+    _, ((x3, y3), (x2, y2)) = mc._ins_truth(sine, 1.0 / cfg.rate_hz, keep)
+    for x, y in ((x3, y3), (x2, y2)):
+        # measured 2e-5 m over 8.9 m; bar 1 mm
+        np.testing.assert_allclose(x[:, 0], sine.position[keep, 0], atol=1e-3)
+        np.testing.assert_allclose(y[:, 0], sine.position[keep, 1], atol=1e-3)
 
 
 def test_double_integral_of_a_ramp_is_exact():

@@ -10,7 +10,7 @@ from morpi_filters import units
 from morpi_filters.cli import main
 from morpi_filters.curves import (
     DEFAULT_TIMES, case_from_params, case_from_sensor, case_mean_square, error_realisation,
-    compute_curves, curves_study, time_grid,
+    compute_curves, curves_study, horizontal_sigma, time_grid,
 )
 from morpi_filters.errors import MorpiError
 from morpi_filters.params import params_from_dict
@@ -38,20 +38,27 @@ def test_noise_off_sigma_equals_the_closed_form_rms():
     case = case_from_params(params_from_dict(PARAMS))
     cc = compute_curves(case, times=[1.0, 5.0, 15.0], runs=0)
     v = cc.at_eval_times()
-    for k in ("ins3d", "ins2d"):
+    for k in ("INS-3D", "INS-2D"):
         # both are sqrt(E[e^2]) of the same linear model, one from the filterpy
         # recursion, one from the hand polynomials: rounding only (bar 1e-9)
-        np.testing.assert_allclose(v[f"sigma_{k}_m"], v[f"rms_closed_form_{k}_m"], rtol=1e-9)
+        np.testing.assert_allclose(v["sigma_m"][k], v["rms_closed_form_m"][k], rtol=1e-9)
+        # the one-call sigma is the same filter
+        np.testing.assert_array_equal(horizontal_sigma(params_from_dict(PARAMS), [1.0, 5.0, 15.0], k),
+                                      v["sigma_m"][k])
     # MoRPI aiding bounds the error far below the 2D INS at 15 s
-    assert v["sigma_morpi_m"][-1] < 0.5 * v["sigma_ins2d_m"][-1]
+    assert v["sigma_m"]["MoRPI-aided INS"][-1] < 0.5 * v["sigma_m"]["INS-2D"][-1]
+    np.testing.assert_array_equal(horizontal_sigma(case, [1.0, 5.0, 15.0], "MoRPI-aided INS"),
+                                  v["sigma_m"]["MoRPI-aided INS"])
+    with pytest.raises(MorpiError, match="method 'ins3d'"):
+        horizontal_sigma(case, [1.0], "ins3d")
 
 
 def test_monte_carlo_rms_agrees_with_sigma():
     case = case_from_sensor(units.LSM6DSL, params_from_dict({**PARAMS, "process_noise": True}))
     N = 1000
     v = compute_curves(case, times=[3.0, 10.0], runs=N, rng=np.random.default_rng(12)).at_eval_times()
-    for k in ("ins3d", "ins2d", "morpi"):
-        ratio = v[f"mc_rms_{k}_m"] ** 2 / v[f"sigma_{k}_m"] ** 2
+    for k in ("INS-3D", "INS-2D", "MoRPI-aided INS"):
+        ratio = v["mc_rms_m"][k] ** 2 / v["sigma_m"][k] ** 2
         # mean square over N runs of a sum of two Gaussian squares: relative std
         # at most sqrt(2/N) = 4.5%; bar 4 of those
         assert np.all(np.abs(ratio - 1) < 4 * np.sqrt(2 / N)), (k, ratio)
@@ -60,7 +67,7 @@ def test_monte_carlo_rms_agrees_with_sigma():
 def test_closed_form_realisation_and_mean_square_by_hand():
     p = params_from_dict(PARAMS)
     t = np.array([2.0])
-    e = error_realisation(p.dv0, p.ba, p.bg, 0.05, p.g, 0.5, t, "ins3d")
+    e = error_realisation(p.dv0, p.ba, p.bg, 0.05, p.g, 0.5, t, "INS-3D")
     alpha = 9.81 + 0.03  # the paper's alpha = g + b_az for one realisation
     dx = 0.06 * 2 + 0.08 * 2 + alpha * 0.003 * 8 / 6
     dy = 0.03 * 2 + 0.03 * 2 - alpha * 0.002 * 8 / 6
@@ -69,10 +76,10 @@ def test_closed_form_realisation_and_mean_square_by_hand():
     # linearized mean square by hand (alpha = g), b_gz dropped
     ms = ((0.06 ** 2 + 0.03 ** 2) * 4 + (0.08 ** 2 + 0.03 ** 2) * 16 / 4
           + 9.81 ** 2 * (0.002 ** 2 + 0.003 ** 2) * 64 / 36)
-    assert case_mean_square(case, t, "ins3d")[0] == pytest.approx(ms, rel=1e-12)  # the same closed form through two call paths: float rounding
-    assert case_mean_square(case, t, "morpi")[0] == pytest.approx((0.05 * 0.5 * 2) ** 2)  # (dG v t)^2 exactly; pytest's default 1e-6 relative
+    assert case_mean_square(case, t, "INS-3D")[0] == pytest.approx(ms, rel=1e-12)  # the same closed form through two call paths: float rounding
+    assert case_mean_square(case, t, "MoRPI-aided INS")[0] == pytest.approx((0.05 * 0.5 * 2) ** 2)  # (dG v t)^2 exactly; pytest's default 1e-6 relative
     with pytest.raises(MorpiError, match="kind"):
-        case_mean_square(case, t, "ins4d")
+        case_mean_square(case, t, "ins3d")
 
 
 def test_report_contract(tmp_path):
@@ -80,9 +87,10 @@ def test_report_contract(tmp_path):
     out.mkdir()
     s = report_curves(out, curves_study(params_path=_write(tmp_path, process_noise=True), times=[2.0, 6.0]))
     r = json.loads((out / "result.json").read_text())
-    for key in ("times", "sigma_ins3d_m", "sigma_ins2d_m", "sigma_morpi_m",
-                "rms_closed_form_ins3d_m", "rms_closed_form_ins2d_m"):
-        assert len(r[key]) == 2, key
+    assert len(r["times"]) == 2
+    for key in ("sigma_m", "rms_closed_form_m"):
+        assert set(r[key]) == {"INS-3D", "INS-2D", "MoRPI-aided INS"}
+        assert all(len(v) == 2 for v in r[key].values()), key
     assert r["times"] == [2.0, 6.0] and r["process_noise"] is True
     assert set(r["cases"]) == {"params", "mpu6500", "lsm6dsl"}
     assert s.name == "curves" and s.page == "README.md" and not s.synthetic
@@ -99,7 +107,7 @@ def test_default_times_and_cli(tmp_path, monkeypatch):
     assert rc == 0
     r = json.loads(js.read_text())
     assert r["times"] == list(DEFAULT_TIMES) and r["process_noise"] is False
-    assert r["sigma_ins3d_m"][0] == 0.0
+    assert r["sigma_m"]["INS-3D"][0] == 0.0
 
 
 def test_bad_parameter_file_is_one_clear_error(tmp_path, capsys, monkeypatch):
@@ -123,8 +131,8 @@ def test_nonlinear_strapdown_monte_carlo_agrees_where_the_model_is_linear():
     N = 400
     cc = compute_curves(case, times=[1.0, 3.0], runs=0, rng=np.random.default_rng(3), nonlinear_runs=N)
     v = cc.at_eval_times()
-    for k in ("ins3d", "ins2d"):
-        ratio = v[f"nonlinear_mc_rms_{k}_m"] ** 2 / v[f"sigma_{k}_m"] ** 2
+    for k in ("INS-3D", "INS-2D"):
+        ratio = v["nonlinear_mc_rms_m"][k] ** 2 / v["sigma_m"][k] ** 2
         # mean square of N runs: relative std <= sqrt(2/N) = 7%; 4 of those
         assert np.all(np.abs(ratio - 1) < 4 * np.sqrt(2 / N)), (k, ratio)
 
@@ -149,8 +157,8 @@ def test_field_straight_line_end_points(field_root):
     from morpi_filters.reporting import DataSource
 
     pts, note = _field_points(DataSource(field_root))
-    assert len(pts["ins3d"]) == len(pts["ins2d"]) >= 20  # 24 recordings in s8/line_dataset
-    d = np.array(pts["ins3d"])
+    assert len(pts["INS-3D"]) == len(pts["INS-2D"]) >= 20  # 24 recordings in s8/line_dataset
+    d = np.array(pts["INS-3D"])
     # the paper: 6.3 m in about 5 s; motion spans between 3 and 10 s
     assert np.all((d[:, 0] > 3) & (d[:, 0] < 10))
     # Independent of the curves' own loop: the end-point errors of the paper's INS table, computed by
@@ -160,8 +168,8 @@ def test_field_straight_line_end_points(field_root):
     from conftest import ROOT
     truth_end = np.array(json.loads((ROOT / "data" / "routes.json").read_text())["routes"]["line_dataset"]["end_point_m"])
     result = ev.evaluate_tables(field_root, alternatives=False)
-    for key, method in (("ins3d", "INS-3D"), ("ins2d", "INS-2D")):
-        runs = result.cell("ins_straight", "s8", None, method, "GAC").runs
+    for key in ("INS-3D", "INS-2D"):
+        runs = result.cell("ins_straight", "s8", None, key, "GAC").runs
         table = sorted(float(np.linalg.norm(np.asarray(r.end_point) - truth_end)) for r in runs)
         # same recordings and the same integration: equal up to float rounding (1e-9 m)
         np.testing.assert_allclose(sorted(e for _, e in pts[key]), table, atol=1e-9)

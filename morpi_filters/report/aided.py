@@ -23,6 +23,29 @@ def study_json(study) -> dict:
     ``forward_percent``, ``smoothed_percent``, ``runs``), ``ablation`` (list of
     ``{cell, removed, smoothed_percent}``), ``coverage_95`` (fraction) and
     ``tunables``.
+
+    Parameters
+    ----------
+    study : field_aided.AidedStudy
+        What :func:`morpi_filters.field_aided.aided_study` computed.
+
+    Returns
+    -------
+    dict
+        ``cells`` (list of dict: ``table``, ``phone``, ``p2p_m``, ``method``,
+        ``calibration``, ``route``, ``label``, ``paper_percent``,
+        ``morpi_percent``, ``forward_percent``, ``smoothed_percent``,
+        ``ins_percent``, ``train_percent``, ``train_loo_percent``,
+        ``train_morpi_percent``, ``nis``, ``runs``, ``failed``), ``ablation``,
+        ``coverage_95``, ``nis`` (measurement -> ``{mean, dof}``), ``note`` and
+        ``tunables`` (``grid``, ``fixed``, ``chosen``).
+
+    Examples
+    --------
+    >>> from morpi_filters.field_aided import GRID, AidedStudy
+    >>> js = study_json(AidedStudy(cells=(), ablation=(), coverage_95=float("nan"), nis={}, note="no cell"))
+    >>> sorted(js), js["tunables"]["grid"] == {k: list(v) for k, v in GRID.items()}
+    (['ablation', 'cells', 'coverage_95', 'nis', 'note', 'tunables'], True)
     """
     from .. import aided, field_aided
 
@@ -158,6 +181,19 @@ def report_aided(out, study, source=None) -> SectionSummary:
     Returns
     -------
     reporting.SectionSummary
+        Name ``"aided"``, the page, the figures written and a one-line
+        summary (cells where the smoothed filter beats MoRPI alone, coverage).
+
+    Examples
+    --------
+    An empty study (no MoRPI cell qualified) still writes its page and JSON:
+
+    >>> import tempfile
+    >>> from morpi_filters.field_aided import AidedStudy
+    >>> out = Path(tempfile.mkdtemp()) / "aided"
+    >>> s = report_aided(out, AidedStudy(cells=(), ablation=(), coverage_95=float("nan"), nis={}, note="no cell"))
+    >>> s.name, s.figures, sorted(p.name for p in out.iterdir())
+    ('aided', (), ['README.md', 'result.json'])
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

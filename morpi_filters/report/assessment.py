@@ -30,7 +30,14 @@ def report_assessment(out, study: AssessmentStudy) -> SectionSummary:
     out : path-like
         Staging folder of the section.
     study : assessment.AssessmentStudy
-        What :func:`morpi_filters.assessment.assessment_study` computed.
+        What :func:`morpi_filters.assessment.assessment_study` computed
+        (no example here: the study's symbolic audit takes about a second).
+
+    Returns
+    -------
+    reporting.SectionSummary
+        Name ``"assessment"``, page ``README.md``, figure ``assessment.png``
+        and a summary of the improvements against the paper's.
     """
     out = Path(out)
     params, curves, t = study.params, study.curves, study.times
@@ -155,6 +162,12 @@ def audit_page(r, dropped_terms: dict, conventions) -> str:
         :func:`morpi_filters.symbolic.dropped_bgz_terms` of ``r.reference``.
     conventions : sequence of (str, bool)
         The audited conventions (``symbolic.AUDIT_CONVENTIONS``) and whether each is physical.
+
+    Returns
+    -------
+    str
+        The markdown of ``audit.md``: the method, per printed equation the
+        discrepancies under each convention, and the dropped b_gz terms.
     """
     names = [n for n, _ in conventions]
     phys = dict(conventions)

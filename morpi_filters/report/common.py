@@ -18,17 +18,52 @@ SYNTHETIC_BANNER = (
 
 
 def banner(source) -> str:
-    """The synthetic-data notice for a page on `source` (a ``reporting.DataSource`` or None), else ``""``."""
+    """The synthetic-data notice for a page on `source` (a ``reporting.DataSource`` or None), else ``""``.
+
+    Parameters
+    ----------
+    source : reporting.DataSource or None
+        Where the page's recordings come from.
+
+    Returns
+    -------
+    str
+        :data:`SYNTHETIC_BANNER` and a blank line when ``source.synthetic``,
+        else the empty string.
+
+    Examples
+    --------
+    >>> from morpi_filters.reporting import DataSource
+    >>> banner(None), banner(DataSource(root=None))
+    ('', '')
+    >>> text = banner(DataSource(root=None, synthetic=True, seed=0))
+    >>> text.startswith(SYNTHETIC_BANNER), len(text) - len(SYNTHETIC_BANNER)     # and two newlines
+    (True, 2)
+    >>> text.rstrip() == SYNTHETIC_BANNER
+    True
+    """
     return SYNTHETIC_BANNER + "\n\n" if source is not None and source.synthetic else ""
 
 
 def fmt(x, digits: int = 2) -> str:
     """Format a number for a markdown table (``-`` for None or NaN).
 
+    Parameters
+    ----------
+    x : float, int, None or object
+        The value; anything :class:`float` cannot convert is shown as ``str(x)``.
+    digits : int
+        Digits after the decimal point.
+
+    Returns
+    -------
+    str
+        Fixed-point text, ``"-"`` for None, NaN or inf.
+
     Examples
     --------
-    >>> fmt(3.14159), fmt(None), fmt(float("nan"))
-    ('3.14', '-', '-')
+    >>> fmt(3.14159), fmt(None), fmt(float("nan")), fmt(2, 3), fmt("n/a")
+    ('3.14', '-', '-', '2.000', 'n/a')
     """
     if x is None:
         return "-"
@@ -43,6 +78,19 @@ def fmt(x, digits: int = 2) -> str:
 
 def md_table(headers, rows) -> str:
     """A GitHub markdown table from a header list and rows of cells.
+
+    Parameters
+    ----------
+    headers : sequence
+        Column titles (converted with ``str``).
+    rows : iterable of sequence
+        Cells of each row (converted with ``str``), as many as the headers.
+
+    Returns
+    -------
+    str
+        The header line, the ``|---|`` separator and one line per row, each
+        ending with a newline.
 
     Examples
     --------
@@ -60,10 +108,29 @@ def md_table(headers, rows) -> str:
 def save_figure(fig, path, dpi: int = 120) -> Path:
     """Write `fig` (a Figure, or an Axes of one) as a PNG file, atomically.
 
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure or matplotlib.axes.Axes
+        What to save (an Axes saves its whole figure).
+    path : str or Path
+        Destination PNG file; missing folders are created.
+    dpi : int
+        Resolution [dots per inch].
+
     Returns
     -------
     Path
         `path`.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from morpi_filters.report.plots import new_axes
+    >>> ax, _ = new_axes()
+    >>> _ = ax.plot([0, 1], [0, 1])
+    >>> p = save_figure(ax, Path(tempfile.mkdtemp()) / "fig" / "line.png")
+    >>> p.name, p.read_bytes()[1:4]             # the PNG signature
+    ('line.png', b'PNG')
     """
     fig = getattr(fig, "figure", fig)
     path = Path(path)

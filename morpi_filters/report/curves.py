@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..curves import MC_RUNS, MC_SEED, NL_MAX_T, NL_RUNS, STEP_LENGTH_M, CurvesStudy
+from ..curves import CURVE_METHODS, MC_RUNS, MC_SEED, NL_MAX_T, NL_RUNS, STEP_LENGTH_M, CurvesStudy
 from ..reporting import SectionSummary, write_json, write_text
 from . import plots
 from .common import banner, fmt, md_table, save_figure
@@ -33,6 +33,8 @@ def report_curves(out, study: CurvesStudy, source=None) -> SectionSummary:
     Returns
     -------
     reporting.SectionSummary
+        Name ``"curves"``, its page, one figure per case and a summary
+        (no example: a curves study takes seconds).
     """
     out = Path(out)
     params, times = study.params, study.times
@@ -52,19 +54,16 @@ def report_curves(out, study: CurvesStudy, source=None) -> SectionSummary:
                 field_rows.append([case.title, k, len(p), fmt(d), fmt(np.mean([q[1] for q in p])),
                                    fmt(np.sqrt(np.mean([q[1] ** 2 for q in p]))),
                                    fmt(np.interp(d, cc.times, cc.sigma[k]))])
-        rows.append([case.title, fmt(times[-1], 1)] + [fmt(v[f"{a}_{k}_m"][-1]) if f"{a}_{k}_m" in v else "-"
-                                                      for k in ("ins3d", "ins2d", "morpi")
-                                                      for a in ("sigma", "rms_closed_form", "mc_rms",
-                                                                "nonlinear_mc_rms")[: 4 if k != "morpi" else 3]])
+        rows.append([case.title, fmt(times[-1], 1)] + [fmt(v[a][k][-1]) if k in v.get(a, {}) else "-"
+                                                      for k in CURVE_METHODS
+                                                      for a in ("sigma_m", "rms_closed_form_m", "mc_rms_m",
+                                                                "nonlinear_mc_rms_m")[: 4 if k != CURVE_METHODS[2]
+                                                                                      else 3]])
     main = per_case["params"]
     result = {
         "times": times,
-        "sigma_ins3d_m": main["sigma_ins3d_m"],
-        "sigma_ins2d_m": main["sigma_ins2d_m"],
-        "sigma_morpi_m": main["sigma_morpi_m"],
-        "rms_closed_form_ins3d_m": main["rms_closed_form_ins3d_m"],
-        "rms_closed_form_ins2d_m": main["rms_closed_form_ins2d_m"],
-        "rms_closed_form_morpi_m": main["rms_closed_form_morpi_m"],
+        "sigma_m": main["sigma_m"],
+        "rms_closed_form_m": main["rms_closed_form_m"],
         "process_noise": bool(params.process_noise),
         "params_file": params.label,
         "step_length_m": STEP_LENGTH_M,
@@ -101,7 +100,8 @@ def report_curves(out, study: CurvesStudy, source=None) -> SectionSummary:
     )
     write_text(out / "README.md", text)
     summary = (f"Filter sigma vs closed form vs Monte Carlo for 3D/2D INS and MoRPI-aided INS. "
-               f"At {fmt(times[-1], 0)} s (parameter file): 3D {fmt(main['sigma_ins3d_m'][-1])} m, "
-               f"2D {fmt(main['sigma_ins2d_m'][-1])} m, MoRPI-aided {fmt(main['sigma_morpi_m'][-1])} m (1 sigma).")
+               f"At {fmt(times[-1], 0)} s (parameter file): 3D {fmt(main['sigma_m']['INS-3D'][-1])} m, "
+               f"2D {fmt(main['sigma_m']['INS-2D'][-1])} m, MoRPI-aided {fmt(main['sigma_m']['MoRPI-aided INS'][-1])} "
+               "m (1 sigma).")
     return SectionSummary(name="curves", title="Covariance curves", page="README.md", figures=tuple(figures),
                           summary=summary, synthetic=bool(source is not None and source.synthetic))

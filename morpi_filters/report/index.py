@@ -15,6 +15,30 @@ def index_page(summaries, source) -> str:
         One per section, in the report's order.
     source : reporting.DataSource or None
         The dataset the report was computed on.
+
+    Returns
+    -------
+    str
+        The title, the synthetic-data banner or the field dataset's root,
+        then per section a linked heading, a synthetic note, its summary and
+        its figures as images, each block followed by a blank line.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> from morpi_filters.reporting import DataSource, SectionSummary
+    >>> s = SectionSummary("curves", "Covariance curves", summary="INS-3D grows fastest.", figures=("sigma.png",))
+    >>> print(index_page([s], DataSource(Path("data"))))
+    # morpi_filters report
+    <BLANKLINE>
+    Field dataset: `data`.
+    <BLANKLINE>
+    ## [Covariance curves](curves/README.md)
+    <BLANKLINE>
+    INS-3D grows fastest.
+    <BLANKLINE>
+    ![Covariance curves: sigma.png](curves/sigma.png)
+    <BLANKLINE>
     """
     lines = ["# morpi_filters report", ""]
     if source is not None and source.synthetic:

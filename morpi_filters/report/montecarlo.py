@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..montecarlo import Z99, DriftPage, GainErrorPage, _config_json, _stats_block, summarize
+from ..montecarlo import Z99, DriftPage, GainErrorPage, _config_json, final_statistics, summarize
 from ..reporting import SectionSummary, write_json, write_text
 from ..units import DEG_S, MG
 from . import plots
@@ -29,6 +29,8 @@ def report_montecarlo(out, study: GainErrorPage, source=None) -> SectionSummary:
     Returns
     -------
     reporting.SectionSummary
+        The section's name, page, figures and summary (no example: the
+        study and its figures take seconds).
     """
     out = Path(out)
     runs, seed = study.runs, study.seed
@@ -54,18 +56,18 @@ def report_montecarlo(out, study: GainErrorPage, source=None) -> SectionSummary:
         out / "training_runs.png").name)
 
     result = {
-        "runs": runs, "seed": seed, "digest": r.digest, **_stats_block(r),
+        "runs": runs, "seed": seed, "digest": r.digest, **final_statistics(r),
         "unit": "m, final horizontal position error",
         "config": _config_json(cal), "columns": list(r.columns), "distance_m": r.distance,
-        "gain_ref": {"morpi_a": r.gain_ref[0], "morpi_g": r.gain_ref[1],
-                     "training_cv": {"morpi_a": r.gain_ref_cv[0], "morpi_g": r.gain_ref_cv[1]}},
-        "scenarios": [{**c, "final_morpi_a": summarize(r.column(f"morpi_a[{c['label']}]")),
-                       "final_morpi_g": summarize(r.column(f"morpi_g[{c['label']}]"))} for c in checks],
+        "gain_ref": {"MoRPI-A": r.gain_ref[0], "MoRPI-G": r.gain_ref[1],
+                     "training_cv": {"MoRPI-A": r.gain_ref_cv[0], "MoRPI-G": r.gain_ref_cv[1]}},
+        "scenarios": [{**c, "final": {m: summarize(r.final_error(m, c["label"])) for m in ("MoRPI-A", "MoRPI-G")}}
+                      for c in checks],
         "confidence": {"z": Z99, "bound": "mean +/- z * std / sqrt(runs)"},
-        "raw_biases": {"digest": rr.digest, "config": _config_json(raw), **_stats_block(rr)},
+        "raw_biases": {"digest": rr.digest, "config": _config_json(raw), **final_statistics(rr)},
         "training_runs": {"k": tr.k, "mismatch": tr.mismatch, "spread": tr.spread, "assumed": assumed,
                           "source": spread_note if not assumed else f"assumed ({spread_note})",
-                          "rms_distance_morpi_a": tr.rms_distance[:, 0], "rms_distance_morpi_g": tr.rms_distance[:, 1],
+                          "rms_distance": {"MoRPI-A": tr.rms_distance[:, 0], "MoRPI-G": tr.rms_distance[:, 1]},
                           "rms_expected": tr.rms_expected, "digests": list(tr.digests)},
         "backends": r.backends,
     }
@@ -75,10 +77,12 @@ def report_montecarlo(out, study: GainErrorPage, source=None) -> SectionSummary:
     lines = [banner(source) + "# Monte Carlo gain-error study\n"]
     lines.append(
         f"{runs} seeded runs (seed {seed}) of {cal.spec.name} errors over {cal.duration:g} s at "
-        f"{cal.rate_hz:g} Hz. INS-3D and INS-2D drive a level straight line of {cal.length_m:g} m from rest "
-        f"(simulate.straight: ramp, cruise, stop, then rest to the end); MoRPI-A and MoRPI-G drive a sine path "
-        f"(simulate.sine: period {cal.period_m:g} m, amplitude {cal.amplitude_m:g} m, tapered over the first and "
-        f"last period) over the same start and end points and take {r.steps} Weinberg steps between the "
+        f"{cal.rate_hz:g} Hz. The robot drives a sine path of {cal.length_m:g} m (simulate.sine: period "
+        f"{cal.period_m:g} m, amplitude {cal.amplitude_m:g} m, tapered over the first and last period; "
+        f"1 s ramps from and to rest, cruise at {cal.speed_mps:.3g} m/s). "
+        + ("INS-3D and INS-2D navigate that same path; " if cal.ins_path == "sine" else
+           f"INS-3D and INS-2D drive a straight line of the same length and speed; ")
+        + f"MoRPI-A and MoRPI-G take {r.steps} Weinberg steps between the "
         f"f_y maxima (D = {r.distance:.2f} m). Every run draws turn-on biases, white noise at "
         f"{cal.rate_hz:g} Hz from the datasheet densities, and one gain number; the MoRPI reference gains "
         f"are the mean of {cal.training_runs} noisy training runs (per-run gain spread from sensor noise: "
@@ -110,7 +114,7 @@ def report_montecarlo(out, study: GainErrorPage, source=None) -> SectionSummary:
                  "The residual spread is the sensor noise's effect on the Weinberg terms.\n")
     rows = []
     for c in checks:
-        for name in ("morpi_a", "morpi_g"):
+        for name in ("MoRPI-A", "MoRPI-G"):
             v = c[name]
             rows.append([c["label"], name, fmt(c["analytic_mean"], 4), fmt(v["mc_mean"], 4),
                          fmt(v["residual_mean"], 5), fmt(v["bound"], 5), "yes" if v["within"] else "NO",
@@ -129,12 +133,12 @@ def report_montecarlo(out, study: GainErrorPage, source=None) -> SectionSummary:
     lines.extend(f"![{f}]({f})\n" for f in figs)
     write_text(out / "README.md", "\n".join(lines))
 
-    st = _stats_block(r)
+    st = final_statistics(r)
     summary = (f"{runs} runs, {cal.spec.name}, {cal.duration:g} s (GAC-calibrated): mean final error INS-3D "
-               f"{fmt(st['ins3d']['mean'])} m, INS-2D {fmt(st['ins2d']['mean'])} m, MoRPI-A (dG 5 %) "
-               f"{fmt(st['morpi_a']['mean'])} m, MoRPI-G {fmt(st['morpi_g']['mean'])} m. "
+               f"{fmt(st['INS-3D']['mean'])} m, INS-2D {fmt(st['INS-2D']['mean'])} m, MoRPI-A (dG 5 %) "
+               f"{fmt(st['MoRPI-A']['mean'])} m, MoRPI-G {fmt(st['MoRPI-G']['mean'])} m. "
                f"MoRPI distance error vs ds = dG D: "
-               + ", ".join(f"{c['label']} {'within' if c['morpi_a']['within'] else 'OUTSIDE'}" for c in checks)
+               + ", ".join(f"{c['label']} {'within' if c['MoRPI-A']['within'] else 'OUTSIDE'}" for c in checks)
                + " the 99 % bound.")
     return SectionSummary(name="montecarlo", title="Monte Carlo gain-error study", page="README.md",
                           figures=tuple(figs), summary=summary, synthetic=synthetic)
@@ -153,6 +157,8 @@ def report_drift(out, study: DriftPage) -> SectionSummary:
     Returns
     -------
     reporting.SectionSummary
+        The section's name, page, figures and summary (no example: the
+        study and its figures take seconds).
     """
     out = Path(out)
     spec, d, growth, onset = study.spec, study.drift, study.growth, study.onset

@@ -20,14 +20,54 @@ __all__ = [
 
 
 def new_figure(**kw):
-    """A new :class:`matplotlib.figure.Figure` (no pyplot, no backend)."""
+    """A new :class:`matplotlib.figure.Figure` (no pyplot, no backend).
+
+    Parameters
+    ----------
+    **kw
+        Passed to :class:`matplotlib.figure.Figure` (``figsize`` [in], ``dpi``, ...).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Not registered with pyplot: it is freed with its last reference.
+
+    Examples
+    --------
+    >>> fig = new_figure(figsize=(4, 3))
+    >>> fig.get_size_inches().tolist(), fig.axes
+    ([4.0, 3.0], [])
+    """
     from matplotlib.figure import Figure
 
     return Figure(**kw)
 
 
 def new_axes(ax=None, figsize=(6.4, 4.8)):
-    """`ax`, or the single Axes of a new Figure of size `figsize` [in]; and whether it is new."""
+    """`ax`, or the single Axes of a new Figure of size `figsize` [in]; and whether it is new.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes, optional
+        An Axes to draw on; returned as it is.
+    figsize : (float, float)
+        Size of the new Figure [in] when `ax` is None.
+
+    Returns
+    -------
+    ax : matplotlib.axes.Axes
+        The Axes to draw on.
+    new : bool
+        True when the Axes belongs to a Figure made here.
+
+    Examples
+    --------
+    >>> ax, new = new_axes(figsize=(5, 2))
+    >>> new, ax.figure.get_size_inches().tolist()
+    (True, [5.0, 2.0])
+    >>> new_axes(ax) == (ax, False)
+    True
+    """
     if ax is not None:
         return ax, False
     return new_figure(figsize=figsize).subplots(), True
@@ -56,6 +96,8 @@ def plot_recording(time, f, omega, *, title="", rest=None, motion=None, peaks=No
         [s]; shown from the first sample.
     f, omega : ndarray, shape (n, 3)
         Specific force [m/s^2] and angular rate [rad/s] in phone axes.
+    title : str
+        Title of the upper panel.
     rest : tuple of float, optional
         Initial rest window (start, end) [s], shaded.
     motion : tuple of float, optional
@@ -63,10 +105,24 @@ def plot_recording(time, f, omega, *, title="", rest=None, motion=None, peaks=No
     peaks : ndarray, optional
         Peak times [s], marked on `peak_signal` (``"omega_z"`` or ``"f_y"``).
 
+    peak_signal : {"omega_z", "f_y"}
+        The signal the peaks are marked on.
+
     Returns
     -------
     matplotlib.figure.Figure
         Two panels (specific force above, angular rate below).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = 100.0 + np.arange(500) * 0.01                  # a recording's own clock
+    >>> f = np.tile([0.0, 0.0, 9.8], (500, 1))
+    >>> omega = np.zeros((500, 3))
+    >>> omega[:, 2] = np.sin(2 * np.pi * (t - 100.0))
+    >>> fig = plot_recording(t, f, omega, rest=(100.0, 101.0), peaks=[100.25, 101.25])
+    >>> [ax.get_ylabel() for ax in fig.axes], bool(fig.axes[1].get_xlim()[0] < 0.5)   # time from the first sample
+    (['m/s$^2$', 'rad/s'], True)
     """
     import numpy as np
 
@@ -105,12 +161,26 @@ def plot_tracks(tracks, truth, *, title="", equal=True, ax=None):
         Label -> ndarray (k, 2) positions [m].
     truth : ndarray, shape (m, 2)
         True route polyline [m].
+    title : str
+        Axes title.
+    equal : bool
+        Equal scales on x and y.
     ax : matplotlib.axes.Axes, optional
         Where to draw (default: a new 7 x 5 in Figure).
 
     Returns
     -------
     matplotlib.axes.Axes
+        With one line for the route and, per track, a line and its end point.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> truth = np.array([[0.0, 0.0], [6.3, 0.0]])
+    >>> ax, _ = new_axes()
+    >>> out = plot_tracks({"MoRPI-G": np.array([[0.0, 0.0], [3.0, 0.1], [6.0, 0.2]])}, truth, ax=ax)
+    >>> out is ax, [t.get_text() for t in ax.get_legend().get_texts()]
+    (True, ['true route', 'MoRPI-G'])
     """
     import numpy as np
 
@@ -139,10 +209,21 @@ def plot_path_sets(panels, *, ncols=3):
     panels : list of dict
         Each with ``title``, ``truth`` (m, 2) and ``paths``: dict label -> list of (k, 2) arrays
         (one colour per label, one line per run).
+    ncols : int
+        Panels per row (at most).
 
     Returns
     -------
     matplotlib.figure.Figure
+        One visible Axes per panel; unused grid cells are switched off.
+
+    Examples
+    --------
+    >>> truth = [[0.0, 0.0], [6.3, 0.0]]
+    >>> runs = [[[0.0, 0.0], [6.1, 0.2]], [[0.0, 0.0], [6.4, -0.1]]]
+    >>> fig = plot_path_sets([{"title": f"set {i}", "truth": truth, "paths": {"MoRPI-A": runs}} for i in range(4)])
+    >>> len(fig.axes), [ax.get_title() for ax in fig.axes if ax.axison]
+    (6, ['set 0', 'set 1', 'set 2', 'set 3'])
     """
     import numpy as np
 
@@ -185,12 +266,27 @@ def assessment_figure(curves, title: str = "Analytical assessment of 3D & 2D INS
     ----------
     curves : morpi_filters.assessment.AssessmentCurves
         ``times`` (n,) [s], ``e3d``, ``e2d`` (n,) [m], ``morpi`` {dG: (n,)} [m].
+    title : str
+        Axes title.
     ax : matplotlib.axes.Axes, optional
         Where to draw (default: a new 6.4 x 4.2 in Figure).
 
     Returns
     -------
     matplotlib.axes.Axes
+        Curves sorted by time, one per INS and one per gain error; dashed
+        grey lines at 5 s and 14 s when they are in range; y from 0.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from morpi_filters.assessment import AssessmentCurves
+    >>> t = np.array([0.0, 10.0, 20.0])
+    >>> c = AssessmentCurves(times=t, e3d=t ** 3 / 100, e2d=t ** 2 / 10, e3d_bgz=t, e2d_bgz=t,
+    ...                      morpi={0.05: 0.05 * t, 0.1: 0.1 * t}, convention="z_up")
+    >>> ax = assessment_figure(c)
+    >>> len(ax.get_lines()), float(ax.get_ylim()[0]), [t.get_text() for t in ax.get_legend().get_texts()][:2]
+    (6, 0.0, ['3D INS', '2D INS'])
     """
     ax, _ = new_axes(ax, (6.4, 4.2))
     order = sorted(range(len(curves.times)), key=lambda i: curves.times[i])
@@ -217,19 +313,26 @@ def assessment_figure(curves, title: str = "Analytical assessment of 3D & 2D INS
 # ============================================================================ curves (filter covariance)
 # Closed form, filter sigma, Monte Carlo RMS and field end-point errors on one axis.
 
-_CURVE_PANELS = (("ins3d", "3D INS"), ("ins2d", "2D INS"), ("morpi", "MoRPI-aided INS"))
+_CURVE_PANELS = (("INS-3D", "3D INS"), ("INS-2D", "2D INS"), ("MoRPI-aided INS", "MoRPI-aided INS"))
 
 
 def plot_curves(curves):
     """One figure per case: a panel per method, every error view on the same axes.
 
+    Needs a computed :class:`morpi_filters.curves.CaseCurves` (about a
+    second), so there is no example.
+
     Parameters
     ----------
     curves : curves.CaseCurves
+        The case's filter sigma, closed-form RMS and realisation, Monte Carlo
+        RMS (linear and strapdown) and field end points, per method.
 
     Returns
     -------
     matplotlib.figure.Figure
+        Three panels (INS-3D, INS-2D, MoRPI-aided INS) on a shared time axis,
+        symmetric-log error scale, titled with the case.
     """
     import numpy as np
 
@@ -268,12 +371,25 @@ def plot_aided_cells(cells, *, ax=None):
     Parameters
     ----------
     cells : sequence of field_aided.AidedCell
+        Their ``ins_percent``, ``morpi_percent``, ``smoothed_percent``,
+        ``spec.paper_percent`` and ``label`` are drawn.
     ax : matplotlib.axes.Axes, optional
         Where to draw (default: a new Figure 8 in wide, 0.32 in per cell high).
 
     Returns
     -------
     matplotlib.axes.Axes
+        Three horizontal bars per cell (log scale), the paper's value as a tick,
+        cells from top to bottom in order.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> cell = SimpleNamespace(label="s8 short GC MoRPI-G", ins_percent=40.0, morpi_percent=4.0,
+    ...                        smoothed_percent=3.0, spec=SimpleNamespace(paper_percent=4.2))
+    >>> ax = plot_aided_cells([cell, cell])
+    >>> len(ax.patches), ax.get_xscale(), [t.get_text() for t in ax.get_yticklabels()]
+    (6, 'log', ['s8 short GC MoRPI-G', 's8 short GC MoRPI-G'])
     """
     import numpy as np
 
@@ -302,6 +418,8 @@ def plot_aided_paths(cell, truth_xy, *, ax=None):
     Parameters
     ----------
     cell : field_aided.AidedCell
+        Its ``paths`` (per run: epoch time, forward xy, smoothed xy, MoRPI
+        xy, forward P_xy) and ``label`` are drawn.
     truth_xy : ndarray, shape (m, 2)
         The true route's polyline [m].
     ax : matplotlib.axes.Axes, optional
@@ -310,6 +428,17 @@ def plot_aided_paths(cell, truth_xy, *, ax=None):
     Returns
     -------
     matplotlib.axes.Axes
+        The route and three lines per run, titled with the cell's label.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from types import SimpleNamespace
+    >>> xy = np.array([[0.0, 0.0], [3.0, 0.1], [6.3, 0.0]])
+    >>> run = (np.array([0.0, 5.0, 10.0]), xy, xy, xy + 0.1, np.tile(np.eye(2) * 0.01, (3, 1, 1)))
+    >>> ax = plot_aided_paths(SimpleNamespace(label="s8 short", paths=(run, run)), np.array([[0.0, 0.0], [6.3, 0.0]]))
+    >>> len(ax.get_lines()), ax.get_title()
+    (7, 's8 short')
     """
     ax, own = new_axes(ax, (8, 4))
     ax.plot(truth_xy[:, 0], truth_xy[:, 1], "k-", lw=2, label="true route")
@@ -335,6 +464,7 @@ def plot_aided_ellipses(cell, *, run: int = 0, every_s: float = 2.0, ax=None):
     Parameters
     ----------
     cell : field_aided.AidedCell
+        Its ``paths``, ``runs`` (for the file name) and ``label`` are read.
     run : int
         Which run of the cell.
     every_s : float
@@ -345,6 +475,22 @@ def plot_aided_ellipses(cell, *, run: int = 0, every_s: float = 2.0, ax=None):
     Returns
     -------
     matplotlib.axes.Axes
+        The forward path and one ellipse per `every_s` (and one at the end).
+
+    Examples
+    --------
+    A 0.1 m circle (P = 0.0025 I m^2, 2 sigma) every 2 s over 5 s: at 0, 2, 4 and 5 s.
+
+    >>> import numpy as np
+    >>> from types import SimpleNamespace
+    >>> t = np.arange(6.0)
+    >>> fwd = np.stack([t, 0 * t], axis=1)
+    >>> cell = SimpleNamespace(label="s8 short", runs=({"file": "1.csv"},),
+    ...                        paths=((t, fwd, fwd, fwd, np.tile(np.eye(2) * 0.0025, (6, 1, 1))),))
+    >>> ax = plot_aided_ellipses(cell)
+    >>> lines = ax.get_lines()
+    >>> len(lines), round(float(np.ptp(lines[1].get_xdata())), 3)      # diameter 4 sigma
+    (5, 0.2)
     """
     import numpy as np
 
@@ -384,10 +530,22 @@ def montecarlo_final_errors(columns, final, *, title=""):
         Column names (panel titles).
     final : ndarray, shape (runs, len(columns))
         Final errors [m].
+    title : str
+        Figure title.
 
     Returns
     -------
     matplotlib.figure.Figure
+        Up to 3 panels per row, each a 50-bin histogram with its mean and
+        95th percentile; unused cells hidden.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> final = np.random.default_rng(0).rayleigh(1.0, (100, 2))
+    >>> fig = montecarlo_final_errors(["MoRPI-A[5 %]", "MoRPI-G[5 %]"], final)
+    >>> [ax.get_title() for ax in fig.axes], len(fig.axes[0].patches)       # 50 bins each
+    (['MoRPI-A[5 %]', 'MoRPI-G[5 %]'], 50)
     """
     import numpy as np
 
@@ -424,14 +582,28 @@ def montecarlo_error_curves(time, bands, labels, *, analytic=None, title="", ax=
         5th, 50th and 95th percentile of the horizontal errors over the runs
         [m] (``montecarlo.StudyResult.bands``).
     labels : sequence of str, length k
+        Names of the k error columns.
     analytic : dict, optional
         label -> (time (q,), value (q,)) curves drawn dashed.
+    title : str
+        Axes title.
     ax : matplotlib.axes.Axes, optional
         Where to draw (default: a new 7 x 4.2 in Figure).
 
     Returns
     -------
     matplotlib.axes.Axes
+        Log y axis; one median line and band per column with any finite
+        value, then the analytic curves.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.linspace(0.0, 10.0, 11)
+    >>> band = np.stack([0.5 * t, t, 2 * t], axis=-1)[:, None, :]          # (11, 1, 3)
+    >>> ax = montecarlo_error_curves(t, band, ["INS-2D"], analytic={"t^2 / 10": (t, t ** 2 / 10)})
+    >>> ax.get_yscale(), [t.get_text() for t in ax.get_legend().get_texts()]
+    ('log', ['INS-2D (median)', 't^2 / 10'])
     """
     import numpy as np
 
@@ -457,6 +629,34 @@ def montecarlo_gain_vs_error(dG, err, *, analytic_slope=None, label="MoRPI-A", t
     """Scatter of final distance error against the gain error, with the analytical line ds = dG * D.
 
     Draws on `ax` (default: a new 6 x 4 in Figure) and returns it.
+
+    Parameters
+    ----------
+    dG : array_like, shape (runs,)
+        Gain errors (fractions; shown in %).
+    err : array_like, shape (runs,)
+        Distance errors [m].
+    analytic_slope : float, optional
+        D [m]: draws the line ``dG * D`` over the range of `dG`.
+    label : str
+        Method name in the legend.
+    title : str
+        Axes title.
+    ax : matplotlib.axes.Axes, optional
+        Where to draw.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> dG = np.array([0.04, 0.05, 0.06])
+    >>> ax = montecarlo_gain_vs_error(dG, 5.0 * dG, analytic_slope=5.0)
+    >>> line = ax.get_lines()[1]                              # the analytical line, x in %
+    >>> line.get_xdata()[[0, -1]].round(9).tolist(), line.get_ydata()[[0, -1]].round(9).tolist()
+    ([4.0, 6.0], [0.2, 0.3])
     """
     import numpy as np
 
@@ -474,6 +674,34 @@ def montecarlo_training_runs(k, rms_mc, rms_expected, labels, *, title="", ax=No
     """RMS distance error against the number of training runs behind the gain (log-log).
 
     Draws on `ax` (default: a new 6 x 4 in Figure) and returns it.
+
+    Parameters
+    ----------
+    k : array_like, shape (K,)
+        Numbers of training runs.
+    rms_mc : array_like, shape (K, len(labels))
+        Monte Carlo RMS distance error per method [m].
+    rms_expected : array_like, shape (K,)
+        ``D sqrt(mismatch^2 + spread^2 / k)`` [m], drawn dashed.
+    labels : sequence of str
+        Method names.
+    title : str
+        Axes title.
+    ax : matplotlib.axes.Axes, optional
+        Where to draw.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> k = np.array([1, 4, 16])
+    >>> expected = 0.3 / np.sqrt(k)
+    >>> ax = montecarlo_training_runs(k, np.stack([expected, expected], 1), expected, ["MoRPI-A", "MoRPI-G"])
+    >>> ax.get_xscale(), ax.get_yscale(), len(ax.get_lines())
+    ('log', 'log', 3)
     """
     import numpy as np
 
@@ -495,6 +723,36 @@ def drift_disagreement_map(gyro_bias_deg_s, time, rel, *, title="", marks=(), ax
     `marks`: (bias_deg_s, time_s, text) points to annotate. Contours at 1 % and 10 %.
     Draws on `ax` (default: a new 7 x 4.5 in Figure), with its colour bar beside it,
     and returns it.
+
+    Parameters
+    ----------
+    gyro_bias_deg_s : array_like, shape (L,)
+        Gyro bias levels [deg/s] (log y axis).
+    time : array_like, shape (m,)
+        Times [s].
+    rel : array_like, shape (L, m)
+        Relative disagreement (``montecarlo.DriftMap.rel_3d`` or ``rel_2d``),
+        clipped at 1e-7 for the log colours.
+    title : str
+        Axes title.
+    marks : sequence of (float, float, str)
+        Points to mark and annotate.
+    ax : matplotlib.axes.Axes, optional
+        Where to draw.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        The map; its Figure also holds the colour bar's Axes.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> bias, t = np.logspace(-2, 1, 4), np.linspace(1.0, 15.0, 5)
+    >>> rel = 1e-3 * np.outer(bias, t)                   # crosses 1 % and 10 %
+    >>> ax = drift_disagreement_map(bias, t, rel, marks=[(1.0, 10.0, "datasheet")])
+    >>> ax.get_yscale(), len(ax.figure.axes), ax.texts[-1].get_text()
+    ('log', 2, 'datasheet')
     """
     import numpy as np
     from matplotlib.colors import LogNorm
@@ -541,7 +799,18 @@ def simulation_run(truth, imu_data, solutions, *, title=None):
     Returns
     -------
     matplotlib.figure.Figure
-        Four panels.
+        Four panels: the horizontal paths, f_y and omega_z (measured and
+        true, lateral peaks in grey) and the INS horizontal error (log scale).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from morpi_filters import simulate, strapdown, units
+    >>> data = simulate.imu(simulate.sine(6.3), units.LSM6DSL, np.random.default_rng(0))
+    >>> ins = strapdown.ins3d(data.time, data.f, data.omega, C0=data.truth.C_bn[0])
+    >>> fig = simulation_run(data.truth, data, {"3D INS": ins}, title="one run")
+    >>> len(fig.axes), fig.axes[2].get_yscale()
+    (4, 'log')
     """
     import numpy as np
 

@@ -31,6 +31,8 @@ def report_tables(out, study: TablesStudy, source) -> SectionSummary:
     Returns
     -------
     reporting.SectionSummary
+        Name ``"tables"``, its page, figures and summary (no example: the
+        study needs a dataset).
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -72,6 +74,46 @@ def _figures(study: TablesStudy, out: Path) -> list[str]:
     return figs
 
 
+def _heading_section(payload) -> list:
+    """MoRPI cells under the three heading readings (:func:`morpi_filters.evaluate.heading_readings`)."""
+    hr = payload.get("heading_readings") or {}
+    if not hr.get("cells"):
+        return []
+    L = ["## Heading: from the motion onset, from the first sample, from the 3D attitude", "",
+         "The project integrates the z gyro from the start of the motion window (the cells above). Integrated from "
+         "the first sample instead, the raw gyro's bias turns the heading during the initial rest, before the "
+         "robot moves, which mostly shows in the RD cells. The paper's heading equation reads the heading from "
+         "the attitude matrix of the 3D mechanization; here that mechanization starts with the roll and pitch "
+         "of the rest specific force, from the motion window's start. Same step rules; gains retrained under "
+         "each reading on the train runs.", ""]
+    rows = []
+    for c in hr["cells"]:
+        p2p = f"{c['p2p_m']:g} m" if c["p2p_m"] is not None else ""
+        rows.append([c["table"], c["phone"], p2p, c["method"], c["calibration"], fmt(c["paper_percent"]),
+                     fmt(c["from_start_percent"]), fmt(c["from_motion_percent"]), fmt(c["attitude_percent"])])
+    L += [md_table(["table", "phone", "p2p", "method", "cal", "paper %", "z gyro from first sample (old) %",
+                    "z gyro from motion onset (used) %", "3D attitude from motion onset %"], rows)]
+    lines = []
+    for m, t in hr.get("train", {}).items():
+        if t["difference_pp"] is None:
+            continue
+        lines.append(f"- {m}: train leave-one-out error {fmt(t['gyro_loo_percent'])} % with the z gyro, "
+                     f"{fmt(t['attitude_loo_percent'])} % with the 3D attitude (attitude minus gyro "
+                     f"{t['difference_pp']:+.3f} ± {t['difference_se_pp']:.3f} pp over {t['n_train_runs']} runs).")
+    if lines:
+        L += ["What the train runs see of the two heading sources (chosen rule, GC):", ""] + lines + [""]
+        tied = all(abs(t["difference_pp"]) <= 2 * t["difference_se_pp"] for t in hr["train"].values()
+                   if t["difference_pp"] is not None)
+        if tied:
+            L += ["On the short-route train runs the two sources differ by less than two standard errors of their "
+                  "paired difference: the train runs cannot tell them apart, so the project keeps the z gyro, the "
+                  "reading the planar INS shares. The test cells above are shown, never used for that choice.", ""]
+        else:
+            L += ["The train runs separate the two sources (a difference beyond two standard errors); the project "
+                  "still reads the z gyro, and this table shows what the other reading would give.", ""]
+    return L
+
+
 def _claims_section(claims) -> list:
     """The paper's numeric claims beside ours (:func:`morpi_filters.evaluate.paper_claims`)."""
     if not claims:
@@ -103,8 +145,22 @@ def _page(study: TablesStudy, payload, source, figures) -> str:
               "computed without them.", ""] + [f"- {x}" for x in payload["left_out"]] + [""]
     L += ["Errors are end-point errors in % of the travelled distance, mean over the runs (the paper's measure); "
           "`dist %` is `|estimated travelled distance - true distance|` in % of the distance. "
-          "MoRPI cells are the `test` runs; INS cells all runs of the folder, integrated over the robot's "
-          "motion (rests left out). `Δ` is ours minus paper in percentage points.", ""]
+          "MoRPI cells are the `test` runs; INS cells all runs of the folder. `Δ` is ours minus paper in "
+          "percentage points.", ""]
+    L += ["Each recording has one motion window, used alike by the INS, MoRPI-A and MoRPI-G: it opens when the "
+          "gyro's vibration rises above ten times its level in the detected initial rest window, after that "
+          "window ends, and closes when the robot stops (`FieldData.activity`); the MoRPI heading starts at zero "
+          "at its start. Each run in `result.json` carries its `rest_window_s` and `motion_window_s`.", ""]
+    th = payload.get("thresholds")
+    if th:
+        sw = th["train_swings_deg"]
+        L += [f"Detection thresholds set on the train runs only (`field.train_thresholds`): the rest detection's "
+              f"accelerometer floor is {fmt(th['accel_floor_mps2'], 3)} m/s² (4 times the median, over "
+              f"{len(th['train_rest_accel_std_mps2'])} train runs, of the largest accelerometer moving standard "
+              f"deviation inside each run's gyro-only rest), and a run counts as periodic when its median heading "
+              f"swing per period reaches {fmt(th['min_swing_deg'], 0)} deg (three quarters of the smallest swing "
+              + (f"of the {len(sw)} train runs, {fmt(min(sw), 1)} deg" if sw else "the train runs show")
+              + ", rounded down). The gyro thresholds are in noise sigmas of each recording's own rest.", ""]
     sel_txt = []
     seen = set()
     for m, s in res.selections.items():
@@ -119,9 +175,11 @@ def _page(study: TablesStudy, payload, source, figures) -> str:
     L += ["## Step rule (chosen on the train runs only)", "",
           "The readings and thresholds are picked by `field.select_config`: a coordinate search scored by the "
           "leave-one-out end-point error of the short-route train runs (GC); test folders never enter. "
-          "Each method gets its own rule: the search runs once per method on that method's train error, "
-          "and a rule per method never has a higher train error than one rule for both (it has more "
-          "freedom), so the train runs choose it.", ""]
+          + ("One rule serves both methods (the paper's \"G_G is extracted in the same manner as G_A\"): the "
+             "search is scored by the mean of both methods' train errors. "
+             if res.rule == "joint" else
+             "Each method gets its own rule: the search runs once per method on that method's train error. ")
+          + "Of the two ways of choosing, the default is the one the nested train-only check below prefers.", ""]
     L += sel_txt + [""]
     pm = payload["other_rule"]
     def _within(cells):
@@ -131,14 +189,14 @@ def _page(study: TablesStudy, payload, source, figures) -> str:
 
     k_alt, n_alt = _within(pm["cells"])
     k_def, n_def = _within(payload["cells"])
-    L += ["One rule for both methods, the reading of the paper's \"G_G is extracted in the same manner as G_A\" "
-          "(same search, scored by the mean of both methods' train errors), gives the table below. It is not the "
-          f"default because the train runs do not prefer it. Under it {k_alt} of {n_alt} short-route GC cells fall "
-          f"within {DEVIATION_PP:g} pp of the paper (the default: {k_def} of {n_def}); it was examined after the "
-          "test cells had been seen, so it is shown for comparison only.", ""]
+    alt_name = "one rule for both methods" if pm["rule"] == "joint" else "a rule per method"
+    L += [f"The other way of choosing, {alt_name} (`{pm['rule']}`), gives the table below. It is not the "
+          f"default because the nested train-only check does not prefer it. Under it {k_alt} of {n_alt} short-route "
+          f"GC cells fall within {DEVIATION_PP:g} pp of the paper (the default: {k_def} of {n_def}); it is shown "
+          "for comparison only.", ""]
     L += ["\n".join(f"- {m}: `{v['config']}` (train LOO {fmt(v['train_loo_percent'])} %)"
                     for m, v in pm["step_rule"].items()), ""]
-    L += [md_table(["table", "phone", "p2p", "method", "cal", "paper %", "joint rule %", "dist %"],
+    L += [md_table(["table", "phone", "p2p", "method", "cal", "paper %", f"{pm['rule']} rule %", "dist %"],
                    [[c["table"], c["phone"], f"{c['p2p_m']:g} m", c["method"], c["calibration"],
                      fmt(c["paper_percent"]), fmt(c["ours_percent"]), fmt(c["distance_error_percent"])]
                     for c in pm["cells"] if c["calibration"] == "GC"])]
@@ -155,8 +213,8 @@ def _page(study: TablesStudy, payload, source, figures) -> str:
               f"joint minus per method {fmt(nest['difference_pp'])} ± {fmt(nest['difference_se_pp'])} pp "
               f"(standard error, paired over the held-out runs). The train runs prefer "
               f"`{nest['preferred']}`. The search without a held-out run finds the full-data rule in "
-              + ", ".join(f"{fmt(100 * v, 0)} % ({m})" for m, v in nest["same_as_full"]["per_method"].items())
-              + " of the folds (per method).", ""]
+              + ", ".join(f"{fmt(100 * v, 0)} % ({m})" for m, v in nest["same_as_full"][res.rule].items())
+              + f" of the folds ({res.rule}).", ""]
     for table, label in TABLES.items():
         cells = [c for c in res.cells if c.spec.table == table]
         L += [f"## `{table}` (paper: table `{label}`)", ""]
@@ -251,6 +309,7 @@ def _page(study: TablesStudy, payload, source, figures) -> str:
         if lines:
             L += [f"Range of each cell over the rules within {TRAIN_SE_BAND:g} standard errors of the selected one:",
                   ""] + lines + [""]
+    L += _heading_section(payload)
     L += ["## INS integration span", "", "The INS cells integrated over the robot's motion (default) and over the "
           "whole recording (rests included).", ""]
     L += [md_table(["table", "method", "cal", "paper %", "motion span %", "full recording %"],
@@ -314,12 +373,36 @@ def _cell_json(c: Cell) -> dict:
         "gain": c.gain, "n_runs": len(c.runs), "failed": list(c.failed), "missing": c.missing,
         "runs": [{"file": r.file, "end_point_m": list(r.end_point), "end_error_m": r.end_error_m,
                   "end_error_percent": r.end_error_percent, "distance_m": r.distance_m,
-                  "distance_error_percent": r.distance_error_percent, "n_steps": r.n_steps} for r in c.runs],
+                  "distance_error_percent": r.distance_error_percent, "n_steps": r.n_steps,
+                  "rest_window_s": None if r.rest_window_s is None else list(r.rest_window_s),
+                  "motion_window_s": None if r.motion_window_s is None else list(r.motion_window_s)}
+                 for r in c.runs],
     }
 
 
 def result_json(study: TablesStudy, source=None) -> dict:
-    """The section's JSON contract (cells, gains, selection, comparison, alternatives), read from `study`."""
+    """The section's JSON contract (cells, gains, selection, comparison, alternatives), read from `study`.
+
+    Needs a :class:`morpi_filters.evaluate.TablesStudy` of a dataset, so there is no example.
+
+    Parameters
+    ----------
+    study : evaluate.TablesStudy
+        What :func:`morpi_filters.evaluate.tables_study` computed.
+    source : reporting.DataSource, optional
+        The dataset (its root and whether it is synthetic).
+
+    Returns
+    -------
+    dict
+        ``data_root``, ``synthetic``, ``missing_folders``, ``cells``,
+        ``gains`` (per training set: ``train_set``, ``phone``, ``route``,
+        ``method``, ``calibration``, ``mean``, ``std``, ``per_run``, ``files``,
+        ``skipped``, ``unit``), ``step_rule``, ``comparison``, ``readings``,
+        ``ins_full_span``, ``other_rule``, ``step_rule_nested``,
+        ``rule_sensitivity``, ``ins_leveled``, ``claims``, ``thresholds`` and
+        ``heading_readings``.
+    """
     result = study.result
     return {
         "data_root": None if source is None else str(source.root),
@@ -342,7 +425,19 @@ def result_json(study: TablesStudy, source=None) -> dict:
         "rule_sensitivity": study.rule_sensitivity,
         "ins_leveled": study.ins_leveled,
         "claims": list(study.claims),
+        "thresholds": _thresholds_json(result),
+        "heading_readings": study.heading_readings,
     }
+
+
+def _thresholds_json(result) -> dict | None:
+    """The detection thresholds the train runs set (:func:`morpi_filters.field.train_thresholds`)."""
+    if result.data is None:
+        return None
+    t = result.data.thresholds
+    return {"accel_floor_mps2": t.accel_floor, "min_swing_deg": t.min_swing_deg,
+            "train_rest_accel_std_mps2": list(t.rest_std), "train_swings_deg": list(t.swings_deg),
+            "train_files": list(t.files)}
 
 
 
@@ -418,8 +513,8 @@ def _explain(c, res, notes: dict, other: dict | None = None, sens: list | None =
     if s.table == "long_route":
         return (f"Ours is {side} the paper. Outdoor runs with the indoor gains: the distance error is "
                 f"{c.distance_percent:.2f} %, the rest is heading (the GC heading ends {final:.0f} deg off the "
-                f"route's direction on average, which moves the end point sideways). Tried: the joint step rule "
-                f"(table above) and the readings of the paper on the short route; none is chosen on test runs.")
+                f"route's direction on average, which moves the end point sideways). Tried: the other way of choosing "
+                f"the step rule (table above) and the readings of the paper on the short route; none is chosen on test runs.")
     if s.table == "morpi_l_shape":
         return (f"Ours is {side} the paper. L route with the s6 indoor gains: distance error "
                 f"{c.distance_percent:.2f} %, the GC heading ends {final:.0f} deg off the true 90 deg turn on "
