@@ -62,7 +62,8 @@ def measure(pairs: int = 5, quick: bool = False, runs: int = 10_000, seed: int =
     if quick:
         runs = min(runs, 2000)
     cfg = mc.StudyConfig()
-    n = int(round(cfg.duration * cfg.rate_hz)) + 1
+    _, _, duration = cfg.motion()
+    n = mc._samples(duration, cfg.rate_hz)  # samples of a run, as the study draws them
     chunk = min(mc._default_chunk(n), runs)
     code = DRAWS.format(runs=runs, seed=seed, n=n, chunk=chunk, head=mc._N_HEAD,
                         training=cfg.training_runs, tseed=mc._TRAINING_SEED)
