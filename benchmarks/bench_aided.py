@@ -42,21 +42,27 @@ def _root(arg):
     return root
 
 
-def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--data", help="dataset root")
-    p.add_argument("--pairs", type=int, default=5)
-    args = p.parse_args(argv)
-    root = _root(args.data)
-    print(f"dataset {root}", flush=True)
+def measure(pairs: int = 5, quick: bool = False, data=None):
+    """The paired ratio of this benchmark (list of one :class:`pairs.PairedRatio`)."""
+    root = _root(data)
     repo = Path(__file__).resolve().parents[1]
     env = dict(os.environ, PYTHONPATH=str(repo), MPLBACKEND="Agg")
     with tempfile.TemporaryDirectory() as tmp:
         cmd = lambda name: [sys.executable, "-m", "morpi_filters.cli", name, "--data", str(root),  # noqa: E731
                             "--out", str(Path(tmp) / name)]
         r = paired_commands("morpi aided / morpi tables (whole commands)", cmd("aided"), cmd("tables"),
-                            pairs=args.pairs, warmup=0, target=3.0, env=env)
-    print(r.line())
+                            pairs=pairs, warmup=0, target=3.0, env=env, cwd=tmp)
+    return [r]
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--data", help="dataset root")
+    p.add_argument("--pairs", type=int, default=5)
+    args = p.parse_args(argv)
+    print(f"dataset {_root(args.data)}", flush=True)
+    for r in measure(args.pairs, data=args.data):
+        print(r.line())
 
 
 if __name__ == "__main__":

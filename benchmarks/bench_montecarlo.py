@@ -57,36 +57,46 @@ def page_configs():
             *mc.training_configs(mc.TRAINING_KS, mismatch=mc.ASSUMED_MISMATCH, spread=mc.ASSUMED_SPREAD, config=cal))
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--runs", type=int, default=10_000)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--pairs", type=int, default=5)
-    args = ap.parse_args(argv)
+def measure(pairs: int = 5, quick: bool = False, runs: int = 10_000, seed: int = 0):
+    """The paired ratios of this benchmark (list of :class:`pairs.PairedRatio`); `quick`: at most 2000 runs."""
+    if quick:
+        runs = min(runs, 2000)
     cfg = mc.StudyConfig()
-    n = int(round(cfg.duration * cfg.rate_hz)) + 1
-    chunk = min(mc._default_chunk(n), args.runs)
-    code = DRAWS.format(runs=args.runs, seed=args.seed, n=n, chunk=chunk, head=mc._N_HEAD,
+    _, _, duration = cfg.motion()
+    n = mc._samples(duration, cfg.rate_hz)  # samples of a run, as the study draws them
+    chunk = min(mc._default_chunk(n), runs)
+    code = DRAWS.format(runs=runs, seed=seed, n=n, chunk=chunk, head=mc._N_HEAD,
                         training=cfg.training_runs, tseed=mc._TRAINING_SEED)
     env_root = str(Path(__file__).resolve().parents[1])
     import os
 
     env = dict(os.environ, PYTHONPATH=env_root + os.pathsep + os.environ.get("PYTHONPATH", ""), MPLBACKEND="Agg")
     with tempfile.TemporaryDirectory() as tmp:
-        cmd = [sys.executable, "-m", "morpi_filters.cli", "montecarlo", "--runs", str(args.runs),
-               "--seed", str(args.seed), "--out", str(Path(tmp) / "mc")]
-        whole = paired_commands(f"morpi montecarlo --runs {args.runs} / its random draws (whole processes)",
-                                cmd, python_command(code), pairs=args.pairs, target=TARGET, env=env)
+        cmd = [sys.executable, "-m", "morpi_filters.cli", "montecarlo", "--runs", str(runs),
+               "--seed", str(seed), "--out", str(Path(tmp) / "mc")]
+        whole = paired_commands(f"morpi montecarlo --runs {runs} / its random draws (whole processes)",
+                                cmd, python_command(code), pairs=pairs, target=TARGET, env=env, cwd=tmp)
+    if quick:
+        return [whole]
 
     def draws():
-        for a in range(0, args.runs, chunk):
-            mc._draw(args.seed, a, min(a + chunk, args.runs), n)
+        for a in range(0, runs, chunk):
+            mc._draw(seed, a, min(a + chunk, runs), n)
 
     cfgs = page_configs()
     mc.reference_gains(cfgs[0])          # the training is cached per process: not part of either side here
     inproc = paired(f"run_studies (the page's {len(cfgs)} studies, one pass) / per-run draws (in process)",
-                    lambda: mc.run_studies(args.runs, args.seed, cfgs, progress=False), draws, pairs=args.pairs)
-    for r in (whole, inproc):
+                    lambda: mc.run_studies(runs, seed, cfgs, progress=False), draws, pairs=pairs)
+    return [whole, inproc]
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=int, default=10_000)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--pairs", type=int, default=5)
+    args = ap.parse_args(argv)
+    for r in measure(args.pairs, runs=args.runs, seed=args.seed):
         print(r.line())
     return 0
 

@@ -60,35 +60,49 @@ def tables(root):
     return study, payload
 
 
+def measure(pairs: int = 5, quick: bool = False, data=None):
+    """The paired ratios of this benchmark (list of :class:`pairs.PairedRatio`).
+
+    Raises
+    ------
+    RuntimeError
+        Without recordings or without pandas (there would be nothing to compare).
+    """
+    root = _root(data)
+    paths = [e.path for e in ds.catalogue(root)] if root.is_dir() else []
+    if not paths:
+        raise RuntimeError(f"no recordings under {root}; {ds.missing_data_message()}")
+    try:
+        import pandas  # noqa: F401
+    except ImportError:
+        raise RuntimeError("bench_tables: the floor is pandas' parse: pip install pandas") from None
+    rows = [paired(f"tables computation ({len(paths)} recordings) / pandas parse (in process)", lambda: tables(root),
+                   lambda: parse_floor(paths), pairs=pairs, target=8.0)]
+    if not quick:
+        rows.append(paired("load_csv / pandas parse (for information)", lambda: parse_ours(paths),
+                           lambda: parse_floor(paths), pairs=pairs))
+    repo = Path(__file__).resolve().parents[1]
+    env = dict(os.environ, PYTHONPATH=str(repo), MPLBACKEND="Agg")
+    with tempfile.TemporaryDirectory() as tmp:
+        cmd = [sys.executable, "-m", "morpi_filters.cli", "tables", "--data", str(root), "--out", str(Path(tmp) / "t")]
+        floor = python_command("import pandas, sys; [pandas.read_csv(p) for p in sys.argv[1:]]") + [str(p) for p in paths]
+        rows.append(paired_commands("morpi tables (whole command) / pandas parse (fresh process)", cmd, floor,
+                                    pairs=pairs, target=12.0, env=env))
+    return rows
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", help="dataset root")
     ap.add_argument("--pairs", type=int, default=5)
     ap.add_argument("--profile", action="store_true", help="print the top of a cProfile of the computation")
     args = ap.parse_args(argv)
-    root = _root(args.data)
-    paths = [e.path for e in ds.catalogue(root)] if root.is_dir() else []
-    if not paths:
-        print(f"no recordings under {root}; {ds.missing_data_message()}", file=sys.stderr)
-        return 2
     try:
-        import pandas  # noqa: F401
-    except ImportError:
-        print("bench_tables: the floor is pandas' parse: pip install pandas", file=sys.stderr)
+        rows = measure(args.pairs, data=args.data)
+    except RuntimeError as e:
+        print(e, file=sys.stderr)
         return 2
-    print(f"recordings: {len(paths)}")
-    lines = [paired("tables computation / pandas parse", lambda: tables(root), lambda: parse_floor(paths),
-                    pairs=args.pairs, target=8.0),
-             paired("load_csv / pandas parse (for information)", lambda: parse_ours(paths),
-                    lambda: parse_floor(paths), pairs=args.pairs)]
-    repo = Path(__file__).resolve().parents[1]
-    env = dict(os.environ, PYTHONPATH=str(repo), MPLBACKEND="Agg")
-    with tempfile.TemporaryDirectory() as tmp:
-        cmd = [sys.executable, "-m", "morpi_filters.cli", "tables", "--data", str(root), "--out", str(Path(tmp) / "t")]
-        floor = python_command("import pandas, sys; [pandas.read_csv(p) for p in sys.argv[1:]]") + [str(p) for p in paths]
-        lines.append(paired_commands("morpi tables (whole command) / pandas parse (fresh process)", cmd, floor,
-                                     pairs=args.pairs, target=12.0, env=env))
-    for r in lines:
+    for r in rows:
         print(r.line())
     if args.profile:
         import cProfile
@@ -96,7 +110,7 @@ def main(argv=None):
 
         pr = cProfile.Profile()
         pr.enable()
-        tables(root)
+        tables(_root(args.data))
         pr.disable()
         pstats.Stats(pr).sort_stats("cumulative").print_stats(25)
     return 0

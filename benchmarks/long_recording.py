@@ -7,15 +7,14 @@ the ratio taken per pair (:func:`pairs.paired_commands`):
 - ours: :func:`morpi_filters.dataset.load_csv` (every check of ``morpi check``);
 - floor: ``pandas.read_csv`` of the same file (parse only), when pandas is installed.
 
-The peak resident memory of ``load_csv`` is read from ``resource.getrusage`` in
-its own process. Target: under 100 MB.
+The peak resident memory of a fresh process running ``load_csv`` is read by
+``/usr/bin/time -v`` (:func:`pairs.run_peak`). Target: under 100 MB.
 
 Usage: ``PYTHONPATH=. python3 benchmarks/long_recording.py [--pairs N]``
 """
 from __future__ import annotations
 
 import argparse
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -23,19 +22,24 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import numpy as np  # noqa: E402
-from pairs import paired_commands, python_command  # noqa: E402
+from pairs import paired_commands, python_command, run_peak  # noqa: E402
 
 from morpi_filters import dataset as ds  # noqa: E402
 
-PEAK = ("import resource, sys; from morpi_filters import dataset as ds; r = ds.load_csv(sys.argv[1]); "
-        "print(r.time.size, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)")
+PEAK = "import sys; from morpi_filters import dataset as ds; r = ds.load_csv(sys.argv[1]); assert r.time.size == 360_000"
 
 
-def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--pairs", type=int, default=5)
-    args = p.parse_args(argv)
+def measure(pairs: int = 5, quick: bool = False):
+    """The peak memory (a row dict) and the paired ratio to pandas of loading a one-hour recording.
+
+    Returns
+    -------
+    rows : list
+        A row dict for the peak memory (``unit`` "MB", target 100) and, when pandas is
+        installed, a :class:`pairs.PairedRatio`.
+    """
     repo = Path(__file__).resolve().parents[1]
+    rows = []
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "one_hour.csv"
         n = 360_000
@@ -44,20 +48,31 @@ def main(argv=None):
         f = np.c_[rng.normal(0, 0.05, (n, 2)), 9.8 + rng.normal(0, 0.05, n)]
         ds.write_csv(path, ds.Recording(time=t, f=f, omega=rng.normal(0, 0.01, (n, 3)), source=str(path)))
         env = {"PYTHONPATH": str(repo), "PATH": "/usr/bin:/bin"}
-        out = subprocess.run([sys.executable, "-c", PEAK, str(path)], capture_output=True, text=True, env=env,
-                             check=True).stdout.split()
-        print(f"load_csv, one hour at 100 Hz ({int(out[0])} rows, {path.stat().st_size / 1e6:.0f} MB of CSV): "
-              f"peak memory {int(out[1]) / 1024:.0f} MB (target < 100 MB)")
+        _, peak = run_peak([sys.executable, "-c", PEAK, str(path)], env=env)
+        rows.append({"name": f"load_csv (morpi check), one hour at 100 Hz ({n} rows, "
+                             f"{path.stat().st_size / 1e6:.0f} MB of CSV): peak memory",
+                     "min": peak, "median": peak, "max": peak, "unit": "MB", "pairs": 1, "target": 100.0,
+                     "met": peak < 100.0})
         ours = [sys.executable, "-c", f"from morpi_filters import dataset as ds; ds.load_csv({str(path)!r})"]
         try:
             import pandas  # noqa: F401
         except ImportError:
-            print("pandas is not installed: no parse floor to compare with")
-            return
+            return rows
         floor = python_command(f"import pandas; pandas.read_csv({str(path)!r})")
-        r = paired_commands("load_csv / pandas.read_csv (one-hour file, fresh processes)", ours, floor,
-                            pairs=args.pairs, env=env)
-        print(r.line())
+        rows.append(paired_commands("load_csv / pandas.read_csv (one-hour file, fresh processes)", ours, floor,
+                                    pairs=pairs, env=env))
+    return rows
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--pairs", type=int, default=5)
+    args = p.parse_args(argv)
+    for r in measure(args.pairs):
+        if isinstance(r, dict):
+            print(f"{r['name']} {r['median']:.0f} MB (target < {r['target']:g} MB)")
+        else:
+            print(r.line())
 
 
 if __name__ == "__main__":

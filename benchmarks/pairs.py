@@ -18,7 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["PairedRatio", "paired", "paired_commands", "python_command", "run_command"]
+__all__ = ["PairedRatio", "paired", "paired_commands", "paired_reported", "python_command", "run_command",
+           "run_reporting", "run_peak"]
 
 
 @dataclass(frozen=True)
@@ -56,6 +57,13 @@ class PairedRatio:
         """Whether the median ratio is at or under the target (None without one)."""
         return None if self.target is None else self.summary[1] <= self.target
 
+    def row(self) -> dict:
+        """The comparison as plain data (for ``run_all.py``'s table)."""
+        lo, med, hi = self.summary
+        return {"name": self.name, "min": lo, "median": med, "max": hi, "pairs": int(len(self.a_s)),
+                "a_s": float(np.median(self.a_s)), "b_s": float(np.median(self.b_s)),
+                "target": self.target, "met": self.meets_target}
+
     def line(self) -> str:
         """One printable line: name, ratios, medians of A and B, target."""
         lo, med, hi = self.summary
@@ -64,7 +72,8 @@ class PairedRatio:
                 f"A {np.median(self.a_s):.3f} s, B {np.median(self.b_s):.3f} s){tgt}")
 
 
-def paired(name, a, b, *, pairs: int = 5, warmup: int = 1, target: float | None = None) -> PairedRatio:
+def paired(name, a, b, *, pairs: int = 5, warmup: int = 1, target: float | None = None,
+           self_timed: bool = False) -> PairedRatio:
     """Time the callables `a` and `b` in alternation and return their ratios.
 
     Parameters
@@ -79,6 +88,9 @@ def paired(name, a, b, *, pairs: int = 5, warmup: int = 1, target: float | None 
         Uncounted pairs run first (imports, caches, page faults).
     target : float, optional
         The ratio A / B aimed at.
+    self_timed : bool
+        The callables return their own duration in seconds (e.g. measured inside
+        a child process), which is used instead of the wall time of the call.
     """
     if pairs < 1 or warmup < 0:
         raise ValueError("pairs must be >= 1 and warmup >= 0")
@@ -88,8 +100,8 @@ def paired(name, a, b, *, pairs: int = 5, warmup: int = 1, target: float | None 
         order = ((a, ta), (b, tb)) if k % 2 == 0 else ((b, tb), (a, ta))
         for fn, acc in order:
             t0 = time.perf_counter()
-            fn()
-            dt = time.perf_counter() - t0
+            out = fn()
+            dt = float(out) if self_timed else time.perf_counter() - t0
             if k >= warmup:
                 acc.append(dt)
     return PairedRatio(name, np.array(ta), np.array(tb), target)
@@ -117,6 +129,56 @@ def paired_commands(name, argv_a, argv_b, *, pairs: int = 5, warmup: int = 1, ta
     env = dict(os.environ if env is None else env)
     return paired(name, lambda: run_command(argv_a, env=env, cwd=cwd), lambda: run_command(argv_b, env=env, cwd=cwd),
                   pairs=pairs, warmup=warmup, target=target)
+
+
+def run_reporting(argv, *, env=None, cwd=None) -> float:
+    """Run a command that prints its own duration [s] as its last line of output; return it.
+
+    The child measures from its first statement, so the interpreter's start-up,
+    common to both sides of a comparison, is left out of both.
+    """
+    r = subprocess.run(argv, capture_output=True, text=True, env=env, cwd=cwd)
+    if r.returncode != 0:
+        raise RuntimeError(f"{' '.join(map(str, argv))} exited {r.returncode}: {r.stderr[-500:]}")
+    return float(r.stdout.strip().splitlines()[-1])
+
+
+def paired_reported(name, argv_a, argv_b, *, pairs: int = 5, warmup: int = 1, target: float | None = None,
+                    env=None, cwd=None) -> PairedRatio:
+    """:func:`paired` for two fresh processes that each print their own duration (:func:`run_reporting`)."""
+    env = dict(os.environ if env is None else env)
+    return paired(name, lambda: run_reporting(argv_a, env=env, cwd=cwd), lambda: run_reporting(argv_b, env=env, cwd=cwd),
+                  pairs=pairs, warmup=warmup, target=target, self_timed=True)
+
+
+#: A launcher that runs a command and prints its peak resident memory [kB] from ``wait4``, for
+#: machines without ``/usr/bin/time``.
+_LAUNCHER = ("import os, subprocess, sys; p = subprocess.Popen(sys.argv[1:], stdout=subprocess.DEVNULL); "
+             "_, st, ru = os.wait4(p.pid, 0); sys.stderr.write(f'Maximum resident set size (kbytes): {ru.ru_maxrss}\\n'); "
+             "sys.exit(os.waitstatus_to_exitcode(st))")
+
+
+def run_peak(argv, *, env=None, cwd=None) -> tuple[float, float]:
+    """Run a command; return its wall time [s] and its peak resident memory [MB].
+
+    The command is started by a small launcher (``/usr/bin/time -v``, else a short
+    Python one) that reads the peak from ``wait4``. Started straight from this process,
+    the child's ``ru_maxrss`` would include this process's own resident memory (Linux
+    keeps the high-water mark across fork and exec), so a large benchmark process
+    would inflate the figure.
+    """
+    launcher = ["/usr/bin/time", "-v"] if os.access("/usr/bin/time", os.X_OK) else [sys.executable, "-c", _LAUNCHER]
+    t0 = time.perf_counter()
+    r = subprocess.run(launcher + list(map(str, argv)), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env,
+                       cwd=cwd)
+    dt = time.perf_counter() - t0
+    err = r.stderr.decode(errors="replace")
+    if r.returncode != 0:
+        raise RuntimeError(f"{' '.join(map(str, argv))} exited {r.returncode}: {err[-500:]}")
+    kb = [ln.split(":")[-1] for ln in err.splitlines() if "Maximum resident set size (kbytes)" in ln]
+    if not kb:
+        raise RuntimeError(f"no peak memory reported for {' '.join(map(str, argv))}")
+    return dt, int(kb[-1]) / 1024
 
 
 def python_command(code: str) -> list[str]:

@@ -2,9 +2,14 @@
 
 The filter estimates the error state of :mod:`morpi_filters.error_model`
 (``[dp, dv, eps, b_a, b_g]``, computed minus true) and drives a
-:class:`filterpy.kalman.KalmanFilter` through its per-call overrides: at every
-IMU epoch ``kf.predict(F=Phi_k, Q=Qd_k)`` with a 1-D ``x``; at every detected
-MoRPI step ``kf.update(z, R=R, H=H)``. ``kf.F`` is never touched. filterpy's
+:class:`filterpy.kalman.KalmanFilter`: at every detected MoRPI step
+``kf.update(z, R=R, H=H)`` (its per-call overrides; ``kf.F`` is never touched).
+Between updates the prediction of every IMU epoch is filterpy's
+``predict(F=Phi_k, Q=Qd_k)`` written out with the same numpy calls
+(``x = dot(F, x)``, ``P = dot(dot(F, P), F.T) + Q``, bit for bit the same numbers)
+without the copies of the prior that ``predict`` keeps for its smoother: those
+copies and the call's bookkeeping cost more than the prediction itself on 15
+states. filterpy's
 update is the Joseph form ``P = (I - K H) P (I - K H)^T + K R K^T``; the
 filter symmetrizes P after every update and state reset.
 
@@ -68,6 +73,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from filterpy.kalman import KalmanFilter
+from numpy import dot
 from scipy.stats import chi2
 
 from .error_model import DP, EPS, N_STATES, STATE_NAMES
@@ -363,12 +369,12 @@ def _symmetrize(P):
 
 #: Predictions between two symmetrizations of P in :func:`run_filter`. The
 #: round-off asymmetry of one prediction is a few ulps; symmetrizing every
-#: step would add about 20 % to the cost of filterpy's 15-state predict.
+#: step would add about 20 % to the cost of a 15-state prediction.
 SYMMETRIZE_EVERY = 100
 
 
 def run_filter(Phi, Qd, P0, times, measurements=(), x0=None, keep_P=False):
-    """Run the error-state filter through filterpy.
+    """Run the error-state filter (filterpy's update, its prediction written out).
 
     Parameters
     ----------
@@ -463,51 +469,60 @@ def run_filter(Phi, Qd, P0, times, measurements=(), x0=None, keep_P=False):
     ys, Ss, ws = [], [], []
     mi = 0
     const = Phi.ndim == 2
+    x, P = kf.x, kf.P
     for i in range(n):
         F_i = Phi if const else Phi[i]
         Q_i = Qd if Qd.ndim == 2 else Qd[i]
-        kf.predict(F=F_i, Q=Q_i)
+        # filterpy's predict(F=F_i, Q=Q_i) with the same numpy calls (its fading factor is 1),
+        # without the copies of the prior it keeps for a smoother this filter does not use
+        x = dot(F_i, x)
+        P = dot(dot(F_i, P), F_i.T) + Q_i
         if (i + 1) % SYMMETRIZE_EVERY == 0 or i + 1 == n:
-            kf.P = _symmetrize(kf.P)
+            P = _symmetrize(P)
         if runs is not None:
             X = X @ F_i.T
-        while mi < len(meas) and meas[mi].index == i + 1:
-            m = meas[mi]
-            mi += 1
-            if m.H is None:  # a state reset only (e.g. re-cloning at a step start)
-                kf.x = m.reset @ kf.x
-                kf.P = _symmetrize(m.reset @ kf.P @ m.reset.T)
+        if mi < len(meas) and meas[mi].index == i + 1:
+            kf.x, kf.P = x, P
+            while mi < len(meas) and meas[mi].index == i + 1:
+                m = meas[mi]
+                mi += 1
+                if m.H is None:  # a state reset only (e.g. re-cloning at a step start)
+                    kf.x = m.reset @ kf.x
+                    kf.P = _symmetrize(m.reset @ kf.P @ m.reset.T)
+                    if runs is not None:
+                        X = X @ m.reset.T
+                    continue
+                z = np.asarray(m.z, dtype=float)
+                H, R = m.H, m.R
+                if runs is None:
+                    y = z - H @ kf.x
+                else:
+                    Z = np.broadcast_to(z, (runs, H.shape[0]))
+                    y = Z - X @ H.T
+                kf.update(z if runs is None else Z[0], R=R, H=H)
+                kf.P = _symmetrize(kf.P)
+                S = kf.S
+                L = np.linalg.cholesky(S)
+                ys.append(y)
+                Ss.append(S)
+                ws.append(np.linalg.solve(L, y.T).T if runs is not None else np.linalg.solve(L, y))
                 if runs is not None:
-                    X = X @ m.reset.T
-                continue
-            z = np.asarray(m.z, dtype=float)
-            H, R = m.H, m.R
-            if runs is None:
-                y = z - H @ kf.x
-            else:
-                Z = np.broadcast_to(z, (runs, H.shape[0]))
-                y = Z - X @ H.T
-            kf.update(z if runs is None else Z[0], R=R, H=H)
-            kf.P = _symmetrize(kf.P)
-            S = kf.S
-            L = np.linalg.cholesky(S)
-            ys.append(y)
-            Ss.append(S)
-            ws.append(np.linalg.solve(L, y.T).T if runs is not None else np.linalg.solve(L, y))
-            if runs is not None:
-                X = X + y @ kf.K.T
-            if m.reset is not None:
-                T = m.reset
-                kf.x = T @ kf.x
-                kf.P = _symmetrize(T @ kf.P @ T.T)
-                if runs is not None:
-                    X = X @ T.T
+                    X = X + y @ kf.K.T
+                if m.reset is not None:
+                    T = m.reset
+                    kf.x = T @ kf.x
+                    kf.P = _symmetrize(T @ kf.P @ T.T)
+                    if runs is not None:
+                        X = X @ T.T
+            x, P = kf.x, kf.P
         if runs is None:
-            X = kf.x
-        xs[i + 1], var[i + 1] = X, np.diag(kf.P)
+            X = x
+        xs[i + 1] = X
+        var[i + 1] = P.diagonal()
         if keep[i + 1]:
-            P_store[slot] = _symmetrize(kf.P)
+            P_store[slot] = _symmetrize(P)
             slot += 1
+    kf.x, kf.P = x, P
 
     m_dim = dim_z
     if runs is None:

@@ -33,7 +33,8 @@ What is derived
   form too).
 * :func:`position_error`: dp under the paper's assumptions (C = I,
   ``f^n = g_rest + b_a`` as in eq:asp2, zero initial position and misalignment,
-  initial velocity error), for the 3D INS and the 2D (yaw-only) INS, with or
+  initial velocity error), the position rows of the series Phi applied to the
+  initial error state, for the 3D INS and the 2D (yaw-only) INS, with or
   without the ``b_gz`` terms (the paper drops them: the heading error is common
   to all methods).
 * :func:`distance_error_squared`: ``e^2 = dp_x^2 + dp_y^2``.
@@ -62,10 +63,14 @@ from __future__ import annotations
 import functools
 from dataclasses import dataclass, field
 
-import numpy as np
+from typing import TYPE_CHECKING
+
 import sympy as sp
 
 from .errors import MorpiError
+
+if TYPE_CHECKING:  # numpy is loaded by the numeric bridge only: the derivation does not need it
+    import numpy as np
 
 __all__ = [
     "Convention", "convention", "CONVENTIONS", "AUDIT_CONVENTIONS", "symbols", "skew_symbols",
@@ -215,7 +220,8 @@ def skew_symbols(v) -> sp.Matrix:
 
 
 def _blocks_to_matrix(rows) -> sp.Matrix:
-    return sp.Matrix(sp.BlockMatrix(rows).as_explicit())
+    """A dense matrix from a nested list of equally tall (per row) sympy blocks."""
+    return sp.Matrix.vstack(*(sp.Matrix.hstack(*row) for row in rows))
 
 
 def _generic_C_f(time_varying: bool, t=None):
@@ -244,9 +250,11 @@ def system_matrix_symbols(conv="z_up", C=None, f=None, time_varying: bool = Fals
         Use Functions of ``t`` for the default C and f.
     """
     c = convention(conv)
-    C0, f0 = _generic_C_f(time_varying, symbols().t)
-    C = C0 if C is None else sp.Matrix(C)
-    f = f0 if f is None else sp.Matrix(f)
+    if C is None or f is None:
+        C0, f0 = _generic_C_f(time_varying, symbols().t)
+        C = C0 if C is None else C
+        f = f0 if f is None else f
+    C, f = sp.Matrix(C), sp.Matrix(f)
     Z, I = sp.zeros(3), sp.eye(3)
     return _blocks_to_matrix([
         [Z, I, Z, Z, Z],
@@ -328,24 +336,48 @@ def phi_block_form(conv="z_up", C=None, f=None, time_varying: bool = False, eval
     ])
 
 
-def phi_exponential(conv="z_up", C=None, f=None) -> sp.Matrix:
-    """``Phi = exp(F (t - t0))`` as the finite series (F^4 = 0 for constant C, f).
+def phi_exponential(conv="z_up", C=None, f=None, t0=None) -> sp.Matrix:
+    """``Phi = exp(F (t - t0))`` as the finite series ``sum_k (F tau)^k / k!``.
+
+    For constant C and f the matrix F is nilpotent (``F^4 = 0``), so the series
+    stops after the cubic term and is the exact transition matrix: the same
+    matrix as the block integrals of :func:`phi_block_form` (checked by
+    :func:`verify_phi`), at a fraction of the cost (no integration).
+
+    Parameters
+    ----------
+    conv, C, f : see :func:`system_matrix_symbols`
+        C and f must not depend on ``t``.
+    t0 : sympy expression or number, optional
+        Start time; default the symbol ``t_0``. ``t0=0`` gives ``Phi(t, 0)``
+        as a polynomial in ``t``.
 
     Raises
     ------
     ValueError
-        If F is not nilpotent of order 4 (C or f depend on t).
+        If C or f depend on t (F is then not constant and the series is not Phi).
+
+    Examples
+    --------
+    >>> Phi = phi_exponential("z_up", C=sp.eye(3), f=[0, 0, symbols().g], t0=0)
+    >>> Phi[0, 13]                      # dp_x from b_gy: the cubic term of the series
+    g*t**3/6
     """
     s = symbols()
     F = system_matrix_symbols(conv, C, f)
     if F.has(s.t):
         raise ValueError("phi_exponential needs constant C and f")
-    tau = s.t - s.t0
-    F2 = F * F
-    F3 = F2 * F
-    if not (F3 * F).is_zero_matrix:
-        raise ValueError("F is not nilpotent of order 4")
-    return sp.eye(15) + F * tau + F2 * tau**2 / 2 + F3 * tau**3 / 6
+    tau = s.t - (s.t0 if t0 is None else t0)
+    n = F.shape[0]
+    Phi, power = sp.eye(n), sp.eye(n)
+    for k in range(1, n + 1):
+        power = power * F
+        # entries of a power of F are sums of products of its entries; a vanishing one is
+        # an exact zero or expands to one (cheaper than the assumptions behind is_zero_matrix)
+        if all(e == 0 or sp.expand(e) == 0 for e in power):
+            return Phi
+        Phi += power * (tau**k / sp.factorial(k))
+    raise ValueError("F is not nilpotent")
 
 
 @dataclass(frozen=True)
@@ -404,25 +436,31 @@ def phi_numeric(C, f, t, conv="z_up") -> np.ndarray:
     -------
     ndarray, shape (15, 15)
     """
+    import numpy as np
+
     fn = _phi_numeric_fn(convention(conv).name)
     return np.asarray(fn(float(t), tuple(np.ravel(C)), tuple(np.ravel(f))), dtype=float)
 
 
 # ----------------------------------------------------------------------------- position error
 
-def _cubic_poly_blocks(conv: Convention, f: sp.Matrix, t):
-    """Q and T blocks of Phi(t, 0) for C = I and constant f (cheap, no integrate)."""
-    Q = sp.eye(3) * t**2 / 2
-    T = conv.misalignment_sign * conv.gyro_sign * skew_symbols(f) * t**3 / 6
-    return Q, T
+@functools.lru_cache(maxsize=None)
+def _phi_at_rest(c: Convention) -> sp.Matrix:
+    """``Phi(t, 0)`` with C = I and ``f^n = (b_ax, b_ay, +-g + b_az)`` (the paper's eq:asp1-3)."""
+    s = symbols()
+    f = sp.Matrix([s.ba[0], s.ba[1], c.gravity_sign * s.g + s.ba[2]])
+    return phi_exponential(c, C=sp.eye(3), f=f, t0=0)
 
 
 @functools.lru_cache(maxsize=None)
 def position_error(conv="z_up", ins: str = "3d", keep_bgz: bool = True) -> sp.Matrix:
     """Position error under the paper's assumptions (eq:asp1-3), t0 = 0.
 
-    ``dp = t dv0 + Q(t) b_a + T(t) b_g`` with C = I and
-    ``f^n = (b_ax, b_ay, +-g + b_az)`` (sign from the gravity convention).
+    ``dp = Phi_dp(t, 0) dx(0)``: the position rows of the transition matrix
+    (:func:`phi_exponential`, with C = I and ``f^n = (b_ax, b_ay, +-g + b_az)``,
+    the sign from the gravity convention) applied to the initial error state
+    ``dx(0) = [0, dv0, 0, b_a, b_g]``. Its terms are ``t dv0 + Q(t) b_a + T(t) b_g``
+    with the paper's blocks ``Q = t^2/2 I`` and ``T = sm sg (f^n x) t^3/6``.
 
     Parameters
     ----------
@@ -439,17 +477,16 @@ def position_error(conv="z_up", ins: str = "3d", keep_bgz: bool = True) -> sp.Ma
     """
     c = convention(conv)
     s = symbols()
-    t = s.t
     dv, ba, bg = sp.Matrix(s.dv), sp.Matrix(s.ba), sp.Matrix(s.bg)
-    f = sp.Matrix([ba[0], ba[1], c.gravity_sign * s.g + ba[2]])
     if not keep_bgz:
         bg = sp.Matrix([bg[0], bg[1], 0])
     if ins == "2d":
         bg = sp.Matrix([0, 0, bg[2]])
     elif ins != "3d":
         raise MorpiError(f"position_error: ins must be '3d' or '2d', got {ins!r}")
-    Q, T = _cubic_poly_blocks(c, f, t)
-    dp = sp.expand(t * dv + Q * ba + T * bg)
+    Phi = _phi_at_rest(c)
+    x0 = sp.Matrix([0, 0, 0, *dv, 0, 0, 0, *ba, *bg])
+    dp = sp.expand(Phi[0:3, :] * x0)
     return dp[:2, :] if ins == "2d" else dp
 
 
@@ -504,6 +541,8 @@ def _as_params(params):
 
 
 def _times(times):
+    import numpy as np
+
     t = np.atleast_1d(np.asarray(times, dtype=float))
     if t.ndim != 1 or not np.all(np.isfinite(t)):
         raise MorpiError("times: expected a 1-D sequence of finite times [s]")
@@ -532,6 +571,8 @@ def closed_form_errors(params, times, kind: str = "3d", convention="z_up", keep_
     -------
     ndarray, shape (n,) or (n, 3) / (n, 2) [m]
     """
+    import numpy as np
+
     p = _as_params(params)
     t = _times(times)
     fn = lambdified(kind, _convention(convention).name, bool(keep_bgz))
@@ -613,11 +654,14 @@ def closed_form_mean_square(sigmas, times, kind: str = "3d", convention="z_up", 
 
     Examples
     --------
+    >>> import numpy as np
     >>> sig = {"dv0_mps": [0.05] * 3, "ba_mps2": [0.04] * 3, "bg_radps": [2e-3] * 3, "g_mps2": 9.81}
     >>> rms = np.sqrt(closed_form_mean_square(sig, [0.0, 5.0, 14.0], "3d", "z_up"))
     >>> bool(rms[0] == 0.0 and rms[2] > rms[1])
     True
     """
+    import numpy as np
+
     p = _as_params(sigmas)
     t = _times(times)
     sig = (*np.abs(p.dv0), *np.abs(p.ba), *np.abs(p.bg))

@@ -12,7 +12,7 @@ from morpi_filters.error_model import (
 )
 from morpi_filters.errors import MorpiError
 from morpi_filters.eskf import (
-    C_DP, C_EPS, GAIN, Measurement, StepModel, augment, augment_covariance, chi2_band,
+    C_DP, C_EPS, GAIN, SYMMETRIZE_EVERY, Measurement, StepModel, augment, augment_covariance, chi2_band,
     initial_covariance, nees, propagate_covariance, run_filter, simulate_steps, step_update, step_z,
 )
 
@@ -104,6 +104,25 @@ def test_filterpy_predict_update_equivalence():
     assert np.allclose(r.P_end, 0.5 * (kf.P + kf.P.T), rtol=1e-14, atol=1e-15)
     assert np.allclose(r.innovations[0], y)  # the innovation y itself; default tolerances
     assert np.allclose(r.nis[0], y @ np.linalg.solve(kf.S, y), rtol=1e-12)  # the same quadratic form two ways: float rounding
+
+
+def test_run_filter_predictions_are_filterpy_predict_bit_for_bit():
+    """The written-out prediction of run_filter gives filterpy's predict() numbers exactly."""
+    rng = np.random.default_rng(11)
+    k, n = 6, 250
+    Phi = np.eye(k) + 0.05 * rng.normal(size=(n, k, k))
+    Qd = np.diag(rng.uniform(0.1, 1.0, k))
+    P0, x0 = np.eye(k), rng.normal(size=k)
+    r = run_filter(Phi, Qd, P0, np.arange(n + 1.0), x0=x0, keep_P=True)
+    kf = KalmanFilter(dim_x=k, dim_z=1)
+    kf.x, kf.P = x0.copy(), P0.copy()
+    for i in range(n):
+        kf.predict(F=Phi[i], Q=Qd)
+        if (i + 1) % SYMMETRIZE_EVERY == 0 or i + 1 == n:
+            kf.P = 0.5 * (kf.P + kf.P.T)
+        assert np.array_equal(r.x[i + 1], kf.x)
+        assert np.array_equal(r.P[i + 1], 0.5 * (kf.P + kf.P.T))
+    assert np.array_equal(r.P_end, kf.P)
 
 
 def _sine_path(n, dt):

@@ -119,6 +119,31 @@ def test_phi_numeric_matches_scipy_expm():
     assert worst < 1e-12
 
 
+@pytest.mark.parametrize("conv", S.AUDIT_CONVENTIONS, ids=lambda c: c.name)
+def test_series_phi_with_symbols_matches_scipy_expm(conv):
+    """The symbolic series Phi (generic C_ij, f_i, t, t0), evaluated at random values, is expm(F tau)."""
+    rng = np.random.default_rng(7)
+    s = S.symbols()
+    Phi = S.phi_exponential(conv)
+    C_sym, f_sym = S._generic_C_f(False)
+    fn = sp.lambdify((s.t, s.t0, tuple(C_sym), tuple(f_sym)), Phi, modules="numpy")
+    for _ in range(5):
+        C = Rotation.random(random_state=rng).as_matrix()
+        f = rng.normal(0.0, 5.0, 3)
+        t0 = rng.uniform(-5.0, 5.0)
+        t = t0 + rng.uniform(0.1, 20.0)
+        got = np.asarray(fn(t, t0, tuple(C.ravel()), tuple(f)), float)
+        ref = expm(F_numeric(conv, C, f) * (t - t0))
+        # 1e-12: both sides exact up to rounding (F is nilpotent, the series ends at F^3)
+        assert np.linalg.norm(got - ref) / np.linalg.norm(ref) < 1e-12
+
+
+def test_series_phi_refuses_a_time_varying_model():
+    s = S.symbols()
+    with pytest.raises(ValueError):
+        S.phi_exponential("z_up", f=[0, 0, s.t])
+
+
 # ----------------------------------------------------------------------------- closed form vs ODE
 
 @pytest.mark.parametrize("conv", S.AUDIT_CONVENTIONS, ids=lambda c: c.name)
@@ -410,7 +435,7 @@ def test_time_varying_block_form_matches_numerical_integration():
 
 @pytest.mark.parametrize("conv", S.AUDIT_CONVENTIONS, ids=lambda c: c.name)
 def test_position_error_is_phi_applied_to_the_initial_state(conv):
-    """The cheap Q/T shortcut of position_error equals the full block-integral Phi times dx(0)."""
+    """position_error (from the series Phi) equals the full block-integral Phi times dx(0)."""
     s = S.symbols()
     f = sp.Matrix([s.ba[0], s.ba[1], conv.gravity_sign * s.g + s.ba[2]])
     Phi = S.phi_block_form(conv, C=sp.eye(3), f=f).subs(s.t0, 0)
