@@ -280,11 +280,21 @@ DEFAULT_CONFIGS = {
 def resample_uniform(time, values, rate_hz: float = GRID_HZ):
     """Linear interpolation of `values` (n,) or (n, k) onto a uniform grid.
 
+    Parameters
+    ----------
+    time : array_like, shape (n,)
+        Increasing sample times [s].
+    values : array_like, shape (n,) or (n, k)
+        Samples at `time`, one column per channel (any unit).
+    rate_hz : float
+        Rate of the uniform grid [Hz].
+
     Returns
     -------
     grid : ndarray, shape (m,)
         ``time[0] + j / rate_hz`` up to ``time[-1]`` [s].
     out : ndarray, shape (m,) or (m, k)
+        `values` interpolated at `grid`, same unit and column layout.
 
     Examples
     --------
@@ -315,6 +325,24 @@ def _median(x) -> float:
 
 def lowpass(x, cutoff_hz: float, rate_hz: float = GRID_HZ, order: int = 2):
     """Zero-phase Butterworth low-pass of a uniformly sampled signal (axis 0).
+
+    Parameters
+    ----------
+    x : ndarray, shape (m,) or (m, k)
+        Uniformly sampled signal, filtered along axis 0 (any unit).
+    cutoff_hz : float
+        Cut-off frequency [Hz], below ``rate_hz / 2``.
+    rate_hz : float
+        Sampling rate of `x` [Hz].
+    order : int
+        Butterworth order of the single pass (the forward-backward pass
+        doubles it) [-].
+
+    Returns
+    -------
+    ndarray, shape like `x`
+        The filtered signal (float); `x` unchanged, as float, when it is too
+        short for :func:`scipy.signal.sosfiltfilt`'s padding.
 
     Examples
     --------
@@ -360,11 +388,20 @@ def detect_peaks(signal, time, *, min_period_s: float, min_prominence: float = 0
 
     Returns
     -------
-    indices : ndarray of int
+    indices : ndarray of int, shape (k,)
         Nearest original samples of the peaks.
     properties : dict
-        find_peaks' properties (in grid samples) plus ``"time"`` (peak times
-        on the grid [s]) and ``"grid_index"``.
+        find_peaks' properties (in grid samples; ``prominences``,
+        ``left_bases``, ``right_bases`` always, the width and height entries
+        when asked) plus ``"time"`` (peak times on the grid [s], shape (k,))
+        and ``"grid_index"`` (peak positions on the grid, shape (k,)).
+
+    Examples
+    --------
+    >>> t = np.arange(0.0, 3.0, 0.013)
+    >>> idx, props = detect_peaks(np.sin(2 * np.pi * t), t, min_period_s=0.5, min_prominence=0.5)
+    >>> props["time"].round(2).tolist()
+    [0.25, 1.25, 2.25]
     """
     p = _detect(np.asarray(signal, float), np.asarray(time, float), min_period_s=min_period_s,
                 min_prominence=min_prominence, min_width_s=min_width_s, cutoff_hz=cutoff_hz,
@@ -430,6 +467,20 @@ def integrate_heading(time, omega_z, psi0: float = 0.0):
     The rule of the INS (:func:`morpi_filters.strapdown.integrate_rate`), so
     MoRPI and the planar INS read the same gyro the same way.
 
+    Parameters
+    ----------
+    time : array_like, shape (n,)
+        Sample times [s].
+    omega_z : array_like, shape (n,)
+        Angular rate about the z axis [rad/s].
+    psi0 : float
+        Heading at ``time[0]`` [rad].
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Heading at each sample [rad].
+
     Examples
     --------
     >>> integrate_heading([0.0, 1.0, 2.0], [0.1, 0.1, 0.1]).round(12).tolist()
@@ -448,6 +499,34 @@ def motion_span(time, values, rest_end_time: float | None = None, *, threshold: 
     the first 2 s) is low-passed on the uniform grid; the motion spans the first
     to the last grid sample whose deviation exceeds `threshold` times the
     robust range of the deviation.
+
+    Parameters
+    ----------
+    time : array_like, shape (n,)
+        Sample times [s].
+    values : array_like, shape (n,)
+        The periodic signal (m/s^2 or rad/s).
+    rest_end_time : float, optional
+        End of the initial rest [s]; default: ``time[0] + 2``.
+    threshold : float
+        Fraction of the 98th percentile of the filtered deviation that marks
+        motion [-].
+    cutoff_hz : float
+        Low-pass cut-off applied to the deviation [Hz].
+
+    Returns
+    -------
+    (start, end) : (float, float)
+        First and last grid time of the motion [s]; ``(time[0], time[-1])``
+        when nothing deviates.
+
+    Examples
+    --------
+    >>> t = np.arange(0.0, 10.0, 0.01)
+    >>> x = np.where((t > 3) & (t < 8), np.sin(2 * np.pi * t), 0.0)
+    >>> a, b = motion_span(t, x)
+    >>> bool(2.5 < a < 3.5 and 7.5 < b < 8.5)
+    True
     """
     time = np.asarray(time, float)
     rest_end = time[0] + 2.0 if rest_end_time is None else rest_end_time
@@ -503,8 +582,36 @@ def prepare_signal(rec, method: str, cutoff_hz: float | None, *, rest_end_time: 
                    heading=None, motion=None) -> PreparedSignal:
     """Resample (and filter) a recording's MoRPI signal once for many step configs.
 
-    `heading` (n,) defaults to integrated omega_z; `motion` (start, end) [s]
-    defaults to :func:`motion_span` of the signal.
+    Parameters
+    ----------
+    rec : Recording
+        The recording (``time``, ``f``, ``omega``, ``source``).
+    method : str
+        ``"MoRPI-A"`` (f_y) or ``"MoRPI-G"`` (omega_z).
+    cutoff_hz : float or None
+        Low-pass cut-off [Hz]; None: no filtering.
+    rest_end_time : float, optional
+        End of the initial rest [s], passed to :func:`motion_span`.
+    heading : array_like, shape (n,), optional
+        Heading on the recording's samples [rad]; default: integrated omega_z.
+    motion : (float, float), optional
+        Motion start and end time [s]; default: :func:`motion_span` of the
+        signal.
+
+    Returns
+    -------
+    PreparedSignal
+        Grid, raw and filtered signal, motion span, heading and the 2nd/98th
+        percentile span of the filtered signal during the motion.
+
+    Examples
+    --------
+    >>> from morpi_filters import simulate, units
+    >>> traj = simulate.sine(6.3, period=1.0, amplitude=0.1)
+    >>> rec = simulate.imu(traj, units.LSM6DSL, np.random.default_rng(0), bias_scale=(0.0, 0.0)).recording()
+    >>> p = prepare_signal(rec, "MoRPI-G", 1.0)
+    >>> p.grid.shape == p.raw.shape == p.filtered.shape, p.heading.shape == rec.time.shape
+    (True, True)
     """
     if method not in METHODS:
         raise MorpiError(f"method={method!r}: expected one of {tuple(METHODS)}")
@@ -540,6 +647,16 @@ def activity_span(time, omega, *, window_s: float = 0.5, factor: float = 10.0, f
         Sample times [s].
     omega : array_like, shape (n, 3)
         Angular rate [rad/s].
+    window_s : float
+        Length of the moving window [s].
+    factor : float
+        Activity threshold as a multiple of the rest level [-].
+    floor : float
+        Least activity threshold [rad/s].
+    rest_s : float
+        Length of the initial stretch taken as rest when `rest` is None [s].
+    min_pause_s : float
+        Longest pause that still joins two active stretches [s].
     rest : (float, float), optional
         The recording's initial rest window (start, end) [s], as
         :func:`morpi_filters.calibration.detect_rest` finds it. The rest level
@@ -548,6 +665,12 @@ def activity_span(time, omega, *, window_s: float = 0.5, factor: float = 10.0, f
         is shorter than `window_s`), and only windows ending after the rest's
         end can open the motion, so the motion starts after the rest ends.
         Without it the rest level is taken over the first `rest_s` seconds.
+
+    Returns
+    -------
+    (start, end) : (float, float)
+        Start and end time of the longest active stretch [s];
+        ``(time[0], time[-1])`` when nothing is active.
 
     Examples
     --------
@@ -619,11 +742,27 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
         a constant offset of the signal (the threshold is relative to its
         range), so one entry serves the raw and the gyro-calibrated signal.
 
+    Returns
+    -------
+    Steps
+        Step boundaries, Weinberg weights, end-step fractions and headings,
+        each of shape (k,), with the peaks, the motion span and the median
+        heading swing.
+
     Raises
     ------
     MorpiError
         Naming the recording when fewer than two peaks are found (no periodic
         motion).
+
+    Examples
+    --------
+    >>> from morpi_filters import simulate, units
+    >>> traj = simulate.sine(6.3, period=1.0, amplitude=0.1)
+    >>> rec = simulate.imu(traj, units.LSM6DSL, np.random.default_rng(0), bias_scale=(0.0, 0.0)).recording()
+    >>> s = extract_steps(rec, "MoRPI-G")
+    >>> s.start_time.shape == s.end_time.shape == s.weight.shape == s.heading.shape, bool(s.n > 2)
+    (True, True)
     """
     if config is None:
         if method not in DEFAULT_CONFIGS:
@@ -824,6 +963,11 @@ def turn_heading(time, t, psi, stretches) -> np.ndarray:
     stretches : sequence of (float, float, float, float)
         :func:`turn_stretches`.
 
+    Returns
+    -------
+    ndarray, shape like `time`
+        The turn heading at `time` [rad].
+
     Examples
     --------
     >>> t = np.array([0.0, 1.0, 2.0, 3.0, 4.0]); psi = np.array([0.0, 0.2, 1.2, 1.4, 1.2])
@@ -860,14 +1004,25 @@ def train_gain(steps_list, distances):
     Parameters
     ----------
     steps_list : sequence of Steps
+        The steps of each training run (:func:`extract_steps`).
     distances : float or sequence of float
-        Travelled distance of each run [m].
+        Travelled distance of each run [m]; one value serves every run.
 
     Returns
     -------
     (mean, std, per_run) : (float, float, ndarray of shape (runs,))
         A flat 3-tuple: the mean and std (ddof=0) of the per-run gains, and the
         per-run gains [m / unit^(1/4)].
+
+    Examples
+    --------
+    >>> from morpi_filters import simulate, units
+    >>> traj = simulate.sine(6.3, period=1.0, amplitude=0.1)
+    >>> rec = simulate.imu(traj, units.LSM6DSL, np.random.default_rng(0), bias_scale=(0.0, 0.0)).recording()
+    >>> s = extract_steps(rec, "MoRPI-G")
+    >>> mean, std, per_run = train_gain([s, s], 6.3)
+    >>> per_run.shape, std, bool(mean == per_run[0])
+    ((2,), 0.0, True)
     """
     steps_list = list(steps_list)
     if not steps_list:
@@ -882,6 +1037,20 @@ def train_gain(steps_list, distances):
 
 def dead_reckon(length, heading, p0=(0.0, 0.0)):
     """Positions ``x += s cos(dpsi), y += s sin(dpsi)``, shape (k + 1, 2) [m].
+
+    Parameters
+    ----------
+    length : array_like, shape (k,)
+        Step lengths [m].
+    heading : array_like, shape (k,)
+        Heading of each step [rad].
+    p0 : (float, float)
+        Starting position [m].
+
+    Returns
+    -------
+    ndarray, shape (k + 1, 2)
+        `p0` followed by the position after each step [m].
 
     Examples
     --------
@@ -900,6 +1069,19 @@ def dead_reckon(length, heading, p0=(0.0, 0.0)):
 
 def morpi_track(steps: Steps, gain: float) -> MorpiTrack:
     """Dead-reckon a run's steps with a trained gain.
+
+    Parameters
+    ----------
+    steps : Steps
+        The run's steps (:func:`extract_steps`).
+    gain : float
+        Weinberg gain [m / unit^(1/4)].
+
+    Returns
+    -------
+    MorpiTrack
+        Step lengths ``gain * weight * fraction``, shape (k,), and positions,
+        shape (k + 1, 2), starting at the origin [m].
 
     Examples
     --------
