@@ -484,6 +484,19 @@ def train_thresholds(data: FieldData) -> Thresholds:
 
     Only ``train`` folders are read; a root without them gets the library's
     defaults (0.1 m/s^2, 15 deg, 51 deg; it has no gains either).
+
+    Parameters
+    ----------
+    data : FieldData
+        The dataset root; its accelerometer floor is set as a side effect
+        when it was not set before.
+
+    Returns
+    -------
+    Thresholds
+        The accelerometer floor [m/s^2], least heading swing [deg] and least
+        turn [deg], with the per-run measurements they come from and the
+        train files read.
     """
     floor, rest_std, files = _train_accel_floor(data)
     data._accel_floor = floor if data._accel_floor is None else data._accel_floor
@@ -540,10 +553,13 @@ def trained_gain(data: FieldData, phone, route, calibration, method, config) -> 
     Parameters
     ----------
     data : FieldData
+        The dataset root the train recordings are read from.
     phone, route : str
         Dataset folder names (``"s8"``, ``"short_distance"``).
     calibration : {"RD", "GC", "GAC"}
+        Calibration applied to the recordings before step extraction.
     method : {"MoRPI-A", "MoRPI-G"}
+        Signal the steps are found on.
     config : steps.StepConfig
         The step rule (for example ``select_config(data).config``).
 
@@ -662,11 +678,21 @@ def select_config(data: FieldData, methods=_MORPI_METHODS, *, exclude=()) -> Sel
     Parameters
     ----------
     data : FieldData
+        The dataset root; only its ``train`` folders are read.
     methods : str or tuple of str
         Methods whose train scores are averaged.
     exclude : iterable of str
         Train recordings (paths relative to the dataset root) to leave out,
         as if absent; used by :func:`nested_rule_comparison`.
+
+    Returns
+    -------
+    Selection
+        The chosen :class:`~morpi_filters.steps.StepConfig`, its mean
+        leave-one-out end-point error [%], every config tried with its score,
+        and the number of train runs scored. When no config scores (no train
+        runs), the default config with the trained thresholds and an infinite
+        score.
     """
     if isinstance(methods, str):
         methods = (methods,)
@@ -714,6 +740,11 @@ def nested_rule_comparison(data: FieldData) -> dict:
     its set. The mean held-out error estimates how each procedure does on
     runs it has not seen. Only train folders are read.
 
+    Parameters
+    ----------
+    data : FieldData
+        The dataset root; only its ``train`` folders are read.
+
     Returns
     -------
     dict
@@ -722,7 +753,11 @@ def nested_rule_comparison(data: FieldData) -> dict:
         ``difference_se_pp``: joint minus per-method, paired over the held-out
         runs, and its standard error; ``n_folds``; ``same_as_full``: rule ->
         method -> fraction of folds whose chosen rule equals the one chosen
-        on all train runs; ``preferred``: the rule with the lower mean.
+        on all train runs; ``preferred``: the rule with the lower mean;
+        ``folds``: one dict per held-out run, with its ``file`` (path relative
+        to the root) and rule -> method -> its held-out error [%] (NaN when
+        its set has no gain). The means, differences, fractions and
+        ``preferred`` are None without train runs.
     """
     folds = [(phone, route, data.relpath(r)) for phone, route, _ in SHORT_SETS
              for r in data.recordings(phone, route, "train")]

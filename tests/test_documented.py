@@ -185,12 +185,16 @@ def test_analysis_scripts_and_the_tutorial_use_public_names_only():
 
 #: Modules whose public functions must carry complete numpydoc sections (issue 13, item 6).
 _SECTIONED_MODULES = ("_batch_ins", "assessment", "calibration", "cli", "curves", "dataset", "error_model", "fetch",
-                      "parallel", "params", "steps")
+                      "parallel", "params", "steps", "field")
 #: Public functions of those modules without an Examples section, and why.
 _NO_EXAMPLE = {
     "assessment.fit_paper_numbers": "a bounded least-squares fit of several seconds (tests/test_assessment.py runs it)",
     "assessment.write_fitted_params": "runs fit_paper_numbers (seconds) and writes the committed parameter file",
     "curves.curves_study": "three cases with the default Monte Carlo sizes (seconds); compute_curves shows one case",
+    "field.train_thresholds": "reads the train runs of the MoRPI field dataset",
+    "field.select_config": "scores dozens of step rules on the field dataset's train runs (seconds)",
+    "field.nested_rule_comparison": "repeats select_config once per held-out train run of the field dataset",
+    "field.trained_gain": "needs a folder of train recordings of the field dataset",
 }
 
 
