@@ -320,6 +320,21 @@ def rule_sensitivity(result: TablesResult) -> list[dict]:
     rule's with its standard error (over the same train runs), and the three
     short-route GC test cells with the gains trained under it. The train
     columns are what the choice sees; the test cells are shown, never used.
+
+    Parameters
+    ----------
+    result : TablesResult
+        The field evaluation (:func:`evaluate_tables`), whose data and caches are reused.
+
+    Returns
+    -------
+    list of dict
+        One row per (method, config), best train score first: ``method``,
+        ``config`` (the StepConfig fields), ``selected``,
+        ``train_loo_percent`` [%], ``train_difference_pp`` and
+        ``train_difference_se_pp`` [pp] (None when not comparable), and
+        ``cells``: per short-route set ``phone``, ``p2p_m`` [m],
+        ``paper_percent`` and ``ours_percent`` [%].
     """
     data = result.data
     specs = {(s.phone, s.p2p_m, s.method): s for s in cell_specs()
@@ -542,6 +557,20 @@ def comparison(result: TablesResult) -> dict:
     as the paper's 0.37 m and 0.29 m are its best GC cells (s8 1 m MoRPI-A,
     s6 1 m MoRPI-G). Improvements are percentage-point differences of the
     end-point errors, as in the paper.
+
+    Parameters
+    ----------
+    result : TablesResult
+        The field evaluation (:func:`evaluate_tables`), whose data and caches are reused.
+
+    Returns
+    -------
+    dict
+        ``label`` (the paper's route) and ``rows``: one dict per method with
+        ``method``, ``paper_error_m`` [m], ``ours_error_m`` [m],
+        ``ours_percent`` [%], ``cell`` (the cell's label) and
+        ``improvement_pp``: earlier method -> ``paper`` and ``ours`` [pp]
+        (None when not available).
     """
     best = {}
     for m in _INS_METHODS:
@@ -571,7 +600,20 @@ def comparison(result: TablesResult) -> dict:
 
 
 def ins_full_span(result: TablesResult) -> list[dict]:
-    """The INS cells again with the whole recording integrated (rests included)."""
+    """The INS cells again with the whole recording integrated (rests included).
+
+    Parameters
+    ----------
+    result : TablesResult
+        The field evaluation (:func:`evaluate_tables`), whose data and caches are reused.
+
+    Returns
+    -------
+    list of dict
+        One per INS cell with runs: ``table``, ``method``, ``calibration``,
+        ``paper_percent``, ``motion_span_percent`` and ``full_span_percent``
+        (mean end-point error, None when no run integrates) [%].
+    """
     data = result.data
     out = []
     for c in result.cells:
@@ -601,6 +643,18 @@ def ins_leveled(result: TablesResult) -> list[dict]:
     zero-order calibrated, the initial roll and pitch come from
     :func:`morpi_filters.strapdown.coarse_level`, and the accelerometer is
     left as it is.
+
+    Parameters
+    ----------
+    result : TablesResult
+        The field evaluation (:func:`evaluate_tables`), whose data and caches are reused.
+
+    Returns
+    -------
+    list of dict
+        One per 3D INS GAC cell with runs: ``table``, ``phone``,
+        ``paper_gac_percent``, ``gac_percent`` and ``leveled_percent`` [%],
+        ``mean_rest_tilt_deg`` [deg] (None without runs) and ``runs``.
     """
     data = result.data
     out = []
@@ -624,7 +678,24 @@ def ins_leveled(result: TablesResult) -> list[dict]:
 
 
 def other_rule(result: TablesResult, rule: str | None = None) -> dict:
-    """The MoRPI cells again under another way of choosing the step rule (default: the one `result` did not use)."""
+    """The MoRPI cells again under another way of choosing the step rule.
+
+    Parameters
+    ----------
+    result : TablesResult
+        The field evaluation (:func:`evaluate_tables`), whose data and caches are reused.
+    rule : str, optional
+        One of :data:`morpi_filters.field.RULES`; default: the one `result`
+        did not use.
+
+    Returns
+    -------
+    dict
+        ``rule``; ``step_rule``: method -> ``config`` (the StepConfig fields)
+        and ``train_loo_percent`` [%]; ``cells``: one dict per MoRPI cell with
+        ``table``, ``phone``, ``p2p_m`` [m], ``method``, ``calibration``,
+        ``paper_percent``, ``ours_percent`` and ``distance_error_percent`` [%].
+    """
     if rule is None:
         rule = next(r for r in RULES if r != result.rule)
     alt = evaluate_tables(result.data.root, data=result.data, rule=rule, alternatives=False)
@@ -651,6 +722,22 @@ def heading_readings(result: TablesResult) -> dict:
     two heading sources on what the choice may see: per method, the
     leave-one-out train error of the chosen rule under each, and their paired
     difference (attitude minus gyro) with its standard error over the train runs.
+
+    Parameters
+    ----------
+    result : TablesResult
+        The field evaluation (:func:`evaluate_tables`), whose data and caches are reused.
+
+    Returns
+    -------
+    dict
+        ``used``: the ``heading_from`` and ``heading_source`` of `result`;
+        ``cells``: one dict per MoRPI cell with ``table``, ``phone``,
+        ``p2p_m`` [m], ``method``, ``calibration``, ``paper_percent``,
+        ``from_motion_percent``, ``from_start_percent`` and
+        ``attitude_percent`` [%]; ``train``: method -> ``gyro_loo_percent``,
+        ``attitude_loo_percent`` [%], ``difference_pp``,
+        ``difference_se_pp`` [pp] and ``n_train_runs``.
     """
     from .field import FieldData
 
@@ -700,6 +787,26 @@ def turn_reading(result: TablesResult) -> dict:
     ``l_route_turns_deg`` the turn the ``"turns"`` reading finds in each L-route
     test run (GC), against the route's turn. The test cells are shown, never
     used for a choice.
+
+    Parameters
+    ----------
+    result : TablesResult
+        The field evaluation (:func:`evaluate_tables`), whose data and caches are reused.
+
+    Returns
+    -------
+    dict
+        ``threshold``: ``turn_deg`` [deg], ``margin``,
+        ``largest_train_period_change_deg`` [deg] and ``n_train_values``;
+        ``headings``; ``cells``: one dict per long-route and L-route MoRPI
+        cell with ``table``, ``phone``, ``p2p_m`` [m], ``method``,
+        ``calibration``, ``paper_percent``, ``chosen_heading``,
+        ``chosen_percent`` and ``<heading>_percent`` per heading reading
+        (``absolute_percent``, ``mean_percent``, ``change_percent``,
+        ``turns_percent``) [%]; ``train``: method -> heading -> leave-one-out
+        train error [%]; ``route_turn_deg`` [deg]; ``l_route_turns_deg``:
+        method -> one dict per L-route test run with ``file``,
+        ``stretches`` and ``turn_deg`` [deg].
     """
     from .field import TURN_MARGIN
 
@@ -787,6 +894,17 @@ def dataset_problems(data: FieldData) -> list[str]:
     files that fail to load, then the differences from the expected layout
     (:func:`morpi_filters.dataset.layout_problems`: absent folders, missing
     runs, no recordings at all).
+
+    Parameters
+    ----------
+    data : FieldData
+        The dataset root to check.
+
+    Returns
+    -------
+    list of str
+        Load errors first, then layout problems; empty when the dataset is
+        complete.
     """
     errors = []
     for phone, route, split in sorted(data.folders(), key=lambda k: (k[0], k[1], k[2] or "")):
@@ -806,6 +924,21 @@ def check_cells(result: TablesResult) -> None:
 
     The message names the cell and its recordings. With the loader's input
     limits this does not happen; it guards against printing an absurd number.
+
+    Parameters
+    ----------
+    result : TablesResult
+        The field evaluation to check.
+
+    Returns
+    -------
+    None
+        Returns only when every cell with runs is finite and within bounds.
+
+    Raises
+    ------
+    DataError
+        Naming the first bad cell and its recordings.
     """
     def bad(v):
         return v is not None and not (math.isfinite(v) and abs(v) <= CELL_SANITY_PERCENT)

@@ -185,7 +185,7 @@ def test_analysis_scripts_and_the_tutorial_use_public_names_only():
 
 #: Modules whose public functions must carry complete numpydoc sections (issue 13, item 6).
 _SECTIONED_MODULES = ("_batch_ins", "assessment", "calibration", "cli", "curves", "dataset", "error_model", "fetch",
-                      "parallel", "params", "steps", "field")
+                      "parallel", "params", "steps", "field", "evaluate")
 #: Public functions of those modules without an Examples section, and why.
 _NO_EXAMPLE = {
     "assessment.fit_paper_numbers": "a bounded least-squares fit of several seconds (tests/test_assessment.py runs it)",
@@ -195,6 +195,18 @@ _NO_EXAMPLE = {
     "field.select_config": "scores dozens of step rules on the field dataset's train runs (seconds)",
     "field.nested_rule_comparison": "repeats select_config once per held-out train run of the field dataset",
     "field.trained_gain": "needs a folder of train recordings of the field dataset",
+    "evaluate.evaluate_tables": "computes every table cell from the field dataset (minutes)",
+    "evaluate.tables_study": "runs the whole tables section on the field dataset (minutes)",
+    "evaluate.training_gain_spread": "trains the gains on the field dataset's train runs",
+    "evaluate.rule_sensitivity": "takes a TablesResult of the field dataset",
+    "evaluate.comparison": "takes a TablesResult of the field dataset",
+    "evaluate.ins_full_span": "takes a TablesResult of the field dataset",
+    "evaluate.ins_leveled": "takes a TablesResult of the field dataset",
+    "evaluate.other_rule": "re-evaluates the tables on the field dataset",
+    "evaluate.check_cells": "takes a TablesResult of the field dataset",
+    "evaluate.dataset_problems": "loads every recording of the field dataset",
+    "evaluate.heading_readings": "re-evaluates the tables twice on the field dataset",
+    "evaluate.turn_reading": "re-evaluates the tables once per heading reading on the field dataset",
 }
 
 
