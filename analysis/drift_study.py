@@ -31,14 +31,14 @@ def main(argv=None) -> None:
     spec = sensor_for_phone(args.sensor)
     levels = np.union1d(np.logspace(-2, 1, 13), [spec.gyro_bias / DEG_S]) * DEG_S
     d = mc.drift_map(levels, spec=spec, draws=args.draws, seed=args.seed, scheduler=args.scheduler)
-    on = {(k, lv): d.onset(k, lv) for k in ("3d", "2d") for lv in (0.01, 0.1)}
+    on = {(k, lv): d.onset(k, lv) for k in ("INS-3D", "INS-2D") for lv in (0.01, 0.1)}
     print(f"{'bias [deg/s]':>12s} {'3D end':>8s} {'>1% from':>9s} {'>10% from':>9s} "
           f"{'2D end':>8s} {'>1% from':>9s} {'>10% from':>9s}")
     for i, b in enumerate(d.gyro_bias / DEG_S):
         print(f"{b:12.3f} {100 * d.rel_3d[i, -1]:7.3f}% {on['3d', 0.01][i]:9.1f} {on['3d', 0.1][i]:9.1f} "
               f"{100 * d.rel_2d[i, -1]:7.3f}% {on['2d', 0.01][i]:9.1f} {on['2d', 0.1][i]:9.1f}")
     args.out.mkdir(parents=True, exist_ok=True)
-    for kind, rel in (("3d", d.rel_3d), ("2d", d.rel_2d)):
+    for kind, rel in (("INS-3D", d.rel_3d), ("INS-2D", d.rel_2d)):
         save_figure(plots.drift_disagreement_map(d.gyro_bias / DEG_S, d.time, rel,
                                                  title=f"{kind.upper()} INS at rest, {spec.name}"),
                     args.out / f"drift_map_{kind}.png")

@@ -56,7 +56,7 @@ class PaperNumber:
 
     Attributes
     ----------
-    ins : {"3d", "2d"}
+    ins : {"INS-3D", "INS-2D"}
     dG : float
         Gain error (fraction).
     t_ins, t_morpi : float
@@ -74,10 +74,10 @@ class PaperNumber:
 
 #: The eight improvements of the section, in the paper's order.
 PAPER_IMPROVEMENTS = (
-    PaperNumber("3d", 0.10, 5.0, 5.0, 2.95), PaperNumber("2d", 0.10, 5.0, 5.0, 0.91),
-    PaperNumber("3d", 0.05, 5.0, 5.0, 3.20), PaperNumber("2d", 0.05, 5.0, 5.0, 1.15),
-    PaperNumber("3d", 0.10, 5.0, 14.0, 2.07), PaperNumber("2d", 0.10, 5.0, 14.0, 0.02),
-    PaperNumber("3d", 0.05, 5.0, 14.0, 2.76), PaperNumber("2d", 0.05, 5.0, 14.0, 0.71),
+    PaperNumber("INS-3D", 0.10, 5.0, 5.0, 2.95), PaperNumber("INS-2D", 0.10, 5.0, 5.0, 0.91),
+    PaperNumber("INS-3D", 0.05, 5.0, 5.0, 3.20), PaperNumber("INS-2D", 0.05, 5.0, 5.0, 1.15),
+    PaperNumber("INS-3D", 0.10, 5.0, 14.0, 2.07), PaperNumber("INS-2D", 0.10, 5.0, 14.0, 0.02),
+    PaperNumber("INS-3D", 0.05, 5.0, 14.0, 2.76), PaperNumber("INS-2D", 0.05, 5.0, 14.0, 0.71),
 )
 
 
@@ -177,10 +177,10 @@ def assessment_curves(params: ErrorParams, times=None, convention: str = CONVENT
     cf = S.closed_form_errors
     return AssessmentCurves(
         times=t,
-        e3d=cf(params, t, "3d", convention, keep_bgz=False),
-        e2d=cf(params, t, "2d", convention, keep_bgz=False),
-        e3d_bgz=cf(params, t, "3d", convention, keep_bgz=True),
-        e2d_bgz=cf(params, t, "2d", convention, keep_bgz=True),
+        e3d=cf(params, t, "INS-3D", convention, keep_bgz=False),
+        e2d=cf(params, t, "INS-2D", convention, keep_bgz=False),
+        e3d_bgz=cf(params, t, "INS-3D", convention, keep_bgz=True),
+        e2d_bgz=cf(params, t, "INS-2D", convention, keep_bgz=True),
         morpi={dG: morpi_distance_error(dG, params.morpi_speed_mps, t) for dG in params.dG},
         convention=S.convention(convention).name,
     )
@@ -214,7 +214,7 @@ def improvements(params: ErrorParams, convention: str = CONVENTION, numbers=PAPE
     ...                       "g_mps2": 9.81, "morpi_speed_mps": 0.5})
     >>> improvements(p).round(6).tolist()
     [0.0, 0.0, 0.125, 0.125, -0.45, -0.45, -0.1, -0.1]
-    >>> improvements(p, numbers=[PaperNumber("2d", 0.1, 2.0, 1.0, 0.0)]).round(6).tolist()
+    >>> improvements(p, numbers=[PaperNumber("INS-2D", 0.1, 2.0, 1.0, 0.0)]).round(6).tolist()
     [0.05]
     """
     S = _symbolic()
@@ -381,7 +381,7 @@ class AssessmentStudy:
     audit : symbolic.AuditResult
         The audit of the printed equations under :data:`CONVENTION`.
     dropped_terms : dict
-        ``{"3d": str, "2d": str}``: the b_gz terms the paper drops from e^2
+        ``{"INS-3D": str, "INS-2D": str}``: the b_gz terms the paper drops from e^2
         (:func:`morpi_filters.symbolic.dropped_bgz_terms`).
     conventions : tuple of (str, bool)
         The audited sign conventions and whether each is physically consistent.
@@ -434,7 +434,7 @@ def assessment_study(params_path=None, times=None) -> AssessmentStudy:
     >>> s.improvements_m.round(2).tolist()
     [2.95, 0.91, 3.2, 1.15, 2.07, 0.02, 2.76, 0.71]
     >>> s.times.tolist(), bool(s.curves.e3d[1] == s.e3d_5s_m), sorted(s.dropped_terms)
-    ([0.0, 5.0], True, ['2d', '3d'])
+    ([0.0, 5.0], True, ['INS-2D', 'INS-3D'])
     """
     params = load_params(params_path)
     t = _check_times(times)
@@ -443,8 +443,8 @@ def assessment_study(params_path=None, times=None) -> AssessmentStudy:
     ours = improvements(params)
     audit = S.audit(CONVENTION)
     dropped = S.dropped_bgz_terms(audit.reference)
-    e3_5 = S.closed_form_errors(params, [5.0], "3d", CONVENTION)[0]
-    e2_5 = S.closed_form_errors(params, [5.0], "2d", CONVENTION)[0]
+    e3_5 = S.closed_form_errors(params, [5.0], "INS-3D", CONVENTION)[0]
+    e2_5 = S.closed_form_errors(params, [5.0], "INS-2D", CONVENTION)[0]
     return AssessmentStudy(params=params, curves=curves, improvements_m=ours, e3d_5s_m=e3_5, e2d_5s_m=e2_5,
                            audit=audit, dropped_terms=dropped,
                            conventions=tuple((c.name, bool(c.physical)) for c in S.AUDIT_CONVENTIONS))

@@ -59,7 +59,7 @@ __all__ = [
 #: The curves' methods, in the package's names: the filter's horizontal 1 sigma of each, and
 #: the closed forms (for "MoRPI-aided INS", the paper's MoRPI distance error ``dG v t``).
 CURVE_METHODS = ("INS-3D", "INS-2D", "MoRPI-aided INS")
-_SYMBOLIC_KIND = {"INS-3D": "3d", "INS-2D": "2d"}
+_SYMBOLIC_KIND = {"INS-3D": "INS-3D", "INS-2D": "INS-2D"}
 
 #: Length of one MoRPI step [m]: the 1 m peak-to-peak period of the paper's periodic routes.
 STEP_LENGTH_M = 1.0

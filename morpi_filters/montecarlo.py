@@ -1400,14 +1400,14 @@ class DriftMap:
     seed: int
     backends: dict = field(default_factory=dict)
 
-    def onset(self, which: str = "3d", level: float = 0.01) -> np.ndarray:
+    def onset(self, which: str = "INS-3D", level: float = 0.01) -> np.ndarray:
         """Time [s] from which the median disagreement stays above `level` to the end, per bias
         (NaN: below it at the end).
 
         Parameters
         ----------
-        which : {"3d", "2d"}
-            Which mechanization's disagreement (anything but ``"3d"`` reads ``"2d"``).
+        which : {"INS-3D", "INS-2D"}
+            Which mechanization's disagreement (anything but ``"INS-3D"`` reads ``"INS-2D"``).
         level : float
             Relative disagreement threshold (0.01 is 1 %).
 
@@ -1416,7 +1416,7 @@ class DriftMap:
         ndarray, shape (L,)
             One time per gyro bias level [s].
         """
-        rel = self.rel_3d if which == "3d" else self.rel_2d
+        rel = self.rel_3d if which == "INS-3D" else self.rel_2d
         out = np.full(rel.shape[0], np.nan)
         for i, row in enumerate(rel):
             if row[-1] > level:
@@ -1428,12 +1428,12 @@ class DriftMap:
 def _closed_form_symbolic(ba, bg, t, g, kind):
     """Closed-form horizontal position error (z up, C = I, f^n = gravity, gyro-z terms kept).
 
-    ba, bg: (R, 3) biases; t: (m,) times; kind "3d" or "2d". Returns (R, m, 2), one
+    ba, bg: (R, 3) biases; t: (m,) times; kind "INS-3D" or "INS-2D". Returns (R, m, 2), one
     :func:`morpi_filters.symbolic.closed_form_errors` evaluation per run.
     """
     from . import symbolic
 
-    which = {"3d": "dp", "2d": "dp2d"}[kind]
+    which = {"INS-3D": "INS-3D position", "INS-2D": "INS-2D position"}[kind]
     out = np.empty((ba.shape[0], t.size, 2))
     for r in range(ba.shape[0]):
         p = {"dv0_mps": [0.0, 0.0, 0.0], "ba_mps2": ba[r].tolist(), "bg_radps": bg[r].tolist(), "g_mps2": g}
@@ -1473,13 +1473,13 @@ def _drift_chunk(payload: _DriftPayload, a: int, b: int) -> dict:
     cf, _ = _closed_form()
     out = {}
     tk = t[keep]
-    for kind, p in (("3d", ins3d(t, f, w, g=g)), ("2d", ins2d(t, f, w))):
+    for kind, p in (("INS-3D", ins3d(t, f, w, g=g)), ("INS-2D", ins2d(t, f, w))):
         sim = p[:, keep, :2]
         cfv = cf(ba, bg, tk, g, kind)
         num = np.hypot(*(sim - cfv).transpose(2, 0, 1))
         den = np.hypot(*sim.transpose(2, 0, 1))
-        out["rel_" + kind] = num / den
-        out["end_" + kind] = np.stack([den[:, -1], np.hypot(*cfv[:, -1].T)], axis=1)
+        out["rel_" + kind[-2:].lower()] = num / den
+        out["end_" + kind[-2:].lower()] = np.stack([den[:, -1], np.hypot(*cfv[:, -1].T)], axis=1)
     return out
 
 
@@ -1530,7 +1530,7 @@ def drift_map(gyro_bias=None, *, spec: SensorSpec = MPU6500, duration: float = 1
     Over 2 s the two models agree to well below 1 % at 0.1 and 1 deg/s:
 
     >>> d = drift_map([0.1 * DEG_S, 1.0 * DEG_S], draws=4, duration=2.0)
-    >>> d.rel_3d.shape, bool((d.rel_3d[:, -1] < 0.01).all()), d.onset("3d").tolist()
+    >>> d.rel_3d.shape, bool((d.rel_3d[:, -1] < 0.01).all()), d.onset("INS-3D").tolist()
     ((2, 20), True, [nan, nan])
     >>> bool(np.allclose(d.final_3d[:, 0], d.final_3d[:, 1], rtol=0.01))
     True
@@ -1804,7 +1804,7 @@ class DriftPage:
     spec : SensorSpec
     drift : DriftMap
     growth : dict
-        Per kind (``"3d"``, ``"2d"``): log-log slopes of the disagreement in
+        Per kind (``"INS-3D"``, ``"INS-2D"``): log-log slopes of the disagreement in
         the bias (at the end) and in time (near 1 %).
     onset : dict
         ``"<kind>_<level>pct"`` -> first time each bias level passes the level [s].
@@ -1835,13 +1835,13 @@ def drift_page(*, scheduler=None, spec: SensorSpec = MPU6500) -> DriftPage:
     DriftPage
         The map, the log-log growth slopes per kind (``slope_in_bias_at_end``,
         ``slope_in_time``, ``slope_in_time_bias_deg_s``) and the onset times
-        at 1 % and 10 % (keys ``3d_1pct``, ``3d_10pct``, ``2d_1pct``, ``2d_10pct``).
+        at 1 % and 10 % (keys ``INS-3D_1pct``, ``INS-3D_10pct``, ``INS-2D_1pct``, ``INS-2D_10pct``).
     """
     d = drift_map(_drift_levels(spec), spec=spec, scheduler=scheduler)
     bdeg = d.gyro_bias / DEG_S
     # growth: slope of log disagreement in log time (15 s row region) and in log bias (at 15 s)
     growth = {}
-    for kind, rel in (("3d", d.rel_3d), ("2d", d.rel_2d)):
+    for kind, rel in (("INS-3D", d.rel_3d), ("INS-2D", d.rel_2d)):
         end = rel[:, -1]
         sel = (end > 1e-4) & (end < 0.05)
         i_mid = int(np.argmin(np.abs(np.log(np.where(end > 0, end, 1e-30)) - np.log(0.01))))
@@ -1850,5 +1850,5 @@ def drift_page(*, scheduler=None, spec: SensorSpec = MPU6500) -> DriftPage:
         growth[kind] = {"slope_in_bias_at_end": _loglog_slope(d.gyro_bias[sel], end[sel]),
                         "slope_in_time": _loglog_slope(d.time[tsel], row[tsel]),
                         "slope_in_time_bias_deg_s": float(bdeg[i_mid])}
-    onset = {f"{k}_{int(100 * lv)}pct": d.onset(k, lv) for k in ("3d", "2d") for lv in (0.01, 0.1)}
+    onset = {f"{k}_{int(100 * lv)}pct": d.onset(k, lv) for k in ("INS-3D", "INS-2D") for lv in (0.01, 0.1)}
     return DriftPage(spec=spec, drift=d, growth=growth, onset=onset)

@@ -83,7 +83,7 @@ __all__ = [
 #: The two gravity conventions.
 CONVENTIONS = ("z_up", "z_down")
 #: Numeric kinds served by :func:`closed_form_errors` / :func:`closed_form_mean_square`.
-KINDS = ("3d", "2d", "dp", "dp2d")
+KINDS = ("INS-3D", "INS-2D", "INS-3D position", "INS-2D position")
 
 
 # ----------------------------------------------------------------------------- conventions
@@ -453,7 +453,7 @@ def _phi_at_rest(c: Convention) -> sp.Matrix:
 
 
 @functools.lru_cache(maxsize=None)
-def position_error(conv="z_up", ins: str = "3d", keep_bgz: bool = True) -> sp.Matrix:
+def position_error(conv="z_up", ins: str = "INS-3D", keep_bgz: bool = True) -> sp.Matrix:
     """Position error under the paper's assumptions (eq:asp1-3), t0 = 0.
 
     ``dp = Phi_dp(t, 0) dx(0)``: the position rows of the transition matrix
@@ -465,33 +465,33 @@ def position_error(conv="z_up", ins: str = "3d", keep_bgz: bool = True) -> sp.Ma
     Parameters
     ----------
     conv : Convention or str
-    ins : {"3d", "2d"}
-        ``"2d"``: yaw-only INS, only ``b_gz`` drives the misalignment and f_z is
+    ins : {"INS-3D", "INS-2D"}
+        ``"INS-2D"``: yaw-only INS, only ``b_gz`` drives the misalignment and f_z is
         not used (the result has two rows, x and y).
     keep_bgz : bool
         Keep the ``b_gz`` terms (the paper drops them).
 
     Returns
     -------
-    sympy Matrix, shape (3, 1) for "3d", (2, 1) for "2d" [m]
+    sympy Matrix, shape (3, 1) for "INS-3D", (2, 1) for "INS-2D" [m]
     """
     c = convention(conv)
     s = symbols()
     dv, ba, bg = sp.Matrix(s.dv), sp.Matrix(s.ba), sp.Matrix(s.bg)
     if not keep_bgz:
         bg = sp.Matrix([bg[0], bg[1], 0])
-    if ins == "2d":
+    if ins == "INS-2D":
         bg = sp.Matrix([0, 0, bg[2]])
-    elif ins != "3d":
-        raise MorpiError(f"position_error: ins must be '3d' or '2d', got {ins!r}")
+    elif ins != "INS-3D":
+        raise MorpiError(f"position_error: ins must be 'INS-3D' or 'INS-2D', got {ins!r}")
     Phi = _phi_at_rest(c)
     x0 = sp.Matrix([0, 0, 0, *dv, 0, 0, 0, *ba, *bg])
     dp = sp.expand(Phi[0:3, :] * x0)
-    return dp[:2, :] if ins == "2d" else dp
+    return dp[:2, :] if ins == "INS-2D" else dp
 
 
 @functools.lru_cache(maxsize=None)
-def distance_error_squared(conv="z_up", ins: str = "3d", keep_bgz: bool = False) -> sp.Expr:
+def distance_error_squared(conv="z_up", ins: str = "INS-3D", keep_bgz: bool = False) -> sp.Expr:
     """``e^2 = dp_x^2 + dp_y^2`` (expanded polynomial) for the 3D or 2D INS."""
     dp = position_error(conv, ins, keep_bgz)
     return sp.expand(dp[0] ** 2 + dp[1] ** 2)
@@ -510,21 +510,21 @@ def morpi_error() -> sp.Expr:
 
 
 @functools.lru_cache(maxsize=None)
-def lambdified(kind: str = "3d", conv="z_up", keep_bgz: bool = False):
+def lambdified(kind: str = "INS-3D", conv="z_up", keep_bgz: bool = False):
     """Numeric closed-form function ``fn(t, dvx, dvy, dvz, bax, bay, baz, bgx, bgy, bgz, g)``.
 
-    kind ``"3d"``/``"2d"``: distance error [m]; ``"dp"``: 3D position error
-    (list of 3); ``"dp2d"``: 2D INS position error (list of 2).
+    kind ``"INS-3D"``/``"INS-2D"``: distance error [m]; ``"INS-3D position"``: 3D position error
+    (list of 3); ``"INS-2D position"``: 2D INS position error (list of 2).
     Built with ``lambdify(..., cse=True)`` and cached.
     """
     s = symbols()
     args = (s.t, *s.params)
-    if kind in ("3d", "2d"):
+    if kind in ("INS-3D", "INS-2D"):
         expr = sp.sqrt(distance_error_squared(conv, kind, keep_bgz))
-    elif kind == "dp":
-        expr = list(position_error(conv, "3d", keep_bgz))
-    elif kind == "dp2d":
-        expr = list(position_error(conv, "2d", keep_bgz))
+    elif kind == "INS-3D position":
+        expr = list(position_error(conv, "INS-3D", keep_bgz))
+    elif kind == "INS-2D position":
+        expr = list(position_error(conv, "INS-2D", keep_bgz))
     else:
         raise MorpiError(f"kind: expected one of {KINDS}, got {kind!r}")
     return sp.lambdify(args, expr, modules="numpy", cse=True)
@@ -549,7 +549,7 @@ def _times(times):
     return t
 
 
-def closed_form_errors(params, times, kind: str = "3d", convention="z_up", keep_bgz: bool = False) -> np.ndarray:
+def closed_form_errors(params, times, kind: str = "INS-3D", convention="z_up", keep_bgz: bool = False) -> np.ndarray:
     """Closed-form INS errors for one error realisation.
 
     Parameters
@@ -559,7 +559,7 @@ def closed_form_errors(params, times, kind: str = "3d", convention="z_up", keep_
         ``dv0_mps``, ``ba_mps2``, ``bg_radps`` (3 values each, SI) and ``g_mps2``.
     times : array_like, shape (n,)
         Times since alignment [s].
-    kind : {"3d", "2d", "dp", "dp2d"}
+    kind : {"INS-3D", "INS-2D", "INS-3D position", "INS-2D position"}
         Horizontal distance error of the 3D / 2D INS [m], or the position-error
         vector of the 3D INS (n, 3) / 2D INS (n, 2) [m].
     convention : str or Convention
@@ -577,7 +577,7 @@ def closed_form_errors(params, times, kind: str = "3d", convention="z_up", keep_
     t = _times(times)
     fn = lambdified(kind, _convention(convention).name, bool(keep_bgz))
     out = fn(t, *p.dv0, *p.ba, *p.bg, p.g)
-    if kind in ("dp", "dp2d"):
+    if kind in ("INS-3D position", "INS-2D position"):
         return np.stack([np.broadcast_to(np.asarray(c, float), t.shape) for c in out], axis=1)
     return np.broadcast_to(np.asarray(out, float), t.shape).copy()
 
@@ -596,9 +596,9 @@ def _gaussian_moment(sigma: float, n: int) -> float:
 def _mean_square_poly(kind: str, conv_name: str, linearized: bool, keep_bgz: bool):
     """e^2 as a Poly in the random variables (coefficients in g, t)."""
     s = symbols()
-    ins = {"3d": "3d", "2d": "2d"}.get(kind)
+    ins = {"INS-3D": "INS-3D", "INS-2D": "INS-2D"}.get(kind)
     if ins is None:
-        raise MorpiError(f"kind: expected '3d' or '2d' for a mean square, got {kind!r}")
+        raise MorpiError(f"kind: expected 'INS-3D' or 'INS-2D' for a mean square, got {kind!r}")
     e2 = distance_error_squared(conv_name, ins, keep_bgz)
     rv = (*s.dv, *s.ba, *s.bg)
     poly = sp.Poly(e2, *rv)
@@ -614,7 +614,7 @@ def _mean_square_poly(kind: str, conv_name: str, linearized: bool, keep_bgz: boo
     return terms
 
 
-def closed_form_mean_square(sigmas, times, kind: str = "3d", convention="z_up", linearized: bool = True,
+def closed_form_mean_square(sigmas, times, kind: str = "INS-3D", convention="z_up", linearized: bool = True,
                             keep_bgz: bool = False) -> np.ndarray:
     """``E[e^2]`` of the INS distance error for random, zero-mean errors.
 
@@ -638,7 +638,7 @@ def closed_form_mean_square(sigmas, times, kind: str = "3d", convention="z_up", 
         ``bg_radps``, ``g_mps2``).
     times : array_like, shape (n,)
         Times [s].
-    kind : {"3d", "2d"}
+    kind : {"INS-3D", "INS-2D"}
         3D INS or 2D (yaw-only) INS horizontal error.
     convention : str or Convention
         Sign convention; the mean square does not depend on it.
@@ -656,7 +656,7 @@ def closed_form_mean_square(sigmas, times, kind: str = "3d", convention="z_up", 
     --------
     >>> import numpy as np
     >>> sig = {"dv0_mps": [0.05] * 3, "ba_mps2": [0.04] * 3, "bg_radps": [2e-3] * 3, "g_mps2": 9.81}
-    >>> rms = np.sqrt(closed_form_mean_square(sig, [0.0, 5.0, 14.0], "3d", "z_up"))
+    >>> rms = np.sqrt(closed_form_mean_square(sig, [0.0, 5.0, 14.0], "INS-3D", "z_up"))
     >>> bool(rms[0] == 0.0 and rms[2] > rms[1])
     True
     """
@@ -709,13 +709,13 @@ def paper_equations() -> dict:
 
 def _derived(label: str, conv: Convention) -> sp.Expr:
     if label == "eq:phi/dp_x":
-        return position_error(conv, "3d", True)[0]
+        return position_error(conv, "INS-3D", True)[0]
     if label == "eq:phi/dp_y":
-        return position_error(conv, "3d", True)[1]
+        return position_error(conv, "INS-3D", True)[1]
     if label == "eq:error-3d":
-        return distance_error_squared(conv, "3d", False)
+        return distance_error_squared(conv, "INS-3D", False)
     if label == "eq:error-2d":
-        return distance_error_squared(conv, "2d", False)
+        return distance_error_squared(conv, "INS-2D", False)
     raise KeyError(label)
 
 
@@ -823,7 +823,7 @@ def _audit_notes() -> tuple:
     # 1. the b_gz cross terms of dp_x and dp_y have opposite signs under every convention
     signs = set()
     for c in AUDIT_CONVENTIONS:
-        dp = position_error(c, "3d", True)
+        dp = position_error(c, "INS-3D", True)
         cx = sp.Poly(dp[0], s.ba[1], s.bg[2]).coeff_monomial(s.ba[1] * s.bg[2])
         cy = sp.Poly(dp[1], s.ba[0], s.bg[2]).coeff_monomial(s.ba[0] * s.bg[2])
         signs.add(sp.sign(cx / cy))
@@ -844,7 +844,7 @@ def _audit_notes() -> tuple:
     # 3. coefficient magnitudes of e_3D (1/3, 1/6, 1/36, 1/4) against the square of the derived dp
     mags_ok = True
     for c in AUDIT_CONVENTIONS[:1]:
-        e2 = distance_error_squared(c, "3d", False)
+        e2 = distance_error_squared(c, "INS-3D", False)
         p = sp.Poly(e2, s.t)
         mags_ok &= abs(sp.Poly(p.coeff_monomial(s.t**4), s.g, s.dv[0], s.bg[1]).coeff_monomial(
             s.g * s.dv[0] * s.bg[1])) == sp.Rational(1, 3)
@@ -852,8 +852,8 @@ def _audit_notes() -> tuple:
                   "The magnitude 1/3 of the t^4 dv*b_g coefficient (2 * 1 * 1/6) and 1/6, 1/36, 1/4 of the other "
                   "terms agree with the square of the derived polynomials; only signs differ."))
     # 4. e_2D and b_az
-    e2d_full = distance_error_squared("z_up", "2d", True)
-    e3d_no_bgxy = distance_error_squared("z_up", "3d", True).subs({s.bg[0]: 0, s.bg[1]: 0})
+    e2d_full = distance_error_squared("z_up", "INS-2D", True)
+    e3d_no_bgxy = distance_error_squared("z_up", "INS-3D", True).subs({s.bg[0]: 0, s.bg[1]: 0})
     no_baz = not e2d_full.has(s.ba[2])
     same = sp.expand(e2d_full - e3d_no_bgxy) == 0
     notes.append(("e2d-drops-baz", bool(no_baz and same),
@@ -861,8 +861,8 @@ def _audit_notes() -> tuple:
                   "alpha = g + b_az multiplying b_gx, b_gy, and the yaw-only 2D INS (even with b_gz kept) equals "
                   "the 3D one with b_gx = b_gy = 0."))
     # 5. 2D smaller than 3D? not in general
-    fn3 = sp.lambdify((s.t, *s.params), sp.sqrt(distance_error_squared("z_up", "3d", False)))
-    fn2 = sp.lambdify((s.t, *s.params), sp.sqrt(distance_error_squared("z_up", "2d", False)))
+    fn3 = sp.lambdify((s.t, *s.params), sp.sqrt(distance_error_squared("z_up", "INS-3D", False)))
+    fn2 = sp.lambdify((s.t, *s.params), sp.sqrt(distance_error_squared("z_up", "INS-2D", False)))
     # a gyro bias that tilts the estimate against the accelerometer bias
     ex = dict(t=5.0, dv=(0.0, 0.0, 0.0), ba=(0.05, 0.0, 0.0), bg=(0.0, -0.0012, 0.0), g=9.81)
     v3 = fn3(ex["t"], *ex["dv"], *ex["ba"], *ex["bg"], ex["g"])
@@ -888,10 +888,10 @@ def dropped_bgz_terms(reference: str) -> dict:
     Returns
     -------
     dict
-        ``{"3d": str, "2d": str}``: ``e^2`` with the b_gz terms kept minus ``e^2`` without them.
+        ``{"INS-3D": str, "INS-2D": str}``: ``e^2`` with the b_gz terms kept minus ``e^2`` without them.
     """
     out = {}
-    for ins in ("3d", "2d"):
+    for ins in ("INS-3D", "INS-2D"):
         dropped = sp.expand(distance_error_squared(reference, ins, True) - distance_error_squared(reference, ins, False))
         out[ins] = sp.sstr(sp.collect(dropped, symbols().t))
     return out

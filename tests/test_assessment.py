@@ -19,9 +19,9 @@ from morpi_filters.params import DEFAULT_PARAMS_FILE, load_params, params_from_d
 PAPER = np.array([n.paper_m for n in A.PAPER_IMPROVEMENTS])
 
 
-def ode_horizontal(dv, ba, bg, g, times, ins="3d"):
+def ode_horizontal(dv, ba, bg, g, times, ins="INS-3D"):
     """|dp_xy| of the z_up error ODE (paper's F signs), b_gz dropped; 2D: yaw-only."""
-    bg = np.array([bg[0], bg[1], 0.0]) if ins == "3d" else np.zeros(3)
+    bg = np.array([bg[0], bg[1], 0.0]) if ins == "INS-3D" else np.zeros(3)
     f = np.array([ba[0], ba[1], g + ba[2]])
 
     def rhs(t, x):
@@ -90,7 +90,7 @@ def test_cli_assess_gives_the_derived_errors(tmp_path, capsys):
     dv, ba, bg = (np.array(FULL[k]) for k in ("dv0_mps", "ba_mps2", "bg_radps"))
     # 1e-9: closed form vs DOP853 at rtol 1e-12 (t = 0 is exactly 0 on both sides)
     np.testing.assert_allclose(r["e3d_m"], ode_horizontal(dv, ba, bg, 9.8, t), rtol=1e-9, atol=1e-15)
-    np.testing.assert_allclose(r["e2d_m"], ode_horizontal(dv, ba, bg, 9.8, t, "2d"), rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(r["e2d_m"], ode_horizontal(dv, ba, bg, 9.8, t, "INS-2D"), rtol=1e-9, atol=1e-15)
     assert set(r["morpi_m"]) == {"0.05", "0.1", "0.2"}
     np.testing.assert_allclose(r["morpi_m"]["0.2"], 0.2 * 0.7 * t, rtol=1e-15)  # the same product dG v t: exact up to one rounding
     # the printed eq:error-3d gives different numbers for these parameters
@@ -168,7 +168,7 @@ def test_z_down_equals_z_up_with_tilt_biases_flipped():
     q = params_from_dict({"dv0_mps": list(p.dv0), "ba_mps2": [p.ba[0], p.ba[1], -p.ba[2]],
                           "bg_radps": [-p.bg[0], -p.bg[1], p.bg[2]], "g_mps2": p.g})
     t = np.arange(16.0)
-    for kind in ("3d", "2d"):
+    for kind in ("INS-3D", "INS-2D"):
         np.testing.assert_allclose(S.closed_form_errors(q, t, kind, "z_down"), S.closed_form_errors(p, t, kind),
                                    rtol=1e-12)  # the two conventions give the same polynomial: float rounding
-    assert not np.allclose(S.closed_form_errors(p, t, "3d", "z_down"), S.closed_form_errors(p, t, "3d"))  # the z-down 3D error differs by far more than allclose's default 1e-5
+    assert not np.allclose(S.closed_form_errors(p, t, "INS-3D", "z_down"), S.closed_form_errors(p, t, "INS-3D"))  # the z-down 3D error differs by far more than allclose's default 1e-5

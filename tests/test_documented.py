@@ -10,9 +10,9 @@ from morpi_filters import simulate, steps, symbolic, units
 def test_closed_form_errors_takes_the_documented_keys():
     params = {"dv0_mps": [0.01] * 3, "ba_mps2": [0.02] * 3, "bg_radps": [1e-3] * 3, "g_mps2": 9.81}
     t = np.array([0.0, 1.0, 2.0])
-    assert symbolic.closed_form_errors(params, t, "3d").shape == (3,)
-    assert symbolic.closed_form_errors(params, t, "dp").shape == (3, 3)
-    assert symbolic.closed_form_errors(params, t, "dp2d").shape == (3, 2)
+    assert symbolic.closed_form_errors(params, t, "INS-3D").shape == (3,)
+    assert symbolic.closed_form_errors(params, t, "INS-3D position").shape == (3, 3)
+    assert symbolic.closed_form_errors(params, t, "INS-2D position").shape == (3, 2)
 
 
 def test_train_gain_returns_a_flat_triple():

@@ -50,7 +50,7 @@ def test_noise_off_variance_equals_the_closed_form_expectation():
     from morpi_filters.symbolic import closed_form_mean_square
 
     sig = {"dv0_mps": SV.tolist(), "ba_mps2": SA.tolist(), "bg_radps": SG.tolist(), "g_mps2": G_MPS2}
-    sym = closed_form_mean_square(sig, t, "3d", "z_up", linearized=True, keep_bgz=False)
+    sym = closed_form_mean_square(sig, t, "INS-3D", "z_up", linearized=True, keep_bgz=False)
     assert np.max(np.abs(got[1:] / sym[1:] - 1)) < 1e-9
 
 

@@ -188,7 +188,7 @@ def test_strapdown_drift_matches_exact_single_axis_solution():
     exact = -G0 * (t / b - np.sin(b * t) / b ** 2)
     # trapezoid integration of a smooth signal at 100 Hz: relative error O(dt^2) ~ 1e-5, bar 1e-4
     np.testing.assert_allclose(p[1:, 1], exact[1:], rtol=1e-4)
-    cf = mc._closed_form()[0](np.zeros((1, 3)), np.array([[b, 0, 0]]), t, G0, "3d")[0, :, 1]
+    cf = mc._closed_form()[0](np.zeros((1, 3)), np.array([[b, 0, 0]]), t, G0, "INS-3D")[0, :, 1]
     x = b * t[-1]
     # the small-angle cubic overshoots by x^3 / (6 (x - sin x)) - 1 (13 % at x = 90 degrees)
     expected = x ** 3 / (6 * (x - math.sin(x))) - 1
@@ -197,7 +197,7 @@ def test_strapdown_drift_matches_exact_single_axis_solution():
 
 def test_drift_onset_is_monotone_in_the_bias():
     d = mc.drift_map(np.array([0.5, 1.0, 2.0, 4.0]) * DEG_S, draws=6, seed=1)
-    on = d.onset("3d", 0.01)
+    on = d.onset("INS-3D", 0.01)
     assert np.isfinite(on[1:]).all()
     assert (np.diff(on[1:]) < 0).all()
 

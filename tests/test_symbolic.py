@@ -153,17 +153,17 @@ def test_closed_form_dp_matches_solve_ivp(conv):
     for _ in range(4):
         dv, ba, bg = random_draw(rng)
         p = params_from_dict({"dv0_mps": list(dv), "ba_mps2": list(ba), "bg_radps": list(bg), "g_mps2": 9.81})
-        got = S.closed_form_errors(p, times, "dp", conv, keep_bgz=True)
+        got = S.closed_form_errors(p, times, "INS-3D position", conv, keep_bgz=True)
         ref = ode_dp(conv, dv, ba, bg, 9.81, times)
         rel = np.linalg.norm(got - ref, axis=1) / np.linalg.norm(ref, axis=1)
         # 1e-9: the acceptance bar; DOP853 at rtol 1e-13 is good to ~1e-12 here
         assert rel.max() < 1e-9
         # distance errors are the horizontal norms, with and without b_gz
-        e3 = S.closed_form_errors(p, times, "3d", conv, keep_bgz=True)
+        e3 = S.closed_form_errors(p, times, "INS-3D", conv, keep_bgz=True)
         np.testing.assert_allclose(e3, np.linalg.norm(ref[:, :2], axis=1), rtol=1e-9)
         bg0 = np.array([bg[0], bg[1], 0.0])
         ref0 = ode_dp(conv, dv, ba, bg0, 9.81, times)
-        e3d = S.closed_form_errors(p, times, "3d", conv, keep_bgz=False)
+        e3d = S.closed_form_errors(p, times, "INS-3D", conv, keep_bgz=False)
         np.testing.assert_allclose(e3d, np.linalg.norm(ref0[:, :2], axis=1), rtol=1e-9)  # DOP853 at rtol 1e-12 over the span; 1e-9 leaves room for the accumulated solver error
 
 
@@ -175,11 +175,11 @@ def test_closed_form_2d_matches_the_yaw_only_ode(conv):
         dv, ba, bg = random_draw(rng)
         p = params_from_dict({"dv0_mps": list(dv), "ba_mps2": list(ba), "bg_radps": list(bg), "g_mps2": 9.81})
         ref = ode_dp_2d(conv, dv, ba, bg[2], times)
-        np.testing.assert_allclose(S.closed_form_errors(p, times, "dp2d", conv, keep_bgz=True), ref, rtol=1e-9)  # DOP853 at rtol 1e-12 over the span; 1e-9 leaves room for the accumulated solver error
-        np.testing.assert_allclose(S.closed_form_errors(p, times, "2d", conv, keep_bgz=True),
+        np.testing.assert_allclose(S.closed_form_errors(p, times, "INS-2D position", conv, keep_bgz=True), ref, rtol=1e-9)  # DOP853 at rtol 1e-12 over the span; 1e-9 leaves room for the accumulated solver error
+        np.testing.assert_allclose(S.closed_form_errors(p, times, "INS-2D", conv, keep_bgz=True),
                                    np.linalg.norm(ref, axis=1), rtol=1e-9)  # DOP853 at rtol 1e-12 over the span; 1e-9 leaves room for the accumulated solver error
         ref0 = ode_dp_2d(conv, dv, ba, 0.0, times)
-        np.testing.assert_allclose(S.closed_form_errors(p, times, "2d", conv), np.linalg.norm(ref0, axis=1),
+        np.testing.assert_allclose(S.closed_form_errors(p, times, "INS-2D", conv), np.linalg.norm(ref0, axis=1),
                                    rtol=1e-9)  # DOP853 at rtol 1e-12 over the span; 1e-9 leaves room for the accumulated solver error
 
 
@@ -203,12 +203,12 @@ def test_z_up_closed_form_matches_a_nonlinear_strapdown_at_rest():
     sol = solve_ivp(rhs, (0, 10.0), np.concatenate([np.zeros(3), dv]), method="DOP853", t_eval=times,
                     rtol=1e-12, atol=1e-14)
     p = params_from_dict({"dv0_mps": list(dv), "ba_mps2": list(ba), "bg_radps": list(bg), "g_mps2": g})
-    ok = S.closed_form_errors(p, times, "dp", "z_up", keep_bgz=True)
+    ok = S.closed_form_errors(p, times, "INS-3D position", "z_up", keep_bgz=True)
     rel = np.linalg.norm(ok - sol.y[0:3].T, axis=1) / np.linalg.norm(sol.y[0:3].T, axis=1)
     # neglected: second order in the tilt, |b_g| t <= 5e-3 rad -> relative 1e-2 with margin
     assert rel.max() < 1e-2
     # a sign pair with k = +1 gets the tilt term wrong by far more than that
-    bad = S.closed_form_errors(p, times, "dp", S.Convention("z_up", -1, -1), keep_bgz=True)
+    bad = S.closed_form_errors(p, times, "INS-3D position", S.Convention("z_up", -1, -1), keep_bgz=True)
     assert (np.linalg.norm(bad - sol.y[0:3].T, axis=1) / np.linalg.norm(sol.y[0:3].T, axis=1)).max() > 0.1
 
 
@@ -225,35 +225,35 @@ def test_linearized_mean_square_is_the_textbook_sum():
     ex = sum(s["dv0_mps"][i] ** 2 * t**2 + s["ba_mps2"][i] ** 2 * t**4 / 4 for i in (0, 1))
     ex3 = ex + g**2 * (s["bg_radps"][0] ** 2 + s["bg_radps"][1] ** 2) * t**6 / 36
     for conv in ("z_up", "z_down"):
-        np.testing.assert_allclose(S.closed_form_mean_square(SIG, t, "3d", conv), ex3, rtol=1e-12)  # the same polynomial expanded by hand: float rounding
-        np.testing.assert_allclose(S.closed_form_mean_square(SIG, t, "2d", conv), ex, rtol=1e-12)  # the same polynomial expanded by hand: float rounding
+        np.testing.assert_allclose(S.closed_form_mean_square(SIG, t, "INS-3D", conv), ex3, rtol=1e-12)  # the same polynomial expanded by hand: float rounding
+        np.testing.assert_allclose(S.closed_form_mean_square(SIG, t, "INS-2D", conv), ex, rtol=1e-12)  # the same polynomial expanded by hand: float rounding
 
 
 def test_full_mean_square_adds_the_product_terms():
     t = np.array([1.0, 5.0, 14.0])
     s = SIG
-    lin = S.closed_form_mean_square(SIG, t, "3d", "z_up", linearized=True)
-    full = S.closed_form_mean_square(SIG, t, "3d", "z_up", linearized=False, keep_bgz=True)
+    lin = S.closed_form_mean_square(SIG, t, "INS-3D", "z_up", linearized=True)
+    full = S.closed_form_mean_square(SIG, t, "INS-3D", "z_up", linearized=False, keep_bgz=True)
     bax, bay, baz = s["ba_mps2"]
     bgx, bgy, bgz = s["bg_radps"]
     extra = (baz**2 * (bgx**2 + bgy**2) + (bax**2 + bay**2) * bgz**2) * t**6 / 36
     # compared as sums (not differences) so that rtol 1e-12 is float rounding only
     np.testing.assert_allclose(full, lin + extra, rtol=1e-12)
-    np.testing.assert_allclose(S.closed_form_mean_square(SIG, t, "2d", "z_up", linearized=False, keep_bgz=True),
-                               S.closed_form_mean_square(SIG, t, "2d", "z_up")
+    np.testing.assert_allclose(S.closed_form_mean_square(SIG, t, "INS-2D", "z_up", linearized=False, keep_bgz=True),
+                               S.closed_form_mean_square(SIG, t, "INS-2D", "z_up")
                                + (bax**2 + bay**2) * bgz**2 * t**6 / 36, rtol=1e-12)  # the same polynomial expanded by hand: float rounding
 
 
 def test_full_mean_square_against_monte_carlo():
     rng = np.random.default_rng(4242)
     n = 200_000
-    fn = S.lambdified("3d", "z_up", True)
+    fn = S.lambdified("INS-3D", "z_up", True)
     sd = np.array(SIG["dv0_mps"] + SIG["ba_mps2"] + SIG["bg_radps"])
     draws = rng.normal(size=(n, 9)) * sd
     t = 10.0
     e2 = fn(t, *draws.T, 9.81) ** 2
     est, se = e2.mean(), e2.std() / np.sqrt(n)
-    ms = S.closed_form_mean_square(SIG, [t], "3d", "z_up", linearized=False, keep_bgz=True)[0]
+    ms = S.closed_form_mean_square(SIG, [t], "INS-3D", "z_up", linearized=False, keep_bgz=True)[0]
     # 5 standard errors of the sample mean
     assert abs(est - ms) < 5 * se
 
@@ -278,7 +278,7 @@ def test_bad_kind():
 
 
 def test_numeric_functions_need_no_sympy_in_their_results():
-    out = S.closed_form_errors(SIG, np.arange(3.0), "3d")
+    out = S.closed_form_errors(SIG, np.arange(3.0), "INS-3D")
     assert out.dtype == float and out.shape == (3,) and out[0] == 0.0
 
 
@@ -441,4 +441,4 @@ def test_position_error_is_phi_applied_to_the_initial_state(conv):
     Phi = S.phi_block_form(conv, C=sp.eye(3), f=f).subs(s.t0, 0)
     x0 = sp.Matrix([0, 0, 0, *s.dv, 0, 0, 0, *s.ba, *s.bg])
     dp = (Phi * x0)[0:3, :]
-    assert sp.expand(dp - S.position_error(conv, "3d", True)).is_zero_matrix
+    assert sp.expand(dp - S.position_error(conv, "INS-3D", True)).is_zero_matrix

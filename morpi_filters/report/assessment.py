@@ -201,7 +201,7 @@ def audit_page(r, dropped_terms: dict, conventions) -> str:
     L += ["The paper keeps the b_gz terms in dp_x and dp_y and drops them from e_3D and e_2D (the heading error is "
           "common to every method). `keep_bgz=True` in `closed_form_errors` keeps them. Under the reference "
           "convention the dropped terms of e^2 are:", ""]
-    for ins in ("3d", "2d"):
+    for ins in ("INS-3D", "INS-2D"):
         L.append(f"- e_{ins.upper()}^2: `{dropped_terms[ins]}`")
     L += ["", "## Structural findings", ""]
     for key, ok, text in r.notes:

@@ -165,7 +165,7 @@ def report_drift(out, study: DriftPage) -> SectionSummary:
     bdeg = d.gyro_bias / DEG_S
     figs = []
     s6 = spec.gyro_bias / DEG_S
-    for kind, rel in (("3d", d.rel_3d), ("2d", d.rel_2d)):
+    for kind, rel in (("INS-3D", d.rel_3d), ("INS-2D", d.rel_2d)):
         figs.append(save_figure(plots.drift_disagreement_map(
             bdeg, d.time, rel, marks=[(s6, 14.0, "S6 datasheet, 14 s")],
             title=f"{kind.upper()} INS at rest: strapdown vs small-angle closed form "
@@ -193,16 +193,16 @@ def report_drift(out, study: DriftPage) -> SectionSummary:
     rows = []
     pick = np.unique([int(np.argmin(np.abs(bdeg - b))) for b in (0.01, 0.1, 0.3, 1.0, 3.0, s6, 10.0)])
     for i in pick:
-        rows.append([fmt(bdeg[i], 3), fmt(100 * d.rel_3d[i, -1], 3), fmt(onset["3d_1pct"][i], 1),
-                     fmt(onset["3d_10pct"][i], 1), fmt(100 * d.rel_2d[i, -1], 3), fmt(onset["2d_1pct"][i], 1),
-                     fmt(onset["2d_10pct"][i], 1)])
+        rows.append([fmt(bdeg[i], 3), fmt(100 * d.rel_3d[i, -1], 3), fmt(onset["INS-3D_1pct"][i], 1),
+                     fmt(onset["INS-3D_10pct"][i], 1), fmt(100 * d.rel_2d[i, -1], 3), fmt(onset["INS-2D_1pct"][i], 1),
+                     fmt(onset["INS-2D_10pct"][i], 1)])
     lines.append(md_table(["gyro bias [deg/s]", "3D at 15 s [%]", "3D > 1 % from [s]", "3D > 10 % from [s]",
                            "2D at 15 s [%]", "2D > 1 % from [s]", "2D > 10 % from [s]"], rows))
     lines.append(
-        f"\nHow fast they part: near 1 % the 3D disagreement grows like t^{fmt(growth['3d']['slope_in_time'], 2)} "
-        f"(at {fmt(growth['3d']['slope_in_time_bias_deg_s'], 2)} deg/s) and like "
-        f"b^{fmt(growth['3d']['slope_in_bias_at_end'], 2)} in the bias at 15 s; for 2D t^"
-        f"{fmt(growth['2d']['slope_in_time'], 2)} and b^{fmt(growth['2d']['slope_in_bias_at_end'], 2)}. "
+        f"\nHow fast they part: near 1 % the 3D disagreement grows like t^{fmt(growth['INS-3D']['slope_in_time'], 2)} "
+        f"(at {fmt(growth['INS-3D']['slope_in_time_bias_deg_s'], 2)} deg/s) and like "
+        f"b^{fmt(growth['INS-3D']['slope_in_bias_at_end'], 2)} in the bias at 15 s; for 2D t^"
+        f"{fmt(growth['INS-2D']['slope_in_time'], 2)} and b^{fmt(growth['INS-2D']['slope_in_bias_at_end'], 2)}. "
         "A single-axis rotation by x = b t makes the cubic closed form overshoot the exact "
         "g (t / b - sin(b t) / b^2) by x^3 / (6 (x - sin x)) - 1, about x^2 / 20, so exponents near 2 are "
         "the signature of the small-angle linearization (in 3D the accelerometer-bias terms, exact in "
