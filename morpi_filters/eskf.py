@@ -226,6 +226,8 @@ def initial_covariance(dv0=0.0, ba=0.0, bg=0.0, dp0=0.0, eps0=0.0):
     Returns
     -------
     P0 : ndarray, shape (15, 15)
+        Diagonal covariance holding the squared 1-sigma values, in the state
+        order ``[dp, dv, eps, b_a, b_g]`` (units of the squared states).
 
     Examples
     --------
@@ -250,11 +252,25 @@ def augment(Phi, Qd, model: StepModel):
     Parameters
     ----------
     Phi, Qd : ndarray, shape (15, 15) or (n, 15, 15)
+        Core transition matrix (dimensionless per state pair, units of the
+        states it maps) and discrete process noise (units of the squared
+        states) of one step, or one per step.
     model : StepModel
+        Step error model; its ``augment_gain`` sets the size ``k`` of the
+        augmented state (21 without, 22 with the gain state).
 
     Returns
     -------
-    Phi_a, Qd_a : ndarray, shape (k, k) or (n, k, k), ``k = model.n_states``
+    Phi_a, Qd_a : tuple of ndarray, shape (k, k) or (n, k, k), ``k = model.n_states``
+        ``Phi`` in the core block and identity on the clone and gain states
+        (held constant by the prediction); ``Qd`` in the core block and zeros
+        elsewhere.
+
+    Examples
+    --------
+    >>> Phi_a, Qd_a = augment(np.eye(15), 0.01 * np.eye(15), StepModel())
+    >>> Phi_a.shape, float(Phi_a[21, 21]), float(Qd_a[0, 0]), float(Qd_a[21, 21])
+    ((22, 22), 1.0, 0.01, 0.0)
     """
     k = model.n_states
     Phi = np.asarray(Phi, dtype=float)
@@ -268,7 +284,25 @@ def augment(Phi, Qd, model: StepModel):
 
 
 def clone_reset(k):
-    """The reset that copies ``dp, eps`` into their clones, shape (k, k)."""
+    """The reset that copies ``dp, eps`` into their clones, shape (k, k).
+
+    Parameters
+    ----------
+    k : int
+        Size of the augmented state (21 or 22, see :attr:`StepModel.n_states`).
+
+    Returns
+    -------
+    T : ndarray, shape (k, k)
+        Identity, except that the rows of :data:`C_DP` and :data:`C_EPS` pick
+        ``dp`` and ``eps`` (``x = T x`` sets the clones to the current values).
+
+    Examples
+    --------
+    >>> T = clone_reset(22)
+    >>> T.shape, float(T[15, 0]), float(T[15, 15]), float(T[21, 21])
+    ((22, 22), 1.0, 0.0, 1.0)
+    """
     return _clone_reset(k)
 
 
@@ -286,11 +320,23 @@ def augment_covariance(P0, model: StepModel):
     Parameters
     ----------
     P0 : ndarray, shape (15, 15)
+        Initial covariance of the core states (units of the squared states,
+        e.g. from :func:`initial_covariance`).
     model : StepModel
+        Step error model: the size ``k = model.n_states`` and, with
+        ``augment_gain``, the gain prior ``gain_sigma ** 2`` (dimensionless).
 
     Returns
     -------
     P0_a : ndarray, shape (k, k)
+        Augmented covariance: the clones are fully correlated with ``dp`` and
+        ``eps`` (equal to them), the gain state is uncorrelated.
+
+    Examples
+    --------
+    >>> Pa = augment_covariance(initial_covariance(dp0=1.0), StepModel())
+    >>> Pa.shape, float(Pa[15, 15]), float(Pa[0, 15]), round(float(Pa[21, 21]), 6)
+    ((22, 22), 1.0, 1.0, 0.0025)
     """
     k = model.n_states
     P = np.zeros((k, k))
@@ -313,15 +359,28 @@ def step_update(index, length, psi, model: StepModel, speed, z=None):
     psi : float
         Heading of the step [rad].
     model : StepModel
+        Step error model (the sigmas of R and whether the gain is a state).
     speed : float
         Speed along the path [m/s] (jitter term of R).
     z : array_like, shape (2,) or (runs, 2), optional
-        The measurement (see :func:`step_z`); zeros for a covariance analysis.
+        The measurement [m] (see :func:`step_z`); zeros for a covariance analysis.
 
     Returns
     -------
     Measurement
-        With the clone reset attached.
+        ``H`` of shape (2, k), ``R`` of shape (2, 2) [m^2], ``z`` as given,
+        with the clone reset (:func:`clone_reset`) attached.
+
+    Examples
+    --------
+    A 1 m step heading along x at 1 m/s: ``var_along = 0.02^2 + 2 * 0.01^2``,
+    ``var_cross = 0.02^2``; the gain column is ``-s u``.
+
+    >>> m = step_update(10, 1.0, 0.0, StepModel(), 1.0)
+    >>> m.index, m.H.shape, np.round(m.R, 6).tolist()
+    (10, (2, 22), [[0.0006, 0.0], [0.0, 0.0004]])
+    >>> m.H[:, 21].tolist(), m.H[:, 15:17].tolist()
+    ([-1.0, -0.0], [[-1.0, -0.0], [-0.0, -1.0]])
     """
     k = model.n_states
     u = np.array([np.cos(psi), np.sin(psi)])
