@@ -226,6 +226,8 @@ def initial_covariance(dv0=0.0, ba=0.0, bg=0.0, dp0=0.0, eps0=0.0):
     Returns
     -------
     P0 : ndarray, shape (15, 15)
+        Diagonal covariance holding the squared 1-sigma values, in the state
+        order ``[dp, dv, eps, b_a, b_g]`` (units of the squared states).
 
     Examples
     --------
@@ -250,11 +252,25 @@ def augment(Phi, Qd, model: StepModel):
     Parameters
     ----------
     Phi, Qd : ndarray, shape (15, 15) or (n, 15, 15)
+        Core transition matrix (dimensionless per state pair, units of the
+        states it maps) and discrete process noise (units of the squared
+        states) of one step, or one per step.
     model : StepModel
+        Step error model; its ``augment_gain`` sets the size ``k`` of the
+        augmented state (21 without, 22 with the gain state).
 
     Returns
     -------
-    Phi_a, Qd_a : ndarray, shape (k, k) or (n, k, k), ``k = model.n_states``
+    Phi_a, Qd_a : tuple of ndarray, shape (k, k) or (n, k, k), ``k = model.n_states``
+        ``Phi`` in the core block and identity on the clone and gain states
+        (held constant by the prediction); ``Qd`` in the core block and zeros
+        elsewhere.
+
+    Examples
+    --------
+    >>> Phi_a, Qd_a = augment(np.eye(15), 0.01 * np.eye(15), StepModel())
+    >>> Phi_a.shape, float(Phi_a[21, 21]), float(Qd_a[0, 0]), float(Qd_a[21, 21])
+    ((22, 22), 1.0, 0.01, 0.0)
     """
     k = model.n_states
     Phi = np.asarray(Phi, dtype=float)
@@ -268,7 +284,25 @@ def augment(Phi, Qd, model: StepModel):
 
 
 def clone_reset(k):
-    """The reset that copies ``dp, eps`` into their clones, shape (k, k)."""
+    """The reset that copies ``dp, eps`` into their clones, shape (k, k).
+
+    Parameters
+    ----------
+    k : int
+        Size of the augmented state (21 or 22, see :attr:`StepModel.n_states`).
+
+    Returns
+    -------
+    T : ndarray, shape (k, k)
+        Identity, except that the rows of :data:`C_DP` and :data:`C_EPS` pick
+        ``dp`` and ``eps`` (``x = T x`` sets the clones to the current values).
+
+    Examples
+    --------
+    >>> T = clone_reset(22)
+    >>> T.shape, float(T[15, 0]), float(T[15, 15]), float(T[21, 21])
+    ((22, 22), 1.0, 0.0, 1.0)
+    """
     return _clone_reset(k)
 
 
@@ -286,11 +320,23 @@ def augment_covariance(P0, model: StepModel):
     Parameters
     ----------
     P0 : ndarray, shape (15, 15)
+        Initial covariance of the core states (units of the squared states,
+        e.g. from :func:`initial_covariance`).
     model : StepModel
+        Step error model: the size ``k = model.n_states`` and, with
+        ``augment_gain``, the gain prior ``gain_sigma ** 2`` (dimensionless).
 
     Returns
     -------
     P0_a : ndarray, shape (k, k)
+        Augmented covariance: the clones are fully correlated with ``dp`` and
+        ``eps`` (equal to them), the gain state is uncorrelated.
+
+    Examples
+    --------
+    >>> Pa = augment_covariance(initial_covariance(dp0=1.0), StepModel())
+    >>> Pa.shape, float(Pa[15, 15]), float(Pa[0, 15]), round(float(Pa[21, 21]), 6)
+    ((22, 22), 1.0, 1.0, 0.0025)
     """
     k = model.n_states
     P = np.zeros((k, k))
@@ -313,15 +359,28 @@ def step_update(index, length, psi, model: StepModel, speed, z=None):
     psi : float
         Heading of the step [rad].
     model : StepModel
+        Step error model (the sigmas of R and whether the gain is a state).
     speed : float
         Speed along the path [m/s] (jitter term of R).
     z : array_like, shape (2,) or (runs, 2), optional
-        The measurement (see :func:`step_z`); zeros for a covariance analysis.
+        The measurement [m] (see :func:`step_z`); zeros for a covariance analysis.
 
     Returns
     -------
     Measurement
-        With the clone reset attached.
+        ``H`` of shape (2, k), ``R`` of shape (2, 2) [m^2], ``z`` as given,
+        with the clone reset (:func:`clone_reset`) attached.
+
+    Examples
+    --------
+    A 1 m step heading along x at 1 m/s: ``var_along = 0.02^2 + 2 * 0.01^2``,
+    ``var_cross = 0.02^2``; the gain column is ``-s u``.
+
+    >>> m = step_update(10, 1.0, 0.0, StepModel(), 1.0)
+    >>> m.index, m.H.shape, np.round(m.R, 6).tolist()
+    (10, (2, 22), [[0.0006, 0.0], [0.0, 0.0004]])
+    >>> m.H[:, 21].tolist(), m.H[:, 15:17].tolist()
+    ([-1.0, -0.0], [[-1.0, -0.0], [-0.0, -1.0]])
     """
     k = model.n_states
     u = np.array([np.cos(psi), np.sin(psi)])
@@ -356,6 +415,12 @@ def step_z(p_ins_end, p_ins_start, length_morpi, psi_hat):
     Returns
     -------
     z : ndarray, shape (2,) or (runs, 2)
+        INS displacement minus the MoRPI displacement along ``psi_hat`` [m].
+
+    Examples
+    --------
+    >>> step_z([3.0, 4.0], [1.0, 1.0], 2.0, 0.0).tolist()
+    [0.0, 3.0]
     """
     psi_hat = np.asarray(psi_hat, dtype=float)
     u = np.stack([np.cos(psi_hat), np.sin(psi_hat)], -1)
@@ -379,8 +444,10 @@ def run_filter(Phi, Qd, P0, times, measurements=(), x0=None, keep_P=False):
     Parameters
     ----------
     Phi, Qd : ndarray, shape (k, k) or (n, k, k)
-        Transition and process noise of each step (constant when 2-D).
+        Transition (units of the states it maps) and discrete process noise
+        (units of the squared states) of each step (constant when 2-D).
     P0 : ndarray, shape (k, k)
+        Initial covariance (units of the squared states).
     times : array_like, shape (n + 1,)
         Epoch times [s] (for the result only; the steps are in Phi, Qd).
     measurements : sequence of Measurement
@@ -389,7 +456,7 @@ def run_filter(Phi, Qd, P0, times, measurements=(), x0=None, keep_P=False):
         gains of the single covariance recursion (batched over runs); run 0 is
         also the filterpy state.
     x0 : ndarray, shape (k,) or (runs, k), optional
-        Initial estimate (zeros by default).
+        Initial estimate in the units of the states (zeros by default).
     keep_P : bool, int or array_like of int
         Keep the full covariance at every epoch (True), at none (False, the
         default: a one-hour run at 100 Hz would otherwise hold 0.65 GB for 15
@@ -408,6 +475,24 @@ def run_filter(Phi, Qd, P0, times, measurements=(), x0=None, keep_P=False):
     Returns
     -------
     FilterResult
+        Estimates ``x`` of shape (n + 1, k) or (runs, n + 1, k), ``sigma`` of
+        shape (n + 1, k), innovations and their covariances per update, and
+        the covariances kept by `keep_P`.
+
+    Examples
+    --------
+    A 1-D constant-velocity model (state ``[position, velocity]``, 1 s steps,
+    no process noise, unit prior): ``P_2 = [[5, 2], [2, 1]]``; a position
+    measurement ``z = 1`` with ``R = 1`` at epoch 2 gives ``S = 6`` and the
+    gain ``K = [5, 2] / 6``.
+
+    >>> Phi = np.array([[1.0, 1.0], [0.0, 1.0]])
+    >>> m = Measurement(index=2, z=np.array([1.0]), H=np.array([[1.0, 0.0]]), R=np.array([[1.0]]))
+    >>> r = run_filter(Phi, np.zeros((2, 2)), np.eye(2), [0.0, 1.0, 2.0], [m])
+    >>> r.x.shape, np.round(r.x[-1], 4).tolist(), r.S.tolist()
+    ((3, 2), [0.8333, 0.3333], [[[6.0]]])
+    >>> np.round(r.sigma[1] ** 2, 6).tolist()
+    [2.0, 1.0]
     """
     Phi = np.asarray(Phi, dtype=float)
     Qd = np.asarray(Qd, dtype=float)
@@ -555,7 +640,10 @@ def propagate_covariance(Phi, Qd, P0, n, stride=1):
     Parameters
     ----------
     Phi, Qd : ndarray, shape (k, k)
+        Constant transition (units of the states it maps) and discrete
+        process noise of one step (units of the squared states).
     P0 : ndarray, shape (k, k)
+        Initial covariance (units of the squared states).
     n : int
         Number of steps.
     stride : int
@@ -566,6 +654,18 @@ def propagate_covariance(Phi, Qd, P0, n, stride=1):
     -------
     P : ndarray, shape (n // stride + 1, k, k)
         Symmetric covariances at epochs ``0, stride, 2 stride, ...``.
+
+    Examples
+    --------
+    The 1-D constant-velocity model of :func:`run_filter` without
+    measurements: the position variance is ``1 + k^2``.
+
+    >>> Phi = np.array([[1.0, 1.0], [0.0, 1.0]])
+    >>> P = propagate_covariance(Phi, np.zeros((2, 2)), np.eye(2), 4)
+    >>> P.shape, P[:, 0, 0].tolist()
+    ((5, 2, 2), [1.0, 2.0, 5.0, 10.0, 17.0])
+    >>> propagate_covariance(Phi, np.zeros((2, 2)), np.eye(2), 4, stride=2)[:, 0, 0].tolist()
+    [1.0, 5.0, 17.0]
     """
     Phi = np.asarray(Phi, dtype=float)
     Qd = np.asarray(Qd, dtype=float)
@@ -600,13 +700,19 @@ def nees(err, P):
     Parameters
     ----------
     err : ndarray, shape (..., n, d)
-        Estimate minus truth of the selected states.
+        Estimate minus truth of the selected states (in their units, e.g. [m]).
     P : ndarray, shape (n, d, d)
-        Their covariance per epoch (non-singular).
+        Their covariance per epoch (non-singular, units of the squared states).
 
     Returns
     -------
     ndarray, shape (..., n)
+        NEES per epoch (dimensionless; mean ``d`` for a consistent filter).
+
+    Examples
+    --------
+    >>> nees(np.array([[1.0, 2.0]]), np.array([np.diag([1.0, 4.0])])).tolist()
+    [2.0]
     """
     L = np.linalg.cholesky(P)
     w = np.linalg.solve(L, np.asarray(err, dtype=float)[..., None])[..., 0]
@@ -614,7 +720,28 @@ def nees(err, P):
 
 
 def nis(result: FilterResult):
-    """Normalized innovation squared of every update (see :class:`FilterResult`)."""
+    """Normalized innovation squared of every update (see :class:`FilterResult`).
+
+    Parameters
+    ----------
+    result : FilterResult
+        Output of :func:`run_filter`.
+
+    Returns
+    -------
+    ndarray, shape (u,) or (runs, u)
+        ``y^T S^-1 y`` per update (dimensionless; mean ``m`` for a consistent filter).
+
+    Examples
+    --------
+    The update of the :func:`run_filter` example: ``y = 1``, ``S = 6``.
+
+    >>> Phi = np.array([[1.0, 1.0], [0.0, 1.0]])
+    >>> m = Measurement(index=2, z=np.array([1.0]), H=np.array([[1.0, 0.0]]), R=np.array([[1.0]]))
+    >>> r = run_filter(Phi, np.zeros((2, 2)), np.eye(2), [0.0, 1.0, 2.0], [m])
+    >>> np.round(nis(r), 4).tolist()
+    [0.1667]
+    """
     return result.nis
 
 
@@ -623,9 +750,19 @@ def chi2_band(dof, runs, confidence=0.95):
 
     ``runs * mean`` is chi-square with ``runs * dof`` degrees of freedom [4].
 
+    Parameters
+    ----------
+    dof : int
+        Degrees of freedom of one NEES/NIS value (the state or measurement size).
+    runs : int
+        Number of Monte Carlo runs averaged.
+    confidence : float
+        Probability inside the band (dimensionless, default 0.95).
+
     Returns
     -------
     (lo, hi) : tuple of float
+        Lower and upper bound of the run average (dimensionless).
 
     Examples
     --------
@@ -648,16 +785,29 @@ def simulate_steps(X, step_index, length, psi, model: StepModel, speed, gain, rn
     length, psi : float
         Step length [m] and heading [rad].
     model : StepModel
+        Step error model (R of each step, and whether the gain is a state).
     speed : float
-        [m/s].
+        Speed along the path [m/s] (jitter term of R).
     gain : ndarray, shape (runs,)
-        True relative gain error per run.
+        True relative gain error per run (dimensionless).
     rng : numpy.random.Generator
+        Source of the measurement noise ``N(0, R)``.
 
     Returns
     -------
     list of Measurement
-        With ``z`` of shape (runs, 2), ready for :func:`run_filter`.
+        One per step, with ``z`` of shape (runs, 2) [m], ready for :func:`run_filter`.
+
+    Examples
+    --------
+    Without navigation errors and with a noise-free model, ``z`` is the gain
+    error times ``-s u``.
+
+    >>> model = StepModel(jitter_s=0.0, step_sigma=0.0, cross_sigma_m=0.0)
+    >>> X = np.zeros((2, 3, 15))
+    >>> ms = simulate_steps(X, [2], 1.0, 0.0, model, 1.0, np.array([0.1, -0.2]), np.random.default_rng(0))
+    >>> len(ms), ms[0].index, (np.round(ms[0].z, 6) + 0.0).tolist()
+    (1, 2, [[-0.1, 0.0], [0.2, 0.0]])
     """
     runs = X.shape[0]
     out = []
