@@ -169,7 +169,7 @@ def report_drift(out, study: DriftPage) -> SectionSummary:
         figs.append(save_figure(plots.drift_disagreement_map(
             bdeg, d.time, rel, marks=[(s6, 14.0, "S6 datasheet, 14 s")],
             title=f"{kind.upper()} INS at rest: strapdown vs small-angle closed form "
-                  f"(median of {d.draws} draws)"), out / f"drift_map_{kind}.png").name)
+                  f"(median of {d.draws} draws)"), out / f"drift_map_{kind[-2:].lower()}.png").name)
     result = {
         "gyro_bias_deg_s": bdeg, "time_s": d.time, "rel_3d": d.rel_3d, "rel_2d": d.rel_2d,
         "p90_3d": d.p90_3d, "p90_2d": d.p90_2d,
