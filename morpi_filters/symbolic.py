@@ -142,6 +142,15 @@ def convention(spec="z_up") -> Convention:
     """Parse a convention: a :class:`Convention`, ``"z_up"``, ``"z_down"`` or a
     :attr:`Convention.name` such as ``"z_up,mis+1,gyro-1"``.
 
+    Parameters
+    ----------
+    spec : Convention or str
+        The convention, or its name.
+
+    Returns
+    -------
+    Convention
+
     Examples
     --------
     >>> convention("z_up").gravity, convention("z_down").gravity
@@ -207,6 +216,15 @@ def symbols() -> _Symbols:
 def skew_symbols(v) -> sp.Matrix:
     """The cross-product matrix ``(v x)`` of a 3-vector: ``skew_symbols(a) * b = a x b``.
 
+    Parameters
+    ----------
+    v : sequence of 3 sympy expressions or numbers
+
+    Returns
+    -------
+    sympy Matrix, shape (3, 3)
+        Skew-symmetric.
+
     Examples
     --------
     >>> skew_symbols([1, 2, 3]) * sp.Matrix([4, 5, 6])      # the cross product
@@ -248,6 +266,17 @@ def system_matrix_symbols(conv="z_up", C=None, f=None, time_varying: bool = Fals
         Specific force in n [m/s^2]; default generic ``f_x, f_y, f_z``.
     time_varying : bool
         Use Functions of ``t`` for the default C and f.
+
+    Returns
+    -------
+    sympy Matrix, shape (15, 15)
+        F of the error state ``[dp, dv, eps, b_a, b_g]``.
+
+    Examples
+    --------
+    >>> F = system_matrix_symbols("z_up", C=sp.eye(3), f=sp.Matrix([0, 0, symbols().g]))
+    >>> F.shape, F[0, 3], F[3, 7]            # dp' = dv; dv_x' from the misalignment about y
+    ((15, 15), 1, g)
     """
     c = convention(conv)
     if C is None or f is None:
@@ -293,6 +322,15 @@ def phi_blocks(conv="z_up", C=None, f=None, time_varying: bool = False, evaluate
     -------
     dict of str -> sympy Matrix (3, 3)
         Keys ``"S", "R", "N", "P", "Q", "M", "T"``.
+
+    Examples
+    --------
+    >>> blocks = phi_blocks("z_up", C=sp.eye(3), f=sp.Matrix([0, 0, 0]))
+    >>> sorted(blocks), blocks["S"]          # no specific force: no misalignment coupling
+    (['M', 'N', 'P', 'Q', 'R', 'S', 'T'], Matrix([
+    [0, 0, 0],
+    [0, 0, 0],
+    [0, 0, 0]]))
     """
     c = convention(conv)
     s = symbols()
@@ -323,7 +361,24 @@ def phi_blocks(conv="z_up", C=None, f=None, time_varying: bool = False, evaluate
 
 
 def phi_block_form(conv="z_up", C=None, f=None, time_varying: bool = False, evaluate: bool = True) -> sp.Matrix:
-    """``Phi(t, t0)`` assembled from :func:`phi_blocks` as in eq:phi (15x15)."""
+    """``Phi(t, t0)`` assembled from :func:`phi_blocks` as in eq:phi (15x15).
+
+    Parameters
+    ----------
+    conv, C, f, time_varying : see :func:`system_matrix_symbols`
+    evaluate : bool
+        Evaluate the block integrals (False keeps them as sympy Integrals).
+
+    Returns
+    -------
+    sympy Matrix, shape (15, 15)
+
+    Examples
+    --------
+    >>> Phi = phi_block_form("z_up", C=sp.eye(3), f=sp.Matrix([0, 0, symbols().g]))
+    >>> sp.simplify(Phi - phi_exponential("z_up", C=sp.eye(3), f=sp.Matrix([0, 0, symbols().g]))).is_zero_matrix
+    True
+    """
     b = phi_blocks(conv, C, f, time_varying, evaluate)
     s = symbols()
     Z, I = sp.zeros(3), sp.eye(3)
@@ -351,6 +406,10 @@ def phi_exponential(conv="z_up", C=None, f=None, t0=None) -> sp.Matrix:
     t0 : sympy expression or number, optional
         Start time; default the symbol ``t_0``. ``t0=0`` gives ``Phi(t, 0)``
         as a polynomial in ``t``.
+
+    Returns
+    -------
+    sympy Matrix, shape (15, 15)
 
     Raises
     ------
@@ -396,6 +455,22 @@ def verify_phi(conv="z_up", time_varying: bool = False) -> PhiCheck:
     Functions ``C_ij(t)``, ``f_i(t)``; the fundamental theorem of calculus
     (``Integral.diff``) gives the derivative, and the exponential comparison
     does not apply (returned as None).
+
+    Parameters
+    ----------
+    conv : Convention or str
+    time_varying : bool
+        Check the block form with C and f Functions of t.
+
+    Returns
+    -------
+    PhiCheck
+
+    Examples
+    --------
+    >>> check = verify_phi("z_up")
+    >>> check.block_equals_exponential, check.ode, check.initial_identity
+    (True, True, True)
     """
     s = symbols()
     Phi = phi_block_form(conv, time_varying=time_varying)
@@ -431,10 +506,19 @@ def phi_numeric(C, f, t, conv="z_up") -> np.ndarray:
         Specific force in n [m/s^2].
     t : float
         Elapsed time [s].
+    conv : Convention or str
+        Sign convention (:func:`convention`).
 
     Returns
     -------
     ndarray, shape (15, 15)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> Phi = phi_numeric(np.eye(3), np.array([0.0, 0.0, 9.81]), 2.0)
+    >>> float(Phi[0, 3]), round(float(Phi[0, 13]), 6)         # dp_x from dv_x: t; from b_gy: g t^3 / 6
+    (2.0, 13.08)
     """
     import numpy as np
 
@@ -504,6 +588,16 @@ def morpi_error() -> sp.Expr:
     the gain is ``dG`` times the true distance, i.e. ``dG * v * t`` for a path
     covered at ``v`` metres per second. Constant biases cancel in
     ``max(f_y) - min(f_y)`` (eq:del_F), so no bias appears.
+
+    Returns
+    -------
+    sympy Expr
+        In the symbols ``dG``, ``v`` and ``t`` [m].
+
+    Examples
+    --------
+    >>> morpi_error()
+    dG*t*v
     """
     s = symbols()
     return s.dG * s.v * s.t
@@ -570,6 +664,12 @@ def closed_form_errors(params, times, kind: str = "INS-3D", convention="z_up", k
     Returns
     -------
     ndarray, shape (n,) or (n, 3) / (n, 2) [m]
+
+    Examples
+    --------
+    >>> p = {"dv0_mps": [0.1, 0.0, 0.0], "ba_mps2": [0.0] * 3, "bg_radps": [0.0] * 3, "g_mps2": 9.81}
+    >>> closed_form_errors(p, [0.0, 5.0], "INS-3D").tolist()     # a velocity error alone: 0.1 t
+    [0.0, 0.5]
     """
     import numpy as np
 
@@ -889,6 +989,11 @@ def dropped_bgz_terms(reference: str) -> dict:
     -------
     dict
         ``{"INS-3D": str, "INS-2D": str}``: ``e^2`` with the b_gz terms kept minus ``e^2`` without them.
+
+    Examples
+    --------
+    >>> sorted(dropped_bgz_terms("z_up"))
+    ['INS-2D', 'INS-3D']
     """
     out = {}
     for ins in ("INS-3D", "INS-2D"):
