@@ -59,7 +59,6 @@ __all__ = [
 #: The curves' methods, in the package's names: the filter's horizontal 1 sigma of each, and
 #: the closed forms (for "MoRPI-aided INS", the paper's MoRPI distance error ``dG v t``).
 CURVE_METHODS = ("INS-3D", "INS-2D", "MoRPI-aided INS")
-_SYMBOLIC_KIND = {"INS-3D": "INS-3D", "INS-2D": "INS-2D"}
 
 #: Length of one MoRPI step [m]: the 1 m peak-to-peak period of the paper's periodic routes.
 STEP_LENGTH_M = 1.0
@@ -254,7 +253,7 @@ def case_mean_square(case: CurveCase, t, kind):
         return (case.gain_sigma * case.speed * t) ** 2
     if kind not in ("INS-3D", "INS-2D"):
         raise MorpiError(f"kind {kind!r}: expected one of {', '.join(CURVE_METHODS)}")
-    return symbolic.closed_form_mean_square(_keys(case.dv0, case.ba, case.bg, case.g), t, _SYMBOLIC_KIND[kind], "z_up",
+    return symbolic.closed_form_mean_square(_keys(case.dv0, case.ba, case.bg, case.g), t, kind, "z_up",
                                             linearized=True, keep_bgz=False)
 
 
@@ -308,7 +307,7 @@ def error_realisation(dv0, ba, bg, dG, g, speed, t, kind):
         return np.abs(dG) * speed * t
     if kind not in ("INS-3D", "INS-2D"):
         raise MorpiError(f"kind {kind!r}: expected one of {', '.join(CURVE_METHODS)}")
-    return symbolic.closed_form_errors(_keys(dv0, ba, bg, g), t, _SYMBOLIC_KIND[kind], "z_up", keep_bgz=False)
+    return symbolic.closed_form_errors(_keys(dv0, ba, bg, g), t, kind, "z_up", keep_bgz=False)
 
 
 def time_grid(times, dt, step_period=None):

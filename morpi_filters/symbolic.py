@@ -696,16 +696,15 @@ def _gaussian_moment(sigma: float, n: int) -> float:
 def _mean_square_poly(kind: str, conv_name: str, linearized: bool, keep_bgz: bool):
     """e^2 as a Poly in the random variables (coefficients in g, t)."""
     s = symbols()
-    ins = {"INS-3D": "INS-3D", "INS-2D": "INS-2D"}.get(kind)
-    if ins is None:
+    if kind not in ("INS-3D", "INS-2D"):
         raise MorpiError(f"kind: expected 'INS-3D' or 'INS-2D' for a mean square, got {kind!r}")
-    e2 = distance_error_squared(conv_name, ins, keep_bgz)
+    e2 = distance_error_squared(conv_name, kind, keep_bgz)
     rv = (*s.dv, *s.ba, *s.bg)
     poly = sp.Poly(e2, *rv)
     if linearized:
         # keep monomials of total degree <= 2 in the random variables, i.e. drop
         # terms of dp that are products of two random variables (alpha = g)
-        dp = position_error(conv_name, ins, keep_bgz)[:2, :]  # horizontal components only
+        dp = position_error(conv_name, kind, keep_bgz)[:2, :]  # horizontal components only
         lin = [sp.Poly(d, *rv) for d in dp]
         lin = [sum((c * sp.prod([x**e for x, e in zip(rv, m)]) for m, c in p.terms() if sum(m) <= 1), sp.Integer(0))
                for p in lin]
