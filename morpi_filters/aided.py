@@ -26,7 +26,8 @@ the epochs:
   over the step, or MoRPI's own step vector) equals ``(1 + k)`` times the
   displacement since the clone;
 * :class:`ZeroVelocity` and :class:`ZeroRate`: the still stretches the caller
-  names (``AidedInput.rest``);
+  names (``AidedInput.rest``), and the zero-velocity update alone where the
+  robot stands while its phone may hum with the motors (``AidedInput.standing``);
 * :class:`NonHolonomic`: the robot's lateral and vertical velocity are zero
   (phone-to-robot tilt from the rest specific force, mounting yaw zero).
 
@@ -97,11 +98,19 @@ def kf_predict(x, P, Phi, Q):
     return x, P
 
 
-def kf_update(x, P, y, H, R):
+def kf_update(x, P, y, H, R, frozen=None):
     """Kalman update with innovation `y` over a leading batch axis (Joseph form).
 
     The equations of filterpy's ``KalmanFilter.update``: ``S = H P H^T + R``,
     ``K = P H^T S^-1``, ``x = x + K y``, ``P = (I - K H) P (I - K H)^T + K R K^T``.
+    With `frozen` (a consider analysis), the flagged states are taken as
+    known at their estimate: the gain ``K`` is the one of the filter without
+    them, computed from ``P`` conditioned on them (the Schur complement
+    ``P - P_.f P_ff^-1 P_f.``, which evolves as that filter's own covariance),
+    and they are not updated. The Joseph form, valid for any gain, then
+    carries their uncertainty into ``P``: the covariance of the estimate
+    around the truth, whatever their true value, and ``S`` the innovations'
+    true covariance.
 
     Parameters
     ----------
@@ -115,6 +124,8 @@ def kf_update(x, P, y, H, R):
         Measurement matrices.
     R : ndarray, shape (b, m, m)
         Measurement noise covariances.
+    frozen : ndarray, shape (b, n) of bool, optional
+        Considered states (not updated) per filter.
 
     Returns
     -------
@@ -134,14 +145,44 @@ def kf_update(x, P, y, H, R):
     Ht = np.swapaxes(H, 1, 2)
     PHt = P @ Ht
     S = H @ PHt + R
-    K = np.swapaxes(np.linalg.solve(S, np.swapaxes(PHt, 1, 2)), 1, 2)
+    Sc = S
+    if frozen is not None:
+        PHt = _condition(P, frozen) @ Ht
+        Sc = H @ PHt + R
+    K = np.swapaxes(np.linalg.solve(Sc, np.swapaxes(PHt, 1, 2)), 1, 2)
     x = x + np.einsum("bij,bj->bi", K, y)
     IKH = np.eye(P.shape[-1]) - K @ H
     P = IKH @ P @ np.swapaxes(IKH, 1, 2) + K @ R @ np.swapaxes(K, 1, 2)
     return x, 0.5 * (P + np.swapaxes(P, 1, 2)), S
 
 
-def rts_smooth(x_post, P_post, x_prior, P_prior, Phi, fed=None):
+def _condition(P, frozen):
+    """``P`` conditioned on the `frozen` states (one Schur complement per state), batched.
+
+    Parameters
+    ----------
+    P : ndarray, shape (b, n, n)
+    frozen : ndarray, shape (b, n) or (n,) of bool
+
+    Returns
+    -------
+    ndarray, shape (b, n, n)
+        The conditional covariances: the frozen states' rows and columns are zero.
+    """
+    frozen = np.broadcast_to(np.asarray(frozen, bool), P.shape[:-1])
+    Pc = P
+    for j in np.flatnonzero(frozen.any(axis=0)):
+        pjj = Pc[:, j, j]
+        use = frozen[:, j] & (pjj > 0)
+        w = np.where(use, 1.0 / np.where(pjj > 0, pjj, 1.0), 0.0)
+        col = Pc[:, :, j]
+        Pc = Pc - w[:, None, None] * col[:, :, None] * col[:, None, :]
+        Pc[use, j, :] = 0.0                   # exact zeros where rounding leaves 1e-20
+        Pc[use, :, j] = 0.0
+    return Pc
+
+
+def rts_smooth(x_post, P_post, x_prior, P_prior, Phi, fed=None, frozen=None):
     """Rauch-Tung-Striebel smoother over epochs ``0..m-1`` (filterpy's recursion).
 
     ``Phi[k]`` propagates from epoch ``k - 1`` to ``k`` (filterpy's
@@ -159,6 +200,11 @@ def rts_smooth(x_post, P_post, x_prior, P_prior, Phi, fed=None):
         is not used).
     fed : ndarray, shape (m, n), optional
         Corrections fed back into the nominal state per epoch.
+    frozen : ndarray, shape (n,) of bool, optional
+        Considered states of the forward pass (:func:`kf_update`): the
+        smoother's gains come from the covariances conditioned on them, so
+        the smoothed estimate is that of the filter taking them as known
+        (the smoothed covariance does not carry their uncertainty).
 
     Returns
     -------
@@ -189,7 +235,11 @@ def rts_smooth(x_post, P_post, x_prior, P_prior, Phi, fed=None):
         return xs, Ps
     # the smoother gains depend on the forward pass only: all of them in one batched call. A
     # pseudo-inverse: states without uncertainty (an unused clone or gain) leave P_prior singular.
-    G = P_post[:-1] @ np.swapaxes(Phi[1:], 1, 2) @ np.linalg.pinv(P_prior[1:], hermitian=True)
+    Pp, Pq = P_post[:-1], P_prior[1:]
+    if frozen is not None and np.any(frozen):
+        # the smoother of the filter that takes the frozen states as known (:func:`kf_update`)
+        Pp, Pq = _condition(Pp, frozen), _condition(Pq, frozen)
+    G = Pp @ np.swapaxes(Phi[1:], 1, 2) @ np.linalg.pinv(Pq, hermitian=True)
     for k in range(xs.shape[0] - 2, -1, -1):
         ahead = xs[k + 1] if fed is None else xs[k + 1] + fed[k + 1]
         xs[k] = x_post[k] + G[k] @ (ahead - x_prior[k + 1])
@@ -371,6 +421,11 @@ class AidTuning:
         Rest velocity noise [m/s].
     gain_sigma : float
         Prior relative gain error (0: the gain is taken as exact).
+    gain_estimated : bool
+        Whether the updates estimate the gain error (True) or only consider
+        it (False: :func:`kf_update`'s `frozen`; the estimate is that of the
+        filter taking the trained gain as exact, its covariance carries the
+        gain's uncertainty).
     tilt0, ba0, bg0 : float
         Initial roll/pitch [rad], accelerometer bias [m/s^2] and gyro bias [rad/s] uncertainty.
     steps, nhc, rest : bool
@@ -391,6 +446,7 @@ class AidTuning:
     nhc_sigma: float = 0.05
     zupt_sigma: float = 0.01
     gain_sigma: float = 0.05
+    gain_estimated: bool = True
     tilt0: float = 0.02
     ba0: float = 0.2
     bg0: float = 0.05
@@ -442,7 +498,10 @@ class AidedInput:
     step_start, step_end, step_length : ndarray, shape (k,)
         MoRPI steps: boundaries [s] and lengths [m] (empty: no steps).
     rest : tuple of (float, float)
-        Rest windows [s].
+        Rest windows [s]: zero velocity and zero angular rate.
+    standing : tuple of (float, float)
+        Stretches where the robot stands but the phone may vibrate (the motors
+        running before the motion) [s]: zero velocity only.
     step_vector : ndarray, shape (k, 2), optional
         MoRPI's own step displacements (its heading reading) [m], for
         ``step_heading="gyro"``.
@@ -457,6 +516,7 @@ class AidedInput:
     step_end: np.ndarray = field(default_factory=lambda: np.zeros(0))
     step_length: np.ndarray = field(default_factory=lambda: np.zeros(0))
     rest: tuple = ()
+    standing: tuple = ()
     step_vector: np.ndarray | None = None
 
     def __post_init__(self):
@@ -538,8 +598,8 @@ def _epochs(inp: AidedInput, tun: AidTuning, epoch_s: float):
 
     Returns
     -------
-    (epochs, ends, starts, rest) : sample indices; end sample -> [(start sample, step index)];
-        set of start samples; rest flag per sample
+    (epochs, ends, starts, rest, standing) : sample indices; end sample -> [(start sample, step index)];
+        set of start samples; rest and standing flags per sample
     """
     t = inp.time
     n = t.size
@@ -559,10 +619,13 @@ def _epochs(inp: AidedInput, tun: AidTuning, epoch_s: float):
                 starts.add(int(a[j]))
         grid += [np.array(sorted(starts), int), np.array(sorted(ends), int)]
     rest = np.zeros(n, bool)
+    standing = np.zeros(n, bool)
     if tun.rest:
         for t0, t1 in inp.rest:
             rest[(t >= t0) & (t <= t1)] = True
-    return np.unique(np.concatenate(grid).astype(int)), ends, starts, rest
+        for t0, t1 in inp.standing:
+            standing[(t >= t0) & (t <= t1)] = True
+    return np.unique(np.concatenate(grid).astype(int)), ends, starts, rest, standing & ~rest
 
 
 def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
@@ -632,6 +695,9 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
     q_ba, q_bg = arr("accel_walk") ** 2, arr("gyro_walk") ** 2
     step_sig, nhc_sig, zupt_sig = arr("step_sigma"), arr("nhc_sigma"), arr("zupt_sigma")
     use_nhc = np.array([t.nhc for t in tn])
+    frozen = np.zeros((B, N_AIDED), bool)
+    frozen[:, GAIN] = [not t.gain_estimated for t in tn]
+    any_frozen = bool(frozen.any())
     gyro_heading = [t.step_heading == "gyro" for t in tn]
     for b, t in enumerate(tn):
         if gyro_heading[b] and t.steps and inputs[b].step_vector is None:
@@ -676,7 +742,10 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
     f_prev = F_b[:, 0] - ba_hat
     w_prev = W_b[:, 0] - bg_hat
     a_prev = np.einsum("bij,bj->bi", C, f_prev) - gvec
-    rest_flags = np.array([e[3] if e[3].size == N else np.r_[e[3], np.zeros(N - e[3].size, bool)] for e in ev])
+    pad = lambda a: a if a.size == N else np.r_[a, np.zeros(N - a.size, bool)]  # noqa: E731
+    rest_flags = np.array([pad(e[3]) for e in ev])
+    stand_flags = np.array([pad(e[4]) for e in ev])
+    still_flags = rest_flags | stand_flags
     ends = [e[1] for e in ev]
     starts = [e[2] for e in ev]
     end_flag = np.zeros((B, N), bool)
@@ -685,7 +754,7 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
         end_flag[b, list(ends[b])] = True
         start_flag[b, list(starts[b])] = True
     jump2 = arr("accel_jump") ** 2
-    was_rest = rest_flags[:, 0].copy()
+    was_rest = still_flags[:, 0].copy()
     T_clone = np.eye(N_AIDED)
     T_clone[CLONE, :] = 0.0
     T_clone[CLONE, DP.start:DP.start + 2] = np.eye(2)
@@ -695,7 +764,7 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
         nom = nominal_now(sel)
         xs = x[sel]
         y = meas.z - meas.h(xs, nom)
-        xn, Pn, S = kf_update(xs, P[sel], y, meas.H(xs, nom), meas.R())
+        xn, Pn, S = kf_update(xs, P[sel], y, meas.H(xs, nom), meas.R(), frozen[sel] if any_frozen else None)
         x[sel], P[sel] = xn, Pn
         val = np.einsum("bi,bi->b", y, np.linalg.solve(S, y[..., None])[..., 0])
         if name not in nis_sum:
@@ -728,12 +797,12 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
         if k > 0:
             Phi = _transition(acc_dt[sel], acc_fn[sel], acc_C[sel])
             Q = _process_noise(acc_dt[sel], q_a[sel], q_g[sel], q_ba[sel], q_bg[sel])
-            jq = np.where(rest_flags[sel, k] != was_rest[sel], jump2[sel], 0.0)
+            jq = np.where(still_flags[sel, k] != was_rest[sel], jump2[sel], 0.0)
             Q[:, BA, BA] += np.eye(3) * jq[:, None, None]
             x[sel], P[sel] = kf_predict(x[sel], P[sel], Phi, Q)
         else:
             jq = np.zeros(sel.size)
-        was_rest[sel] = rest_flags[sel, k]
+        was_rest[sel] = still_flags[sel, k]
         P_first = P[sel].copy() if k == 0 else None
         # ---- updates
         touched = np.zeros(B, bool)
@@ -758,7 +827,11 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
             update(rs, ZeroVelocity(sigma=zupt_sig[rs]), "zero velocity")
             update(rs, ZeroRate(z=acc_w[rs] / dr[:, None], sigma=gyro_sig_rest[rs] / np.sqrt(dr)), "zero rate")
             touched[rs] = True
-        ns = sel[~rest_flags[sel, k] & use_nhc[sel] & (k > 0) & (k < n[sel])]
+        ws = sel[stand_flags[sel, k]]
+        if ws.size and k > 0:
+            update(ws, ZeroVelocity(sigma=zupt_sig[ws]), "zero velocity")
+            touched[ws] = True
+        ns = sel[~still_flags[sel, k] & use_nhc[sel] & (k > 0) & (k < n[sel])]
         if ns.size:
             update(ns, NonHolonomic(M=M[ns], sigma=nhc_sig[ns]), "non-holonomic")
             touched[ns] = True
@@ -812,7 +885,7 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
         pos = kp[rows]
         sm = Psm = None
         if keep_hist[b]:
-            sm, Psm = _smooth_member(hist[b], pos, (q_a[b], q_g[b], q_ba[b], q_bg[b]))
+            sm, Psm = _smooth_member(hist[b], pos, (q_a[b], q_g[b], q_ba[b], q_bg[b]), frozen[b])
         nis = {name: (float(nis_sum[name][b]), int(nis_cnt[name][b]), nis_dof[name])
                for name in nis_sum if nis_cnt[name][b] > 0}
         out.append(AidedResult(
@@ -855,7 +928,7 @@ def _process_noise(d, q_a, q_g, q_ba, q_bg):
     return Q
 
 
-def _smooth_member(hist, pos, q):
+def _smooth_member(hist, pos, q, frozen=None):
     """Smoothed positions of one member from its epoch history (see :func:`rts_smooth`).
 
     The transitions and predictions are rebuilt from the stored interval
@@ -879,6 +952,6 @@ def _smooth_member(hist, pos, q):
     P_prior = np.empty_like(P_post)
     P_prior[0] = P0_prior
     P_prior[1:] = Phi[1:] @ P_post[:-1] @ np.swapaxes(Phi[1:], 1, 2) + Q[1:]
-    xs, Ps = rts_smooth(x_post, P_post, x_prior, P_prior, Phi, fed=fed)
+    xs, Ps = rts_smooth(x_post, P_post, x_prior, P_prior, Phi, fed=fed, frozen=frozen)
     sm = pos - xs[:, DP]
     return sm, Ps[:, :2, :2]

@@ -28,12 +28,14 @@ from .errors import MorpiError
 
 __all__ = ["GRID", "ABLATIONS", "AidedCell", "AidedStudy", "Prepared", "aided_study", "choose_tunables",
            "choose_tunables_many", "prepare",
-           "still_spans", "rest_noise", "gyro_drift"]
+           "still_spans", "rest_noise", "gyro_drift", "gain_estimate_pays"]
 
 #: Train-only grid: factor on the rest-window noise densities (the moving robot vibrates far above
-#: them), step displacement noise [m], whether the gain error is a state, and the source of the step
-#: direction.
-GRID = {"vibration": (100.0, 300.0, 3000.0), "step_sigma": (0.02, 0.05), "gain_state": (True, False),
+#: them), step displacement noise [m], whether the gain error is estimated or only considered (the
+#: trained gain taken as exact, its spread kept in the covariance: :attr:`aided.AidTuning.gain_estimated`),
+#: and the source of the step direction. An estimated gain competes only where it earns its place on the
+#: train runs (:func:`gain_estimate_pays`).
+GRID = {"vibration": (100.0, 300.0, 3000.0), "step_sigma": (0.02, 0.05), "gain_state": ("estimated", "considered"),
         "step_heading": ("attitude", "gyro")}
 #: Non-holonomic velocity noise [m/s]: the phone rides off the robot's turning axis, so its lateral
 #: velocity is about omega_z times the lever arm (0.5 rad/s x 0.2 m = 0.1 m/s) while turning.
@@ -46,6 +48,10 @@ MIN_TRAIN_COVERAGE = 0.85
 #: (0.06 m/s^2 over a 40 s run, against the 0.2-0.3 m/s^2 offset of f_x while cruising, which it
 #: does not try to follow).
 ACCEL_WALK = 1e-2
+#: Window of the gyro activity detector that sets the motion onset (``steps.activity_span``'s
+#: ``window_s``): the onset is the last sample of the first active window, so the robot may move from
+#: one window earlier; the zero-velocity updates before the motion stop there.
+ACTIVITY_WINDOW_S = 0.5
 #: Aids removed in turn in the ablation (AidTuning fields set to these values).
 ABLATIONS = {"steps": {"steps": False}, "non-holonomic": {"nhc": False}, "rest updates": {"rest": False},
              "gain state": {"gain_sigma": 0.0}, "smoothing": {}}
@@ -318,9 +324,14 @@ def prepare(data, rec, mode, method, config, gain) -> Prepared:
     rest = ((float(w.start_s), float(w.end_s)),) + tuple(s for s in after if s[0] > w.end_s)
     s = data.steps(rec, mode, method, config)
     track = st.morpi_track(s, gain)
+    # between the rest window and the motion onset the robot stands (its motors may run): zero velocity,
+    # up to one activity window before the onset (the onset is the end of the first active window)
+    onset = float(data.activity(rec)[0]) - ACTIVITY_WINDOW_S
+    standing = ((float(w.end_s), onset),) if onset > w.end_s else ()
     inp = aided.AidedInput(time=crec.time, f=crec.f, omega=crec.omega, C0=coarse_level(f_rest),
                            g=float(np.linalg.norm(f_rest)), step_start=s.start_time, step_end=s.end_time,
-                           step_length=track.length, rest=rest, step_vector=np.diff(track.position, axis=0))
+                           step_length=track.length, rest=rest, standing=standing,
+                           step_vector=np.diff(track.position, axis=0))
     # read where MoRPI's track ends: the gain is trained on MoRPI's step sum, which covers the motion up
     # to the last step boundary (the robot's creep after it is part of what the gain absorbs)
     stop = float(s.end_time[-1]) if s.end_time.size else data.activity(rec)[1]
@@ -338,7 +349,7 @@ def _tuning(noise, info, gain_rel) -> aided.AidTuning:
     return aided.AidTuning(accel_noise=a * info["vibration"], gyro_noise=g * info["vibration"], rest_gyro_noise=ge,
                            gyro_walk=walk, accel_jump=jump,
                            accel_walk=ACCEL_WALK, step_sigma=info["step_sigma"], nhc_sigma=NHC_SIGMA,
-                           gain_sigma=float(gain_rel) if info["gain_state"] else 0.0,
+                           gain_sigma=float(gain_rel), gain_estimated=info["gain_state"] == "estimated",
                            step_heading=info["step_heading"])
 
 
@@ -454,9 +465,15 @@ def choose_tunables_many(data, requests) -> list:
         m2 = np.array([x @ np.linalg.solve(e[1], x) for x, e in zip(d, ends)]).reshape(len(cands), len(runs))
         err = np.linalg.norm(d, axis=1).reshape(len(cands), len(runs)) / truth.distance_m * 100
         inside = m2 <= aided.CHI2_95_2DOF
-        j = _select(err, inside)
+        # each train run's own gain error: its step sum against the route (z = (1 + k) x the true displacement)
+        k_true = np.array([np.linalg.norm(np.diff(r.morpi_xy, axis=0), axis=1).sum() for r in runs]) \
+            / truth.distance_m - 1.0
+        k_hat = np.array([r.gain_error for r in mine]).reshape(len(cands), len(runs))
+        est = np.array([c["gain_state"] == "estimated" for c in cands])
+        j = _select(err, inside, est, k_hat, k_true)
         # nested leave-one-out: each train run scored by the grid point chosen without it
-        loo = [err[_select(np.delete(err, i, axis=1), np.delete(inside, i, axis=1)), i] for i in range(len(runs))]
+        loo = [err[_select(np.delete(err, i, axis=1), np.delete(inside, i, axis=1), est,
+                           np.delete(k_hat, i, axis=1), np.delete(k_true, i)), i] for i in range(len(runs))]
         morpi = float(np.mean([np.linalg.norm(r.morpi_xy[-1] - truth.end_point_m) for r in runs])
                       / truth.distance_m * 100)
         out.append(TunableChoice(float(err[j].mean()), float(np.mean(loo)) if len(runs) > 1 else float("nan"),
@@ -464,11 +481,63 @@ def choose_tunables_many(data, requests) -> list:
     return out
 
 
-def _select(err, inside) -> int:
-    """The grid point of least mean error among those whose ellipse holds enough train end points."""
+def gain_estimate_pays(k_hat, k_true) -> bool:
+    """Whether the filter's gain estimates explain the train runs' own gain errors, beyond chance.
+
+    The gain error ``k`` is observable only through the INS's velocity, whose
+    own errors under way (the phone's specific-force shift, vibration) it
+    may absorb instead, the more so the longer the run. An estimated gain is
+    kept only when, over the train runs, its end-of-run estimates bring each
+    run's true gain error (its step sum against the route's length) closer
+    than zero does, by more than one standard error: with
+    ``d_i = k_true_i^2 - (k_hat_i - k_true_i)^2``, ``mean(d) > std(d) / sqrt(r)``
+    (the one-standard-error rule of model choice: the simpler model, the
+    trained gain as exact, unless the data show the richer one pays).
+
+    Parameters
+    ----------
+    k_hat, k_true : array_like, shape (r,)
+        Estimated and true relative gain errors of the train runs.
+
+    Returns
+    -------
+    bool
+        False with fewer than two runs.
+
+    Examples
+    --------
+    >>> gain_estimate_pays([0.04, -0.02, 0.03], [0.05, -0.03, 0.04])
+    True
+    >>> gain_estimate_pays([0.03, 0.02, -0.03, 0.0], [0.05, -0.03, 0.04, 0.01])   # as often wrong as right
+    False
+    """
+    k_hat, k_true = np.asarray(k_hat, float), np.asarray(k_true, float)
+    if k_true.size < 2:
+        return False
+    d = k_true ** 2 - (k_hat - k_true) ** 2
+    return bool(d.mean() > d.std(ddof=1) / np.sqrt(d.size))
+
+
+def _select(err, inside, est, k_hat, k_true) -> int:
+    """The grid point of least mean error among those whose ellipse holds enough train end points.
+
+    Grid points that estimate the gain compete only when :func:`gain_estimate_pays` on these runs,
+    and win only when they beat the best grid point that takes the trained gain as exact by more
+    than one standard error of the paired per-run differences (the one-standard-error rule).
+    """
     score = err.mean(axis=1)
-    eligible = inside.mean(axis=1) >= MIN_TRAIN_COVERAGE
-    return int(np.argmin(np.where(eligible, score, np.inf))) if eligible.any() else int(np.argmin(score))
+    allowed = np.array([not e or gain_estimate_pays(k, k_true) for e, k in zip(est, k_hat)])
+    pool = (inside.mean(axis=1) >= MIN_TRAIN_COVERAGE) & allowed
+    if not pool.any():
+        pool = allowed if allowed.any() else np.ones_like(allowed)
+    j = int(np.argmin(np.where(pool, score, np.inf)))
+    simple = pool & ~np.asarray(est, bool)
+    if est[j] and simple.any():
+        c = int(np.argmin(np.where(simple, score, np.inf)))
+        d = err[c] - err[j]
+        if d.size < 2 or d.mean() <= d.std(ddof=1) / np.sqrt(d.size):
+            j = c
+    return j
 
 
 @dataclass(frozen=True)
@@ -687,7 +756,7 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
             morpi_percent=mean("morpi_m"), ins_percent=mean("ins_m"), runs=tuple(rows),
             tuning={**info, "accel_noise": noise[0] * info["vibration"], "gyro_noise": noise[1] * info["vibration"],
                     "rest_gyro_noise": noise[2], "gyro_walk": noise[3], "accel_jump": noise[4],
-                    "gain_sigma": g.std / g.mean if info["gain_state"] else 0.0},
+                    "gain_sigma": g.std / g.mean},
             train_percent=score, train_loo_percent=choice.loo_percent, train_morpi_percent=choice.morpi_percent,
             nis={k: (v[0] / max(v[1], 1), v[2]) for k, v in nis.items()}, paths=tuple(paths), failed=failed))
         if ablation and sp.calibration == "GC":

@@ -308,3 +308,73 @@ def test_the_filter_is_read_at_the_step_boundary_epoch():
         j = r.index_at(te)
         # the nearest sample to the boundary (100 Hz: within 5 ms)
         assert abs(r.time[j] - te) <= 0.005 + 1e-12
+
+
+def test_considered_gain_is_the_exact_gain_filter_with_the_gain_spread_in_its_covariance():
+    """Consider analysis: the estimate of the filter that takes the gain as exact; the covariance adds
+    sigma_k^2 s s^T, with the sensitivity s of that estimate to the step scale (finite differences)."""
+    traj = simulate.sine(6.3, period=1.0, amplitude=0.1, rate_hz=100.0)
+    rng = np.random.default_rng(11)
+    d = simulate.imu(traj, units.LSM6DSL, rng, bias_scale=(0.05, 0.05))
+    inp = _exact_input(traj, f=d.f, omega=d.omega)
+    sk = 0.04
+    base = aided.AidTuning(accel_noise=0.05, gyro_noise=1e-3, step_sigma=0.02, gain_sigma=0.0)
+    (exact,) = aided.run_batch([inp], base, smooth=True)
+    (cons,) = aided.run_batch([inp], base.with_(gain_sigma=sk, gain_estimated=False), smooth=True)
+    (est,) = aided.run_batch([inp], base.with_(gain_sigma=sk), smooth=True)
+    # the estimate, forward and smoothed, is the exact-gain filter's (a separate code path: no gain state)
+    np.testing.assert_allclose(cons.position, exact.position, atol=1e-9)
+    np.testing.assert_allclose(cons.smoothed, exact.smoothed, atol=1e-9)
+    assert cons.gain_error == 0.0 and cons.gain_sigma == pytest.approx(sk)
+    # an estimated gain moves the estimate: the two modes differ
+    assert np.abs(est.position - exact.position).max() > 1e-4
+    # along the route the gain's spread dominates: the end's along-track sigma is about sk x distance
+    assert np.sqrt(cons.P_xy[-1, 0, 0]) > 0.8 * sk * 6.3 > np.sqrt(exact.P_xy[-1, 0, 0])
+
+    # covariance: the exact-gain filter's own plus the gain's spread along the sensitivity of its estimate.
+    # On the exact IMU the innovations vanish, so the filter is linear in the step scale (with noise, the
+    # gains' own dependence on the estimated attitude times the innovations adds terms of first order);
+    # the step vectors are given (the attitude reading of the direction makes z depend on the estimate).
+    base = base.with_(step_heading="gyro")
+    inp = _exact_input(traj, vectors=True)
+    (exact,) = aided.run_batch([inp], base)
+    (cons,) = aided.run_batch([inp], base.with_(gain_sigma=sk, gain_estimated=False))
+    h = 1e-4
+    ends = []
+    for sc in (1 - h, 1 + h):
+        (r,) = aided.run_batch([_exact_input(traj, scale=sc, vectors=True)], base)
+        ends.append(r.position[:, :2])
+    s = (ends[1] - ends[0]) / (2 * h)                           # d(estimate)/dk per epoch
+    want = exact.P_xy + sk ** 2 * s[:, :, None] * s[:, None, :]
+    j = np.flatnonzero(exact.time > inp.step_start[2])          # once the steps have moved the robot
+    scale = np.abs(want[j]).max(axis=(1, 2))
+    # relative 2e-4: the trajectory's discretization leaves innovations of that order
+    assert np.all(np.abs(cons.P_xy[j] - want[j]).max(axis=(1, 2)) <= 2e-4 * scale)
+
+
+def test_standing_stretch_holds_the_robot_still_before_the_motion():
+    """Between the rest window and the motion the robot stands (its phone hums): zero velocity only."""
+    traj = simulate.sine(6.3, period=1.0, amplitude=0.1, rate_hz=100.0)
+    (r0, r1) = _rest(traj)
+    rng = np.random.default_rng(5)
+    f = traj.f_b.copy()
+    omega = traj.omega_b.copy()
+    t = traj.time
+    cut = r0[0] + 0.3 * (r0[1] - r0[0])                  # the calibration's rest window: the first 30 %
+    hum = (t > cut) & (t <= r0[1])
+    f[hum] += rng.normal(0.0, 0.3, (hum.sum(), 3)) + [0.05, 0.0, 0.0]   # motor vibration and a tilt
+    omega[hum] += rng.normal(0.0, 0.05, (hum.sum(), 3))
+    base = _exact_input(traj, f=f, omega=omega)
+    tun = aided.AidTuning(accel_noise=0.03, gyro_noise=5e-3, step_sigma=0.01, gain_sigma=0.0, nhc=False)
+    from dataclasses import replace
+    errs = []
+    for standing in ((), ((cut, r0[1]),)):
+        inp = replace(base, rest=((r0[0], cut), r1), standing=standing)
+        (r,) = aided.run_batch([inp], tun)
+        j = r.index_at(r0[1])
+        errs.append(np.linalg.norm(r.position[j, :2]))      # the truth there: the origin
+        if standing:
+            assert "zero velocity" in r.nis and "zero rate" in r.nis
+    free, held = errs
+    # a 0.05 m/s^2 offset over the stretch drifts by decimetres; zero velocity holds it to centimetres
+    assert free > 0.05 and held < 0.2 * free, errs
