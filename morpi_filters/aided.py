@@ -280,7 +280,13 @@ class Nominal:
 
 @dataclass(frozen=True)
 class StepDisplacement:
-    """MoRPI step: ``z = (1 + k) (p_xy - c)`` with the true position ``p`` and clone ``c``.
+    """MoRPI step: ``z = (1 + k) R(eps_z)^a (p_xy - c)`` with the true position ``p`` and clone ``c``.
+
+    When the step's direction is read from the filter's own attitude
+    (``attitude``), the measured vector turns with the filter's heading
+    error ``eps_z`` (``a = 1``): the step then says nothing about the
+    heading, only about the length. With a direction from elsewhere (MoRPI's
+    own heading reading), ``a = 0``.
 
     Attributes
     ----------
@@ -288,21 +294,38 @@ class StepDisplacement:
         Measured displacement [m].
     sigma : ndarray, shape (b,)
         Noise per axis [m].
+    attitude : ndarray, shape (b,) of bool, optional
+        Whether each member's direction comes from the filter's attitude.
     """
 
     z: np.ndarray
     sigma: np.ndarray
+    attitude: np.ndarray | None = None
+
+    def _d(self, x, nom):
+        return (nom.p[:, :2] - x[:, DP][:, :2]) - (nom.clone - x[:, CLONE])
 
     def h(self, x, nom: Nominal):
         gain = 1.0 + x[:, GAIN]
-        return gain[:, None] * ((nom.p[:, :2] - x[:, DP][:, :2]) - (nom.clone - x[:, CLONE]))
+        d = self._d(x, nom)
+        if self.attitude is not None:
+            e = np.where(self.attitude, x[:, EPS.stop - 1], 0.0)
+            c, s = np.cos(e), np.sin(e)
+            d = np.stack([c * d[:, 0] - s * d[:, 1], s * d[:, 0] + c * d[:, 1]], axis=1)
+        return gain[:, None] * d
 
     def H(self, x, nom: Nominal):
+        # linearized at the fed-back state (eps = 0)
         gain = 1.0 + x[:, GAIN]
+        d = self._d(x, nom)
         H = np.zeros((x.shape[0], 2, N_AIDED))
         H[:, :, DP.start:DP.start + 2] = -gain[:, None, None] * np.eye(2)
         H[:, :, CLONE] = gain[:, None, None] * np.eye(2)
-        H[:, :, GAIN] = (nom.p[:, :2] - x[:, DP][:, :2]) - (nom.clone - x[:, CLONE])
+        H[:, :, GAIN] = d
+        if self.attitude is not None:
+            a = np.asarray(self.attitude, float)
+            H[:, 0, EPS.stop - 1] = -a * gain * d[:, 1]
+            H[:, 1, EPS.stop - 1] = a * gain * d[:, 0]
         return H
 
     def R(self):
@@ -819,7 +842,7 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
                     hc, hs = head[b] - head_at[b][a]
                     psi = np.arctan2(hs, hc)
                     z[i] = inputs[b].step_length[j] * np.array([np.cos(psi), np.sin(psi)])
-            update(mem, StepDisplacement(z=z, sigma=step_sig[mem]), "step")
+            update(mem, StepDisplacement(z=z, sigma=step_sig[mem], attitude=~np.array(gyro_heading)[mem]), "step")
         touched[se] = True
         rs = sel[rest_flags[sel, k]]
         if rs.size and k > 0:

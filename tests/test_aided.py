@@ -25,7 +25,7 @@ def _fd_jacobian(meas, x, nom, h=1e-6):
     return J
 
 
-@pytest.mark.parametrize("kind", ["step", "zero velocity", "zero rate", "non-holonomic"])
+@pytest.mark.parametrize("kind", ["step", "step (attitude heading)", "zero velocity", "zero rate", "non-holonomic"])
 def test_jacobians_match_finite_differences(kind):
     rng = np.random.default_rng(1)
     nom = _nominal(rng)
@@ -35,6 +35,8 @@ def test_jacobians_match_finite_differences(kind):
     x[:, aided.CLONE] = rng.normal(size=(3, 2)) * 0.01
     s = np.full(3, 0.1)
     meas = {"step": aided.StepDisplacement(z=np.zeros((3, 2)), sigma=s),
+            "step (attitude heading)": aided.StepDisplacement(z=np.zeros((3, 2)), sigma=s,
+                                                              attitude=np.array([True, False, True])),
             "zero velocity": aided.ZeroVelocity(sigma=s),
             "zero rate": aided.ZeroRate(z=np.zeros((3, 3)), sigma=s),
             "non-holonomic": aided.NonHolonomic(M=_nominal(rng).C, sigma=s)}[kind]
