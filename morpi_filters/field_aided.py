@@ -18,7 +18,7 @@ MoRPI's own track ends (:meth:`Prepared.end`).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from itertools import product
 
 import numpy as np
@@ -28,15 +28,16 @@ from .errors import MorpiError
 
 __all__ = ["GRID", "ABLATIONS", "AidedCell", "AidedStudy", "Prepared", "aided_study", "choose_tunables",
            "choose_tunables_many", "prepare",
-           "still_spans", "rest_noise", "gyro_drift", "gain_estimate_pays"]
+           "still_spans", "rest_noise", "gyro_drift", "gain_estimate_pays", "route_vectors"]
 
 #: Train-only grid: factor on the rest-window noise densities (the moving robot vibrates far above
 #: them), step displacement noise [m], whether the gain error is estimated or only considered (the
 #: trained gain taken as exact, its spread kept in the covariance: :attr:`aided.AidTuning.gain_estimated`),
-#: and the source of the step direction. An estimated gain competes only where it earns its place on the
+#: and the source of the step direction (the filter's attitude, MoRPI's own heading reading, or the
+#: route's heading: the turns alone, :func:`route_vectors`). An estimated gain competes only where it earns its place on the
 #: train runs (:func:`gain_estimate_pays`).
 GRID = {"vibration": (100.0, 300.0, 3000.0), "step_sigma": (0.02, 0.05), "gain_state": ("estimated", "considered"),
-        "step_heading": ("attitude", "gyro")}
+        "step_heading": ("attitude", "gyro", "route")}
 #: Non-holonomic velocity noise [m/s]: the phone rides off the robot's turning axis, so its lateral
 #: velocity is about omega_z times the lever arm (0.5 rad/s x 0.2 m = 0.1 m/s) while turning.
 NHC_SIGMA = 0.1
@@ -235,10 +236,19 @@ def rest_noise(rec, window, epoch_s: float = 0.1) -> tuple[float, float, float]:
 
 @dataclass(frozen=True, eq=False)
 class Prepared:
-    """A recording ready for the aided filter in one cell: input, MoRPI track, noise from rest."""
+    """A recording ready for the aided filter in one cell: input, MoRPI track, noise from rest.
+
+    :attr:`input` carries MoRPI's own step vectors, :attr:`route_input` the
+    same steps along the route's heading (:func:`route_vectors`).
+    """
+
+    def input_for(self, info) -> aided.AidedInput:
+        """The input whose step vectors a grid point's ``step_heading`` reads."""
+        return self.route_input if info["step_heading"] == "route" else self.input
 
     rel: str
     input: aided.AidedInput
+    route_input: aided.AidedInput
     morpi_xy: np.ndarray
     noise: tuple
     stop_s: float
@@ -339,9 +349,58 @@ def prepare(data, rec, mode, method, config, gain) -> Prepared:
     moving = (crec.time >= a) & (crec.time <= b)
     # the specific force's mean shift under way (the run starts and ends at rest: no net acceleration)
     shift = crec.f[moving].mean(axis=0) - f_rest if moving.any() else np.zeros(3)
-    cache[key] = Prepared(data.relpath(rec), inp, track.position, rest_noise(rec, w), float(stop),
+    bt = s.peaks.grid_time[s.peaks.grid_index]
+    along = route_vectors(track.length, s.start_time, s.end_time, bt, crec.time, data.heading(rec, mode),
+                          config.turn_deg, 2 if config.segment == "extrema" else 1)
+    cache[key] = Prepared(data.relpath(rec), inp, replace(inp, step_vector=along), track.position, rest_noise(rec, w), float(stop),
                           gyro_drift(crec, w, rest), shift)
     return cache[key]
+
+
+def route_vectors(length, start, end, boundaries, time, psi, turn_deg, per_period):
+    """Step displacements along the route's heading: the turns alone, at each step's middle.
+
+    The heading of the ``"turns"`` reading without the step's own change
+    (:func:`morpi_filters.steps.turn_heading` over the stretches of
+    :func:`morpi_filters.steps.turn_stretches`): straight between turns, so a
+    sine's zigzag and the gyro's drift between turns stay out of the step
+    directions, whatever the method that found the steps.
+
+    Parameters
+    ----------
+    length, start, end : ndarray, shape (k,)
+        Step lengths [m] and boundaries [s].
+    boundaries : ndarray
+        The step boundaries of whole steps (the signal's peaks) [s].
+    time, psi : ndarray, shape (n,)
+        The heading on the recording's samples [s], [rad].
+    turn_deg : float
+        Least full-period heading change of a turn [deg].
+    per_period : int
+        Steps per full period (2 between extrema, 1 between maxima).
+
+    Returns
+    -------
+    ndarray, shape (k, 2)
+        Step displacements [m].
+
+    Examples
+    --------
+    Steps of 0.5 m every second on a straight stretch, a 90 degree left turn from 4 s to 5 s:
+
+    >>> t = np.arange(0.0, 10.01, 0.01)
+    >>> psi = np.clip(t - 4.0, 0.0, 1.0) * np.pi / 2
+    >>> b = np.arange(0.0, 11.0)
+    >>> v = route_vectors(np.full(10, 0.5), b[:-1], b[1:], b, t, psi, 51.0, 1)
+    >>> v[0].round(6).tolist(), v[-1].round(6).tolist()
+    ([0.5, 0.0], [0.0, 0.5])
+    """
+    from . import steps as st
+
+    bt = np.asarray(boundaries, float)
+    stretches = st.turn_stretches(bt, np.interp(bt, time, psi), np.radians(turn_deg), per_period)
+    h = st.turn_heading(0.5 * (np.asarray(start, float) + np.asarray(end, float)), time, psi, stretches)
+    return np.asarray(length, float)[:, None] * np.stack([np.cos(h), np.sin(h)], axis=1)
 
 
 def _tuning(noise, info, gain_rel) -> aided.AidTuning:
@@ -350,7 +409,7 @@ def _tuning(noise, info, gain_rel) -> aided.AidTuning:
                            gyro_walk=walk, accel_jump=jump,
                            accel_walk=ACCEL_WALK, step_sigma=info["step_sigma"], nhc_sigma=NHC_SIGMA,
                            gain_sigma=float(gain_rel), gain_estimated=info["gain_state"] == "estimated",
-                           step_heading=info["step_heading"])
+                           step_heading="attitude" if info["step_heading"] == "attitude" else "gyro")
 
 
 def _candidates():
@@ -450,7 +509,7 @@ def choose_tunables_many(data, requests) -> list:
         noise = noise + (walk, jump)
         rel = gain.std / gain.mean
         plans.append((len(inputs), runs, ds.route(train[1]), noise))
-        inputs += [r.input for _ in cands for r in runs]
+        inputs += [r.input_for(c) for c in cands for r in runs]
         tunings += [_tuning(noise, c, rel) for c in cands for _ in runs]
     res = aided.run_batch(inputs, tunings)
     out = []
@@ -715,7 +774,7 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
             if ablation and cell.spec.calibration == "GC":
                 items += [(i, p, name, base.with_(**change)) for name, change in ABLATIONS.items() if change
                           for p in runs]
-        out = aided.run_batch([p.input for _, p, _, _ in items], [t for *_, t in items],
+        out = aided.run_batch([p.input_for(todo[i][3]) for i, p, _, _ in items], [t for *_, t in items],
                               smooth=[name is None for _, _, name, _ in items])
         for (i, p, name, _), r in zip(items, out):
             if name is None:
