@@ -528,6 +528,9 @@ class AidedInput:
     step_vector : ndarray, shape (k, 2), optional
         MoRPI's own step displacements (its heading reading) [m], for
         ``step_heading="gyro"``.
+    sample_dt : float, optional
+        The sample interval that sets the epoch grid [s] (default: the
+        median interval of `time`; :meth:`until` keeps the whole recording's).
     """
 
     time: np.ndarray
@@ -541,6 +544,7 @@ class AidedInput:
     rest: tuple = ()
     standing: tuple = ()
     step_vector: np.ndarray | None = None
+    sample_dt: float | None = None
 
     def __post_init__(self):
         t = np.asarray(self.time, float)
@@ -555,6 +559,39 @@ class AidedInput:
             raise MorpiError("AidedInput: step_start, step_end and step_length must have one shape")
         if self.step_vector is not None and np.shape(self.step_vector) != k + (2,):
             raise MorpiError(f"AidedInput: step_vector must have shape {k + (2,)}")
+
+    @property
+    def nominal_dt(self) -> float:
+        """The sample interval that sets the epoch grid [s]."""
+        return float(self.sample_dt) if self.sample_dt is not None else float(np.median(np.diff(self.time)))
+
+    def until(self, t: float) -> "AidedInput":
+        """The recording up to the sample nearest to `t`, its last (and the steps that end by then).
+
+        The forward filter is causal: its estimate at `t` is the same on this
+        shorter input, at a fraction of the cost (the smoother is not).
+
+        Examples
+        --------
+        >>> t = np.arange(11) * 0.1
+        >>> inp = AidedInput(time=t, f=np.zeros((11, 3)), omega=np.zeros((11, 3)), C0=np.eye(3), g=9.8,
+        ...                  step_start=np.array([0.0, 0.5]), step_end=np.array([0.5, 0.9]),
+        ...                  step_length=np.array([1.0, 1.0]))
+        >>> cut = inp.until(0.52)
+        >>> cut.time.size, cut.step_end.tolist()
+        (6, [0.5])
+        """
+        from dataclasses import replace
+
+        time = np.asarray(self.time, float)
+        j = int(np.clip(np.searchsorted(time, t), 1, time.size - 1))
+        last = j if abs(time[j] - t) < abs(time[j - 1] - t) else j - 1
+        n = min(time.size, max(last + 1, 2))
+        keep = np.asarray(self.step_end, float) <= max(float(t), time[n - 1])
+        return replace(self, sample_dt=self.nominal_dt, time=time[:n], f=np.asarray(self.f)[:n], omega=np.asarray(self.omega)[:n],
+                       step_start=np.asarray(self.step_start)[keep], step_end=np.asarray(self.step_end)[keep],
+                       step_length=np.asarray(self.step_length)[keep],
+                       step_vector=None if self.step_vector is None else np.asarray(self.step_vector)[keep])
 
 
 @dataclass(frozen=True)
@@ -626,7 +663,7 @@ def _epochs(inp: AidedInput, tun: AidTuning, epoch_s: float):
     """
     t = inp.time
     n = t.size
-    m = max(1, int(round(epoch_s / float(np.median(np.diff(t))))))
+    m = max(1, int(round(epoch_s / inp.nominal_dt)))
     grid = [np.arange(0, n, m), [n - 1]]
     ends, starts = {}, set()
     if tun.steps and inp.step_length.size:

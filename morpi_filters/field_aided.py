@@ -18,7 +18,7 @@ MoRPI's own track ends (:meth:`Prepared.end`).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from itertools import product
 
 import numpy as np
@@ -242,9 +242,20 @@ class Prepared:
     same steps along the route's heading (:func:`route_vectors`).
     """
 
-    def input_for(self, info) -> aided.AidedInput:
-        """The input whose step vectors a grid point's ``step_heading`` reads."""
-        return self.route_input if info["step_heading"] == "route" else self.input
+    def input_for(self, info, forward_only: bool = False) -> aided.AidedInput:
+        """The input whose step vectors a grid point's ``step_heading`` reads.
+
+        With `forward_only`, cut just after :attr:`stop_s` (:meth:`aided.AidedInput.until`): the
+        forward filter's read-out there is the same, the smoother needs the rest.
+        """
+        inp = self.route_input if info["step_heading"] == "route" else self.input
+        if forward_only:
+            key = (id(inp), "until")
+            cut = self._cut.get(key)
+            if cut is None:
+                cut = self._cut[key] = inp.until(self.stop_s)
+            return cut
+        return inp
 
     rel: str
     input: aided.AidedInput
@@ -254,6 +265,7 @@ class Prepared:
     stop_s: float
     gyro_drift: tuple
     motion_shift: np.ndarray
+    _cut: dict = field(default_factory=dict, repr=False)
 
     def end(self, r: aided.AidedResult):
         """The filter's horizontal position and covariance (forward, and smoothed) at ``stop_s``.
@@ -509,7 +521,7 @@ def choose_tunables_many(data, requests) -> list:
         noise = noise + (walk, jump)
         rel = gain.std / gain.mean
         plans.append((len(inputs), runs, ds.route(train[1]), noise))
-        inputs += [r.input_for(c) for c in cands for r in runs]
+        inputs += [r.input_for(c, forward_only=True) for c in cands for r in runs]
         tunings += [_tuning(noise, c, rel) for c in cands for _ in runs]
     res = aided.run_batch(inputs, tunings)
     out = []
@@ -774,7 +786,9 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
             if ablation and cell.spec.calibration == "GC":
                 items += [(i, p, name, base.with_(**change)) for name, change in ABLATIONS.items() if change
                           for p in runs]
-        out = aided.run_batch([p.input_for(todo[i][3]) for i, p, _, _ in items], [t for *_, t in items],
+        # the ablation reads the forward filter only: cut at the read-out
+        out = aided.run_batch([p.input_for(todo[i][3], forward_only=name is not None) for i, p, name, _ in items],
+                              [t for *_, t in items],
                               smooth=[name is None for _, _, name, _ in items])
         for (i, p, name, _), r in zip(items, out):
             if name is None:

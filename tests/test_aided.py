@@ -380,3 +380,19 @@ def test_standing_stretch_holds_the_robot_still_before_the_motion():
     free, held = errs
     # a 0.05 m/s^2 offset over the stretch drifts by decimetres; zero velocity holds it to centimetres
     assert free > 0.05 and held < 0.2 * free, errs
+
+
+def test_a_cut_input_gives_the_same_forward_estimate_at_the_cut():
+    """The forward filter is causal: cut after the last step, its estimate there is the whole run's."""
+    traj = simulate.sine(6.3, period=1.0, amplitude=0.1, rate_hz=100.0)
+    rng = np.random.default_rng(9)
+    d = simulate.imu(traj, units.LSM6DSL, rng, bias_scale=(0.05, 0.05))
+    inp = _exact_input(traj, f=d.f, omega=d.omega)
+    stop = float(inp.step_end[-3])                       # a boundary inside the run
+    tun = aided.AidTuning(step_sigma=0.02, gain_sigma=0.04, gain_estimated=False)
+    (whole,) = aided.run_batch([inp], tun)
+    (cut,) = aided.run_batch([inp.until(stop)], tun)
+    j, k = whole.index_at(stop), cut.index_at(stop)
+    assert k == cut.time.size - 1 and whole.time[j] == cut.time[k]
+    np.testing.assert_allclose(cut.position[k], whole.position[j], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(cut.P_xy[k], whole.P_xy[j], rtol=0, atol=1e-12)
