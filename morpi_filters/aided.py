@@ -145,14 +145,17 @@ def kf_update(x, P, y, H, R, frozen=None):
     Ht = np.swapaxes(H, 1, 2)
     PHt = P @ Ht
     S = H @ PHt + R
+    KHt = PHt
     Sc = S
     if frozen is not None:
-        PHt = _condition(P, frozen) @ Ht
-        Sc = H @ PHt + R
-    K = np.swapaxes(np.linalg.solve(Sc, np.swapaxes(PHt, 1, 2)), 1, 2)
+        KHt = _condition(P, frozen) @ Ht
+        Sc = H @ KHt + R
+    K = np.swapaxes(np.linalg.solve(Sc, np.swapaxes(KHt, 1, 2)), 1, 2)
     x = x + np.einsum("bij,bj->bi", K, y)
-    IKH = np.eye(P.shape[-1]) - K @ H
-    P = IKH @ P @ np.swapaxes(IKH, 1, 2) + K @ R @ np.swapaxes(K, 1, 2)
+    # the Joseph form expanded: (I - K H) P (I - K H)^T + K R K^T = P - K H P - P H^T K^T + K S K^T,
+    # products of n x m factors only (m measurements against n states)
+    KHP = K @ np.swapaxes(PHt, 1, 2)
+    P = P - KHP - np.swapaxes(KHP, 1, 2) + K @ S @ np.swapaxes(K, 1, 2)
     return x, 0.5 * (P + np.swapaxes(P, 1, 2)), S
 
 
