@@ -862,7 +862,7 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
             Q = _process_noise(acc_dt[sel], q_a[sel], q_g[sel], q_ba[sel], q_bg[sel])
             jq = np.where(still_flags[sel, k] != was_rest[sel], jump2[sel], 0.0)
             Q[:, BA, BA] += np.eye(3) * jq[:, None, None]
-            x[sel], P[sel] = kf_predict(x[sel], P[sel], Phi, Q)
+            x[sel], P[sel] = _predict(x[sel], P[sel], Phi, Q)
         else:
             jq = np.zeros(sel.size)
         was_rest[sel] = still_flags[sel, k]
@@ -972,12 +972,44 @@ def _transition(d, fn, Cm):
     Cm : ndarray, shape (b, 3, 3)
         Integral of the attitude over the interval [s].
     """
-    Fd = np.zeros((d.shape[0], N_AIDED, N_AIDED))
-    Fd[:, DP, DV] = np.eye(3) * d[:, None, None]
-    Fd[:, DV, EPS] = -_skew(fn)
-    Fd[:, DV, BA] = Cm
-    Fd[:, EPS, BG] = Cm
-    return np.eye(N_AIDED) + Fd + 0.5 * (Fd @ Fd)
+    # F T has the blocks (dp, dv) = T I, (dv, eps) = -[fn x], (dv, ba) = Cm, (eps, bg) = Cm; its square
+    # only (dp, eps) = -T [fn x], (dp, ba) = T Cm and (dv, bg) = -[fn x] Cm
+    b = d.shape[0]
+    S = _skew(fn)
+    T = d[:, None, None]
+    Phi = np.zeros((b, N_AIDED, N_AIDED))
+    Phi[:, range(N_AIDED), range(N_AIDED)] = 1.0
+    Phi[:, DP, DV] = np.eye(3) * T
+    Phi[:, DV, EPS] = -S
+    Phi[:, DV, BA] = Cm
+    Phi[:, EPS, BG] = Cm
+    Phi[:, DP, EPS] = -0.5 * T * S
+    Phi[:, DP, BA] = 0.5 * T * Cm
+    Phi[:, DV, BG] = -0.5 * (S @ Cm)
+    return Phi
+
+
+#: Rows and columns of ``Phi - I`` that can be non-zero (:func:`_transition`).
+_A_ROWS, _A_COLS = slice(DP.start, EPS.stop), slice(DV.start, BG.stop)
+
+
+def _predict(x, P, Phi, Q):
+    """:func:`kf_predict` for the transitions of :func:`_transition`, using their sparsity.
+
+    With ``A = Phi - I`` non-zero in the rows of ``dp, dv, eps`` and the
+    columns of ``dv .. bg`` only, ``Phi P Phi^T = P + A P + P A^T + A P A^T``
+    is computed on those blocks.
+    """
+    r, c = _A_ROWS, _A_COLS
+    A = Phi[:, r, c] - np.eye(N_AIDED)[r, c]
+    AP = A @ P[:, c, :]                       # rows r of A P
+    Pn = P.copy()
+    Pn[:, r, :] += AP
+    Pn[:, :, r] += np.swapaxes(AP, 1, 2)
+    Pn[:, r, r] += AP[:, :, c] @ np.swapaxes(A, 1, 2)
+    xn = x.copy()
+    xn[:, r] += np.einsum("bij,bj->bi", A, x[:, c])
+    return xn, Pn + Q
 
 
 def _process_noise(d, q_a, q_g, q_ba, q_bg):
