@@ -34,8 +34,9 @@ __all__ = ["GRID", "ABLATIONS", "AidedCell", "AidedStudy", "Prepared", "aided_st
 #: them), step displacement noise [m], whether the gain error is estimated or only considered (the
 #: trained gain taken as exact, its spread kept in the covariance: :attr:`aided.AidTuning.gain_estimated`),
 #: and the source of the step direction (the filter's attitude, MoRPI's own heading reading, or the
-#: route's heading: the turns alone, :func:`route_vectors`). An estimated gain competes only where it earns its place on the
-#: train runs (:func:`gain_estimate_pays`).
+#: route's heading: the turns alone, :func:`route_vectors`). The search takes the gain as exact first;
+#: the gain is then estimated at the chosen point only where that earns its place on the train runs
+#: (:func:`gain_estimate_pays` and the one-standard-error rule).
 GRID = {"vibration": (100.0, 300.0, 3000.0), "step_sigma": (0.02, 0.05), "gain_state": ("estimated", "considered"),
         "step_heading": ("attitude", "gyro", "route")}
 #: Non-holonomic velocity noise [m/s]: the phone rides off the robot's turning axis, so its lateral
@@ -444,10 +445,14 @@ def _prepared_runs(data, phone, route, split, mode, method, config, gain, failed
 def choose_tunables(data, train, method, mode, config, gain):
     """Tunables with the least mean end-point error on the ``train`` runs of `train` (phone, route).
 
-    Every candidate of :data:`GRID` runs on every train run in one batch.
-    Only candidates whose 95 % ellipse holds the true end point of at least
-    :data:`MIN_TRAIN_COVERAGE` of the train runs compete (all of them when none
-    does).
+    Every candidate of :data:`GRID` that takes the gain as exact runs on
+    every train run in one batch; only those whose 95 % ellipse holds the
+    true end point of at least :data:`MIN_TRAIN_COVERAGE` of the train runs
+    compete (all of them when none does). At the chosen point the gain is
+    then estimated instead where that pays on the train runs
+    (:func:`gain_estimate_pays`, and end points better by more than one
+    standard error). The nested leave-one-out repeats both stages without
+    the run it scores.
 
     Needs a :class:`~morpi_filters.field.FieldData`, so there is no example.
 
@@ -504,7 +509,8 @@ def choose_tunables_many(data, requests) -> list:
     """
     from . import dataset as ds
 
-    cands = _candidates()
+    # stage 1: every grid point with the trained gain taken as exact (its spread considered)
+    cands = [c for c in _candidates() if c["gain_state"] == "considered"]
     plans, inputs, tunings = [], [], []
     for train, method, mode, config, gain in requests:
         runs = _prepared_runs(data, train[0], train[1], "train", mode, method, config, gain.mean)
@@ -520,35 +526,62 @@ def choose_tunables_many(data, requests) -> list:
         jump = float(np.sqrt(np.mean([r.motion_shift ** 2 for r in runs])))
         noise = noise + (walk, jump)
         rel = gain.std / gain.mean
-        plans.append((len(inputs), runs, ds.route(train[1]), noise))
+        plans.append((len(inputs), runs, ds.route(train[1]), noise, rel))
         inputs += [r.input_for(c, forward_only=True) for c in cands for r in runs]
         tunings += [_tuning(noise, c, rel) for c in cands for _ in runs]
     res = aided.run_batch(inputs, tunings)
-    out = []
+
+    def score(mine, runs, truth):
+        ends = [runs[i % len(runs)].end(r) for i, r in enumerate(mine)]
+        d = np.array([e[0] - truth.end_point_m for e in ends])
+        m2 = np.array([x @ np.linalg.solve(e[1], x) for x, e in zip(d, ends)]).reshape(-1, len(runs))
+        err = np.linalg.norm(d, axis=1).reshape(-1, len(runs)) / truth.distance_m * 100
+        return err, m2 <= aided.CHI2_95_2DOF
+
+    # stage 2: the gain estimated at the point each selection (all runs, and each leave-one-out fold) picks
+    firsts, inputs, tunings = [], [], []
     for plan in plans:
+        if isinstance(plan, MorpiError):
+            firsts.append(None)
+            continue
+        start, runs, truth, noise, rel = plan
+        err, inside = score(res[start:start + len(cands) * len(runs)], runs, truth)
+        keep = np.ones(len(runs), bool)
+        folds = [keep] + [np.arange(len(runs)) != i for i in range(len(runs))] if len(runs) > 1 else [keep]
+        picks = [_best(err[:, f], inside[:, f]) for f in folds]
+        wins = sorted(set(picks))
+        firsts.append((err, inside, folds, picks, wins, len(inputs)))
+        est = [dict(cands[w], gain_state="estimated") for w in wins]
+        inputs += [r.input_for(c, forward_only=True) for c in est for r in runs]
+        tunings += [_tuning(noise, c, rel) for c in est for _ in runs]
+    res2 = aided.run_batch(inputs, tunings)
+    out = []
+    for plan, first in zip(plans, firsts):
         if isinstance(plan, MorpiError):
             out.append(plan)
             continue
-        start, runs, truth, noise = plan
-        mine = res[start:start + len(cands) * len(runs)]
-        ends = [runs[i % len(runs)].end(r) for i, r in enumerate(mine)]
-        d = np.array([e[0] - truth.end_point_m for e in ends])
-        m2 = np.array([x @ np.linalg.solve(e[1], x) for x, e in zip(d, ends)]).reshape(len(cands), len(runs))
-        err = np.linalg.norm(d, axis=1).reshape(len(cands), len(runs)) / truth.distance_m * 100
-        inside = m2 <= aided.CHI2_95_2DOF
+        start, runs, truth, noise, rel = plan
+        err, inside, folds, picks, wins, at = first
+        mine = res2[at:at + len(wins) * len(runs)]
+        err_e, inside_e = score(mine, runs, truth)
+        k_hat = np.array([r.gain_error for r in mine]).reshape(len(wins), len(runs))
         # each train run's own gain error: its step sum against the route (z = (1 + k) x the true displacement)
         k_true = np.array([np.linalg.norm(np.diff(r.morpi_xy, axis=0), axis=1).sum() for r in runs]) \
             / truth.distance_m - 1.0
-        k_hat = np.array([r.gain_error for r in mine]).reshape(len(cands), len(runs))
-        est = np.array([c["gain_state"] == "estimated" for c in cands])
-        j = _select(err, inside, est, k_hat, k_true)
-        # nested leave-one-out: each train run scored by the grid point chosen without it
-        loo = [err[_select(np.delete(err, i, axis=1), np.delete(inside, i, axis=1), est,
-                           np.delete(k_hat, i, axis=1), np.delete(k_true, i)), i] for i in range(len(runs))]
+        chosen = []
+        for f, w in zip(folds, picks):
+            i = wins.index(w)
+            if _estimate_wins(err[w, f], err_e[i, f], inside_e[i, f], k_hat[i, f], k_true[f]):
+                chosen.append((dict(cands[w], gain_state="estimated"), err_e[i]))
+            else:
+                chosen.append((cands[w], err[w]))
+        info, e_all = chosen[0]
+        # nested leave-one-out: each train run scored by the choice made without it
+        loo = [c[1][i] for i, c in enumerate(chosen[1:])]
         morpi = float(np.mean([np.linalg.norm(r.morpi_xy[-1] - truth.end_point_m) for r in runs])
                       / truth.distance_m * 100)
-        out.append(TunableChoice(float(err[j].mean()), float(np.mean(loo)) if len(runs) > 1 else float("nan"),
-                                 morpi, cands[j], noise))
+        out.append(TunableChoice(float(e_all.mean()), float(np.mean(loo)) if loo else float("nan"),
+                                 morpi, info, noise))
     return out
 
 
@@ -589,26 +622,25 @@ def gain_estimate_pays(k_hat, k_true) -> bool:
     return bool(d.mean() > d.std(ddof=1) / np.sqrt(d.size))
 
 
-def _select(err, inside, est, k_hat, k_true) -> int:
-    """The grid point of least mean error among those whose ellipse holds enough train end points.
-
-    Grid points that estimate the gain compete only when :func:`gain_estimate_pays` on these runs,
-    and win only when they beat the best grid point that takes the trained gain as exact by more
-    than one standard error of the paired per-run differences (the one-standard-error rule).
-    """
+def _best(err, inside) -> int:
+    """The grid point of least mean error among those whose ellipse holds enough train end points."""
     score = err.mean(axis=1)
-    allowed = np.array([not e or gain_estimate_pays(k, k_true) for e, k in zip(est, k_hat)])
-    pool = (inside.mean(axis=1) >= MIN_TRAIN_COVERAGE) & allowed
-    if not pool.any():
-        pool = allowed if allowed.any() else np.ones_like(allowed)
-    j = int(np.argmin(np.where(pool, score, np.inf)))
-    simple = pool & ~np.asarray(est, bool)
-    if est[j] and simple.any():
-        c = int(np.argmin(np.where(simple, score, np.inf)))
-        d = err[c] - err[j]
-        if d.size < 2 or d.mean() <= d.std(ddof=1) / np.sqrt(d.size):
-            j = c
-    return j
+    eligible = inside.mean(axis=1) >= MIN_TRAIN_COVERAGE
+    return int(np.argmin(np.where(eligible, score, np.inf))) if eligible.any() else int(np.argmin(score))
+
+
+def _estimate_wins(err, err_e, inside_e, k_hat, k_true) -> bool:
+    """Whether estimating the gain at the chosen point replaces taking it as exact.
+
+    Only when the estimate's ellipse still holds enough train end points,
+    the estimates explain the runs' gain errors (:func:`gain_estimate_pays`)
+    and the end points improve by more than one standard error of the paired
+    per-run differences (the one-standard-error rule).
+    """
+    d = np.asarray(err) - np.asarray(err_e)
+    if d.size < 2 or np.mean(inside_e) < MIN_TRAIN_COVERAGE or not gain_estimate_pays(k_hat, k_true):
+        return False
+    return bool(d.mean() > d.std(ddof=1) / np.sqrt(d.size))
 
 
 @dataclass(frozen=True)
