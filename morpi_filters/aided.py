@@ -148,7 +148,19 @@ def kf_update(x, P, y, H, R, frozen=None):
     KHt = PHt
     Sc = S
     if frozen is not None:
-        KHt = _condition(P, frozen) @ Ht
+        frozen = np.broadcast_to(np.asarray(frozen, bool), x.shape)
+        cols = np.flatnonzero(frozen.any(axis=0))
+        if cols.size == 1:
+            # one frozen state: P_c H^T = P H^T - p_j (H p_j)^T / P_jj, without forming P_c
+            j = int(cols[0])
+            col = P[:, :, j]
+            pjj = P[:, j, j]
+            use = frozen[:, j] & (pjj > 0)
+            w = np.where(use, 1.0 / np.where(pjj > 0, pjj, 1.0), 0.0)
+            KHt = PHt - w[:, None, None] * col[:, :, None] * np.einsum("bmn,bn->bm", H, col)[:, None, :]
+            KHt[use, j, :] = 0.0
+        else:
+            KHt = _condition(P, frozen) @ Ht
         Sc = H @ KHt + R
     K = np.swapaxes(np.linalg.solve(Sc, np.swapaxes(KHt, 1, 2)), 1, 2)
     x = x + np.einsum("bij,bj->bi", K, y)

@@ -424,3 +424,28 @@ def test_structured_transition_and_prediction_match_the_dense_ones():
     xs, Ps = aided._predict(x, P, Phi, np.broadcast_to(Q, (b, n, n)))
     np.testing.assert_allclose(xs, xr, rtol=0, atol=1e-12)
     np.testing.assert_allclose(Ps, Pr, rtol=0, atol=1e-11 * np.abs(Pr).max())
+
+
+def test_consider_update_one_state_equals_the_conditioned_covariance_update():
+    """The single-frozen-state shortcut against the update on the explicitly conditioned covariance."""
+    rng = np.random.default_rng(6)
+    b, n, m = 4, 7, 2
+    A = rng.normal(size=(b, n, n))
+    P = A @ np.swapaxes(A, 1, 2) + np.eye(n)
+    H = rng.normal(size=(b, m, n))
+    R = np.broadcast_to(np.eye(m) * 0.3, (b, m, m)).copy()
+    x = rng.normal(size=(b, n))
+    y = rng.normal(size=(b, m))
+    frozen = np.zeros((b, n), bool)
+    frozen[[0, 2, 3], 5] = True                    # member 1 estimates every state
+    xs, Ps, Ss = aided.kf_update(x, P, y, H, R, frozen)
+    # reference: the gain from the Schur complement built by hand, Joseph form on the full covariance
+    for i in range(b):
+        Pc = P[i].copy()
+        if frozen[i, 5]:
+            Pc -= np.outer(P[i][:, 5], P[i][5, :]) / P[i][5, 5]
+        K = Pc @ H[i].T @ np.linalg.inv(H[i] @ Pc @ H[i].T + R[i])
+        IKH = np.eye(n) - K @ H[i]
+        np.testing.assert_allclose(xs[i], x[i] + K @ y[i], atol=1e-12)
+        np.testing.assert_allclose(Ps[i], IKH @ P[i] @ IKH.T + K @ R[i] @ K.T, atol=1e-10)
+        assert (xs[i, 5] == x[i, 5]) == bool(frozen[i, 5])
