@@ -34,11 +34,12 @@ __all__ = ["GRID", "ABLATIONS", "AidedCell", "AidedStudy", "Prepared", "aided_st
 #: them), step displacement noise [m], whether the gain error is estimated or only considered (the
 #: trained gain taken as exact, its spread kept in the covariance: :attr:`aided.AidTuning.gain_estimated`),
 #: and the source of the step direction (the filter's attitude, MoRPI's own heading reading, or the
-#: route's heading: the turns alone, :func:`route_vectors`). The search takes the gain as exact first;
-#: the gain is then estimated at the chosen point only where that earns its place on the train runs
-#: (:func:`gain_estimate_pays` and the one-standard-error rule).
+#: route's heading: the turns alone, :func:`route_vectors`), and whether the non-holonomic updates run.
+#: The search takes the gain as exact and the non-holonomic updates on first; at the chosen point the
+#: updates are then dropped unless they pay, and the gain is estimated only where that pays, on the
+#: train runs (:func:`gain_estimate_pays` and the one-standard-error rule).
 GRID = {"vibration": (100.0, 300.0, 3000.0), "step_sigma": (0.02, 0.05), "gain_state": ("estimated", "considered"),
-        "step_heading": ("attitude", "gyro", "route")}
+        "step_heading": ("attitude", "gyro", "route"), "nhc": (True, False)}
 #: Non-holonomic velocity noise [m/s]: the phone rides off the robot's turning axis, so its lateral
 #: velocity is about omega_z times the lever arm (0.5 rad/s x 0.2 m = 0.1 m/s) while turning.
 NHC_SIGMA = 0.1
@@ -421,6 +422,7 @@ def _tuning(noise, info, gain_rel) -> aided.AidTuning:
     return aided.AidTuning(accel_noise=a * info["vibration"], gyro_noise=g * info["vibration"], rest_gyro_noise=ge,
                            gyro_walk=walk, accel_jump=jump,
                            accel_walk=ACCEL_WALK, step_sigma=info["step_sigma"], nhc_sigma=NHC_SIGMA,
+                           nhc=bool(info.get("nhc", True)),
                            gain_sigma=float(gain_rel), gain_estimated=info["gain_state"] == "estimated",
                            step_heading="attitude" if info["step_heading"] == "attitude" else "gyro")
 
@@ -448,11 +450,12 @@ def choose_tunables(data, train, method, mode, config, gain):
     Every candidate of :data:`GRID` that takes the gain as exact runs on
     every train run in one batch; only those whose 95 % ellipse holds the
     true end point of at least :data:`MIN_TRAIN_COVERAGE` of the train runs
-    compete (all of them when none does). At the chosen point the gain is
-    then estimated instead where that pays on the train runs
-    (:func:`gain_estimate_pays`, and end points better by more than one
-    standard error). The nested leave-one-out repeats both stages without
-    the run it scores.
+    compete (all of them when none does). At the chosen point the
+    non-holonomic updates are then dropped unless they pay, and the gain is
+    estimated instead where that pays, on the train runs (end points better
+    by more than one standard error; for the gain also
+    :func:`gain_estimate_pays`). The nested leave-one-out repeats both
+    stages without the run it scores.
 
     Needs a :class:`~morpi_filters.field.FieldData`, so there is no example.
 
@@ -510,7 +513,7 @@ def choose_tunables_many(data, requests) -> list:
     from . import dataset as ds
 
     # stage 1: every grid point with the trained gain taken as exact (its spread considered)
-    cands = [c for c in _candidates() if c["gain_state"] == "considered"]
+    cands = [c for c in _candidates() if c["gain_state"] == "considered" and c["nhc"]]
     plans, inputs, tunings = [], [], []
     for train, method, mode, config, gain in requests:
         runs = _prepared_runs(data, train[0], train[1], "train", mode, method, config, gain.mean)
@@ -538,7 +541,9 @@ def choose_tunables_many(data, requests) -> list:
         err = np.linalg.norm(d, axis=1).reshape(-1, len(runs)) / truth.distance_m * 100
         return err, m2 <= aided.CHI2_95_2DOF
 
-    # stage 2: the gain estimated at the point each selection (all runs, and each leave-one-out fold) picks
+    # stage 2, at the point each selection (all runs, and each leave-one-out fold) picks: without the
+    # non-holonomic updates, and with the gain estimated (with and without them)
+    variants = [{"nhc": False}, {"gain_state": "estimated"}, {"nhc": False, "gain_state": "estimated"}]
     firsts, inputs, tunings = [], [], []
     for plan in plans:
         if isinstance(plan, MorpiError):
@@ -551,9 +556,9 @@ def choose_tunables_many(data, requests) -> list:
         picks = [_best(err[:, f], inside[:, f]) for f in folds]
         wins = sorted(set(picks))
         firsts.append((err, inside, folds, picks, wins, len(inputs)))
-        est = [dict(cands[w], gain_state="estimated") for w in wins]
-        inputs += [r.input_for(c, forward_only=True) for c in est for r in runs]
-        tunings += [_tuning(noise, c, rel) for c in est for _ in runs]
+        more = [dict(cands[w], **v) for w in wins for v in variants]
+        inputs += [r.input_for(c, forward_only=True) for c in more for r in runs]
+        tunings += [_tuning(noise, c, rel) for c in more for _ in runs]
     res2 = aided.run_batch(inputs, tunings)
     out = []
     for plan, first in zip(plans, firsts):
@@ -562,19 +567,23 @@ def choose_tunables_many(data, requests) -> list:
             continue
         start, runs, truth, noise, rel = plan
         err, inside, folds, picks, wins, at = first
-        mine = res2[at:at + len(wins) * len(runs)]
-        err_e, inside_e = score(mine, runs, truth)
-        k_hat = np.array([r.gain_error for r in mine]).reshape(len(wins), len(runs))
+        mine = res2[at:at + len(wins) * len(variants) * len(runs)]
+        err2, inside2 = score(mine, runs, truth)
+        k_hat = np.array([r.gain_error for r in mine]).reshape(-1, len(runs))
         # each train run's own gain error: its step sum against the route (z = (1 + k) x the true displacement)
         k_true = np.array([np.linalg.norm(np.diff(r.morpi_xy, axis=0), axis=1).sum() for r in runs]) \
             / truth.distance_m - 1.0
         chosen = []
         for f, w in zip(folds, picks):
-            i = wins.index(w)
-            if _estimate_wins(err[w, f], err_e[i, f], inside_e[i, f], k_hat[i, f], k_true[f]):
-                chosen.append((dict(cands[w], gain_state="estimated"), err_e[i]))
+            i = wins.index(w) * len(variants)
+            no_nhc, est, est_no_nhc = i, i + 1, i + 2
+            if _aid_pays(err[w, f], inside[w, f], err2[no_nhc, f], inside2[no_nhc, f]):
+                base, e, g = cands[w], err[w], est
             else:
-                chosen.append((cands[w], err[w]))
+                base, e, g = dict(cands[w], nhc=False), err2[no_nhc], est_no_nhc
+            if _estimate_wins(e[f], err2[g, f], inside2[g, f], k_hat[g, f], k_true[f]):
+                base, e = dict(base, gain_state="estimated"), err2[g]
+            chosen.append((base, e))
         info, e_all = chosen[0]
         # nested leave-one-out: each train run scored by the choice made without it
         loo = [c[1][i] for i, c in enumerate(chosen[1:])]
@@ -627,6 +636,24 @@ def _best(err, inside) -> int:
     score = err.mean(axis=1)
     eligible = inside.mean(axis=1) >= MIN_TRAIN_COVERAGE
     return int(np.argmin(np.where(eligible, score, np.inf))) if eligible.any() else int(np.argmin(score))
+
+
+def _aid_pays(err_with, inside_with, err_without, inside_without) -> bool:
+    """Whether an aid (the non-holonomic updates) earns its place at the chosen point on the train runs.
+
+    It stays when only with it the ellipse holds enough train end points, or
+    when it improves the end points by more than one standard error of the
+    paired per-run differences (the one-standard-error rule, for the simpler
+    filter without it).
+    """
+    ok_with = np.mean(inside_with) >= MIN_TRAIN_COVERAGE
+    ok_without = np.mean(inside_without) >= MIN_TRAIN_COVERAGE
+    if ok_with != ok_without:
+        return bool(ok_with)
+    d = np.asarray(err_without) - np.asarray(err_with)
+    if d.size < 2:
+        return False
+    return bool(d.mean() > d.std(ddof=1) / np.sqrt(d.size))
 
 
 def _estimate_wins(err, err_e, inside_e, k_hat, k_true) -> bool:
