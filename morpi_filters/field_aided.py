@@ -707,7 +707,8 @@ class AidedCell:
     forward_percent, smoothed_percent, morpi_percent, ins_percent : float
         Mean end-point error over the runs [% of the route's distance].
     runs : tuple of dict
-        Per run: ``file``, end-point errors [m] (``forward_m``, ``smoothed_m``, ``morpi_m``, ``ins_m``),
+        Per run: ``file``, end-point errors [m] (``forward_m``, ``smoothed_m``, ``morpi_m``, ``ins_m``,
+        ``steps_m``),
         ``mahalanobis2`` of the true end point, ``inside_95``, estimated gain error and its sigma.
     tuning : dict
         The grid point chosen on the train runs, and the noise densities used.
@@ -723,6 +724,10 @@ class AidedCell:
         Per run: (epoch time, forward xy, smoothed xy, MoRPI xy, forward P_xy) for figures.
     failed : tuple of str
         Runs of the tables' cell the filter could not run, one line each.
+    steps_percent : float
+        The filter's own step vectors summed, without the INS (dead reckoning with the chosen step
+        direction; NaN when the direction is the filter's attitude) [%]: what the INS adds is the
+        difference to the filter.
     """
 
     spec: object
@@ -738,6 +743,7 @@ class AidedCell:
     nis: dict
     paths: tuple
     failed: tuple = ()
+    steps_percent: float = float("nan")
 
     @property
     def label(self) -> str:
@@ -880,7 +886,10 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
                          "smoothed_m": float(np.linalg.norm(end_sm - truth.end_point_m)),
                          "morpi_m": float(by_file[p.rel].end_error_m), "ins_m": ins_m,
                          "mahalanobis2": m2, "inside_95": bool(m2 <= aided.CHI2_95_2DOF),
-                         "gain_error": r.gain_error, "gain_error_sigma": r.gain_sigma})
+                         "gain_error": r.gain_error, "gain_error_sigma": r.gain_sigma,
+                         "steps_m": (float("nan") if info["step_heading"] == "attitude" else
+                                     float(np.linalg.norm(p.input_for(info).step_vector.sum(axis=0)
+                                                          - truth.end_point_m)))})
             paths.append((r.time, r.position[:, :2], r.smoothed[:, :2], p.morpi_xy, r.P_xy))
         mean = lambda k: float(np.nanmean([q[k] for q in rows]) / d)  # noqa: E731
         cells.append(AidedCell(
@@ -890,7 +899,8 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
                     "rest_gyro_noise": noise[2], "gyro_walk": noise[3], "accel_jump": noise[4],
                     "gain_sigma": g.std / g.mean},
             train_percent=score, train_loo_percent=choice.loo_percent, train_morpi_percent=choice.morpi_percent,
-            nis={k: (v[0] / max(v[1], 1), v[2]) for k, v in nis.items()}, paths=tuple(paths), failed=failed))
+            nis={k: (v[0] / max(v[1], 1), v[2]) for k, v in nis.items()}, paths=tuple(paths), failed=failed,
+            steps_percent=float(np.mean([q["steps_m"] for q in rows]) / d)))
         if ablation and sp.calibration == "GC":
             for name, change in ABLATIONS.items():
                 if not change:
