@@ -248,13 +248,17 @@ def rts_smooth(x_post, P_post, x_prior, P_prior, Phi, fed=None, frozen=None):
     Ps = np.array(P_post, dtype=float)
     if xs.shape[0] < 2:
         return xs, Ps
-    # the smoother gains depend on the forward pass only: all of them in one batched call. A
-    # pseudo-inverse: states without uncertainty (an unused clone or gain) leave P_prior singular.
+    # the smoother gains depend on the forward pass only: all of them in one batched call
     Pp, Pq = P_post[:-1], P_prior[1:]
     if frozen is not None and np.any(frozen):
         # the smoother of the filter that takes the frozen states as known (:func:`kf_update`)
         Pp, Pq = _condition(Pp, frozen), _condition(Pq, frozen)
-    G = Pp @ np.swapaxes(Phi[1:], 1, 2) @ np.linalg.pinv(Pq, hermitian=True)
+    # G = Pp Phi^T Pq^+ : states without uncertainty (an unused clone or gain, a considered state) have
+    # exactly zero rows and columns in Pq, where the pseudo-inverse is zero too; the rest is invertible
+    dead = ~(Pq != 0).any(axis=2)
+    Pq = Pq + dead[:, :, None] * np.eye(Pq.shape[-1])
+    G = np.swapaxes(np.linalg.solve(Pq, Phi[1:] @ np.swapaxes(Pp, 1, 2)), 1, 2)
+    G = np.where(dead[:, None, :], 0.0, G)
     for k in range(xs.shape[0] - 2, -1, -1):
         ahead = xs[k + 1] if fed is None else xs[k + 1] + fed[k + 1]
         xs[k] = x_post[k] + G[k] @ (ahead - x_prior[k + 1])

@@ -449,3 +449,34 @@ def test_consider_update_one_state_equals_the_conditioned_covariance_update():
         np.testing.assert_allclose(xs[i], x[i] + K @ y[i], atol=1e-12)
         np.testing.assert_allclose(Ps[i], IKH @ P[i] @ IKH.T + K @ R[i] @ K.T, atol=1e-10)
         assert (xs[i, 5] == x[i, 5]) == bool(frozen[i, 5])
+
+
+def test_smoother_with_a_state_without_uncertainty_uses_the_pseudo_inverse():
+    """A state with exactly zero variance (an unused clone): the gains of the pseudo-inverse formula."""
+    rng = np.random.default_rng(8)
+    n, k = 5, 12
+    A = rng.normal(size=(k, n, n))
+    P_post = A @ np.swapaxes(A, 1, 2) + np.eye(n)
+    P_post[:, 4, :] = 0.0
+    P_post[:, :, 4] = 0.0
+    Phi = np.eye(n) + 0.05 * rng.normal(size=(k, n, n))
+    Phi[:, 4, :] = 0.0
+    Phi[:, :, 4] = 0.0
+    Phi[:, 4, 4] = 1.0                                  # the dead state stays apart
+    Q = np.eye(n) * 0.01
+    Q[4, 4] = 0.0
+    P_prior = P_post.copy()
+    P_prior[1:] = Phi[1:] @ P_post[:-1] @ np.swapaxes(Phi[1:], 1, 2) + Q
+    x_post = rng.normal(size=(k, n))
+    x_post[:, 4] = 0.0
+    x_prior = x_post.copy()
+    x_prior[1:] = np.einsum("bij,bj->bi", Phi[1:], x_post[:-1])
+    xs, Ps = aided.rts_smooth(x_post, P_post, x_prior, P_prior, Phi)
+    # reference: the recursion with numpy's pseudo-inverse, one epoch at a time
+    rx, rP = x_post.copy(), P_post.copy()
+    for j in range(k - 2, -1, -1):
+        G = P_post[j] @ Phi[j + 1].T @ np.linalg.pinv(P_prior[j + 1])
+        rx[j] = x_post[j] + G @ (rx[j + 1] - x_prior[j + 1])
+        rP[j] = P_post[j] + G @ (rP[j + 1] - P_prior[j + 1]) @ G.T
+    np.testing.assert_allclose(xs, rx, atol=1e-9)
+    np.testing.assert_allclose(Ps, rP, atol=1e-9)
