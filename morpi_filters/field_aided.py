@@ -774,6 +774,15 @@ class AidedStudy:
     note: str = ""
 
 
+def _same_estimate(base, changed) -> bool:
+    """Whether two tunings give the same estimate: equal, or differing only in a gain error that is
+    considered, not estimated (its prior then changes the covariance alone)."""
+    if changed == base:
+        return True
+    return (not base.gain_estimated and not changed.gain_estimated
+            and changed.with_(gain_sigma=base.gain_sigma) == base)
+
+
 def _merge_nis(acc, nis):
     for name, (s, c, dof) in nis.items():
         a = acc.setdefault(name, [0.0, 0, dof])
@@ -850,7 +859,7 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
             items += [(i, p, None, base) for p in runs]
             if ablation and cell.spec.calibration == "GC":
                 items += [(i, p, name, base.with_(**change)) for name, change in ABLATIONS.items() if change
-                          for p in runs]
+                          and not _same_estimate(base, base.with_(**change)) for p in runs]
         # the ablation reads the forward filter only: cut at the read-out
         out = aided.run_batch([p.input_for(todo[i][3], forward_only=name is not None) for i, p, name, _ in items],
                               [t for *_, t in items],
@@ -907,7 +916,10 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
                     # without smoothing: the forward filter's end points
                     val = mean("forward_m")
                 else:
-                    e = [np.linalg.norm(p.end(abl_res[(i, p.rel, name)])[0] - truth.end_point_m) for p in runs]
+                    # an aid the chosen filter does not use (or a gain it only considers) leaves the
+                    # forward estimate as it is
+                    e = [np.linalg.norm(p.end(abl_res.get((i, p.rel, name), results[(i, p.rel)]))[0]
+                                        - truth.end_point_m) for p in runs]
                     val = float(np.mean(e) / d)
                 abl.append({"cell": sp.label, "removed": name, "smoothed_percent": val})
     return AidedStudy(cells=tuple(cells), ablation=tuple(abl), coverage_95=inside / total if total else float("nan"),
