@@ -51,10 +51,6 @@ MIN_TRAIN_COVERAGE = 0.85
 #: (0.06 m/s^2 over a 40 s run, against the 0.2-0.3 m/s^2 offset of f_x while cruising, which it
 #: does not try to follow).
 ACCEL_WALK = 1e-2
-#: Window of the gyro activity detector that sets the motion onset (``steps.activity_span``'s
-#: ``window_s``): the onset is the last sample of the first active window, so the robot may move from
-#: one window earlier; the zero-velocity updates before the motion stop there.
-ACTIVITY_WINDOW_S = 0.5
 #: Aids removed in turn in the ablation (AidTuning fields set to these values).
 ABLATIONS = {"steps": {"steps": False}, "non-holonomic": {"nhc": False}, "rest updates": {"rest": False},
              "gain state": {"gain_sigma": 0.0}, "smoothing": {}}
@@ -350,7 +346,7 @@ def prepare(data, rec, mode, method, config, gain) -> Prepared:
     track = st.morpi_track(s, gain)
     # between the rest window and the motion onset the robot stands (its motors may run): zero velocity,
     # up to one activity window before the onset (the onset is the end of the first active window)
-    onset = float(data.activity(rec)[0]) - ACTIVITY_WINDOW_S
+    onset = float(data.activity(rec)[0]) - st.ACTIVITY_WINDOW_S
     standing = ((float(w.end_s), onset),) if onset > w.end_s else ()
     inp = aided.AidedInput(time=crec.time, f=crec.f, omega=crec.omega, C0=coarse_level(f_rest),
                            g=float(np.linalg.norm(f_rest)), step_start=s.start_time, step_end=s.end_time,

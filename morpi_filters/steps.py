@@ -64,7 +64,7 @@ def _signal():
     return signal
 
 __all__ = [
-    "GRID_HZ", "HEADINGS", "SEGMENTS", "ENDS", "METHODS", "StepConfig", "Peaks", "Steps", "MorpiTrack",
+    "GRID_HZ", "ACTIVITY_WINDOW_S", "HEADINGS", "SEGMENTS", "ENDS", "METHODS", "StepConfig", "Peaks", "Steps", "MorpiTrack",
     "resample_uniform", "lowpass", "detect_peaks", "weinberg_length", "integrate_heading",
     "motion_span", "activity_span", "PreparedSignal", "prepare_signal", "extract_steps", "train_gain",
     "dead_reckon", "morpi_track", "DEFAULT_CONFIGS", "period_changes", "turn_stretches", "turn_heading",
@@ -72,6 +72,8 @@ __all__ = [
 
 #: Rate of the uniform grid peak detection works on [Hz].
 GRID_HZ = 100.0
+#: Window of :func:`activity_span` [s]: the motion onset is the last sample of the first active window.
+ACTIVITY_WINDOW_S = 0.5
 HEADINGS = ("absolute", "mean", "change", "turns")
 SEGMENTS = ("maxima", "extrema")
 ENDS = ("drop", "fraction", "whole")
@@ -630,7 +632,7 @@ def prepare_signal(rec, method: str, cutoff_hz: float | None, *, rest_end_time: 
                           span=span)
 
 
-def activity_span(time, omega, *, window_s: float = 0.5, factor: float = 10.0, floor: float = 0.02,
+def activity_span(time, omega, *, window_s: float = ACTIVITY_WINDOW_S, factor: float = 10.0, floor: float = 0.02,
                   rest_s: float = 2.0, min_pause_s: float = 1.5, rest=None):
     """Start and end time of the main motion from the gyro's vibration [s].
 
