@@ -13,7 +13,10 @@ Conventions (those of :mod:`morpi_filters.error_model`): ``dp = p_hat - p``,
 ``dv = v_hat - v``, ``C_hat = exp([eps x]) C``, ``ba = b_a - b_a_hat``,
 ``bg = b_g - b_g_hat``. After every update the estimate is fed back into the
 nominal state (position, velocity, attitude, biases, clone) and those error
-states return to zero; the gain error stays a state.
+states return to zero; the gain error stays a state. It is either estimated
+or only considered (:attr:`AidTuning.gain_estimated`: the estimate is the one
+of the filter that takes the trained gain as exact, the covariance carries the
+gain's spread; :func:`kf_update`'s `frozen`).
 
 The covariance is propagated on an epoch grid (every ``epoch_s`` seconds of
 samples, 0.1 s by default, and every step boundary's own sample) with the
@@ -23,8 +26,9 @@ the epochs:
 
 * :class:`StepDisplacement`: the MoRPI step, ``L (cos psi, sin psi)`` (length
   ``L`` from the trained gain; heading ``psi`` of the filter's attitude averaged
-  over the step, or MoRPI's own step vector) equals ``(1 + k)`` times the
-  displacement since the clone;
+  over the step, which turns the measured vector with the filter's heading
+  error, or a given step vector) equals ``(1 + k)`` times the displacement
+  since the clone;
 * :class:`ZeroVelocity` and :class:`ZeroRate`: the still stretches the caller
   names (``AidedInput.rest``), and the zero-velocity update alone where the
   robot stands while its phone may hum with the motors (``AidedInput.standing``);

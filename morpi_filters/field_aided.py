@@ -8,13 +8,17 @@ Tunables are chosen per training set, method and calibration on the ``train``
 runs only (:func:`choose_tunables`): the noise densities, the zero-rate noise
 and the gyro bias walk come from what the train runs show at rest; the grid
 (:data:`GRID`) scales the densities for the vibration of the moving robot, sets
-the step noise, whether the gain error is a state and where the step direction
-comes from; the gain error's prior is the trained gain's spread. Nothing of a
-``test`` folder enters the choice.
+the step noise and where the step direction comes from (the filter's attitude,
+MoRPI's own reading, or the route's heading: :func:`route_vectors`); at the
+chosen point the non-holonomic updates stay and the gain error is estimated
+(rather than considered) only where the train runs show it pays. The gain
+error's prior is the trained gain's spread. Nothing of a ``test`` folder
+enters the choice.
 
 The rest updates run on the calibration's initial rest window and on every
-still stretch after the motion (:func:`still_spans`); the filter is read where
-MoRPI's own track ends (:meth:`Prepared.end`).
+still stretch after the motion (:func:`still_spans`), zero velocity alone
+between that window and the motion onset; the filter is read where MoRPI's own
+track ends (:meth:`Prepared.end`).
 """
 from __future__ import annotations
 
