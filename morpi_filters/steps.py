@@ -64,7 +64,7 @@ def _signal():
     return signal
 
 __all__ = [
-    "GRID_HZ", "HEADINGS", "SEGMENTS", "ENDS", "METHODS", "StepConfig", "Peaks", "Steps", "MorpiTrack",
+    "GRID_HZ", "HEADINGS", "SEGMENTS", "ENDS", "HEADING_SOURCES", "METHODS", "StepConfig", "Peaks", "Steps", "MorpiTrack",
     "resample_uniform", "lowpass", "detect_peaks", "weinberg_length", "integrate_heading",
     "motion_span", "activity_span", "PreparedSignal", "prepare_signal", "extract_steps", "train_gain",
     "dead_reckon", "morpi_track", "DEFAULT_CONFIGS", "period_changes", "turn_stretches", "turn_heading",
@@ -75,6 +75,8 @@ GRID_HZ = 100.0
 HEADINGS = ("absolute", "mean", "change", "turns")
 SEGMENTS = ("maxima", "extrema")
 ENDS = ("drop", "fraction", "whole")
+#: What the heading is read from (:attr:`StepConfig.heading_source`).
+HEADING_SOURCES = ("gyro", "attitude")
 #: MoRPI method -> (signal attribute, column).
 METHODS = {"MoRPI-A": ("f", 1), "MoRPI-G": ("omega", 2)}
 
@@ -109,6 +111,12 @@ class StepConfig:
         = 64 deg (A = 0.1 m, lambda = 1 m); on the field recordings the
         periodic runs swing by 20 deg or more, the straight runs by 11 deg or
         less, hence 15 deg.
+    heading_source : str
+        What the heading is read from: ``"gyro"``, the integrated z angular
+        rate, or ``"attitude"``, the yaw of the attitude matrix of the 3D
+        mechanization (the paper's heading equation). Read by
+        :class:`morpi_filters.field.FieldData`, which builds the heading; a
+        heading passed to :func:`prepare_signal` is used as given.
     turn_deg : float
         Least heading change over one full period (two half-period steps
         between extrema, one step between maxima) that counts as a turn for
@@ -129,10 +137,11 @@ class StepConfig:
     amplitude_from: str = "raw"
     min_swing_deg: float = 15.0
     turn_deg: float = 51.0
+    heading_source: str = "gyro"
 
     def __post_init__(self):
         for name, allowed in (("heading", HEADINGS), ("segment", SEGMENTS), ("ends", ENDS),
-                              ("amplitude_from", ("filtered", "raw"))):
+                              ("amplitude_from", ("filtered", "raw")), ("heading_source", HEADING_SOURCES)):
             if getattr(self, name) not in allowed:
                 raise MorpiError(f"StepConfig.{name}={getattr(self, name)!r}: expected one of {allowed}")
         if not self.min_period_s > 0:
@@ -578,6 +587,18 @@ class PreparedSignal:
     span: tuple = (0.0, 0.0)
 
 
+def _attitude_heading(rec, rest_end_time=None) -> np.ndarray:
+    """The attitude heading of a whole recording, levelled with its initial rest (the first 2 s by default)."""
+    from .strapdown import attitude_heading
+
+    t = np.asarray(rec.time, float)
+    end = t[0] + 2.0 if rest_end_time is None else rest_end_time
+    rest = t <= end
+    if rest.sum() < 2:
+        raise MorpiError(f"{rec.source}: no rest before {end:g} s to level the attitude heading")
+    return attitude_heading(t, rec.f, rec.omega, np.asarray(rec.f)[rest].mean(axis=0))
+
+
 def prepare_signal(rec, method: str, cutoff_hz: float | None, *, rest_end_time: float | None = None,
                    heading=None, motion=None) -> PreparedSignal:
     """Resample (and filter) a recording's MoRPI signal once for many step configs.
@@ -732,7 +753,12 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
     rest_end_time : float, optional
         End of the initial rest [s] (baseline for the motion span).
     heading : ndarray, shape (n,), optional
-        Heading on the recording's samples [rad]; default: integrated omega_z.
+        Heading on the recording's samples [rad]; default: as
+        ``config.heading_source`` says, from the first sample: the integrated
+        omega_z, or the yaw of the 3D attitude
+        (:func:`morpi_filters.strapdown.attitude_heading`) started level with
+        the mean specific force before `rest_end_time` (the first 2 s without
+        it).
     prepared : PreparedSignal, optional
         Output of :func:`prepare_signal` with ``config.cutoff_hz`` (saves the
         resampling and filtering when many configs are tried).
@@ -769,6 +795,8 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
             raise MorpiError(f"method={method!r}: expected one of {tuple(DEFAULT_CONFIGS)}")
         config = DEFAULT_CONFIGS[method]
     if prepared is None:
+        if heading is None and config.heading_source == "attitude":
+            heading = _attitude_heading(rec, rest_end_time)
         prepared = prepare_signal(rec, method, config.cutoff_hz, rest_end_time=rest_end_time, heading=heading)
     elif prepared.cutoff_hz != config.cutoff_hz or prepared.method != method:
         raise MorpiError(f"{prepared.source}: prepared signal ({prepared.method}, cutoff {prepared.cutoff_hz}) "

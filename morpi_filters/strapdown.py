@@ -57,7 +57,8 @@ import numpy as np
 from . import units
 from .errors import MorpiError
 
-__all__ = ["InsResult", "ins3d", "ins2d", "integrate_rate", "heading_from_C", "rotvec_to_C", "yaw_to_C", "coarse_level"]
+__all__ = ["InsResult", "ins3d", "ins2d", "integrate_rate", "heading_from_C", "rotvec_to_C", "yaw_to_C", "coarse_level",
+           "attitude_heading"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -570,3 +571,39 @@ def ins2d(time, f, omega, *, psi0=0.0, v0=None, p0=None) -> InsResult:
     v, p = _integrate_translation(time, a, v0b, p0b)
     return InsResult(time=time, position=p.reshape(batch + (n, 3)), velocity=v.reshape(batch + (n, 3)),
                      C_bn=yaw_to_C(psi).reshape(batch + (n, 3, 3)), heading=psi.reshape(batch + (n,)))
+
+
+def attitude_heading(time, f, omega, f_rest) -> np.ndarray:
+    """Heading from the attitude matrix of the 3D mechanization, relative to its start [rad].
+
+    The paper's heading equation: the yaw of ``C_bn`` of :func:`ins3d`,
+    started with the roll and pitch of the rest specific force
+    (:func:`coarse_level`, gravity ``|f_rest|``). On a level phone it is the
+    integrated z rate; on a tilted one it also takes the x and y rates that
+    turn the phone about the vertical.
+
+    Parameters
+    ----------
+    time : array_like, shape (n,)
+        Sample times [s].
+    f, omega : array_like, shape (n, 3)
+        Specific force [m/s^2] and angular rate [rad/s], body axes.
+    f_rest : array_like, shape (3,)
+        Mean specific force over a rest period before `time[0]` [m/s^2].
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Yaw minus its first value [rad].
+
+    Examples
+    --------
+    >>> t = np.arange(0.0, 2.0, 0.01)
+    >>> w = np.zeros((t.size, 3)); w[:, 2] = 0.1
+    >>> f = np.tile([0.0, 0.0, 9.81], (t.size, 1))
+    >>> round(float(attitude_heading(t, f, w, [0.0, 0.0, 9.81])[-1]), 6)   # level: 0.1 rad/s for 1.99 s
+    0.199
+    """
+    f_rest = np.asarray(f_rest, dtype=float)
+    psi = np.asarray(ins3d(time, f, omega, C0=coarse_level(f_rest), g=float(np.linalg.norm(f_rest))).heading)
+    return psi - psi[0]
