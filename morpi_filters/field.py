@@ -188,6 +188,7 @@ class FieldData:
         self._steps: dict = {}
         self._peaks: dict = {}
         self._activity: dict = {}
+        self._canon: dict = {}
         self._train_summaries: dict = {}
 
     @classmethod
@@ -363,10 +364,16 @@ class FieldData:
         return self._prep[key]
 
     def steps(self, rec, mode, method, config):
-        key = (rec.source, mode, method, config)
+        # one extraction serves every least swing (a check on the result) and, unless the heading follows
+        # turns, every turn threshold (unused)
+        canon = self._canon.get(config)
+        if canon is None:
+            canon = self._canon[config] = config.with_(
+                min_swing_deg=0.0, turn_deg=config.turn_deg if config.heading == "turns" else st.StepConfig.turn_deg)
+        key = (rec.source, mode, method, canon)
         if key not in self._steps:
             try:
-                self._steps[key] = st.extract_steps(None, method, config,
+                self._steps[key] = st.extract_steps(None, method, canon,
                                                     prepared=self.prepared(rec, mode, method, config.cutoff_hz,
                                                                            config.heading_source),
                                                     peak_cache=self._peaks)
@@ -375,6 +382,7 @@ class FieldData:
         out = self._steps[key]
         if isinstance(out, MorpiError):
             raise out
+        st.require_swing(rec.source, method, out.swing_deg, config.min_swing_deg)
         return out
 
     def activity(self, rec) -> tuple:

@@ -67,7 +67,7 @@ __all__ = [
     "GRID_HZ", "HEADINGS", "SEGMENTS", "ENDS", "HEADING_SOURCES", "METHODS", "StepConfig", "Peaks", "Steps", "MorpiTrack",
     "resample_uniform", "lowpass", "detect_peaks", "weinberg_length", "integrate_heading",
     "motion_span", "activity_span", "PreparedSignal", "prepare_signal", "extract_steps", "train_gain",
-    "dead_reckon", "morpi_track", "DEFAULT_CONFIGS", "period_changes", "turn_stretches", "turn_heading",
+    "dead_reckon", "morpi_track", "DEFAULT_CONFIGS", "require_swing", "period_changes", "turn_stretches", "turn_heading",
 ]
 
 #: Rate of the uniform grid peak detection works on [Hz].
@@ -855,10 +855,7 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
         swing = np.degrees(np.maximum.reduceat(psi, bi[:-1])[:bi.size - 1]
                            - np.minimum.reduceat(psi, bi[:-1])[:bi.size - 1])
         med = _median(swing)
-        if med < config.min_swing_deg:
-            raise MorpiError(f"{p.source}: no periodic motion found in the {method} signal (median heading "
-                             f"swing {med:.1f} deg per period, expected at least "
-                             f"{config.min_swing_deg:g} deg for a sine path)")
+        require_swing(p.source, method, med, config.min_swing_deg)
     psi_s, psi_e = np.interp(st, t, psi), np.interp(et, t, psi)
     if config.heading == "absolute":
         dpsi = psi_e
@@ -879,6 +876,44 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
                   properties={"prominence_threshold": prom})
     return Steps(start_time=st, end_time=et, weight=weight, fraction=frac, heading=dpsi, peaks=peaks,
                  motion=(m0, m1), swing_deg=med)
+
+
+def require_swing(source, method: str, swing_deg: float, min_swing_deg: float) -> None:
+    """Refuse a run whose median heading swing per period is below `min_swing_deg` (not a sine path).
+
+    Parameters
+    ----------
+    source : str
+        The recording, named in the message.
+    method : str
+        The MoRPI method whose signal the periods were found on.
+    swing_deg : float
+        The run's median heading swing per period [deg] (:attr:`Steps.swing_deg`;
+        NaN when fewer than two periods: nothing to check).
+    min_swing_deg : float
+        The least swing of a periodic run [deg] (:attr:`StepConfig.min_swing_deg`).
+
+    Returns
+    -------
+    None
+
+    Raises
+    ------
+    MorpiError
+        Naming the recording, its swing and the least swing expected.
+
+    Examples
+    --------
+    >>> require_swing("run.csv", "MoRPI-G", 40.0, 15.0)          # a sine path: nothing happens
+    >>> require_swing("run.csv", "MoRPI-G", 6.0, 15.0)
+    Traceback (most recent call last):
+    ...
+    morpi_filters.errors.MorpiError: run.csv: no periodic motion found in the MoRPI-G signal (median heading swing 6.0 deg per period, expected at least 15 deg for a sine path)
+    """
+    if swing_deg < min_swing_deg:
+        raise MorpiError(f"{source}: no periodic motion found in the {method} signal (median heading "
+                         f"swing {swing_deg:.1f} deg per period, expected at least "
+                         f"{min_swing_deg:g} deg for a sine path)")
 
 
 def period_changes(boundary_heading, per_period: int) -> np.ndarray:
