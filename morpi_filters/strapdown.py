@@ -479,11 +479,21 @@ def ins3d(time, f, omega, *, C0=None, v0=None, p0=None, g: float = units.G0) -> 
     phi_t = np.swapaxes(phi, 0, 1)                              # (n-1, B, 3)
     Ct = np.empty((n, B, 3, 3))
     Ct[0] = C0b
-    block = max(1, _BLOCK // max(B, 1))                         # bound the memory of the increments
-    for k0 in range(0, n - 1, block):
-        E = rotvec_to_C(phi_t[k0:k0 + block])
-        for j in range(E.shape[0]):
-            np.matmul(Ct[k0 + j], E[j], out=Ct[k0 + j + 1])
+    if B == 1 and n > 2:
+        # one run: the running product C0 E_0 E_1 ... by doubling (log2(n) batched products instead of
+        # n small ones; the same product in another association, equal to rounding)
+        S = rotvec_to_C(phi_t[:, 0])
+        d = 1
+        while d < S.shape[0]:
+            S[d:] = S[:-d] @ S[d:]
+            d *= 2
+        np.matmul(C0b[0], S, out=Ct[1:, 0])
+    else:
+        block = max(1, _BLOCK // max(B, 1))                     # bound the memory of the increments
+        for k0 in range(0, n - 1, block):
+            E = rotvec_to_C(phi_t[k0:k0 + block])
+            for j in range(E.shape[0]):
+                np.matmul(Ct[k0 + j], E[j], out=Ct[k0 + j + 1])
     C = np.swapaxes(Ct, 0, 1)                                   # (B, n, 3, 3)
 
     a = (C @ fb[..., None])[..., 0]
