@@ -764,7 +764,8 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
         resampling and filtering when many configs are tried).
     peak_cache : dict, optional
         Reuses the peaks found for the same recording, method, cut-off,
-        prominence, least period and segment rule. The peaks do not depend on
+        prominence, least period and segment rule, and the steps' Weinberg
+        weights read from the same signal (``amplitude_from``). The peaks do not depend on
         a constant offset of the signal (the threshold is relative to its
         range), so one entry serves the raw and the gyro-calibrated signal.
 
@@ -828,11 +829,19 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
     if bounds.size < 2:
         raise MorpiError(f"{p.source}: no periodic motion found in the {method} signal "
                          f"({bounds.size} peak(s) between {m0 - t[0]:.1f} s and {m1 - t[0]:.1f} s)")
-    amp = g if config.amplitude_from == "filtered" else graw
-    # max and min over each closed interval [bounds[j], bounds[j+1]] of the grid
-    vmax = np.maximum(np.maximum.reduceat(amp, bounds[:-1])[:bounds.size - 1], amp[bounds[1:]])
-    vmin = np.minimum(np.minimum.reduceat(amp, bounds[:-1])[:bounds.size - 1], amp[bounds[1:]])
-    weight = weinberg_length(vmax, vmin, 1.0)
+    wkey = pkey + (config.amplitude_from,)
+    if peak_cache is not None and wkey in peak_cache:
+        weight, bi = peak_cache[wkey]
+    else:
+        amp = g if config.amplitude_from == "filtered" else graw
+        # max and min over each closed interval [bounds[j], bounds[j+1]] of the grid
+        vmax = np.maximum(np.maximum.reduceat(amp, bounds[:-1])[:bounds.size - 1], amp[bounds[1:]])
+        vmin = np.minimum(np.minimum.reduceat(amp, bounds[:-1])[:bounds.size - 1], amp[bounds[1:]])
+        weight = weinberg_length(vmax, vmin, 1.0)
+        bi = np.searchsorted(t, grid[imax])
+        if peak_cache is not None:
+            weight.flags.writeable = False                      # shared by every Steps of this key
+            peak_cache[wkey] = (weight, bi)
     st, et = grid[bounds[:-1]], grid[bounds[1:]]
     frac = np.ones_like(weight)
     if config.ends != "drop":
@@ -849,7 +858,6 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
         weight = np.concatenate([[wmed], weight, [wmed]])
         frac = np.concatenate([[parts[0]], frac, [parts[1]]])
     psi = p.heading
-    bi = np.searchsorted(t, grid[imax])
     med = float("nan")
     if bi.size >= 2:
         swing = np.degrees(np.maximum.reduceat(psi, bi[:-1])[:bi.size - 1]
