@@ -287,3 +287,80 @@ def test_fast_loader_is_bit_identical_to_a_line_by_line_reading(field_root):
         ref = ref[:, [header.index(c) for c in ds.COLUMNS]]
         got = np.column_stack([rec.time, rec.f, rec.omega])
         assert got.shape == ref.shape and np.array_equal(got.view(np.int64), ref.view(np.int64)), e.relpath
+
+
+@pytest.mark.field
+def test_every_field_file_takes_the_c_reader_and_equals_csv_and_float(field_root):
+    """The C reader (pandas) takes each of the 143 recordings, and its numbers are those of csv + float()."""
+    import csv as _csv
+
+    from morpi_filters import dataset as ds
+
+    for e in ds.catalogue(field_root):
+        cols = ds._fast_parse(e.path)
+        assert cols is not None, e.relpath
+        with open(e.path, newline="", encoding="utf-8-sig") as fh:
+            rows = list(_csv.reader(fh))
+        header = [c.strip() for c in rows[0]]
+        ref = np.array([[float(c) for c in r] for r in rows[1:] if r], dtype=float)
+        ref = ref[:, [header.index(c) for c in ds.COLUMNS]]
+        got = np.column_stack(cols)
+        assert got.shape == ref.shape and np.array_equal(got.view(np.int64), ref.view(np.int64)), e.relpath
+
+
+def test_c_reader_options_round_correctly():
+    """pandas' C reader with the loader's options returns float(s) for decimal strings that are hard to round:
+    exact midpoints between two doubles (ties to even), a digit past them, and 17 to 25 significant digits."""
+    import io
+    from decimal import Decimal, getcontext
+
+    import pandas as pd
+
+    from morpi_filters import dataset as ds
+
+    rng = np.random.default_rng(5)
+    getcontext().prec = 80
+    mids = [format(Decimal(1.0 + int(k) * 2.0 ** -52) + Decimal(2.0 ** -53), "f")
+            for k in rng.integers(0, 2 ** 52, 3000)]
+    strings = (mids + [m + "0000000001" for m in mids]
+               + ["%.17g" % v for v in rng.normal(0.0, 10.0, 20000)]
+               + ["-0." + "".join(map(str, rng.integers(0, 10, 25))) for _ in range(5000)])
+    frame = pd.read_csv(io.StringIO("x\n" + "\n".join(strings) + "\n"), dtype=np.float64, **ds._pandas_options())
+    got = frame["x"].to_numpy()
+    ref = np.array([float(s) for s in strings])
+    assert np.array_equal(got.view(np.int64), ref.view(np.int64))
+
+
+def test_float_options_by_pandas_version():
+    from morpi_filters.dataset import _float_options
+
+    assert _float_options("2.2.3") == {"float_precision": "round_trip"}
+    assert _float_options("3.0.1") == {"float_precision": "round_trip"}
+    assert _float_options("3.1.0") == {} and _float_options("3.1.1") == {} and _float_options("4.0.0.dev0") == {}
+
+
+def test_long_file_in_blocks_names_a_bad_line_after_the_first_block(tmp_path, monkeypatch):
+    """A file read in blocks (as a long recording is): good rows load the same as in one piece; a repeated time
+    stamp, a gap or a non-number far into the file is named by its line."""
+    from morpi_filters import dataset as ds
+
+    rows = good_rows(400)
+    path = write_rows(tmp_path / "long.csv", rows)
+    whole = load_csv(path)
+    monkeypatch.setattr(ds, "_KEEP_BYTES", 0)
+    monkeypatch.setattr(ds, "_BLOCK_BYTES", 512)
+    assert ds._fast_parse(path) is not None
+    _same(load_csv(path), whole)
+    bad = [list(r) for r in rows]
+    bad[350][0] = bad[349][0]
+    with pytest.raises(DataError, match=r"line 352: repeated time stamp"):
+        load_csv(write_rows(tmp_path / "rep.csv", bad))
+    bad = [list(r) for r in rows]
+    for r in bad[300:]:
+        r[0] += 2.0
+    with pytest.raises(DataError, match=r"line 302: time gap of 2.0\d* s after line 301"):
+        load_csv(write_rows(tmp_path / "gap.csv", bad))
+    bad = list(rows)
+    bad[390] = "0.5,0,0,9.8,0,0,x"
+    with pytest.raises(DataError, match=r"line 392: column g_z: 'x' is not a number"):
+        load_csv(write_rows(tmp_path / "nan.csv", bad))
