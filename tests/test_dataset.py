@@ -364,3 +364,46 @@ def test_long_file_in_blocks_names_a_bad_line_after_the_first_block(tmp_path, mo
     bad[390] = "0.5,0,0,9.8,0,0,x"
     with pytest.raises(DataError, match=r"line 392: column g_z: 'x' is not a number"):
         load_csv(write_rows(tmp_path / "nan.csv", bad))
+
+
+@pytest.mark.parametrize("block", [1, 2, 3, 5, 64])
+def test_text_lines_in_blocks_are_those_of_splitlines(tmp_path, monkeypatch, block):
+    """The precise path's line reader, fed a few bytes at a time, cuts the text as str.splitlines cuts the whole
+    of it: CRLF split between blocks, multi-byte characters split between blocks, every line boundary."""
+    from morpi_filters import dataset as ds
+
+    monkeypatch.setattr(ds, "_BLOCK_BYTES", block)
+    rng = np.random.default_rng(block)
+    pieces = ["a", "b,1", "\r", "\n", "\r\n", "\x0b", "\x0c", "\x1c", "\x1e", "\x85", "\u2028", "\u2029", "é", "€",
+              "\U0001F600", " ", ""]
+    for k in range(60):
+        text = "".join(rng.choice(pieces) for _ in range(int(rng.integers(0, 25))))
+        raw = (b"\xef\xbb\xbf" if k % 3 == 0 else b"") + text.encode("utf-8")
+        path = tmp_path / f"t{k}.csv"
+        path.write_bytes(raw)
+        assert list(ds._text_lines(path)) == raw.decode("utf-8-sig").splitlines(), repr(text)
+
+
+def test_precise_path_in_blocks_keeps_the_order_of_its_errors(tmp_path, monkeypatch):
+    """Read a few bytes at a time, the precise path still reports a NUL byte or invalid UTF-8 before any bad
+    row (wherever they lie), and names the same lines as when the file is read in one piece."""
+    from morpi_filters import dataset as ds
+
+    rows = good_rows(150)
+    bad = list(rows)
+    bad[10] = "0.5,0,abc,9.8,0,0,0"
+    monkeypatch.setattr(ds, "_BLOCK_BYTES", 7)
+    p = write_rows(tmp_path / "r.csv", bad)
+    with pytest.raises(DataError, match=r"line 12: column f_y: 'abc' is not a number"):
+        load_csv(p)
+    p.write_bytes(p.read_bytes() + b"0.9,0,0,9.8,0,0,\x00\n")
+    with pytest.raises(DataError, match="binary content"):
+        load_csv(p)
+    p = write_rows(tmp_path / "u.csv", bad)
+    p.write_bytes(p.read_bytes() + "0.9,0,0,9.8,0,0,\xe9\n".encode("latin-1"))
+    with pytest.raises(DataError, match="not UTF-8"):
+        load_csv(p)
+    p = write_rows(tmp_path / "t.csv", rows)
+    p.write_bytes(p.read_bytes().replace(b"\n", b"\r\n").replace(b"\r\n", b"\n", 1) + b"\xe2\x80\xa8\r\n")
+    rec = load_csv(p)                          # CRLF between blocks, a line separator and a blank line at the end
+    np.testing.assert_array_equal(rec.time, np.asarray(rows)[:, 0])
