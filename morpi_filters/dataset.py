@@ -280,14 +280,6 @@ def load_csv(path, *, phone=None, route=None, split=None, min_samples: int = MIN
         The samples in the column order of :data:`COLUMNS`, ``source`` set to
         the path. Each value is ``float(cell)`` to the last bit.
 
-    Notes
-    -----
-    A well-formed file is parsed by pandas' C tokenizer (imported on the
-    first call), block by block into arrays allocated once: memory stays near
-    the float64 result, 56 bytes per row. Anything the fast reader is not sure
-    of (a bad row, a limit broken, an unusual but valid spelling) is decided
-    by a line-by-line reading, which names the first bad line.
-
     Raises
     ------
     DataError
@@ -298,6 +290,14 @@ def load_csv(path, *, phone=None, route=None, split=None, min_samples: int = MIN
         or :data:`GYRO_LIMIT_RADPS`, a time beyond :data:`TIME_LIMIT_S`, a
         non-increasing or repeated time stamp, a gap above :data:`MAX_GAP_S`,
         or fewer than `min_samples` rows.
+
+    Notes
+    -----
+    A well-formed file is parsed by pandas' C tokenizer (imported on the
+    first call), block by block into arrays allocated once: memory stays near
+    the float64 result, 56 bytes per row. Anything the fast reader is not sure
+    of (a bad row, a limit broken, an unusual but valid spelling) is decided
+    by a line-by-line reading, which names the first bad line.
 
     Examples
     --------
