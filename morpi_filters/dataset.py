@@ -563,30 +563,33 @@ def _fast_header(line: bytes) -> list[str] | None:
 
 
 def _fast_columns(blocks, capacity: int | None, order: list[int]):
-    """Parse blocks of data lines into ``(time, f, omega)``; None at the first doubt.
+    """Parse blocks of data lines into C-ordered ``(time, f, omega)``; None at the first doubt.
 
     `capacity` bounds the number of rows (the arrays are allocated once); None when `blocks`
-    holds one block, whose columns are copied out of its rows.
+    holds one block, whose rows then set it.
     """
     it, i_f, i_w = order[0], order[1:4], order[4:7]
     if capacity is None:
         (block,) = blocks
         rows = _read_rows(block)
-        if rows is None or not rows.shape[0]:
+        if rows is None:
             return None
-        time, f, omega = rows[:, it].copy(), rows[:, i_f], rows[:, i_w]     # fancy indexing copies (C order)
-        return (time, f, omega) if _block_within_limits(time, f, omega, None) else None
+        parsed, capacity = iter([rows]), rows.shape[0]
+        del rows
+    else:
+        parsed = (_read_rows(block) for block in blocks)
     time, f, omega = np.empty(capacity), np.empty((capacity, 3)), np.empty((capacity, 3))
     n, prev_t = 0, None
-    for block in blocks:
-        rows = _read_rows(block)
+    for rows in parsed:
         if rows is None:
             return None
         m = rows.shape[0]
         if n + m > capacity:
             return None
         t, tf, tw = time[n:n + m], f[n:n + m], omega[n:n + m]
-        t[:], tf[:], tw[:] = rows[:, it], rows[:, i_f], rows[:, i_w]
+        t[:] = rows[:, it]
+        for j in range(3):      # column by column: pandas' rows are in Fortran order
+            tf[:, j], tw[:, j] = rows[:, i_f[j]], rows[:, i_w[j]]
         if not _block_within_limits(t, tf, tw, prev_t):
             return None
         n += m

@@ -569,6 +569,7 @@ def _differential_cases(tmp_path, seed: int, n_cases: int, n_rows: int = 150):
             continue
         if fast is not None:
             taken += 1
+            assert all(a.flags.c_contiguous for a in fast), i
             got = np.column_stack(fast)
             assert got.shape == precise.shape, (i, got.shape, precise.shape)
             assert np.array_equal(got.view(np.int64), precise.view(np.int64)), i
