@@ -13,10 +13,14 @@ the environment variable ``MORPI_DATA``.
 """
 from __future__ import annotations
 
+import array
+import codecs
 import csv
+import io
 import json
 import math
 import os
+import re
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -274,7 +278,7 @@ def load_csv(path, *, phone=None, route=None, split=None, min_samples: int = MIN
     -------
     Recording
         The samples in the column order of :data:`COLUMNS`, ``source`` set to
-        the path.
+        the path. Each value is ``float(cell)`` to the last bit.
 
     Raises
     ------
@@ -286,6 +290,14 @@ def load_csv(path, *, phone=None, route=None, split=None, min_samples: int = MIN
         or :data:`GYRO_LIMIT_RADPS`, a time beyond :data:`TIME_LIMIT_S`, a
         non-increasing or repeated time stamp, a gap above :data:`MAX_GAP_S`,
         or fewer than `min_samples` rows.
+
+    Notes
+    -----
+    A well-formed file is parsed by pandas' C tokenizer (imported on the
+    first call), block by block into arrays allocated once: memory stays near
+    the float64 result, 56 bytes per row. Anything the fast reader is not sure
+    of (a bad row, a limit broken, an unusual but valid spelling) is decided
+    by a line-by-line reading, which names the first bad line.
 
     Examples
     --------
@@ -306,22 +318,11 @@ def load_csv(path, *, phone=None, route=None, split=None, min_samples: int = MIN
     morpi_filters.errors.DataError: ...: line 4: repeated time stamp 0.01 (line 3 has 0.01), expected strictly increasing time
     """
     path = Path(path)
-    data = _fast_parse(path) if path.is_file() else None
-    if data is None:
-        try:
-            raw = path.read_bytes()
-        except FileNotFoundError:
-            raise DataError(f"{path}: no such file") from None
-        except IsADirectoryError:
-            raise DataError(f"{path}: is a directory, expected a CSV file") from None
-        except OSError as exc:
-            raise DataError(f"{path}: cannot read ({exc.strerror})") from None
-        data = _parse(raw, str(path))
-    if data.shape[0] < min_samples:
-        raise DataError(f"{path}: too few samples: {data.shape[0]} rows, expected at least {min_samples}")
-    return Recording(time=np.ascontiguousarray(data[:, 0]), f=np.ascontiguousarray(data[:, 1:4]),
-                     omega=np.ascontiguousarray(data[:, 4:7]), source=str(path),
-                     phone=phone, route=route, split=split)
+    columns = _fast_parse(path) if path.is_file() else None
+    time, f, omega = columns if columns is not None else _parse(path)
+    if time.shape[0] < min_samples:
+        raise DataError(f"{path}: too few samples: {time.shape[0]} rows, expected at least {min_samples}")
+    return Recording(time=time, f=f, omega=omega, source=str(path), phone=phone, route=route, split=split)
 
 
 def _csv_fields(line: str) -> list[str]:
@@ -349,113 +350,288 @@ def _header_order(header: list[str], name: str) -> list[int] | None:
     return [header.index(c) for c in COLUMNS]
 
 
-def _parse(raw: bytes, name: str) -> np.ndarray:
-    """Parse and validate CSV bytes line by line, naming the first bad line (:func:`load_csv` tries
-    :func:`_fast_parse` on the file first)."""
-    if b"\x00" in raw:
-        raise DataError(f"{name}: not CSV text (binary content)")
+def _parse(path: Path):
+    """Read and validate a file line by line, naming the first bad line; the columns ``(time, f, omega)``.
+
+    The precise path, which decides whatever :func:`_fast_parse` leaves (it is
+    tried first). Its rules are the documented ones: UTF-8 text with an
+    optional byte-order mark, lines as ``str.splitlines`` cuts them, blank
+    lines skipped, each row read by the ``csv`` module and each cell by
+    ``float`` (no underscores). The file is read twice in blocks, never held
+    whole: a scan for NUL bytes, invalid UTF-8 and content (so those errors
+    come first, whatever line they are on), then the rows, kept as float64
+    values with their line numbers (64 bytes per row).
+    """
+    name = str(path)
+    binary = not_utf8 = False
+    content = False
+    decoder = codecs.getincrementaldecoder("utf-8-sig")()
     try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        raise DataError(f"{name}: not CSV text (not UTF-8)") from None
-    if not text.strip():
+        with open(path, "rb") as fh:
+            while block := fh.read(_BLOCK_BYTES):
+                binary = binary or b"\x00" in block
+                if not not_utf8:
+                    try:
+                        content = bool(decoder.decode(block).strip()) or content
+                    except UnicodeDecodeError:
+                        not_utf8 = True
+            if not not_utf8:
+                try:
+                    content = bool(decoder.decode(b"", final=True).strip()) or content
+                except UnicodeDecodeError:
+                    not_utf8 = True
+    except FileNotFoundError:
+        raise DataError(f"{name}: no such file") from None
+    except IsADirectoryError:
+        raise DataError(f"{name}: is a directory, expected a CSV file") from None
+    except OSError as exc:
+        raise DataError(f"{name}: cannot read ({exc.strerror})") from None
+    if binary:
+        raise DataError(f"{name}: not CSV text (binary content)")
+    if not_utf8:
+        raise DataError(f"{name}: not CSV text (not UTF-8)")
+    if not content:
         raise DataError(f"{name}: empty file, expected the header {','.join(COLUMNS)} and data rows")
-    lines = text.splitlines()
-    first = next(i for i, s in enumerate(lines) if s.strip())
-    if first:
+    try:
+        return _parse_lines(_text_lines(path), name)
+    except OSError as exc:
+        raise DataError(f"{name}: cannot read ({exc.strerror})") from None
+
+
+def _text_lines(path: Path):
+    """The lines of a UTF-8 file (an optional byte-order mark dropped), exactly as ``str.splitlines`` cuts
+    its whole text, decoded block by block."""
+    decoder = codecs.getincrementaldecoder("utf-8-sig")()
+    carry = ""
+    with open(path, "rb") as fh:
+        while block := fh.read(_BLOCK_BYTES):
+            parts = (carry + decoder.decode(block)).splitlines(keepends=True)
+            # the last part waits for the next block: it may lack its line end, or end in a "\r" whose "\n" follows
+            carry = parts.pop() if parts else ""
+            for part in parts:
+                yield part.splitlines()[0]
+        yield from (carry + decoder.decode(b"", final=True)).splitlines()
+
+
+def _parse_lines(lines, name: str):
+    """Validate the lines of a recording (an iterator), naming the first bad line; ``(time, f, omega)``."""
+    first = next(lines, "")
+    if not first.strip():
         raise DataError(f"{name}: line 1: blank line before the header {','.join(COLUMNS)}")
     try:
-        header = _csv_fields(lines[0])
+        header = _csv_fields(first)
     except csv.Error as exc:
         raise DataError(f"{name}: line 1: not a CSV header ({exc})") from None
     order = _header_order(header, name)
-    body = lines[1:]
-    n_rows = sum(1 for s in body if s.strip())
-    if not n_rows:
+    values, line_of = array.array("d"), array.array("q")
+    for i, s in enumerate(lines, start=2):
+        if s.strip():
+            values.extend(_row_values(s, i, header, name))
+            line_of.append(i)
+    if not line_of:
         raise DataError(f"{name}: header only, no data rows")
-    data = None
-    if text.find('"', len(lines[0])) < 0:
-        try:
-            data = np.loadtxt(body, delimiter=",", ndmin=2, dtype=float, comments=None)
-            if data.shape != (n_rows, len(COLUMNS)):
-                data = None
-        except ValueError:
-            data = None
-    if data is None:
-        data = _slow_parse(body, header, name)
+    data = np.frombuffer(values, dtype=np.float64).reshape(-1, len(COLUMNS))
     if order is not None:
         data = data[:, order]
     if not (np.isfinite(data).all() and _within_limits(data)):
-        _name_bad_line(data, body, name)
-    return data
+        _name_bad_line(data, line_of, name)
+    return np.ascontiguousarray(data[:, 0]), np.ascontiguousarray(data[:, 1:4]), np.ascontiguousarray(data[:, 4:7])
 
 
-#: Line boundaries of ``str.splitlines`` other than ``\n`` and ``\r\n``, UTF-8 encoded: a file holding
-#: one takes the line-by-line path, so that line numbers in messages stay those of ``splitlines``.
-_OTHER_BREAKS = (b"\x0b", b"\x0c", b"\x1c", b"\x1d", b"\x1e", b"\xc2\x85", b"\xe2\x80\xa8", b"\xe2\x80\xa9")
+#: The bytes a data line may hold for the C reader to take the file: digits, the characters of a
+#: decimal number (sign, point, exponent), comma, blank, double quote and the line ends. Anything else
+#: (letters of nan/inf, tabs, NUL, other line breaks, non-ASCII) sends the file to the precise path.
+_DATA_BYTES = b"0123456789.eE+-, \"\r\n"
+#: Characters a header line may not hold for the C reader to take the file: NUL and the line
+#: boundaries of ``str.splitlines`` other than the ``\n`` that ends it.
+_HEADER_BREAKS = ("\x00", "\r", "\x0b", "\x0c", "\x1c", "\x1d", "\x1e", "\x85", "\u2028", "\u2029")
+#: Bytes read at a time; a file up to :data:`_KEEP_BYTES` is read at once, a larger one twice (a count
+#: of its lines, then the parse into arrays of that many rows, block by block).
+_BLOCK_BYTES = 1 << 19
+_KEEP_BYTES = 8 << 20
+#: Bytes read to find the header line of a file above :data:`_KEEP_BYTES`.
+_HEAD_BYTES = 1 << 16
 
 
-def _fast_parse(path: Path) -> np.ndarray | None:
-    """The data of a well-formed file with numpy's C tokenizer, or None (the precise path then decides).
+def _line_blocks(fh):
+    """Blocks of a binary file, from where it stands, that each end at a ``\\n`` (the last one as the file ends)."""
+    carry = b""
+    while True:
+        block = fh.read(_BLOCK_BYTES)
+        if not block:
+            if carry:
+                yield carry
+            return
+        block = carry + block
+        cut = block.rfind(b"\n") + 1
+        carry = block[cut:]
+        if cut:
+            yield block[:cut]
 
-    The file is streamed twice, never held whole: a scan in blocks (UTF-8,
-    no NUL, only ``\\n`` or ``\\r\\n`` line ends) and ``numpy.loadtxt`` on the
-    path (its C reader works in chunks), so memory stays near the float64
-    result. Its conversion is Python's correctly rounded one: the numbers are
-    bit-identical to ``float(cell)``. Any doubt (an exotic line break, a
-    header that is not exactly the columns, a cell that is not a finite
-    number, a short or long row, a value beyond a limit) returns None.
+
+@lru_cache(maxsize=1)
+def _pandas_options() -> dict:
+    """Options of ``pandas.read_csv`` for correctly rounded floats, bit-identical to ``float(cell)``."""
+    import pandas as pd
+
+    return _float_options(pd.__version__)
+
+
+def _float_options(version: str) -> dict:
+    """:func:`_pandas_options` for a pandas version string.
+
+    From pandas 3.1 the C engine has one float converter, fast_float, which
+    rounds correctly; earlier versions round correctly only with the
+    ``round_trip`` converter (Python's own; their default, ``high``, is off by
+    one unit in the last place on about a quarter of 17-digit numbers).
     """
-    import codecs
+    major, minor = (int(x) for x in re.match(r"(\d+)\.(\d+)", version).groups())
+    return {} if (major, minor) >= (3, 1) else {"float_precision": "round_trip"}
 
-    decoder = codecs.getincrementaldecoder("utf-8")()
-    head, cr, crlf, prev_cr = b"", 0, 0, False
+
+def _fast_parse(path: Path):
+    """The columns ``(time, f, omega)`` of a well-formed file, read by pandas' C tokenizer, or None.
+
+    None means "let the precise path decide" (:func:`_parse`, which names the
+    bad line when there is one). The fast path takes a file only when it can
+    be sure of the precise path's answer: a header line that is exactly the
+    columns (any order, standard quoting, an optional byte-order mark), data
+    lines made only of :data:`_DATA_BYTES` with ``\\r`` only in ``\\r\\n`` and
+    an even number of quotes each, every row seven numbers, every value finite
+    and within the limits, time strictly increasing with no gap above
+    :data:`MAX_GAP_S`. Floats are correctly rounded (:func:`_pandas_options`):
+    bit-identical to ``float(cell)``.
+
+    A file up to :data:`_KEEP_BYTES` is read at once. A longer one is read
+    twice in blocks: once to count its lines, then block by block (each
+    ending at a line end) into arrays allocated for that many rows, so memory
+    stays near the float64 result (56 bytes per row) whatever its length.
+    """
     try:
         with open(path, "rb") as fh:
-            while True:
-                block = fh.read(1 << 20)
-                if not block:
-                    break
-                if not head:
-                    head = block[:4096]
-                if b"\x00" in block or any(c in block for c in _OTHER_BREAKS):
-                    return None
-                decoder.decode(block)
-                cr += block.count(b"\r")
-                crlf += block.count(b"\r\n") + (prev_cr and block.startswith(b"\n"))
-                prev_cr = block.endswith(b"\r")
-            decoder.decode(b"", final=True)
-    except (OSError, UnicodeDecodeError):
+            whole = os.fstat(fh.fileno()).st_size <= _KEEP_BYTES
+            head = fh.read() if whole else fh.read(_HEAD_BYTES)
+            end = head.find(b"\n")
+            header = _fast_header(head[:end]) if end >= 0 else None
+            if header is None:
+                return None
+            order = [header.index(c) for c in COLUMNS]
+            if whole:
+                rest = head[end + 1:]
+                del head
+                return _fast_columns([rest], None, order)
+            del head
+            fh.seek(end + 1)
+            n_lines = 1
+            while chunk := fh.read(_BLOCK_BYTES):
+                n_lines += chunk.count(b"\n")
+            del chunk
+            fh.seek(end + 1)
+            return _fast_columns(_line_blocks(fh), n_lines, order)
+    except OSError:
         return None
-    if cr != crlf:
+
+
+def _plain_block(block: bytes) -> bool:
+    """Whether data lines hold only :data:`_DATA_BYTES`, ``\\r`` only before ``\\n``, and an even number of
+    quotes on each line (so no quoted field runs across a line end, where the C reader and a line-by-line
+    reading would split the fields differently)."""
+    if block.translate(None, _DATA_BYTES) or (b"\r" in block and block.count(b"\r") != block.count(b"\r\n")):
+        return False
+    if b'"' not in block:
+        return True
+    a = np.frombuffer(block, dtype=np.uint8)
+    parity = np.cumsum(a == ord('"'), dtype=np.uint8) & 1     # quotes so far, mod 2 (the uint8 sum wraps at 256)
+    return not parity[-1] and not parity[a == ord("\n")].any()
+
+
+def _fast_header(line: bytes) -> list[str] | None:
+    """The header's column names when the line is exactly a permutation of :data:`COLUMNS`, else None."""
+    try:
+        text = line.decode("utf-8")
+    except UnicodeDecodeError:
         return None
-    bom = head.startswith(b"\xef\xbb\xbf")
-    end = head.find(b"\n")
-    if end <= (3 if bom else 0):
+    text = text[1:] if text.startswith("\ufeff") else text
+    text = text[:-1] if text.endswith("\r") else text
+    if any(c in text for c in _HEADER_BREAKS) or text.count('"') % 2:
         return None
     try:
-        header = _csv_fields(head[3 if bom else 0:end].decode("utf-8").rstrip("\r"))
-    except (csv.Error, UnicodeDecodeError):
+        header = _csv_fields(text)
+    except csv.Error:
         return None
-    if len(header) != len(COLUMNS) or sorted(header) != sorted(COLUMNS):
+    return header if len(header) == len(COLUMNS) and sorted(header) == sorted(COLUMNS) else None
+
+
+def _fast_columns(blocks, capacity: int | None, order: list[int]):
+    """Parse blocks of data lines into C-ordered ``(time, f, omega)``; None at the first doubt.
+
+    `capacity` bounds the number of rows (the arrays are allocated once); None when `blocks`
+    holds one block, whose rows then set it.
+    """
+    it, i_f, i_w = order[0], order[1:4], order[4:7]
+    if capacity is None:
+        (block,) = blocks
+        rows = _read_rows(block)
+        if rows is None:
+            return None
+        parsed, capacity = iter([rows]), rows.shape[0]
+        del rows
+    else:
+        parsed = (_read_rows(block) for block in blocks)
+    time, f, omega = np.empty(capacity), np.empty((capacity, 3)), np.empty((capacity, 3))
+    n, prev_t = 0, None
+    for rows in parsed:
+        if rows is None:
+            return None
+        m = rows.shape[0]
+        if n + m > capacity:
+            return None
+        t, tf, tw = time[n:n + m], f[n:n + m], omega[n:n + m]
+        t[:] = rows[:, it]
+        for j in range(3):      # column by column: pandas' rows are in Fortran order
+            tf[:, j], tw[:, j] = rows[:, i_f[j]], rows[:, i_w[j]]
+        if not _block_within_limits(t, tf, tw, prev_t):
+            return None
+        n += m
+        prev_t = t[-1] if m else prev_t
+    if n == 0:
         return None
+    if n < capacity:       # blank lines and the final line end: a trimmed copy only when much is spare
+        time, f, omega = (a[:n] if n > capacity // 2 else a[:n].copy() for a in (time, f, omega))
+    return time, f, omega
+
+
+def _read_rows(block: bytes) -> np.ndarray | None:
+    """The rows of a block of data lines as float64, shape (m, 7) (m = 0 for blank lines); None when the
+    bytes are not plain (:func:`_plain_block`), pandas' C reader refuses them (a cell that is not a
+    number, a long row) or they are not seven columns."""
     import warnings
 
+    import pandas as pd
+
+    if not _plain_block(block):
+        return None
+    if not block or block.isspace():
+        return np.empty((0, len(COLUMNS)))
     try:
         with warnings.catch_warnings():
-            # a header-only file: the precise path names it
-            warnings.simplefilter("ignore", UserWarning)
-            data = np.loadtxt(path, delimiter=",", skiprows=1, dtype=np.float64, comments=None, ndmin=2,
-                              quotechar='"', encoding="utf-8-sig")
-    except (ValueError, UnicodeDecodeError):
+            warnings.simplefilter("ignore")
+            frame = pd.read_csv(io.BytesIO(block), header=None, index_col=False, dtype=np.float64,
+                                engine="c", low_memory=False, **_pandas_options())
+    except (ValueError, pd.errors.ParserError, pd.errors.EmptyDataError):
         return None
-    if data.ndim != 2 or data.shape[1] != len(COLUMNS) or data.shape[0] == 0:
-        return None
-    if header != list(COLUMNS):
-        data = data[:, [header.index(c) for c in COLUMNS]]
-    if not (np.isfinite(data).all() and _within_limits(data)):
-        return None
-    return np.ascontiguousarray(data)
+    rows = frame.to_numpy(dtype=np.float64)
+    return rows if rows.ndim == 2 and rows.shape[1] == len(COLUMNS) else None
+
+
+def _block_within_limits(t: np.ndarray, f: np.ndarray, w: np.ndarray, prev_t) -> bool:
+    """Whether rows are finite and within every limit (NaN fails every comparison), time following `prev_t`."""
+    if not t.size:
+        return True
+    dt = np.diff(t) if prev_t is None else np.diff(t, prepend=prev_t)
+    return bool(t.max() <= TIME_LIMIT_S and -t.min() <= TIME_LIMIT_S and (dt > 0).all()
+                and (dt <= MAX_GAP_S).all() and f.max() <= ACCEL_LIMIT_MPS2 and -f.min() <= ACCEL_LIMIT_MPS2
+                and w.max() <= GYRO_LIMIT_RADPS and -w.min() <= GYRO_LIMIT_RADPS)
 
 
 def _within_limits(data: np.ndarray) -> bool:
@@ -466,9 +642,9 @@ def _within_limits(data: np.ndarray) -> bool:
                 and np.abs(data[:, 4:7]).max() <= GYRO_LIMIT_RADPS)
 
 
-def _name_bad_line(data: np.ndarray, body: list[str], name: str) -> None:
-    """Raise the error of the first row that breaks a limit (the data parsed as numbers)."""
-    line_of = [i for i, s in enumerate(body, start=2) if s.strip()]
+def _name_bad_line(data: np.ndarray, line_of, name: str) -> None:
+    """Raise the error of the first row that breaks a limit (the data parsed as numbers, `line_of` the line
+    number of each row)."""
     cols = COLUMNS
     prev_t = -math.inf
     for k in range(data.shape[0]):
@@ -499,32 +675,30 @@ def _name_bad_line(data: np.ndarray, body: list[str], name: str) -> None:
     raise AssertionError("limits broken but no row found")  # pragma: no cover
 
 
-def _slow_parse(body: list[str], header: list[str], name: str) -> np.ndarray:
-    """Row-by-row parse that names the first row that is not numbers; returns the data if all parse."""
-    rows = []
-    for i, s in enumerate(body, start=2):
-        if not s.strip():
-            continue
+def _row_values(s: str, i: int, header: list[str], name: str) -> list[float]:
+    """The numbers of data line `i` (text `s`, cells in the file's column order), or the error naming it."""
+    if '"' in s:
         try:
             cells = _csv_fields(s)
         except csv.Error as exc:
             raise DataError(f"{name}: line {i}: not a CSV row ({exc})") from None
-        if len(cells) != len(COLUMNS):
-            kind = "short" if len(cells) < len(COLUMNS) else "long"
-            raise DataError(f"{name}: line {i}: {kind} row, {len(cells)} fields, expected {len(COLUMNS)}")
-        vals = []
-        for j, c in enumerate(cells):
-            try:
-                if "_" in c:
-                    raise ValueError(c)
-                v = float(c)
-            except ValueError:
-                raise DataError(f"{name}: line {i}: column {header[j]}: {c!r} is not a number") from None
-            if not math.isfinite(v):
-                raise DataError(f"{name}: line {i}: column {header[j]}: {c} is not finite, expected a real number")
-            vals.append(v)
-        rows.append(vals)
-    return np.asarray(rows, dtype=float)
+    else:       # without quotes the csv module splits at every comma
+        cells = [c.strip() for c in s.split(",")]
+    if len(cells) != len(COLUMNS):
+        kind = "short" if len(cells) < len(COLUMNS) else "long"
+        raise DataError(f"{name}: line {i}: {kind} row, {len(cells)} fields, expected {len(COLUMNS)}")
+    vals = []
+    for j, c in enumerate(cells):
+        try:
+            if "_" in c:
+                raise ValueError(c)
+            v = float(c)
+        except ValueError:
+            raise DataError(f"{name}: line {i}: column {header[j]}: {c!r} is not a number") from None
+        if not math.isfinite(v):
+            raise DataError(f"{name}: line {i}: column {header[j]}: {c} is not finite, expected a real number")
+        vals.append(v)
+    return vals
 
 
 def write_csv(path, recording: Recording) -> None:

@@ -709,19 +709,22 @@ def other_rule(result: TablesResult, rule: str | None = None) -> dict:
 
 
 def heading_readings(result: TablesResult) -> dict:
-    """Every MoRPI cell under three readings of the heading, with the step rules and gains of the train runs.
+    """Every MoRPI cell under the two heading sources and the two heading origins.
 
-    ``from_motion``: the z gyro integrated from the motion window's start
-    (the cells of the tables); ``from_start``: the z gyro integrated from the
-    first sample, through the initial rest (the project's earlier reading);
-    ``attitude``: the yaw of the attitude matrix of the 3D mechanization
-    started level with the rest specific force, from the motion window's
-    start (the paper's heading equation). The step rules are the ones the
-    search chose; the gains are retrained under each reading on the train
-    runs, as the detection thresholds are kept. ``train`` compares the
-    two heading sources on what the choice may see: per method, the
-    leave-one-out train error of the chosen rule under each, and their paired
-    difference (attitude minus gyro) with its standard error over the train runs.
+    The heading source is part of the step rule the train runs choose
+    (:attr:`morpi_filters.steps.StepConfig.heading_source`, searched by
+    :func:`morpi_filters.field.select_config`): ``"gyro"``, the z gyro
+    integrated from the motion window's start, or ``"attitude"``, the yaw of
+    the attitude matrix of the 3D mechanization started with the roll and
+    pitch of the rest specific force (the paper's heading equation). Here
+    every MoRPI cell is shown under both, from the motion window's start, and
+    under the chosen source integrated from the first sample, through the
+    initial rest (``from_start``, the project's earlier reading). The other
+    fields of the step rules are the chosen ones; the gains are retrained under
+    each reading on the train runs, as the detection thresholds are kept.
+    ``train`` gives what the choice saw: per method, the leave-one-out train
+    error of the chosen rule under each source, and their paired difference
+    (attitude minus gyro) with its standard error over the train runs.
 
     Parameters
     ----------
@@ -731,23 +734,26 @@ def heading_readings(result: TablesResult) -> dict:
     Returns
     -------
     dict
-        ``used``: the ``heading_from`` and ``heading_source`` of `result`;
-        ``cells``: one dict per MoRPI cell with ``table``, ``phone``,
-        ``p2p_m`` [m], ``method``, ``calibration``, ``paper_percent``,
-        ``from_motion_percent``, ``from_start_percent`` and
-        ``attitude_percent`` [%]; ``train``: method -> ``gyro_loo_percent``,
-        ``attitude_loo_percent`` [%], ``difference_pp``,
-        ``difference_se_pp`` [pp] and ``n_train_runs``.
+        ``used``: ``heading_from`` and, per method, the chosen
+        ``heading_source``; ``cells``: one dict per MoRPI cell with ``table``,
+        ``phone``, ``p2p_m`` [m], ``method``, ``calibration``,
+        ``paper_percent``, ``chosen_source``, ``from_motion_percent`` (the
+        cell of the tables), ``gyro_percent``, ``attitude_percent`` and
+        ``from_start_percent`` [%]; ``train``: method -> ``chosen_source``,
+        ``gyro_loo_percent``, ``attitude_loo_percent`` [%],
+        ``difference_pp``, ``difference_se_pp`` [pp] and ``n_train_runs``.
     """
-    from .field import FieldData
+    from .field import HEADING_SOURCES, FieldData
 
     data = result.data
-    configs = {m: s.config for m, s in result.selections.items()}
-    alt = {}
-    for name, kw in (("from_start", {"heading_from": "start"}), ("attitude", {"heading_source": "attitude"})):
-        d = FieldData(data.root, include_test=any(e.split == "test" for e in data._entries),
-                      ins_span=data.ins_span, thresholds=data.thresholds, **kw)
-        alt[name] = evaluate_tables(data.root, data=d, configs=configs, alternatives=False)
+    chosen = {m: s.config for m, s in result.selections.items()}
+    under = {}
+    for h in HEADING_SOURCES:
+        cfgs = {m: c.with_(heading_source=h) for m, c in chosen.items()}
+        under[h] = cfgs, (result if cfgs == chosen
+                          else evaluate_tables(data.root, data=data, configs=cfgs, alternatives=False))
+    start = FieldData.sharing(data, heading_from="start")
+    from_start = evaluate_tables(data.root, data=start, configs=chosen, alternatives=False)
     cells = []
     for c in result.cells:
         s = c.spec
@@ -756,21 +762,23 @@ def heading_readings(result: TablesResult) -> dict:
         key = (s.table, s.phone, s.p2p_m, s.method, s.calibration)
         cells.append({"table": s.table, "phone": s.phone, "p2p_m": s.p2p_m, "method": s.method,
                       "calibration": s.calibration, "paper_percent": s.paper_percent,
-                      "from_motion_percent": c.ours_percent,
-                      "from_start_percent": alt["from_start"].cell(*key).ours_percent,
-                      "attitude_percent": alt["attitude"].cell(*key).ours_percent})
+                      "chosen_source": chosen[s.method].heading_source, "from_motion_percent": c.ours_percent,
+                      **{f"{h}_percent": under[h][1].cell(*key).ours_percent for h in HEADING_SOURCES},
+                      "from_start_percent": from_start.cell(*key).ours_percent})
     train = {}
     for m in _MORPI_METHODS:
-        g = _loo_vector(data, m, configs[m])
-        a = _loo_vector(alt["attitude"].data, m, configs[m])
+        g = _loo_vector(data, m, under["gyro"][0][m])
+        a = _loo_vector(data, m, under["attitude"][0][m])
         ok = g is not None and a is not None and g.size == a.size > 1
         d = a - g if ok else None
-        train[m] = {"gyro_loo_percent": None if g is None or not g.size else float(g.mean()),
+        train[m] = {"chosen_source": chosen[m].heading_source,
+                    "gyro_loo_percent": None if g is None or not g.size else float(g.mean()),
                     "attitude_loo_percent": None if a is None or not a.size else float(a.mean()),
                     "difference_pp": float(d.mean()) if ok else None,
                     "difference_se_pp": float(d.std(ddof=1) / np.sqrt(d.size)) if ok else None,
                     "n_train_runs": int(g.size) if g is not None else 0}
-    return {"used": {"heading_from": data.heading_from, "heading_source": data.heading_source},
+    return {"used": {"heading_from": data.heading_from,
+                     "heading_source": {m: c.heading_source for m, c in chosen.items()}},
             "cells": cells, "train": train}
 
 
@@ -839,7 +847,7 @@ def turn_reading(result: TablesResult) -> dict:
                 s = data.steps(r, "GC", m, cfg)
             except MorpiError:
                 continue
-            psi = data.heading(r, "GC")
+            psi = data.heading(r, "GC", cfg.heading_source)
             bt = s.peaks.grid_time[s.peaks.grid_index]
             stretches = st.turn_stretches(bt, np.interp(bt, r.time, psi), np.radians(cfg.turn_deg),
                                           2 if cfg.segment == "extrema" else 1)
@@ -862,7 +870,7 @@ DEVIATION_PP = 2.5
 
 def _config_json(cfg: st.StepConfig) -> dict:
     return {k: getattr(cfg, k) for k in ("heading", "segment", "ends", "min_period_s", "prominence",
-                                          "cutoff_hz", "amplitude_from", "turn_deg")}
+                                          "cutoff_hz", "amplitude_from", "turn_deg", "heading_source")}
 
 
 def _heading_stats(c: Cell, res: TablesResult) -> tuple[float, float]:

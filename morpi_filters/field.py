@@ -21,8 +21,8 @@ from . import steps as st
 from .errors import MorpiError
 
 __all__ = ["SHORT_SETS", "RULES", "INS_SPANS", "LEVELED", "HEADING_ORIGINS", "HEADING_SOURCES", "Gain",
-           "Selection", "Thresholds", "FieldData", "train_thresholds", "select_config", "nested_rule_comparison",
-           "READING_GRID", "TUNABLE_GRID", "SWING_MARGIN", "TURN_MARGIN", "trained_gain"]
+           "Selection", "Thresholds", "FieldData", "train_thresholds", "fold_thresholds", "select_config", "nested_rule_comparison",
+           "READING_GRID", "TUNABLE_GRID", "SWING_MARGIN", "TURN_MARGIN", "SOURCE_SE", "trained_gain"]
 
 #: Short-route training/test sets: (phone, route, p2p).
 SHORT_SETS = (("s8", "short_distance", 1.0), ("s8", "short_distance_1.5p2p", 1.5), ("s6", "short_distance", 1.0))
@@ -35,9 +35,10 @@ INS_SPANS = ("motion", "full")
 LEVELED = "GC+level"
 #: Where the MoRPI heading is integrated from: the motion onset (default) or the first sample.
 HEADING_ORIGINS = ("motion", "start")
-#: What the MoRPI heading is read from: the integrated z gyro (default), or the yaw of the attitude
-#: matrix of the 3D mechanization started level with the rest specific force (the paper's equation).
-HEADING_SOURCES = ("gyro", "attitude")
+#: What the MoRPI heading is read from (the step rule's ``heading_source``): the integrated z gyro, or
+#: the yaw of the attitude matrix of the 3D mechanization started level with the rest specific force
+#: (the paper's equation).
+HEADING_SOURCES = st.HEADING_SOURCES
 #: The least heading swing of a periodic run is this fraction of the smallest swing of the train runs.
 SWING_MARGIN = 0.75
 #: A full period turns (the ``"turns"`` heading reading) when its heading change exceeds this multiple of
@@ -120,6 +121,9 @@ class Thresholds:
     period_changes_deg : tuple of float
         Per train run and method (MoRPI-A runs first, then MoRPI-G), its
         largest absolute full-period heading change [deg].
+    rest_files, swing_files, change_files : tuple of str
+        The train run of each value of `rest_std`, `swings_deg` and
+        `period_changes_deg`.
     """
 
     accel_floor: float
@@ -129,6 +133,9 @@ class Thresholds:
     files: tuple = ()
     turn_deg: float = st.StepConfig().turn_deg
     period_changes_deg: tuple = ()
+    rest_files: tuple = ()
+    swing_files: tuple = ()
+    change_files: tuple = ()
 
 
 #: Used when a root has no train runs (no gains either, so no MoRPI cell): the library's defaults.
@@ -156,25 +163,18 @@ class FieldData:
         ``"motion"``: the MoRPI heading starts at zero at the motion window's
         start (default); ``"start"``: it is integrated from the first sample,
         through the initial rest.
-    heading_source : str
-        ``"gyro"``: the integrated z angular rate (default); ``"attitude"``:
-        the yaw of the attitude matrix of the 3D mechanization
-        (:func:`morpi_filters.strapdown.ins3d`), started with the roll and
-        pitch of the rest specific force.
     thresholds : Thresholds, optional
         Detection thresholds to use instead of :func:`train_thresholds` of
         this root's train runs.
     """
 
     def __init__(self, root, *, include_test: bool = True, ins_span: str = "motion", heading_from: str = "motion",
-                 heading_source: str = "gyro", thresholds: Thresholds | None = None):
-        for name, v, allowed in (("ins_span", ins_span, INS_SPANS), ("heading_from", heading_from, HEADING_ORIGINS),
-                                 ("heading_source", heading_source, HEADING_SOURCES)):
+                 thresholds: Thresholds | None = None):
+        for name, v, allowed in (("ins_span", ins_span, INS_SPANS), ("heading_from", heading_from, HEADING_ORIGINS)):
             if v not in allowed:
                 raise MorpiError(f"{name}={v!r}: expected one of {allowed}")
         self.ins_span = ins_span
         self.heading_from = heading_from
-        self.heading_source = heading_source
         self._thresholds = thresholds
         self._accel_floor = None if thresholds is None else thresholds.accel_floor
         self.root = Path(root)
@@ -187,7 +187,42 @@ class FieldData:
         self._ins: dict = {}
         self._steps: dict = {}
         self._peaks: dict = {}
+        self._activity: dict = {}
+        self._canon: dict = {}
         self._train_summaries: dict = {}
+
+    @classmethod
+    def sharing(cls, other: "FieldData", *, heading_from: str | None = None,
+                ins_span: str | None = None) -> "FieldData":
+        """The same root and thresholds read another way, reusing `other`'s loaded work.
+
+        The recordings, rest windows, calibrations, motion windows, peaks and
+        INS runs are shared with `other` (none depends on the heading origin;
+        INS runs are keyed by their span); what depends on the heading is
+        computed afresh.
+
+        Parameters
+        ----------
+        other : FieldData
+            The instance whose caches are shared.
+        heading_from, ins_span : str, optional
+            As for :class:`FieldData`; default: `other`'s.
+
+        Returns
+        -------
+        FieldData
+        """
+        new = cls.__new__(cls)
+        new.__dict__.update(other.__dict__)
+        for name, v, allowed in (("ins_span", ins_span, INS_SPANS), ("heading_from", heading_from, HEADING_ORIGINS)):
+            if v is not None and v not in allowed:
+                raise MorpiError(f"{name}={v!r}: expected one of {allowed}")
+        new.ins_span = ins_span or other.ins_span
+        new.heading_from = heading_from or other.heading_from
+        new._thresholds = other.thresholds
+        new._accel_floor = other.accel_floor()
+        new._prep, new._steps, new._train_summaries, new.study_cache = {}, {}, {}, {}
+        return new
 
     def entries(self, phone, route, split):
         return [e for e in self._entries if (e.phone, e.route, e.split) == (phone, route, split)]
@@ -274,33 +309,40 @@ class FieldData:
         """End time of the initial rest window [s]."""
         return float(self.rest_window(rec).end_s)
 
-    def prepared(self, rec, mode: str, method: str, cutoff_hz):
+    def prepared(self, rec, mode: str, method: str, cutoff_hz, source: str = "gyro"):
         # RD and GC differ by a constant on omega_z and not at all on f_y. A constant offset changes
         # neither the peaks, the prominence threshold (relative to the signal's range) nor any
-        # max - min, so the signal part is shared between RD and GC; the heading is the calibration's
-        key = (rec.source, mode, method, cutoff_hz)
+        # max - min, so the signal part is shared between RD and GC and between the heading sources;
+        # only the heading differs
+        key = (rec.source, mode, method, cutoff_hz, source)
         if key not in self._prep:
             crec, _ = self.calibrated(rec, mode)
             motion = self.activity(rec)
-            other = (rec.source, "GC" if mode == "RD" else "RD", method, cutoff_hz)
-            if other in self._prep and mode in ("RD", "GC"):
+            shared = next((self._prep[k] for k in ((rec.source, m, method, cutoff_hz, h)
+                                                   for m in ("RD", "GC") for h in HEADING_SOURCES)
+                           if k in self._prep), None) if mode in ("RD", "GC") else None
+            if shared is not None:
                 from dataclasses import replace
 
-                self._prep[key] = replace(self._prep[other], heading=self.heading(rec, mode))
+                self._prep[key] = replace(shared, heading=self.heading(rec, mode, source))
             else:
                 self._prep[key] = st.prepare_signal(crec, method, cutoff_hz, motion=motion,
-                                                    heading=self.heading(rec, mode))
+                                                    heading=self.heading(rec, mode, source))
         return self._prep[key]
 
-    def heading(self, rec, mode: str) -> np.ndarray:
+    def heading(self, rec, mode: str, source: str = "gyro") -> np.ndarray:
         """The MoRPI heading on the recording's samples [rad], shape (n,), for RD or GC.
 
-        Read as the instance's `heading_source` says, from the instance's
-        `heading_from`: with ``"motion"`` it is zero up to the motion window's
-        start (:meth:`activity`) and integrated from there; after the window's
-        end it holds its last value.
+        Read from `source` (:data:`HEADING_SOURCES`: ``"gyro"``, the integrated
+        z rate; ``"attitude"``, the yaw of the 3D mechanization's attitude,
+        started with the roll and pitch of the rest specific force), from the
+        instance's `heading_from`: with ``"motion"`` it is zero up to the
+        motion window's start (:meth:`activity`) and integrated from there;
+        after the window's end it holds its last value.
         """
-        key = (rec.source, mode, "heading")
+        if source not in HEADING_SOURCES:
+            raise MorpiError(f"heading source {source!r}: expected one of {HEADING_SOURCES}")
+        key = (rec.source, mode, "heading", source)
         if key not in self._prep:
             crec, _ = self.calibrated(rec, mode)
             t = crec.time
@@ -310,32 +352,37 @@ class FieldData:
             if i1 - i0 < 2:
                 raise MorpiError(f"{rec.source}: no motion found for the heading")
             psi = np.zeros(t.shape[0])
-            if self.heading_source == "gyro":
+            if source == "gyro":
                 part = st.integrate_heading(t[i0:i1], crec.omega[i0:i1, 2])
             else:
-                from .strapdown import coarse_level, ins3d
+                from .strapdown import attitude_heading
 
-                f_rest = self.rest_specific_force(rec)
-                part = ins3d(t[i0:i1], crec.f[i0:i1], crec.omega[i0:i1], C0=coarse_level(f_rest),
-                             g=float(np.linalg.norm(f_rest))).heading
-                part = np.asarray(part) - part[0]
+                part = attitude_heading(t[i0:i1], crec.f[i0:i1], crec.omega[i0:i1], self.rest_specific_force(rec))
             psi[i0:i1] = part
             psi[i1:] = part[-1]
             self._prep[key] = psi
         return self._prep[key]
 
     def steps(self, rec, mode, method, config):
-        key = (rec.source, mode, method, config)
+        # one extraction serves every least swing (a check on the result) and, unless the heading follows
+        # turns, every turn threshold (unused)
+        canon = self._canon.get(config)
+        if canon is None:
+            canon = self._canon[config] = config.with_(
+                min_swing_deg=0.0, turn_deg=config.turn_deg if config.heading == "turns" else st.StepConfig.turn_deg)
+        key = (rec.source, mode, method, canon)
         if key not in self._steps:
             try:
-                self._steps[key] = st.extract_steps(None, method, config,
-                                                    prepared=self.prepared(rec, mode, method, config.cutoff_hz),
+                self._steps[key] = st.extract_steps(None, method, canon,
+                                                    prepared=self.prepared(rec, mode, method, config.cutoff_hz,
+                                                                           config.heading_source),
                                                     peak_cache=self._peaks)
             except MorpiError as exc:
                 self._steps[key] = exc
         out = self._steps[key]
         if isinstance(out, MorpiError):
             raise out
+        st.require_swing(rec.source, method, out.swing_deg, config.min_swing_deg)
         return out
 
     def activity(self, rec) -> tuple:
@@ -346,11 +393,10 @@ class FieldData:
         (:meth:`rest_window`); the window starts after the rest ends and ends
         when the robot stops, before the final rest.
         """
-        key = (rec.source, "activity")
-        if key not in self._prep:
+        if rec.source not in self._activity:
             w = self.rest_window(rec)
-            self._prep[key] = st.activity_span(rec.time, rec.omega, rest=(w.start_s, w.end_s))
-        return self._prep[key]
+            self._activity[rec.source] = st.activity_span(rec.time, rec.omega, rest=(w.start_s, w.end_s))
+        return self._activity[rec.source]
 
     def ins(self, rec, mode: str, method: str, span: str | None = None):
         """INS solution (InsResult) of a recording, 3D or 2D, over `span` (default: the instance's).
@@ -514,14 +560,74 @@ def train_thresholds(data: FieldData) -> Thresholds:
                 swings.append(float(sw))
                 sfiles.append(e.relpath)
     changes, cfiles = _train_period_changes(data)
+    return _thresholds_from(data.accel_floor(), rest_std, files, swings, sfiles, changes, cfiles)
+
+
+def _thresholds_from(floor, rest_std, rest_files, swings, swing_files, changes, change_files) -> Thresholds:
+    """The thresholds the per-run measurements set (:func:`train_thresholds`)."""
     turn = float(np.floor(TURN_MARGIN * max(changes))) if changes else _DEFAULT_THRESHOLDS.turn_deg
+    per_run = dict(rest_std=tuple(rest_std), rest_files=tuple(rest_files), turn_deg=turn,
+                   period_changes_deg=tuple(changes), change_files=tuple(change_files))
     if not swings:
-        return Thresholds(accel_floor=data.accel_floor(), min_swing_deg=_DEFAULT_THRESHOLDS.min_swing_deg,
-                          rest_std=rest_std, files=files, turn_deg=turn, period_changes_deg=tuple(changes))
-    return Thresholds(accel_floor=data.accel_floor(), min_swing_deg=float(np.floor(SWING_MARGIN * min(swings))),
-                      rest_std=rest_std, swings_deg=tuple(swings),
-                      files=tuple(sorted(set(files) | set(sfiles) | set(cfiles))), turn_deg=turn,
-                      period_changes_deg=tuple(changes))
+        return Thresholds(accel_floor=floor, min_swing_deg=_DEFAULT_THRESHOLDS.min_swing_deg,
+                          files=tuple(rest_files), **per_run)
+    return Thresholds(accel_floor=floor, min_swing_deg=float(np.floor(SWING_MARGIN * min(swings))),
+                      swings_deg=tuple(swings), swing_files=tuple(swing_files),
+                      files=tuple(sorted(set(rest_files) | set(swing_files) | set(change_files))), **per_run)
+
+
+def fold_thresholds(data: FieldData, held_out: str) -> tuple[Thresholds, bool]:
+    """The thresholds the train runs set with one of them held out, and whether the rest windows stay.
+
+    The per-run measurements of :func:`train_thresholds` are kept and the
+    held-out run's are dropped, so the floor, the least swing and the least
+    turn are what the remaining train runs set. The measurements themselves
+    were taken under the full floor; when the fold's floor finds the same rest
+    window in every remaining train run (then the motion windows, the
+    calibrations and every step signal are the same too), they are exactly
+    the fold's own.
+
+    Parameters
+    ----------
+    data : FieldData
+        The dataset root; only its ``train`` folders are read.
+    held_out : str
+        The train recording to leave out (path relative to the root).
+
+    Returns
+    -------
+    thresholds : Thresholds
+        The fold's thresholds.
+    same_windows : bool
+        True when the fold's floor finds the same rest window in every
+        remaining train run (the thresholds are then exactly the fold's own;
+        otherwise the fold needs its own :class:`FieldData`).
+    """
+    import inspect
+
+    from .calibration import detect_rest
+
+    th = data.thresholds
+    rest = [(v, f) for v, f in zip(th.rest_std, th.rest_files) if f != held_out]
+    k_std = inspect.signature(detect_rest).parameters["k_std"].default
+    floor = float(k_std * np.median([v for v, _ in rest])) if rest else _DEFAULT_THRESHOLDS.accel_floor
+    keep = lambda vals, files: ([v for v, f in zip(vals, files) if f != held_out],
+                                [f for f in files if f != held_out])
+    fold = _thresholds_from(floor, *keep(th.rest_std, th.rest_files), *keep(th.swings_deg, th.swing_files),
+                            *keep(th.period_changes_deg, th.change_files))
+    same = True
+    if floor != th.accel_floor:
+        for e in data.train_entries():
+            if e.relpath == held_out:
+                continue
+            for r in data.recordings(e.phone, e.route, e.split):
+                if data.relpath(r) == e.relpath:
+                    key = (r.source, "rest", floor)
+                    if key not in data._cal:
+                        data._cal[key] = detect_rest(r, accel_floor=floor)
+                    w, w0 = data._cal[key], data.rest_window(r)
+                    same = same and (w.i0, w.i1) == (w0.i0, w0.i1)
+    return fold, same
 
 
 def _train_period_changes(data: FieldData) -> tuple[list, list]:
@@ -589,6 +695,11 @@ def trained_gain(data: FieldData, phone, route, calibration, method, config) -> 
 
 #: Coordinate search: first the readings (with the first tunables), then the tunables.
 READING_GRID = {"heading": ("absolute", "mean", "turns"), "segment": st.SEGMENTS, "ends": st.ENDS}
+#: The 3D attitude heading (more machinery than the z gyro: a whole 3D mechanization) is chosen only when
+#: its train leave-one-out error is lower by more than this many standard errors of the paired
+#: difference over the train runs: the "one-standard-error rule" of cross-validated model selection
+#: (Hastie, Tibshirani and Friedman, The Elements of Statistical Learning, 2nd ed., section 7.10).
+SOURCE_SE = 1.0
 TUNABLE_GRID = {"cutoff_hz": (1.0, 2.0, 3.0), "prominence": (0.2, 0.35, 0.5), "min_period_s": (0.5, 1.0)}
 _START = st.StepConfig(heading="absolute", segment="maxima", ends="drop", cutoff_hz=2.0, prominence=0.35,
                        min_period_s=0.5)
@@ -597,31 +708,35 @@ _START = st.StepConfig(heading="absolute", segment="maxima", ends="drop", cutoff
 def _train_summary(data: FieldData, method, config, mode="GC"):
     """Per short-route set, the train runs reduced to what a gain and an end point need.
 
-    A tuple of ``(truth, relpaths, g, u, loo)`` per set: ``g`` each run's own
-    gain (distance / effective weight), ``u`` the end point per unit gain
-    (``sum(weight * fraction * [cos, sin](heading))``, shape ``(n, 2)``), so that
-    a run dead-reckoned with gain ``G`` ends at ``G u``, and ``loo`` the runs'
-    leave-one-out errors (:func:`_loo_errors`; None below two runs). None if a
-    run fails. Cached on `data`.
+    A tuple of ``(truth, members, relpaths, g, u, loo, failed)`` per set: ``g``
+    each run's own gain (distance / effective weight), ``u`` the end point per
+    unit gain (``sum(weight * fraction * [cos, sin](heading))``, shape
+    ``(n, 2)``), so that a run dead-reckoned with gain ``G`` ends at ``G u``,
+    ``loo`` the runs' leave-one-out errors (:func:`_loo_errors`; None below
+    two runs or when a run fails) and ``failed`` the runs the rule cannot
+    process (no periodic motion found; NaN in ``g`` and ``u``). Cached on
+    `data`.
     """
     key = (method, config, mode)
     if key not in data._train_summaries:
         out = []
         for phone, route, _ in SHORT_SETS:
             recs = data.recordings(phone, route, "train")
-            try:
-                sl = [data.steps(r, mode, method, config) for r in recs]
-            except MorpiError:
-                out = None
-                break
+            rels = tuple(data.relpath(r) for r in recs)
+            g, u, failed = np.full(len(recs), np.nan), np.full((len(recs), 2), np.nan), set()
             truth = ds.route(route)
-            g = np.array([truth.distance_m / s.effective_weight for s in sl])
-            u = np.array([[np.dot(s.weight * s.fraction, np.cos(s.heading)),
-                           np.dot(s.weight * s.fraction, np.sin(s.heading))] for s in sl]).reshape(-1, 2)
-            loo = _loo_errors(truth, g, u) if g.size >= 2 else None
-            out.append((truth, frozenset(data.relpath(r) for r in recs), tuple(data.relpath(r) for r in recs),
-                        g, u, loo))
-        data._train_summaries[key] = None if out is None else tuple(out)
+            for i, r in enumerate(recs):
+                try:
+                    s = data.steps(r, mode, method, config)
+                except MorpiError:
+                    failed.add(rels[i])
+                    continue
+                g[i] = truth.distance_m / s.effective_weight
+                u[i] = [np.dot(s.weight * s.fraction, np.cos(s.heading)),
+                        np.dot(s.weight * s.fraction, np.sin(s.heading))]
+            loo = _loo_errors(truth, g, u) if g.size >= 2 and not failed else None
+            out.append((truth, frozenset(rels), rels, g, u, loo, frozenset(failed)))
+        data._train_summaries[key] = tuple(out)
     return data._train_summaries[key]
 
 
@@ -634,13 +749,13 @@ def _loo_errors(truth, g, u) -> np.ndarray:
 def _loo_vector(data: FieldData, method, config, mode="GC", exclude=frozenset()) -> np.ndarray | None:
     """Per-run leave-one-out end-point errors [%] of the short-route train runs not in `exclude`.
 
-    In catalogue order; sets with fewer than two runs left give none. None if a run fails.
+    In catalogue order; sets with fewer than two runs left give none. None if
+    a run not in `exclude` fails (the rule cannot process it).
     """
-    sets = _train_summary(data, method, config, mode)
-    if sets is None:
-        return None
     errs = []
-    for truth, members, rels, g, u, loo in sets:
+    for truth, members, rels, g, u, loo, failed in _train_summary(data, method, config, mode):
+        if failed - exclude:
+            return None
         if members.isdisjoint(exclude):
             if loo is not None:
                 errs.append(loo)
@@ -651,6 +766,21 @@ def _loo_vector(data: FieldData, method, config, mode="GC", exclude=frozenset())
     return np.concatenate(errs) if errs else np.empty(0)
 
 
+def _held_out_error(data: FieldData, method, config, k: int, rel: str) -> float:
+    """End-point error [%] of train run `rel` of short-route set `k` with the mean gain of the set's other runs.
+
+    NaN when the rule cannot process `rel` or when no other run of the set gives a gain.
+    """
+    truth, _, rels, g, u, _, failed = _train_summary(data, method, config)[k]
+    if rel in failed:
+        return float("nan")
+    i = rels.index(rel)
+    others = np.array([j != i and r not in failed for j, r in enumerate(rels)], dtype=bool)
+    if not others.any():
+        return float("nan")
+    return float(np.linalg.norm(g[others].mean() * u[i] - truth.end_point_m) / truth.distance_m * 100)
+
+
 def _loo_score(data: FieldData, method, config, mode="GC", exclude=frozenset()) -> tuple[float, int]:
     """Leave-one-out mean end-point error [%] over the short-route train runs not in `exclude`."""
     errs = _loo_vector(data, method, config, mode, exclude)
@@ -659,21 +789,30 @@ def _loo_score(data: FieldData, method, config, mode="GC", exclude=frozenset()) 
     return float(np.mean(errs)), int(errs.size)
 
 
-def select_config(data: FieldData, methods=_MORPI_METHODS, *, exclude=()) -> Selection:
+def select_config(data: FieldData, methods=_MORPI_METHODS, *, exclude=(), thresholds: Thresholds | None = None
+                  ) -> Selection:
     """Choose the step rule from the short-route train runs only.
 
     A coordinate search: the paper's readings (heading absolute, mean over
     the step, or the step's own change plus the turns so far, ``"turns"``;
     segments between maxima or extrema; partial end steps dropped,
-    fractional or whole) are scored with the start tunables, then each tunable
-    (low-pass cut-off, prominence fraction, least period) is scanned in turn
-    with the best readings. The score is the leave-one-out end-point error of
-    the train runs (GC calibration), averaged over `methods`: with both
-    methods (the default) one rule serves MoRPI-A and MoRPI-G, as the paper
-    extracts both "in the same manner". The heading reading "change" is not a
-    candidate: it cannot represent a turn (the L route), so it is reported as
-    an alternative only; ``"turns"`` is its turn-following form, with the
-    turn threshold of :func:`train_thresholds`. Ties keep the earlier config.
+    fractional or whole) are scored with the start tunables, then each
+    tunable (low-pass cut-off, prominence fraction, least period) is scanned
+    in turn with the best readings. The score is the leave-one-out end-point
+    error of the train runs (GC calibration), averaged over `methods`: with
+    both methods (the default) one rule serves MoRPI-A and MoRPI-G, as the
+    paper extracts both "in the same manner". The heading reading "change" is
+    not a candidate: it cannot represent a turn (the L route), so it is
+    reported as an alternative only; ``"turns"`` is its turn-following form,
+    with the turn threshold of :func:`train_thresholds`. Ties keep the earlier
+    config.
+
+    The search runs once per heading source (the z gyro, and the 3D attitude
+    of the paper's heading equation). The attitude's rule is chosen when its
+    train error is lower than the gyro rule's by more than :data:`SOURCE_SE`
+    standard errors of their paired difference over the train runs (the
+    one-standard-error rule); otherwise the gyro's, the reading with less
+    machinery.
 
     Parameters
     ----------
@@ -684,6 +823,9 @@ def select_config(data: FieldData, methods=_MORPI_METHODS, *, exclude=()) -> Sel
     exclude : iterable of str
         Train recordings (paths relative to the dataset root) to leave out,
         as if absent; used by :func:`nested_rule_comparison`.
+    thresholds : Thresholds, optional
+        The least swing and least turn of the rules; default:
+        ``data.thresholds`` (:func:`fold_thresholds` gives those of a fold).
 
     Returns
     -------
@@ -697,13 +839,44 @@ def select_config(data: FieldData, methods=_MORPI_METHODS, *, exclude=()) -> Sel
     if isinstance(methods, str):
         methods = (methods,)
     exclude = frozenset(exclude)
+    th = thresholds or data.thresholds
+    start = _START.with_(min_swing_deg=th.min_swing_deg, turn_deg=th.turn_deg)
+    found = {h: _search(data, methods, exclude, start.with_(heading_source=h)) for h in st.HEADING_SOURCES}
+    trials = tuple(t for h in st.HEADING_SOURCES for t in found[h][3])
+    best, best_score, n, _ = found["gyro"]
+    att = found["attitude"]
+    if np.isfinite(att[1]):
+        d = _source_difference(data, methods, exclude, best, att[0])
+        if d is not None and d.mean() < -SOURCE_SE * _se(d):
+            best, best_score, n = att[:3]
+    if not np.isfinite(best_score):
+        best = st.StepConfig(min_swing_deg=th.min_swing_deg, turn_deg=th.turn_deg)
+    return Selection("+".join(methods), best, best_score, trials, n)
+
+
+def _se(d) -> float:
+    return float(d.std(ddof=1) / np.sqrt(d.size)) if d.size > 1 else float("inf")
+
+
+def _source_difference(data, methods, exclude, gyro_cfg, attitude_cfg) -> np.ndarray | None:
+    """Per train run, the leave-one-out error of `attitude_cfg` minus `gyro_cfg` [pp], averaged over `methods`."""
+    diffs = []
+    for m in methods:
+        g = _loo_vector(data, m, gyro_cfg, exclude=exclude)
+        a = _loo_vector(data, m, attitude_cfg, exclude=exclude)
+        if g is None or a is None or g.size != a.size or not g.size:
+            return None
+        diffs.append(a - g)
+    return np.mean(diffs, axis=0)
+
+
+def _search(data: FieldData, methods, exclude, start) -> tuple:
+    """The coordinate search of :func:`select_config` from `start`: (best, score, n_train, trials)."""
 
     def score(cfg):
         vals = [_loo_score(data, m, cfg, exclude=exclude) for m in methods]
         return float(np.mean([v for v, _ in vals])), int(sum(n for _, n in vals))
 
-    th = data.thresholds
-    start = _START.with_(min_swing_deg=th.min_swing_deg, turn_deg=th.turn_deg)
     trials = []
     best, best_score, n = start, float("inf"), 0
     keys = list(READING_GRID)
@@ -723,9 +896,7 @@ def select_config(data: FieldData, methods=_MORPI_METHODS, *, exclude=()) -> Sel
             trials.append((cfg, sc))
             if sc < best_score:
                 best, best_score, n = cfg, sc, n_
-    if not np.isfinite(best_score):
-        best = st.StepConfig(min_swing_deg=th.min_swing_deg, turn_deg=th.turn_deg)
-    return Selection("+".join(methods), best, best_score, tuple(trials), n)
+    return best, best_score, n, trials
 
 
 def nested_rule_comparison(data: FieldData) -> dict:
@@ -738,7 +909,9 @@ def nested_rule_comparison(data: FieldData) -> dict:
     repeated on the remaining train runs, and the held-out run is
     dead-reckoned with the chosen rule and the mean gain of the other runs of
     its set. The mean held-out error estimates how each procedure does on
-    runs it has not seen. Only train folders are read.
+    runs it has not seen. The detection thresholds are set again in each fold
+    without the held-out run (:func:`fold_thresholds`). Only train folders are
+    read.
 
     Parameters
     ----------
@@ -755,8 +928,11 @@ def nested_rule_comparison(data: FieldData) -> dict:
         method -> fraction of folds whose chosen rule equals the one chosen
         on all train runs; ``preferred``: the rule with the lower mean;
         ``folds``: one dict per held-out run, with its ``file`` (path relative
-        to the root) and rule -> method -> its held-out error [%] (NaN when
-        its set has no gain). The means, differences, fractions and
+        to the root), the fold's ``accel_floor`` [m/s^2], ``min_swing_deg`` and
+        ``turn_deg`` [deg], ``same_rest_windows`` and rule -> method -> its
+        held-out error [%] (NaN when its set has no gain);
+        ``folds_with_other_thresholds``: how many folds set thresholds other
+        than the full train set's. The means, differences, fractions and
         ``preferred`` are None without train runs.
     """
     folds = [(phone, route, data.relpath(r)) for phone, route, _ in SHORT_SETS
@@ -766,35 +942,55 @@ def nested_rule_comparison(data: FieldData) -> dict:
     full["joint"] = {m: cj for m in _MORPI_METHODS}
     errs = {rule: {m: [] for m in _MORPI_METHODS} for rule in RULES}
     same = {rule: {m: 0 for m in _MORPI_METHODS} for rule in RULES}
+    own = []
     for phone, route, rel in folds:
-        chosen = {"per_method": {m: select_config(data, m, exclude=(rel,)).config for m in _MORPI_METHODS}}
-        cj = select_config(data, exclude=(rel,)).config
+        th, same_windows = fold_thresholds(data, rel)
+        d = data
+        if not same_windows:
+            # the fold's floor moves a rest window: the fold gets its own windows, calibrations and steps
+            d = FieldData(data.root, include_test=False, ins_span=data.ins_span, heading_from=data.heading_from,
+                          thresholds=th)
+            d._rec = data._rec
+        own.append({"file": rel, "accel_floor": th.accel_floor, "min_swing_deg": th.min_swing_deg,
+                    "turn_deg": th.turn_deg, "same_rest_windows": same_windows})
+        chosen = {"per_method": {m: select_config(d, m, exclude=(rel,), thresholds=th).config
+                                 for m in _MORPI_METHODS}}
+        cj = select_config(d, exclude=(rel,), thresholds=th).config
         chosen["joint"] = {m: cj for m in _MORPI_METHODS}
         k = [s[:2] for s in SHORT_SETS].index((phone, route))
         for rule in RULES:
             for m in _MORPI_METHODS:
                 cfg = chosen[rule][m]
-                same[rule][m] += cfg == full[rule][m]
-                sets = _train_summary(data, m, cfg)
-                if sets is None or sets[k][5] is None:
-                    errs[rule][m].append(np.nan)
-                    continue
-                rels, loo = sets[k][2], sets[k][5]
-                errs[rule][m].append(float(loo[rels.index(rel)]))
+                # the rule is compared with the full selection's apart from the fold's own thresholds
+                same[rule][m] += cfg.with_(min_swing_deg=full[rule][m].min_swing_deg,
+                                           turn_deg=full[rule][m].turn_deg) == full[rule][m]
+                errs[rule][m].append(_held_out_error(d, m, cfg, k, rel))
     n = len(folds)
-    per_rule = {rule: np.nanmean([errs[rule][m] for m in _MORPI_METHODS], axis=0) for rule in RULES}
+    # per fold, the mean over the methods whose held-out run could be dead-reckoned (NaN when none)
+    per_rule = {}
+    for rule in RULES:
+        e = np.array([errs[rule][m] for m in _MORPI_METHODS]).reshape(len(_MORPI_METHODS), n)
+        ok = np.isfinite(e)
+        per_rule[rule] = np.where(ok.any(axis=0), np.where(ok, e, 0.0).sum(axis=0) / np.maximum(ok.sum(axis=0), 1),
+                                  np.nan)
+    def finite_mean(x):
+        x = np.asarray(x, float)
+        return float(x[np.isfinite(x)].mean()) if np.isfinite(x).any() else None
+
     d = per_rule["joint"] - per_rule["per_method"]
     d = d[np.isfinite(d)]
-    mean = {rule: float(np.nanmean(per_rule[rule])) if n else None for rule in RULES}
+    mean = {rule: finite_mean(per_rule[rule]) for rule in RULES}
     return {
-        "rules": {rule: {m: float(np.nanmean(errs[rule][m])) if n else None for m in _MORPI_METHODS}
-                  for rule in RULES},
+        "rules": {rule: {m: finite_mean(errs[rule][m]) for m in _MORPI_METHODS} for rule in RULES},
         "mean": mean,
         "difference_pp": float(d.mean()) if d.size else None,
         "difference_se_pp": float(d.std(ddof=1) / np.sqrt(d.size)) if d.size > 1 else None,
         "n_folds": n,
         "same_as_full": {rule: {m: same[rule][m] / n if n else None for m in _MORPI_METHODS} for rule in RULES},
-        "preferred": min(RULES, key=lambda r: mean[r]) if n else None,
-        "folds": [{"file": rel, **{rule: {m: errs[rule][m][i] for m in _MORPI_METHODS} for rule in RULES}}
-                  for i, (_, _, rel) in enumerate(folds)],
+        "preferred": min(RULES, key=lambda r: mean[r]) if all(v is not None for v in mean.values()) else None,
+        "folds": [{**own[i], **{rule: {m: errs[rule][m][i] for m in _MORPI_METHODS} for rule in RULES}}
+                  for i in range(n)],
+        "folds_with_other_thresholds": sum((f["accel_floor"], f["min_swing_deg"], f["turn_deg"])
+                                           != (data.thresholds.accel_floor, data.thresholds.min_swing_deg,
+                                               data.thresholds.turn_deg) for f in own),
     }

@@ -364,8 +364,9 @@ def prepare(data, rec, mode, method, config, gain) -> Prepared:
     # the specific force's mean shift under way (the run starts and ends at rest: no net acceleration)
     shift = crec.f[moving].mean(axis=0) - f_rest if moving.any() else np.zeros(3)
     bt = s.peaks.grid_time[s.peaks.grid_index]
-    along = route_vectors(track.length, s.start_time, s.end_time, bt, crec.time, data.heading(rec, mode),
-                          config.turn_deg, 2 if config.segment == "extrema" else 1)
+    along = route_vectors(track.length, s.start_time, s.end_time, bt, crec.time,
+                          data.heading(rec, mode, config.heading_source), config.turn_deg,
+                          2 if config.segment == "extrema" else 1)
     cache[key] = Prepared(data.relpath(rec), inp, replace(inp, step_vector=along), track.position, rest_noise(rec, w), float(stop),
                           gyro_drift(crec, w, rest), shift)
     return cache[key]

@@ -64,10 +64,11 @@ def _signal():
     return signal
 
 __all__ = [
-    "GRID_HZ", "ACTIVITY_WINDOW_S", "HEADINGS", "SEGMENTS", "ENDS", "METHODS", "StepConfig", "Peaks", "Steps", "MorpiTrack",
+    "GRID_HZ", "ACTIVITY_WINDOW_S", "HEADINGS", "SEGMENTS", "ENDS", "HEADING_SOURCES", "METHODS", "StepConfig",
+    "Peaks", "Steps", "MorpiTrack",
     "resample_uniform", "lowpass", "detect_peaks", "weinberg_length", "integrate_heading",
     "motion_span", "activity_span", "PreparedSignal", "prepare_signal", "extract_steps", "train_gain",
-    "dead_reckon", "morpi_track", "DEFAULT_CONFIGS", "period_changes", "turn_stretches", "turn_heading",
+    "dead_reckon", "morpi_track", "DEFAULT_CONFIGS", "require_swing", "period_changes", "turn_stretches", "turn_heading",
 ]
 
 #: Rate of the uniform grid peak detection works on [Hz].
@@ -77,6 +78,8 @@ ACTIVITY_WINDOW_S = 0.5
 HEADINGS = ("absolute", "mean", "change", "turns")
 SEGMENTS = ("maxima", "extrema")
 ENDS = ("drop", "fraction", "whole")
+#: What the heading is read from (:attr:`StepConfig.heading_source`).
+HEADING_SOURCES = ("gyro", "attitude")
 #: MoRPI method -> (signal attribute, column).
 METHODS = {"MoRPI-A": ("f", 1), "MoRPI-G": ("omega", 2)}
 
@@ -111,6 +114,12 @@ class StepConfig:
         = 64 deg (A = 0.1 m, lambda = 1 m); on the field recordings the
         periodic runs swing by 20 deg or more, the straight runs by 11 deg or
         less, hence 15 deg.
+    heading_source : str
+        What the heading is read from: ``"gyro"``, the integrated z angular
+        rate, or ``"attitude"``, the yaw of the attitude matrix of the 3D
+        mechanization (the paper's heading equation). Read by
+        :class:`morpi_filters.field.FieldData`, which builds the heading; a
+        heading passed to :func:`prepare_signal` is used as given.
     turn_deg : float
         Least heading change over one full period (two half-period steps
         between extrema, one step between maxima) that counts as a turn for
@@ -131,10 +140,11 @@ class StepConfig:
     amplitude_from: str = "raw"
     min_swing_deg: float = 15.0
     turn_deg: float = 51.0
+    heading_source: str = "gyro"
 
     def __post_init__(self):
         for name, allowed in (("heading", HEADINGS), ("segment", SEGMENTS), ("ends", ENDS),
-                              ("amplitude_from", ("filtered", "raw"))):
+                              ("amplitude_from", ("filtered", "raw")), ("heading_source", HEADING_SOURCES)):
             if getattr(self, name) not in allowed:
                 raise MorpiError(f"StepConfig.{name}={getattr(self, name)!r}: expected one of {allowed}")
         if not self.min_period_s > 0:
@@ -580,6 +590,18 @@ class PreparedSignal:
     span: tuple = (0.0, 0.0)
 
 
+def _attitude_heading(rec, rest_end_time=None) -> np.ndarray:
+    """The attitude heading of a whole recording, levelled with its initial rest (the first 2 s by default)."""
+    from .strapdown import attitude_heading
+
+    t = np.asarray(rec.time, float)
+    end = t[0] + 2.0 if rest_end_time is None else rest_end_time
+    rest = t <= end
+    if rest.sum() < 2:
+        raise MorpiError(f"{rec.source}: no rest before {end:g} s to level the attitude heading")
+    return attitude_heading(t, rec.f, rec.omega, np.asarray(rec.f)[rest].mean(axis=0))
+
+
 def prepare_signal(rec, method: str, cutoff_hz: float | None, *, rest_end_time: float | None = None,
                    heading=None, motion=None) -> PreparedSignal:
     """Resample (and filter) a recording's MoRPI signal once for many step configs.
@@ -734,13 +756,19 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
     rest_end_time : float, optional
         End of the initial rest [s] (baseline for the motion span).
     heading : ndarray, shape (n,), optional
-        Heading on the recording's samples [rad]; default: integrated omega_z.
+        Heading on the recording's samples [rad]; default: as
+        ``config.heading_source`` says, from the first sample: the integrated
+        omega_z, or the yaw of the 3D attitude
+        (:func:`morpi_filters.strapdown.attitude_heading`) started level with
+        the mean specific force before `rest_end_time` (the first 2 s without
+        it).
     prepared : PreparedSignal, optional
         Output of :func:`prepare_signal` with ``config.cutoff_hz`` (saves the
         resampling and filtering when many configs are tried).
     peak_cache : dict, optional
         Reuses the peaks found for the same recording, method, cut-off,
-        prominence, least period and segment rule. The peaks do not depend on
+        prominence, least period and segment rule, and the steps' Weinberg
+        weights read from the same signal (``amplitude_from``). The peaks do not depend on
         a constant offset of the signal (the threshold is relative to its
         range), so one entry serves the raw and the gyro-calibrated signal.
 
@@ -771,6 +799,8 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
             raise MorpiError(f"method={method!r}: expected one of {tuple(DEFAULT_CONFIGS)}")
         config = DEFAULT_CONFIGS[method]
     if prepared is None:
+        if heading is None and config.heading_source == "attitude":
+            heading = _attitude_heading(rec, rest_end_time)
         prepared = prepare_signal(rec, method, config.cutoff_hz, rest_end_time=rest_end_time, heading=heading)
     elif prepared.cutoff_hz != config.cutoff_hz or prepared.method != method:
         raise MorpiError(f"{prepared.source}: prepared signal ({prepared.method}, cutoff {prepared.cutoff_hz}) "
@@ -802,11 +832,19 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
     if bounds.size < 2:
         raise MorpiError(f"{p.source}: no periodic motion found in the {method} signal "
                          f"({bounds.size} peak(s) between {m0 - t[0]:.1f} s and {m1 - t[0]:.1f} s)")
-    amp = g if config.amplitude_from == "filtered" else graw
-    # max and min over each closed interval [bounds[j], bounds[j+1]] of the grid
-    vmax = np.maximum(np.maximum.reduceat(amp, bounds[:-1])[:bounds.size - 1], amp[bounds[1:]])
-    vmin = np.minimum(np.minimum.reduceat(amp, bounds[:-1])[:bounds.size - 1], amp[bounds[1:]])
-    weight = weinberg_length(vmax, vmin, 1.0)
+    wkey = pkey + (config.amplitude_from,)
+    if peak_cache is not None and wkey in peak_cache:
+        weight, bi = peak_cache[wkey]
+    else:
+        amp = g if config.amplitude_from == "filtered" else graw
+        # max and min over each closed interval [bounds[j], bounds[j+1]] of the grid
+        vmax = np.maximum(np.maximum.reduceat(amp, bounds[:-1])[:bounds.size - 1], amp[bounds[1:]])
+        vmin = np.minimum(np.minimum.reduceat(amp, bounds[:-1])[:bounds.size - 1], amp[bounds[1:]])
+        weight = weinberg_length(vmax, vmin, 1.0)
+        bi = np.searchsorted(t, grid[imax])
+        if peak_cache is not None:
+            weight.flags.writeable = False                      # shared by every Steps of this key
+            peak_cache[wkey] = (weight, bi)
     st, et = grid[bounds[:-1]], grid[bounds[1:]]
     frac = np.ones_like(weight)
     if config.ends != "drop":
@@ -823,16 +861,12 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
         weight = np.concatenate([[wmed], weight, [wmed]])
         frac = np.concatenate([[parts[0]], frac, [parts[1]]])
     psi = p.heading
-    bi = np.searchsorted(t, grid[imax])
     med = float("nan")
     if bi.size >= 2:
         swing = np.degrees(np.maximum.reduceat(psi, bi[:-1])[:bi.size - 1]
                            - np.minimum.reduceat(psi, bi[:-1])[:bi.size - 1])
         med = _median(swing)
-        if med < config.min_swing_deg:
-            raise MorpiError(f"{p.source}: no periodic motion found in the {method} signal (median heading "
-                             f"swing {med:.1f} deg per period, expected at least "
-                             f"{config.min_swing_deg:g} deg for a sine path)")
+        require_swing(p.source, method, med, config.min_swing_deg)
     psi_s, psi_e = np.interp(st, t, psi), np.interp(et, t, psi)
     if config.heading == "absolute":
         dpsi = psi_e
@@ -853,6 +887,44 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
                   properties={"prominence_threshold": prom})
     return Steps(start_time=st, end_time=et, weight=weight, fraction=frac, heading=dpsi, peaks=peaks,
                  motion=(m0, m1), swing_deg=med)
+
+
+def require_swing(source, method: str, swing_deg: float, min_swing_deg: float) -> None:
+    """Refuse a run whose median heading swing per period is below `min_swing_deg` (not a sine path).
+
+    Parameters
+    ----------
+    source : str
+        The recording, named in the message.
+    method : str
+        The MoRPI method whose signal the periods were found on.
+    swing_deg : float
+        The run's median heading swing per period [deg] (:attr:`Steps.swing_deg`;
+        NaN when fewer than two periods: nothing to check).
+    min_swing_deg : float
+        The least swing of a periodic run [deg] (:attr:`StepConfig.min_swing_deg`).
+
+    Returns
+    -------
+    None
+
+    Raises
+    ------
+    MorpiError
+        Naming the recording, its swing and the least swing expected.
+
+    Examples
+    --------
+    >>> require_swing("run.csv", "MoRPI-G", 40.0, 15.0)          # a sine path: nothing happens
+    >>> require_swing("run.csv", "MoRPI-G", 6.0, 15.0)
+    Traceback (most recent call last):
+    ...
+    morpi_filters.errors.MorpiError: run.csv: no periodic motion found in the MoRPI-G signal (median heading swing 6.0 deg per period, expected at least 15 deg for a sine path)
+    """
+    if swing_deg < min_swing_deg:
+        raise MorpiError(f"{source}: no periodic motion found in the {method} signal (median heading "
+                         f"swing {swing_deg:.1f} deg per period, expected at least "
+                         f"{min_swing_deg:g} deg for a sine path)")
 
 
 def period_changes(boundary_heading, per_period: int) -> np.ndarray:

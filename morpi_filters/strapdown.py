@@ -57,7 +57,8 @@ import numpy as np
 from . import units
 from .errors import MorpiError
 
-__all__ = ["InsResult", "ins3d", "ins2d", "integrate_rate", "heading_from_C", "rotvec_to_C", "yaw_to_C", "coarse_level"]
+__all__ = ["InsResult", "ins3d", "ins2d", "integrate_rate", "heading_from_C", "rotvec_to_C", "yaw_to_C", "coarse_level",
+           "attitude_heading"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -478,11 +479,21 @@ def ins3d(time, f, omega, *, C0=None, v0=None, p0=None, g: float = units.G0) -> 
     phi_t = np.swapaxes(phi, 0, 1)                              # (n-1, B, 3)
     Ct = np.empty((n, B, 3, 3))
     Ct[0] = C0b
-    block = max(1, _BLOCK // max(B, 1))                         # bound the memory of the increments
-    for k0 in range(0, n - 1, block):
-        E = rotvec_to_C(phi_t[k0:k0 + block])
-        for j in range(E.shape[0]):
-            np.matmul(Ct[k0 + j], E[j], out=Ct[k0 + j + 1])
+    if B == 1 and n > 2:
+        # one run: the running product C0 E_0 E_1 ... by doubling (log2(n) batched products instead of
+        # n small ones; the same product in another association, equal to rounding)
+        S = rotvec_to_C(phi_t[:, 0])
+        d = 1
+        while d < S.shape[0]:
+            S[d:] = S[:-d] @ S[d:]
+            d *= 2
+        np.matmul(C0b[0], S, out=Ct[1:, 0])
+    else:
+        block = max(1, _BLOCK // max(B, 1))                     # bound the memory of the increments
+        for k0 in range(0, n - 1, block):
+            E = rotvec_to_C(phi_t[k0:k0 + block])
+            for j in range(E.shape[0]):
+                np.matmul(Ct[k0 + j], E[j], out=Ct[k0 + j + 1])
     C = np.swapaxes(Ct, 0, 1)                                   # (B, n, 3, 3)
 
     a = (C @ fb[..., None])[..., 0]
@@ -570,3 +581,39 @@ def ins2d(time, f, omega, *, psi0=0.0, v0=None, p0=None) -> InsResult:
     v, p = _integrate_translation(time, a, v0b, p0b)
     return InsResult(time=time, position=p.reshape(batch + (n, 3)), velocity=v.reshape(batch + (n, 3)),
                      C_bn=yaw_to_C(psi).reshape(batch + (n, 3, 3)), heading=psi.reshape(batch + (n,)))
+
+
+def attitude_heading(time, f, omega, f_rest) -> np.ndarray:
+    """Heading from the attitude matrix of the 3D mechanization, relative to its start [rad].
+
+    The paper's heading equation: the yaw of ``C_bn`` of :func:`ins3d`,
+    started with the roll and pitch of the rest specific force
+    (:func:`coarse_level`, gravity ``|f_rest|``). On a level phone it is the
+    integrated z rate; on a tilted one it also takes the x and y rates that
+    turn the phone about the vertical.
+
+    Parameters
+    ----------
+    time : array_like, shape (n,)
+        Sample times [s].
+    f, omega : array_like, shape (n, 3)
+        Specific force [m/s^2] and angular rate [rad/s], body axes.
+    f_rest : array_like, shape (3,)
+        Mean specific force over a rest period before `time[0]` [m/s^2].
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Yaw minus its first value [rad].
+
+    Examples
+    --------
+    >>> t = np.arange(0.0, 2.0, 0.01)
+    >>> w = np.zeros((t.size, 3)); w[:, 2] = 0.1
+    >>> f = np.tile([0.0, 0.0, 9.81], (t.size, 1))
+    >>> round(float(attitude_heading(t, f, w, [0.0, 0.0, 9.81])[-1]), 6)   # level: 0.1 rad/s for 1.99 s
+    0.199
+    """
+    f_rest = np.asarray(f_rest, dtype=float)
+    psi = np.asarray(ins3d(time, f, omega, C0=coarse_level(f_rest), g=float(np.linalg.norm(f_rest))).heading)
+    return psi - psi[0]

@@ -170,6 +170,23 @@ def test_importing_the_package_loads_no_matplotlib_and_selects_no_backend():
                 assert not (isinstance(node.func.value, ast.Name) and node.func.value.id == "matplotlib"), name
 
 
+def test_only_the_loader_imports_pandas_and_importing_the_package_does_not():
+    # pandas (the loader's C tokenizer) costs about half a second to import: it is imported inside the
+    # loader, when a file is read, so commands that read no recording never pay for it
+    graph = _graph()
+    assert {n for n, (_, ext) in graph.items() if "pandas" in ext} == {"dataset"}
+    names = ["morpi_filters." + n for n in _modules_cache() if n != "__init__"]
+    code = ("import importlib, sys\n"
+            f"for n in {names!r}:\n    importlib.import_module(n)\n"
+            "print('pandas' in sys.modules)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=PKG.parent, check=True)
+    assert out.stdout.strip() == "False"
+    tree = _modules_cache()["dataset"]
+    top = {a.name.split(".")[0] for node in tree.body if isinstance(node, (ast.Import, ast.ImportFrom))
+           for a in node.names if isinstance(node, ast.Import)}
+    assert "pandas" not in top
+
+
 #: Markdown a page is made of: a heading at the start of a line, a table row or separator, an
 #: image or a link target, a block quote at the start of the text.
 MARKDOWN = re.compile(r"(^|\n)#{1,6} |(^|\n)\|.*\||\|---|!\[|\]\(|^> ")

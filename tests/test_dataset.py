@@ -287,3 +287,127 @@ def test_fast_loader_is_bit_identical_to_a_line_by_line_reading(field_root):
         ref = ref[:, [header.index(c) for c in ds.COLUMNS]]
         got = np.column_stack([rec.time, rec.f, rec.omega])
         assert got.shape == ref.shape and np.array_equal(got.view(np.int64), ref.view(np.int64)), e.relpath
+
+
+@pytest.mark.field
+def test_every_field_file_takes_the_c_reader_and_equals_csv_and_float(field_root):
+    """The C reader (pandas) takes each of the 143 recordings, and its numbers are those of csv + float()."""
+    import csv as _csv
+
+    from morpi_filters import dataset as ds
+
+    for e in ds.catalogue(field_root):
+        cols = ds._fast_parse(e.path)
+        assert cols is not None, e.relpath
+        # C order, as the line-by-line path gives them (a sum's last bits depend on the memory order)
+        assert all(a.flags.c_contiguous for a in cols), e.relpath
+        with open(e.path, newline="", encoding="utf-8-sig") as fh:
+            rows = list(_csv.reader(fh))
+        header = [c.strip() for c in rows[0]]
+        ref = np.array([[float(c) for c in r] for r in rows[1:] if r], dtype=float)
+        ref = ref[:, [header.index(c) for c in ds.COLUMNS]]
+        got = np.column_stack(cols)
+        assert got.shape == ref.shape and np.array_equal(got.view(np.int64), ref.view(np.int64)), e.relpath
+
+
+def test_c_reader_options_round_correctly():
+    """pandas' C reader with the loader's options returns float(s) for decimal strings that are hard to round:
+    exact midpoints between two doubles (ties to even), a digit past them, and 17 to 25 significant digits."""
+    import io
+    from decimal import Decimal, getcontext
+
+    import pandas as pd
+
+    from morpi_filters import dataset as ds
+
+    rng = np.random.default_rng(5)
+    getcontext().prec = 80
+    mids = [format(Decimal(1.0 + int(k) * 2.0 ** -52) + Decimal(2.0 ** -53), "f")
+            for k in rng.integers(0, 2 ** 52, 3000)]
+    strings = (mids + [m + "0000000001" for m in mids]
+               + ["%.17g" % v for v in rng.normal(0.0, 10.0, 20000)]
+               + ["-0." + "".join(map(str, rng.integers(0, 10, 25))) for _ in range(5000)])
+    frame = pd.read_csv(io.StringIO("x\n" + "\n".join(strings) + "\n"), dtype=np.float64, **ds._pandas_options())
+    got = frame["x"].to_numpy()
+    ref = np.array([float(s) for s in strings])
+    assert np.array_equal(got.view(np.int64), ref.view(np.int64))
+
+
+def test_float_options_by_pandas_version():
+    from morpi_filters.dataset import _float_options
+
+    assert _float_options("2.2.3") == {"float_precision": "round_trip"}
+    assert _float_options("3.0.1") == {"float_precision": "round_trip"}
+    assert _float_options("3.1.0") == {} and _float_options("3.1.1") == {} and _float_options("4.0.0.dev0") == {}
+
+
+def test_long_file_in_blocks_names_a_bad_line_after_the_first_block(tmp_path, monkeypatch):
+    """A file read in blocks (as a long recording is): good rows load the same as in one piece; a repeated time
+    stamp, a gap or a non-number far into the file is named by its line."""
+    from morpi_filters import dataset as ds
+
+    rows = good_rows(400)
+    path = write_rows(tmp_path / "long.csv", rows)
+    whole = load_csv(path)
+    monkeypatch.setattr(ds, "_KEEP_BYTES", 0)
+    monkeypatch.setattr(ds, "_BLOCK_BYTES", 512)
+    assert ds._fast_parse(path) is not None
+    in_blocks = load_csv(path)
+    _same(in_blocks, whole)
+    assert all(a.flags.c_contiguous for rec in (whole, in_blocks) for a in (rec.time, rec.f, rec.omega))
+    bad = [list(r) for r in rows]
+    bad[350][0] = bad[349][0]
+    with pytest.raises(DataError, match=r"line 352: repeated time stamp"):
+        load_csv(write_rows(tmp_path / "rep.csv", bad))
+    bad = [list(r) for r in rows]
+    for r in bad[300:]:
+        r[0] += 2.0
+    with pytest.raises(DataError, match=r"line 302: time gap of 2.0\d* s after line 301"):
+        load_csv(write_rows(tmp_path / "gap.csv", bad))
+    bad = list(rows)
+    bad[390] = "0.5,0,0,9.8,0,0,x"
+    with pytest.raises(DataError, match=r"line 392: column g_z: 'x' is not a number"):
+        load_csv(write_rows(tmp_path / "nan.csv", bad))
+
+
+@pytest.mark.parametrize("block", [1, 2, 3, 5, 64])
+def test_text_lines_in_blocks_are_those_of_splitlines(tmp_path, monkeypatch, block):
+    """The precise path's line reader, fed a few bytes at a time, cuts the text as str.splitlines cuts the whole
+    of it: CRLF split between blocks, multi-byte characters split between blocks, every line boundary."""
+    from morpi_filters import dataset as ds
+
+    monkeypatch.setattr(ds, "_BLOCK_BYTES", block)
+    rng = np.random.default_rng(block)
+    pieces = ["a", "b,1", "\r", "\n", "\r\n", "\x0b", "\x0c", "\x1c", "\x1e", "\x85", "\u2028", "\u2029", "é", "€",
+              "\U0001F600", " ", ""]
+    for k in range(60):
+        text = "".join(rng.choice(pieces) for _ in range(int(rng.integers(0, 25))))
+        raw = (b"\xef\xbb\xbf" if k % 3 == 0 else b"") + text.encode("utf-8")
+        path = tmp_path / f"t{k}.csv"
+        path.write_bytes(raw)
+        assert list(ds._text_lines(path)) == raw.decode("utf-8-sig").splitlines(), repr(text)
+
+
+def test_precise_path_in_blocks_keeps_the_order_of_its_errors(tmp_path, monkeypatch):
+    """Read a few bytes at a time, the precise path still reports a NUL byte or invalid UTF-8 before any bad
+    row (wherever they lie), and names the same lines as when the file is read in one piece."""
+    from morpi_filters import dataset as ds
+
+    rows = good_rows(150)
+    bad = list(rows)
+    bad[10] = "0.5,0,abc,9.8,0,0,0"
+    monkeypatch.setattr(ds, "_BLOCK_BYTES", 7)
+    p = write_rows(tmp_path / "r.csv", bad)
+    with pytest.raises(DataError, match=r"line 12: column f_y: 'abc' is not a number"):
+        load_csv(p)
+    p.write_bytes(p.read_bytes() + b"0.9,0,0,9.8,0,0,\x00\n")
+    with pytest.raises(DataError, match="binary content"):
+        load_csv(p)
+    p = write_rows(tmp_path / "u.csv", bad)
+    p.write_bytes(p.read_bytes() + "0.9,0,0,9.8,0,0,\xe9\n".encode("latin-1"))
+    with pytest.raises(DataError, match="not UTF-8"):
+        load_csv(p)
+    p = write_rows(tmp_path / "t.csv", rows)
+    p.write_bytes(p.read_bytes().replace(b"\n", b"\r\n").replace(b"\r\n", b"\n", 1) + b"\xe2\x80\xa8\r\n")
+    rec = load_csv(p)                          # CRLF between blocks, a line separator and a blank line at the end
+    np.testing.assert_array_equal(rec.time, np.asarray(rows)[:, 0])

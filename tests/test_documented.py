@@ -194,6 +194,7 @@ _NO_EXAMPLE = {
     "field.train_thresholds": "reads the train runs of the MoRPI field dataset",
     "field.select_config": "scores dozens of step rules on the field dataset's train runs (seconds)",
     "field.nested_rule_comparison": "repeats select_config once per held-out train run of the field dataset",
+    "field.fold_thresholds": "needs the thresholds of a dataset's train runs (field recordings)",
     "field.trained_gain": "needs a folder of train recordings of the field dataset",
     "evaluate.evaluate_tables": "computes every table cell from the field dataset (minutes)",
     "evaluate.tables_study": "runs the whole tables section on the field dataset (minutes)",

@@ -14,6 +14,7 @@ from morpi_filters import dataset as ds
 from morpi_filters import evaluate as ev
 from morpi_filters import field as fd
 from morpi_filters import simulate, units
+from morpi_filters import steps as st
 from morpi_filters.report.tables import report_tables
 from morpi_filters.reporting import DataSource
 
@@ -190,8 +191,11 @@ def test_nested_rule_comparison_matches_a_search_without_the_held_out_run(field_
     # table evaluation runs there (its own search and gains), and the held-out run is dead-reckoned
     # with what that evaluation chose (same arithmetic in another order: rel 1e-12). Without 1.5p2p/30 the per-method MoRPI-A search picks
     # another rule than on all train runs, without s6/14 the joint search does; s8/6 changes neither.
+    # The run with the least heading swing sets the least swing of a periodic run: its fold sets a higher one.
+    th = data.thresholds
+    least = th.swing_files[int(np.argmin(th.swings_deg))]
     for rel in ("s8/short_distance_1.5p2p/train/30.csv", "s6/short_distance/train/14.csv",
-                "s8/short_distance/train/6.csv"):
+                "s8/short_distance/train/6.csv", least):
         assert (field_root / rel).is_file()
         tree = _train_only_tree(field_root, tmp_path / rel.replace("/", "_"))
         (tree / rel).unlink()
@@ -203,12 +207,15 @@ def test_nested_rule_comparison_matches_a_search_without_the_held_out_run(field_
             part = ev.evaluate_tables(tree, alternatives=False, rule=rule)
             for m in ("MoRPI-A", "MoRPI-G"):
                 cfg = part.selections[m].config
-                # the nested check keeps the detection thresholds of all train runs, the tree sets its own
-                # without the held-out run: the turn threshold may differ (s8/short_distance/train/6 holds the largest
-                # full-period change, 34.1 deg: 49 deg without it, 51 with it). No straight train run has
-                # a period beyond either, so the steps, gains and errors below are the same.
-                ref = fd.select_config(data, m if rule == "per_method" else fd._MORPI_METHODS, exclude=(rel,)).config
-                assert cfg.with_(turn_deg=ref.turn_deg) == ref
+                # the tree sets its thresholds without the held-out run, as each fold of the nested check does
+                # (s8/short_distance/train/6 holds the largest full-period change: the turn threshold is 49 deg
+                # without it, 51 with it)
+                assert cfg.turn_deg == fold["turn_deg"] and cfg.min_swing_deg == fold["min_swing_deg"]
+                assert part.data.thresholds.accel_floor == fold["accel_floor"]
+                th, _ = fd.fold_thresholds(data, rel)
+                ref = fd.select_config(data, m if rule == "per_method" else fd._MORPI_METHODS, exclude=(rel,),
+                                       thresholds=th).config
+                assert cfg == ref
                 gain = part.gain(phone, route, m, "GC").mean
                 end = st.morpi_track(data.steps(run, "GC", m, cfg), gain).end_point
                 err = np.linalg.norm(np.asarray(end[:2]) - truth.end_point_m) / truth.distance_m * 100
@@ -486,13 +493,15 @@ def test_morpi_heading_starts_at_the_motion_onset(field_root):
 def test_attitude_heading_follows_the_gyro_heading_of_a_nearly_level_phone(field_root):
     """On the flat indoor route the phone stays within a few degrees of level, so the yaw of the 3D attitude
     is the integrated z rate to within a few degrees; on the L route's slope they part."""
-    gyro = fd.FieldData(field_root)
-    att = fd.FieldData(field_root, heading_source="attitude", thresholds=gyro.thresholds)
-    for r in gyro.recordings("s8", "short_distance", "train")[:4]:
-        d = np.degrees(np.abs(att.heading(r, "GC") - gyro.heading(r, "GC")))
+    data = fd.FieldData(field_root)
+    recs = data.recordings("s8", "short_distance", "train")
+    for r in recs[:4]:
+        d = np.degrees(np.abs(data.heading(r, "GC", "attitude") - data.heading(r, "GC", "gyro")))
         assert d.max() < 3.0, (r.source, d.max())
+    with pytest.raises(MorpiError, match="compass"):
+        data.heading(recs[0], "GC", "compass")
     with pytest.raises(MorpiError, match="heading_source"):
-        fd.FieldData(field_root, heading_source="compass")
+        st.StepConfig(heading_source="compass")
 
 
 def _corrupt_test_folders(field_root: Path, dest: Path) -> Path:
@@ -566,3 +575,53 @@ def test_turns_reading_finds_the_l_turn_and_no_turn_on_the_straight_routes(field
                         assert found == [], (data.relpath(r), m, mode)
                         n_straight += mode == "GC"
         assert n_straight == 99
+
+
+@pytest.mark.field
+def test_heading_source_is_chosen_by_the_one_standard_error_rule_on_tracked_train_errors(field_root):
+    """The attitude heading wins only when its tracked leave-one-out train error beats the gyro's by more than
+    one standard error of the paired difference. Evidence: both sources' train errors dead-reckoned the long way
+    (train_gain on the other runs, morpi_track on the held-out one), not the search's vectorised score."""
+    data = fd.FieldData(field_root, include_test=False)
+    th = data.thresholds
+    start = fd._START.with_(min_swing_deg=th.min_swing_deg, turn_deg=th.turn_deg)
+    for m in ("MoRPI-A", "MoRPI-G"):
+        sel = fd.select_config(data, m)
+        best = {h: fd._search(data, (m,), frozenset(), start.with_(heading_source=h))[0] for h in st.HEADING_SOURCES}
+        assert {c.heading_source for c, _ in sel.trials} == set(st.HEADING_SOURCES)   # both sources were scored
+        g, a = _loo_by_tracking(data, m, best["gyro"]), _loo_by_tracking(data, m, best["attitude"])
+        d = a - g
+        attitude_wins = d.mean() < -fd.SOURCE_SE * d.std(ddof=1) / np.sqrt(d.size)
+        assert sel.config == best["attitude" if attitude_wins else "gyro"], (m, d.mean(), d.std(ddof=1))
+        assert sel.config.heading_source == ("attitude" if attitude_wins else "gyro")
+
+
+@pytest.mark.field
+@pytest.mark.parametrize("which", ["least swing", "largest turn change", "first"])
+def test_fold_thresholds_equal_the_thresholds_of_the_train_runs_without_the_held_out_one(field_root, tmp_path, which):
+    """Evidence: train_thresholds computed from scratch on a copy of the train folders without the held-out run
+    (its own rest windows, calibrations and steps). The folds chosen include the run that sets the least swing and
+    the run that sets the turn threshold, so the fold's thresholds differ from the full ones."""
+    data = fd.FieldData(field_root, include_test=False)
+    th = data.thresholds
+    if which == "least swing":
+        held = th.swing_files[int(np.argmin(th.swings_deg))]
+    elif which == "largest turn change":
+        held = th.change_files[int(np.argmax(th.period_changes_deg))]
+    else:
+        held = th.rest_files[0]
+    fold, same = fd.fold_thresholds(data, held)
+    root = tmp_path / "fold"
+    for folder in ds.layout():
+        if folder.endswith("/train"):
+            dst = root / folder
+            dst.mkdir(parents=True)
+            for f in sorted((field_root / folder).glob("*.csv")):
+                if f"{folder}/{f.name}" != held:
+                    (dst / f.name).symlink_to(f)
+    ref = fd.train_thresholds(fd.FieldData(root, include_test=False))
+    assert same
+    assert (fold.accel_floor, fold.min_swing_deg, fold.turn_deg) == (ref.accel_floor, ref.min_swing_deg, ref.turn_deg)
+    assert sorted(fold.swings_deg) == sorted(ref.swings_deg) and len(fold.rest_std) == len(th.rest_std) - 1
+    if which != "first":
+        assert (fold.min_swing_deg, fold.turn_deg) != (th.min_swing_deg, th.turn_deg)

@@ -442,3 +442,152 @@ def test_absurd_cell_is_an_error_not_a_number(tiny_dataset):
     cells = tuple(dataclasses.replace(x, runs=(nan_run,) + x.runs[1:]) if x is c else x for x in res.cells)
     with pytest.raises(DataError, match="not finite or beyond"):
         ev.check_cells(dataclasses.replace(res, cells=cells))
+
+
+# ------------------------------------------------------------------ the C reader against the precise path
+
+def _cell_spot(lines, rng):
+    """A random data line index and the list of its cells (None when there are no data lines)."""
+    if len(lines) < 3:
+        return None, None
+    k = _ri(rng, 1, len(lines) - 1)
+    return k, lines[k].split(",")
+
+
+def _edit_cell(lines, rng, make):
+    k, cells = _cell_spot(lines, rng)
+    if k is not None:
+        j = _ri(rng, 0, len(cells))
+        cells[j] = make(cells[j])
+        lines[k] = ",".join(cells)
+
+
+def _insert_char(lines, rng, chars):
+    k, _ = _cell_spot(lines, rng)
+    if k is not None:
+        s = lines[k]
+        i = _ri(rng, 0, len(s) + 1)
+        lines[k] = s[:i] + chars + s[i:]
+
+
+def _fast_edit(lines, rng):
+    """One edit made of what the C reader's alphabet allows (so that the file may still take its path)."""
+    op = _ri(rng, 0, 21)
+    if op == 0:
+        _edit_cell(lines, rng, lambda c: f'"{c}"')                    # a quoted cell
+    elif op == 1:
+        _insert_char(lines, rng, '"')                                 # a stray quote
+    elif op == 2:                                                     # a quote open across a line end
+        k, _ = _cell_spot(lines, rng)
+        if k is not None and k + 1 < len(lines):
+            lines[k] += '"'
+            lines[k + 1] = '"' + lines[k + 1]
+    elif op == 3:
+        _insert_char(lines, rng, str(rng.choice(list("0123456789.eE+-, \""))))
+    elif op == 4:                                                     # a character deleted
+        k, _ = _cell_spot(lines, rng)
+        if k is not None and lines[k]:
+            i = _ri(rng, 0, len(lines[k]))
+            lines[k] = lines[k][:i] + lines[k][i + 1:]
+    elif op == 5:
+        lines.insert(_ri(rng, 1, len(lines) + 1), str(rng.choice(["", "   ", " \r", "\r", '""', ",,,,,,"])))
+    elif op == 6:
+        _insert_char(lines, rng, "\r")                                # a lone carriage return
+    elif op == 7:
+        lines[:] = [s + "\r" for s in lines]                          # CRLF
+    elif op == 8:
+        _edit_cell(lines, rng, lambda c: str(rng.choice(["", '""', " ", '" "', "e", ".", "-", "+"])))
+    elif op == 9:                                                     # the same value in another spelling
+        _edit_cell(lines, rng, lambda c: _respell(c, rng))
+    elif op == 10:
+        _edit_cell(lines, rng, lambda c: str(rng.choice(["+", "-", "--", "+-", " ", "0"])) + c)
+    elif op == 11:
+        _edit_cell(lines, rng, lambda c: c + str(rng.choice([" ", ",", "e", "e1", "E-1", ".", "0", '"'])))
+    elif op == 12:                                                    # spaces around the separators
+        k, cells = _cell_spot(lines, rng)
+        if k is not None:
+            lines[k] = ", ".join(cells) if rng.random() < 0.5 else " ,".join(cells)
+    elif op == 13:                                                    # the header quoted, padded or with a BOM
+        h = lines[0].split(",")
+        lines[0] = str(rng.choice(["\ufeff", "", ""])) + ",".join(
+            f'"{c}"' if rng.random() < 0.5 else (f" {c} " if rng.random() < 0.3 else c) for c in h)
+    elif op == 14:                                                    # columns in another order
+        perm = rng.permutation(len(COLS))
+        lines[:] = [",".join(np.array(s.split(","))[perm]) if s.count(",") == 6 else s for s in lines]
+    elif op == 15:                                                    # a trailing comma
+        k, _ = _cell_spot(lines, rng)
+        if k is not None:
+            lines[k] += ","
+    elif op == 16:                                                    # a quote opened on the last cell, closed alone
+        k, cells = _cell_spot(lines, rng)                             # on the next line
+        if k is not None:
+            lines[k] = ",".join(cells[:-1] + ['"' + cells[-1]])
+            lines.insert(k + 1, '"')
+    elif op == 17:                                                    # a line end inside a quoted cell
+        _edit_cell(lines, rng, lambda c: '"' + c + str(rng.choice(["\r", "\n", "\r\n", " \r"])) + '"')
+    elif op == 18:                                                    # a line repeated (repeated time)
+        k, _ = _cell_spot(lines, rng)
+        if k is not None:
+            lines.insert(k, lines[k])
+    elif op == 19:                                                    # two lines swapped (time goes back)
+        k, _ = _cell_spot(lines, rng)
+        if k is not None and k + 1 < len(lines):
+            lines[k], lines[k + 1] = lines[k + 1], lines[k]
+    else:                                                             # a gap in time
+        k, _ = _cell_spot(lines, rng)
+        if k is not None:
+            _shift_time(lines, k, float(rng.choice([0.999, 1.5, -2.0])))
+
+
+def _respell(cell: str, rng) -> str:
+    try:
+        v = float(cell)
+    except ValueError:
+        return cell
+    forms = [f"{v:.17e}", f"{v:.17E}", f"{v:.25f}", f"{v:.3g}", f"{v!r}0000", f"+{v!r}", f"{v:.17g}e0", f"{v * 10:.17g}e-1"]
+    return str(rng.choice(forms))
+
+
+def _differential_cases(tmp_path, seed: int, n_cases: int, n_rows: int = 150):
+    """Seeded files made with :func:`_fast_edit` (1 to 3 edits): each taken by the C reader must be read
+    by the precise path too, bit for bit. Returns the number of cases the C reader took."""
+    rng = np.random.default_rng(seed)
+    text = _base_text(rng, n=n_rows)
+    taken = 0
+    for i in range(n_cases):
+        lines = text.rstrip("\n").split("\n")
+        for _ in range(_ri(rng, 1, 4)):
+            _fast_edit(lines, rng)
+        raw = ("\n".join(lines) + str(rng.choice(["\n", "", "\n\n"]))).encode("utf-8")
+        path = tmp_path / f"d{i}.csv"
+        path.write_bytes(raw)
+        fast = ds._fast_parse(path)
+        try:
+            precise = np.column_stack(ds._parse(path))
+        except DataError as exc:
+            assert fast is None, (i, raw[:300], str(exc))
+            continue
+        if fast is not None:
+            taken += 1
+            assert all(a.flags.c_contiguous for a in fast), i
+            got = np.column_stack(fast)
+            assert got.shape == precise.shape, (i, got.shape, precise.shape)
+            assert np.array_equal(got.view(np.int64), precise.view(np.int64)), i
+        path.unlink()
+    return taken
+
+
+def test_c_reader_takes_only_what_the_precise_path_reads_the_same(tmp_path):
+    """Whenever the C reader takes a file, the line-by-line path reads the same numbers bit for bit (and never
+    rejects it); the C reader takes a good share of the cases, so the comparison is not empty."""
+    taken = _differential_cases(tmp_path, seed=20261201, n_cases=600)
+    assert taken >= 100, taken
+
+
+def test_c_reader_in_blocks_takes_only_what_the_precise_path_reads_the_same(tmp_path, monkeypatch):
+    """The same with the file read in small blocks (a long recording's path): rows, limits and time order
+    across block ends."""
+    monkeypatch.setattr(ds, "_KEEP_BYTES", 0)
+    monkeypatch.setattr(ds, "_BLOCK_BYTES", 700)
+    taken = _differential_cases(tmp_path, seed=20261202, n_cases=300)
+    assert taken >= 50, taken

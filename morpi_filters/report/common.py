@@ -135,5 +135,5 @@ def save_figure(fig, path, dpi: int = 120) -> Path:
     fig = getattr(fig, "figure", fig)
     path = Path(path)
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=dpi, format="png", bbox_inches="tight")
+        fig.savefig(tmp, dpi=dpi, format="png")
     return path

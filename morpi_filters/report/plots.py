@@ -20,12 +20,17 @@ __all__ = [
 
 
 def new_figure(**kw):
-    """A new :class:`matplotlib.figure.Figure` (no pyplot, no backend).
+    """A new :class:`matplotlib.figure.Figure` (no pyplot, no backend), laid out when drawn.
+
+    The figure's layout engine is ``"tight"`` unless `kw` names another: the
+    layout is computed once, when the figure is drawn (saved or shown), not
+    before.
 
     Parameters
     ----------
     **kw
-        Passed to :class:`matplotlib.figure.Figure` (``figsize`` [in], ``dpi``, ...).
+        Passed to :class:`matplotlib.figure.Figure` (``figsize`` [in], ``dpi``,
+        ``layout``, ...).
 
     Returns
     -------
@@ -40,6 +45,7 @@ def new_figure(**kw):
     """
     from matplotlib.figure import Figure
 
+    kw.setdefault("layout", "tight")
     return Figure(**kw)
 
 
@@ -73,14 +79,12 @@ def new_axes(ax=None, figsize=(6.4, 4.8)):
     return new_figure(figsize=figsize).subplots(), True
 
 
-def _finish(ax, own, title="", which="major"):
-    """Grid, legend and title of a one-axis plot; the layout is tightened on a Figure of our own."""
+def _finish(ax, title="", which="major"):
+    """Grid, legend and title of a one-axis plot (a Figure of our own lays itself out when drawn)."""
     ax.grid(True, which=which, alpha=0.3)
     ax.legend(fontsize=8)
     if title:
         ax.set_title(title, fontsize=10)
-    if own:
-        ax.figure.tight_layout()
     return ax
 
 
@@ -250,7 +254,6 @@ def plot_path_sets(panels, *, ncols=3):
         ax.legend(fontsize=7)
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
-    fig.tight_layout()
     return fig
 
 
@@ -361,7 +364,6 @@ def plot_curves(curves):
     axes[0].set_ylabel("horizontal position error [m]")
     axes[0].legend(fontsize=8)
     fig.suptitle(curves.case.title)
-    fig.tight_layout()
     return fig
 
 
@@ -394,7 +396,7 @@ def plot_aided_cells(cells, *, ax=None):
     import numpy as np
 
     n = len(cells)
-    ax, own = new_axes(ax, (8, 0.32 * n + 1.5))
+    ax, _ = new_axes(ax, (8, 0.32 * n + 1.5))
     y = np.arange(n)
     h = 0.27
     ax.barh(y - h, [c.ins_percent for c in cells], h, color="0.7", label="INS-3D alone")
@@ -407,8 +409,6 @@ def plot_aided_cells(cells, *, ax=None):
     ax.set_xlabel("mean end-point error [% of travelled distance]")
     ax.grid(True, axis="x", alpha=0.3)
     ax.legend(fontsize=8, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=4, frameon=False)
-    if own:
-        ax.figure.tight_layout()
     return ax
 
 
@@ -440,7 +440,7 @@ def plot_aided_paths(cell, truth_xy, *, ax=None):
     >>> len(ax.get_lines()), ax.get_title()
     (7, 's8 short')
     """
-    ax, own = new_axes(ax, (8, 4))
+    ax, _ = new_axes(ax, (8, 4))
     ax.plot(truth_xy[:, 0], truth_xy[:, 1], "k-", lw=2, label="true route")
     for j, (_, fwd, sm, morpi, _) in enumerate(cell.paths):
         first = j == 0
@@ -453,8 +453,6 @@ def plot_aided_paths(cell, truth_xy, *, ax=None):
     ax.set_title(cell.label, fontsize=9)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=7, ncol=4, loc="upper center", bbox_to_anchor=(0.5, -0.15), frameon=False)
-    if own:
-        ax.figure.tight_layout()
     return ax
 
 
@@ -494,7 +492,7 @@ def plot_aided_ellipses(cell, *, run: int = 0, every_s: float = 2.0, ax=None):
     """
     import numpy as np
 
-    ax, own = new_axes(ax, (8, 4))
+    ax, _ = new_axes(ax, (8, 4))
     t, fwd, _, _, P = cell.paths[run]
     ax.plot(fwd[:, 0], fwd[:, 1], "-", color="C0", lw=1, label="forward filter")
     ang = np.linspace(0, 2 * np.pi, 60)
@@ -512,8 +510,6 @@ def plot_aided_ellipses(cell, *, run: int = 0, every_s: float = 2.0, ax=None):
     ax.set_ylabel("y [m]")
     ax.set_title(f"{cell.label}: 2-sigma ellipses every {every_s:g} s ({cell.runs[run]['file']})", fontsize=8)
     ax.grid(True, alpha=0.3)
-    if own:
-        ax.figure.tight_layout()
     return ax
 
 
@@ -567,7 +563,6 @@ def montecarlo_final_errors(columns, final, *, title=""):
         axes[j // ncol][j % ncol].set_visible(False)
     if title:
         fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
     return fig
 
 
@@ -607,7 +602,7 @@ def montecarlo_error_curves(time, bands, labels, *, analytic=None, title="", ax=
     """
     import numpy as np
 
-    ax, own = new_axes(ax, (7, 4.2))
+    ax, _ = new_axes(ax, (7, 4.2))
     for i, lab in enumerate(labels):
         b = np.asarray(bands)[:, i, :]
         if not np.isfinite(b).any():
@@ -622,7 +617,7 @@ def montecarlo_error_curves(time, bands, labels, *, analytic=None, title="", ax=
     ax.set_yscale("log")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("horizontal position error [m]")
-    return _finish(ax, own, title, which="both")
+    return _finish(ax, title, which="both")
 
 
 def montecarlo_gain_vs_error(dG, err, *, analytic_slope=None, label="MoRPI-A", title="", ax=None):
@@ -660,14 +655,14 @@ def montecarlo_gain_vs_error(dG, err, *, analytic_slope=None, label="MoRPI-A", t
     """
     import numpy as np
 
-    ax, own = new_axes(ax, (6, 4))
+    ax, _ = new_axes(ax, (6, 4))
     ax.plot(100 * np.asarray(dG), err, ".", ms=2, alpha=0.4, label=f"{label} Monte Carlo")
     if analytic_slope is not None:
         x = np.linspace(np.min(dG), np.max(dG), 50)
         ax.plot(100 * x, analytic_slope * x, "k--", lw=1, label="analytical ds = dG D")
     ax.set_xlabel("gain error dG [%]")
     ax.set_ylabel("distance error [m]")
-    return _finish(ax, own, title)
+    return _finish(ax, title)
 
 
 def montecarlo_training_runs(k, rms_mc, rms_expected, labels, *, title="", ax=None):
@@ -705,7 +700,7 @@ def montecarlo_training_runs(k, rms_mc, rms_expected, labels, *, title="", ax=No
     """
     import numpy as np
 
-    ax, own = new_axes(ax, (6, 4))
+    ax, _ = new_axes(ax, (6, 4))
     rms_mc = np.asarray(rms_mc)
     for i, lab in enumerate(labels):
         ax.plot(k, rms_mc[:, i], "o-", ms=4, label=f"{lab} Monte Carlo")
@@ -714,7 +709,7 @@ def montecarlo_training_runs(k, rms_mc, rms_expected, labels, *, title="", ax=No
     ax.set_yscale("log")
     ax.set_xlabel("training runs k")
     ax.set_ylabel("RMS distance error [m]")
-    return _finish(ax, own, title, which="both")
+    return _finish(ax, title, which="both")
 
 
 def drift_disagreement_map(gyro_bias_deg_s, time, rel, *, title="", marks=(), ax=None):
@@ -757,7 +752,7 @@ def drift_disagreement_map(gyro_bias_deg_s, time, rel, *, title="", marks=(), ax
     import numpy as np
     from matplotlib.colors import LogNorm
 
-    ax, own = new_axes(ax, (7, 4.5))
+    ax, _ = new_axes(ax, (7, 4.5))
     fig = ax.figure
     r = np.clip(np.asarray(rel, float), 1e-7, None)
     m = ax.pcolormesh(time, gyro_bias_deg_s, r, norm=LogNorm(vmin=1e-5, vmax=max(1.0, r.max())), shading="nearest",
@@ -773,8 +768,6 @@ def drift_disagreement_map(gyro_bias_deg_s, time, rel, *, title="", marks=(), ax
     fig.colorbar(m, ax=ax, label="|dp strapdown - dp closed form| / |dp strapdown|")
     if title:
         ax.set_title(title, fontsize=10)
-    if own:
-        fig.tight_layout()
     return ax
 
 
@@ -858,5 +851,4 @@ def simulation_run(truth, imu_data, solutions, *, title=None):
     a.legend(fontsize=8)
     if title:
         fig.suptitle(title)
-    fig.tight_layout()
     return fig
