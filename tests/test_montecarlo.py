@@ -61,6 +61,24 @@ def test_one_pass_equals_each_study_alone():
         assert np.array_equal(r.distance_error, alone.distance_error) and np.array_equal(r.dG, alone.dG)
 
 
+def test_studies_without_curves_keep_the_same_numbers():
+    # leaving a study's curves out skips its series reductions only: every per-run number is the same
+    cal = replace(FAST, calibration="GAC")
+    cfgs = (cal, *mc.training_configs([1, 4], mismatch=0.02, spread=0.05, config=cal))
+    full = mc.run_studies(23, 6, cfgs, chunk=9)
+    lean = mc.run_studies(23, 6, cfgs, chunk=9, curves=(True, False, False))
+    for a, b in zip(full, lean):
+        assert a.digest == b.digest and np.array_equal(a.final, b.final, equal_nan=True)
+        assert np.array_equal(a.distance_error, b.distance_error) and np.array_equal(a.dG, b.dG)
+    assert np.array_equal(full[0].bands, lean[0].bands, equal_nan=True) and np.array_equal(full[0].rms, lean[0].rms,
+                                                                                           equal_nan=True)
+    assert lean[1].rms is None and lean[1].bands is None and full[1].rms is not None
+    with pytest.raises(MorpiError, match="without curves"):
+        lean[1].curve("MoRPI-A")
+    with pytest.raises(MorpiError, match="one per study"):
+        mc.run_studies(3, 0, cfgs, curves=(True,))
+
+
 def test_one_pass_refuses_studies_with_other_draws():
     with pytest.raises(MorpiError, match="duration"):
         mc.run_studies(3, 0, (FAST, replace(FAST, duration=16.0)))
