@@ -892,7 +892,7 @@ def _study_chunk(payload, cfg, ins_e, dfa, dfg, trig, zg, R, curves) -> dict:
     pk = sine.peaks
     cps, sps = trig
     S = len(cfg.gains)
-    series = np.full((R, keep.size, 4), np.nan) if curves or payload.series else None
+    series = np.full((R, keep.size, 4), np.nan) if payload.series else None
     final = np.full((R, 2 + 2 * S), np.nan)
     if cfg.ins:
         for j, e in enumerate(ins_e):
@@ -904,6 +904,7 @@ def _study_chunk(payload, cfg, ins_e, dfa, dfg, trig, zg, R, curves) -> dict:
     steps_done = np.clip(np.searchsorted(pk, keep, side="right") - 1, 0, None)   # 0 before the first peak
     dG = np.empty((R, S))
     dist = np.empty((R, S, 2))
+    morpi = []                                                  # (R, K+1) MoRPI errors after 0..K steps
     for s_i, gain in enumerate(cfg.gains):
         dG[:, s_i] = gain.mean + gain.std * zg
         scale = 1.0 + dG[:, s_i:s_i + 1]
@@ -914,16 +915,52 @@ def _study_chunk(payload, cfg, ins_e, dfa, dfg, trig, zg, R, curves) -> dict:
             e = np.hypot(x - truth[1:, 0], y - truth[1:, 1])   # (R, K)
             final[:, 2 + 2 * s_i + m] = e[:, -1]
             dist[:, s_i, m] = st.sum(axis=1) - D
-            if s_i == 0 and series is not None:
+            if s_i == 0 and (curves or series is not None):
                 e0 = np.concatenate([np.zeros((R, 1)), e], axis=1)
-                series[:, :, 2 + m] = e0[:, steps_done]
+                morpi.append(e0)
+                if series is not None:
+                    series[:, :, 2 + m] = e0[:, steps_done]
     part = {"final": final, "dG": dG, "dist": dist}
-    if curves:
+    if curves and series is not None:
         part.update(sumsq=np.nansum(series * series, axis=0), count=np.isfinite(series).sum(axis=0),
                     hist=_band_counts(series))
-    if payload.series:
+    elif curves:
+        part.update(_curve_reductions(ins_e if cfg.ins else None, morpi, steps_done, R))
+    if series is not None:
         part["series"] = series
     return part
+
+
+def _curve_reductions(ins_e, morpi, steps_done, R) -> dict:
+    """``sumsq``, ``count`` and ``hist`` of the error series (R, m, 4) without building it.
+
+    The same numbers as ``np.nansum(series ** 2, axis=0)``, ``np.isfinite(series).sum(axis=0)``
+    and :func:`_band_counts` of the series: column by column, each sum over the
+    runs in run order. A MoRPI column changes only at a step, so its sums and
+    histograms are those of its K + 1 values (after 0..K steps), repeated over
+    the epochs that have taken as many steps.
+    """
+    m = steps_done.size
+    nb = _BAND_EDGES.size - 1
+    sumsq = np.zeros((m, 4))
+    count = np.zeros((m, 4), np.int64)
+    hist = np.zeros((m, 4, nb), np.int64)
+    cols = [] if ins_e is None else [(j, e, None) for j, e in enumerate(ins_e)]
+    cols += [(2 + j, e0, steps_done) for j, e0 in enumerate(morpi)]
+    for j, e, rows in cols:
+        sq = np.multiply(e, e, out=np.empty(e.shape))          # C order: the sum over axis 0 goes run by run
+        ok = np.isfinite(e)
+        sq[np.isnan(sq)] = 0.0
+        s, c = np.add.reduce(sq, axis=0), ok.sum(axis=0)
+        x = e[ok]
+        k = np.broadcast_to(np.arange(e.shape[1]), e.shape)[ok]
+        h = np.bincount(k * nb + _band_bins(x), minlength=e.shape[1] * nb).reshape(e.shape[1], nb)
+        if rows is None:
+            sumsq[:, j], count[:, j], hist[:, j] = s, c, h
+        else:
+            sumsq[:, j], count[:, j], hist[:, j] = s[rows], c[rows], h[rows]
+    cells = np.flatnonzero(hist)
+    return {"sumsq": sumsq, "count": count, "hist": (cells.astype(np.int32), hist.reshape(-1)[cells].astype(np.int32))}
 
 
 def _band_counts(series) -> tuple:
@@ -937,7 +974,19 @@ def _band_counts(series) -> tuple:
     R, m, k = series.shape
     nb = _BAND_EDGES.size - 1
     ok = np.isfinite(series)
-    x = series[ok]
+    idx = _band_bins(series[ok])
+    flat = np.broadcast_to(((np.arange(m)[:, None] * k + np.arange(k)[None, :]) * nb)[None], series.shape)[ok] + idx
+    dense = np.bincount(flat, minlength=m * k * nb)
+    cells = np.flatnonzero(dense)
+    return cells.astype(np.int32), dense[cells].astype(np.int32)
+
+
+def _band_bins(x) -> np.ndarray:
+    """Bin of each finite value of `x` among :data:`_BAND_EDGES` (int64): ``edges[i] <= x < edges[i + 1]``.
+
+    Values below 0 go to the first bin and values at or above the last edge to the last one.
+    """
+    nb = _BAND_EDGES.size - 1
     # bin from the logarithm (the edges are log-spaced), then corrected against the edges themselves
     lo = _BAND_EDGES[1]
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -946,10 +995,7 @@ def _band_counts(series) -> tuple:
     np.clip(idx, 0, nb - 1, out=idx)
     idx -= x < _BAND_EDGES[idx]
     idx += (x >= _BAND_EDGES[idx + 1]) & (idx < nb - 1)
-    flat = np.broadcast_to(((np.arange(m)[:, None] * k + np.arange(k)[None, :]) * nb)[None], series.shape)[ok] + idx
-    dense = np.bincount(flat, minlength=m * k * nb)
-    cells = np.flatnonzero(dense)
-    return cells.astype(np.int32), dense[cells].astype(np.int32)
+    return idx
 
 
 def band_quantiles(counts, q=BAND_PERCENTILES) -> np.ndarray:

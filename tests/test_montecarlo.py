@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from dataclasses import replace
 
 import numpy as np
@@ -59,6 +60,20 @@ def test_one_pass_equals_each_study_alone():
         assert r.digest == alone.digest
         assert np.array_equal(r.errors, alone.errors, equal_nan=True)
         assert np.array_equal(r.distance_error, alone.distance_error) and np.array_equal(r.dG, alone.dG)
+
+
+def test_curves_without_the_series_are_those_of_the_series():
+    # the reductions are computed column by column without building the series (a MoRPI column from
+    # its values after each step): the same sums and counts as from the series itself, bit for bit
+    cfgs = (FAST, replace(FAST, calibration="GAC", ins=False))
+    with_series = mc.run_studies(31, 2, cfgs, chunk=12, series=True)
+    without = mc.run_studies(31, 2, cfgs, chunk=12)
+    for a, b in zip(with_series, without):
+        assert np.array_equal(a.rms, b.rms, equal_nan=True) and np.array_equal(a.bands, b.bands, equal_nan=True)
+        with np.errstate(invalid="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)          # the INS columns of the MoRPI-only study
+            expected = np.sqrt(np.nanmean(a.errors ** 2, axis=0))
+        np.testing.assert_allclose(b.rms, expected, rtol=1e-12)
 
 
 def test_studies_without_curves_keep_the_same_numbers():
