@@ -813,6 +813,7 @@ def _chunk(payload: _Payload, a: int, b: int) -> list:
     zr = z[:, _N_HEAD:].reshape(R, 6, n)
     for c in range(6):
         np.multiply(zr[:, c, :].T, sa if c < 3 else sg, out=noise[c])
+    spare = z.reshape(-1)                   # the draws' buffer, free from here on (the INS accelerations go there)
     del z, zr
     err = _scratch("err", (6, n, R))
     psi = _scratch("psi", (n, R))
@@ -842,21 +843,23 @@ def _chunk(payload: _Payload, a: int, b: int) -> list:
         trig = (np.cos(hd), np.sin(hd))
         ins_e = None
         if any(payload.configs[i].ins for i in members):
-            ins_e = _ins_errors(payload, err, psi, h, keep)
+            ins_e = _ins_errors(payload, err, psi, h, keep, spare)
         for i in members:
             out[i] = _study_chunk(payload, payload.configs[i], ins_e, dfa, dfg, trig, zg, R, payload.curves[i])
     return out
 
 
-def _ins_errors(payload, err, psi, h, keep):
+def _ins_errors(payload, err, psi, h, keep, spare):
     """INS-3D and INS-2D horizontal errors (R, m) on the INS path from rest.
 
     The measured signals are the true ones of the path plus `err`; both go
     through the same integration rules (the truth once, in
     :func:`_ins_truth`), so the difference is the error the sensor errors
-    cause. Overwrites `err` with the measured signals. The four horizontal
-    accelerations (3D x, y; 2D x, y) are planes of one array, integrated
-    twice in one call (the integration is elementwise over its columns).
+    cause. Overwrites `err` with the measured signals, and then with the
+    prefix sums of the integration. The four horizontal accelerations (3D x,
+    y; 2D x, y) are planes of one array, written into the first 4 n R numbers
+    of the free buffer `spare` and integrated twice in one call (the
+    integration is elementwise over its columns).
     """
     path = payload.ins_path
     for c in range(3):
@@ -865,10 +868,11 @@ def _ins_errors(payload, err, psi, h, keep):
             err[3 + c] += path.omega_b[:, c, None]
     f, w = [err[0], err[1], err[2]], [err[3], err[4], err[5]]
     n, R = psi.shape
-    acc = _scratch("ins_accel", (n, 4, R))
+    acc = spare[:n * 4 * R].reshape(n, 4, R)
     bi.horizontal_accel_3d(h, f, w, acc[:, 0], acc[:, 1])
     bi.horizontal_accel_2d(f, psi, acc[:, 2], acc[:, 3], heading=payload.ins_heading)
-    pos = bi._double_integral_at(acc.reshape(n, 4 * R), h, keep, _scratch("ins_prefix", (n, 4 * R)))
+    del f, w
+    pos = bi._double_integral_at(acc.reshape(n, 4 * R), h, keep, err.reshape(-1)[:n * 4 * R].reshape(n, 4 * R))
     pos = pos.reshape(keep.size, 4, R)
     (x3, y3), (x2, y2) = payload.ins_truth
     return [np.hypot(pos[:, 0] - x3, pos[:, 1] - y3).T, np.hypot(pos[:, 2] - x2, pos[:, 3] - y2).T]
