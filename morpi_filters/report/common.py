@@ -105,7 +105,7 @@ def md_table(headers, rows) -> str:
     return "\n".join([head, sep, *body]) + "\n"
 
 
-def save_figure(fig, path, dpi: int = 120) -> Path:
+def save_figure(fig, path, dpi: int = 120, crop: bool = True) -> Path:
     """Write `fig` (a Figure, or an Axes of one) as a PNG file, atomically.
 
     Parameters
@@ -116,6 +116,10 @@ def save_figure(fig, path, dpi: int = 120) -> Path:
         Destination PNG file; missing folders are created.
     dpi : int
         Resolution [dots per inch].
+    crop : bool
+        Trim the margins to what is drawn (``bbox_inches="tight"``, which lays
+        the figure out once more); False keeps the figure's own layout, for a
+        figure whose maker set its margins.
 
     Returns
     -------
@@ -135,5 +139,5 @@ def save_figure(fig, path, dpi: int = 120) -> Path:
     fig = getattr(fig, "figure", fig)
     path = Path(path)
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=dpi, format="png", bbox_inches="tight")
+        fig.savefig(tmp, dpi=dpi, format="png", bbox_inches="tight" if crop else None)
     return path

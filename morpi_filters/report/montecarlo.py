@@ -38,22 +38,23 @@ def report_montecarlo(out, study: GainErrorPage, source=None) -> SectionSummary:
     cal, raw = r.config, rr.config
     spread, mismatch, spread_note, assumed = study.spread, study.mismatch, study.spread_note, study.assumed
 
+    # the Monte Carlo figures set their own margins: saved as they are (one layout pass)
     figs = []
     figs.append(save_figure(plots.montecarlo_final_errors(
         r.columns, r.final,
-        title=f"{cal.spec.name}, {cal.duration:g} s, {runs} runs, GAC-calibrated biases"), out / "final_errors.png").name)
+        title=f"{cal.spec.name}, {cal.duration:g} s, {runs} runs, GAC-calibrated biases"), out / "final_errors.png", crop=False).name)
     figs.append(save_figure(plots.montecarlo_error_curves(
         r.time, r.bands, ["INS-3D", "INS-2D", "MoRPI-A (dG 5 %)", "MoRPI-G (dG 5 %)"],
-        title="horizontal error over time (median, 5-95 % band)"), out / "error_curves.png").name)
+        title="horizontal error over time (median, 5-95 % band)"), out / "error_curves.png", crop=False).name)
     s_i = 2
     figs.append(save_figure(plots.montecarlo_gain_vs_error(
         r.dG[:, s_i], r.distance_error[:, s_i, 0], analytic_slope=r.distance,
         title="MoRPI-A distance error against the gain error (training-spread scenario)"),
-        out / "gain_vs_distance_error.png").name)
+        out / "gain_vs_distance_error.png", crop=False).name)
     figs.append(save_figure(plots.montecarlo_training_runs(
         tr.k, tr.rms_distance, tr.rms_expected, ["MoRPI-A", "MoRPI-G"],
         title=f"gain from k training runs: spread {100 * spread:g} %, mismatch {100 * mismatch:g} %"),
-        out / "training_runs.png").name)
+        out / "training_runs.png", crop=False).name)
 
     result = {
         "runs": runs, "seed": seed, "digest": r.digest, **final_statistics(r),
