@@ -823,11 +823,10 @@ def _chunk(payload: _Payload, a: int, b: int) -> list:
         members = [i for i, c in enumerate(payload.configs) if c.calibration == cal]
         cfg = payload.configs[members[0]]
         sig_ba, sig_bg = cfg.bias_sigmas()
-        ba = sig_ba * head[:, 0:3]
-        bg = sig_bg * head[:, 3:6]
-        # the measured errors: white noise + bias
+        # the measured errors: white noise + bias (the biases as contiguous rows, one per channel)
+        bias = np.concatenate([sig_ba * head[:, 0:3], sig_bg * head[:, 3:6]], axis=1).T.copy()
         for c in range(6):
-            np.add(noise[c], ba[:, c] if c < 3 else bg[:, c - 3], out=err[c])
+            np.add(noise[c], bias[c], out=err[c])
         # heading error integrated from the gyro-z error
         # (trapezoid: psi_k = h (sum_{i<k} w_i + (w_k - w_0) / 2))
         bi.prefix_rows(err[5], psi)
