@@ -14,11 +14,12 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["quat_increments", "attitude_blocks", "attitude", "prefix_rows", "cos_sin", "double_integral_at",
+__all__ = ["quat_increments", "attitude_blocks", "attitude", "prefix_rows", "cos_sin", "segment_sums",
+           "double_integral_at",
            "horizontal_3d", "horizontal_2d", "horizontal_accel_3d", "horizontal_accel_2d"]
 
 
-def quat_increments(wx, wy, wz, h):
+def quat_increments(wx, wy, wz, h, out=None):
     """Attitude increments exp(omega h / 2) as quaternion planes.
 
     The half-angle x = |omega| h / 2 enters through Taylor series of cos x and
@@ -33,6 +34,8 @@ def quat_increments(wx, wy, wz, h):
         Body angular rate held over the interval, per axis [rad/s].
     h : float
         Length of the interval [s].
+    out : sequence of 4 ndarray, optional
+        Arrays shaped like `wx` to write p0..p3 into (returned).
 
     Returns
     -------
@@ -53,7 +56,7 @@ def quat_increments(wx, wy, wz, h):
     x2 += wy * wy
     x2 += wz * wz
     x2 *= 0.25 * h * h
-    c = x2 * (1 / 24)
+    c = np.multiply(x2, 1 / 24, out=None if out is None else out[0])
     c -= 0.5
     c *= x2
     c += 1
@@ -67,7 +70,9 @@ def quat_increments(wx, wy, wz, h):
         c[big] = np.cos(x)
         k[big] = np.sin(x) / x
     k *= 0.5 * h
-    return c, k * wx, k * wy, k * wz
+    if out is None:
+        return c, k * wx, k * wy, k * wz
+    return c, np.multiply(k, wx, out=out[1]), np.multiply(k, wy, out=out[2]), np.multiply(k, wz, out=out[3])
 
 
 def attitude_blocks(wx, wy, wz, h, block: int = 64):
@@ -112,11 +117,11 @@ def attitude_blocks(wx, wy, wz, h, block: int = 64):
     [0.0, 0.0, 0.0, 1.0]
     """
     n, R = wx.shape
-    return _propagate(lambda k0, k1: quat_increments(wx[k0:k1], wy[k0:k1], wz[k0:k1], h), n, R, block)
+    return _propagate(lambda k0, k1, out: quat_increments(wx[k0:k1], wy[k0:k1], wz[k0:k1], h, out=out), n, R, block)
 
 
 def _propagate(increments, n: int, R: int, block: int):
-    """The quaternion recursion of :func:`attitude_blocks`; ``increments(k0, k1)`` gives p0..p3 of intervals k0..k1-1.
+    """The quaternion recursion of :func:`attitude_blocks`; ``increments(k0, k1, out)`` writes p0..p3 of intervals k0..k1-1 into the 4 arrays `out`.
 
     Each step multiplies the 4x4 right-multiplication matrix of the increment
     by q (one product per element) and sums each row in order,
@@ -131,11 +136,11 @@ def _propagate(increments, n: int, R: int, block: int):
     for k0 in range(0, n, block):
         k1 = min(k0 + block, n)
         m = M[:k1 - k0]
-        p0, p1, p2, p3 = increments(k0, k1)
-        # rows of M(p) with q (x) p = M(p) q (Hamilton product, scalar first)
+        # the increments go straight into the first column of M(p): (p0, p1, p2, p3)
+        p0, p1, p2, p3 = increments(k0, k1, (m[:, 0, 0], m[:, 1, 0], m[:, 2, 0], m[:, 3, 0]))
+        # the other columns of M(p) with q (x) p = M(p) q (Hamilton product, scalar first)
         for i, row in enumerate(((p0, -1, p1, -1, p2, -1, p3), (p1, 1, p0, 1, p3, -1, p2),
                                  (p2, -1, p3, 1, p0, 1, p1), (p3, 1, p2, -1, p1, 1, p0))):
-            m[:, i, 0] = row[0]
             for j, (sign, val) in enumerate(zip(row[1::2], row[2::2]), start=1):
                 if sign > 0:
                     m[:, i, j] = val
@@ -320,7 +325,7 @@ def _double_integral_at(a, h, keep, P):
     # Q at the kept rows only: sums of P between consecutive kept rows, then their running sum
     kk = keep[keep > 0]
     edges = np.r_[0, kk]
-    seg = np.add.reduceat(P[:kk[-1]], edges[:-1], axis=0)
+    seg = segment_sums(P, edges)
     Q = np.cumsum(seg, axis=0)
     out = np.zeros((keep.size, R))
     pos = keep > 0
@@ -330,6 +335,76 @@ def _double_integral_at(a, h, keep, P):
     out[pos] -= a[0] * (kk / 2 + 1 / 6)[:, None]
     out *= h * h
     return out
+
+
+def segment_sums(P, edges):
+    """Sums of the rows of `P` between consecutive `edges`: ``np.add.reduceat(P[:edges[-1]], edges[:-1], axis=0)``.
+
+    The same numbers as numpy's ``reduceat`` (the first row of a segment plus
+    the pairwise sum of the others: 8 running sums combined as
+    ``((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))`` then the rest one by
+    one, halves above 128 rows), computed for all the segments of the
+    leading run of equal lengths at once, row by row across segments,
+    instead of segment by segment down each column.
+
+    Parameters
+    ----------
+    P : ndarray, shape (n, C)
+        Rows to add.
+    edges : ndarray of int, shape (S + 1,)
+        Increasing row indices, ``edges[-1] <= n``.
+
+    Returns
+    -------
+    ndarray, shape (S, C)
+        The sum of rows ``edges[i] .. edges[i + 1] - 1`` in row i.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> P = np.arange(24.0).reshape(12, 2)
+    >>> edges = np.array([0, 5, 10, 12])
+    >>> bool(np.array_equal(segment_sums(P, edges), np.add.reduceat(P[:12], edges[:-1], axis=0)))
+    True
+    """
+    lengths = np.diff(edges)
+    if lengths.size == 0 or (lengths < 1).any():
+        raise ValueError("segment_sums: expected increasing edges")
+    L = int(lengths[0])
+    m = int(np.argmax(lengths != L)) if (lengths != L).any() else lengths.size
+    out = np.empty((lengths.size, P.shape[1]))
+    V = P[edges[0]:edges[0] + m * L].reshape(m, L, P.shape[1])
+    if L == 1:
+        out[:m] = V[:, 0]
+    else:
+        np.add(V[:, 0], _pairwise_rows(V, 1, L), out=out[:m])
+    if m < lengths.size:
+        out[m:] = np.add.reduceat(P[:edges[-1]], edges[m:-1], axis=0)
+    return out
+
+
+def _pairwise_rows(V, a, b):
+    """numpy's pairwise sum of ``V[:, a:b]`` along axis 1 (the grouping of its float add reduction)."""
+    n = b - a
+    if n < 8:
+        res = np.full(V[:, 0].shape, -0.0)
+        for i in range(a, b):
+            res += V[:, i]
+        return res
+    if n <= 128:
+        r = [V[:, a + j].copy() for j in range(8)]
+        i = 8
+        while i < n - n % 8:
+            for j in range(8):
+                r[j] += V[:, a + i + j]
+            i += 8
+        res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+        for k in range(a + i, b):
+            res += V[:, k]
+        return res
+    n2 = n // 2
+    n2 -= n2 % 8
+    return _pairwise_rows(V, a, a + n2) + _pairwise_rows(V, a + n2, b)
 
 
 def horizontal_3d(h, f, w, keep):
@@ -418,12 +493,12 @@ def horizontal_accel_3d(h, f, w, ax, ay, block: int = 64):
     rates = np.empty((3, block, R))
     t = np.empty((4, block + 1, R))
 
-    def increments(k0, k1):
+    def increments(k0, k1, out):
         # trapezoid rate of each interval: h (w_k + w_k+1) / 2 = (h / 2) (w_k + w_k+1)
         ws = rates[:, :k1 - k0]
         for c in range(3):
             np.add(w[c][k0:k1], w[c][k0 + 1:k1 + 1], out=ws[c])
-        return quat_increments(ws[0], ws[1], ws[2], 0.5 * h)
+        return quat_increments(ws[0], ws[1], ws[2], 0.5 * h, out=out)
 
     for k0, q in _propagate(increments, n - 1, R, block):
         k1 = k0 + q.shape[0]
