@@ -14,8 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["quat_increments", "attitude_blocks", "attitude", "prefix_rows", "cos_sin", "segment_sums",
-           "double_integral_at",
+__all__ = ["quat_increments", "attitude_blocks", "attitude", "prefix_rows", "cos_sin", "double_integral_at",
            "horizontal_3d", "horizontal_2d", "horizontal_accel_3d", "horizontal_accel_2d"]
 
 
@@ -325,7 +324,7 @@ def _double_integral_at(a, h, keep, P):
     # Q at the kept rows only: sums of P between consecutive kept rows, then their running sum
     kk = keep[keep > 0]
     edges = np.r_[0, kk]
-    seg = segment_sums(P, edges)
+    seg = np.add.reduceat(P[:kk[-1]], edges[:-1], axis=0)
     Q = np.cumsum(seg, axis=0)
     out = np.zeros((keep.size, R))
     pos = keep > 0
@@ -335,76 +334,6 @@ def _double_integral_at(a, h, keep, P):
     out[pos] -= a[0] * (kk / 2 + 1 / 6)[:, None]
     out *= h * h
     return out
-
-
-def segment_sums(P, edges):
-    """Sums of the rows of `P` between consecutive `edges`: ``np.add.reduceat(P[:edges[-1]], edges[:-1], axis=0)``.
-
-    The same numbers as numpy's ``reduceat`` (the first row of a segment plus
-    the pairwise sum of the others: 8 running sums combined as
-    ``((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))`` then the rest one by
-    one, halves above 128 rows), computed for all the segments of the
-    leading run of equal lengths at once, row by row across segments,
-    instead of segment by segment down each column.
-
-    Parameters
-    ----------
-    P : ndarray, shape (n, C)
-        Rows to add.
-    edges : ndarray of int, shape (S + 1,)
-        Increasing row indices, ``edges[-1] <= n``.
-
-    Returns
-    -------
-    ndarray, shape (S, C)
-        The sum of rows ``edges[i] .. edges[i + 1] - 1`` in row i.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> P = np.arange(24.0).reshape(12, 2)
-    >>> edges = np.array([0, 5, 10, 12])
-    >>> bool(np.array_equal(segment_sums(P, edges), np.add.reduceat(P[:12], edges[:-1], axis=0)))
-    True
-    """
-    lengths = np.diff(edges)
-    if lengths.size == 0 or (lengths < 1).any():
-        raise ValueError("segment_sums: expected increasing edges")
-    L = int(lengths[0])
-    m = int(np.argmax(lengths != L)) if (lengths != L).any() else lengths.size
-    out = np.empty((lengths.size, P.shape[1]))
-    V = P[edges[0]:edges[0] + m * L].reshape(m, L, P.shape[1])
-    if L == 1:
-        out[:m] = V[:, 0]
-    else:
-        np.add(V[:, 0], _pairwise_rows(V, 1, L), out=out[:m])
-    if m < lengths.size:
-        out[m:] = np.add.reduceat(P[:edges[-1]], edges[m:-1], axis=0)
-    return out
-
-
-def _pairwise_rows(V, a, b):
-    """numpy's pairwise sum of ``V[:, a:b]`` along axis 1 (the grouping of its float add reduction)."""
-    n = b - a
-    if n < 8:
-        res = np.full(V[:, 0].shape, -0.0)
-        for i in range(a, b):
-            res += V[:, i]
-        return res
-    if n <= 128:
-        r = [V[:, a + j].copy() for j in range(8)]
-        i = 8
-        while i < n - n % 8:
-            for j in range(8):
-                r[j] += V[:, a + i + j]
-            i += 8
-        res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
-        for k in range(a + i, b):
-            res += V[:, k]
-        return res
-    n2 = n // 2
-    n2 -= n2 % 8
-    return _pairwise_rows(V, a, a + n2) + _pairwise_rows(V, a + n2, b)
 
 
 def horizontal_3d(h, f, w, keep):

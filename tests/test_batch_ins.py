@@ -106,13 +106,3 @@ def test_block_size_does_not_change_the_3d_kernel():
     bi.horizontal_accel_3d(h, [c[:, 2:4] for c in f], [c[:, 2:4] for c in w], part[0], part[1])
     assert np.array_equal(part, out[1][:, :, 2:4])
 
-
-@pytest.mark.parametrize("length", [1, 2, 7, 8, 9, 10, 16, 17, 100, 128, 129, 300])
-def test_segment_sums_are_numpys_reduceat(length):
-    # the row-by-row evaluation must group the additions exactly as numpy's reduceat does (the
-    # study's numbers depend on it); values spread over many magnitudes make any other grouping show
-    rng = np.random.default_rng(length)
-    P = rng.standard_normal((4 * length + 3, 5)) * np.exp(rng.uniform(-25, 25, (4 * length + 3, 5)))
-    P[0] = -0.0
-    for edges in (np.arange(4) * length, np.r_[np.arange(4) * length, 4 * length + 2], np.r_[0, length]):
-        assert np.array_equal(bi.segment_sums(P, edges), np.add.reduceat(P[:edges[-1]], edges[:-1], axis=0))
