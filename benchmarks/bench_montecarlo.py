@@ -72,6 +72,10 @@ def dask_vs_local(runs: int = 100_000, pairs: int = 3, seed: int = 0, env=None):
 
     from distributed import LocalCluster
 
+    root = str(Path(__file__).resolve().parents[1])
+    if root not in sys.path:
+        # the workers are spawned with this process's sys.path: they must import this checkout
+        sys.path.insert(0, root)
     with tempfile.TemporaryDirectory() as tmp, LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                                              dashboard_address=None) as cluster:
         base = [sys.executable, "-m", "morpi_filters.cli", "montecarlo", "--runs", str(runs), "--seed", str(seed)]
@@ -100,7 +104,6 @@ def measure(pairs: int = 5, quick: bool = False, runs: int = 10_000, seed: int =
     import os
 
     env = dict(os.environ, PYTHONPATH=env_root + os.pathsep + os.environ.get("PYTHONPATH", ""), MPLBACKEND="Agg")
-    os.environ["PYTHONPATH"] = env["PYTHONPATH"]       # the Dask workers import this checkout too
     with tempfile.TemporaryDirectory() as tmp:
         cmd = [sys.executable, "-m", "morpi_filters.cli", "montecarlo", "--runs", str(runs),
                "--seed", str(seed), "--out", str(Path(tmp) / "mc")]
