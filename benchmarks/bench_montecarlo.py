@@ -118,7 +118,7 @@ def measure(pairs: int = 5, quick: bool = False, runs: int = 10_000, seed: int =
 
     cfgs = page_configs()
     mc.reference_gains(cfgs[0])          # the training is cached per process: not part of either side here
-    curves = (True, True) + (False,) * (len(cfgs) - 2)      # as the page runs them
+    curves = (True,) + (False,) * (len(cfgs) - 1)           # as the page runs them
     inproc = paired(f"run_studies (the page's {len(cfgs)} studies, one pass) / per-run draws (in process)",
                     lambda: mc.run_studies(runs, seed, cfgs, progress=False, curves=curves), draws, pairs=pairs)
     out = [whole, inproc]

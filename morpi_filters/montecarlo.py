@@ -1833,7 +1833,8 @@ class GainErrorPage:
     calibrated : StudyResult
         After a zero-order calibration on 3 s of rest (the paper's GAC baselines).
     raw : StudyResult
-        With the full datasheet turn-on biases.
+        With the full datasheet turn-on biases (its final errors; run without
+        curves: ``rms`` and ``bands`` None).
     training : TrainingStudy
         The gain from k training runs.
     checks : list of dict
@@ -1923,9 +1924,10 @@ def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, source=
     raw = replace(cal, calibration="RD")
     # one pass over the random numbers: every study of the page is a set of columns of the same draws
     tcfg = training_configs(TRAINING_KS, mismatch=mismatch, spread=spread, config=cal)
-    # (the training studies are summarised by their distance and final errors: no curves)
+    # curves for the calibrated study only: the page shows the raw study's and the training studies'
+    # final and distance errors
     r, rr, *tres = run_studies(runs, seed, (cal, raw, *tcfg), chunk=chunk, scheduler=scheduler,
-                               curves=(True, True) + (False,) * len(tcfg))
+                               curves=(True, False) + (False,) * len(tcfg))
     tr = training_summary(TRAINING_KS, tres, mismatch=mismatch, spread=spread)
     return GainErrorPage(runs=runs, seed=seed, calibrated=r, raw=rr, training=tr, checks=distance_law_check(r),
                          spread=spread, mismatch=mismatch, spread_note=spread_note, assumed=assumed,
