@@ -47,9 +47,11 @@ One pass, flat memory
     distance check need), the error series only as a sum of squares (RMS) and
     histogram counts per epoch (the 5/50/95 % bands), unless a caller asks
     for them (``series=True``); a study whose curves nobody reads (the
-    gain-training studies) skips even those (``curves``). Dask workers return
-    those reductions. The kernel's large planes are scratch arrays of the
-    thread, reused from chunk to chunk.
+    gain-training studies, the page's raw-bias study) skips even those
+    (``curves``). Dask workers return those reductions. The kernel's large
+    planes are scratch arrays of the thread, reused from chunk to chunk, and
+    the process keeps its freed temporaries for the next chunk
+    (:func:`_keep_freed_memory`).
 
 Digest
     sha256 over the per-run final horizontal errors as a C-ordered
