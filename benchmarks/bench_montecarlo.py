@@ -80,7 +80,8 @@ def dask_vs_local(runs: int = 100_000, pairs: int = 3, seed: int = 0, env=None):
                                                              dashboard_address=None) as cluster:
         base = [sys.executable, "-m", "morpi_filters.cli", "montecarlo", "--runs", str(runs), "--seed", str(seed)]
         far, near = Path(tmp) / "dask", Path(tmp) / "local"
-        ratio = paired_commands(f"morpi montecarlo --runs {runs}: Dask LocalCluster, 2 workers / local (whole commands)",
+        ratio = paired_commands(f"morpi montecarlo --runs {runs}: Dask LocalCluster, 2 workers / local "
+                                "(whole commands)",
                                 base + ["--out", str(far), "--scheduler", cluster.scheduler_address],
                                 base + ["--out", str(near)], pairs=pairs, target=1.0, env=env, cwd=tmp)
         digests = [json.loads((d / "result.json").read_text())["digest"] for d in (far, near)]

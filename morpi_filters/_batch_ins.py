@@ -120,7 +120,10 @@ def attitude_blocks(wx, wy, wz, h, block: int = 64):
 
 
 def _propagate(increments, n: int, R: int, block: int):
-    """The quaternion recursion of :func:`attitude_blocks`; ``increments(k0, k1, out)`` writes p0..p3 of intervals k0..k1-1 into the 4 arrays `out`.
+    """The quaternion recursion of :func:`attitude_blocks`.
+
+    ``increments(k0, k1, out)`` writes p0..p3 of intervals k0..k1-1 into the
+    4 arrays `out` (the first column of the block's M) and returns them.
 
     Each step multiplies the 4x4 right-multiplication matrix of the increment
     by q (one product per element) and sums each row in order,
