@@ -12,9 +12,15 @@ alternation and the ratio A / B is taken per pair (``benchmarks/pairs.py``).
 A second, in-process line compares :func:`montecarlo.run_studies` (every study
 of the page in one pass, no files) with the same draws in the same process.
 
+A third line runs the same command on a Dask ``LocalCluster`` of 2 worker
+processes (1 thread each, started once by this script and kept for every
+pair; ``--scheduler ADDRESS``) against the command run locally (its default:
+one thread), both with ``--dask-runs`` runs; the two result.json digests must
+be equal (``--dask-runs 0`` leaves the line out). Target: no slower than local (<= 1x).
+
 Target: whole command / draws <= 4x.
 
-Usage: ``python3 benchmarks/bench_montecarlo.py [--runs N] [--pairs P]``
+Usage: ``python3 benchmarks/bench_montecarlo.py [--runs N] [--pairs P] [--dask-runs N] [--dask-pairs P]``
 """
 from __future__ import annotations
 
@@ -57,8 +63,36 @@ def page_configs():
             *mc.training_configs(mc.TRAINING_KS, mismatch=mc.ASSUMED_MISMATCH, spread=mc.ASSUMED_SPREAD, config=cal))
 
 
-def measure(pairs: int = 5, quick: bool = False, runs: int = 10_000, seed: int = 0):
-    """The paired ratios of this benchmark (list of :class:`pairs.PairedRatio`); `quick`: at most 2000 runs."""
+def dask_vs_local(runs: int = 100_000, pairs: int = 3, seed: int = 0, env=None):
+    """``morpi montecarlo`` on a 2-worker Dask LocalCluster / the same command locally (a :class:`pairs.PairedRatio`).
+
+    Raises RuntimeError when the two digests differ.
+    """
+    import json
+
+    from distributed import LocalCluster
+
+    root = str(Path(__file__).resolve().parents[1])
+    if root not in sys.path:
+        # the workers are spawned with this process's sys.path: they must import this checkout
+        sys.path.insert(0, root)
+    with tempfile.TemporaryDirectory() as tmp, LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                                             dashboard_address=None) as cluster:
+        base = [sys.executable, "-m", "morpi_filters.cli", "montecarlo", "--runs", str(runs), "--seed", str(seed)]
+        far, near = Path(tmp) / "dask", Path(tmp) / "local"
+        ratio = paired_commands(f"morpi montecarlo --runs {runs}: Dask LocalCluster, 2 workers / local "
+                                "(whole commands)",
+                                base + ["--out", str(far), "--scheduler", cluster.scheduler_address],
+                                base + ["--out", str(near)], pairs=pairs, target=1.0, env=env, cwd=tmp)
+        digests = [json.loads((d / "result.json").read_text())["digest"] for d in (far, near)]
+    if digests[0] != digests[1]:
+        raise RuntimeError(f"Dask and local digests differ: {digests}")
+    return ratio
+
+
+def measure(pairs: int = 5, quick: bool = False, runs: int = 10_000, seed: int = 0, dask_runs: int = 100_000,
+            dask_pairs: int = 3):
+    """The paired ratios of this benchmark (list of :class:`pairs.PairedRatio`); `quick`: at most 2000 runs, no Dask."""
     if quick:
         runs = min(runs, 2000)
     cfg = mc.StudyConfig()
@@ -85,9 +119,18 @@ def measure(pairs: int = 5, quick: bool = False, runs: int = 10_000, seed: int =
 
     cfgs = page_configs()
     mc.reference_gains(cfgs[0])          # the training is cached per process: not part of either side here
+    curves = (True,) + (False,) * (len(cfgs) - 1)           # as the page runs them
     inproc = paired(f"run_studies (the page's {len(cfgs)} studies, one pass) / per-run draws (in process)",
-                    lambda: mc.run_studies(runs, seed, cfgs, progress=False), draws, pairs=pairs)
-    return [whole, inproc]
+                    lambda: mc.run_studies(runs, seed, cfgs, progress=False, curves=curves), draws, pairs=pairs)
+    out = [whole, inproc]
+    if dask_runs <= 0:
+        return out
+    try:
+        import distributed  # noqa: F401
+    except ImportError:
+        return out, "Dask line left out: dask[distributed] is not installed"
+    out.append(dask_vs_local(dask_runs, dask_pairs, seed, env))
+    return out
 
 
 def main(argv=None):
@@ -95,8 +138,14 @@ def main(argv=None):
     ap.add_argument("--runs", type=int, default=10_000)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--pairs", type=int, default=5)
+    ap.add_argument("--dask-runs", type=int, default=100_000)
+    ap.add_argument("--dask-pairs", type=int, default=3)
     args = ap.parse_args(argv)
-    for r in measure(args.pairs, runs=args.runs, seed=args.seed):
+    out = measure(args.pairs, runs=args.runs, seed=args.seed, dask_runs=args.dask_runs, dask_pairs=args.dask_pairs)
+    if isinstance(out, tuple):
+        out, note = out
+        print(note)
+    for r in out:
         print(r.line())
     return 0
 

@@ -10,7 +10,8 @@ wall time and its peak resident memory (``ru_maxrss`` of that child, read by
   times as many recordings in the same layout (train copies also enlarge every
   training set); ``--partial`` on every point, since a folder holding more runs
   than the field layout is otherwise refused;
-- ``morpi montecarlo --runs N`` for N = 1k, 10k, 100k (and more with ``--runs``).
+- ``morpi montecarlo --runs N`` for N = 1k, 10k, 100k and 1M (the largest ``--runs``; several
+  minutes on 2 cores), or the sizes given with ``--runs``.
 
 One measurement per point (a scale study, not a ratio); the machine is shared, so
 read the growth, not the third digit.
@@ -34,7 +35,7 @@ from morpi_filters import dataset as ds  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 COPIES = (1, 2, 5)
-RUNS = (1_000, 10_000, 100_000)
+RUNS = (1_000, 10_000, 100_000, 1_000_000)
 
 
 def copied_dataset(root: Path, k: int, dest: Path) -> tuple[Path, int]:

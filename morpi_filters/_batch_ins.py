@@ -15,10 +15,10 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["quat_increments", "attitude_blocks", "attitude", "prefix_rows", "cos_sin", "double_integral_at",
-           "horizontal_3d", "horizontal_2d"]
+           "horizontal_3d", "horizontal_2d", "horizontal_accel_3d", "horizontal_accel_2d"]
 
 
-def quat_increments(wx, wy, wz, h):
+def quat_increments(wx, wy, wz, h, out=None):
     """Attitude increments exp(omega h / 2) as quaternion planes.
 
     The half-angle x = |omega| h / 2 enters through Taylor series of cos x and
@@ -33,6 +33,8 @@ def quat_increments(wx, wy, wz, h):
         Body angular rate held over the interval, per axis [rad/s].
     h : float
         Length of the interval [s].
+    out : sequence of 4 ndarray, optional
+        Arrays shaped like `wx` to write p0..p3 into (returned).
 
     Returns
     -------
@@ -53,7 +55,7 @@ def quat_increments(wx, wy, wz, h):
     x2 += wy * wy
     x2 += wz * wz
     x2 *= 0.25 * h * h
-    c = x2 * (1 / 24)
+    c = np.multiply(x2, 1 / 24, out=None if out is None else out[0])
     c -= 0.5
     c *= x2
     c += 1
@@ -67,7 +69,9 @@ def quat_increments(wx, wy, wz, h):
         c[big] = np.cos(x)
         k[big] = np.sin(x) / x
     k *= 0.5 * h
-    return c, k * wx, k * wy, k * wz
+    if out is None:
+        return c, k * wx, k * wy, k * wz
+    return c, np.multiply(k, wx, out=out[1]), np.multiply(k, wy, out=out[2]), np.multiply(k, wz, out=out[3])
 
 
 def attitude_blocks(wx, wy, wz, h, block: int = 64):
@@ -112,6 +116,20 @@ def attitude_blocks(wx, wy, wz, h, block: int = 64):
     [0.0, 0.0, 0.0, 1.0]
     """
     n, R = wx.shape
+    return _propagate(lambda k0, k1, out: quat_increments(wx[k0:k1], wy[k0:k1], wz[k0:k1], h, out=out), n, R, block)
+
+
+def _propagate(increments, n: int, R: int, block: int):
+    """The quaternion recursion of :func:`attitude_blocks`.
+
+    ``increments(k0, k1, out)`` writes p0..p3 of intervals k0..k1-1 into the
+    4 arrays `out` (the first column of the block's M) and returns them.
+
+    Each step multiplies the 4x4 right-multiplication matrix of the increment
+    by q (one product per element) and sums each row in order,
+    ``((M[i,0] q[0] + M[i,1] q[1]) + M[i,2] q[2]) + M[i,3] q[3]`` (numpy adds
+    the rows of an axis that is not the last one by one, in order).
+    """
     M = np.empty((block, 4, 4, R))
     tmp = np.empty((4, 4, R))
     Q = np.empty((block + 1, 4, R))
@@ -120,11 +138,11 @@ def attitude_blocks(wx, wy, wz, h, block: int = 64):
     for k0 in range(0, n, block):
         k1 = min(k0 + block, n)
         m = M[:k1 - k0]
-        p0, p1, p2, p3 = quat_increments(wx[k0:k1], wy[k0:k1], wz[k0:k1], h)
-        # rows of M(p) with q (x) p = M(p) q (Hamilton product, scalar first)
+        # the increments go straight into the first column of M(p): (p0, p1, p2, p3)
+        p0, p1, p2, p3 = increments(k0, k1, (m[:, 0, 0], m[:, 1, 0], m[:, 2, 0], m[:, 3, 0]))
+        # the other columns of M(p) with q (x) p = M(p) q (Hamilton product, scalar first)
         for i, row in enumerate(((p0, -1, p1, -1, p2, -1, p3), (p1, 1, p0, 1, p3, -1, p2),
                                  (p2, -1, p3, 1, p0, 1, p1), (p3, 1, p2, -1, p1, 1, p0))):
-            m[:, i, 0] = row[0]
             for j, (sign, val) in enumerate(zip(row[1::2], row[2::2]), start=1):
                 if sign > 0:
                     m[:, i, j] = val
@@ -132,11 +150,8 @@ def attitude_blocks(wx, wy, wz, h, block: int = 64):
                     np.negative(val, out=m[:, i, j])
         for j in range(k1 - k0):
             # q_next[i] = ((M[i,0] q[0] + M[i,1] q[1]) + M[i,2] q[2]) + M[i,3] q[3]
-            np.multiply(m[j], Q[j][None], out=tmp)
-            nxt = Q[j + 1]
-            np.add(tmp[:, 0], tmp[:, 1], out=nxt)
-            nxt += tmp[:, 2]
-            nxt += tmp[:, 3]
+            np.multiply(m[j], Q[j], out=tmp)
+            np.add.reduce(tmp, axis=1, out=Q[j + 1])
         last = k1 == n
         yield k0, Q[:k1 - k0 + (1 if last else 0)]
         Q[0] = Q[k1 - k0]
@@ -240,29 +255,34 @@ def cos_sin(psi, block: int = 32):
     c, s = np.empty((n, R)), np.empty((n, R))
     for k0 in range(0, n, block):
         k1 = min(k0 + block, n)
-        base = psi[k0]
-        cb, sb = np.cos(base), np.sin(base)
-        d = psi[k0:k1] - base
-        d2 = d * d
-        cd = d2 * (-1 / 3628800)
-        sd = d2 * (-1 / 39916800)
-        for cc, ss in ((1 / 40320, 1 / 362880), (-1 / 720, -1 / 5040), (1 / 24, 1 / 120), (-1 / 2, -1 / 6)):
-            cd += cc
-            cd *= d2
-            sd += ss
-            sd *= d2
-        cd += 1
-        sd += 1
-        sd *= d
-        big = d2 > 0.04
-        if big.any():
-            cd[big] = np.cos(d[big])
-            sd[big] = np.sin(d[big])
-        np.multiply(cb, cd, out=c[k0:k1])
-        c[k0:k1] -= sb * sd
-        np.multiply(sb, cd, out=s[k0:k1])
-        s[k0:k1] += cb * sd
+        _cos_sin_rows(psi[k0:k1], c[k0:k1], s[k0:k1])
     return c, s
+
+
+def _cos_sin_rows(psi, c, s):
+    """One block of :func:`cos_sin`: exact cos/sin of the first row, series offsets for the others; into c, s."""
+    base = psi[0]
+    cb, sb = np.cos(base), np.sin(base)
+    d = psi - base
+    d2 = d * d
+    cd = d2 * (-1 / 3628800)
+    sd = d2 * (-1 / 39916800)
+    for cc, ss in ((1 / 40320, 1 / 362880), (-1 / 720, -1 / 5040), (1 / 24, 1 / 120), (-1 / 2, -1 / 6)):
+        cd += cc
+        cd *= d2
+        sd += ss
+        sd *= d2
+    cd += 1
+    sd += 1
+    sd *= d
+    big = d2 > 0.04
+    if big.any():
+        cd[big] = np.cos(d[big])
+        sd[big] = np.sin(d[big])
+    np.multiply(cb, cd, out=c)
+    c -= sb * sd
+    np.multiply(sb, cd, out=s)
+    s += cb * sd
 
 
 def double_integral_at(a, h, keep):
@@ -297,8 +317,12 @@ def double_integral_at(a, h, keep):
     >>> double_integral_at(np.ones((11, 1)), 0.1, np.array([0, 5, 10]))[:, 0].round(12).tolist()
     [0.0, 0.125, 0.5]
     """
+    return _double_integral_at(a, h, keep, np.empty(a.shape))
+
+
+def _double_integral_at(a, h, keep, P):
+    """:func:`double_integral_at` with the prefix sums written into the (n, R) array `P`."""
     n, R = a.shape
-    P = np.empty((n, R))
     prefix_rows(a, P)
     # Q at the kept rows only: sums of P between consecutive kept rows, then their running sum
     kk = keep[keep > 0]
@@ -353,34 +377,84 @@ def horizontal_3d(h, f, w, keep):
     >>> round(float(x[0, 0]), 12), round(float(y[0, 0]), 12)
     (0.5, 0.0)
     """
-    # trapezoid rate of each interval: h (w_k + w_k+1) / 2 = (h / 2) (w_k + w_k+1)
-    ws = [np.add(c[:-1], c[1:]) for c in w]
     n, R = f[0].shape
-    ax, ay = np.empty((n, R)), np.empty((n, R))
-    for k0, q in attitude_blocks(ws[0], ws[1], ws[2], 0.5 * h):
+    a = np.empty((2, n, R))
+    horizontal_accel_3d(h, f, w, a[0], a[1])
+    return double_integral_at(a[0], h, keep), double_integral_at(a[1], h, keep)
+
+
+def horizontal_accel_3d(h, f, w, ax, ay, block: int = 64):
+    """The horizontal rows of ``C f`` that :func:`horizontal_3d` integrates, written into `ax`, `ay`.
+
+    C is propagated from rest (the identity) by :func:`attitude_blocks` with
+    the trapezoid rate of each interval, ``(h / 2) (w_k + w_k+1)``, and
+    ``C f = f + 2 q0 (u x f) + 2 u x (u x f)`` with ``u = (q1, q2, q3)``.
+    The work goes block by block of `block` rows (the result does not depend
+    on it), so its scratch arrays stay small.
+
+    Parameters
+    ----------
+    h : float
+        Sampling interval [s].
+    f, w : sequence of 3 ndarrays, shape (n, R)
+        Measured specific force [m/s^2] and angular rate [rad/s] planes, time-major.
+    ax, ay : ndarray, shape (n, R)
+        Written with the north and east components of ``C f`` [m/s^2] (any
+        strides, e.g. planes of one larger array).
+    block : int, optional
+        Rows per block (default 64).
+
+    Returns
+    -------
+    None
+
+    Examples
+    --------
+    A quarter turn about z over the first second turns body x into navigation y:
+
+    >>> import numpy as np
+    >>> n, h = 11, 0.1
+    >>> f = [np.ones((n, 1)), np.zeros((n, 1)), np.full((n, 1), 9.81)]
+    >>> w = [np.zeros((n, 1)), np.zeros((n, 1)), np.full((n, 1), np.pi / 2)]
+    >>> ax, ay = np.empty((n, 1)), np.empty((n, 1))
+    >>> horizontal_accel_3d(h, f, w, ax, ay)
+    >>> round(float(ax[-1, 0]), 12) + 0.0, round(float(ay[-1, 0]), 12)
+    (0.0, 1.0)
+    """
+    n, R = f[0].shape
+    rates = np.empty((3, block, R))
+    t = np.empty((4, block + 1, R))
+
+    def increments(k0, k1, out):
+        # trapezoid rate of each interval: h (w_k + w_k+1) / 2 = (h / 2) (w_k + w_k+1)
+        ws = rates[:, :k1 - k0]
+        for c in range(3):
+            np.add(w[c][k0:k1], w[c][k0 + 1:k1 + 1], out=ws[c])
+        return quat_increments(ws[0], ws[1], ws[2], 0.5 * h, out=out)
+
+    for k0, q in _propagate(increments, n - 1, R, block):
         k1 = k0 + q.shape[0]
         q0, q1, q2, q3 = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
         fx, fy, fz = f[0][k0:k1], f[1][k0:k1], f[2][k0:k1]
+        cx, cy, cz, u = t[0, :k1 - k0], t[1, :k1 - k0], t[2, :k1 - k0], t[3, :k1 - k0]
         # C(q) f = f + 2 q0 (u x f) + 2 u x (u x f), u = (q1, q2, q3); horizontal rows only
-        cx = q2 * fz
-        cx -= q3 * fy
-        cy = q3 * fx
-        cy -= q1 * fz
-        cz = q1 * fy
-        cz -= q2 * fx
+        np.multiply(q2, fz, out=cx)
+        cx -= np.multiply(q3, fy, out=u)
+        np.multiply(q3, fx, out=cy)
+        cy -= np.multiply(q1, fz, out=u)
+        np.multiply(q1, fy, out=cz)
+        cz -= np.multiply(q2, fx, out=u)
         bx, by = ax[k0:k1], ay[k0:k1]
         np.multiply(q2, cz, out=bx)
-        bx -= q3 * cy
-        bx += q0 * cx
+        bx -= np.multiply(q3, cy, out=u)
+        bx += np.multiply(q0, cx, out=u)
         bx *= 2
         bx += fx
         np.multiply(q3, cx, out=by)
-        by -= q1 * cz
-        by += q0 * cy
+        by -= np.multiply(q1, cz, out=u)
+        by += np.multiply(q0, cy, out=u)
         by *= 2
         by += fy
-    del ws
-    return double_integral_at(ax, h, keep), double_integral_at(ay, h, keep)
 
 
 def horizontal_2d(f, psi, h, keep, heading=None):
@@ -422,12 +496,65 @@ def horizontal_2d(f, psi, h, keep, heading=None):
     >>> round(float(x[0, 0]), 12), round(float(y[0, 0]), 12)
     (0.0, 0.5)
     """
-    c, s = cos_sin(psi)
+    n, R = psi.shape
+    a = np.empty((2, n, R))
+    horizontal_accel_2d(f, psi, a[0], a[1], heading=heading)
+    return double_integral_at(a[0], h, keep), double_integral_at(a[1], h, keep)
+
+
+def horizontal_accel_2d(f, psi, ax, ay, heading=None, block: int = 32):
+    """The body specific force rotated by the heading, as :func:`horizontal_2d` integrates it, into `ax`, `ay`.
+
+    The heading is ``heading[:, None] + psi``; the cos and sin of `psi` come
+    from :func:`cos_sin` (blocks of `block` rows, which also set how the
+    result is computed: keep the default to reproduce :func:`horizontal_2d`),
+    and are combined with those of `heading` by the angle-sum rule.
+
+    Parameters
+    ----------
+    f : sequence of at least 2 ndarrays, shape (n, R)
+        Specific force planes f_x, f_y in the body frame [m/s^2], time-major.
+    psi : ndarray, shape (n, R)
+        Heading added to `heading`, per run [rad].
+    ax, ay : ndarray, shape (n, R)
+        Written with the north and east components [m/s^2] (any strides).
+    heading : ndarray, shape (n,), optional
+        Heading shared by all runs [rad]; zero when None.
+    block : int, optional
+        Rows per block (default 32, that of :func:`cos_sin`).
+
+    Returns
+    -------
+    None
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> f = [np.ones((3, 1)), np.zeros((3, 1))]
+    >>> ax, ay = np.empty((3, 1)), np.empty((3, 1))
+    >>> horizontal_accel_2d(f, np.full((3, 1), np.pi / 2), ax, ay)
+    >>> np.round(ax[:, 0], 12).tolist(), np.round(ay[:, 0], 12).tolist()
+    ([0.0, 0.0, 0.0], [1.0, 1.0, 1.0])
+    """
+    n, R = psi.shape
+    ch = sh = None
     if heading is not None:
         ch, sh = np.cos(heading)[:, None], np.sin(heading)[:, None]
-        c, s = c * ch - s * sh, s * ch + c * sh
-    ax = c * f[0]
-    ax -= s * f[1]
-    ay = s * f[0]
-    ay += c * f[1]
-    return double_integral_at(ax, h, keep), double_integral_at(ay, h, keep)
+    t = np.empty((5, block, R))
+    for k0 in range(0, n, block):
+        k1 = min(k0 + block, n)
+        c, s, c2, s2, u = t[:, :k1 - k0]
+        _cos_sin_rows(psi[k0:k1], c, s)
+        if ch is not None:
+            # c, s = c ch - s sh, s ch + c sh
+            np.multiply(c, ch[k0:k1], out=c2)
+            c2 -= np.multiply(s, sh[k0:k1], out=u)
+            np.multiply(s, ch[k0:k1], out=s2)
+            s2 += np.multiply(c, sh[k0:k1], out=u)
+            c, s = c2, s2
+        f0, f1 = f[0][k0:k1], f[1][k0:k1]
+        bx, by = ax[k0:k1], ay[k0:k1]
+        np.multiply(c, f0, out=bx)
+        bx -= np.multiply(s, f1, out=u)
+        np.multiply(s, f0, out=by)
+        by += np.multiply(c, f1, out=u)

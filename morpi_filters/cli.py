@@ -47,10 +47,10 @@ def _nonneg_int(name):
 
 #: Largest ``--runs`` of a Monte Carlo page. Measured cost of one run of every
 #: study of ``morpi montecarlo`` (one pass over the draws, ``montecarlo.run_studies``;
-#: 1,000,000 runs on a 2-core machine): 0.54 ms and 0.7 kB of peak memory
-#: (9 min and 0.84 GB for the million, a 0.19 GB base included).
+#: 1,000,000 runs on a 2-core machine shared with other work): 0.36 ms and 0.63 kB of
+#: peak memory (6.0 min and 0.83 GB for the million, a 0.19 GB base included).
 MAX_RUNS = 1_000_000
-RUN_SECONDS, RUN_BYTES = 0.54e-3, 0.7e3
+RUN_SECONDS, RUN_BYTES = 0.36e-3, 0.63e3
 
 #: Largest ``curves --times`` [s]. Measured cost of the curves section
 #: per second of the last evaluation time (T = 100 s and 400 s on a 2-core

@@ -46,7 +46,12 @@ One pass, flat memory
     errors are kept (they are what the digest, the order statistics and the
     distance check need), the error series only as a sum of squares (RMS) and
     histogram counts per epoch (the 5/50/95 % bands), unless a caller asks
-    for them (``series=True``). Dask workers return those reductions.
+    for them (``series=True``); a study whose curves nobody reads (the
+    gain-training studies, the page's raw-bias study) skips even those
+    (``curves``). Dask workers return those reductions. The kernel's large
+    planes are scratch arrays of the thread, reused from chunk to chunk, and
+    a Dask worker process keeps its freed temporaries for the next chunk
+    (:func:`_keep_freed_memory`; the caller's own process is left as it is).
 
 Digest
     sha256 over the per-run final horizontal errors as a C-ordered
@@ -79,6 +84,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import math
+import threading
 import time as _time
 from dataclasses import dataclass, field, replace
 
@@ -379,12 +385,14 @@ class StudyResult:
         (0 until the first step is complete). Kept only when the study is run
         with ``series=True``; otherwise None, and the curves are summarised
         by `rms` and `bands`, whose memory does not grow with the runs.
-    rms : ndarray, shape (m, 4)
-        Root mean square over the runs of the same errors [m].
-    bands : ndarray, shape (m, 4, 3)
+    rms : ndarray, shape (m, 4), or None
+        Root mean square over the runs of the same errors [m] (None for a
+        study run without curves, see :func:`run_studies`).
+    bands : ndarray, shape (m, 4, 3), or None
         5th, 50th and 95th percentiles over the runs of the same errors [m],
         read from per-epoch histograms with :data:`BAND_BINS_PER_DECADE` log
-        bins per decade (relative resolution ``10 ** (1 / 40)``, 6 %).
+        bins per decade (relative resolution ``10 ** (1 / 40)``, 6 %); None
+        like `rms`.
     columns : tuple of str
         Names of the columns of `final`.
     final : ndarray, shape (runs, len(columns))
@@ -524,10 +532,12 @@ class StudyResult:
         Raises
         ------
         MorpiError
-            An unknown method or statistic.
+            An unknown method or statistic, or a study run without curves.
         """
         if method not in METHODS:
             raise MorpiError(f"method {method!r}: expected one of {', '.join(METHODS)}")
+        if self.rms is None:
+            raise MorpiError("curve: this study was run without curves (run_studies(..., curves=...))")
         j = METHODS.index(method)
         if statistic == "rms":
             return self.rms[:, j]
@@ -742,11 +752,84 @@ class _Payload:
     gain_ref: tuple
     keep: np.ndarray
     series: bool            # return the per-run error series too
+    curves: tuple           # per study: whether its error series are reduced (RMS, histogram counts)
 
 
-def _draw(seed: int, a: int, b: int, n: int) -> np.ndarray:
+#: Scratch arrays of the chunk kernel, per thread, kept from one chunk to the next (see :func:`_scratch`).
+_SCRATCH = threading.local()
+
+#: Whether :func:`_keep_freed_memory` has run in this process.
+_MALLOC_TUNED = False
+
+
+def _on_dask_worker() -> bool:
+    """Whether this code runs inside a Dask worker (a process the study's scheduler owns)."""
+    import sys
+
+    if "distributed" not in sys.modules:
+        return False
+    from distributed import get_worker
+
+    try:
+        get_worker()
+    except ValueError:
+        return False
+    return True
+
+
+def _keep_freed_memory() -> None:
+    """Ask the C library's allocator to keep freed memory for reuse (glibc; once per process).
+
+    A chunk allocates and frees many numpy temporaries of 0.1 to 6 MB. With
+    glibc's default thresholds, in a process that has not yet freed a larger
+    block (a fresh Dask worker), each of them is mapped and unmapped, or the
+    heap grown and trimmed again, so the system maps and zeroes that memory
+    every time: measured 64,000 page faults and 1.8 times the CPU of a chunk
+    in a fresh worker. Fixing the mmap threshold at 32 MB and the trim
+    threshold at 256 MB keeps such blocks in the heap. Nothing happens where
+    the allocator is not glibc's. Called in Dask worker processes only: a
+    library does not change the allocator of the process that imports it.
+    """
+    global _MALLOC_TUNED
+    if _MALLOC_TUNED:
+        return
+    _MALLOC_TUNED = True
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL("libc.so.6")
+        libc.mallopt(-3, 32 * 2**20)     # M_MMAP_THRESHOLD
+        libc.mallopt(-1, 256 * 2**20)    # M_TRIM_THRESHOLD
+    except (OSError, AttributeError):    # not glibc: its own allocator, left as it is
+        pass
+
+
+def _scratch(name: str, shape: tuple) -> np.ndarray:
+    """A scratch array of this thread (uninitialised), reused by the next chunk of the same shape.
+
+    The chunk kernel's large planes (the draws, the noise, the measured
+    signals) are tens of MB each; allocating them afresh for every chunk makes
+    the system map and zero that memory again each time. Nothing returned by a
+    chunk may be a view of a scratch array.
+    """
+    cache = getattr(_SCRATCH, "arrays", None)
+    if cache is None:
+        cache = _SCRATCH.arrays = {}
+    a = cache.get(name)
+    if a is None or a.shape != shape:
+        cache[name] = None
+        a = cache[name] = np.empty(shape)
+    return a
+
+
+def _release_scratch() -> None:
+    """Free this thread's scratch arrays (the end of a study)."""
+    _SCRATCH.arrays = {}
+
+
+def _draw(seed: int, a: int, b: int, n: int, out: np.ndarray | None = None) -> np.ndarray:
     """Per-run draws of runs a..b-1: (b - a, 7 + 6 n) standard normals, each from its own Generator."""
-    z = np.empty((b - a, _N_HEAD + 6 * n))
+    z = np.empty((b - a, _N_HEAD + 6 * n)) if out is None else out
     for r in range(a, b):
         np.random.Generator(np.random.PCG64(child_seed(seed, r))).standard_normal(out=z[r - a])
     return z
@@ -756,36 +839,46 @@ def _chunk(payload: _Payload, a: int, b: int) -> list:
     """Runs a..b-1 of every study of the payload from one draw of their random numbers.
 
     The studies differ only in the calibration (which scales the same bias
-    numbers), the gain scenarios and whether the INS runs; each calibration's
-    measurement errors are built once and serve all its studies. Returns one
-    dict per study: per-run final errors, gain errors and distance errors, and
-    the chunk's reductions of the error series (sum of squares and histogram
-    counts per epoch), plus the series themselves when ``payload.series``.
+    numbers), the gain scenarios and whether the INS runs. The noise planes
+    are built once; each calibration adds its biases to them once, and those
+    measurement errors serve all its studies. Returns one dict per study:
+    per-run final errors, gain errors and distance errors, and, for a study
+    whose curves are kept, the chunk's reductions of the error series (sum of
+    squares and histogram counts per epoch), plus the series themselves when
+    ``payload.series``.
     """
+    if _on_dask_worker():
+        _keep_freed_memory()
     cfg0, sine = payload.configs[0], payload.sine
     n = sine.time.size
     h = 1.0 / cfg0.rate_hz
     R = b - a
-    z = _draw(payload.seed, a, b, n)
+    z = _draw(payload.seed, a, b, n, out=_scratch("draws", (R, _N_HEAD + 6 * n)))
     zg = z[:, 6].copy()
-    zr = z[:, _N_HEAD:].reshape(R, 6, n)
-    keep = payload.keep
+    head = z[:, :6].copy()
     sa, sg = cfg0.spec.accel_noise * math.sqrt(cfg0.rate_hz), cfg0.spec.gyro_noise * math.sqrt(cfg0.rate_hz)
+    # time-major planes (6, n, R) of the white noise at the discrete sigma (accelerometer xyz, gyro xyz)
+    noise = _scratch("noise", (6, n, R))
+    zr = z[:, _N_HEAD:].reshape(R, 6, n)
+    for c in range(6):
+        np.multiply(zr[:, c, :].T, sa if c < 3 else sg, out=noise[c])
+    spare = z.reshape(-1)                   # the draws' buffer, free from here on (the INS accelerations go there)
+    del z, zr
+    err = _scratch("err", (6, n, R))
+    psi = _scratch("psi", (n, R))
+    keep = payload.keep
     out = [None] * len(payload.configs)
     for cal in dict.fromkeys(c.calibration for c in payload.configs):
         members = [i for i, c in enumerate(payload.configs) if c.calibration == cal]
         cfg = payload.configs[members[0]]
         sig_ba, sig_bg = cfg.bias_sigmas()
-        ba = sig_ba * z[:, 0:3]
-        bg = sig_bg * z[:, 3:6]
-        # time-major planes (6, n, R) of the measured errors: bias + white noise at the discrete sigma
-        err = np.empty((6, n, R))
+        # the measured errors: white noise + bias (the biases as contiguous rows, one per channel)
+        bias = np.concatenate([sig_ba * head[:, 0:3], sig_bg * head[:, 3:6]], axis=1).T.copy()
         for c in range(6):
-            np.multiply(zr[:, c, :].T, sa if c < 3 else sg, out=err[c])
-            err[c] += ba[:, c] if c < 3 else bg[:, c - 3]
+            np.add(noise[c], bias[c], out=err[c])
         # heading error integrated from the gyro-z error
         # (trapezoid: psi_k = h (sum_{i<k} w_i + (w_k - w_0) / 2))
-        psi = bi.prefix_rows(err[5], np.empty((n, R)))
+        bi.prefix_rows(err[5], psi)
         psi += 0.5 * err[5]
         psi -= 0.5 * err[5, 0]
         psi *= h
@@ -798,20 +891,23 @@ def _chunk(payload: _Payload, a: int, b: int) -> list:
         trig = (np.cos(hd), np.sin(hd))
         ins_e = None
         if any(payload.configs[i].ins for i in members):
-            ins_e = _ins_errors(payload, err, psi, h, keep)
-        del err, psi
+            ins_e = _ins_errors(payload, err, psi, h, keep, spare)
         for i in members:
-            out[i] = _study_chunk(payload, payload.configs[i], ins_e, dfa, dfg, trig, zg, R)
+            out[i] = _study_chunk(payload, payload.configs[i], ins_e, dfa, dfg, trig, zg, R, payload.curves[i])
     return out
 
 
-def _ins_errors(payload, err, psi, h, keep):
+def _ins_errors(payload, err, psi, h, keep, spare):
     """INS-3D and INS-2D horizontal errors (R, m) on the INS path from rest.
 
     The measured signals are the true ones of the path plus `err`; both go
     through the same integration rules (the truth once, in
     :func:`_ins_truth`), so the difference is the error the sensor errors
-    cause. Overwrites `err` with the measured signals.
+    cause. Overwrites `err` with the measured signals, and then with the
+    prefix sums of the integration. The four horizontal accelerations (3D x,
+    y; 2D x, y) are planes of one array, written into the first 4 n R numbers
+    of the free buffer `spare` and integrated twice in one call (the
+    integration is elementwise over its columns).
     """
     path = payload.ins_path
     for c in range(3):
@@ -819,10 +915,15 @@ def _ins_errors(payload, err, psi, h, keep):
         if path.omega_b[:, c].any():
             err[3 + c] += path.omega_b[:, c, None]
     f, w = [err[0], err[1], err[2]], [err[3], err[4], err[5]]
+    n, R = psi.shape
+    acc = spare[:n * 4 * R].reshape(n, 4, R)
+    bi.horizontal_accel_3d(h, f, w, acc[:, 0], acc[:, 1])
+    bi.horizontal_accel_2d(f, psi, acc[:, 2], acc[:, 3], heading=payload.ins_heading)
+    del f, w
+    pos = bi._double_integral_at(acc.reshape(n, 4 * R), h, keep, err.reshape(-1)[:n * 4 * R].reshape(n, 4 * R))
+    pos = pos.reshape(keep.size, 4, R)
     (x3, y3), (x2, y2) = payload.ins_truth
-    return [np.hypot(x - tx, y - ty).T for (x, y), tx, ty in (
-        (bi.horizontal_3d(h, f, w, keep), x3, y3),
-        (bi.horizontal_2d(f, psi, h, keep, heading=payload.ins_heading), x2, y2))]
+    return [np.hypot(pos[:, 0] - x3, pos[:, 1] - y3).T, np.hypot(pos[:, 2] - x2, pos[:, 3] - y2).T]
 
 
 def _ins_truth(path: _Path, h: float, keep: np.ndarray):
@@ -837,23 +938,25 @@ def _ins_truth(path: _Path, h: float, keep: np.ndarray):
     return heading, (bi.horizontal_3d(h, f, w, keep), bi.horizontal_2d(f, zero, h, keep, heading=heading))
 
 
-def _study_chunk(payload, cfg, ins_e, dfa, dfg, trig, zg, R) -> dict:
-    """One study's part of a chunk: finals, gain and distance errors, series reductions."""
+def _study_chunk(payload, cfg, ins_e, dfa, dfg, trig, zg, R, curves) -> dict:
+    """One study's part of a chunk: finals, gain and distance errors, and (`curves`) series reductions."""
     sine, keep = payload.sine, payload.keep
     pk = sine.peaks
     cps, sps = trig
     S = len(cfg.gains)
-    series = np.full((R, keep.size, 4), np.nan)
+    series = np.full((R, keep.size, 4), np.nan) if payload.series else None
     final = np.full((R, 2 + 2 * S), np.nan)
     if cfg.ins:
         for j, e in enumerate(ins_e):
-            series[:, :, j] = e
+            if series is not None:
+                series[:, :, j] = e
             final[:, j] = e[:, -1]
     truth = sine.position[pk, :2] - sine.position[pk[0], :2]   # (K+1, 2)
     D = _chord_sum(sine)
     steps_done = np.clip(np.searchsorted(pk, keep, side="right") - 1, 0, None)   # 0 before the first peak
     dG = np.empty((R, S))
     dist = np.empty((R, S, 2))
+    morpi = []                                                  # (R, K+1) MoRPI errors after 0..K steps
     for s_i, gain in enumerate(cfg.gains):
         dG[:, s_i] = gain.mean + gain.std * zg
         scale = 1.0 + dG[:, s_i:s_i + 1]
@@ -864,14 +967,52 @@ def _study_chunk(payload, cfg, ins_e, dfa, dfg, trig, zg, R) -> dict:
             e = np.hypot(x - truth[1:, 0], y - truth[1:, 1])   # (R, K)
             final[:, 2 + 2 * s_i + m] = e[:, -1]
             dist[:, s_i, m] = st.sum(axis=1) - D
-            if s_i == 0:
+            if s_i == 0 and (curves or series is not None):
                 e0 = np.concatenate([np.zeros((R, 1)), e], axis=1)
-                series[:, :, 2 + m] = e0[:, steps_done]
-    part = {"final": final, "dG": dG, "dist": dist, "sumsq": np.nansum(series * series, axis=0),
-            "count": np.isfinite(series).sum(axis=0), "hist": _band_counts(series)}
-    if payload.series:
+                morpi.append(e0)
+                if series is not None:
+                    series[:, :, 2 + m] = e0[:, steps_done]
+    part = {"final": final, "dG": dG, "dist": dist}
+    if curves and series is not None:
+        part.update(sumsq=np.nansum(series * series, axis=0), count=np.isfinite(series).sum(axis=0),
+                    hist=_band_counts(series))
+    elif curves:
+        part.update(_curve_reductions(ins_e if cfg.ins else None, morpi, steps_done, R))
+    if series is not None:
         part["series"] = series
     return part
+
+
+def _curve_reductions(ins_e, morpi, steps_done, R) -> dict:
+    """``sumsq``, ``count`` and ``hist`` of the error series (R, m, 4) without building it.
+
+    The same numbers as ``np.nansum(series ** 2, axis=0)``, ``np.isfinite(series).sum(axis=0)``
+    and :func:`_band_counts` of the series: column by column, each sum over the
+    runs in run order. A MoRPI column changes only at a step, so its sums and
+    histograms are those of its K + 1 values (after 0..K steps), repeated over
+    the epochs that have taken as many steps.
+    """
+    m = steps_done.size
+    nb = _BAND_EDGES.size - 1
+    sumsq = np.zeros((m, 4))
+    count = np.zeros((m, 4), np.int64)
+    hist = np.zeros((m, 4, nb), np.int64)
+    cols = [] if ins_e is None else [(j, e, None) for j, e in enumerate(ins_e)]
+    cols += [(2 + j, e0, steps_done) for j, e0 in enumerate(morpi)]
+    for j, e, rows in cols:
+        sq = np.multiply(e, e, out=np.empty(e.shape))          # C order: the sum over axis 0 goes run by run
+        ok = np.isfinite(e)
+        sq[np.isnan(sq)] = 0.0
+        s, c = np.add.reduce(sq, axis=0), ok.sum(axis=0)
+        x = e[ok]
+        k = np.broadcast_to(np.arange(e.shape[1]), e.shape)[ok]
+        h = np.bincount(k * nb + _band_bins(x), minlength=e.shape[1] * nb).reshape(e.shape[1], nb)
+        if rows is None:
+            sumsq[:, j], count[:, j], hist[:, j] = s, c, h
+        else:
+            sumsq[:, j], count[:, j], hist[:, j] = s[rows], c[rows], h[rows]
+    cells = np.flatnonzero(hist)
+    return {"sumsq": sumsq, "count": count, "hist": (cells.astype(np.int32), hist.reshape(-1)[cells].astype(np.int32))}
 
 
 def _band_counts(series) -> tuple:
@@ -885,7 +1026,19 @@ def _band_counts(series) -> tuple:
     R, m, k = series.shape
     nb = _BAND_EDGES.size - 1
     ok = np.isfinite(series)
-    x = series[ok]
+    idx = _band_bins(series[ok])
+    flat = np.broadcast_to(((np.arange(m)[:, None] * k + np.arange(k)[None, :]) * nb)[None], series.shape)[ok] + idx
+    dense = np.bincount(flat, minlength=m * k * nb)
+    cells = np.flatnonzero(dense)
+    return cells.astype(np.int32), dense[cells].astype(np.int32)
+
+
+def _band_bins(x) -> np.ndarray:
+    """Bin of each finite value of `x` among :data:`_BAND_EDGES` (int64): ``edges[i] <= x < edges[i + 1]``.
+
+    Values below 0 go to the first bin and values at or above the last edge to the last one.
+    """
+    nb = _BAND_EDGES.size - 1
     # bin from the logarithm (the edges are log-spaced), then corrected against the edges themselves
     lo = _BAND_EDGES[1]
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -894,10 +1047,7 @@ def _band_counts(series) -> tuple:
     np.clip(idx, 0, nb - 1, out=idx)
     idx -= x < _BAND_EDGES[idx]
     idx += (x >= _BAND_EDGES[idx + 1]) & (idx < nb - 1)
-    flat = np.broadcast_to(((np.arange(m)[:, None] * k + np.arange(k)[None, :]) * nb)[None], series.shape)[ok] + idx
-    dense = np.bincount(flat, minlength=m * k * nb)
-    cells = np.flatnonzero(dense)
-    return cells.astype(np.int32), dense[cells].astype(np.int32)
+    return idx
 
 
 def band_quantiles(counts, q=BAND_PERCENTILES) -> np.ndarray:
@@ -1056,7 +1206,7 @@ def run_study(runs: int, seed: int, config: StudyConfig | None = None, *, chunk:
 
 
 def run_studies(runs: int, seed: int, configs, *, chunk: int | None = None, workers: int = 1, scheduler=None,
-                progress: bool | None = None, series: bool = False,
+                progress: bool | None = None, series: bool = False, curves=None,
                 label: str = "montecarlo gain-error study") -> tuple:
     """Several gain-error studies over one pass of the same random numbers.
 
@@ -1076,6 +1226,11 @@ def run_studies(runs: int, seed: int, configs, *, chunk: int | None = None, work
         As in :func:`run_study`.
     configs : sequence of StudyConfig
         The studies; they must agree on the fields that fix the draws and paths.
+    curves : sequence of bool, optional
+        Per study, whether to reduce its error series to :attr:`StudyResult.rms`
+        and :attr:`StudyResult.bands` (default: every study). A study left out
+        has ``rms`` and ``bands`` None and costs only its per-run final, gain
+        and distance errors; `series` keeps the curves of every study.
     label : str
         Name of the progress line.
 
@@ -1113,6 +1268,9 @@ def run_studies(runs: int, seed: int, configs, *, chunk: int | None = None, work
     seed = _study_seed(seed)
     _check_runs(runs, seed, chunk)
     runs = int(runs)
+    curves = (True,) * len(configs) if curves is None or series else tuple(bool(c) for c in curves)
+    if len(curves) != len(configs):
+        raise MorpiError(f"curves: {len(curves)} values for {len(configs)} studies; expected one per study")
     cfg = configs[0]
     ins_path, sine, traj_backend = _paths(cfg)
     if sine.peaks.size < 2:
@@ -1121,19 +1279,25 @@ def run_studies(runs: int, seed: int, configs, *, chunk: int | None = None, work
     keep = np.unique(np.r_[np.arange(0, n, cfg.keep_every), n - 1])
     gain_ref, cv = reference_gains(cfg)
     ins_heading, ins_truth = _ins_truth(ins_path, 1.0 / cfg.rate_hz, keep)
-    payload = _Payload(configs, seed, ins_path, ins_heading, ins_truth, sine, gain_ref, keep, bool(series))
+    payload = _Payload(configs, seed, ins_path, ins_heading, ins_truth, sine, gain_ref, keep, bool(series), curves)
     chunk = _default_chunk(n) if chunk is None else int(chunk)
     ranges = chunk_ranges(runs, min(chunk, runs))
     prog = Progress(runs, label, runs > 1000 if progress is None else progress)
     acc = [_Reduction(runs) for _ in configs]
-    execute(_chunk, payload, ranges, workers=workers, scheduler=scheduler, progress=prog,
-             reduce=lambda parts: [r.add(p) for r, p in zip(acc, parts)])
+    try:
+        execute(_chunk, payload, ranges, workers=workers, scheduler=scheduler, progress=prog,
+                reduce=lambda parts: [r.add(p) for r, p in zip(acc, parts)])
+    finally:
+        _release_scratch()
     out = []
     for c, red in zip(configs, acc):
         final = red.cat("final")
         columns = METHODS[:2] + tuple(f"{m}[{g.label}]" for g in c.gains for m in METHODS[2:])
-        with np.errstate(invalid="ignore", divide="ignore"):
-            rms = np.where(red.count > 0, np.sqrt(red.sumsq / np.maximum(red.count, 1)), np.nan)
+        rms = bands = None
+        if red.sumsq is not None:
+            with np.errstate(invalid="ignore", divide="ignore"):
+                rms = np.where(red.count > 0, np.sqrt(red.sumsq / np.maximum(red.count, 1)), np.nan)
+            bands = band_quantiles(red.hist)
         out.append(StudyResult(
             config=c, runs=runs, seed=seed, time=sine.time[keep], errors=red.cat("series") if series else None,
             columns=columns, final=final, distance_error=red.cat("dist"), dG=red.cat("dG"),
@@ -1143,7 +1307,7 @@ def run_studies(runs: int, seed: int, configs, *, chunk: int | None = None, work
                       "ins": f"batched strapdown kernel on the {c.ins_path} path (quaternion attitude, "
                              "trapezoid integration, the truth through the same rules; tested against "
                              "strapdown.ins3d/ins2d)"},
-            elapsed=_time.perf_counter() - t0, rms=rms, bands=band_quantiles(red.hist)))
+            elapsed=_time.perf_counter() - t0, rms=rms, bands=bands))
     return tuple(out)
 
 
@@ -1169,6 +1333,8 @@ class _Reduction:
                     self.arrays[k] = np.empty((self.runs,) + part[k].shape[1:], part[k].dtype)
                 self.arrays[k][self.filled:self.filled + m] = part[k]
         self.filled += m
+        if "sumsq" not in part:
+            return
         if self.sumsq is None:
             m_, k_ = part["sumsq"].shape
             self.sumsq, self.count = part["sumsq"].copy(), part["count"].copy()
@@ -1282,7 +1448,7 @@ def training_runs_study(ks, *, mismatch: float, spread: float, runs: int, seed: 
     base = StudyConfig() if config is None else config
     cfgs = training_configs(ks, mismatch=mismatch, spread=spread, config=base)
     results = run_studies(runs, seed, cfgs, chunk=chunk, scheduler=scheduler, progress=progress,
-                          label="montecarlo training-runs study")
+                          curves=(False,) * len(cfgs), label="montecarlo training-runs study")
     return training_summary(ks, results, mismatch=mismatch, spread=spread)
 
 
@@ -1686,7 +1852,8 @@ class GainErrorPage:
     calibrated : StudyResult
         After a zero-order calibration on 3 s of rest (the paper's GAC baselines).
     raw : StudyResult
-        With the full datasheet turn-on biases.
+        With the full datasheet turn-on biases (its final errors; run without
+        curves: ``rms`` and ``bands`` None).
     training : TrainingStudy
         The gain from k training runs.
     checks : list of dict
@@ -1776,7 +1943,10 @@ def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, source=
     raw = replace(cal, calibration="RD")
     # one pass over the random numbers: every study of the page is a set of columns of the same draws
     tcfg = training_configs(TRAINING_KS, mismatch=mismatch, spread=spread, config=cal)
-    r, rr, *tres = run_studies(runs, seed, (cal, raw, *tcfg), chunk=chunk, scheduler=scheduler)
+    # curves for the calibrated study only: the page shows the raw study's and the training studies'
+    # final and distance errors
+    r, rr, *tres = run_studies(runs, seed, (cal, raw, *tcfg), chunk=chunk, scheduler=scheduler,
+                               curves=(True, False) + (False,) * len(tcfg))
     tr = training_summary(TRAINING_KS, tres, mismatch=mismatch, spread=spread)
     return GainErrorPage(runs=runs, seed=seed, calibrated=r, raw=rr, training=tr, checks=distance_law_check(r),
                          spread=spread, mismatch=mismatch, spread_note=spread_note, assumed=assumed,

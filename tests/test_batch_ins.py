@@ -80,6 +80,29 @@ def test_quaternion_increments_match_exact_sin_cos():
     w = np.array([[1e-6, 0.0, 0.0], [0.3, -0.2, 0.1], [1.0, 1.5, -1.2], [40.0, 0.0, 0.0]]).T
     h = 0.01
     c, x, y, z = bi.quat_increments(w[0], w[1], w[2], h)
+    out = np.full((4, 4, 3), np.nan)[:, :, 1]                 # strided planes, as the kernel's M columns
+    bi.quat_increments(w[0], w[1], w[2], h, out=out)
+    assert np.array_equal(out, np.stack([c, x, y, z]))
     ang = np.linalg.norm(w, axis=0) * h / 2
     np.testing.assert_allclose(c, np.cos(ang), rtol=0, atol=2e-16)
     np.testing.assert_allclose(x, np.sin(ang) * w[0] / np.linalg.norm(w, axis=0), rtol=1e-14, atol=1e-20)
+
+
+def test_block_size_does_not_change_the_3d_kernel():
+    # the attitude and rotation go block by block; every operation is elementwise over runs in a
+    # fixed order, so any block size gives the same bits (and so does the chunking of the runs)
+    rng = np.random.default_rng(5)
+    n, R, h = 203, 6, 0.01
+    f = [rng.normal(c, 0.3, (n, R)) for c in (0.2, -0.1, 9.8)]
+    w = [rng.normal(c, 0.05, (n, R)) for c in (0.0, 0.0, 0.8)]
+    out = {}
+    for block in (1, 7, 64, 500):
+        ax, ay = np.empty((n, R)), np.empty((n, R))
+        bi.horizontal_accel_3d(h, f, w, ax, ay, block=block)
+        out[block] = np.stack([ax, ay])
+    for block in (7, 64, 500):
+        assert np.array_equal(out[block], out[1])
+    part = np.empty((2, n, 2))
+    bi.horizontal_accel_3d(h, [c[:, 2:4] for c in f], [c[:, 2:4] for c in w], part[0], part[1])
+    assert np.array_equal(part, out[1][:, :, 2:4])
+

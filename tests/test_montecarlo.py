@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from dataclasses import replace
 
 import numpy as np
@@ -61,6 +62,38 @@ def test_one_pass_equals_each_study_alone():
         assert np.array_equal(r.distance_error, alone.distance_error) and np.array_equal(r.dG, alone.dG)
 
 
+def test_curves_without_the_series_are_those_of_the_series():
+    # the reductions are computed column by column without building the series (a MoRPI column from
+    # its values after each step): the same sums and counts as from the series itself, bit for bit
+    cfgs = (FAST, replace(FAST, calibration="GAC", ins=False))
+    with_series = mc.run_studies(31, 2, cfgs, chunk=12, series=True)
+    without = mc.run_studies(31, 2, cfgs, chunk=12)
+    for a, b in zip(with_series, without):
+        assert np.array_equal(a.rms, b.rms, equal_nan=True) and np.array_equal(a.bands, b.bands, equal_nan=True)
+        with np.errstate(invalid="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)          # the INS columns of the MoRPI-only study
+            expected = np.sqrt(np.nanmean(a.errors ** 2, axis=0))
+        np.testing.assert_allclose(b.rms, expected, rtol=1e-12)
+
+
+def test_studies_without_curves_keep_the_same_numbers():
+    # leaving a study's curves out skips its series reductions only: every per-run number is the same
+    cal = replace(FAST, calibration="GAC")
+    cfgs = (cal, *mc.training_configs([1, 4], mismatch=0.02, spread=0.05, config=cal))
+    full = mc.run_studies(23, 6, cfgs, chunk=9)
+    lean = mc.run_studies(23, 6, cfgs, chunk=9, curves=(True, False, False))
+    for a, b in zip(full, lean):
+        assert a.digest == b.digest and np.array_equal(a.final, b.final, equal_nan=True)
+        assert np.array_equal(a.distance_error, b.distance_error) and np.array_equal(a.dG, b.dG)
+    assert np.array_equal(full[0].bands, lean[0].bands, equal_nan=True) and np.array_equal(full[0].rms, lean[0].rms,
+                                                                                           equal_nan=True)
+    assert lean[1].rms is None and lean[1].bands is None and full[1].rms is not None
+    with pytest.raises(MorpiError, match="without curves"):
+        lean[1].curve("MoRPI-A")
+    with pytest.raises(MorpiError, match="one per study"):
+        mc.run_studies(3, 0, cfgs, curves=(True,))
+
+
 def test_one_pass_refuses_studies_with_other_draws():
     with pytest.raises(MorpiError, match="duration"):
         mc.run_studies(3, 0, (FAST, replace(FAST, duration=16.0)))
@@ -105,6 +138,21 @@ def test_dask_local_cluster_gives_the_same_digest(reference_study):
         r = mc.run_study(13, 7, FAST, chunk=4, scheduler=cluster.scheduler_address)
         d = mc.drift_map([0.1 * DEG_S, 1 * DEG_S], draws=3, seed=2, duration=2.0, chunk=2,
                          scheduler=cluster.scheduler_address)
+        # several studies of one pass, as the page runs them (curves kept for some): the workers return
+        # reductions, and every number is the local one
+        cal = replace(FAST, calibration="GAC")
+        cfgs = (cal, FAST, *mc.training_configs([1, 4], mismatch=0.02, spread=0.05, config=cal))
+        curves = (True, True, False, False)
+        far = mc.run_studies(21, 3, cfgs, chunk=5, curves=curves, scheduler=cluster.scheduler_address)
+    near = mc.run_studies(21, 3, cfgs, chunk=5, curves=curves, workers=2)
+    other = mc.run_studies(21, 3, cfgs, chunk=8, curves=curves)
+    for a, b, c in zip(far, near, other):
+        assert a.digest == b.digest == c.digest and np.array_equal(a.distance_error, b.distance_error)
+        assert (a.rms is None) == (b.rms is None)
+        if a.rms is not None:
+            # the same chunks give the same sums; the histogram counts agree whatever the chunks
+            assert np.array_equal(a.rms, b.rms, equal_nan=True)
+            assert np.array_equal(a.bands, b.bands, equal_nan=True) and np.array_equal(a.bands, c.bands, equal_nan=True)
     assert r.digest == reference_study.digest
     local = mc.drift_map([0.1 * DEG_S, 1 * DEG_S], draws=3, seed=2, duration=2.0)
     assert np.array_equal(d.rel_3d, local.rel_3d) and np.array_equal(d.rel_2d, local.rel_2d)

@@ -87,3 +87,46 @@ def test_drawing_uses_no_pyplot():
     plots.assessment_figure(_Curves())
     after = "matplotlib.pyplot" in sys.modules and len(sys.modules["matplotlib.pyplot"].get_fignums())
     assert before == after
+
+
+def _inside(fig) -> bool:
+    """Whether everything drawn on `fig` lies within its canvas (nothing clipped by the margins)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    box = fig.get_tightbbox(canvas.get_renderer())            # inches
+    w, h = fig.get_size_inches()
+    return box.x0 >= 0 and box.y0 >= 0 and box.x1 <= w and box.y1 <= h
+
+
+def test_monte_carlo_figures_lay_every_label_out_on_the_canvas(tmp_path):
+    # the figures are saved without cropping (one draw, laid out by their own engine): the layout must hold
+    # every label, here with the Monte Carlo page's longest titles and with tick labels of a million runs
+    rng = np.random.default_rng(2)
+    cols = ["INS-3D", "INS-2D"] + [f"MoRPI-{m}[training spread]" for m in "AG"] * 3
+    final = np.abs(rng.normal(0.25, 0.3, (400_000, len(cols))))
+    fig = plots.montecarlo_final_errors(cols, final, title="MPU-6500, 15 s, 1000000 runs, GAC-calibrated biases")
+    assert _inside(fig)
+    t = np.linspace(0.0, 15.0, 151)
+    bands = np.stack([np.logspace(-7, 0, 151)[:, None] * [[0.5, 1.0, 2.0]]] * 4, axis=1)
+    labels = ["INS-3D", "INS-2D", "MoRPI-A (dG 5 %)", "MoRPI-G (dG 5 %)"]
+    assert _inside(plots.montecarlo_error_curves(t, bands, labels, title="horizontal error over time (median, "
+                                                 "5-95 % band)").figure)
+    dG = rng.normal(0.0, 0.05, 400_000)
+    assert _inside(plots.montecarlo_gain_vs_error(dG, 6.3 * dG, analytic_slope=6.3, title="MoRPI-A distance error "
+                                                  "against the gain error (training-spread scenario)").figure)
+    k = np.array([1, 2, 3, 5, 10, 20, 50])
+    rms = 0.3 / np.sqrt(k) + 0.01
+    assert _inside(plots.montecarlo_training_runs(k, np.c_[rms, rms], rms, ["MoRPI-A", "MoRPI-G"],
+                                                  title="gain from k training runs: spread 5 %, mismatch 2 %").figure)
+
+
+def test_save_without_cropping_keeps_the_canvas(tmp_path):
+    from PIL import Image
+
+    ax, _ = plots.new_axes(figsize=(5.0, 3.0))
+    ax.plot([0, 1], [0, 1])
+    full = Image.open(save_figure(ax, tmp_path / "full.png", dpi=100)).size
+    cropped = Image.open(save_figure(ax, tmp_path / "crop.png", dpi=100, crop=True)).size
+    assert full == (500, 300) and cropped[0] < 500 and cropped[1] < 300

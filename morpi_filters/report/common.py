@@ -105,7 +105,7 @@ def md_table(headers, rows) -> str:
     return "\n".join([head, sep, *body]) + "\n"
 
 
-def save_figure(fig, path, dpi: int = 120) -> Path:
+def save_figure(fig, path, dpi: int = 120, crop: bool = False) -> Path:
     """Write `fig` (a Figure, or an Axes of one) as a PNG file, atomically.
 
     Parameters
@@ -116,6 +116,12 @@ def save_figure(fig, path, dpi: int = 120) -> Path:
         Destination PNG file; missing folders are created.
     dpi : int
         Resolution [dots per inch].
+    crop : bool
+        Trim the margins to what is drawn (``bbox_inches="tight"``, which
+        draws the figure once more), for a figure without a layout engine of
+        its own; the package's figures lay themselves out when drawn
+        (:func:`morpi_filters.report.plots.new_figure`), so by default the
+        figure is saved as it is, in one draw.
 
     Returns
     -------
@@ -135,5 +141,5 @@ def save_figure(fig, path, dpi: int = 120) -> Path:
     fig = getattr(fig, "figure", fig)
     path = Path(path)
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=dpi, format="png")
+        fig.savefig(tmp, dpi=dpi, format="png", bbox_inches="tight" if crop else None)
     return path
