@@ -47,7 +47,7 @@ import sympy
 from morpi_filters import symbolic as S
 Phi = S.{phi}("z_up")
 assert Phi.shape == (15, 15)
-for ins in ("3d", "2d"):
+for ins in ("INS-3D", "INS-2D"):
     for keep_bgz in (False, True):
         S.position_error("z_up", ins, keep_bgz)
     S.distance_error_squared("z_up", ins, False)
@@ -56,7 +56,7 @@ print(time.perf_counter() - t0)
 """
 
 NUMERIC = """
-for kind in ("3d", "2d", "dp"):
+for kind in ("INS-3D", "INS-2D", "INS-3D position"):
     fn = S.lambdified(kind, "z_up", False)
 fn(5.0, 0.1, 0.1, 0.0, 0.01, 0.01, 0.0, 1e-3, 1e-3, 0.0, 9.81)
 """
