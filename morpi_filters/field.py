@@ -480,7 +480,7 @@ def _train_accel_floor(data: FieldData) -> tuple[float, tuple, tuple]:
     from .calibration import _moving_stats, detect_rest
 
     par = inspect.signature(detect_rest).parameters
-    k_std, half = par["k_std"].default, par["window_s"].default / 2.0
+    half = par["window_s"].default / 2.0
     vals, files = [], []
     for e in data.train_entries():
         recs = [r for r in data.recordings(e.phone, e.route, e.split) if data.relpath(r) == e.relpath]
@@ -494,9 +494,18 @@ def _train_accel_floor(data: FieldData) -> tuple[float, tuple, tuple]:
         _, sd = _moving_stats(r.time - r.time[0], r.f, half)
         vals.append(float(sd[w.i0:w.i1].max()))
         files.append(e.relpath)
-    if not vals:
-        return _DEFAULT_THRESHOLDS.accel_floor, (), ()
-    return float(k_std * np.median(vals)), tuple(vals), tuple(files)
+    return _floor_from(vals), tuple(vals), tuple(files)
+
+
+def _floor_from(rest_std) -> float:
+    """The accelerometer floor: ``k_std`` of the rest detection times the median of the runs' rest values."""
+    import inspect
+
+    from .calibration import detect_rest
+
+    if not len(rest_std):
+        return _DEFAULT_THRESHOLDS.accel_floor
+    return float(inspect.signature(detect_rest).parameters["k_std"].default * np.median(rest_std))
 
 
 def train_thresholds(data: FieldData) -> Thresholds:
@@ -603,14 +612,10 @@ def fold_thresholds(data: FieldData, held_out: str) -> tuple[Thresholds, bool]:
         remaining train run (the thresholds are then exactly the fold's own;
         otherwise the fold needs its own :class:`FieldData`).
     """
-    import inspect
-
     from .calibration import detect_rest
 
     th = data.thresholds
-    rest = [(v, f) for v, f in zip(th.rest_std, th.rest_files) if f != held_out]
-    k_std = inspect.signature(detect_rest).parameters["k_std"].default
-    floor = float(k_std * np.median([v for v, _ in rest])) if rest else _DEFAULT_THRESHOLDS.accel_floor
+    floor = _floor_from([v for v, f in zip(th.rest_std, th.rest_files) if f != held_out])
     keep = lambda vals, files: ([v for v, f in zip(vals, files) if f != held_out],
                                 [f for f in files if f != held_out])
     fold = _thresholds_from(floor, *keep(th.rest_std, th.rest_files), *keep(th.swings_deg, th.swing_files),
@@ -772,13 +777,11 @@ def _held_out_error(data: FieldData, method, config, k: int, rel: str) -> float:
     NaN when the rule cannot process `rel` or when no other run of the set gives a gain.
     """
     truth, _, rels, g, u, _, failed = _train_summary(data, method, config)[k]
-    if rel in failed:
+    ok = [r for r in rels if r not in failed]
+    if rel not in ok or len(ok) < 2:
         return float("nan")
-    i = rels.index(rel)
-    others = np.array([j != i and r not in failed for j, r in enumerate(rels)], dtype=bool)
-    if not others.any():
-        return float("nan")
-    return float(np.linalg.norm(g[others].mean() * u[i] - truth.end_point_m) / truth.distance_m * 100)
+    keep = np.array([r not in failed for r in rels], dtype=bool)
+    return float(_loo_errors(truth, g[keep], u[keep])[ok.index(rel)])
 
 
 def _loo_score(data: FieldData, method, config, mode="GC", exclude=frozenset()) -> tuple[float, int]:

@@ -578,10 +578,14 @@ def test_turns_reading_finds_the_l_turn_and_no_turn_on_the_straight_routes(field
 
 
 @pytest.mark.field
-def test_heading_source_is_chosen_by_the_one_standard_error_rule_on_tracked_train_errors(field_root):
+@pytest.mark.parametrize("n_se", [1.0, 0.0])
+def test_heading_source_is_chosen_by_the_one_standard_error_rule_on_tracked_train_errors(field_root, monkeypatch,
+                                                                                         n_se):
     """The attitude heading wins only when its tracked leave-one-out train error beats the gyro's by more than
-    one standard error of the paired difference. Evidence: both sources' train errors dead-reckoned the long way
-    (train_gain on the other runs, morpi_track on the held-out one), not the search's vectorised score."""
+    SOURCE_SE standard errors of the paired difference. Evidence: both sources' train errors dead-reckoned the long
+    way (train_gain on the other runs, morpi_track on the held-out one), not the search's vectorised score. With
+    no margin (0 standard errors) the lower mean wins, so a search that always kept the gyro would fail there."""
+    monkeypatch.setattr(fd, "SOURCE_SE", n_se)
     data = fd.FieldData(field_root, include_test=False)
     th = data.thresholds
     start = fd._START.with_(min_swing_deg=th.min_swing_deg, turn_deg=th.turn_deg)
