@@ -749,6 +749,20 @@ def _routes_file() -> dict:
         return json.load(fh)
 
 
+@lru_cache(maxsize=1)
+def _route_table() -> dict:
+    """The routes of ``data/routes.json``, read once per process (end points read-only: shared)."""
+    out = {}
+    for name, r in _routes_file()["routes"].items():
+        end = np.asarray(r["end_point_m"], dtype=float)
+        end.flags.writeable = False
+        out[name] = Route(name=name, kind=r["kind"], environment=r["environment"], p2p_m=r["p2p_m"],
+                          amplitude_m=r["amplitude_m"], distance_m=r["distance_m"], end_point_m=end,
+                          segments_m=tuple(r["segments_m"]), turn_deg=r["turn_deg"],
+                          slope_deg=r.get("slope_deg", 0.0), slope_length_m=r.get("slope_length_m", 0.0))
+    return out
+
+
 def routes() -> dict[str, Route]:
     """Ground truth of every route, by route folder name.
 
@@ -765,14 +779,7 @@ def routes() -> dict[str, Route]:
     >>> len(r), r["long_distance"].distance_m
     (6, 13.0)
     """
-    out = {}
-    for name, r in _routes_file()["routes"].items():
-        out[name] = Route(name=name, kind=r["kind"], environment=r["environment"], p2p_m=r["p2p_m"],
-                          amplitude_m=r["amplitude_m"], distance_m=r["distance_m"],
-                          end_point_m=np.asarray(r["end_point_m"], dtype=float),
-                          segments_m=tuple(r["segments_m"]), turn_deg=r["turn_deg"],
-                          slope_deg=r.get("slope_deg", 0.0), slope_length_m=r.get("slope_length_m", 0.0))
-    return out
+    return dict(_route_table())
 
 
 def route(name: str) -> Route:

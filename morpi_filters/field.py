@@ -179,6 +179,10 @@ class FieldData:
         self._accel_floor = None if thresholds is None else thresholds.accel_floor
         self.root = Path(root)
         self._entries = [e for e in ds.catalogue(self.root) if include_test or e.split != "test"]
+        self._by_folder: dict = {}
+        for e in self._entries:
+            self._by_folder.setdefault((e.phone, e.route, e.split), []).append(e)
+        self._folder_recs: dict = {}
         self._rec: dict = {}
         self._cal: dict = {}
         self._prep: dict = {}
@@ -225,13 +229,16 @@ class FieldData:
         return new
 
     def entries(self, phone, route, split):
-        return [e for e in self._entries if (e.phone, e.route, e.split) == (phone, route, split)]
+        return list(self._by_folder.get((phone, route, split), ()))
 
     def folders(self) -> set:
         return {(e.phone, e.route, e.split) for e in self._entries}
 
     def recordings(self, phone, route, split) -> list:
         """The recordings of a folder that load cleanly (see :meth:`load_errors` for the others)."""
+        key = (phone, route, split)
+        if key in self._folder_recs:
+            return list(self._folder_recs[key])
         out = []
         for e in self.entries(phone, route, split):
             if e.relpath not in self._rec:
@@ -242,6 +249,7 @@ class FieldData:
             r = self._rec[e.relpath]
             if not isinstance(r, MorpiError):
                 out.append(r)
+        self._folder_recs[key] = tuple(out)
         return out
 
     def load_errors(self, phone, route, split) -> list[str]:

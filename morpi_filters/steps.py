@@ -50,7 +50,7 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import numpy as np
 
@@ -230,7 +230,7 @@ class Steps:
         """Number of steps (partial ones included)."""
         return int(self.weight.shape[0])
 
-    @property
+    @cached_property
     def effective_weight(self) -> float:
         """sum(weight * fraction): travelled distance = gain * this."""
         return float(np.sum(self.weight * self.fraction))
@@ -589,6 +589,14 @@ class PreparedSignal:
     heading: np.ndarray
     span: tuple = (0.0, 0.0)
 
+    @cached_property
+    def heading_integral(self) -> np.ndarray:
+        """Trapezoidal integral of the heading from the first sample [rad s], shape (n,), read-only."""
+        psi, t = self.heading, self.time
+        out = np.concatenate([[0.0], np.cumsum(0.5 * (psi[1:] + psi[:-1]) * np.diff(t))])
+        out.flags.writeable = False
+        return out
+
 
 def _attitude_heading(rec, rest_end_time=None) -> np.ndarray:
     """The attitude heading of a whole recording, levelled with its initial rest (the first 2 s by default)."""
@@ -845,29 +853,42 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
         if peak_cache is not None:
             weight.flags.writeable = False                      # shared by every Steps of this key
             peak_cache[wkey] = (weight, bi)
-    st, et = grid[bounds[:-1]], grid[bounds[1:]]
-    frac = np.ones_like(weight)
-    if config.ends != "drop":
-        per = _median(et - st)
-        wmed = _median(weight)
-        parts = []
-        for f in ((grid[bounds[0]] - m0) / per, (m1 - grid[bounds[-1]]) / per):
-            f = min(max(f, 0.0), 1.0)
-            if config.ends == "whole":
-                f = 1.0 if f >= 0.5 else 0.0
-            parts.append(f)
-        st = np.concatenate([[m0], st, [grid[bounds[-1]]]])
-        et = np.concatenate([[grid[bounds[0]]], et, [m1]])
-        weight = np.concatenate([[wmed], weight, [wmed]])
-        frac = np.concatenate([[parts[0]], frac, [parts[1]]])
+    # what every heading reading of these steps shares, kept on the prepared signal (its heading)
+    memo = p.__dict__.setdefault("_steps_memo", {})
+    mkey = wkey + (config.ends,)
+    if mkey in memo:
+        st, et, weight, frac, psi_s, psi_e, med, peaks = memo[mkey]
+    else:
+        st, et = grid[bounds[:-1]], grid[bounds[1:]]
+        frac = np.ones_like(weight)
+        if config.ends != "drop":
+            per = _median(et - st)
+            wmed = _median(weight)
+            parts = []
+            for f in ((grid[bounds[0]] - m0) / per, (m1 - grid[bounds[-1]]) / per):
+                f = min(max(f, 0.0), 1.0)
+                if config.ends == "whole":
+                    f = 1.0 if f >= 0.5 else 0.0
+                parts.append(f)
+            st = np.concatenate([[m0], st, [grid[bounds[-1]]]])
+            et = np.concatenate([[grid[bounds[0]]], et, [m1]])
+            weight = np.concatenate([[wmed], weight, [wmed]])
+            frac = np.concatenate([[parts[0]], frac, [parts[1]]])
+        psi = p.heading
+        med = float("nan")
+        if bi.size >= 2:
+            swing = np.degrees(np.maximum.reduceat(psi, bi[:-1])[:bi.size - 1]
+                               - np.minimum.reduceat(psi, bi[:-1])[:bi.size - 1])
+            med = _median(swing)
+        psi_s, psi_e = np.interp(st, t, psi), np.interp(et, t, psi)
+        idx = np.clip(np.searchsorted(t, grid[bounds]), 0, t.shape[0] - 1)
+        peaks = Peaks(grid_time=grid, grid_signal=g, grid_index=bounds, index=idx,
+                      properties={"prominence_threshold": prom})
+        for a in (st, et, weight, frac, psi_s, psi_e):
+            a.flags.writeable = False                           # shared by the Steps of every reading
+        memo[mkey] = (st, et, weight, frac, psi_s, psi_e, med, peaks)
+    require_swing(p.source, method, med, config.min_swing_deg)
     psi = p.heading
-    med = float("nan")
-    if bi.size >= 2:
-        swing = np.degrees(np.maximum.reduceat(psi, bi[:-1])[:bi.size - 1]
-                           - np.minimum.reduceat(psi, bi[:-1])[:bi.size - 1])
-        med = _median(swing)
-        require_swing(p.source, method, med, config.min_swing_deg)
-    psi_s, psi_e = np.interp(st, t, psi), np.interp(et, t, psi)
     if config.heading == "absolute":
         dpsi = psi_e
     elif config.heading == "change":
@@ -878,13 +899,10 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
                                    2 if config.segment == "extrema" else 1)
         dpsi = psi_e - psi_s + turn_heading(st, t, psi, stretches)
     else:
-        cpsi = np.concatenate([[0.0], np.cumsum(0.5 * (psi[1:] + psi[:-1]) * np.diff(t))])
+        cpsi = p.heading_integral
         span = et - st
         with np.errstate(invalid="ignore", divide="ignore"):
             dpsi = np.where(span > 1e-9, (np.interp(et, t, cpsi) - np.interp(st, t, cpsi)) / span, psi_s)
-    idx = np.clip(np.searchsorted(t, grid[bounds]), 0, t.shape[0] - 1)
-    peaks = Peaks(grid_time=grid, grid_signal=g, grid_index=bounds, index=idx,
-                  properties={"prominence_threshold": prom})
     return Steps(start_time=st, end_time=et, weight=weight, fraction=frac, heading=dpsi, peaks=peaks,
                  motion=(m0, m1), swing_deg=med)
 
