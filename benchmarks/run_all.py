@@ -2,7 +2,7 @@
 
 The same rows, as data, go to ``results.json`` beside it. Each benchmark module exposes ``measure(pairs=..., quick=...)`` returning its rows
 (:class:`pairs.PairedRatio`, or a plain row dict for a single value such as a peak
-memory); this script calls them in turn, in this process, and writes the table
+memory); this script calls them in turn, each in a fresh interpreter, and writes the table
 with min / median / max over the pairs, the target and whether the median meets it,
 the machine, the date and the command line. ``--scale`` adds the scale study
 (:mod:`scale`, several minutes more). ``--quick`` is a smoke run (one pair per
@@ -156,7 +156,46 @@ def write_readme(path: Path, rows, notes, failures, scale_rows, *, command: str,
     path.write_text("\n".join(md))
 
 
+def _in_fresh_process(name: str, kw: dict):
+    """Run one benchmark's ``measure(**kw)`` in a new interpreter: (rows as dicts, note or None).
+
+    Each benchmark starts from a clean process, so none pays for what an earlier one left behind
+    (threads, worker processes, a fragmented heap). Raises RuntimeError naming the failure.
+    """
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        result = Path(tmp) / "rows.json"
+        cmd = [sys.executable, str(Path(__file__).resolve()), "--child", name, json.dumps(kw), str(result)]
+        proc = subprocess.run(cmd, cwd=ROOT, stderr=subprocess.PIPE, text=True)
+        if proc.stderr:
+            sys.stderr.write(proc.stderr)
+        if proc.returncode != 0 or not result.exists():
+            last = [ln for ln in proc.stderr.splitlines() if ln.strip()]
+            raise RuntimeError(last[-1] if last else f"exit status {proc.returncode}")
+        data = json.loads(result.read_text())
+    return data["rows"], data["note"]
+
+
+def _child(name: str, kw: str, result: str) -> int:
+    """The child side of :func:`_in_fresh_process`: measure, write the rows, exit."""
+    try:
+        out = importlib.import_module(name).measure(**json.loads(kw))
+    except (Exception, SystemExit):  # noqa: BLE001 - reported to the parent through stderr and the exit status
+        traceback.print_exc()
+        return 1
+    note = None
+    if isinstance(out, tuple):  # (rows, note)
+        out, note = out
+    Path(result).write_text(json.dumps({"rows": [_row(r, name) for r in out], "note": note},
+                                       default=lambda v: v.item() if hasattr(v, "item") else str(v)))
+    return 0
+
+
 def main(argv=None):
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["--child"]:
+        return _child(*argv[1:4])
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", help="field dataset root (default $MORPI_DATA)")
     ap.add_argument("--pairs", type=int, default=5, help="pairs per comparison (default 5)")
@@ -170,7 +209,7 @@ def main(argv=None):
     pairs = 1 if args.quick else args.pairs
     started = _dt.datetime.now().astimezone().strftime("%Y-%m-%d %H:%M %Z")
     machine = _machine()
-    command = " ".join(["python3", "benchmarks/run_all.py", *(argv if argv is not None else sys.argv[1:])])
+    command = " ".join(["python3", "benchmarks/run_all.py", *argv])
     t_start = time.perf_counter()
     rows, notes, failures = [], [], []
     for name, what in BENCHMARKS:
@@ -178,24 +217,20 @@ def main(argv=None):
             continue
         print(f"== {name}: {what}", flush=True)
         t0 = time.perf_counter()
+        kw = {"pairs": pairs if args.quick else max(pairs, MIN_PAIRS.get(name, 0)), "quick": args.quick}
+        if name in DATA_BENCHMARKS and args.data:
+            kw["data"] = args.data
         try:
-            mod = importlib.import_module(name)
-            kw = {"pairs": pairs if args.quick else max(pairs, MIN_PAIRS.get(name, 0)), "quick": args.quick}
-            if name in DATA_BENCHMARKS and args.data:
-                kw["data"] = args.data
-            out = mod.measure(**kw)
-            if isinstance(out, tuple):  # (rows, note)
-                out, note = out
+            out, note = _in_fresh_process(name, kw)
+            if note:
                 notes.append((name, note))
-            for r in out:
-                row = _row(r, name)
+            for row in out:
                 rows.append(row)
                 print(f"   {row['name']}: median {_fmt(row['median'], row['unit'])} "
                       f"(min {_fmt(row['min'], row['unit'])}, max {_fmt(row['max'], row['unit'])}) {_met(row)}",
                       flush=True)
-        except (Exception, SystemExit) as e:  # noqa: BLE001 - one failing benchmark must not lose the others
-            traceback.print_exc()
-            failures.append((name, f"{type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''}"[:300]))
+        except RuntimeError as e:
+            failures.append((name, str(e)[:300]))
         print(f"   ({time.perf_counter() - t0:.0f} s)", flush=True)
     scale_rows = []
     if args.scale:

@@ -119,9 +119,9 @@ def save_figure(fig, path, dpi: int = 120, crop: bool = False) -> Path:
     crop : bool
         Trim the margins to what is drawn (``bbox_inches="tight"``, which
         draws the figure once more), for a figure without a layout engine of
-        its own; the package's figures lay themselves out when drawn
-        (:func:`morpi_filters.report.plots.new_figure`), so by default the
-        figure is saved as it is, in one draw.
+        its own; the package's figures lay themselves out
+        (:func:`morpi_filters.report.plots.new_figure`): by default the
+        layout engine runs once and the figure is saved in one draw.
 
     Returns
     -------
@@ -140,6 +140,16 @@ def save_figure(fig, path, dpi: int = 120, crop: bool = False) -> Path:
     """
     fig = getattr(fig, "figure", fig)
     path = Path(path)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=dpi, format="png", bbox_inches="tight" if crop else None)
+    engine = None if crop else fig.get_layout_engine()
+    if engine is not None:
+        # matplotlib draws a figure with a layout engine twice when saving it (once to lay it out), and
+        # lays it out in both draws: lay it out once here and save it without the engine, in one draw
+        engine.execute(fig)
+        fig.set_layout_engine(None)
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=dpi, format="png", bbox_inches="tight" if crop else None)
+    finally:
+        if engine is not None:
+            fig.set_layout_engine(engine)
     return path
