@@ -388,6 +388,41 @@ def _integrate_translation(time, a, v0, p0):
 
 # --------------------------------------------------------------------------- mechanizations
 
+def _attitude_matrices(time, wb, C0b) -> np.ndarray:
+    """The attitude part of :func:`ins3d`: ``C_bn`` of B runs at every sample, shape (B, n, 3, 3).
+
+    `time` (n,) checked, `wb` (B, n, 3) the body rates, `C0b` (B, 3, 3) the initial attitudes.
+    """
+    n, B = time.shape[0], wb.shape[0]
+    dt = np.diff(time)[None, :, None]
+    w0, w1 = wb[:, :-1], wb[:, 1:]
+    phi = _increments(time, wb)[0]
+    coning = dt[..., 0] * dt[..., 0] / 12.0                    # (1, n-1)
+    phi[..., 0] += (w0[..., 1] * w1[..., 2] - w0[..., 2] * w1[..., 1]) * coning
+    phi[..., 1] += (w0[..., 2] * w1[..., 0] - w0[..., 0] * w1[..., 2]) * coning
+    phi[..., 2] += (w0[..., 0] * w1[..., 1] - w0[..., 1] * w1[..., 0]) * coning
+    # time-major so each step works on one contiguous (B, 3, 3) block
+    phi_t = np.swapaxes(phi, 0, 1)                              # (n-1, B, 3)
+    Ct = np.empty((n, B, 3, 3))
+    Ct[0] = C0b
+    if B == 1 and n > 2:
+        # one run: the running product C0 E_0 E_1 ... by doubling (log2(n) batched products instead of
+        # n small ones; the same product in another association, equal to rounding)
+        S = rotvec_to_C(phi_t[:, 0])
+        d = 1
+        while d < S.shape[0]:
+            S[d:] = S[:-d] @ S[d:]
+            d *= 2
+        np.matmul(C0b[0], S, out=Ct[1:, 0])
+    else:
+        block = max(1, _BLOCK // max(B, 1))                     # bound the memory of the increments
+        for k0 in range(0, n - 1, block):
+            E = rotvec_to_C(phi_t[k0:k0 + block])
+            for j in range(E.shape[0]):
+                np.matmul(Ct[k0 + j], E[j], out=Ct[k0 + j + 1])
+    return np.swapaxes(Ct, 0, 1)
+
+
 def ins3d(time, f, omega, *, C0=None, v0=None, p0=None, g: float = units.G0) -> InsResult:
     """3D strapdown INS in the navigation frame (z up).
 
@@ -468,33 +503,7 @@ def ins3d(time, f, omega, *, C0=None, v0=None, p0=None, g: float = units.G0) -> 
     v0b = np.broadcast_to(v0, batch + (3,)).reshape(B, 3)
     p0b = np.broadcast_to(p0, batch + (3,)).reshape(B, 3)
 
-    dt = np.diff(time)[None, :, None]
-    w0, w1 = wb[:, :-1], wb[:, 1:]
-    phi = _increments(time, wb)[0]
-    coning = dt[..., 0] * dt[..., 0] / 12.0                    # (1, n-1)
-    phi[..., 0] += (w0[..., 1] * w1[..., 2] - w0[..., 2] * w1[..., 1]) * coning
-    phi[..., 1] += (w0[..., 2] * w1[..., 0] - w0[..., 0] * w1[..., 2]) * coning
-    phi[..., 2] += (w0[..., 0] * w1[..., 1] - w0[..., 1] * w1[..., 0]) * coning
-    # time-major so each step works on one contiguous (B, 3, 3) block
-    phi_t = np.swapaxes(phi, 0, 1)                              # (n-1, B, 3)
-    Ct = np.empty((n, B, 3, 3))
-    Ct[0] = C0b
-    if B == 1 and n > 2:
-        # one run: the running product C0 E_0 E_1 ... by doubling (log2(n) batched products instead of
-        # n small ones; the same product in another association, equal to rounding)
-        S = rotvec_to_C(phi_t[:, 0])
-        d = 1
-        while d < S.shape[0]:
-            S[d:] = S[:-d] @ S[d:]
-            d *= 2
-        np.matmul(C0b[0], S, out=Ct[1:, 0])
-    else:
-        block = max(1, _BLOCK // max(B, 1))                     # bound the memory of the increments
-        for k0 in range(0, n - 1, block):
-            E = rotvec_to_C(phi_t[k0:k0 + block])
-            for j in range(E.shape[0]):
-                np.matmul(Ct[k0 + j], E[j], out=Ct[k0 + j + 1])
-    C = np.swapaxes(Ct, 0, 1)                                   # (B, n, 3, 3)
+    C = _attitude_matrices(time, wb, C0b)                      # (B, n, 3, 3)
 
     a = (C @ fb[..., None])[..., 0]
     a[..., 2] -= g
@@ -615,5 +624,13 @@ def attitude_heading(time, f, omega, f_rest) -> np.ndarray:
     0.199
     """
     f_rest = np.asarray(f_rest, dtype=float)
-    psi = np.asarray(ins3d(time, f, omega, C0=coarse_level(f_rest), g=float(np.linalg.norm(f_rest))).heading)
+    # the attitude of ins3d (the specific force enters only through the initial level)
+    time = _check_time(time)
+    n = time.shape[0]
+    _check_signal("f", f, n)
+    omega = _check_signal("omega", omega, n)
+    if omega.ndim != 2:
+        raise MorpiError(f"omega: shape {omega.shape}, expected ({n}, 3) (one recording)")
+    C = _attitude_matrices(time, omega[None], coarse_level(f_rest)[None])[0]
+    psi = np.unwrap(heading_from_C(C))
     return psi - psi[0]
