@@ -4,7 +4,7 @@ Each point is one whole command in a fresh process, as a user runs it, with its
 wall time and its peak resident memory (``ru_maxrss`` of that child, read by
 ``/usr/bin/time -v``: :func:`pairs.run_peak`):
 
-- ``morpi tables --data DIR`` on 1x, 2x, 5x (and 10x) the field dataset: a
+- ``morpi tables --data DIR`` on 1x, 2x, 5x and 10x the field dataset: a
   temporary root holding, for every recording ``<phone>/<route>[/<split>]/<n>.csv``,
   symbolic links ``<n + 1000 j>.csv`` (j = 0 .. k-1) to it, so the loader sees k
   times as many recordings in the same layout (train copies also enlarge every
@@ -16,7 +16,7 @@ wall time and its peak resident memory (``ru_maxrss`` of that child, read by
 One measurement per point (a scale study, not a ratio); the machine is shared, so
 read the growth, not the third digit.
 
-Usage: ``PYTHONPATH=. python3 benchmarks/scale.py [--data DIR] [--copies 1 2 5] [--runs 1000 10000 100000]``
+Usage: ``PYTHONPATH=. python3 benchmarks/scale.py [--data DIR] [--copies 1 2 5 10] [--runs 1000 10000 100000]``
 """
 from __future__ import annotations
 
@@ -34,7 +34,7 @@ from pairs import run_peak  # noqa: E402
 from morpi_filters import dataset as ds  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-COPIES = (1, 2, 5)
+COPIES = (1, 2, 5, 10)
 RUNS = (1_000, 10_000, 100_000, 1_000_000)
 
 
