@@ -15,7 +15,9 @@ chosen point the non-holonomic updates stay and the gain error is estimated
 error's prior is the trained gain's spread. Nothing of a ``test`` folder
 enters the choice.
 
-The rest updates run on the calibration's initial rest window and on every
+The filter starts at the calibration's initial rest window (what precedes it,
+the phone placed and handled, is no motion of the robot). The rest updates run
+on that window and on every
 still stretch after the motion (:func:`still_spans`), zero velocity alone
 between that window and the motion onset; the filter is read where MoRPI's own
 track ends (:meth:`Prepared.end`).
@@ -322,8 +324,9 @@ def prepare(data, rec, mode, method, config, gain) -> Prepared:
     Returns
     -------
     Prepared
-        The :class:`aided.AidedInput` (calibrated IMU, coarse-level attitude,
-        steps, rest stretches), MoRPI's track, the rest noise
+        The :class:`aided.AidedInput` (calibrated IMU from the initial rest
+        window on: the robot's path starts where it stands, whatever the phone
+        did before; coarse-level attitude, steps, rest stretches), MoRPI's track, the rest noise
         (:func:`rest_noise`), the read-out time (the last step boundary),
         the gyro drift (:func:`gyro_drift`) and the specific force's mean shift
         between rest and motion [m/s^2].
@@ -354,7 +357,11 @@ def prepare(data, rec, mode, method, config, gain) -> Prepared:
     # up to one activity window before the onset (the onset is the end of the first active window)
     onset = float(data.activity(rec)[0]) - st.ACTIVITY_WINDOW_S
     standing = ((float(w.end_s), onset),) if onset > w.end_s else ()
-    inp = aided.AidedInput(time=crec.time, f=crec.f, omega=crec.omega, C0=coarse_level(f_rest),
+    # the filter starts where the robot is known to stand, at the initial rest window: what comes before it
+    # (the phone placed on the robot, handled) is no motion of the robot, and the coarse-level attitude is
+    # that of the rest window
+    i0 = int(w.i0)
+    inp = aided.AidedInput(time=crec.time[i0:], f=crec.f[i0:], omega=crec.omega[i0:], C0=coarse_level(f_rest),
                            g=float(np.linalg.norm(f_rest)), step_start=s.start_time, step_end=s.end_time,
                            step_length=track.length, rest=rest, standing=standing,
                            step_vector=np.diff(track.position, axis=0))
