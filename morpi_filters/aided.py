@@ -32,6 +32,8 @@ the epochs:
 * :class:`ZeroVelocity` and :class:`ZeroRate`: the still stretches the caller
   names (``AidedInput.rest``), and the zero-velocity update alone where the
   robot stands while its phone may hum with the motors (``AidedInput.standing``);
+  while the robot stands, the process noise is the still phone's own
+  (``AidTuning.rest_accel_noise``, ``rest_gyro_noise``), not the motion's;
 * :class:`NonHolonomic`: the robot's lateral and vertical velocity are zero
   (phone-to-robot tilt from the rest specific force, mounting yaw zero).
 
@@ -449,12 +451,15 @@ class AidTuning:
     Attributes
     ----------
     accel_noise, gyro_noise : float
-        White-noise densities of the motion [m/s^2/sqrt(Hz)], [rad/s/sqrt(Hz)].
+        White-noise densities of the motion [m/s^2/sqrt(Hz)], [rad/s/sqrt(Hz)]
+        (while the robot stands: `rest_accel_noise`, `rest_gyro_noise`).
     accel_walk, gyro_walk : float
         Bias random walks [m/s^2/sqrt(s)], [rad/s/sqrt(s)].
-    rest_gyro_noise : float
-        Gyro white-noise density at rest, for the zero-rate update
-        [rad/s/sqrt(Hz)] (0: `gyro_noise`).
+    rest_gyro_noise, rest_accel_noise : float
+        Gyro and accelerometer white-noise densities while the robot stands
+        (``AidedInput.rest`` and ``standing``): the process noise of the
+        intervals that end there, and the gyro's for the zero-rate update
+        [rad/s/sqrt(Hz)], [m/s^2/sqrt(Hz)] (0: `gyro_noise`, `accel_noise`).
     accel_jump : float
         Change of the accelerometer's apparent bias when the robot starts or
         stops moving, 1 sigma per axis [m/s^2] (the phone tilts on its mount
@@ -487,6 +492,7 @@ class AidTuning:
     accel_walk: float = 1e-4
     gyro_walk: float = 1e-5
     rest_gyro_noise: float = 0.0
+    rest_accel_noise: float = 0.0
     accel_jump: float = 0.0
     step_sigma: float = 0.05
     nhc_sigma: float = 0.05
@@ -775,6 +781,8 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
     tn = tunings
     arr = lambda name: np.array([getattr(t, name) for t in tn], float)  # noqa: E731
     q_a, q_g = arr("accel_noise") ** 2, arr("gyro_noise") ** 2
+    q_a_rest = np.array([t.rest_accel_noise or t.accel_noise for t in tn], float) ** 2
+    q_g_rest = np.array([t.rest_gyro_noise or t.gyro_noise for t in tn], float) ** 2
     q_ba, q_bg = arr("accel_walk") ** 2, arr("gyro_walk") ** 2
     step_sig, nhc_sig, zupt_sig = arr("step_sigma"), arr("nhc_sigma"), arr("zupt_sigma")
     use_nhc = np.array([t.nhc for t in tn])
@@ -879,12 +887,18 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
         Phi = None
         if k > 0:
             Phi = _transition(acc_dt[sel], acc_fn[sel], acc_C[sel])
-            Q = _process_noise(acc_dt[sel], q_a[sel], q_g[sel], q_ba[sel], q_bg[sel])
+            # an interval that ends where the robot stands: the still phone's own noise, not the vibration
+            # of the moving robot (its integral would leave the standing robot's position uncertain)
+            quiet = still_flags[sel, k]
+            qa_k = np.where(quiet, q_a_rest[sel], q_a[sel])
+            qg_k = np.where(quiet, q_g_rest[sel], q_g[sel])
+            Q = _process_noise(acc_dt[sel], qa_k, qg_k, q_ba[sel], q_bg[sel])
             jq = np.where(still_flags[sel, k] != was_rest[sel], jump2[sel], 0.0)
             Q[:, BA, BA] += np.eye(3) * jq[:, None, None]
             x[sel], P[sel] = _predict(x[sel], P[sel], Phi, Q)
         else:
             jq = np.zeros(sel.size)
+            qa_k, qg_k = q_a[sel], q_g[sel]
         was_rest[sel] = still_flags[sel, k]
         P_first = P[sel].copy() if k == 0 else None
         # ---- updates
@@ -950,7 +964,7 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
             for j in np.flatnonzero(keep_hist[sel]):
                 b = sel[j]
                 hist[b].append((x[b].copy(), P[b].copy() if P_first is None else (P[b].copy(), P_first[j]),
-                                fed[j], acc_dt[b], acc_fn[b].copy(), acc_C[b].copy(), jq[j]))
+                                fed[j], acc_dt[b], acc_fn[b].copy(), acc_C[b].copy(), jq[j], qa_k[j], qg_k[j]))
         acc_dt[sel] = 0.0
         acc_fn[sel] = 0.0
         acc_C[sel] = 0.0
@@ -968,7 +982,7 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
         pos = kp[rows]
         sm = Psm = None
         if keep_hist[b]:
-            sm, Psm = _smooth_member(hist[b], pos, (q_a[b], q_g[b], q_ba[b], q_bg[b]), frozen[b])
+            sm, Psm = _smooth_member(hist[b], pos, (q_ba[b], q_bg[b]), frozen[b])
         nis = {name: (float(nis_sum[name][b]), int(nis_cnt[name][b]), nis_dof[name])
                for name in nis_sum if nis_cnt[name][b] > 0}
         out.append(AidedResult(
@@ -1059,7 +1073,8 @@ def _smooth_member(hist, pos, q, frozen=None):
     d = np.array([h[3] for h in hist])
     Phi = _transition(d, np.array([h[4] for h in hist]), np.array([h[5] for h in hist]))
     Phi[0] = np.eye(N_AIDED)
-    Q = _process_noise(d, *(np.full(m, v) for v in q))
+    Q = _process_noise(d, np.array([h[7] for h in hist]), np.array([h[8] for h in hist]),
+                       *(np.full(m, v) for v in q))
     Q[:, BA, BA] += np.eye(3) * np.array([h[6] for h in hist])[:, None, None]
     x_prior = np.empty_like(x_post)
     x_prior[0] = 0.0                              # the filter starts from a zero error state

@@ -6,7 +6,8 @@ recording, forward and smoothed, beside MoRPI alone and the INS alone.
 
 Tunables are chosen per training set, method and calibration on the ``train``
 runs only (:func:`choose_tunables`): the noise densities, the zero-rate noise
-and the gyro bias walk come from what the train runs show at rest; the grid
+and the gyro bias walk come from what the train runs show at rest (the
+densities while the robot stands); the grid
 (:data:`GRID`) scales the densities for the vibration of the moving robot, sets
 the step noise and where the step direction comes from (the filter's attitude,
 or the route's heading: :func:`route_vectors`); at the
@@ -353,9 +354,10 @@ def prepare(data, rec, mode, method, config, gain) -> Prepared:
     rest = ((float(w.start_s), float(w.end_s)),) + tuple(s for s in after if s[0] > w.end_s)
     s = data.steps(rec, mode, method, config)
     track = st.morpi_track(s, gain)
-    # between the rest window and the motion onset the robot stands (its motors may run): zero velocity,
-    # up to one activity window before the onset (the onset is the end of the first active window)
-    onset = float(data.activity(rec)[0]) - st.ACTIVITY_WINDOW_S
+    # between the rest window and the motion onset (the start of the motion window, where MoRPI's steps
+    # begin) the robot stands, its motors may run: zero velocity up to the onset, so the path starts from
+    # where the robot stood
+    onset = float(data.activity(rec)[0])
     standing = ((float(w.end_s), onset),) if onset > w.end_s else ()
     # the filter starts where the robot is known to stand, at the initial rest window: what comes before it
     # (the phone placed on the robot, handled) is no motion of the robot, and the coarse-level attitude is
@@ -430,6 +432,7 @@ def route_vectors(length, start, end, boundaries, time, psi, turn_deg, per_perio
 def _tuning(noise, info, gain_rel) -> aided.AidTuning:
     a, g, ge, walk, jump = noise
     return aided.AidTuning(accel_noise=a * info["vibration"], gyro_noise=g * info["vibration"], rest_gyro_noise=ge,
+                           rest_accel_noise=a,
                            gyro_walk=walk, accel_jump=jump,
                            accel_walk=ACCEL_WALK, step_sigma=info["step_sigma"], nhc_sigma=NHC_SIGMA,
                            nhc=bool(info.get("nhc", True)),
@@ -915,7 +918,7 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
             spec=sp, forward_percent=mean("forward_m"), smoothed_percent=mean("smoothed_m"),
             morpi_percent=mean("morpi_m"), ins_percent=mean("ins_m"), runs=tuple(rows),
             tuning={**info, "accel_noise": noise[0] * info["vibration"], "gyro_noise": noise[1] * info["vibration"],
-                    "rest_gyro_noise": noise[2], "gyro_walk": noise[3], "accel_jump": noise[4],
+                    "rest_accel_noise": noise[0], "rest_gyro_noise": noise[2], "gyro_walk": noise[3], "accel_jump": noise[4],
                     "gain_sigma": g.std / g.mean},
             train_percent=score, train_loo_percent=choice.loo_percent, train_morpi_percent=choice.morpi_percent,
             nis={k: (v[0] / max(v[1], 1), v[2]) for k, v in nis.items()}, paths=tuple(paths), failed=failed,
