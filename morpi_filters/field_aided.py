@@ -10,8 +10,9 @@ and the gyro bias walk come from what the train runs show at rest (the
 densities while the robot stands); the grid
 (:data:`GRID`) scales the densities for the vibration of the moving robot, sets
 the step noise and where the step direction comes from (the filter's attitude,
-or the route's heading: :func:`route_vectors`); at the
-chosen point the non-holonomic updates stay and the gain error is estimated
+or the route's heading: :func:`route_vectors`, whose turns carry a heading
+error of :data:`TURN_SIGMA` of their angle, set a priori: the train routes take
+no turn); at the chosen point the non-holonomic updates stay and the gain error is estimated
 (rather than considered) only where the train runs show it pays. The gain
 error's prior is the trained gain's spread. Nothing of a ``test`` folder
 enters the choice.
@@ -52,6 +53,11 @@ GRID = {"vibration": (100.0, 300.0, 3000.0), "step_sigma": (0.02, 0.05), "gain_s
 #: Non-holonomic velocity noise [m/s]: the phone rides off the robot's turning axis, so its lateral
 #: velocity is about omega_z times the lever arm (0.5 rad/s x 0.2 m = 0.1 m/s) while turning.
 NHC_SIGMA = 0.1
+#: Error of a turn of the route's heading (:func:`route_vectors`) relative to its angle
+#: (:attr:`aided.AidTuning.turn_sigma`): set a priori, since the train routes (sines) take no turn that
+#: the route's heading reads; a few per cent, the order of a phone gyro's sensitivity tolerance and of
+#: the z gyro's share of a turn on a tilted phone (1 - cos 15 deg = 3.4 %).
+TURN_SIGMA = 0.03
 #: Least share of the train runs whose true end point lies inside the filter's 95 % ellipse for a
 #: grid point to be eligible: a filter that claims 95 % must hold it on the runs it is tuned on
 #: (the bound leaves room for the sampling spread of 10-15 train runs).
@@ -432,7 +438,7 @@ def route_vectors(length, start, end, boundaries, time, psi, turn_deg, per_perio
 def _tuning(noise, info, gain_rel) -> aided.AidTuning:
     a, g, ge, walk, jump = noise
     return aided.AidTuning(accel_noise=a * info["vibration"], gyro_noise=g * info["vibration"], rest_gyro_noise=ge,
-                           rest_accel_noise=a,
+                           rest_accel_noise=a, turn_sigma=TURN_SIGMA,
                            gyro_walk=walk, accel_jump=jump,
                            accel_walk=ACCEL_WALK, step_sigma=info["step_sigma"], nhc_sigma=NHC_SIGMA,
                            nhc=bool(info.get("nhc", True)),

@@ -35,6 +35,7 @@ def test_jacobians_match_finite_differences(kind):
     # the filter linearizes at the fed-back error state; the gain error and the clone stay states
     x[:, aided.GAIN] = 0.03
     x[:, aided.CLONE] = rng.normal(size=(3, 2)) * 0.01
+    x[:, aided.TURN] = [0.05, -0.02, 0.1]                  # the reading's heading error is not fed back
     s = np.full(3, 0.1)
     meas = {"step": aided.StepDisplacement(z=np.zeros((3, 2)), sigma=s),
             "step (attitude heading)": aided.StepDisplacement(z=np.zeros((3, 2)), sigma=s,
@@ -139,6 +140,42 @@ def test_noise_free_routes_within_1cm(route, heading):
     assert np.abs(r.smoothed[:, :2] - truth).max() < 0.01
     # the smoother's last estimate is the forward filter's
     np.testing.assert_allclose(r.smoothed[-1], r.position[-1], atol=1e-9)
+
+
+
+def test_a_misread_turn_is_taken_from_the_inertial_heading():
+    """Step directions that read the L's turn 3 degrees short: the turn state takes the INS's heading.
+
+    Noise-free inertial data, exact step lengths, and step directions after
+    the turn off by 0.05 rad (the route's heading reading a turn wrong).
+    Without the turn state the filter follows the steps' wrong heading;
+    with it (3 % of the turn, 1 sigma) the exact attitude corrects the
+    direction, and the true end point lies inside the claimed ellipse.
+    """
+    from dataclasses import replace
+
+    traj = simulate.l_route(period=1.0, amplitude=0.1, rate_hz=100.0)
+    inp = _exact_input(traj, vectors=True)
+    v = inp.step_vector
+    psi = np.arctan2(v[:, 1], v[:, 0])
+    after = np.abs(np.angle(np.exp(1j * (psi - psi[0])))) > np.radians(45.0)
+    assert 0 < after.sum() < after.size
+    e = -0.05
+    rot = np.array([[np.cos(e), -np.sin(e)], [np.sin(e), np.cos(e)]])
+    wrong = replace(inp, step_vector=np.where(after[:, None], v @ rot.T, v))
+    tun = aided.AidTuning(accel_noise=1e-3, gyro_noise=1e-5, step_sigma=0.01, gain_sigma=0.0, nhc=False,
+                          step_heading="gyro")
+    out = aided.run_batch([wrong, wrong], [tun, tun.with_(turn_sigma=0.03)])
+    t_end = inp.step_end[-1]
+    true = np.array([np.interp(t_end, traj.time, traj.position[:, j]) for j in range(2)])
+    err = [np.linalg.norm(r.position[r.index_at(t_end), :2] - true) for r in out]
+    # the misread turn swings the second leg by 0.05 rad; the turn state takes most of it back
+    leg = np.linalg.norm(v[after].sum(axis=0))
+    assert err[0] > 0.8 * abs(e) * leg and err[1] < 0.25 * err[0], (err, leg)
+    r = out[1]
+    j = r.index_at(t_end)
+    d = r.position[j, :2] - true
+    assert d @ np.linalg.solve(r.P_xy[j], d) < 13.8                # chi-square 2 dof, 99.9 %
 
 
 def test_batched_members_equal_single_runs():

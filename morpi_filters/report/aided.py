@@ -65,6 +65,7 @@ def study_json(study) -> dict:
             "nis": _nis(study.nis), "note": study.note,
             "tunables": {"grid": {k: list(v) for k, v in field_aided.GRID.items()},
                          "fixed": {"accel_walk": field_aided.ACCEL_WALK, "nhc_sigma": field_aided.NHC_SIGMA,
+                                   "turn_sigma": field_aided.TURN_SIGMA,
                                    "min_train_coverage": field_aided.MIN_TRAIN_COVERAGE,
                                    **{k: v for k, v in aided.AidTuning().__dict__.items()
                                       if k in ("gyro_walk", "zupt_sigma", "tilt0", "ba0", "bg0")}},
