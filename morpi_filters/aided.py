@@ -7,13 +7,15 @@ with the states
 
 ``[dp, dv, eps, ba, bg]`` (the slices of :mod:`morpi_filters.error_model`),
 ``dc`` (:data:`CLONE`: the horizontal position error at the last step
-boundary) and ``k`` (:data:`GAIN`: the relative error of the MoRPI step gain).
+boundary), ``k`` (:data:`GAIN`: the relative error of the MoRPI step gain) and
+``e`` (:data:`TURN`: the heading error of given step directions, which grows
+by a share of every turn they read: :attr:`AidTuning.turn_sigma`).
 
 Conventions (those of :mod:`morpi_filters.error_model`): ``dp = p_hat - p``,
 ``dv = v_hat - v``, ``C_hat = exp([eps x]) C``, ``ba = b_a - b_a_hat``,
 ``bg = b_g - b_g_hat``. After every update the estimate is fed back into the
 nominal state (position, velocity, attitude, biases, clone) and those error
-states return to zero; the gain error stays a state. It is either estimated
+states return to zero; the gain error and the step directions' heading error stay states. It is either estimated
 or only considered (:attr:`AidTuning.gain_estimated`: the estimate is the one
 of the filter that takes the trained gain as exact, the covariance carries the
 gain's spread; :func:`kf_update`'s `frozen`).
@@ -32,6 +34,8 @@ the epochs:
 * :class:`ZeroVelocity` and :class:`ZeroRate`: the still stretches the caller
   names (``AidedInput.rest``), and the zero-velocity update alone where the
   robot stands while its phone may hum with the motors (``AidedInput.standing``);
+  while the robot stands, the process noise is the still phone's own
+  (``AidTuning.rest_accel_noise``, ``rest_gyro_noise``), not the motion's;
 * :class:`NonHolonomic`: the robot's lateral and vertical velocity are zero
   (phone-to-robot tilt from the rest specific force, mounting yaw zero).
 
@@ -61,8 +65,11 @@ from .strapdown import rotvec_to_C
 CLONE = slice(N_STATES, N_STATES + 2)
 #: Relative error of the step gain.
 GAIN = N_STATES + 2
+#: Heading error of given step directions (``step_heading="gyro"``): the turns they read, each off by a
+#: share of its angle (:attr:`AidTuning.turn_sigma`).
+TURN = N_STATES + 3
 #: Dimension of the aided error state.
-N_AIDED = N_STATES + 3
+N_AIDED = N_STATES + 4
 #: Sources of the MoRPI step direction (:attr:`AidTuning.step_heading`).
 STEP_HEADINGS = ("attitude", "gyro")
 #: 95 % point of the chi-square distribution with 2 degrees of freedom (the horizontal ellipse).
@@ -303,13 +310,14 @@ class Nominal:
 
 @dataclass(frozen=True)
 class StepDisplacement:
-    """MoRPI step: ``z = (1 + k) R(eps_z)^a (p_xy - c)`` with the true position ``p`` and clone ``c``.
+    """MoRPI step: ``z = (1 + k) R(e) (p_xy - c)`` with the true position ``p`` and clone ``c``.
 
     When the step's direction is read from the filter's own attitude
     (``attitude``), the measured vector turns with the filter's heading
-    error ``eps_z`` (``a = 1``): the step then says nothing about the
-    heading, only about the length. With a direction from elsewhere (MoRPI's
-    own heading reading), ``a = 0``.
+    error, ``e = eps_z``: the step then says nothing about the heading, only
+    about the length. With a direction from elsewhere (MoRPI's own heading
+    reading, the route's heading), ``e`` is that reading's own heading error
+    (:data:`TURN`, which grows with every turn the reading takes).
 
     Attributes
     ----------
@@ -328,27 +336,38 @@ class StepDisplacement:
     def _d(self, x, nom):
         return (nom.p[:, :2] - x[:, DP][:, :2]) - (nom.clone - x[:, CLONE])
 
+    def _e(self, x):
+        if self.attitude is None:
+            return x[:, TURN]
+        return np.where(self.attitude, x[:, EPS.stop - 1], x[:, TURN])
+
     def h(self, x, nom: Nominal):
         gain = 1.0 + x[:, GAIN]
         d = self._d(x, nom)
-        if self.attitude is not None:
-            e = np.where(self.attitude, x[:, EPS.stop - 1], 0.0)
-            c, s = np.cos(e), np.sin(e)
-            d = np.stack([c * d[:, 0] - s * d[:, 1], s * d[:, 0] + c * d[:, 1]], axis=1)
+        e = self._e(x)
+        c, s = np.cos(e), np.sin(e)
+        d = np.stack([c * d[:, 0] - s * d[:, 1], s * d[:, 0] + c * d[:, 1]], axis=1)
         return gain[:, None] * d
 
     def H(self, x, nom: Nominal):
-        # linearized at the fed-back state (eps = 0)
+        # at the state given: the attitude's heading error is fed back (zero), the reading's is not
         gain = 1.0 + x[:, GAIN]
         d = self._d(x, nom)
+        e = self._e(x)
+        c, s = np.cos(e), np.sin(e)
+        Rm = np.stack([np.stack([c, -s], axis=1), np.stack([s, c], axis=1)], axis=1)      # (b, 2, 2)
+        Rd = np.einsum("bij,bj->bi", Rm, d)
+        dRd = np.stack([-Rd[:, 1], Rd[:, 0]], axis=1)                                       # dR/de d
         H = np.zeros((x.shape[0], 2, N_AIDED))
-        H[:, :, DP.start:DP.start + 2] = -gain[:, None, None] * np.eye(2)
-        H[:, :, CLONE] = gain[:, None, None] * np.eye(2)
-        H[:, :, GAIN] = d
-        if self.attitude is not None:
-            a = np.asarray(self.attitude, float)
-            H[:, 0, EPS.stop - 1] = -a * gain * d[:, 1]
-            H[:, 1, EPS.stop - 1] = a * gain * d[:, 0]
+        H[:, :, DP.start:DP.start + 2] = -gain[:, None, None] * Rm
+        H[:, :, CLONE] = gain[:, None, None] * Rm
+        H[:, :, GAIN] = Rd
+        if self.attitude is None:
+            H[:, :, TURN] = gain[:, None] * dRd
+        else:
+            a = np.asarray(self.attitude, bool)
+            H[:, :, EPS.stop - 1] = np.where(a[:, None], gain[:, None] * dRd, 0.0)
+            H[:, :, TURN] = np.where(a[:, None], 0.0, gain[:, None] * dRd)
         return H
 
     def R(self):
@@ -449,12 +468,20 @@ class AidTuning:
     Attributes
     ----------
     accel_noise, gyro_noise : float
-        White-noise densities of the motion [m/s^2/sqrt(Hz)], [rad/s/sqrt(Hz)].
+        White-noise densities of the motion [m/s^2/sqrt(Hz)], [rad/s/sqrt(Hz)]
+        (while the robot stands: `rest_accel_noise`, `rest_gyro_noise`).
     accel_walk, gyro_walk : float
         Bias random walks [m/s^2/sqrt(s)], [rad/s/sqrt(s)].
-    rest_gyro_noise : float
-        Gyro white-noise density at rest, for the zero-rate update
-        [rad/s/sqrt(Hz)] (0: `gyro_noise`).
+    rest_gyro_noise, rest_accel_noise : float
+        Gyro and accelerometer white-noise densities while the robot stands
+        (``AidedInput.rest`` and ``standing``): the process noise of the
+        intervals that end there, and the gyro's for the zero-rate update
+        [rad/s/sqrt(Hz)], [m/s^2/sqrt(Hz)] (0: `gyro_noise`, `accel_noise`).
+    turn_sigma : float
+        Error of a turn that given step directions (``step_heading="gyro"``)
+        read, relative to its angle: their heading error (:data:`TURN`)
+        gains ``(turn_sigma * turn)^2`` of variance at each step whose
+        direction turns from the previous one [-].
     accel_jump : float
         Change of the accelerometer's apparent bias when the robot starts or
         stops moving, 1 sigma per axis [m/s^2] (the phone tilts on its mount
@@ -487,6 +514,8 @@ class AidTuning:
     accel_walk: float = 1e-4
     gyro_walk: float = 1e-5
     rest_gyro_noise: float = 0.0
+    rest_accel_noise: float = 0.0
+    turn_sigma: float = 0.0
     accel_jump: float = 0.0
     step_sigma: float = 0.05
     nhc_sigma: float = 0.05
@@ -775,6 +804,8 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
     tn = tunings
     arr = lambda name: np.array([getattr(t, name) for t in tn], float)  # noqa: E731
     q_a, q_g = arr("accel_noise") ** 2, arr("gyro_noise") ** 2
+    q_a_rest = np.array([t.rest_accel_noise or t.accel_noise for t in tn], float) ** 2
+    q_g_rest = np.array([t.rest_gyro_noise or t.gyro_noise for t in tn], float) ** 2
     q_ba, q_bg = arr("accel_walk") ** 2, arr("gyro_walk") ** 2
     step_sig, nhc_sig, zupt_sig = arr("step_sigma"), arr("nhc_sigma"), arr("zupt_sigma")
     use_nhc = np.array([t.nhc for t in tn])
@@ -836,6 +867,18 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
     for b in range(B):
         end_flag[b, list(ends[b])] = True
         start_flag[b, list(starts[b])] = True
+    # the given step directions' heading error grows by a share of each turn they take (from the previous
+    # step's direction; the first step's from the frame's zero heading), added where the step ends
+    turn_q = np.zeros((B, N)) if any(t.turn_sigma > 0 and g for t, g in zip(tn, gyro_heading)) else None
+    if turn_q is not None:
+        for b in range(B):
+            if not (gyro_heading[b] and tn[b].turn_sigma > 0 and inputs[b].step_vector is not None):
+                continue
+            vec = np.asarray(inputs[b].step_vector, float)
+            psi = np.arctan2(vec[:, 1], vec[:, 0])
+            turn = np.angle(np.exp(1j * np.diff(np.r_[0.0, psi])))
+            for k_end, lst in ends[b].items():
+                turn_q[b, k_end] = sum((tn[b].turn_sigma * turn[j]) ** 2 for _, j in lst)
     jump2 = arr("accel_jump") ** 2
     was_rest = still_flags[:, 0].copy()
     T_clone = np.eye(N_AIDED)
@@ -879,12 +922,21 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
         Phi = None
         if k > 0:
             Phi = _transition(acc_dt[sel], acc_fn[sel], acc_C[sel])
-            Q = _process_noise(acc_dt[sel], q_a[sel], q_g[sel], q_ba[sel], q_bg[sel])
+            # an interval that ends where the robot stands: the still phone's own noise, not the vibration
+            # of the moving robot (its integral would leave the standing robot's position uncertain)
+            quiet = still_flags[sel, k]
+            qa_k = np.where(quiet, q_a_rest[sel], q_a[sel])
+            qg_k = np.where(quiet, q_g_rest[sel], q_g[sel])
+            Q = _process_noise(acc_dt[sel], qa_k, qg_k, q_ba[sel], q_bg[sel])
             jq = np.where(still_flags[sel, k] != was_rest[sel], jump2[sel], 0.0)
             Q[:, BA, BA] += np.eye(3) * jq[:, None, None]
+            tq = turn_q[sel, k] if turn_q is not None else np.zeros(sel.size)
+            Q[:, TURN, TURN] += tq
             x[sel], P[sel] = _predict(x[sel], P[sel], Phi, Q)
         else:
             jq = np.zeros(sel.size)
+            tq = np.zeros(sel.size)
+            qa_k, qg_k = q_a[sel], q_g[sel]
         was_rest[sel] = still_flags[sel, k]
         P_first = P[sel].copy() if k == 0 else None
         # ---- updates
@@ -950,7 +1002,7 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
             for j in np.flatnonzero(keep_hist[sel]):
                 b = sel[j]
                 hist[b].append((x[b].copy(), P[b].copy() if P_first is None else (P[b].copy(), P_first[j]),
-                                fed[j], acc_dt[b], acc_fn[b].copy(), acc_C[b].copy(), jq[j]))
+                                fed[j], acc_dt[b], acc_fn[b].copy(), acc_C[b].copy(), jq[j], qa_k[j], qg_k[j], tq[j]))
         acc_dt[sel] = 0.0
         acc_fn[sel] = 0.0
         acc_C[sel] = 0.0
@@ -968,7 +1020,7 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
         pos = kp[rows]
         sm = Psm = None
         if keep_hist[b]:
-            sm, Psm = _smooth_member(hist[b], pos, (q_a[b], q_g[b], q_ba[b], q_bg[b]), frozen[b])
+            sm, Psm = _smooth_member(hist[b], pos, (q_ba[b], q_bg[b]), frozen[b])
         nis = {name: (float(nis_sum[name][b]), int(nis_cnt[name][b]), nis_dof[name])
                for name in nis_sum if nis_cnt[name][b] > 0}
         out.append(AidedResult(
@@ -1059,8 +1111,10 @@ def _smooth_member(hist, pos, q, frozen=None):
     d = np.array([h[3] for h in hist])
     Phi = _transition(d, np.array([h[4] for h in hist]), np.array([h[5] for h in hist]))
     Phi[0] = np.eye(N_AIDED)
-    Q = _process_noise(d, *(np.full(m, v) for v in q))
+    Q = _process_noise(d, np.array([h[7] for h in hist]), np.array([h[8] for h in hist]),
+                       *(np.full(m, v) for v in q))
     Q[:, BA, BA] += np.eye(3) * np.array([h[6] for h in hist])[:, None, None]
+    Q[:, TURN, TURN] += np.array([h[9] for h in hist])
     x_prior = np.empty_like(x_post)
     x_prior[0] = 0.0                              # the filter starts from a zero error state
     x_prior[1:] = np.einsum("bij,bj->bi", Phi[1:], x_post[:-1])

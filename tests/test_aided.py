@@ -1,6 +1,8 @@
 """The MoRPI-aided filter: Jacobians, the Kalman core against filterpy, simulated routes with known truth."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -33,6 +35,7 @@ def test_jacobians_match_finite_differences(kind):
     # the filter linearizes at the fed-back error state; the gain error and the clone stay states
     x[:, aided.GAIN] = 0.03
     x[:, aided.CLONE] = rng.normal(size=(3, 2)) * 0.01
+    x[:, aided.TURN] = [0.05, -0.02, 0.1]                  # the reading's heading error is not fed back
     s = np.full(3, 0.1)
     meas = {"step": aided.StepDisplacement(z=np.zeros((3, 2)), sigma=s),
             "step (attitude heading)": aided.StepDisplacement(z=np.zeros((3, 2)), sigma=s,
@@ -137,6 +140,42 @@ def test_noise_free_routes_within_1cm(route, heading):
     assert np.abs(r.smoothed[:, :2] - truth).max() < 0.01
     # the smoother's last estimate is the forward filter's
     np.testing.assert_allclose(r.smoothed[-1], r.position[-1], atol=1e-9)
+
+
+
+def test_a_misread_turn_is_taken_from_the_inertial_heading():
+    """Step directions that read the L's turn 3 degrees short: the turn state takes the INS's heading.
+
+    Noise-free inertial data, exact step lengths, and step directions after
+    the turn off by 0.05 rad (the route's heading reading a turn wrong).
+    Without the turn state the filter follows the steps' wrong heading;
+    with it (3 % of the turn, 1 sigma) the exact attitude corrects the
+    direction, and the true end point lies inside the claimed ellipse.
+    """
+    from dataclasses import replace
+
+    traj = simulate.l_route(period=1.0, amplitude=0.1, rate_hz=100.0)
+    inp = _exact_input(traj, vectors=True)
+    v = inp.step_vector
+    psi = np.arctan2(v[:, 1], v[:, 0])
+    after = np.abs(np.angle(np.exp(1j * (psi - psi[0])))) > np.radians(45.0)
+    assert 0 < after.sum() < after.size
+    e = -0.05
+    rot = np.array([[np.cos(e), -np.sin(e)], [np.sin(e), np.cos(e)]])
+    wrong = replace(inp, step_vector=np.where(after[:, None], v @ rot.T, v))
+    tun = aided.AidTuning(accel_noise=1e-3, gyro_noise=1e-5, step_sigma=0.01, gain_sigma=0.0, nhc=False,
+                          step_heading="gyro")
+    out = aided.run_batch([wrong, wrong], [tun, tun.with_(turn_sigma=0.03)])
+    t_end = inp.step_end[-1]
+    true = np.array([np.interp(t_end, traj.time, traj.position[:, j]) for j in range(2)])
+    err = [np.linalg.norm(r.position[r.index_at(t_end), :2] - true) for r in out]
+    # the misread turn swings the second leg by 0.05 rad; the turn state takes most of it back
+    leg = np.linalg.norm(v[after].sum(axis=0))
+    assert err[0] > 0.8 * abs(e) * leg and err[1] < 0.25 * err[0], (err, leg)
+    r = out[1]
+    j = r.index_at(t_end)
+    d = r.position[j, :2] - true
+    assert d @ np.linalg.solve(r.P_xy[j], d) < 13.8                # chi-square 2 dof, 99.9 %
 
 
 def test_batched_members_equal_single_runs():
@@ -382,6 +421,57 @@ def test_standing_stretch_holds_the_robot_still_before_the_motion():
     assert free > 0.05 and held < 0.2 * free, errs
 
 
+
+def test_the_standing_robot_keeps_the_still_phones_noise():
+    """While the robot stands the process noise is the still phone's, while it moves the motion's.
+
+    A recording standing throughout, filtered with a motion noise 100 times
+    the still noise, is filtered exactly as with the still noise alone
+    (forward and smoothed); a moving recording without rest ignores it.
+    """
+    rng = np.random.default_rng(11)
+    t = np.arange(0.0, 6.0, 0.01)
+    still = aided.AidedInput(time=t, f=[0.0, 0.0, 9.8] + rng.normal(0.0, 0.03, (t.size, 3)),
+                             omega=rng.normal(0.0, 1e-3, (t.size, 3)), C0=np.eye(3), g=9.8,
+                             rest=((0.0, 3.0),), standing=((3.0, 6.0),))
+    small = aided.AidTuning(accel_noise=3e-3, gyro_noise=1e-4, step_sigma=0.02, gain_sigma=0.0)
+    mixed = small.with_(accel_noise=0.3, gyro_noise=1e-2, rest_accel_noise=3e-3, rest_gyro_noise=1e-4)
+    a, b = aided.run_batch([still, still], [small, mixed], smooth=True)
+    np.testing.assert_allclose(b.P_xy, a.P_xy, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(b.position, a.position, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(b.smoothed, a.smoothed, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(b.P_xy_smoothed, a.P_xy_smoothed, rtol=1e-12, atol=0)
+    traj = simulate.sine(4.0, period=1.0, amplitude=0.1, rate_hz=100.0)
+    from dataclasses import replace
+    moving = replace(_exact_input(traj), rest=(), standing=())
+    c, d = aided.run_batch([moving, moving], [mixed.with_(rest_accel_noise=0.0, rest_gyro_noise=0.0), mixed])
+    np.testing.assert_array_equal(c.P_xy, d.P_xy)
+
+
+def test_a_standing_robot_stays_where_it_stands_under_a_vibrating_motion_noise():
+    """Rest, then the motors hum while the robot stands: its position stays known to about a centimetre.
+
+    The motion's noise density (0.3 m/s^2/sqrt(Hz), a vibrating robot under
+    way) integrated between zero-velocity updates would leave the position
+    uncertain by several centimetres after five seconds; with the standing
+    robot's own noise the claim shrinks to the share the level's bias and
+    tilt leave, and the true position (the origin) lies inside it.
+    """
+    rng = np.random.default_rng(12)
+    t = np.arange(0.0, 5.0, 0.01)
+    f = np.tile([0.0, 0.0, 9.8], (t.size, 1)) + rng.normal(0.0, 0.003, (t.size, 3))
+    hum = t > 3.0
+    f[hum] += rng.normal(0.0, 0.03, (hum.sum(), 3))           # density 0.03 * sqrt(0.01) = 3e-3
+    inp = aided.AidedInput(time=t, f=f, omega=rng.normal(0.0, 1e-4, (t.size, 3)), C0=np.eye(3), g=9.8,
+                           rest=((0.0, 3.0),), standing=((3.0, 5.0),))
+    moving = aided.AidTuning(accel_noise=0.3, gyro_noise=1e-3, step_sigma=0.02, gain_sigma=0.0)
+    (loose,), (held,) = (aided.run_batch([inp], tun) for tun in (moving, moving.with_(rest_accel_noise=3e-3)))
+    sig = lambda r: float(np.sqrt(np.trace(r.P_xy[-1])))     # noqa: E731
+    assert sig(loose) > 0.03 and sig(held) < 0.3 * sig(loose), (sig(loose), sig(held))
+    m2 = held.end_point @ np.linalg.solve(held.P_xy[-1], held.end_point)
+    assert m2 < 13.8                                          # chi-square 2 dof, 99.9 %
+
+
 def test_a_cut_input_gives_the_same_forward_estimate_at_the_cut():
     """The forward filter is causal: cut after the last step, its estimate there is the whole run's."""
     traj = simulate.sine(6.3, period=1.0, amplitude=0.1, rate_hz=100.0)
@@ -480,3 +570,59 @@ def test_smoother_with_a_state_without_uncertainty_uses_the_pseudo_inverse():
         rP[j] = P_post[j] + G @ (rP[j + 1] - P_prior[j + 1]) @ G.T
     np.testing.assert_allclose(xs, rx, atol=1e-9)
     np.testing.assert_allclose(Ps, rP, atol=1e-9)
+
+
+
+@pytest.mark.field
+def test_what_precedes_the_initial_rest_does_not_move_the_filter(field_root, tmp_path):
+    """The phone carried 0.3 m and turned 20 degrees before it is set down: the same filter estimate.
+
+    A train recording, and the same recording with a second of handling put
+    before it (a smooth acceleration pulse along the phone's y axis that
+    carries it 0.3 m from rest to rest, a 20 degree turn about z): the robot's
+    path, which starts at the initial rest, is the same, so the prepared inputs
+    from that rest on and the filter's end points must agree.
+    """
+    from dataclasses import replace
+
+    from morpi_filters import dataset as ds
+    from morpi_filters.field import FieldData
+    from morpi_filters.field_aided import prepare
+    from morpi_filters.steps import StepConfig
+
+    data = FieldData(field_root)
+    rec = data.recordings("s8", "short_distance", "train")[0]
+    rel = Path(data.relpath(rec))
+    dt = float(np.median(np.diff(rec.time)))
+    T = 1.0                                                         # shorter than a motion: a disturbance
+    tp = rec.time[0] + np.arange(int(round(T / dt))) * dt          # the handling, then the recording
+    amp = 0.3 * 2 * np.pi / T ** 2                                  # a sin(2 pi t / T): a T^2 / (2 pi) = 0.3 m
+    # on the rest's own samples (its noise), a smooth pulse and turn
+    f = rec.f[:tp.size].copy()
+    f[:, 1] += amp * np.sin(2 * np.pi * (tp - tp[0]) / T)
+    w = rec.omega[:tp.size].copy()
+    w[:, 2] += np.radians(20.0) / T * (1 - np.cos(2 * np.pi * (tp - tp[0]) / T))
+    handled = ds.Recording(time=np.r_[tp, rec.time + T], f=np.vstack([f, rec.f]), omega=np.vstack([w, rec.omega]),
+                           source="handled")
+    folder = tmp_path / rel.parent
+    folder.mkdir(parents=True)
+    ds.write_csv(folder / "2.csv", handled)
+    # the same recording from the first sample of the handled one's initial rest on
+    i0 = FieldData(tmp_path, thresholds=data.thresholds).rest_window(handled).i0
+    assert handled.time[i0] >= tp[-1]                        # the handling is found to be no rest
+    ds.write_csv(folder / "1.csv", ds.Recording(time=handled.time[i0:], f=handled.f[i0:], omega=handled.omega[i0:],
+                                                source="plain"))
+    other = FieldData(tmp_path, thresholds=data.thresholds)
+    a, b = sorted(other.recordings("s8", "short_distance", "train"), key=lambda r: r.n)
+    assert b.n == a.n + i0
+    assert other.rest_window(a).start_s == other.rest_window(b).start_s
+    pa, pb = (prepare(other, r, "GC", "MoRPI-G", StepConfig(), 0.5) for r in (a, b))
+    # the filter's input from the rest on is the same (the steps, found on each whole recording, may differ
+    # by the phase of the step detector's grid: both runs take the plain recording's)
+    for name in ("time", "f", "omega", "C0"):
+        assert np.array_equal(getattr(pa.input, name), getattr(pb.input, name)), name
+    assert pa.input.rest[0] == pb.input.rest[0]
+    steps = {k: getattr(pa.input, k) for k in ("step_start", "step_end", "step_length", "step_vector")}
+    ra, rb = aided.run_batch([pa.input, replace(pb.input, **steps)],
+                             aided.AidTuning(step_sigma=0.02, gain_sigma=0.0, step_heading="gyro"))
+    assert np.linalg.norm(ra.end_point - rb.end_point) < 1e-6

@@ -65,6 +65,7 @@ def study_json(study) -> dict:
             "nis": _nis(study.nis), "note": study.note,
             "tunables": {"grid": {k: list(v) for k, v in field_aided.GRID.items()},
                          "fixed": {"accel_walk": field_aided.ACCEL_WALK, "nhc_sigma": field_aided.NHC_SIGMA,
+                                   "turn_sigma": field_aided.TURN_SIGMA,
                                    "min_train_coverage": field_aided.MIN_TRAIN_COVERAGE,
                                    **{k: v for k, v in aided.AidTuning().__dict__.items()
                                       if k in ("gyro_walk", "zupt_sigma", "tilt0", "ba0", "bg0")}},
@@ -128,8 +129,11 @@ def _page(study, source, figures) -> str:
         "One closed-loop error-state Kalman filter pass per recording (`morpi_filters.aided`): the 3D strapdown "
         "at every IMU sample on the real time steps, the covariance and the updates on 0.1 s epochs and at every "
         "step boundary, and the estimated errors (position, velocity, attitude, biases) fed back after each "
-        "update. States: the 15 INS errors, a clone of the horizontal position at the last step boundary and "
-        "the relative gain error of the step length. Aids:\n\n"
+        "update, from the recording's initial rest window on (what precedes it is the phone being placed). "
+        "States: the 15 INS errors, a clone of the horizontal position at the last step boundary, "
+        "the relative gain error of the step length and the heading error of the route's heading, which "
+        f"grows by {fmt(field_aided.TURN_SIGMA * 100, 0)} % of each turn it reads (set a priori: the train "
+        "routes take no turn). Aids:\n\n"
         "- the MoRPI step displacement (the cell's steps and trained gain). Its direction is one of: the "
         "filter's attitude averaged over the step (the paper's heading equation; the step then turns with the "
         "filter's heading error and measures the length only), or the route's heading (the turns reading "
@@ -138,7 +142,8 @@ def _page(study, source, figures) -> str:
         "stays in the covariance (a consider analysis);\n"
         "- zero velocity and zero angular rate while the robot stands before and after its motion (the gyro's "
         "vibration says when; no ground truth), and zero velocity alone between the calibration's rest window "
-        "and the motion onset (the motors may run; up to one activity window before the onset);\n"
+        "and the motion onset (the motors may run); while the robot stands, the process noise is the still "
+        "phone's own;\n"
         "- the non-holonomic constraint: the robot's lateral and vertical velocity are zero (phone-to-robot tilt "
         "from the rest specific force, mounting yaw zero), where the train runs show it pays;\n"
         "- biases started from the initial rest and kept as states;\n"
