@@ -142,16 +142,16 @@ def rotvec_to_C(phi) -> np.ndarray:
     t2 = np.einsum("...i,...i->...", phi, phi)
     t = np.sqrt(t2)
     small = t2 < 1e-8
-    if small.any():
-        ts = np.where(small, 1.0, t)
+    any_small = bool(small.any())
+    ts = np.where(small, 1.0, t) if any_small else t
+    a = np.sin(ts)
+    a /= ts
+    b = 1.0 - np.cos(ts)
+    b /= ts * ts
+    if any_small:
         # series to t^4: the truncation error is below 1e-17 for t^2 < 1e-8
-        a = np.where(small, 1.0 - t2 / 6.0 + t2 * t2 / 120.0, np.sin(ts) / ts)
-        b = np.where(small, 0.5 - t2 / 24.0 + t2 * t2 / 720.0, (1.0 - np.cos(ts)) / (ts * ts))
-    else:
-        a = np.sin(t)
-        a /= t
-        b = 1.0 - np.cos(t)
-        b /= t * t
+        a = np.where(small, 1.0 - t2 / 6.0 + t2 * t2 / 120.0, a)
+        b = np.where(small, 0.5 - t2 / 24.0 + t2 * t2 / 720.0, b)
     # I + a K + b K^2 with K^2 = phi phi^T - t^2 I, written out element by element
     x, y, z = phi[..., 0], phi[..., 1], phi[..., 2]
     out = b[..., None, None] * (phi[..., :, None] * phi[..., None, :])
