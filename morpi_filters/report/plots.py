@@ -22,9 +22,10 @@ __all__ = [
 def new_figure(**kw):
     """A new :class:`matplotlib.figure.Figure` (no pyplot, no backend), laid out when drawn.
 
-    The figure's layout engine is ``"tight"`` unless `kw` names another: the
-    layout is computed once, when the figure is drawn (saved or shown), not
-    before.
+    The figure's layout engine is the tight layout over the whole figure
+    (:class:`matplotlib.layout_engine.TightLayoutEngine` with ``rect=None``,
+    one pass over the Axes' extents) unless `kw` names another: the layout is
+    computed once, when the figure is drawn (saved or shown), not before.
 
     Parameters
     ----------
@@ -44,8 +45,13 @@ def new_figure(**kw):
     ([4.0, 3.0], [])
     """
     from matplotlib.figure import Figure
+    from matplotlib.layout_engine import TightLayoutEngine
 
-    kw.setdefault("layout", "tight")
+    if "layout" not in kw:
+        # rect=None: the subplots fill the whole figure, which the tight layout then finds in one pass over
+        # the Axes' extents (with a rect, even the default (0, 0, 1, 1), it takes a second pass that only
+        # repeats the first one's margins)
+        kw["layout"] = TightLayoutEngine(rect=None)
     return Figure(**kw)
 
 
