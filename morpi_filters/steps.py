@@ -49,7 +49,7 @@ References
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from functools import cached_property, lru_cache
 
 import numpy as np
@@ -576,6 +576,10 @@ class PreparedSignal:
     span : tuple of float
         2nd and 98th percentile of the filtered signal during the motion
         (the scale of the prominence threshold).
+    steps_memo : dict
+        Filled by :func:`extract_steps`: what every heading reading of the
+        same steps shares (boundaries, end steps, weights, swing, boundary
+        headings), read-only arrays.
     """
 
     source: str
@@ -588,6 +592,8 @@ class PreparedSignal:
     time: np.ndarray
     heading: np.ndarray
     span: tuple = (0.0, 0.0)
+    #: What every heading reading of the same steps shares (:func:`extract_steps`); not copied by ``replace``.
+    steps_memo: dict = field(default_factory=dict, init=False, repr=False)
 
     @cached_property
     def heading_integral(self) -> np.ndarray:
@@ -854,7 +860,7 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
             weight.flags.writeable = False                      # shared by every Steps of this key
             peak_cache[wkey] = (weight, bi)
     # what every heading reading of these steps shares, kept on the prepared signal (its heading)
-    memo = p.__dict__.setdefault("_steps_memo", {})
+    memo = p.steps_memo
     mkey = wkey + (config.ends,)
     if mkey in memo:
         st, et, weight, frac, psi_s, psi_e, med, peaks = memo[mkey]
@@ -884,7 +890,7 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
         idx = np.clip(np.searchsorted(t, grid[bounds]), 0, t.shape[0] - 1)
         peaks = Peaks(grid_time=grid, grid_signal=g, grid_index=bounds, index=idx,
                       properties={"prominence_threshold": prom})
-        for a in (st, et, weight, frac, psi_s, psi_e):
+        for a in (st, et, weight, frac, psi_s, psi_e, idx):
             a.flags.writeable = False                           # shared by the Steps of every reading
         memo[mkey] = (st, et, weight, frac, psi_s, psi_e, med, peaks)
     require_swing(p.source, method, med, config.min_swing_deg)
