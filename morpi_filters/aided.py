@@ -178,8 +178,12 @@ def kf_update(x, P, y, H, R, frozen=None):
     # the Joseph form expanded: (I - K H) P (I - K H)^T + K R K^T = P - K H P - P H^T K^T + K S K^T,
     # products of n x m factors only (m measurements against n states)
     KHP = K @ np.swapaxes(PHt, 1, 2)
-    P = P - KHP - np.swapaxes(KHP, 1, 2) + K @ S @ np.swapaxes(K, 1, 2)
-    return x, 0.5 * (P + np.swapaxes(P, 1, 2)), S
+    Pn = P - KHP
+    Pn -= np.swapaxes(KHP, 1, 2)
+    Pn += K @ S @ np.swapaxes(K, 1, 2)
+    out = Pn + np.swapaxes(Pn, 1, 2)
+    out *= 0.5
+    return x, out, S
 
 
 def _condition(P, frozen):
@@ -208,7 +212,7 @@ def _condition(P, frozen):
     return Pc
 
 
-def rts_smooth(x_post, P_post, x_prior, P_prior, Phi, fed=None, frozen=None):
+def rts_smooth(x_post, P_post, x_prior, P_prior, Phi, fed=None, frozen=None, covariance=True):
     """Rauch-Tung-Striebel smoother over epochs ``0..m-1`` (filterpy's recursion).
 
     ``Phi[k]`` propagates from epoch ``k - 1`` to ``k`` (filterpy's
@@ -231,13 +235,15 @@ def rts_smooth(x_post, P_post, x_prior, P_prior, Phi, fed=None, frozen=None):
         smoother's gains come from the covariances conditioned on them, so
         the smoothed estimate is that of the filter taking them as known
         (the smoothed covariance does not carry their uncertainty).
+    covariance : bool
+        Also run the covariance recursion (the states do not need it).
 
     Returns
     -------
     xs : ndarray, shape (m, n)
         Smoothed states.
-    Ps : ndarray, shape (m, n, n)
-        Smoothed covariances.
+    Ps : ndarray, shape (m, n, n), or None
+        Smoothed covariances (None without `covariance`).
 
     Examples
     --------
@@ -256,7 +262,7 @@ def rts_smooth(x_post, P_post, x_prior, P_prior, Phi, fed=None, frozen=None):
     ([5.0, 5.0], [1.0, 1.0])
     """
     xs = np.array(x_post, dtype=float)
-    Ps = np.array(P_post, dtype=float)
+    Ps = np.array(P_post, dtype=float) if covariance else None
     if xs.shape[0] < 2:
         return xs, Ps
     # the smoother gains depend on the forward pass only: all of them in one batched call
@@ -273,7 +279,8 @@ def rts_smooth(x_post, P_post, x_prior, P_prior, Phi, fed=None, frozen=None):
     for k in range(xs.shape[0] - 2, -1, -1):
         ahead = xs[k + 1] if fed is None else xs[k + 1] + fed[k + 1]
         xs[k] = x_post[k] + G[k] @ (ahead - x_prior[k + 1])
-        Ps[k] = P_post[k] + G[k] @ (Ps[k + 1] - P_prior[k + 1]) @ G[k].T
+        if covariance:
+            Ps[k] = P_post[k] + G[k] @ (Ps[k + 1] - P_prior[k + 1]) @ G[k].T
     return xs, Ps
 
 
@@ -661,6 +668,7 @@ class AidedResult:
     smoothed : ndarray or None, shape (m, 3)
         Smoothed position at the epochs [m] (when asked).
     P_xy_smoothed : ndarray or None, shape (m, 2, 2)
+        Its horizontal covariance [m^2] (when asked, with ``smoothed_covariance``).
     nis : dict
         Measurement name -> (sum of NIS, number of updates, dof).
     gain_error : float
@@ -740,7 +748,7 @@ def _epochs(inp: AidedInput, tun: AidTuning, epoch_s: float):
     return np.unique(np.concatenate(grid).astype(int)), ends, starts, rest, standing & ~rest
 
 
-def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
+def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_covariance: bool = True):
     """Run the aided filter on many members in one pass.
 
     Parameters
@@ -752,8 +760,11 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
         Covariance and update epoch [s] (rounded to whole samples per member).
     smooth : bool or sequence of bool
         Also run the Rauch-Tung-Striebel smoother, for every member or for
-        those flagged (keeps the covariances of
-        every epoch: about ``3 * 8 * 18^2`` bytes per epoch and member).
+        those flagged (keeps the covariance of every epoch: about
+        ``8 * 19^2`` bytes per epoch and smoothed member).
+    smoothed_covariance : bool
+        Also compute the smoothed covariances (``AidedResult.P_xy_smoothed``;
+        None without); the smoothed positions do not need them.
 
     Returns
     -------
@@ -851,7 +862,14 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
     keep_hist = np.broadcast_to(np.asarray(smooth, bool), (B,)).copy()
     if keep_hist.shape != (B,):
         raise ParameterError(f"run_batch: smooth must be a bool or {B} bools")
-    hist = [[] for _ in range(B)]
+    # the smoother's epoch history (:func:`_smooth_member`): each smoothed member's epochs in consecutive rows
+    n_ep = np.array([e[0].size for e in ev])
+    h_start = np.r_[0, np.cumsum(np.where(keep_hist, n_ep, 0))]
+    h_fill = h_start[:-1].copy()
+    rows_h = int(h_start[-1])
+    hist = dict(x=np.zeros((rows_h, N_AIDED)), P=np.zeros((rows_h, N_AIDED, N_AIDED)), fed=np.zeros((rows_h, N_AIDED)),
+                d=np.zeros(rows_h), fn=np.zeros((rows_h, 3)), Cm=np.zeros((rows_h, 3, 3)), jq=np.zeros(rows_h),
+                qa=np.zeros(rows_h), qg=np.zeros(rows_h), tq=np.zeros(rows_h), P0_prior=np.zeros((B, N_AIDED, N_AIDED)))
     nis_sum, nis_cnt, nis_dof = {}, {}, {}
     f_prev = F_b[:, 0] - ba_hat
     w_prev = W_b[:, 0] - bg_hat
@@ -887,11 +905,12 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
     nominal_now = lambda sel: Nominal(C[sel], v[sel], p[sel], clone[sel])  # noqa: E731
 
     def update(sel, meas, name):
-        nom = nominal_now(sel)
-        xs = x[sel]
+        ix = _rows(sel, B)
+        nom = nominal_now(ix)
+        xs = x[ix]
         y = meas.z - meas.h(xs, nom)
-        xn, Pn, S = kf_update(xs, P[sel], y, meas.H(xs, nom), meas.R(), frozen[sel] if any_frozen else None)
-        x[sel], P[sel] = xn, Pn
+        xn, Pn, S = kf_update(xs, P[ix], y, meas.H(xs, nom), meas.R(), frozen[ix] if any_frozen else None)
+        x[ix], P[ix] = xn, Pn
         val = np.einsum("bi,bi->b", y, np.linalg.solve(S, y[..., None])[..., 0])
         if name not in nis_sum:
             nis_sum[name], nis_cnt[name], nis_dof[name] = np.zeros(B), np.zeros(B, int), y.shape[1]
@@ -919,20 +938,20 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
         if sel.size == 0:
             continue
         # ---- predict the covariance over the interval
-        Phi = None
         if k > 0:
-            Phi = _transition(acc_dt[sel], acc_fn[sel], acc_C[sel])
+            A = _transition_blocks(acc_dt[sel], acc_fn[sel], acc_C[sel])
             # an interval that ends where the robot stands: the still phone's own noise, not the vibration
             # of the moving robot (its integral would leave the standing robot's position uncertain)
             quiet = still_flags[sel, k]
             qa_k = np.where(quiet, q_a_rest[sel], q_a[sel])
             qg_k = np.where(quiet, q_g_rest[sel], q_g[sel])
-            Q = _process_noise(acc_dt[sel], qa_k, qg_k, q_ba[sel], q_bg[sel])
+            q = _noise_diagonal(acc_dt[sel], qa_k, qg_k, q_ba[sel], q_bg[sel])
             jq = np.where(still_flags[sel, k] != was_rest[sel], jump2[sel], 0.0)
-            Q[:, BA, BA] += np.eye(3) * jq[:, None, None]
+            q[:, BA] += jq[:, None]
             tq = turn_q[sel, k] if turn_q is not None else np.zeros(sel.size)
-            Q[:, TURN, TURN] += tq
-            x[sel], P[sel] = _predict(x[sel], P[sel], Phi, Q)
+            q[:, TURN] += tq
+            ix = _rows(sel, B)
+            x[ix], P[ix] = _predict(x[ix], P[ix], A, q, inplace=True)
         else:
             jq = np.zeros(sel.size)
             tq = np.zeros(sel.size)
@@ -996,13 +1015,18 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
             for b in ss:
                 head_at[b][k] = head[b].copy()
         keep.append((k, sel, p[sel].copy(), P[sel][:, :2, :2].copy()))
-        if keep_hist.any():
+        hj = np.flatnonzero(keep_hist[sel]) if rows_h else ()
+        if len(hj):
             # what the smoother needs: the posterior, the correction fed back and the interval's terms
             # (the transition and the prediction are rebuilt from them, :func:`_smooth_member`)
-            for j in np.flatnonzero(keep_hist[sel]):
-                b = sel[j]
-                hist[b].append((x[b].copy(), P[b].copy() if P_first is None else (P[b].copy(), P_first[j]),
-                                fed[j], acc_dt[b], acc_fn[b].copy(), acc_C[b].copy(), jq[j], qa_k[j], qg_k[j], tq[j]))
+            hb = sel[hj]
+            at = h_fill[hb]
+            h_fill[hb] += 1
+            if P_first is not None:
+                hist["P0_prior"][hb] = P_first[hj]
+            for key, val in (("x", x[hb]), ("P", P[hb]), ("fed", fed[hj]), ("d", acc_dt[hb]), ("fn", acc_fn[hb]),
+                             ("Cm", acc_C[hb]), ("jq", jq[hj]), ("qa", qa_k[hj]), ("qg", qg_k[hj]), ("tq", tq[hj])):
+                hist[key][at] = val
         acc_dt[sel] = 0.0
         acc_fn[sel] = 0.0
         acc_C[sel] = 0.0
@@ -1020,7 +1044,9 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
         pos = kp[rows]
         sm = Psm = None
         if keep_hist[b]:
-            sm, Psm = _smooth_member(hist[b], pos, (q_ba[b], q_bg[b]), frozen[b])
+            part = slice(h_start[b], h_start[b + 1])
+            sm, Psm = _smooth_member({key: val[part] for key, val in hist.items() if key != "P0_prior"},
+                                     hist["P0_prior"][b], pos, (q_ba[b], q_bg[b]), frozen[b], smoothed_covariance)
         nis = {name: (float(nis_sum[name][b]), int(nis_cnt[name][b]), nis_dof[name])
                for name in nis_sum if nis_cnt[name][b] > 0}
         out.append(AidedResult(
@@ -1032,8 +1058,9 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False):
     return out
 
 
-def _transition(d, fn, Cm):
-    """``Phi = I + F T + (F T)^2 / 2`` of epoch intervals, batched.
+def _transition_blocks(d, fn, Cm):
+    """The part of :func:`_transition` that differs from the identity: ``A = Phi - I`` on rows
+    :data:`_A_ROWS` and columns :data:`_A_COLS` (zero elsewhere), batched.
 
     Parameters
     ----------
@@ -1049,39 +1076,74 @@ def _transition(d, fn, Cm):
     b = d.shape[0]
     S = _skew(fn)
     T = d[:, None, None]
-    Phi = np.zeros((b, N_AIDED, N_AIDED))
+    r0, c0 = _A_ROWS.start, _A_COLS.start
+    blk = lambda rows, cols: (slice(rows.start - r0, rows.stop - r0), slice(cols.start - c0, cols.stop - c0))  # noqa: E731
+    A = np.zeros((b, _A_ROWS.stop - r0, _A_COLS.stop - c0))
+    A[(slice(None),) + blk(DP, DV)] = np.eye(3) * T
+    A[(slice(None),) + blk(DV, EPS)] = -S
+    A[(slice(None),) + blk(DV, BA)] = Cm
+    A[(slice(None),) + blk(EPS, BG)] = Cm
+    A[(slice(None),) + blk(DP, EPS)] = -0.5 * T * S
+    A[(slice(None),) + blk(DP, BA)] = 0.5 * T * Cm
+    A[(slice(None),) + blk(DV, BG)] = -0.5 * (S @ Cm)
+    return A
+
+
+def _transition(d, fn, Cm):
+    """``Phi = I + F T + (F T)^2 / 2`` of epoch intervals, batched (see :func:`_transition_blocks`).
+
+    Parameters
+    ----------
+    d : ndarray, shape (b,)
+        Interval durations [s].
+    fn : ndarray, shape (b, 3)
+        Integral of the navigation-frame specific force over the interval [m/s].
+    Cm : ndarray, shape (b, 3, 3)
+        Integral of the attitude over the interval [s].
+    """
+    Phi = np.zeros((d.shape[0], N_AIDED, N_AIDED))
     Phi[:, range(N_AIDED), range(N_AIDED)] = 1.0
-    Phi[:, DP, DV] = np.eye(3) * T
-    Phi[:, DV, EPS] = -S
-    Phi[:, DV, BA] = Cm
-    Phi[:, EPS, BG] = Cm
-    Phi[:, DP, EPS] = -0.5 * T * S
-    Phi[:, DP, BA] = 0.5 * T * Cm
-    Phi[:, DV, BG] = -0.5 * (S @ Cm)
+    Phi[:, _A_ROWS, _A_COLS] += _transition_blocks(d, fn, Cm)
     return Phi
 
 
-#: Rows and columns of ``Phi - I`` that can be non-zero (:func:`_transition`).
+#: Rows and columns of ``Phi - I`` that can be non-zero (:func:`_transition_blocks`).
 _A_ROWS, _A_COLS = slice(DP.start, EPS.stop), slice(DV.start, BG.stop)
 
 
-def _predict(x, P, Phi, Q):
-    """:func:`kf_predict` for the transitions of :func:`_transition`, using their sparsity.
+def _rows(sel, b):
+    """Index of the members `sel` among `b`: a slice (views, no copies) when they are all of them."""
+    return slice(None) if sel.size == b else sel
+
+
+def _predict(x, P, A, q, inplace=False):
+    """:func:`kf_predict` for the transitions of :func:`_transition` and a diagonal process noise.
 
     With ``A = Phi - I`` non-zero in the rows of ``dp, dv, eps`` and the
-    columns of ``dv .. bg`` only, ``Phi P Phi^T = P + A P + P A^T + A P A^T``
-    is computed on those blocks.
+    columns of ``dv .. bg`` only (:func:`_transition_blocks`),
+    ``Phi P Phi^T = P + A P + P A^T + A P A^T`` is computed on those blocks
+    (in `P` itself when `inplace`); `q` (shape (b, n)) is the diagonal of ``Q``.
     """
     r, c = _A_ROWS, _A_COLS
-    A = Phi[:, r, c] - np.eye(N_AIDED)[r, c]
     AP = A @ P[:, c, :]                       # rows r of A P
-    Pn = P.copy()
+    Pn = P if inplace else P.copy()
     Pn[:, r, :] += AP
     Pn[:, :, r] += np.swapaxes(AP, 1, 2)
     Pn[:, r, r] += AP[:, :, c] @ np.swapaxes(A, 1, 2)
     xn = x.copy()
     xn[:, r] += np.einsum("bij,bj->bi", A, x[:, c])
-    return xn, Pn + Q
+    np.einsum("bii->bi", Pn)[...] += q        # the diagonal (a view), in place
+    return xn, Pn
+
+
+def _noise_diagonal(d, q_a, q_g, q_ba, q_bg):
+    """Diagonal of :func:`_process_noise`, shape (b, n)."""
+    q = np.zeros((d.shape[0], N_AIDED))
+    q[:, DV] = (q_a * d)[:, None]
+    q[:, EPS] = (q_g * d)[:, None]
+    q[:, BA] = (q_ba * d)[:, None]
+    q[:, BG] = (q_bg * d)[:, None]
+    return q
 
 
 def _process_noise(d, q_a, q_g, q_ba, q_bg):
@@ -1095,32 +1157,44 @@ def _process_noise(d, q_a, q_g, q_ba, q_bg):
     return Q
 
 
-def _smooth_member(hist, pos, q, frozen=None):
+def _smooth_member(hist, P0_prior, pos, q, frozen=None, covariance=True):
     """Smoothed positions of one member from its epoch history (see :func:`rts_smooth`).
 
     The transitions and predictions are rebuilt from the stored interval
     terms, as the forward pass computed them. At a step start the clone
     copies the position error after the update; the stored posterior is the
     one after the copy, which the next transition propagates.
+
+    Parameters
+    ----------
+    hist : dict of ndarray
+        Per epoch: the posterior ``x``, ``P``, the correction fed back ``fed``,
+        the interval's duration ``d``, force and attitude integrals ``fn``,
+        ``Cm``, and its noise terms ``jq``, ``qa``, ``qg``, ``tq``.
+    P0_prior : ndarray, shape (n, n)
+        The covariance at the first epoch before its updates.
+    pos : ndarray, shape (m, 3)
+        The forward filter's positions at the epochs.
+    q : (float, float)
+        Bias walk densities squared (accelerometer, gyro).
+    frozen : ndarray of bool, optional
+        Considered states (:func:`rts_smooth`).
+    covariance : bool
+        Also return the smoothed horizontal covariances (else None).
     """
-    m = len(hist)
-    x_post = np.array([h[0] for h in hist])
-    P0_post, P0_prior = hist[0][1]
-    P_post = np.array([P0_post] + [h[1] for h in hist[1:]])
-    fed = np.array([h[2] for h in hist])
-    d = np.array([h[3] for h in hist])
-    Phi = _transition(d, np.array([h[4] for h in hist]), np.array([h[5] for h in hist]))
+    m = hist["d"].size
+    x_post, P_post, fed, d = hist["x"], hist["P"], hist["fed"], hist["d"]
+    Phi = _transition(d, hist["fn"], hist["Cm"])
     Phi[0] = np.eye(N_AIDED)
-    Q = _process_noise(d, np.array([h[7] for h in hist]), np.array([h[8] for h in hist]),
-                       *(np.full(m, v) for v in q))
-    Q[:, BA, BA] += np.eye(3) * np.array([h[6] for h in hist])[:, None, None]
-    Q[:, TURN, TURN] += np.array([h[9] for h in hist])
+    Q = _process_noise(d, hist["qa"], hist["qg"], *(np.full(m, v) for v in q))
+    Q[:, BA, BA] += np.eye(3) * hist["jq"][:, None, None]
+    Q[:, TURN, TURN] += hist["tq"]
     x_prior = np.empty_like(x_post)
     x_prior[0] = 0.0                              # the filter starts from a zero error state
     x_prior[1:] = np.einsum("bij,bj->bi", Phi[1:], x_post[:-1])
     P_prior = np.empty_like(P_post)
     P_prior[0] = P0_prior
     P_prior[1:] = Phi[1:] @ P_post[:-1] @ np.swapaxes(Phi[1:], 1, 2) + Q[1:]
-    xs, Ps = rts_smooth(x_post, P_post, x_prior, P_prior, Phi, fed=fed, frozen=frozen)
+    xs, Ps = rts_smooth(x_post, P_post, x_prior, P_prior, Phi, fed=fed, frozen=frozen, covariance=covariance)
     sm = pos - xs[:, DP]
-    return sm, Ps[:, :2, :2]
+    return sm, (None if Ps is None else Ps[:, :2, :2])

@@ -886,7 +886,7 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
         # the ablation reads the forward filter only: cut at the read-out
         out = aided.run_batch([p.input_for(todo[i][3], forward_only=name is not None) for i, p, name, _ in items],
                               [t for *_, t in items],
-                              smooth=[name is None for _, _, name, _ in items])
+                              smooth=[name is None for _, _, name, _ in items], smoothed_covariance=False)
         for (i, p, name, _), r in zip(items, out):
             if name is None:
                 results[(i, p.rel)] = r

@@ -190,6 +190,26 @@ def test_batched_members_equal_single_runs():
         np.testing.assert_allclose(member.position, alone.position, rtol=0, atol=1e-12)
 
 
+def test_smoothed_members_of_a_batch_equal_single_runs_with_or_without_the_covariance():
+    inp = _exact_input(simulate.sine(4.0, period=1.0, amplitude=0.1, rate_hz=100.0))
+    short = _exact_input(simulate.sine(2.5, period=1.0, amplitude=0.1, rate_hz=100.0))
+    ins = [inp, short, inp]
+    tuns = [aided.AidTuning(step_sigma=0.02), aided.AidTuning(step_sigma=0.05, nhc=False), aided.AidTuning()]
+    flags = [True, True, False]
+    full = aided.run_batch(ins, tuns, smooth=flags)
+    lean = aided.run_batch(ins, tuns, smooth=flags, smoothed_covariance=False)
+    assert full[2].smoothed is None and lean[2].smoothed is None
+    for i in (0, 1):
+        (alone,) = aided.run_batch([ins[i]], tuns[i], smooth=True)
+        # each member's epoch history is its own: as smoothed alone (up to summation order)
+        np.testing.assert_allclose(full[i].smoothed, alone.smoothed, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(full[i].P_xy_smoothed, alone.P_xy_smoothed, rtol=0,
+                                   atol=1e-12 * np.abs(alone.P_xy_smoothed).max())
+        # the state recursion does not read the smoothed covariance
+        np.testing.assert_array_equal(lean[i].smoothed, full[i].smoothed)
+        assert lean[i].P_xy_smoothed is None
+
+
 def test_simulated_biases_and_gain_error_recovered_within_3_sigma():
     traj = simulate.sine(6.3, period=1.0, amplitude=0.1, rate_hz=100.0)
     spec = units.LSM6DSL
@@ -511,7 +531,7 @@ def test_structured_transition_and_prediction_match_the_dense_ones():
     Q = np.eye(n) * 1e-3
     x = rng.normal(size=(b, n))
     xr, Pr = aided.kf_predict(x, P, Phi, np.broadcast_to(Q, (b, n, n)))
-    xs, Ps = aided._predict(x, P, Phi, np.broadcast_to(Q, (b, n, n)))
+    xs, Ps = aided._predict(x, P, aided._transition_blocks(d, fn, Cm), np.broadcast_to(np.diag(Q), (b, n)))
     np.testing.assert_allclose(xs, xr, rtol=0, atol=1e-12)
     np.testing.assert_allclose(Ps, Pr, rtol=0, atol=1e-11 * np.abs(Pr).max())
 
