@@ -173,14 +173,13 @@ def kf_update(x, P, y, H, R, frozen=None):
         else:
             KHt = _condition(P, frozen) @ Ht
         Sc = H @ KHt + R
-    K = np.swapaxes(np.linalg.solve(Sc, np.swapaxes(KHt, 1, 2)), 1, 2)
+    K = KHt @ np.linalg.inv(Sc)
     x = x + np.einsum("bij,bj->bi", K, y)
-    # the Joseph form expanded: (I - K H) P (I - K H)^T + K R K^T = P - K H P - P H^T K^T + K S K^T,
-    # products of n x m factors only (m measurements against n states)
-    KHP = K @ np.swapaxes(PHt, 1, 2)
-    Pn = P - KHP
-    Pn -= np.swapaxes(KHP, 1, 2)
-    Pn += K @ S @ np.swapaxes(K, 1, 2)
+    # the Joseph form expanded: (I - K H) P (I - K H)^T + K R K^T = P - K H P - P H^T K^T + K S K^T
+    # = P + K D^T - P H^T K^T with D = K S - P H^T: one product of n x 2m and 2m x n factors
+    D = K @ S - PHt
+    Pn = np.concatenate([K, -PHt], axis=2) @ np.swapaxes(np.concatenate([D, K], axis=2), 1, 2)
+    Pn += P
     out = Pn + np.swapaxes(Pn, 1, 2)
     out *= 0.5
     return x, out, S
