@@ -109,7 +109,7 @@ def kf_predict(x, P, Phi, Q):
     return x, P
 
 
-def kf_update(x, P, y, H, R, frozen=None):
+def kf_update(x, P, y, H, R, frozen=None, out=None):
     """Kalman update with innovation `y` over a leading batch axis (Joseph form).
 
     The equations of filterpy's ``KalmanFilter.update``: ``S = H P H^T + R``,
@@ -137,13 +137,15 @@ def kf_update(x, P, y, H, R, frozen=None):
         Measurement noise covariances.
     frozen : ndarray, shape (b, n) of bool, optional
         Considered states (not updated) per filter.
+    out : ndarray, shape (b, n, n), optional
+        Where to write the updated covariances (may be `P` itself).
 
     Returns
     -------
     x : ndarray, shape (b, n)
         Updated states.
     P : ndarray, shape (b, n, n)
-        Updated covariances (Joseph form, symmetrized).
+        Updated covariances (Joseph form, symmetrized; `out` when given).
     S : ndarray, shape (b, m, m)
         Innovation covariances (for the NIS ``y^T S^-1 y``).
 
@@ -180,7 +182,9 @@ def kf_update(x, P, y, H, R, frozen=None):
     D = K @ S - PHt
     Pn = np.concatenate([K, -PHt], axis=2) @ np.swapaxes(np.concatenate([D, K], axis=2), 1, 2)
     Pn += P
-    out = Pn + np.swapaxes(Pn, 1, 2)
+    if out is None:
+        out = np.empty_like(Pn)
+    np.add(Pn, np.swapaxes(Pn, 1, 2), out=out)
     out *= 0.5
     return x, out, S
 
@@ -908,8 +912,11 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
         nom = nominal_now(ix)
         xs = x[ix]
         y = meas.z - meas.h(xs, nom)
-        xn, Pn, S = kf_update(xs, P[ix], y, meas.H(xs, nom), meas.R(), frozen[ix] if any_frozen else None)
-        x[ix], P[ix] = xn, Pn
+        Pv = P[ix]                                # a view for all members, else a copy
+        xn, Pv, S = kf_update(xs, Pv, y, meas.H(xs, nom), meas.R(), frozen[ix] if any_frozen else None, out=Pv)
+        x[ix] = xn
+        if not isinstance(ix, slice):
+            P[ix] = Pv
         val = np.einsum("bi,bi->b", y, np.linalg.solve(S, y[..., None])[..., 0])
         if name not in nis_sum:
             nis_sum[name], nis_cnt[name], nis_dof[name] = np.zeros(B), np.zeros(B, int), y.shape[1]
@@ -950,7 +957,9 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
             tq = turn_q[sel, k] if turn_q is not None else np.zeros(sel.size)
             q[:, TURN] += tq
             ix = _rows(sel, B)
-            x[ix], P[ix] = _predict(x[ix], P[ix], A, q, inplace=True)
+            x[ix], Pv = _predict(x[ix], P[ix], A, q, inplace=True)
+            if not isinstance(ix, slice):
+                P[ix] = Pv
         else:
             jq = np.zeros(sel.size)
             tq = np.zeros(sel.size)
