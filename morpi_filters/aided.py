@@ -109,7 +109,7 @@ def kf_predict(x, P, Phi, Q):
     return x, P
 
 
-def kf_update(x, P, y, H, R, frozen=None, out=None):
+def kf_update(x, P, y, H, R, frozen=None, out=None, work=None):
     """Kalman update with innovation `y` over a leading batch axis (Joseph form).
 
     The equations of filterpy's ``KalmanFilter.update``: ``S = H P H^T + R``,
@@ -139,6 +139,8 @@ def kf_update(x, P, y, H, R, frozen=None, out=None):
         Considered states (not updated) per filter.
     out : ndarray, shape (b, n, n), optional
         Where to write the updated covariances (may be `P` itself).
+    work : ndarray, shape (b, n, n), optional
+        Scratch space for the update (not `P` or `out`).
 
     Returns
     -------
@@ -180,7 +182,7 @@ def kf_update(x, P, y, H, R, frozen=None, out=None):
     # the Joseph form expanded: (I - K H) P (I - K H)^T + K R K^T = P - K H P - P H^T K^T + K S K^T
     # = P + K D^T - P H^T K^T with D = K S - P H^T: one product of n x 2m and 2m x n factors
     D = K @ S - PHt
-    Pn = np.concatenate([K, -PHt], axis=2) @ np.swapaxes(np.concatenate([D, K], axis=2), 1, 2)
+    Pn = np.matmul(np.concatenate([K, -PHt], axis=2), np.swapaxes(np.concatenate([D, K], axis=2), 1, 2), out=work)
     Pn += P
     if out is None:
         out = np.empty_like(Pn)
@@ -907,13 +909,20 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
     T_clone[CLONE, DP.start:DP.start + 2] = np.eye(2)
     nominal_now = lambda sel: Nominal(C[sel], v[sel], p[sel], clone[sel])  # noqa: E731
 
+    # scratch for the covariances of the members taking part (the same sizes recur at every epoch: reused
+    # rather than allocated and freed each time)
+    work = np.empty((B, N_AIDED, N_AIDED))
+    taken = np.empty((B, N_AIDED, N_AIDED))
+    P_of = lambda ix: P if isinstance(ix, slice) else np.take(P, ix, axis=0, out=taken[:ix.size])  # noqa: E731
+
     def update(sel, meas, name):
         ix = _rows(sel, B)
         nom = nominal_now(ix)
         xs = x[ix]
         y = meas.z - meas.h(xs, nom)
-        Pv = P[ix]                                # a view for all members, else a copy
-        xn, Pv, S = kf_update(xs, Pv, y, meas.H(xs, nom), meas.R(), frozen[ix] if any_frozen else None, out=Pv)
+        Pv = P_of(ix)                             # every member's P itself, else a copy
+        xn, Pv, S = kf_update(xs, Pv, y, meas.H(xs, nom), meas.R(), frozen[ix] if any_frozen else None, out=Pv,
+                              work=work[:sel.size])
         x[ix] = xn
         if not isinstance(ix, slice):
             P[ix] = Pv
@@ -957,7 +966,7 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
             tq = turn_q[sel, k] if turn_q is not None else np.zeros(sel.size)
             q[:, TURN] += tq
             ix = _rows(sel, B)
-            x[ix], Pv = _predict(x[ix], P[ix], A, q, inplace=True)
+            x[ix], Pv = _predict(x[ix], P_of(ix), A, q, inplace=True)
             if not isinstance(ix, slice):
                 P[ix] = Pv
         else:
