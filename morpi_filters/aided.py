@@ -799,8 +799,26 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
         raise ParameterError(f"run_batch: {len(tunings)} tunings for {B} inputs")
     if not (np.isfinite(epoch_s) and epoch_s > 0):
         raise ParameterError(f"epoch_s={epoch_s!r}: expected a positive duration [s]")
+    keep_hist = np.asarray(smooth, bool)
+    if keep_hist.ndim > 1 or keep_hist.size not in (1, B):
+        raise ParameterError(f"run_batch: smooth must be a bool or {B} bools")
+    keep_hist = np.broadcast_to(keep_hist.ravel(), (B,)).copy()
+    for b, (t, inp) in enumerate(zip(tunings, inputs)):
+        if t.step_heading == "gyro" and t.steps and inp.step_vector is None:
+            raise ParameterError(f"member {b}: step_heading='gyro' needs AidedInput.step_vector")
     n = np.array([i.time.size for i in inputs])
+    longest = np.argsort(-n, kind="stable")
+    if np.any(longest != np.arange(B)):
+        # the members longest first, so that those still running at a sample are the first ones
+        res = run_batch([inputs[i] for i in longest], [tunings[i] for i in longest], epoch_s=epoch_s,
+                        smooth=keep_hist[longest], smoothed_covariance=smoothed_covariance)
+        out = [None] * B
+        for j, i in enumerate(longest):
+            out[i] = res[j]
+        return out
     N = int(n.max())
+    # the number of members still running at each sample (the first ones): the others stand still
+    running = np.searchsorted(-n, -np.arange(N), side="left")
     T = np.zeros((B, N))
     F_b = np.zeros((B, N, 3))
     W_b = np.zeros((B, N, 3))
@@ -829,9 +847,6 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
     frozen[:, GAIN] = [not t.gain_estimated for t in tn]
     any_frozen = bool(frozen.any())
     gyro_heading = [t.step_heading == "gyro" for t in tn]
-    for b, t in enumerate(tn):
-        if gyro_heading[b] and t.steps and inputs[b].step_vector is None:
-            raise ParameterError(f"member {b}: step_heading='gyro' needs AidedInput.step_vector")
     gvec = np.zeros((B, 3))
     gvec[:, 2] = [i.g for i in inputs]
     # the rest's own gyro density (no vibration); divided by sqrt(epoch duration) at use
@@ -864,9 +879,6 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
     head = np.zeros((B, 2))                       # running sum of the x axis's horizontal direction
     head_at = [dict() for _ in range(B)]          # epoch sample -> running sum (step starts)
     keep = []                                     # per epoch: (k, members, p, P_xy)
-    keep_hist = np.broadcast_to(np.asarray(smooth, bool), (B,)).copy()
-    if keep_hist.shape != (B,):
-        raise ParameterError(f"run_batch: smooth must be a bool or {B} bools")
     # the smoother's epoch history (:func:`_smooth_member`): each smoothed member's epochs in consecutive rows
     n_ep = np.array([e[0].size for e in ev])
     h_start = np.r_[0, np.cumsum(np.where(keep_hist, n_ep, 0))]
@@ -933,7 +945,26 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
         nis_cnt[name][sel] += 1
 
     for k in range(N):
-        if k > 0:
+        if 0 < running[k] < B:
+            # the members that have ended keep their state (their time steps are zero)
+            r_ = slice(0, running[k])
+            dt = dtk[r_, k - 1]
+            fk = F_b[r_, k] - ba_hat[r_]
+            wk = W_b[r_, k] - bg_hat[r_]
+            C_old = C
+            C = C.copy()
+            C[r_] = C_old[r_] @ rotvec_to_C(0.5 * dt[:, None] * (w_prev[r_] + wk))
+            ak = np.einsum("bij,bj->bi", C[r_], fk) - gvec[r_]
+            v_new = v[r_] + 0.5 * dt[:, None] * (a_prev[r_] + ak)
+            p[r_] += 0.5 * dt[:, None] * (v[r_] + v_new)
+            v[r_] = v_new
+            acc_dt[r_] += dt
+            acc_fn[r_] += dt[:, None] * np.einsum("bij,bj->bi", C_old[r_], 0.5 * (f_prev[r_] + fk))
+            acc_C[r_] += dt[:, None, None] * C_old[r_]
+            acc_w[r_] += dt[:, None] * 0.5 * (w_prev[r_] + wk)
+            f_prev[r_], w_prev[r_], a_prev[r_] = fk, wk, ak
+            head[r_] += C[r_, :2, 0]
+        elif k > 0:
             dt = dtk[:, k - 1]
             fk = F_b[:, k] - ba_hat
             wk = W_b[:, k] - bg_hat
@@ -948,7 +979,9 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
             acc_C += dt[:, None, None] * C_old
             acc_w += dt[:, None] * 0.5 * (w_prev + wk)
             f_prev, w_prev, a_prev = fk, wk, ak
-        head += C[:, :2, 0]
+            head += C[:, :2, 0]
+        else:
+            head += C[:, :2, 0]
         sel = np.flatnonzero(is_epoch[:, k])
         if sel.size == 0:
             continue

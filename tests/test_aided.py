@@ -184,10 +184,14 @@ def test_batched_members_equal_single_runs():
     short = _exact_input(simulate.sine(2.5, period=1.0, amplitude=0.1, rate_hz=100.0))
     tuns = [aided.AidTuning(step_sigma=0.02), aided.AidTuning(step_sigma=0.05, nhc=False)]
     both = aided.run_batch([inp, short], tuns)
-    for one, member, tun in zip((inp, short), both, tuns):
+    # the shorter member first: the batch runs its members longest first and returns them in order
+    swapped = aided.run_batch([short, inp], tuns[::-1])
+    for one, member, other, tun in zip((inp, short), both, swapped[::-1], tuns):
         (alone,) = aided.run_batch([one], tun)
         # padding and batching change no arithmetic of a member: identical up to summation order
         np.testing.assert_allclose(member.position, alone.position, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(other.position, alone.position, rtol=0, atol=1e-12)
+        assert other.time.size == alone.time.size
 
 
 def test_smoothed_members_of_a_batch_equal_single_runs_with_or_without_the_covariance():
@@ -241,6 +245,15 @@ def test_bad_inputs_are_refused():
         aided.AidTuning(step_heading="compass")
     with pytest.raises(MorpiError, match="nan"):
         aided.AidTuning(accel_noise=float("nan"))
+    # a batch names its member by the caller's index, whatever order it runs them in
+    t = np.arange(301) * 0.01
+    still = aided.AidedInput(time=t, f=np.tile([0.0, 0.0, 9.8], (301, 1)), omega=np.zeros((301, 3)), C0=np.eye(3),
+                             g=9.8, step_start=np.array([0.5]), step_end=np.array([1.5]), step_length=np.array([0.1]))
+    shorter = aided.AidedInput(time=t[:200], f=still.f[:200], omega=still.omega[:200], C0=np.eye(3), g=9.8)
+    with pytest.raises(MorpiError, match="member 1: step_heading='gyro'"):
+        aided.run_batch([shorter, still], [aided.AidTuning(), aided.AidTuning(step_heading="gyro")])
+    with pytest.raises(MorpiError, match="smooth must be"):
+        aided.run_batch([shorter, still], aided.AidTuning(), smooth=[True, False, True])
 
 
 # --------------------------------------------------------------------------- field
