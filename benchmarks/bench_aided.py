@@ -10,7 +10,12 @@ files (figures included), in alternation, the ratio taken per pair
   runs, the ablation, the page and its figures;
 - tables: ``morpi tables --data DIR``.
 
-Target: aided / tables <= 3.
+And the computations alone, in process (no figures, no interpreter start): the aided study from
+the CSV files (:func:`field_aided.aided_study`: its field evaluation, the tunable search, the
+test runs and the ablation) against the tables computation of ``bench_tables`` (the tables
+study and its page text).
+
+Target: aided / tables <= 3, for both.
 
 Usage: ``PYTHONPATH=. python3 benchmarks/bench_aided.py [--data DIR] [--pairs N]``
 """
@@ -24,7 +29,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from pairs import paired_commands  # noqa: E402
+from pairs import paired, paired_commands  # noqa: E402
 
 from morpi_filters import dataset as ds  # noqa: E402
 
@@ -43,16 +48,23 @@ def _root(arg):
 
 
 def measure(pairs: int = 5, quick: bool = False, data=None):
-    """The paired ratio of this benchmark (list of one :class:`pairs.PairedRatio`)."""
+    """The paired ratios of this benchmark (list of :class:`pairs.PairedRatio`)."""
+    from bench_tables import tables
+
+    from morpi_filters.field_aided import aided_study
+
     root = _root(data)
     repo = Path(__file__).resolve().parents[1]
     env = dict(os.environ, PYTHONPATH=str(repo), MPLBACKEND="Agg")
     with tempfile.TemporaryDirectory() as tmp:
         cmd = lambda name: [sys.executable, "-m", "morpi_filters.cli", name, "--data", str(root),  # noqa: E731
                             "--out", str(Path(tmp) / name)]
-        r = paired_commands("morpi aided / morpi tables (whole commands)", cmd("aided"), cmd("tables"),
-                            pairs=pairs, warmup=0, target=3.0, env=env, cwd=tmp)
-    return [r]
+        rows = [paired_commands("morpi aided / morpi tables (whole commands)", cmd("aided"), cmd("tables"),
+                                pairs=pairs, warmup=0, target=3.0, env=env, cwd=tmp)]
+    if not quick:
+        rows.append(paired("aided study / tables computation (in process, from the CSV files, no figures)",
+                           lambda: aided_study(root), lambda: tables(root), pairs=pairs, warmup=1, target=3.0))
+    return rows
 
 
 def main(argv=None):

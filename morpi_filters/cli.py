@@ -513,8 +513,11 @@ def main(argv=None) -> int:
     previous = None
     if threading.current_thread() is threading.main_thread():
         previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    from .dataset import keep_parsed
+
     try:
-        return _dispatch(args)
+        with keep_parsed():                       # a recording checked first is not parsed again
+            return _dispatch(args)
     except MorpiError as exc:
         print(f"morpi: error: {exc}", file=sys.stderr)
         return exc.exit_code

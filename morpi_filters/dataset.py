@@ -21,6 +21,7 @@ import json
 import math
 import os
 import re
+from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -34,7 +35,7 @@ from .units import G0
 __all__ = [
     "COLUMNS", "MIN_SAMPLES", "ACCEL_LIMIT_MPS2", "GYRO_LIMIT_RADPS", "MAX_GAP_S", "TIME_LIMIT_S", "DATA_ENV", "Route", "Recording", "CatalogueEntry",
     "load_csv", "load_recording", "write_csv", "routes", "route", "catalogue", "load_catalogue",
-    "resolve_data_root", "missing_data_message", "check_tree", "PROJECT_DATA",
+    "resolve_data_root", "missing_data_message", "check_tree", "keep_parsed", "PROJECT_DATA",
     "layout", "expected_layout", "layout_problems", "folder_key",
 ]
 
@@ -318,11 +319,67 @@ def load_csv(path, *, phone=None, route=None, split=None, min_samples: int = MIN
     morpi_filters.errors.DataError: ...: line 4: repeated time stamp 0.01 (line 3 has 0.01), expected strictly increasing time
     """
     path = Path(path)
-    columns = _fast_parse(path) if path.is_file() else None
-    time, f, omega = columns if columns is not None else _parse(path)
+    key = _kept_key(path)
+    if key is not None and key in _KEPT:
+        time, f, omega = _KEPT[key]
+    else:
+        columns = _fast_parse(path) if path.is_file() else None
+        time, f, omega = columns if columns is not None else _parse(path)
+        if key is not None:
+            for a in (time, f, omega):
+                a.flags.writeable = False         # shared by every later reading of the file
+            _KEPT[key] = (time, f, omega)
     if time.shape[0] < min_samples:
         raise DataError(f"{path}: too few samples: {time.shape[0]} rows, expected at least {min_samples}")
     return Recording(time=time, f=f, omega=omega, source=str(path), phone=phone, route=route, split=split)
+
+
+#: Files parsed inside :func:`keep_parsed`: (path, size, modification time) -> (time, f, omega).
+_KEPT: dict | None = None
+
+
+def _kept_key(path: Path):
+    if _KEPT is None:
+        return None
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return str(path.resolve()), st.st_size, st.st_mtime_ns
+
+
+@contextmanager
+def keep_parsed():
+    r"""Within the block, :func:`load_csv` parses a file once: a later call on the
+    unchanged file (same size and modification time) returns its arrays
+    (read-only, shared). Files that fail are read again. For a command that
+    checks every recording before its study reads them.
+
+    Yields
+    ------
+    None
+        The files parsed are kept until the outermost block ends.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "r.csv")
+    >>> with open(path, "w") as fh:
+    ...     _ = fh.write("time,f_x,f_y,f_z,g_x,g_y,g_z\n0,0,0,9.8,0,0,0\n0.01,0,0,9.8,0,0,0\n")
+    >>> with keep_parsed():
+    ...     a, b = load_csv(path, min_samples=2), load_csv(path, min_samples=2)
+    >>> a.time is b.time, a.time.flags.writeable, load_csv(path, min_samples=2).time is a.time
+    (True, False, False)
+    """
+    global _KEPT
+    outer = _KEPT
+    if outer is None:
+        _KEPT = {}
+    try:
+        yield
+    finally:
+        if outer is None:
+            _KEPT = None
 
 
 def _csv_fields(line: str) -> list[str]:

@@ -411,3 +411,28 @@ def test_precise_path_in_blocks_keeps_the_order_of_its_errors(tmp_path, monkeypa
     p.write_bytes(p.read_bytes().replace(b"\n", b"\r\n").replace(b"\r\n", b"\n", 1) + b"\xe2\x80\xa8\r\n")
     rec = load_csv(p)                          # CRLF between blocks, a line separator and a blank line at the end
     np.testing.assert_array_equal(rec.time, np.asarray(rows)[:, 0])
+
+
+def test_keep_parsed_parses_a_file_once_and_again_when_it_changes(tmp_path, monkeypatch):
+    from morpi_filters import dataset as ds
+
+    rows = good_rows()
+    path = write_rows(tmp_path / "a.csv", rows)
+    parsed = []
+    real = ds._fast_parse
+    monkeypatch.setattr(ds, "_fast_parse", lambda p: parsed.append(p) or real(p))
+    with ds.keep_parsed():
+        first = load_csv(path)
+        second = load_csv(path)
+        assert len(parsed) == 1 and second.time is first.time
+        with pytest.raises(ValueError):
+            second.f[0, 0] = 1.0                  # shared arrays are read-only
+        # the file rewritten (another size): parsed again, and its new values read
+        write_rows(path, rows[:-1])
+        third = load_csv(path)
+        assert len(parsed) == 2 and third.n == len(rows) - 1
+    # outside the block every call parses
+    load_csv(path)
+    load_csv(path)
+    assert len(parsed) == 4
+    np.testing.assert_array_equal(first.f, np.asarray(rows)[:, 1:4])
