@@ -617,6 +617,12 @@ def _fixed_layout(fig, axes, nrow=1, ncol=1, title=False, suptitle=False):
     top = (0.02 * h + 0.25 if suptitle else _PAD_IN) + (_TITLE_IN if title else 0.0)
     vgap = _PAD_IN + _XTICKS_IN + (_TITLE_IN if title else 0.0)
     height = (h - top - _PAD_IN - _XTICKS_IN - (nrow - 1) * vgap) / nrow
+    for ax in axes:
+        # an Axes title goes to the top of the Axes unless top tick labels or a y offset text are in its way, which
+        # every draw would measure the whole y axis to find out: with neither, the title is placed there now
+        if (ax.get_title() and not ax.yaxis.get_major_formatter().get_offset()
+                and ax.xaxis.get_ticks_position() == "bottom" and ax.xaxis.get_label_position() == "bottom"):
+            ax.set_title(ax.get_title(), fontsize=ax.title.get_fontsize(), y=1.0)
     fig.set_layout_engine("none")
     fig.subplots_adjust(left=(_PAD_IN + left) / w, right=1 - right / w, bottom=(_PAD_IN + _XTICKS_IN) / h,
                         top=1 - top / h, wspace=gap / width, hspace=vgap / height)
