@@ -185,3 +185,13 @@ def test_monte_carlo_log_axes_label_the_same_ticks_in_plain_text():
                         c = round(x / 10.0 ** e)
                         power = "10" + "".join(sup[ch] for ch in str(e))
                         assert shown == (power if c == 1 else f"{c}\u00d7{power}")
+
+
+def test_monte_carlo_margins_hold_wide_labels_an_offset_text_and_a_long_title():
+    # tick labels of many digits, a y offset text ("+1e3") above the Axes with the title above it, and a title
+    # wider than the Axes: all on the canvas
+    dG = np.random.default_rng(4).normal(0.0, 0.05, 2000)
+    title = "MoRPI-A distance error against the gain error (training-spread scenario)"
+    for err in (2000.0 * dG, 1000.0 + 1e-3 * dG, 1e-6 * dG):
+        ax = plots.montecarlo_gain_vs_error(dG, err, title=title)
+        assert _inside(ax.figure)

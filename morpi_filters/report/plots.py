@@ -569,18 +569,21 @@ def _tick_labels(axis):
     return out
 
 
-def _text_width(texts, size=10.0) -> float:
-    """Width [in] of the widest of `texts` in the default font at `size` [pt] (0 for none)."""
+def _text_width(texts, size=10.0, dpi=120) -> float:
+    """Width [in] of the widest of `texts` in the default font at `size` [pt], as drawn at `dpi` (0 for none).
+
+    One point is added for the rounding of the drawn glyphs.
+    """
     from matplotlib.font_manager import FontProperties, findfont, get_font
 
     prop = FontProperties(size=size)
     font = get_font(findfont(prop))
-    font.set_size(prop.get_size_in_points(), 72)
+    font.set_size(prop.get_size_in_points(), dpi)
     widest = 0.0
     for t in texts:
         font.set_text(t, 0.0)
         widest = max(widest, font.get_width_height()[0] / 64)
-    return (widest + 1.0) / 72 if texts else 0.0
+    return widest / dpi + 1 / 72 if texts else 0.0
 
 
 def _label_room(ax):
@@ -613,9 +616,16 @@ def _fixed_layout(fig, axes, nrow=1, ncol=1, title=False, suptitle=False):
         width = (w - _PAD_IN - left - right - (ncol - 1) * gap) / ncol
         over = max(max(0.0, half - frac * width) for _, frac, half in rooms)
         right, gap = _PAD_IN + over, _PAD_IN + left + over
+    if ncol == 1 and title:
+        # a title wider than the Axes overhangs both sides equally: keep it on the canvas
+        widest = max(_text_width([ax.get_title()], ax.title.get_fontsize()) for ax in axes)
+        right = max(right, left + widest + 2 * _PAD_IN - w)
+        width = w - _PAD_IN - left - right
+    # a y offset text (e.g. "1e6") sits above the Axes, and the title above it
+    offset = _TITLE_IN if any(ax.yaxis.get_major_formatter().get_offset() for ax in axes) else 0.0
     # a suptitle hangs from 0.98 of the height: its 10 pt line and a gap above the Axes titles
-    top = (0.02 * h + 0.25 if suptitle else _PAD_IN) + (_TITLE_IN if title else 0.0)
-    vgap = _PAD_IN + _XTICKS_IN + (_TITLE_IN if title else 0.0)
+    top = (0.02 * h + 0.25 if suptitle else _PAD_IN) + (_TITLE_IN if title else 0.0) + offset
+    vgap = _PAD_IN + _XTICKS_IN + (_TITLE_IN if title else 0.0) + offset
     height = (h - top - _PAD_IN - _XTICKS_IN - (nrow - 1) * vgap) / nrow
     for ax in axes:
         # an Axes title goes to the top of the Axes unless top tick labels or a y offset text are in its way, which
