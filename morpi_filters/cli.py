@@ -467,6 +467,31 @@ def _on_sigterm(signum, frame):
     raise Terminated()
 
 
+def _quick_exit() -> None:
+    """At the exit of a ``morpi`` process, skip the garbage collector's final sweeps.
+
+    When the interpreter shuts down it runs the cyclic garbage collector over
+    every object left (with matplotlib loaded, a few hundred thousand: the
+    figures' artists, the modules' objects), only to free memory the process
+    is about to give back: about 0.1-0.2 s. An exit handler moves every
+    object to the collector's permanent generation (``gc.freeze``), which the
+    shutdown sweeps leave alone; the other exit handlers still run, and every
+    output is written and closed before. Registered once, and only when
+    :func:`main` runs as the process's command (``argv`` None), never for a
+    call from Python with its own arguments.
+    """
+    global _QUICK_EXIT
+    if not _QUICK_EXIT:
+        import atexit
+        import gc
+
+        atexit.register(gc.freeze)
+        _QUICK_EXIT = True
+
+
+_QUICK_EXIT = False
+
+
 def main(argv=None) -> int:
     """Entry point of the ``morpi`` console script.
 
@@ -508,6 +533,8 @@ def main(argv=None) -> int:
     >>> main(["check", "--data", str(root / "missing")])     # one line on stderr, status of a MorpiError
     2
     """
+    if argv is None:
+        _quick_exit()
     parser = build_parser()
     args = parser.parse_args(argv)
     previous = None

@@ -726,16 +726,20 @@ def _reference_gains(spec, length_m, speed_mps, period_m, amplitude_m, rate_hz, 
     sa = cfg.spec.accel_noise * math.sqrt(cfg.rate_hz)
     sg = cfg.spec.gyro_noise * math.sqrt(cfg.rate_hz)
     D = _chord_sum(sine)
-    ga, gg = [], []
     M = cfg.training_runs
+    ga, gg = np.empty(M), np.empty(M)
+    # the Weinberg windows span the first to the last peak: only those samples of the signals are formed,
+    # in two buffers kept over the blocks of 500 runs
+    lo, hi = sine.peaks[0], sine.peaks[-1] + 1
+    z = np.empty((min(500, M), 2, sine.time.size))
+    sig = np.empty((min(500, M), hi - lo))
     for a in range(0, M, 500):
         m = min(500, M - a)
-        z = rng.standard_normal((m, 2, sine.time.size))
-        fy = sine.f_b[:, 1] + sa * z[:, 0]
-        wz = sine.omega_b[:, 2] + sg * z[:, 1]
-        ga.append(D / _weinberg_sums(fy, sine.peaks).sum(axis=1))
-        gg.append(D / _weinberg_sums(wz, sine.peaks).sum(axis=1))
-    ga, gg = np.concatenate(ga), np.concatenate(gg)
+        rng.standard_normal(out=z[:m])
+        for c, sd, true, g in ((0, sa, sine.f_b[lo:hi, 1], ga), (1, sg, sine.omega_b[lo:hi, 2], gg)):
+            np.multiply(z[:m, c, lo:hi], sd, out=sig[:m])       # the measured signal: true + sd z
+            sig[:m] += true
+            g[a:a + m] = D / _weinberg_sums(sig[:m], sine.peaks - lo).sum(axis=1)
     return (float(ga.mean()), float(gg.mean())), (float(ga.std(ddof=1) / ga.mean()), float(gg.std(ddof=1) / gg.mean()))
 
 

@@ -114,3 +114,24 @@ def test_data_commands_stop_on_a_bad_recording(tmp_path, argv):
     err = r.stderr.strip().splitlines()
     assert len(err) == 1 and f"{bad}: empty file" in err[0] and "--partial" in err[0]
     assert not out.exists() and "Traceback" not in r.stderr
+
+
+def test_the_command_skips_the_collectors_shutdown_sweeps_and_a_call_does_not(tmp_path):
+    # as the process's command (argv from sys.argv), main leaves an exit handler that freezes the garbage
+    # collector, so the interpreter's shutdown does not sweep every object; an exit handler registered before
+    # main runs after it and sees the frozen objects; the output is complete
+    code = ("import atexit, gc, sys\n"
+            "atexit.register(lambda: print('frozen', gc.get_freeze_count() > 0))\n"
+            "from morpi_filters import cli\n"
+            f"sys.argv = ['morpi', 'assess', '--out', {str(tmp_path / 'a')!r}]\n"
+            "print('status', cli.main())\n")
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parent.parent), MPLBACKEND="Agg")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert r.returncode == 0, r.stderr
+    assert "status 0" in r.stdout and "frozen True" in r.stdout
+    assert (tmp_path / "a" / "result.json").is_file()
+    # called from Python with its own arguments, main registers nothing
+    code = code.replace("sys.argv = ", "argv = ").replace("cli.main()", "cli.main(argv[1:])")
+    r = subprocess.run([sys.executable, "-c", code.replace("'a'", "'b'")], capture_output=True, text=True, env=env)
+    assert r.returncode == 0, r.stderr
+    assert "status 0" in r.stdout and "frozen False" in r.stdout

@@ -130,3 +130,68 @@ def test_save_without_cropping_keeps_the_canvas(tmp_path):
     full = Image.open(save_figure(ax, tmp_path / "full.png", dpi=100)).size
     cropped = Image.open(save_figure(ax, tmp_path / "crop.png", dpi=100, crop=True)).size
     assert full == (500, 300) and cropped[0] < 500 and cropped[1] < 300
+
+
+def _drawn(fig):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    return canvas.get_renderer()
+
+
+def test_monte_carlo_panels_and_titles_do_not_overlap():
+    # the histogram grid is laid out from its labels' widths (no layout pass): with the tick labels of a million
+    # runs, no panel's labels or title reach into a neighbour, and the suptitle stays clear of the panel titles
+    rng = np.random.default_rng(3)
+    cols = ["INS-3D", "INS-2D"] + [f"MoRPI-{m}[training spread]" for m in "AG"] * 3
+    fig = plots.montecarlo_final_errors(cols, np.abs(rng.normal(0.25, 0.3, (400_000, len(cols)))),
+                                        title="MPU-6500, 15 s, 1000000 runs, GAC-calibrated biases")
+    renderer = _drawn(fig)
+    boxes = [ax.get_tightbbox(renderer) for ax in fig.axes if ax.get_visible()]
+    assert len(boxes) == len(cols)
+    for i, a in enumerate(boxes):
+        for b in boxes[i + 1:]:
+            assert not a.overlaps(b)
+    sup = fig._suptitle.get_window_extent(renderer)
+    assert all(not sup.overlaps(b) for b in boxes)
+
+
+def test_monte_carlo_log_axes_label_the_same_ticks_in_plain_text():
+    # the log axes show matplotlib's labels (the same ticks labelled), written with Unicode superscripts
+    from matplotlib.ticker import LogFormatterSciNotation
+
+    sup = dict(zip("-0123456789", "\u207b\u2070\u00b9\u00b2\u00b3\u2074\u2075\u2076\u2077\u2078\u2079"))
+    k = np.array([1, 2, 3, 5, 10, 20, 50])
+    rms = 0.3 / np.sqrt(k) + 0.01
+    t = np.linspace(0.0, 15.0, 151)
+    bands = np.stack([np.logspace(-7, 0, 151)[:, None] * [[0.5, 1.0, 2.0]]] * 2, axis=1)
+    for ax, axes in ((plots.montecarlo_training_runs(k, np.c_[rms, rms], rms, ["A", "G"]), "xy"),
+                     (plots.montecarlo_error_curves(t, bands, ["a", "b"]), "y")):
+        _drawn(ax.figure)
+        for name in axes:
+            axis = getattr(ax, name + "axis")
+            for minor in (False, True):
+                ticks = axis.get_minor_ticks() if minor else axis.get_major_ticks()
+                locs = axis.get_minorticklocs() if minor else axis.get_majorticklocs()
+                reference = LogFormatterSciNotation(labelOnlyBase=not minor)
+                reference.set_axis(axis)
+                reference.set_locs(locs)
+                for tick, x in zip(ticks, locs):
+                    shown, ref = tick.label1.get_text(), reference(x)
+                    assert bool(shown) == bool(ref) and "$" not in shown
+                    if shown:
+                        e = int(np.floor(np.log10(x) + 1e-9))
+                        c = round(x / 10.0 ** e)
+                        power = "10" + "".join(sup[ch] for ch in str(e))
+                        assert shown == (power if c == 1 else f"{c}\u00d7{power}")
+
+
+def test_monte_carlo_margins_hold_wide_labels_an_offset_text_and_a_long_title():
+    # tick labels of many digits, a y offset text ("+1e3") above the Axes with the title above it, and a title
+    # wider than the Axes: all on the canvas
+    dG = np.random.default_rng(4).normal(0.0, 0.05, 2000)
+    title = "MoRPI-A distance error against the gain error (training-spread scenario)"
+    for err in (2000.0 * dG, 1000.0 + 1e-3 * dG, 1e-6 * dG):
+        ax = plots.montecarlo_gain_vs_error(dG, err, title=title)
+        assert _inside(ax.figure)

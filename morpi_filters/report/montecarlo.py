@@ -58,7 +58,7 @@ def report_montecarlo(out, study: GainErrorPage, source=None) -> SectionSummary:
     cal, raw = r.config, rr.config
     spread, mismatch, spread_note, assumed = study.spread, study.mismatch, study.spread_note, study.assumed
 
-    # figures lay themselves out when drawn: saved in one draw
+    # the figures come with their margins fitted to their labels (no layout pass): each is saved in one draw
     figs = []
     with _collector_paused():
         figs.append(save_figure(plots.montecarlo_final_errors(

@@ -522,6 +522,122 @@ def plot_aided_ellipses(cell, *, run: int = 0, every_s: float = 2.0, ax=None):
 # ============================================================================ montecarlo and drift
 # Gain-error distributions and the closed-form vs strapdown drift map.
 
+_PAD_IN = 1.08 * 10 / 72      # the margin around everything drawn [in] (tight layout's pad at 10 pt)
+_TICK_IN = 7 / 72             # tick length + tick-label pad [in] (matplotlib's defaults, 3.5 + 3.5 pt)
+_LABEL_IN = 16 / 72           # an axis label at 10 pt and its pad [in]
+_TITLE_IN = 0.343 - _PAD_IN   # a 10 pt Axes title and its pad [in]
+_XTICKS_IN = 0.585 - _PAD_IN  # the x tick labels and x label under an Axes [in]
+_SUPERSCRIPT = str.maketrans("-0123456789", "\u207b\u2070\u00b9\u00b2\u00b3\u2074\u2075\u2076\u2077\u2078\u2079")
+
+
+def _plain_log_labels(*axes):
+    """Label log axes with plain text (``10⁻⁷``, ``2×10⁻¹``) instead of mathtext.
+
+    The labels are those of matplotlib's :class:`~matplotlib.ticker.LogFormatterSciNotation`
+    (the same ticks labelled), written with Unicode superscripts, so drawing
+    them needs no mathtext parser (a tenth of a second for a page's first log
+    axis); a label this cannot write stays mathtext.
+    """
+    import re
+
+    from matplotlib.ticker import LogFormatterSciNotation
+
+    class PlainLogFormatter(LogFormatterSciNotation):
+        def __call__(self, x, pos=None):
+            s = super().__call__(x, pos)
+            m = re.fullmatch(r"\$\\mathdefault\{(.*)\}\$", s)
+            if m is None:
+                return s
+            body = re.sub(r"\^\{(-?\d+)\}", lambda e: e.group(1).translate(_SUPERSCRIPT),
+                          m.group(1).replace(r"\times", "\u00d7"))
+            return s if any(c in body for c in "\\{}^$") else body.replace("-", "\u2212")
+
+    for axis in axes:
+        axis.set_major_formatter(PlainLogFormatter())
+        axis.set_minor_formatter(PlainLogFormatter(labelOnlyBase=False))
+
+
+def _tick_labels(axis):
+    """(position, text) of the tick labels `axis` shows at its current limits, major and minor."""
+    lo, hi = sorted(axis.get_view_interval())
+    tol = 1e-9 * (hi - lo)
+    out = []
+    for locator, formatter in ((axis.get_major_locator(), axis.get_major_formatter()),
+                               (axis.get_minor_locator(), axis.get_minor_formatter())):
+        locs = [x for x in locator() if lo - tol <= x <= hi + tol]
+        out += [(x, t) for x, t in zip(locs, formatter.format_ticks(locs)) if t]
+    return out
+
+
+def _text_width(texts, size=10.0, dpi=120) -> float:
+    """Width [in] of the widest of `texts` in the default font at `size` [pt], as drawn at `dpi` (0 for none).
+
+    One point is added for the rounding of the drawn glyphs.
+    """
+    from matplotlib.font_manager import FontProperties, findfont, get_font
+
+    prop = FontProperties(size=size)
+    font = get_font(findfont(prop))
+    font.set_size(prop.get_size_in_points(), dpi)
+    widest = 0.0
+    for t in texts:
+        font.set_text(t, 0.0)
+        widest = max(widest, font.get_width_height()[0] / 64)
+    return widest / dpi + 1 / 72 if texts else 0.0
+
+
+def _label_room(ax):
+    """Room [in] left of `ax` for its y tick labels and y label; how far its x tick labels reach right of it [fraction of the label's width, width in]."""
+    y = _text_width([t for _, t in _tick_labels(ax.yaxis)])
+    left = y + _TICK_IN + (_LABEL_IN if ax.get_ylabel() else 0.0)
+    lo, hi = ax.get_xlim()
+    xs = _tick_labels(ax.xaxis)
+    if not xs:
+        return left, 0.0, 0.0
+    scale = ax.xaxis.get_transform()
+    x, t = max(xs, key=lambda e: e[0])
+    a, b, c = scale.transform([lo, hi, x])
+    return left, (b - c) / (b - a), _text_width([t]) / 2
+
+
+def _fixed_layout(fig, axes, nrow=1, ncol=1, title=False, suptitle=False):
+    """Place the `nrow` x `ncol` grid of `axes` with margins sized to their labels (no layout pass when drawn).
+
+    The margins hold the tick labels the Axes show at their limits (measured
+    in the default font), the axis labels and the titles, with the tight
+    layout's pad around them; the figure then draws in one pass.
+    """
+    w, h = fig.get_size_inches()
+    rooms = [_label_room(ax) for ax in axes]
+    left = max(r[0] for r in rooms)
+    gap = _PAD_IN + left
+    right = _PAD_IN
+    for _ in range(2):              # the x labels' overhang depends on the Axes width, which depends on it
+        width = (w - _PAD_IN - left - right - (ncol - 1) * gap) / ncol
+        over = max(max(0.0, half - frac * width) for _, frac, half in rooms)
+        right, gap = _PAD_IN + over, _PAD_IN + left + over
+    if ncol == 1 and title:
+        # a title wider than the Axes overhangs both sides equally: keep it on the canvas
+        widest = max(_text_width([ax.get_title()], ax.title.get_fontsize()) for ax in axes)
+        right = max(right, left + widest + 2 * _PAD_IN - w)
+        width = w - _PAD_IN - left - right
+    # a y offset text (e.g. "1e6") sits above the Axes, and the title above it
+    offset = _TITLE_IN if any(ax.yaxis.get_major_formatter().get_offset() for ax in axes) else 0.0
+    # a suptitle hangs from 0.98 of the height: its 10 pt line and a gap above the Axes titles
+    top = (0.02 * h + 0.25 if suptitle else _PAD_IN) + (_TITLE_IN if title else 0.0) + offset
+    vgap = _PAD_IN + _XTICKS_IN + (_TITLE_IN if title else 0.0) + offset
+    height = (h - top - _PAD_IN - _XTICKS_IN - (nrow - 1) * vgap) / nrow
+    for ax in axes:
+        # an Axes title goes to the top of the Axes unless top tick labels or a y offset text are in its way, which
+        # every draw would measure the whole y axis to find out: with neither, the title is placed there now
+        if (ax.get_title() and not ax.yaxis.get_major_formatter().get_offset()
+                and ax.xaxis.get_ticks_position() == "bottom" and ax.xaxis.get_label_position() == "bottom"):
+            ax.set_title(ax.get_title(), fontsize=ax.title.get_fontsize(), y=1.0)
+    fig.set_layout_engine("none")
+    fig.subplots_adjust(left=(_PAD_IN + left) / w, right=1 - right / w, bottom=(_PAD_IN + _XTICKS_IN) / h,
+                        top=1 - top / h, wspace=gap / width, hspace=vgap / height)
+
+
 
 def montecarlo_final_errors(columns, final, *, title=""):
     """Histograms of final horizontal errors, one panel per column.
@@ -572,6 +688,8 @@ def montecarlo_final_errors(columns, final, *, title=""):
         axes[j // ncol][j % ncol].set_visible(False)
     if title:
         fig.suptitle(title, fontsize=10)
+    _fixed_layout(fig, [ax for row in axes for ax in row if ax.get_visible()], nrow, ncol, title=True,
+                  suptitle=bool(title))
     return fig
 
 
@@ -611,7 +729,7 @@ def montecarlo_error_curves(time, bands, labels, *, analytic=None, title="", ax=
     """
     import numpy as np
 
-    ax, _ = new_axes(ax, (7, 4.2))
+    ax, new = new_axes(ax, (7, 4.2))
     for i, lab in enumerate(labels):
         b = np.asarray(bands)[:, i, :]
         if not np.isfinite(b).any():
@@ -624,9 +742,13 @@ def montecarlo_error_curves(time, bands, labels, *, analytic=None, title="", ax=
     for j, (lab, (t, v)) in enumerate((analytic or {}).items()):
         ax.plot(t, v, ls="--", color=f"C{len(labels) + j}", label=lab)
     ax.set_yscale("log")
+    _plain_log_labels(ax.yaxis)
     ax.set_xlabel("time [s]")
     ax.set_ylabel("horizontal position error [m]")
-    return _finish(ax, title, which="both")
+    _finish(ax, title, which="both")
+    if new:
+        _fixed_layout(ax.figure, [ax], title=bool(title))
+    return ax
 
 
 def montecarlo_gain_vs_error(dG, err, *, analytic_slope=None, label="MoRPI-A", title="", ax=None):
@@ -664,14 +786,17 @@ def montecarlo_gain_vs_error(dG, err, *, analytic_slope=None, label="MoRPI-A", t
     """
     import numpy as np
 
-    ax, _ = new_axes(ax, (6, 4))
+    ax, new = new_axes(ax, (6, 4))
     ax.plot(100 * np.asarray(dG), err, ".", ms=2, alpha=0.4, label=f"{label} Monte Carlo")
     if analytic_slope is not None:
         x = np.linspace(np.min(dG), np.max(dG), 50)
         ax.plot(100 * x, analytic_slope * x, "k--", lw=1, label="analytical ds = dG D")
     ax.set_xlabel("gain error dG [%]")
     ax.set_ylabel("distance error [m]")
-    return _finish(ax, title)
+    _finish(ax, title)
+    if new:
+        _fixed_layout(ax.figure, [ax], title=bool(title))
+    return ax
 
 
 def montecarlo_training_runs(k, rms_mc, rms_expected, labels, *, title="", ax=None):
@@ -709,16 +834,20 @@ def montecarlo_training_runs(k, rms_mc, rms_expected, labels, *, title="", ax=No
     """
     import numpy as np
 
-    ax, _ = new_axes(ax, (6, 4))
+    ax, new = new_axes(ax, (6, 4))
     rms_mc = np.asarray(rms_mc)
     for i, lab in enumerate(labels):
         ax.plot(k, rms_mc[:, i], "o-", ms=4, label=f"{lab} Monte Carlo")
     ax.plot(k, rms_expected, "k--", label="D sqrt(mismatch^2 + spread^2 / k)")
     ax.set_xscale("log")
     ax.set_yscale("log")
+    _plain_log_labels(ax.xaxis, ax.yaxis)
     ax.set_xlabel("training runs k")
     ax.set_ylabel("RMS distance error [m]")
-    return _finish(ax, title, which="both")
+    _finish(ax, title, which="both")
+    if new:
+        _fixed_layout(ax.figure, [ax], title=bool(title))
+    return ax
 
 
 def drift_disagreement_map(gyro_bias_deg_s, time, rel, *, title="", marks=(), ax=None):
