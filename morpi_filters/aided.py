@@ -938,7 +938,7 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
         x[ix] = xn
         if not isinstance(ix, slice):
             P[ix] = Pv
-        val = np.einsum("bi,bi->b", y, np.linalg.solve(S, y[..., None])[..., 0])
+        val = np.einsum("bi,bi->b", y, np.einsum("bij,bj->bi", np.linalg.inv(S), y))
         if name not in nis_sum:
             nis_sum[name], nis_cnt[name], nis_dof[name] = np.zeros(B), np.zeros(B, int), y.shape[1]
         nis_sum[name][sel] += val
