@@ -1234,17 +1234,20 @@ def _smooth_member(hist, P0_prior, pos, q, frozen=None, covariance=True):
     """
     m = hist["d"].size
     x_post, P_post, fed, d = hist["x"], hist["P"], hist["fed"], hist["d"]
-    Phi = _transition(d, hist["fn"], hist["Cm"])
-    Phi[0] = np.eye(N_AIDED)
-    Q = _process_noise(d, hist["qa"], hist["qg"], *(np.full(m, v) for v in q))
-    Q[:, BA, BA] += np.eye(3) * hist["jq"][:, None, None]
-    Q[:, TURN, TURN] += hist["tq"]
+    A = _transition_blocks(d, hist["fn"], hist["Cm"])
+    Phi = np.zeros((m, N_AIDED, N_AIDED))
+    Phi[:, range(N_AIDED), range(N_AIDED)] = 1.0
+    Phi[1:, _A_ROWS, _A_COLS] += A[1:]
+    qd = _noise_diagonal(d, hist["qa"], hist["qg"], *(np.full(m, v) for v in q))
+    qd[:, BA] += hist["jq"][:, None]
+    qd[:, TURN] += hist["tq"]
+    # the predictions of the forward pass, computed as it did (:func:`_predict`)
     x_prior = np.empty_like(x_post)
     x_prior[0] = 0.0                              # the filter starts from a zero error state
-    x_prior[1:] = np.einsum("bij,bj->bi", Phi[1:], x_post[:-1])
     P_prior = np.empty_like(P_post)
     P_prior[0] = P0_prior
-    P_prior[1:] = Phi[1:] @ P_post[:-1] @ np.swapaxes(Phi[1:], 1, 2) + Q[1:]
+    P_prior[1:] = P_post[:-1]
+    x_prior[1:], _ = _predict(x_post[:-1], P_prior[1:], A[1:], qd[1:], inplace=True)
     xs, Ps = rts_smooth(x_post, P_post, x_prior, P_prior, Phi, fed=fed, frozen=frozen, covariance=covariance)
     sm = pos - xs[:, DP]
     return sm, (None if Ps is None else Ps[:, :2, :2])
