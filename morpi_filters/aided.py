@@ -1140,20 +1140,15 @@ def _transition_blocks(d, fn, Cm):
 
 
 def _transition(d, fn, Cm):
-    """``Phi = I + F T + (F T)^2 / 2`` of epoch intervals, batched (see :func:`_transition_blocks`).
+    """``Phi = I + F T + (F T)^2 / 2`` of epoch intervals, batched (arguments of :func:`_transition_blocks`)."""
+    return _phi(_transition_blocks(d, fn, Cm))
 
-    Parameters
-    ----------
-    d : ndarray, shape (b,)
-        Interval durations [s].
-    fn : ndarray, shape (b, 3)
-        Integral of the navigation-frame specific force over the interval [m/s].
-    Cm : ndarray, shape (b, 3, 3)
-        Integral of the attitude over the interval [s].
-    """
-    Phi = np.zeros((d.shape[0], N_AIDED, N_AIDED))
+
+def _phi(A):
+    """The transitions ``I + A`` of the blocks `A` of :func:`_transition_blocks`."""
+    Phi = np.zeros((A.shape[0], N_AIDED, N_AIDED))
     Phi[:, range(N_AIDED), range(N_AIDED)] = 1.0
-    Phi[:, _A_ROWS, _A_COLS] += _transition_blocks(d, fn, Cm)
+    Phi[:, _A_ROWS, _A_COLS] += A
     return Phi
 
 
@@ -1235,9 +1230,8 @@ def _smooth_member(hist, P0_prior, pos, q, frozen=None, covariance=True):
     m = hist["d"].size
     x_post, P_post, fed, d = hist["x"], hist["P"], hist["fed"], hist["d"]
     A = _transition_blocks(d, hist["fn"], hist["Cm"])
-    Phi = np.zeros((m, N_AIDED, N_AIDED))
-    Phi[:, range(N_AIDED), range(N_AIDED)] = 1.0
-    Phi[1:, _A_ROWS, _A_COLS] += A[1:]
+    Phi = _phi(A)
+    Phi[0] = np.eye(N_AIDED)
     qd = _noise_diagonal(d, hist["qa"], hist["qg"], *(np.full(m, v) for v in q))
     qd[:, BA] += hist["jq"][:, None]
     qd[:, TURN] += hist["tq"]
