@@ -1064,7 +1064,7 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
             clone[ss] = p[ss, :2]
             for b in ss:
                 head_at[b][k] = head[b].copy()
-        keep.append((k, sel, p[sel].copy(), P[sel][:, :2, :2].copy()))
+        keep.append((k, sel, p[sel], P[sel, :2, :2]))
         hj = np.flatnonzero(keep_hist[sel]) if rows_h else ()
         if len(hj):
             # what the smoother needs: the posterior, the correction fed back and the interval's terms
