@@ -254,3 +254,40 @@ def test_aided_figures_are_placed_once_with_labels_titles_and_legends_on_the_can
         if ax.get_xscale() == "log":
             shown = [t.get_text() for t in ax.get_xticklabels() if t.get_text()]
             assert shown and all("$" not in t for t in shown)
+
+
+def test_tables_figures_are_placed_once_with_panels_labels_and_titles_on_the_canvas_apart():
+    # the tables page's figures are placed from their labels' widths (no layout pass when drawn): a recording's two
+    # panels on a shared time axis, INS tracks hundreds of metres long (scaled freely and equally), and a grid of
+    # path sets of fixed aspect with one cell unused; everything is on the canvas and no panel's tick labels, axis
+    # labels or title reach into another's
+    from matplotlib.layout_engine import PlaceHolderLayoutEngine  # a layout engine that does nothing
+
+    rng = np.random.default_rng(6)
+    t = 1000.0 + np.arange(2200) * 0.01
+    f = np.c_[rng.normal(0.2, 0.4, 2200), rng.normal(0.0, 0.4, 2200), np.full(2200, 9.8)]
+    omega = np.c_[rng.normal(0.0, 0.1, 2200), rng.normal(0.0, 0.1, 2200), np.sin(2 * np.pi * 0.5 * (t - t[0]))]
+    recording = plots.plot_recording(t, f, omega, title="s8/short_distance/test/2.csv", rest=(t[0], t[300]),
+                                     motion=(t[350], t[1700]), peaks=t[400:1700:100])
+    s = np.linspace(0.0, 1.0, 300)[:, None]
+    truth = np.array([[0.0, 0.0], [18.0, 0.0], [18.0, -10.0]])
+    tracks = {"INS-3D RD": s * [-500.0, 390.0] + 40 * s ** 2, "INS-2D GAC": s * [170.0, 70.0]}
+    figures = [recording] + [plots.plot_tracks(tracks, truth, title="INS on s6/L_line/2.csv (median 2D GAC run)",
+                                               equal=equal).figure for equal in (False, True)]
+    walk = lambda n, scale: np.cumsum(rng.normal(0.0, scale, (n, 2)), axis=0)   # noqa: E731
+    panels = [{"title": f"morpi_l_shape s{6 + 2 * (i % 2)} 1.5 m", "truth": truth,
+               "paths": {"MoRPI-A GC": [truth[-1] * np.linspace(0, 1, 200)[:, None] + walk(200, 0.2) for _ in range(8)],
+                         "MoRPI-G GC": [walk(150, 1.5) for _ in range(8)]}} for i in range(5)]
+    figures.append(plots.plot_path_sets(panels))
+    for fig in figures:
+        assert fig.get_layout_engine() is None or isinstance(fig.get_layout_engine(), PlaceHolderLayoutEngine)
+        assert _inside(fig)
+        renderer = _drawn(fig)
+        shown = [ax for ax in fig.axes if ax.axison]
+        boxes = [ax.get_tightbbox(renderer) for ax in shown]
+        for i, a in enumerate(boxes):
+            for b in boxes[i + 1:]:
+                assert not a.overlaps(b)
+        for ax in shown:
+            if ax.get_title():
+                assert ax.title.get_window_extent(renderer).y0 >= ax.get_window_extent(renderer).y1

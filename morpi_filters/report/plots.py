@@ -211,7 +211,15 @@ def _legend_reach(ax, renderer):
     return max(0.0, drawn.y1 - box.y1) / dpi, max(0.0, box.y0 - drawn.y0) / dpi, max(0.0, drawn.x1 - box.x1) / dpi
 
 
-def _fixed_layout(fig, axes, nrow=1, ncol=1, title=False, suptitle=False):
+def _under_room(ax) -> float:
+    """Room [in] under `ax` for its x tick labels and x label (the tick marks only under a panel above a shared x)."""
+    label = _LABEL_IN if ax.get_xlabel() else 0.0
+    if not ax.xaxis.get_tick_params().get("labelbottom", True):
+        return _TICK_IN / 2 + label
+    return _XTICKS_IN - _LABEL_IN + label
+
+
+def _fixed_layout(fig, axes, nrow=1, ncol=1, suptitle=False):
     """Place the `nrow` x `ncol` grid of `axes` with margins sized to their labels (no layout pass when drawn).
 
     The margins hold the tick labels the Axes show at their limits (measured
@@ -224,6 +232,10 @@ def _fixed_layout(fig, axes, nrow=1, ncol=1, title=False, suptitle=False):
     fixed = [ax for ax in axes if ax.get_aspect() != "auto"]
     outside = [ax for ax in axes if ax.get_legend() is not None and ax.get_legend().get_bbox_to_anchor() is not ax.bbox]
     renderer = _measuring_renderer(fig.dpi) if outside else None
+    rows = [ax.get_subplotspec().rowspan for ax in axes]
+    first = [r.start == 0 for r in rows]
+    last = [r.stop == nrow for r in rows]
+    title = any(ax.get_title() for ax in axes)
     above = below = beyond = 0.0
     for _ in range(3 if fixed or outside else 1):
         # a fixed aspect sets the limits (hence the labels) from the box, and a legend anchored at a fraction of
@@ -241,16 +253,18 @@ def _fixed_layout(fig, axes, nrow=1, ncol=1, title=False, suptitle=False):
             widest = max(_text_width([ax.get_title()], ax.title.get_fontsize()) for ax in axes)
             right = max(right, left + widest + 2 * _PAD_IN - w)
             width = w - _PAD_IN - left - right
-        # a y offset text (e.g. "1e6") sits above the Axes, and the title above it
-        offset = _TITLE_IN if any(ax.yaxis.get_major_formatter().get_offset() for ax in axes) else 0.0
-        over_axes = max(max((_title_room(ax) for ax in axes), default=0.0) if title else 0.0, above) + offset
-        under_axes = max(_XTICKS_IN, below)
+        # over an Axes: its title and, under it, a y offset text (e.g. "1e6"); under it: its x tick labels and label
+        overs = [max(_title_room(ax), above) + (_TITLE_IN if ax.yaxis.get_major_formatter().get_offset() else 0.0)
+                 for ax in axes]
+        unders = [max(_under_room(ax), below) for ax in axes]
         # a suptitle hangs from 0.98 of the height: its 10 pt line and a gap above the Axes titles
-        top = (0.02 * h + 0.25 if suptitle else _PAD_IN) + over_axes
-        vgap = _PAD_IN + under_axes + over_axes
-        height = (h - top - _PAD_IN - under_axes - (nrow - 1) * vgap) / nrow
+        top = (0.02 * h + 0.25 if suptitle else _PAD_IN) + max(o for o, f in zip(overs, first) if f)
+        bottom = _PAD_IN + max(u for u, b in zip(unders, last) if b)
+        vgap = (_PAD_IN + max((u for u, b in zip(unders, last) if not b), default=0.0)
+                + max((o for o, f in zip(overs, first) if not f), default=0.0))
+        height = (h - top - bottom - (nrow - 1) * vgap) / nrow
         fig.set_layout_engine("none")
-        fig.subplots_adjust(left=(_PAD_IN + left) / w, right=1 - right / w, bottom=(_PAD_IN + under_axes) / h,
+        fig.subplots_adjust(left=(_PAD_IN + left) / w, right=1 - right / w, bottom=bottom / h,
                             top=1 - top / h, wspace=gap / width, hspace=vgap / height)
         for ax in fixed:
             ax.apply_aspect()
@@ -330,6 +344,7 @@ def plot_recording(time, f, omega, *, title="", rest=None, motion=None, peaks=No
     axes[1].legend(loc="upper right", fontsize=7, ncol=4)
     axes[1].set_xlabel("time from first sample [s]")
     axes[0].set_title(title)
+    _fixed_layout(fig, list(axes), 2, 1)
     return fig
 
 
@@ -365,7 +380,7 @@ def plot_tracks(tracks, truth, *, title="", equal=True, ax=None):
     """
     import numpy as np
 
-    ax, _ = new_axes(ax, (7, 5))
+    ax, new = new_axes(ax, (7, 5))
     ax.plot(truth[:, 0], truth[:, 1], "k-", lw=2.5, alpha=0.4, label="true route")
     ax.plot(*truth[-1], "k*", ms=12)
     for label, p in tracks.items():
@@ -379,6 +394,8 @@ def plot_tracks(tracks, truth, *, title="", equal=True, ax=None):
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
     ax.set_title(title)
+    if new:
+        _fixed_layout(ax.figure, [ax])
     return ax
 
 
@@ -431,6 +448,7 @@ def plot_path_sets(panels, *, ncols=3):
         ax.legend(fontsize=7)
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
+    _fixed_layout(fig, list(axes.ravel()[:n]), nrows, ncols)
     return fig
 
 
@@ -634,7 +652,7 @@ def plot_aided_paths(cell, truth_xy, *, ax=None):
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=7, ncol=4, loc="upper center", bbox_to_anchor=(0.5, -0.15), frameon=False)
     if new:
-        _fixed_layout(ax.figure, [ax], title=True)
+        _fixed_layout(ax.figure, [ax])
     return ax
 
 
@@ -693,7 +711,7 @@ def plot_aided_ellipses(cell, *, run: int = 0, every_s: float = 2.0, ax=None):
     ax.set_title(f"{cell.label}: 2-sigma ellipses every {every_s:g} s ({cell.runs[run]['file']})", fontsize=8)
     ax.grid(True, alpha=0.3)
     if new:
-        _fixed_layout(ax.figure, [ax], title=True)
+        _fixed_layout(ax.figure, [ax])
     return ax
 
 
@@ -749,8 +767,7 @@ def montecarlo_final_errors(columns, final, *, title=""):
         axes[j // ncol][j % ncol].set_visible(False)
     if title:
         fig.suptitle(title, fontsize=10)
-    _fixed_layout(fig, [ax for row in axes for ax in row if ax.get_visible()], nrow, ncol, title=True,
-                  suptitle=bool(title))
+    _fixed_layout(fig, [ax for row in axes for ax in row if ax.get_visible()], nrow, ncol, suptitle=bool(title))
     return fig
 
 
@@ -808,7 +825,7 @@ def montecarlo_error_curves(time, bands, labels, *, analytic=None, title="", ax=
     ax.set_ylabel("horizontal position error [m]")
     _finish(ax, title, which="both")
     if new:
-        _fixed_layout(ax.figure, [ax], title=bool(title))
+        _fixed_layout(ax.figure, [ax])
     return ax
 
 
@@ -856,7 +873,7 @@ def montecarlo_gain_vs_error(dG, err, *, analytic_slope=None, label="MoRPI-A", t
     ax.set_ylabel("distance error [m]")
     _finish(ax, title)
     if new:
-        _fixed_layout(ax.figure, [ax], title=bool(title))
+        _fixed_layout(ax.figure, [ax])
     return ax
 
 
@@ -907,7 +924,7 @@ def montecarlo_training_runs(k, rms_mc, rms_expected, labels, *, title="", ax=No
     ax.set_ylabel("RMS distance error [m]")
     _finish(ax, title, which="both")
     if new:
-        _fixed_layout(ax.figure, [ax], title=bool(title))
+        _fixed_layout(ax.figure, [ax])
     return ax
 
 
