@@ -195,3 +195,99 @@ def test_monte_carlo_margins_hold_wide_labels_an_offset_text_and_a_long_title():
     for err in (2000.0 * dG, 1000.0 + 1e-3 * dG, 1e-6 * dG):
         ax = plots.montecarlo_gain_vs_error(dG, err, title=title)
         assert _inside(ax.figure)
+
+
+def _aided_cells(rng, n=24):
+    cells = []
+    for i in range(n):
+        c = _Cell(i)
+        c.label = f"morpi_l_shape s{6 + 2 * (i % 2)} 1.5 m MoRPI-{'AG'[i % 2]} {('RD', 'GC')[i // 2 % 2]}"
+        c.ins_percent, c.morpi_percent, c.smoothed_percent = 10 ** rng.uniform(2.5, 4.3), rng.uniform(2, 60), rng.uniform(1.5, 12)
+        c.spec.paper_percent = rng.uniform(4, 20)
+        cells.append(c)
+    return cells
+
+
+def _aided_path_cell(rng, runs=10, n=800):
+    # an L route walked `runs` times: MoRPI, forward and smoothed paths that wander off it, the forward one widely
+    cell = _Cell(0)
+    cell.label = "morpi_l_shape s6 1 m MoRPI-G GC"
+    s = np.linspace(0.0, 30.0, n)
+    route = np.where(s[:, None] < 18.0, np.c_[s, 0 * s], np.c_[np.full(n, 18.0), 18.0 - s])
+    t = np.linspace(0.0, 40.0, n)
+    paths = []
+    for _ in range(runs):
+        walk = np.cumsum(rng.normal(0.0, 0.15, (n, 2)), axis=0)
+        P = np.broadcast_to(np.eye(2) * 0.04, (n, 2, 2)) * (1 + t)[:, None, None]
+        paths.append((t, route + 3 * walk, route + 0.3 * walk, route + walk, P))
+    cell.paths = tuple(paths)
+    cell.runs = tuple({"file": f"s6/morpi_l_shape/test/{k}.csv"} for k in range(runs))
+    return cell, np.array([[0.0, 0.0], [18.0, 0.0], [18.0, -12.0]])
+
+
+def test_aided_figures_are_placed_once_with_labels_titles_and_legends_on_the_canvas_apart():
+    # the aided page's figures are placed from their labels' widths (no layout pass when drawn); everything is on
+    # the canvas, and the legend outside the Axes (above the bars, under the paths' x label) and the title keep
+    # clear of the Axes, their tick labels and each other; the log axis is labelled in plain text
+    from matplotlib.layout_engine import PlaceHolderLayoutEngine  # a layout engine that does nothing
+
+    rng = np.random.default_rng(5)
+    cell, route = _aided_path_cell(rng)
+    for ax in (plots.plot_aided_cells(_aided_cells(rng)), plots.plot_aided_paths(cell, route),
+               plots.plot_aided_ellipses(cell, every_s=4.0)):
+        fig = ax.figure
+        assert fig.get_layout_engine() is None or isinstance(fig.get_layout_engine(), PlaceHolderLayoutEngine)
+        assert _inside(fig)
+        renderer = _drawn(fig)
+        box = ax.get_window_extent(renderer)
+        parts = {"x axis": ax.xaxis.get_tightbbox(renderer), "y axis": ax.yaxis.get_tightbbox(renderer)}
+        if ax.get_title():
+            parts["title"] = ax.title.get_window_extent(renderer)
+            assert parts["title"].y0 >= box.y1
+        if ax.get_legend() is not None:
+            parts["legend"] = ax.get_legend().get_window_extent(renderer)
+            assert not parts["legend"].overlaps(box)
+        for i, a in enumerate(parts):
+            for b in list(parts)[i + 1:]:
+                if {a, b} != {"x axis", "y axis"}:                 # the axes' ticks meet at the corner
+                    assert not parts[a].overlaps(parts[b]), (ax.get_title(), a, b)
+        if ax.get_xscale() == "log":
+            shown = [t.get_text() for t in ax.get_xticklabels() if t.get_text()]
+            assert shown and all("$" not in t for t in shown)
+
+
+def test_tables_figures_are_placed_once_with_panels_labels_and_titles_on_the_canvas_apart():
+    # the tables page's figures are placed from their labels' widths (no layout pass when drawn): a recording's two
+    # panels on a shared time axis, INS tracks hundreds of metres long (scaled freely and equally), and a grid of
+    # path sets of fixed aspect with one cell unused; everything is on the canvas and no panel's tick labels, axis
+    # labels or title reach into another's
+    from matplotlib.layout_engine import PlaceHolderLayoutEngine  # a layout engine that does nothing
+
+    rng = np.random.default_rng(6)
+    t = 1000.0 + np.arange(2200) * 0.01
+    f = np.c_[rng.normal(0.2, 0.4, 2200), rng.normal(0.0, 0.4, 2200), np.full(2200, 9.8)]
+    omega = np.c_[rng.normal(0.0, 0.1, 2200), rng.normal(0.0, 0.1, 2200), np.sin(2 * np.pi * 0.5 * (t - t[0]))]
+    recording = plots.plot_recording(t, f, omega, title="s8/short_distance/test/2.csv", rest=(t[0], t[300]),
+                                     motion=(t[350], t[1700]), peaks=t[400:1700:100])
+    s = np.linspace(0.0, 1.0, 300)[:, None]
+    truth = np.array([[0.0, 0.0], [18.0, 0.0], [18.0, -10.0]])
+    tracks = {"INS-3D RD": s * [-500.0, 390.0] + 40 * s ** 2, "INS-2D GAC": s * [170.0, 70.0]}
+    figures = [recording] + [plots.plot_tracks(tracks, truth, title="INS on s6/L_line/2.csv (median 2D GAC run)",
+                                               equal=equal).figure for equal in (False, True)]
+    walk = lambda n, scale: np.cumsum(rng.normal(0.0, scale, (n, 2)), axis=0)   # noqa: E731
+    panels = [{"title": f"morpi_l_shape s{6 + 2 * (i % 2)} 1.5 m", "truth": truth,
+               "paths": {"MoRPI-A GC": [truth[-1] * np.linspace(0, 1, 200)[:, None] + walk(200, 0.2) for _ in range(8)],
+                         "MoRPI-G GC": [walk(150, 1.5) for _ in range(8)]}} for i in range(5)]
+    figures.append(plots.plot_path_sets(panels))
+    for fig in figures:
+        assert fig.get_layout_engine() is None or isinstance(fig.get_layout_engine(), PlaceHolderLayoutEngine)
+        assert _inside(fig)
+        renderer = _drawn(fig)
+        shown = [ax for ax in fig.axes if ax.axison]
+        boxes = [ax.get_tightbbox(renderer) for ax in shown]
+        for i, a in enumerate(boxes):
+            for b in boxes[i + 1:]:
+                assert not a.overlaps(b)
+        for ax in shown:
+            if ax.get_title():
+                assert ax.title.get_window_extent(renderer).y0 >= ax.get_window_extent(renderer).y1

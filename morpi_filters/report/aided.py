@@ -8,7 +8,7 @@ import numpy as np
 
 from ..reporting import SectionSummary, write_json, write_text
 from . import plots
-from .common import banner, fmt, md_table, save_figure
+from .common import _collector_paused, banner, fmt, md_table, save_figure
 
 
 def _nis(d: dict) -> dict:
@@ -78,17 +78,19 @@ def _figures(study, out: Path) -> list[str]:
 
     if not study.cells:
         return []
-    names = ["aided_cells.png"]
-    save_figure(plots.plot_aided_cells(study.cells), out / names[0])
-    for c in study.cells:
-        if c.spec.calibration == "GC" and c.spec.method == "MoRPI-G":
-            name = f"aided_paths_{c.spec.phone}_{c.spec.route}.png"
-            save_figure(plots.plot_aided_paths(c, route(c.spec.route).polyline), out / name)
-            names.append(name)
-    first = next((c for c in study.cells if c.spec.calibration == "GC" and c.spec.method == "MoRPI-G"),
-                 study.cells[0])
-    save_figure(plots.plot_aided_ellipses(first), out / "aided_ellipses.png")
-    names.append("aided_ellipses.png")
+    # the figures come with their margins fitted to their labels (no layout pass): each is saved in one draw
+    with _collector_paused():
+        names = ["aided_cells.png"]
+        save_figure(plots.plot_aided_cells(study.cells), out / names[0])
+        for c in study.cells:
+            if c.spec.calibration == "GC" and c.spec.method == "MoRPI-G":
+                name = f"aided_paths_{c.spec.phone}_{c.spec.route}.png"
+                save_figure(plots.plot_aided_paths(c, route(c.spec.route).polyline), out / name)
+                names.append(name)
+        first = next((c for c in study.cells if c.spec.calibration == "GC" and c.spec.method == "MoRPI-G"),
+                     study.cells[0])
+        save_figure(plots.plot_aided_ellipses(first), out / "aided_ellipses.png")
+        names.append("aided_ellipses.png")
     return names
 
 

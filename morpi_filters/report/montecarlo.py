@@ -1,8 +1,6 @@
 """The Monte Carlo pages: the gain-error study and the closed-form vs strapdown drift (README.md, result.json, PNGs)."""
 from __future__ import annotations
 
-import contextlib
-import gc
 from pathlib import Path
 
 import numpy as np
@@ -11,27 +9,9 @@ from ..montecarlo import Z99, DriftPage, GainErrorPage, _config_json, final_stat
 from ..reporting import SectionSummary, write_json, write_text
 from ..units import DEG_S, MG
 from . import plots
-from .common import banner, fmt, md_table, save_figure
+from .common import _collector_paused, banner, fmt, md_table, save_figure
 
 __all__ = ["report_montecarlo", "report_drift"]
-
-
-@contextlib.contextmanager
-def _collector_paused():
-    """Pause Python's cyclic garbage collector while figures are drawn.
-
-    matplotlib allocates a few hundred thousand objects per figure, none of
-    them garbage before the figure is dropped; the collector would scan them
-    over and over (about a tenth of the drawing time). Cycles left meanwhile
-    are collected once it runs again.
-    """
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if enabled:
-            gc.enable()
 
 
 def report_montecarlo(out, study: GainErrorPage, source=None) -> SectionSummary:

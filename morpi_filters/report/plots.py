@@ -12,6 +12,8 @@ The file is organised by report section, each under its own heading comment.
 """
 from __future__ import annotations
 
+import functools
+
 __all__ = [
     "new_figure", "new_axes", "plot_recording", "plot_tracks", "plot_path_sets", "assessment_figure", "plot_curves",
     "plot_aided_cells", "plot_aided_paths", "plot_aided_ellipses", "simulation_run", "montecarlo_final_errors", "montecarlo_error_curves",
@@ -94,6 +96,189 @@ def _finish(ax, title="", which="major"):
     return ax
 
 
+# ============================================================================ margins without a layout pass
+# A figure of our own can be placed once from the labels it will show (no tight-layout pass when drawn).
+
+_PAD_IN = 1.08 * 10 / 72      # the margin around everything drawn [in] (tight layout's pad at 10 pt)
+_TICK_IN = 7 / 72             # tick length + tick-label pad [in] (matplotlib's defaults, 3.5 + 3.5 pt)
+_LABEL_IN = 16 / 72           # an axis label at 10 pt and its pad [in]
+_TITLE_IN = 0.343 - _PAD_IN   # a 10 pt Axes title and its pad [in]
+_XTICKS_IN = 0.585 - _PAD_IN  # the x tick labels and x label under an Axes [in]
+_SUPERSCRIPT = str.maketrans("-0123456789", "\u207b\u2070\u00b9\u00b2\u00b3\u2074\u2075\u2076\u2077\u2078\u2079")
+
+
+def _plain_log_labels(*axes):
+    """Label log axes with plain text (``10⁻⁷``, ``2×10⁻¹``) instead of mathtext.
+
+    The labels are those of matplotlib's :class:`~matplotlib.ticker.LogFormatterSciNotation`
+    (the same ticks labelled), written with Unicode superscripts, so drawing
+    them needs no mathtext parser (a tenth of a second for a page's first log
+    axis); a label this cannot write stays mathtext.
+    """
+    import re
+
+    from matplotlib.ticker import LogFormatterSciNotation
+
+    class PlainLogFormatter(LogFormatterSciNotation):
+        def __call__(self, x, pos=None):
+            s = super().__call__(x, pos)
+            m = re.fullmatch(r"\$\\mathdefault\{(.*)\}\$", s)
+            if m is None:
+                return s
+            body = re.sub(r"\^\{(-?\d+)\}", lambda e: e.group(1).translate(_SUPERSCRIPT),
+                          m.group(1).replace(r"\times", "\u00d7"))
+            return s if any(c in body for c in "\\{}^$") else body.replace("-", "\u2212")
+
+    for axis in axes:
+        axis.set_major_formatter(PlainLogFormatter())
+        axis.set_minor_formatter(PlainLogFormatter(labelOnlyBase=False))
+
+
+def _tick_labels(axis):
+    """(position, text) of the tick labels `axis` shows at its current limits, major and minor."""
+    lo, hi = sorted(axis.get_view_interval())
+    tol = 1e-9 * (hi - lo)
+    out = []
+    for locator, formatter in ((axis.get_major_locator(), axis.get_major_formatter()),
+                               (axis.get_minor_locator(), axis.get_minor_formatter())):
+        locs = [x for x in locator() if lo - tol <= x <= hi + tol]
+        out += [(x, t) for x, t in zip(locs, formatter.format_ticks(locs)) if t]
+    return out
+
+
+@functools.lru_cache(maxsize=4096)
+def _drawn_width(text, size, dpi) -> float:
+    """Width [pixels] of `text` in the default font at `size` [pt] as drawn at `dpi` (kept: tick labels repeat)."""
+    from matplotlib.font_manager import FontProperties, findfont, get_font
+
+    prop = FontProperties(size=size)
+    font = get_font(findfont(prop))
+    font.set_size(prop.get_size_in_points(), dpi)
+    font.set_text(text, 0.0)
+    return font.get_width_height()[0] / 64
+
+
+def _text_width(texts, size=10.0, dpi=120) -> float:
+    """Width [in] of the widest of `texts` in the default font at `size` [pt], as drawn at `dpi` (0 for none).
+
+    One point is added for the rounding of the drawn glyphs.
+    """
+    return max(_drawn_width(t, float(size), dpi) for t in texts) / dpi + 1 / 72 if texts else 0.0
+
+
+@functools.lru_cache(maxsize=2)
+def _measuring_renderer(dpi):
+    """An Agg renderer that only measures (kept, so matplotlib's text metrics cache serves every figure)."""
+    from matplotlib.backends.backend_agg import RendererAgg
+
+    return RendererAgg(1, 1, dpi)
+
+
+def _label_size(axis) -> float:
+    """Font size [pt] of `axis`'s tick labels (as set on its ticks, e.g. by ``set_yticks(..., fontsize=7)``)."""
+    return axis.majorTicks[0].label1.get_fontsize()
+
+
+def _label_room(ax):
+    """Room [in] left of `ax` for its y tick labels and y label; how far its x tick labels reach right of it [fraction of the label's width, width in]."""
+    y = _text_width([t for _, t in _tick_labels(ax.yaxis)], _label_size(ax.yaxis))
+    left = y + _TICK_IN + (_LABEL_IN if ax.get_ylabel() else 0.0)
+    lo, hi = ax.get_xlim()
+    xs = _tick_labels(ax.xaxis)
+    if not xs:
+        return left, 0.0, 0.0
+    scale = ax.xaxis.get_transform()
+    x, t = max(xs, key=lambda e: e[0])
+    a, b, c = scale.transform([lo, hi, x])
+    return left, (b - c) / (b - a), _text_width([t], _label_size(ax.xaxis)) / 2
+
+
+def _title_room(ax) -> float:
+    """Room [in] above `ax` for its title (0 without one): its pad and a line at its font size (10 pt at least)."""
+    if not ax.get_title():
+        return 0.0
+    return 6 / 72 + (_TITLE_IN - 6 / 72) * max(ax.title.get_fontsize(), 10.0) / 10
+
+
+def _legend_reach(ax, renderer):
+    """How far [in] a legend anchored outside `ax` reaches above, below and right of it, as placed now (0 for none)."""
+    legend = ax.get_legend()
+    if legend is None or legend.get_bbox_to_anchor() is ax.bbox:
+        return 0.0, 0.0, 0.0
+    dpi = ax.figure.dpi
+    box = ax.get_position(original=True).transformed(ax.figure.transFigure)
+    drawn = legend.get_window_extent(renderer)
+    return max(0.0, drawn.y1 - box.y1) / dpi, max(0.0, box.y0 - drawn.y0) / dpi, max(0.0, drawn.x1 - box.x1) / dpi
+
+
+def _under_room(ax) -> float:
+    """Room [in] under `ax` for its x tick labels and x label (the tick marks only under a panel above a shared x)."""
+    label = _LABEL_IN if ax.get_xlabel() else 0.0
+    if not ax.xaxis.get_tick_params().get("labelbottom", True):
+        return _TICK_IN / 2 + label
+    return _XTICKS_IN - _LABEL_IN + label
+
+
+def _fixed_layout(fig, axes, nrow=1, ncol=1, suptitle=False):
+    """Place the `nrow` x `ncol` grid of `axes` with margins sized to their labels (no layout pass when drawn).
+
+    The margins hold the tick labels the Axes show at their limits (measured
+    in their fonts), the axis labels, the titles and legends anchored outside
+    the Axes, with the tight layout's pad around them; the figure then draws
+    in one pass. An Axes of fixed aspect (``adjustable="datalim"``) gets its
+    limits for the final box here, and its labels are measured at those.
+    """
+    w, h = fig.get_size_inches()
+    fixed = [ax for ax in axes if ax.get_aspect() != "auto"]
+    outside = [ax for ax in axes if ax.get_legend() is not None and ax.get_legend().get_bbox_to_anchor() is not ax.bbox]
+    renderer = _measuring_renderer(fig.dpi) if outside else None
+    rows = [ax.get_subplotspec().rowspan for ax in axes]
+    first = [r.start == 0 for r in rows]
+    last = [r.stop == nrow for r in rows]
+    title = any(ax.get_title() for ax in axes)
+    above = below = beyond = 0.0
+    for _ in range(3 if fixed or outside else 1):
+        # a fixed aspect sets the limits (hence the labels) from the box, and a legend anchored at a fraction of
+        # the Axes' height moves with it: a few rounds settle both
+        rooms = [_label_room(ax) for ax in axes]
+        left = max(r[0] for r in rooms)
+        gap = _PAD_IN + left
+        right = _PAD_IN + beyond
+        for _ in range(2):              # the x labels' overhang depends on the Axes width, which depends on it
+            width = (w - _PAD_IN - left - right - (ncol - 1) * gap) / ncol
+            over = max(max(0.0, half - frac * width) for _, frac, half in rooms)
+            right, gap = _PAD_IN + max(over, beyond), _PAD_IN + left + over
+        if ncol == 1 and title:
+            # a title wider than the Axes overhangs both sides equally: keep it on the canvas
+            widest = max(_text_width([ax.get_title()], ax.title.get_fontsize()) for ax in axes)
+            right = max(right, left + widest + 2 * _PAD_IN - w)
+            width = w - _PAD_IN - left - right
+        # over an Axes: its title and, under it, a y offset text (e.g. "1e6"); under it: its x tick labels and label
+        overs = [max(_title_room(ax), above) + (_TITLE_IN if ax.yaxis.get_major_formatter().get_offset() else 0.0)
+                 for ax in axes]
+        unders = [max(_under_room(ax), below) for ax in axes]
+        # a suptitle hangs from 0.98 of the height: its 10 pt line and a gap above the Axes titles
+        top = (0.02 * h + 0.25 if suptitle else _PAD_IN) + max(o for o, f in zip(overs, first) if f)
+        bottom = _PAD_IN + max(u for u, b in zip(unders, last) if b)
+        vgap = (_PAD_IN + max((u for u, b in zip(unders, last) if not b), default=0.0)
+                + max((o for o, f in zip(overs, first) if not f), default=0.0))
+        height = (h - top - bottom - (nrow - 1) * vgap) / nrow
+        fig.set_layout_engine("none")
+        fig.subplots_adjust(left=(_PAD_IN + left) / w, right=1 - right / w, bottom=bottom / h,
+                            top=1 - top / h, wspace=gap / width, hspace=vgap / height)
+        for ax in fixed:
+            ax.apply_aspect()
+        if outside:
+            reach = [_legend_reach(ax, renderer) for ax in outside]
+            above, below, beyond = (max(r[i] for r in reach) for i in range(3))
+    for ax in axes:
+        # an Axes title goes to the top of the Axes unless top tick labels or a y offset text are in its way, which
+        # every draw would measure the whole y axis to find out: with neither, the title is placed there now
+        if (ax.get_title() and not ax.yaxis.get_major_formatter().get_offset()
+                and ax.xaxis.get_ticks_position() == "bottom" and ax.xaxis.get_label_position() == "bottom"):
+            ax.set_title(ax.get_title(), fontsize=ax.title.get_fontsize(), y=1.0)
+
+
 # ============================================================================ tables (field pipeline)
 # Figures of reports/tables/: recordings, INS trajectories, MoRPI paths.
 
@@ -159,6 +344,7 @@ def plot_recording(time, f, omega, *, title="", rest=None, motion=None, peaks=No
     axes[1].legend(loc="upper right", fontsize=7, ncol=4)
     axes[1].set_xlabel("time from first sample [s]")
     axes[0].set_title(title)
+    _fixed_layout(fig, list(axes), 2, 1)
     return fig
 
 
@@ -194,7 +380,7 @@ def plot_tracks(tracks, truth, *, title="", equal=True, ax=None):
     """
     import numpy as np
 
-    ax, _ = new_axes(ax, (7, 5))
+    ax, new = new_axes(ax, (7, 5))
     ax.plot(truth[:, 0], truth[:, 1], "k-", lw=2.5, alpha=0.4, label="true route")
     ax.plot(*truth[-1], "k*", ms=12)
     for label, p in tracks.items():
@@ -208,6 +394,8 @@ def plot_tracks(tracks, truth, *, title="", equal=True, ax=None):
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
     ax.set_title(title)
+    if new:
+        _fixed_layout(ax.figure, [ax])
     return ax
 
 
@@ -260,6 +448,7 @@ def plot_path_sets(panels, *, ncols=3):
         ax.legend(fontsize=7)
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
+    _fixed_layout(fig, list(axes.ravel()[:n]), nrows, ncols)
     return fig
 
 
@@ -402,7 +591,7 @@ def plot_aided_cells(cells, *, ax=None):
     import numpy as np
 
     n = len(cells)
-    ax, _ = new_axes(ax, (8, 0.32 * n + 1.5))
+    ax, new = new_axes(ax, (8, 0.32 * n + 1.5))
     y = np.arange(n)
     h = 0.27
     ax.barh(y - h, [c.ins_percent for c in cells], h, color="0.7", label="INS-3D alone")
@@ -412,9 +601,12 @@ def plot_aided_cells(cells, *, ax=None):
     ax.set_yticks(y, [c.label for c in cells], fontsize=7)
     ax.invert_yaxis()
     ax.set_xscale("log")
+    _plain_log_labels(ax.xaxis)
     ax.set_xlabel("mean end-point error [% of travelled distance]")
     ax.grid(True, axis="x", alpha=0.3)
     ax.legend(fontsize=8, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=4, frameon=False)
+    if new:
+        _fixed_layout(ax.figure, [ax])
     return ax
 
 
@@ -446,7 +638,7 @@ def plot_aided_paths(cell, truth_xy, *, ax=None):
     >>> len(ax.get_lines()), ax.get_title()
     (7, 's8 short')
     """
-    ax, _ = new_axes(ax, (8, 4))
+    ax, new = new_axes(ax, (8, 4))
     ax.plot(truth_xy[:, 0], truth_xy[:, 1], "k-", lw=2, label="true route")
     for j, (_, fwd, sm, morpi, _) in enumerate(cell.paths):
         first = j == 0
@@ -459,6 +651,8 @@ def plot_aided_paths(cell, truth_xy, *, ax=None):
     ax.set_title(cell.label, fontsize=9)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=7, ncol=4, loc="upper center", bbox_to_anchor=(0.5, -0.15), frameon=False)
+    if new:
+        _fixed_layout(ax.figure, [ax])
     return ax
 
 
@@ -498,7 +692,7 @@ def plot_aided_ellipses(cell, *, run: int = 0, every_s: float = 2.0, ax=None):
     """
     import numpy as np
 
-    ax, _ = new_axes(ax, (8, 4))
+    ax, new = new_axes(ax, (8, 4))
     t, fwd, _, _, P = cell.paths[run]
     ax.plot(fwd[:, 0], fwd[:, 1], "-", color="C0", lw=1, label="forward filter")
     ang = np.linspace(0, 2 * np.pi, 60)
@@ -516,128 +710,13 @@ def plot_aided_ellipses(cell, *, run: int = 0, every_s: float = 2.0, ax=None):
     ax.set_ylabel("y [m]")
     ax.set_title(f"{cell.label}: 2-sigma ellipses every {every_s:g} s ({cell.runs[run]['file']})", fontsize=8)
     ax.grid(True, alpha=0.3)
+    if new:
+        _fixed_layout(ax.figure, [ax])
     return ax
 
 
 # ============================================================================ montecarlo and drift
 # Gain-error distributions and the closed-form vs strapdown drift map.
-
-_PAD_IN = 1.08 * 10 / 72      # the margin around everything drawn [in] (tight layout's pad at 10 pt)
-_TICK_IN = 7 / 72             # tick length + tick-label pad [in] (matplotlib's defaults, 3.5 + 3.5 pt)
-_LABEL_IN = 16 / 72           # an axis label at 10 pt and its pad [in]
-_TITLE_IN = 0.343 - _PAD_IN   # a 10 pt Axes title and its pad [in]
-_XTICKS_IN = 0.585 - _PAD_IN  # the x tick labels and x label under an Axes [in]
-_SUPERSCRIPT = str.maketrans("-0123456789", "\u207b\u2070\u00b9\u00b2\u00b3\u2074\u2075\u2076\u2077\u2078\u2079")
-
-
-def _plain_log_labels(*axes):
-    """Label log axes with plain text (``10⁻⁷``, ``2×10⁻¹``) instead of mathtext.
-
-    The labels are those of matplotlib's :class:`~matplotlib.ticker.LogFormatterSciNotation`
-    (the same ticks labelled), written with Unicode superscripts, so drawing
-    them needs no mathtext parser (a tenth of a second for a page's first log
-    axis); a label this cannot write stays mathtext.
-    """
-    import re
-
-    from matplotlib.ticker import LogFormatterSciNotation
-
-    class PlainLogFormatter(LogFormatterSciNotation):
-        def __call__(self, x, pos=None):
-            s = super().__call__(x, pos)
-            m = re.fullmatch(r"\$\\mathdefault\{(.*)\}\$", s)
-            if m is None:
-                return s
-            body = re.sub(r"\^\{(-?\d+)\}", lambda e: e.group(1).translate(_SUPERSCRIPT),
-                          m.group(1).replace(r"\times", "\u00d7"))
-            return s if any(c in body for c in "\\{}^$") else body.replace("-", "\u2212")
-
-    for axis in axes:
-        axis.set_major_formatter(PlainLogFormatter())
-        axis.set_minor_formatter(PlainLogFormatter(labelOnlyBase=False))
-
-
-def _tick_labels(axis):
-    """(position, text) of the tick labels `axis` shows at its current limits, major and minor."""
-    lo, hi = sorted(axis.get_view_interval())
-    tol = 1e-9 * (hi - lo)
-    out = []
-    for locator, formatter in ((axis.get_major_locator(), axis.get_major_formatter()),
-                               (axis.get_minor_locator(), axis.get_minor_formatter())):
-        locs = [x for x in locator() if lo - tol <= x <= hi + tol]
-        out += [(x, t) for x, t in zip(locs, formatter.format_ticks(locs)) if t]
-    return out
-
-
-def _text_width(texts, size=10.0, dpi=120) -> float:
-    """Width [in] of the widest of `texts` in the default font at `size` [pt], as drawn at `dpi` (0 for none).
-
-    One point is added for the rounding of the drawn glyphs.
-    """
-    from matplotlib.font_manager import FontProperties, findfont, get_font
-
-    prop = FontProperties(size=size)
-    font = get_font(findfont(prop))
-    font.set_size(prop.get_size_in_points(), dpi)
-    widest = 0.0
-    for t in texts:
-        font.set_text(t, 0.0)
-        widest = max(widest, font.get_width_height()[0] / 64)
-    return widest / dpi + 1 / 72 if texts else 0.0
-
-
-def _label_room(ax):
-    """Room [in] left of `ax` for its y tick labels and y label; how far its x tick labels reach right of it [fraction of the label's width, width in]."""
-    y = _text_width([t for _, t in _tick_labels(ax.yaxis)])
-    left = y + _TICK_IN + (_LABEL_IN if ax.get_ylabel() else 0.0)
-    lo, hi = ax.get_xlim()
-    xs = _tick_labels(ax.xaxis)
-    if not xs:
-        return left, 0.0, 0.0
-    scale = ax.xaxis.get_transform()
-    x, t = max(xs, key=lambda e: e[0])
-    a, b, c = scale.transform([lo, hi, x])
-    return left, (b - c) / (b - a), _text_width([t]) / 2
-
-
-def _fixed_layout(fig, axes, nrow=1, ncol=1, title=False, suptitle=False):
-    """Place the `nrow` x `ncol` grid of `axes` with margins sized to their labels (no layout pass when drawn).
-
-    The margins hold the tick labels the Axes show at their limits (measured
-    in the default font), the axis labels and the titles, with the tight
-    layout's pad around them; the figure then draws in one pass.
-    """
-    w, h = fig.get_size_inches()
-    rooms = [_label_room(ax) for ax in axes]
-    left = max(r[0] for r in rooms)
-    gap = _PAD_IN + left
-    right = _PAD_IN
-    for _ in range(2):              # the x labels' overhang depends on the Axes width, which depends on it
-        width = (w - _PAD_IN - left - right - (ncol - 1) * gap) / ncol
-        over = max(max(0.0, half - frac * width) for _, frac, half in rooms)
-        right, gap = _PAD_IN + over, _PAD_IN + left + over
-    if ncol == 1 and title:
-        # a title wider than the Axes overhangs both sides equally: keep it on the canvas
-        widest = max(_text_width([ax.get_title()], ax.title.get_fontsize()) for ax in axes)
-        right = max(right, left + widest + 2 * _PAD_IN - w)
-        width = w - _PAD_IN - left - right
-    # a y offset text (e.g. "1e6") sits above the Axes, and the title above it
-    offset = _TITLE_IN if any(ax.yaxis.get_major_formatter().get_offset() for ax in axes) else 0.0
-    # a suptitle hangs from 0.98 of the height: its 10 pt line and a gap above the Axes titles
-    top = (0.02 * h + 0.25 if suptitle else _PAD_IN) + (_TITLE_IN if title else 0.0) + offset
-    vgap = _PAD_IN + _XTICKS_IN + (_TITLE_IN if title else 0.0) + offset
-    height = (h - top - _PAD_IN - _XTICKS_IN - (nrow - 1) * vgap) / nrow
-    for ax in axes:
-        # an Axes title goes to the top of the Axes unless top tick labels or a y offset text are in its way, which
-        # every draw would measure the whole y axis to find out: with neither, the title is placed there now
-        if (ax.get_title() and not ax.yaxis.get_major_formatter().get_offset()
-                and ax.xaxis.get_ticks_position() == "bottom" and ax.xaxis.get_label_position() == "bottom"):
-            ax.set_title(ax.get_title(), fontsize=ax.title.get_fontsize(), y=1.0)
-    fig.set_layout_engine("none")
-    fig.subplots_adjust(left=(_PAD_IN + left) / w, right=1 - right / w, bottom=(_PAD_IN + _XTICKS_IN) / h,
-                        top=1 - top / h, wspace=gap / width, hspace=vgap / height)
-
-
 
 def montecarlo_final_errors(columns, final, *, title=""):
     """Histograms of final horizontal errors, one panel per column.
@@ -688,8 +767,7 @@ def montecarlo_final_errors(columns, final, *, title=""):
         axes[j // ncol][j % ncol].set_visible(False)
     if title:
         fig.suptitle(title, fontsize=10)
-    _fixed_layout(fig, [ax for row in axes for ax in row if ax.get_visible()], nrow, ncol, title=True,
-                  suptitle=bool(title))
+    _fixed_layout(fig, [ax for row in axes for ax in row if ax.get_visible()], nrow, ncol, suptitle=bool(title))
     return fig
 
 
@@ -747,7 +825,7 @@ def montecarlo_error_curves(time, bands, labels, *, analytic=None, title="", ax=
     ax.set_ylabel("horizontal position error [m]")
     _finish(ax, title, which="both")
     if new:
-        _fixed_layout(ax.figure, [ax], title=bool(title))
+        _fixed_layout(ax.figure, [ax])
     return ax
 
 
@@ -795,7 +873,7 @@ def montecarlo_gain_vs_error(dG, err, *, analytic_slope=None, label="MoRPI-A", t
     ax.set_ylabel("distance error [m]")
     _finish(ax, title)
     if new:
-        _fixed_layout(ax.figure, [ax], title=bool(title))
+        _fixed_layout(ax.figure, [ax])
     return ax
 
 
@@ -846,7 +924,7 @@ def montecarlo_training_runs(k, rms_mc, rms_expected, labels, *, title="", ax=No
     ax.set_ylabel("RMS distance error [m]")
     _finish(ax, title, which="both")
     if new:
-        _fixed_layout(ax.figure, [ax], title=bool(title))
+        _fixed_layout(ax.figure, [ax])
     return ax
 
 

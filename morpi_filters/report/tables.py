@@ -11,7 +11,7 @@ from ..evaluate import (
 from ..field import _MORPI_METHODS, SHORT_SETS
 from ..reporting import SectionSummary, write_json, write_text
 from . import plots
-from .common import banner, fmt, md_table, save_figure
+from .common import _collector_paused, banner, fmt, md_table, save_figure
 
 __all__ = ["report_tables", "result_json", "TRAIN_SE_BAND"]
 
@@ -61,16 +61,18 @@ def report_tables(out, study: TablesStudy, source) -> SectionSummary:
 def _figures(study: TablesStudy, out: Path) -> list[str]:
     """Draw the page's figures from the study and save them in `out`; their file names."""
     figs = []
-    for v in study.recordings:
-        save_figure(plots.plot_recording(v.time, v.f, v.omega, title=v.title, rest=v.rest, motion=v.motion,
-                                         peaks=v.peaks), out / v.name)
-        figs.append(v.name)
-    for v in study.tracks:
-        save_figure(plots.plot_tracks(v.tracks, v.truth, title=v.title, equal=False), out / v.name)
-        figs.append(v.name)
-    if study.path_panels:
-        save_figure(plots.plot_path_sets(list(study.path_panels)), out / "morpi_paths.png")
-        figs.append("morpi_paths.png")
+    # the figures come with their margins fitted to their labels (no layout pass): each is saved in one draw
+    with _collector_paused():
+        for v in study.recordings:
+            save_figure(plots.plot_recording(v.time, v.f, v.omega, title=v.title, rest=v.rest, motion=v.motion,
+                                             peaks=v.peaks), out / v.name)
+            figs.append(v.name)
+        for v in study.tracks:
+            save_figure(plots.plot_tracks(v.tracks, v.truth, title=v.title, equal=False), out / v.name)
+            figs.append(v.name)
+        if study.path_panels:
+            save_figure(plots.plot_path_sets(list(study.path_panels)), out / "morpi_paths.png")
+            figs.append("morpi_paths.png")
     return figs
 
 
