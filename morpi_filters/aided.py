@@ -884,9 +884,10 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
     h_start = np.r_[0, np.cumsum(np.where(keep_hist, n_ep, 0))]
     h_fill = h_start[:-1].copy()
     rows_h = int(h_start[-1])
-    hist = dict(x=np.zeros((rows_h, N_AIDED)), P=np.zeros((rows_h, N_AIDED, N_AIDED)), fed=np.zeros((rows_h, N_AIDED)),
-                d=np.zeros(rows_h), fn=np.zeros((rows_h, 3)), Cm=np.zeros((rows_h, 3, 3)), jq=np.zeros(rows_h),
-                qa=np.zeros(rows_h), qg=np.zeros(rows_h), tq=np.zeros(rows_h), P0_prior=np.zeros((B, N_AIDED, N_AIDED)))
+    # per row: the covariance, and the other terms side by side (:data:`_HIST`)
+    hist_P = np.zeros((rows_h, N_AIDED, N_AIDED))
+    hist_rec = np.zeros((rows_h, _HIST_WIDTH))
+    P0_prior = np.zeros((B, N_AIDED, N_AIDED))
     nis_sum, nis_cnt, nis_dof = {}, {}, {}
     f_prev = F_b[:, 0] - ba_hat
     w_prev = W_b[:, 0] - bg_hat
@@ -1073,10 +1074,10 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
             at = h_fill[hb]
             h_fill[hb] += 1
             if P_first is not None:
-                hist["P0_prior"][hb] = P_first[hj]
-            for key, val in (("x", x[hb]), ("P", P[hb]), ("fed", fed[hj]), ("d", acc_dt[hb]), ("fn", acc_fn[hb]),
-                             ("Cm", acc_C[hb]), ("jq", jq[hj]), ("qa", qa_k[hj]), ("qg", qg_k[hj]), ("tq", tq[hj])):
-                hist[key][at] = val
+                P0_prior[hb] = P_first[hj]
+            hist_P[at] = P[hb]
+            hist_rec[at] = np.concatenate([x[hb], fed[hj], acc_dt[hb, None], acc_fn[hb], acc_C[hb].reshape(-1, 9),
+                                           np.stack([jq, qa_k, qg_k, tq], axis=1)[hj]], axis=1)
         acc_dt[sel] = 0.0
         acc_fn[sel] = 0.0
         acc_C[sel] = 0.0
@@ -1095,8 +1096,10 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
         sm = Psm = None
         if keep_hist[b]:
             part = slice(h_start[b], h_start[b + 1])
-            sm, Psm = _smooth_member({key: val[part] for key, val in hist.items() if key != "P0_prior"},
-                                     hist["P0_prior"][b], pos, (q_ba[b], q_bg[b]), frozen[b], smoothed_covariance)
+            rec = hist_rec[part]
+            sm, Psm = _smooth_member({key: rec[:, cols].reshape((-1,) + shape) for key, (cols, shape) in _HIST.items()}
+                                     | {"P": hist_P[part]}, P0_prior[b], pos, (q_ba[b], q_bg[b]), frozen[b],
+                                     smoothed_covariance)
         nis = {name: (float(nis_sum[name][b]), int(nis_cnt[name][b]), nis_dof[name])
                for name in nis_sum if nis_cnt[name][b] > 0}
         out.append(AidedResult(
@@ -1106,6 +1109,14 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
             bias_a_sigma=np.sqrt(np.maximum(np.diag(P[b][BA, BA]), 0.0)),
             bias_g_sigma=np.sqrt(np.maximum(np.diag(P[b][BG, BG]), 0.0))))
     return out
+
+
+#: Columns of the smoother's epoch record besides the covariance: name -> (columns, shape of one row).
+_HIST = {"x": (slice(0, N_AIDED), (N_AIDED,)), "fed": (slice(N_AIDED, 2 * N_AIDED), (N_AIDED,)),
+         "d": (2 * N_AIDED, ()), "fn": (slice(2 * N_AIDED + 1, 2 * N_AIDED + 4), (3,)),
+         "Cm": (slice(2 * N_AIDED + 4, 2 * N_AIDED + 13), (3, 3)), "jq": (2 * N_AIDED + 13, ()),
+         "qa": (2 * N_AIDED + 14, ()), "qg": (2 * N_AIDED + 15, ()), "tq": (2 * N_AIDED + 16, ())}
+_HIST_WIDTH = 2 * N_AIDED + 17
 
 
 def _transition_blocks(d, fn, Cm):
