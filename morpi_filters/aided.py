@@ -753,7 +753,8 @@ def _epochs(inp: AidedInput, tun: AidTuning, epoch_s: float):
     return np.unique(np.concatenate(grid).astype(int)), ends, starts, rest, standing & ~rest
 
 
-def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_covariance: bool = True):
+def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_covariance: bool = True,
+              nis: bool = True):
     """Run the aided filter on many members in one pass.
 
     Parameters
@@ -770,6 +771,9 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
     smoothed_covariance : bool
         Also compute the smoothed covariances (``AidedResult.P_xy_smoothed``;
         None without); the smoothed positions do not need them.
+    nis : bool
+        Also sum the normalized innovations squared (``AidedResult.nis``; empty
+        without).
 
     Returns
     -------
@@ -811,7 +815,7 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
     if np.any(longest != np.arange(B)):
         # the members longest first, so that those still running at a sample are the first ones
         res = run_batch([inputs[i] for i in longest], [tunings[i] for i in longest], epoch_s=epoch_s,
-                        smooth=keep_hist[longest], smoothed_covariance=smoothed_covariance)
+                        smooth=keep_hist[longest], smoothed_covariance=smoothed_covariance, nis=nis)
         out = [None] * B
         for j, i in enumerate(longest):
             out[i] = res[j]
@@ -939,6 +943,8 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
         x[ix] = xn
         if not isinstance(ix, slice):
             P[ix] = Pv
+        if not nis:
+            return
         val = np.einsum("bi,bi->b", y, np.einsum("bij,bj->bi", np.linalg.inv(S), y))
         if name not in nis_sum:
             nis_sum[name], nis_cnt[name], nis_dof[name] = np.zeros(B), np.zeros(B, int), y.shape[1]

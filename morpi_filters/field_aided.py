@@ -555,7 +555,7 @@ def choose_tunables_many(data, requests) -> list:
         plans.append((len(inputs), runs, ds.route(train[1]), noise, rel))
         inputs += [r.input_for(c, forward_only=True) for c in cands for r in runs]
         tunings += [_tuning(noise, c, rel) for c in cands for _ in runs]
-    res = aided.run_batch(inputs, tunings)
+    res = aided.run_batch(inputs, tunings, nis=False)
 
     def score(mine, runs, truth):
         ends = [runs[i % len(runs)].end(r) for i, r in enumerate(mine)]
@@ -582,7 +582,7 @@ def choose_tunables_many(data, requests) -> list:
         more = [dict(cands[w], **v) for w in wins for v in variants]
         inputs += [r.input_for(c, forward_only=True) for c in more for r in runs]
         tunings += [_tuning(noise, c, rel) for c in more for _ in runs]
-    res2 = aided.run_batch(inputs, tunings)
+    res2 = aided.run_batch(inputs, tunings, nis=False)
     out = []
     for plan, first in zip(plans, firsts):
         if isinstance(plan, MorpiError):
