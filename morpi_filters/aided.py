@@ -1199,24 +1199,14 @@ def _predict(x, P, A, q, inplace=False):
 
 
 def _noise_diagonal(d, q_a, q_g, q_ba, q_bg):
-    """Diagonal of :func:`_process_noise`, shape (b, n)."""
+    """Discrete process noise of epoch intervals (white noise and bias walks times the duration): the
+    diagonal of ``Q``, shape (b, n), batched."""
     q = np.zeros((d.shape[0], N_AIDED))
     q[:, DV] = (q_a * d)[:, None]
     q[:, EPS] = (q_g * d)[:, None]
     q[:, BA] = (q_ba * d)[:, None]
     q[:, BG] = (q_bg * d)[:, None]
     return q
-
-
-def _process_noise(d, q_a, q_g, q_ba, q_bg):
-    """Discrete process noise of epoch intervals (white noise and bias walks times the duration), batched."""
-    Q = np.zeros((d.shape[0], N_AIDED, N_AIDED))
-    I3 = np.eye(3)
-    Q[:, DV, DV] = I3 * (q_a * d)[:, None, None]
-    Q[:, EPS, EPS] = I3 * (q_g * d)[:, None, None]
-    Q[:, BA, BA] = I3 * (q_ba * d)[:, None, None]
-    Q[:, BG, BG] = I3 * (q_bg * d)[:, None, None]
-    return Q
 
 
 def _smooth_member(hist, P0_prior, pos, q, frozen=None, covariance=True):
