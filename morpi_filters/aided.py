@@ -876,10 +876,9 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
     P[:, GAIN, GAIN] = np.array([t.gain_sigma ** 2 if t.steps else 0.0 for t in tn])
 
     # interval accumulators since the last epoch
-    acc_dt = np.zeros(B)
-    acc_fn = np.zeros((B, 3))
-    acc_C = np.zeros((B, 3, 3))
-    acc_w = np.zeros((B, 3))
+    # (views of one array, reset and read together at an epoch: duration, force, attitude, rate)
+    acc = np.zeros((B, 16))
+    acc_dt, acc_fn, acc_C, acc_w = acc[:, 0], acc[:, 1:4], acc[:, 4:13].reshape(B, 3, 3), acc[:, 13:16]
     head = np.zeros((B, 2))                       # running sum of the x axis's horizontal direction
     head_at = [dict() for _ in range(B)]          # epoch sample -> running sum (step starts)
     keep = []                                     # per epoch: (k, members, p, P_xy)
@@ -920,6 +919,8 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
             for k_end, lst in ends[b].items():
                 turn_q[b, k_end] = sum((tn[b].turn_sigma * turn[j]) ** 2 for _, j in lst)
     jump2 = arr("accel_jump") ** 2
+    # the per-member noise terms an epoch reads, side by side
+    noise_terms = np.stack([q_a, q_a_rest, q_g, q_g_rest, q_ba, q_bg, jump2], axis=1)
     was_rest = still_flags[:, 0].copy()
     T_clone = np.eye(N_AIDED)
     T_clone[CLONE, :] = 0.0
@@ -994,14 +995,16 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
             continue
         # ---- predict the covariance over the interval
         if k > 0:
-            A = _transition_blocks(acc_dt[sel], acc_fn[sel], acc_C[sel])
+            a_sel = acc[sel]
+            A = _transition_blocks(a_sel[:, 0], a_sel[:, 1:4], a_sel[:, 4:13].reshape(-1, 3, 3))
             # an interval that ends where the robot stands: the still phone's own noise, not the vibration
             # of the moving robot (its integral would leave the standing robot's position uncertain)
             quiet = still_flags[sel, k]
-            qa_k = np.where(quiet, q_a_rest[sel], q_a[sel])
-            qg_k = np.where(quiet, q_g_rest[sel], q_g[sel])
-            q = _noise_diagonal(acc_dt[sel], qa_k, qg_k, q_ba[sel], q_bg[sel])
-            jq = np.where(still_flags[sel, k] != was_rest[sel], jump2[sel], 0.0)
+            nt = noise_terms[sel]
+            qa_k = np.where(quiet, nt[:, 1], nt[:, 0])
+            qg_k = np.where(quiet, nt[:, 3], nt[:, 2])
+            q = _noise_diagonal(a_sel[:, 0], qa_k, qg_k, nt[:, 4], nt[:, 5])
+            jq = np.where(quiet != was_rest[sel], nt[:, 6], 0.0)
             q[:, BA] += jq[:, None]
             tq = turn_q[sel, k] if turn_q is not None else np.zeros(sel.size)
             q[:, TURN] += tq
@@ -1082,12 +1085,9 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
             if P_first is not None:
                 P0_prior[hb] = P_first[hj]
             hist_P[at] = P[hb]
-            hist_rec[at] = np.concatenate([x[hb], fed[hj], acc_dt[hb, None], acc_fn[hb], acc_C[hb].reshape(-1, 9),
+            hist_rec[at] = np.concatenate([x[hb], fed[hj], acc[hb, :13],
                                            np.stack([jq, qa_k, qg_k, tq], axis=1)[hj]], axis=1)
-        acc_dt[sel] = 0.0
-        acc_fn[sel] = 0.0
-        acc_C[sel] = 0.0
-        acc_w[sel] = 0.0
+        acc[sel] = 0.0
 
     kk = np.concatenate([np.full(e[1].size, e[0]) for e in keep])
     kb = np.concatenate([e[1] for e in keep])
