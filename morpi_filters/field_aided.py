@@ -744,7 +744,8 @@ class AidedCell:
     nis : dict
         Measurement name -> (mean NIS per update, dof).
     paths : tuple
-        Per run: (epoch time, forward xy, smoothed xy, MoRPI xy, forward P_xy) for figures.
+        Per run, up to the epoch where the end point is read (``Prepared.stop_s``): (epoch time,
+        forward xy, smoothed xy, MoRPI xy, forward P_xy) for figures.
     failed : tuple of str
         Runs of the tables' cell the filter could not run, one line each.
     steps_percent : float
@@ -922,7 +923,9 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
                          "steps_m": (float("nan") if info["step_heading"] == "attitude" else
                                      float(np.linalg.norm(p.input_for(info).step_vector.sum(axis=0)
                                                           - truth.end_point_m)))})
-            paths.append((r.time, r.position[:, :2], r.smoothed[:, :2], p.morpi_xy, r.P_xy))
+            # up to the read-out, where the end point is taken (after it the phone may be handled)
+            cut = r.index_at(p.stop_s) + 1
+            paths.append((r.time[:cut], r.position[:cut, :2], r.smoothed[:cut, :2], p.morpi_xy, r.P_xy[:cut]))
         mean = lambda k: float(np.nanmean([q[k] for q in rows]) / d)  # noqa: E731
         cells.append(AidedCell(
             spec=sp, forward_percent=mean("forward_m"), smoothed_percent=mean("smoothed_m"),

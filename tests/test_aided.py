@@ -283,6 +283,14 @@ def test_field_cell_json_contract_and_consistency(field_root):
                                                           "gain state", "smoothing"}
     assert all(set(a) == {"cell", "removed", "smoothed_percent"} for a in payload["ablation"])
     assert 0.0 <= payload["coverage_95"] <= 1.0
+    # the figures' paths end where the end points are read: their last points are the rows' end points
+    from morpi_filters.dataset import route
+
+    end = route(c.spec.route).end_point_m
+    for (_, fwd, sm, _, P), row in zip(c.paths, c.runs):
+        assert np.linalg.norm(fwd[-1] - end) == pytest.approx(row["forward_m"], abs=1e-9)
+        assert np.linalg.norm(sm[-1] - end) == pytest.approx(row["smoothed_m"], abs=1e-9)
+        assert len(P) == len(fwd)
 
 
 @pytest.mark.field
