@@ -425,7 +425,7 @@ def _morpi_cell(data: FieldData, spec: CellSpec, config, gain: Gain | None) -> C
 
 def evaluate_tables(root, *, include_test: bool = True, configs: dict | None = None,
                     data: FieldData | None = None, ins_span: str = "motion", rule: str = "per_method",
-                    alternatives: bool = True) -> TablesResult:
+                    alternatives: bool = True, ins: bool = True) -> TablesResult:
     """Compute every table cell of the paper on a dataset root.
 
     Parameters
@@ -447,6 +447,8 @@ def evaluate_tables(root, *, include_test: bool = True, configs: dict | None = N
         for both methods.
     alternatives : bool
         Also compute the short-route cells under every reading.
+    ins : bool
+        Also compute the INS cells (without: the MoRPI cells only).
 
     Returns
     -------
@@ -478,7 +480,8 @@ def evaluate_tables(root, *, include_test: bool = True, configs: dict | None = N
     cells = []
     for spec in cell_specs():
         if spec.method in _INS_METHODS:
-            cells.append(_ins_cell(data, spec))
+            if ins:
+                cells.append(_ins_cell(data, spec))
         else:
             g = gmap.get((spec.train[0], spec.train[1], spec.method, spec.calibration))
             cells.append(_morpi_cell(data, spec, selections[spec.method].config, g))

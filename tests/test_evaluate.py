@@ -149,6 +149,16 @@ def test_gains_and_step_rule_do_not_see_the_test_folders(field_root, tmp_path):
             assert c.runs
 
 
+def test_the_morpi_cells_alone_equal_those_of_the_whole_evaluation(field_root):
+    full = ev.evaluate_tables(field_root, alternatives=False)
+    lean = ev.evaluate_tables(field_root, alternatives=False, ins=False)
+    assert not any(c.spec.method.startswith("INS") for c in lean.cells)
+    morpi = [c for c in full.cells if not c.spec.method.startswith("INS")]
+    assert any(c.spec.method.startswith("INS") for c in full.cells) and len(morpi) == len(lean.cells)
+    for a, b in zip(morpi, lean.cells):
+        assert a.spec == b.spec and a.runs == b.runs
+
+
 def _loo_by_tracking(data, method, config, sets=fd.SHORT_SETS, drop=()):
     """Leave-one-out end-point errors [%] the long way: train_gain on the others, morpi_track on the run."""
     from morpi_filters import steps as st
