@@ -659,6 +659,71 @@ class AidedInput:
 
 
 @dataclass(frozen=True)
+class Innovations:
+    """The updates of one kind of measurement over one recording, in time order.
+
+    Attributes
+    ----------
+    time : ndarray, shape (u,)
+        Update times (their epochs' samples) [s].
+    z : ndarray, shape (u, m)
+        The measurements (for the step: the measured displacement [m]).
+    y : ndarray, shape (u, m)
+        The innovations ``z - h(x)``: measured minus predicted.
+    S : ndarray, shape (u, m, m)
+        Their covariances ``H P H^T + R`` (the normalized innovation squared
+        is ``y^T S^-1 y``).
+    """
+
+    time: np.ndarray
+    z: np.ndarray
+    y: np.ndarray
+    S: np.ndarray
+
+
+def step_innovation_components(inn: Innovations):
+    """The step innovations along and across the measured step, and the filter's sigma along it.
+
+    With ``u`` the measured step's direction, the along-track part ``y . u``
+    is the measured step length minus the predicted one (``1 + k`` times the
+    INS's displacement since the last boundary; positive: the INS fell
+    short), the cross-track part
+    ``u x y`` (positive: the measured step lies to the left of the INS's),
+    and ``sqrt(u^T S u)`` the spread the filter expected along the step.
+
+    Parameters
+    ----------
+    inn : Innovations
+        The ``"step"`` innovations of a result (2-D measurements).
+
+    Returns
+    -------
+    along, cross, sigma_along : ndarray, shape (u,)
+        [m]; zero-length steps give NaN.
+
+    Examples
+    --------
+    A step of 0.5 m along x that the INS ran 0.2 m too far and 0.1 m to its right:
+
+    >>> inn = Innovations(time=np.array([1.0]), z=np.array([[0.5, 0.0]]), y=np.array([[-0.2, 0.1]]),
+    ...                   S=np.array([np.diag([0.09, 0.01])]))
+    >>> [v.round(6).tolist() for v in step_innovation_components(inn)]
+    [[-0.2], [0.1], [0.3]]
+    """
+    z, y, S = np.asarray(inn.z, float), np.asarray(inn.y, float), np.asarray(inn.S, float)
+    if z.ndim != 2 or z.shape[1] != 2 or y.shape != z.shape or S.shape != z.shape + (2,):
+        raise ParameterError(f"step_innovation_components: expected 2-D step innovations; got z {z.shape}, "
+                             f"y {y.shape}, S {S.shape}")
+    norm = np.linalg.norm(z, axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u = z / norm[:, None]
+    along = np.einsum("bi,bi->b", y, u)
+    cross = u[:, 0] * y[:, 1] - u[:, 1] * y[:, 0]
+    sigma = np.sqrt(np.einsum("bi,bij,bj->b", u, S, u))
+    return along, cross, sigma
+
+
+@dataclass(frozen=True)
 class AidedResult:
     """The aided filter over one recording.
 
@@ -682,6 +747,9 @@ class AidedResult:
     bias_a, bias_g : ndarray, shape (3,)
         Final bias estimates [m/s^2], [rad/s].
     bias_a_sigma, bias_g_sigma : ndarray, shape (3,)
+    innovations : dict
+        Measurement name -> :class:`Innovations` of every update of that kind
+        (when asked: ``run_batch(innovations=True)``; empty without).
     """
 
     time: np.ndarray
@@ -696,6 +764,7 @@ class AidedResult:
     bias_g: np.ndarray
     bias_a_sigma: np.ndarray
     bias_g_sigma: np.ndarray
+    innovations: dict = field(default_factory=dict)
 
     def index_at(self, t: float) -> int:
         """Index of the epoch nearest to time `t` (a step boundary is an epoch: its own sample)."""
@@ -754,7 +823,7 @@ def _epochs(inp: AidedInput, tun: AidTuning, epoch_s: float):
 
 
 def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_covariance: bool = True,
-              nis: bool = True):
+              nis: bool = True, innovations=False):
     """Run the aided filter on many members in one pass.
 
     Parameters
@@ -774,6 +843,10 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
     nis : bool
         Also sum the normalized innovations squared (``AidedResult.nis``; empty
         without).
+    innovations : bool or sequence of bool
+        Also keep every update's measurement, innovation and its covariance,
+        for every member or for those flagged (``AidedResult.innovations``;
+        empty without).
 
     Returns
     -------
@@ -807,6 +880,10 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
     if keep_hist.ndim > 1 or keep_hist.size not in (1, B):
         raise ParameterError(f"run_batch: smooth must be a bool or {B} bools")
     keep_hist = np.broadcast_to(keep_hist.ravel(), (B,)).copy()
+    keep_inn = np.asarray(innovations, bool)
+    if keep_inn.ndim > 1 or keep_inn.size not in (1, B):
+        raise ParameterError(f"run_batch: innovations must be a bool or {B} bools")
+    keep_inn = np.broadcast_to(keep_inn.ravel(), (B,)).copy()
     for b, (t, inp) in enumerate(zip(tunings, inputs)):
         if t.step_heading == "gyro" and t.steps and inp.step_vector is None:
             raise ParameterError(f"member {b}: step_heading='gyro' needs AidedInput.step_vector")
@@ -815,7 +892,8 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
     if np.any(longest != np.arange(B)):
         # the members longest first, so that those still running at a sample are the first ones
         res = run_batch([inputs[i] for i in longest], [tunings[i] for i in longest], epoch_s=epoch_s,
-                        smooth=keep_hist[longest], smoothed_covariance=smoothed_covariance, nis=nis)
+                        smooth=keep_hist[longest], smoothed_covariance=smoothed_covariance, nis=nis,
+                        innovations=keep_inn[longest])
         out = [None] * B
         for j, i in enumerate(longest):
             out[i] = res[j]
@@ -892,6 +970,8 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
     hist_rec = np.zeros((rows_h, _HIST_WIDTH))
     P0_prior = np.zeros((B, N_AIDED, N_AIDED))
     nis_sum, nis_cnt, nis_dof = {}, {}, {}
+    any_inn = bool(keep_inn.any())
+    inn_log = {}                                  # name -> [(sample, members, z, y, S)] in time order
     f_prev = F_b[:, 0] - ba_hat
     w_prev = W_b[:, 0] - bg_hat
     a_prev = np.einsum("bij,bj->bi", C, f_prev) - gvec
@@ -944,6 +1024,10 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
         x[ix] = xn
         if not isinstance(ix, slice):
             P[ix] = Pv
+        if any_inn:
+            mine = keep_inn[sel]
+            if mine.any():
+                inn_log.setdefault(name, []).append((k, sel[mine], meas.z[mine], y[mine], S[mine]))
         if not nis:
             return
         val = np.einsum("bi,bi->b", y, np.einsum("bij,bj->bi", np.linalg.inv(S), y))
@@ -1095,6 +1179,17 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
     kP = np.concatenate([e[3] for e in keep])
     order = np.argsort(kb, kind="stable")       # per member, epochs in time order
     bounds = np.searchsorted(kb[order], np.arange(B + 1))
+    inn_of = [dict() for _ in range(B)]
+    for name, parts in inn_log.items():
+        ik = np.concatenate([np.full(m.size, kk_) for kk_, m, *_ in parts])
+        ib = np.concatenate([m for _, m, *_ in parts])
+        iz, iy, iS = (np.concatenate([q[j] for q in parts]) for j in (2, 3, 4))
+        io = np.argsort(ib, kind="stable")                # per member, in time order
+        ibounds = np.searchsorted(ib[io], np.arange(B + 1))
+        for b in range(B):
+            r_ = io[ibounds[b]:ibounds[b + 1]]
+            if r_.size:
+                inn_of[b][name] = Innovations(time=inputs[b].time[ik[r_]], z=iz[r_], y=iy[r_], S=iS[r_])
     out = []
     for b, inp in enumerate(inputs):
         rows = order[bounds[b]:bounds[b + 1]]
@@ -1113,7 +1208,7 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
             gain_error=float(x[b, GAIN]), gain_sigma=float(np.sqrt(max(P[b, GAIN, GAIN], 0.0))),
             bias_a=ba_hat[b].copy(), bias_g=bg_hat[b].copy(),
             bias_a_sigma=np.sqrt(np.maximum(np.diag(P[b][BA, BA]), 0.0)),
-            bias_g_sigma=np.sqrt(np.maximum(np.diag(P[b][BG, BG]), 0.0))))
+            bias_g_sigma=np.sqrt(np.maximum(np.diag(P[b][BG, BG]), 0.0)), innovations=inn_of[b]))
     return out
 
 

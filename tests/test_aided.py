@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from morpi_filters import aided, simulate, units
+from morpi_filters.errors import ParameterError
 
 
 def _nominal(rng, b=3):
@@ -194,6 +195,46 @@ def test_batched_members_equal_single_runs():
         assert other.time.size == alone.time.size
 
 
+def test_kept_innovations_are_the_updates_the_nis_sums():
+    """Every update's innovation and covariance, kept for the flagged members only.
+
+    Step vectors 10 % long (a gain error the filter takes as exact) make
+    the step innovations non-zero. Their normalized squares, recomputed here
+    with a solve, add up to the filter's own NIS sums; the step updates fall
+    on the step ends and measure the given vectors; keeping them changes no
+    estimate, and a member not flagged keeps none.
+    """
+    from dataclasses import replace
+
+    traj = simulate.sine(4.0, period=1.0, amplitude=0.1, rate_hz=100.0)
+    inp = _exact_input(traj, vectors=True)
+    inp = replace(inp, step_vector=1.1 * inp.step_vector)
+    short = _exact_input(simulate.sine(2.5, period=1.0, amplitude=0.1, rate_hz=100.0), vectors=True)
+    tun = aided.AidTuning(step_sigma=0.02, gain_sigma=0.0, step_heading="gyro")
+    kept, plain = aided.run_batch([short, inp], tun, innovations=[False, True])
+    (alone,) = aided.run_batch([inp], tun)
+    assert kept.innovations == {} and alone.innovations == {}
+    np.testing.assert_array_equal(plain.position, alone.position)
+    assert set(plain.innovations) == set(plain.nis) == {"step", "zero velocity", "zero rate", "non-holonomic"}
+    for name, inn in plain.innovations.items():
+        total, count, dof = plain.nis[name]
+        assert inn.y.shape == inn.z.shape == (count, dof) and inn.S.shape == (count, dof, dof)
+        assert np.all(np.diff(inn.time) >= 0)
+        nis = np.einsum("ui,ui->u", inn.y, np.linalg.solve(inn.S, inn.y[:, :, None])[:, :, 0])
+        assert nis.sum() == pytest.approx(total, rel=1e-9)
+    step = plain.innovations["step"]
+    np.testing.assert_array_equal(step.time, inp.step_end)
+    np.testing.assert_allclose(step.z, inp.step_vector, rtol=0, atol=1e-15)
+    along, cross, sigma = aided.step_innovation_components(step)
+    # the steps measure 10 % more than the robot travels: the noise-free INS falls short of the first by
+    # exactly that (up to its integration error), and of every later one (each update speeds it up)
+    length = np.linalg.norm(step.z, axis=1) / 1.1
+    assert along[0] == pytest.approx(0.1 * length[0], abs=1e-3) and abs(cross[0]) < 1e-3
+    assert np.all(along > 0) and np.all(sigma > 0)
+    with pytest.raises(ParameterError, match="innovations must be"):
+        aided.run_batch([inp], tun, innovations=[True, False])
+
+
 def test_smoothed_members_of_a_batch_equal_single_runs_with_or_without_the_covariance():
     inp = _exact_input(simulate.sine(4.0, period=1.0, amplitude=0.1, rate_hz=100.0))
     short = _exact_input(simulate.sine(2.5, period=1.0, amplitude=0.1, rate_hz=100.0))
@@ -283,6 +324,10 @@ def test_field_cell_json_contract_and_consistency(field_root):
                                                           "gain state", "smoothing"}
     assert all(set(a) == {"cell", "removed", "smoothed_percent"} for a in payload["ablation"])
     assert 0.0 <= payload["coverage_95"] <= 1.0
+    # the step updates' innovations, up to the read-out: at least one step per run, an RMS that bounds the mean
+    inn = payload["cells"][0]["step_innovation"]
+    assert inn["updates"] >= len(c.runs) and inn["predicted_along_sigma_m"] > 0
+    assert inn["along_rms_m"] >= abs(inn["along_mean_m"]) and inn["cross_rms_m"] >= abs(inn["cross_mean_m"])
     # the figures' paths end where the end points are read: their last points are the rows' end points
     from morpi_filters.dataset import route
 
