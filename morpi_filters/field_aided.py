@@ -755,6 +755,14 @@ class AidedCell:
         The filter's own step vectors summed, without the INS (dead reckoning with the chosen step
         direction; NaN when the direction is the filter's attitude) [%]: what the INS adds is the
         difference to the filter.
+    step_innovation : dict
+        The forward filter's step updates over the runs, up to the read-out
+        (:func:`aided.step_innovation_components`): ``updates``, the measured
+        step minus the INS's displacement since the last boundary along the
+        step (``along_mean_m``, ``along_rms_m``; positive: the INS fell
+        short) and across it (``cross_mean_m``, ``cross_rms_m``) [m], and the
+        median spread the filter expected along the step
+        (``predicted_along_sigma_m``) [m]; empty without step updates.
     """
 
     spec: object
@@ -771,6 +779,7 @@ class AidedCell:
     paths: tuple
     failed: tuple = ()
     steps_percent: float = float("nan")
+    step_innovation: dict = field(default_factory=dict)
 
     @property
     def label(self) -> str:
@@ -799,6 +808,21 @@ class AidedStudy:
     coverage_95: float
     nis: dict
     note: str = ""
+
+
+def _innovation_summary(parts) -> dict:
+    """Along- and cross-track step innovations of a cell's runs (:func:`aided.step_innovation_components`)."""
+    if not parts:
+        return {}
+    along, cross, sigma = (np.concatenate([q[j] for q in parts]) for j in range(3))
+    ok = np.isfinite(along)
+    along, cross, sigma = along[ok], cross[ok], sigma[ok]
+    if not along.size:
+        return {}
+    rms = lambda a: float(np.sqrt(np.mean(a * a)))  # noqa: E731
+    return {"updates": int(along.size), "along_mean_m": float(along.mean()), "along_rms_m": rms(along),
+            "cross_mean_m": float(cross.mean()), "cross_rms_m": rms(cross),
+            "predicted_along_sigma_m": float(np.median(sigma))}
 
 
 def _same_estimate(base, changed) -> bool:
@@ -889,7 +913,8 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
         # the ablation reads the forward filter only: cut at the read-out
         out = aided.run_batch([p.input_for(todo[i][3], forward_only=name is not None) for i, p, name, _ in items],
                               [t for *_, t in items],
-                              smooth=[name is None for _, _, name, _ in items], smoothed_covariance=False)
+                              smooth=[name is None for _, _, name, _ in items], smoothed_covariance=False,
+                              innovations=[name is None for _, _, name, _ in items])
         for (i, p, name, _), r in zip(items, out):
             if name is None:
                 results[(i, p.rel)] = r
@@ -901,9 +926,14 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
         sp = cell.spec
         truth = ds.route(sp.route)
         d = truth.distance_m / 100
-        rows, paths, nis = [], [], {}
+        rows, paths, nis, innov = [], [], {}, []
         for p in runs:
             r = results[(i, p.rel)]
+            if "step" in r.innovations:
+                # the step updates up to the read-out (after it the phone may be handled)
+                inn = r.innovations["step"]
+                k = int(np.searchsorted(inn.time, p.stop_s, side="right"))
+                innov.append([c[:k] for c in aided.step_innovation_components(inn)])
             rec = next(x for x in data.recordings(sp.phone, sp.route, sp.split) if data.relpath(x) == p.rel)
             try:
                 ins = np.asarray(data.ins(rec, sp.calibration, "INS-3D").position)[-1, :2]
@@ -937,7 +967,8 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
                     "gain_sigma": g.std / g.mean},
             train_percent=score, train_loo_percent=choice.loo_percent, train_morpi_percent=choice.morpi_percent,
             nis={k: (v[0] / max(v[1], 1), v[2]) for k, v in nis.items()}, paths=tuple(paths), failed=failed,
-            steps_percent=float(np.mean([q["steps_m"] for q in rows]) / d)))
+            steps_percent=float(np.mean([q["steps_m"] for q in rows]) / d),
+            step_innovation=_innovation_summary(innov)))
         if ablation and sp.calibration == "GC":
             for name, change in ABLATIONS.items():
                 if not change:

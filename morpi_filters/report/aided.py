@@ -36,7 +36,7 @@ def study_json(study) -> dict:
         ``calibration``, ``route``, ``label``, ``paper_percent``,
         ``morpi_percent``, ``forward_percent``, ``smoothed_percent``,
         ``ins_percent``, ``steps_percent``, ``train_percent``, ``train_loo_percent``,
-        ``train_morpi_percent``, ``nis``, ``runs``, ``failed``), ``ablation``,
+        ``train_morpi_percent``, ``nis``, ``step_innovation``, ``runs``, ``failed``), ``ablation``,
         ``coverage_95``, ``nis`` (measurement -> ``{mean, dof}``), ``note`` and
         ``tunables`` (``grid``, ``fixed``, ``chosen``).
 
@@ -59,7 +59,7 @@ def study_json(study) -> dict:
                       "ins_percent": c.ins_percent, "steps_percent": c.steps_percent,
                       "train_percent": c.train_percent,
                       "train_loo_percent": c.train_loo_percent, "train_morpi_percent": c.train_morpi_percent,
-                      "nis": _nis(c.nis),
+                      "nis": _nis(c.nis), "step_innovation": dict(c.step_innovation),
                       "runs": list(c.runs), "failed": list(c.failed)})
     return {"cells": cells, "ablation": list(study.ablation), "coverage_95": study.coverage_95,
             "nis": _nis(study.nis), "note": study.note,
@@ -126,6 +126,25 @@ def _page(study, source, figures) -> str:
         d = [a["smoothed_percent"] - base[a["cell"]] for a in study.ablation if a["removed"] == name]
         mean_rows.append([name, len(d), fmt(float(np.mean(d))), fmt(float(np.median(d)))])
     nis_rows = [[k, v[1], fmt(v[0]), fmt(v[0] / v[1])] for k, v in sorted(study.nis.items())]
+    innov = [(c.label, c.step_innovation) for c in cells if c.step_innovation]
+    innov_rows = [[lab, v["updates"], fmt(v["along_mean_m"], 3), fmt(v["along_rms_m"], 3), fmt(v["cross_mean_m"], 3),
+                   fmt(v["cross_rms_m"], 3), fmt(v["predicted_along_sigma_m"], 3)] for lab, v in innov]
+    innov_text = ""
+    if innov:
+        n_all = sum(v["updates"] for _, v in innov)
+        mean_all = sum(v["along_mean_m"] * v["updates"] for _, v in innov) / n_all
+        rms_all = float(np.sqrt(sum(v["along_rms_m"] ** 2 * v["updates"] for _, v in innov) / n_all))
+        innov_text = (
+            "\n\nStep updates of the forward filter (test runs, up to the read-out): the measured step minus the "
+            "INS's displacement since the last step boundary, along the step (positive: the INS fell short) and "
+            "across it (positive: the step lies to the INS's left), and the median spread the filter expected "
+            f"along the step. Over all {n_all} updates the along-track mean is {fmt(mean_all, 3)} m against an RMS "
+            f"of {fmt(rms_all, 3)} m: what the forward paths show between step updates is the INS's scatter "
+            "over one step, which each update pulls back, "
+            + ("not a steady over- or under-run." if abs(mean_all) < 0.2 * rms_all else
+               "with a steady part along the track.")
+            + "\n\n" + md_table(["cell", "updates", "along mean [m]", "along RMS [m]", "cross mean [m]",
+                                  "cross RMS [m]", "expected sigma along [m]"], innov_rows))
     return (
         f"{banner(source)}# The MoRPI-aided inertial filter on the field recordings\n\n"
         "One closed-loop error-state Kalman filter pass per recording (`morpi_filters.aided`): the 3D strapdown "
@@ -189,7 +208,7 @@ def _page(study, source, figures) -> str:
         f"Share of test runs whose true end point lies inside the filter's 95 % horizontal ellipse (chi-square, "
         f"2 dof, {aided.CHI2_95_2DOF:.3f}): **{fmt(study.coverage_95 * 100)} %** (a consistent filter gives 95 %).\n\n"
         "Mean normalized innovation squared per update (a consistent filter gives its degrees of freedom):\n\n"
-        + md_table(["measurement", "dof", "mean NIS", "NIS / dof"], nis_rows) + "\n"
+        + md_table(["measurement", "dof", "mean NIS", "NIS / dof"], nis_rows) + innov_text + "\n"
         + "".join(f"\n![{f}]({f})\n" for f in figures))
 
 
