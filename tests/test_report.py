@@ -111,3 +111,19 @@ def test_report_evaluates_the_field_data_once(tmp_path, monkeypatch):
     assert len(calls) == 1
     assert set(seen) == set(cli.REPORT_SECTIONS)
     assert all(t is seen["tables"] for t in seen.values()) and seen["tables"] is not None
+
+
+def test_aided_page_reads_the_step_innovations_by_their_numbers():
+    from morpi_filters.report.aided import _innovation_sentence
+
+    def cell(n, mean, rms, sigma):
+        return {"updates": n, "along_mean_m": mean, "along_rms_m": rms, "cross_mean_m": 0.0, "cross_rms_m": 0.1,
+                "predicted_along_sigma_m": sigma}
+
+    # two cells pooled: mean (-1 * 100 + 0 * 300) / 400 = -0.25 m, RMS sqrt((1.2^2 * 100 + 0.6^2 * 300) / 400) = 0.794 m
+    text = _innovation_sentence([cell(100, -1.0, 1.2, 0.3), cell(300, 0.0, 0.6, 0.5)])
+    assert "over 400 updates is -0.250 m against an RMS of 0.794 m" in text
+    assert "a steady overrun" in text and "beyond the spread the filter expects (median 0.40 m)" in text
+    text = _innovation_sentence([cell(50, 0.01, 0.3, 0.7)])
+    assert "not a steady over- or under-run" in text and "within the spread" in text
+    assert _innovation_sentence([]) == ""

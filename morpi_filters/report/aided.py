@@ -101,6 +101,21 @@ def _ratio(cells, *, short: bool) -> float:
     return float(np.mean(sel)) if sel else float("nan")
 
 
+def _innovation_sentence(parts) -> str:
+    """What the step innovations of some cells say: a steady part or a scatter, against the spread expected."""
+    if not parts:
+        return ""
+    n = sum(v["updates"] for v in parts)
+    mean = sum(v["along_mean_m"] * v["updates"] for v in parts) / n
+    rms = float(np.sqrt(sum(v["along_rms_m"] ** 2 * v["updates"] for v in parts) / n))
+    sigma = float(np.median([v["predicted_along_sigma_m"] for v in parts]))
+    kind = ("the INS's scatter over one step, which each update pulls back, not a steady over- or under-run"
+            if abs(mean) < 0.2 * rms else
+            f"a steady {'overrun' if mean < 0 else 'shortfall'} of the INS at every step, which each update pulls back")
+    spread = ("within" if rms <= 1.5 * sigma else "beyond") + f" the spread the filter expects (median {fmt(sigma, 2)} m)"
+    return f"the along-track mean over {n} updates is {fmt(mean, 3)} m against an RMS of {fmt(rms, 3)} m: {kind}; {spread}."
+
+
 def _page(study, source, figures) -> str:
     from .. import aided, field_aided
 
@@ -131,18 +146,16 @@ def _page(study, source, figures) -> str:
                    fmt(v["cross_rms_m"], 3), fmt(v["predicted_along_sigma_m"], 3)] for lab, v in innov]
     innov_text = ""
     if innov:
-        n_all = sum(v["updates"] for _, v in innov)
-        mean_all = sum(v["along_mean_m"] * v["updates"] for _, v in innov) / n_all
-        rms_all = float(np.sqrt(sum(v["along_rms_m"] ** 2 * v["updates"] for _, v in innov) / n_all))
+        groups = [(_innovation_sentence([c.step_innovation for c in cells if c.step_innovation
+                                         and (c.spec.table == "short_route") == short]), what)
+                  for short, what in ((True, "On the short routes (the routes the tunables are trained on)"),
+                                      (False, "On the long and L routes"))]
         innov_text = (
             "\n\nStep updates of the forward filter (test runs, up to the read-out): the measured step minus the "
-            "INS's displacement since the last step boundary, along the step (positive: the INS fell short) and "
-            "across it (positive: the step lies to the INS's left), and the median spread the filter expected "
-            f"along the step. Over all {n_all} updates the along-track mean is {fmt(mean_all, 3)} m against an RMS "
-            f"of {fmt(rms_all, 3)} m: what the forward paths show between step updates is the INS's scatter "
-            "over one step, which each update pulls back, "
-            + ("not a steady over- or under-run." if abs(mean_all) < 0.2 * rms_all else
-               "with a steady part along the track.")
+            "predicted one (the INS's displacement since the last step boundary), along the step (negative: the "
+            "INS ran ahead) and across it (positive: the step lies to the INS's left), and the median spread the "
+            "filter expected along the step. "
+            + " ".join(f"{what} {text}" for text, what in groups if text)
             + "\n\n" + md_table(["cell", "updates", "along mean [m]", "along RMS [m]", "cross mean [m]",
                                   "cross RMS [m]", "expected sigma along [m]"], innov_rows))
     return (
