@@ -233,6 +233,9 @@ def test_kept_innovations_are_the_updates_the_nis_sums():
     assert np.all(along > 0) and np.all(sigma > 0)
     with pytest.raises(ParameterError, match="innovations must be"):
         aided.run_batch([inp], tun, innovations=[True, False])
+    # the along/across reading is for 2-D steps: the zero-rate updates (3-D) are refused by name
+    with pytest.raises(ParameterError, match="expected 2-D step innovations"):
+        aided.step_innovation_components(plain.innovations["zero rate"])
 
 
 def test_smoothed_members_of_a_batch_equal_single_runs_with_or_without_the_covariance():
