@@ -101,6 +101,14 @@ def _ratio(cells, *, short: bool) -> float:
     return float(np.mean(sel)) if sel else float("nan")
 
 
+#: How the page words the step innovations (thresholds of the words, not of any test): the along-track mean
+#: is called steady when it exceeds this share of the RMS (the mean square then holds more than 4 % of bias)...
+STEADY_SHARE = 0.2
+#: ... and the RMS beyond the spread the filter expects when it exceeds this multiple of the median expected
+#: sigma (a mean squared ratio of 2.25, where a consistent filter gives 1).
+BEYOND_FACTOR = 1.5
+
+
 def _innovation_sentence(parts) -> str:
     """What the step innovations of some cells say: a steady part or a scatter, against the spread expected."""
     if not parts:
@@ -110,9 +118,9 @@ def _innovation_sentence(parts) -> str:
     rms = float(np.sqrt(sum(v["along_rms_m"] ** 2 * v["updates"] for v in parts) / n))
     sigma = float(np.median([v["predicted_along_sigma_m"] for v in parts]))
     kind = ("the INS's scatter over one step, which each update pulls back, not a steady over- or under-run"
-            if abs(mean) < 0.2 * rms else
+            if abs(mean) < STEADY_SHARE * rms else
             f"a steady {'overrun' if mean < 0 else 'shortfall'} of the INS at every step, which each update pulls back")
-    spread = ("within" if rms <= 1.5 * sigma else "beyond") + f" the spread the filter expects (median {fmt(sigma, 2)} m)"
+    spread = ("within" if rms <= BEYOND_FACTOR * sigma else "beyond") + f" the spread the filter expects (median {fmt(sigma, 2)} m)"
     return f"the along-track mean over {n} updates is {fmt(mean, 3)} m against an RMS of {fmt(rms, 3)} m: {kind}; {spread}."
 
 
