@@ -211,7 +211,9 @@ def _condition(P, frozen):
         use = frozen[:, j] & (pjj > 0)
         w = np.where(use, 1.0 / np.where(pjj > 0, pjj, 1.0), 0.0)
         col = Pc[:, :, j]
-        Pc = Pc - w[:, None, None] * col[:, :, None] * col[:, None, :]
+        # P - w p_j p_j^T, the outer product's array taking the difference (one (b, n, n) array per state)
+        out = w[:, None, None] * col[:, :, None] * col[:, None, :]
+        Pc = np.subtract(Pc, out, out=out)
         Pc[use, j, :] = 0.0                   # exact zeros where rounding leaves 1e-20
         Pc[use, :, j] = 0.0
     return Pc
@@ -278,9 +280,12 @@ def rts_smooth(x_post, P_post, x_prior, P_prior, Phi, fed=None, frozen=None, cov
     # G = Pp Phi^T Pq^+ : states without uncertainty (an unused clone or gain, a considered state) have
     # exactly zero rows and columns in Pq, where the pseudo-inverse is zero too; the rest is invertible
     dead = ~(Pq != 0).any(axis=2)
-    Pq = Pq + dead[:, :, None] * np.eye(Pq.shape[-1])
+    if dead.any():
+        if Pq.base is not None:               # a view of the caller's P_prior: written in a copy
+            Pq = Pq.copy()
+        np.einsum("bii->bi", Pq)[...] += dead  # a one on the diagonal of each such state
     G = np.swapaxes(np.linalg.solve(Pq, Phi[1:] @ np.swapaxes(Pp, 1, 2)), 1, 2)
-    G = np.where(dead[:, None, :], 0.0, G)
+    np.copyto(G, 0.0, where=dead[:, None, :])
     for k in range(xs.shape[0] - 2, -1, -1):
         ahead = xs[k + 1] if fed is None else xs[k + 1] + fed[k + 1]
         xs[k] = x_post[k] + G[k] @ (ahead - x_prior[k + 1])
