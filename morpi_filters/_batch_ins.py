@@ -317,26 +317,57 @@ def double_integral_at(a, h, keep):
     >>> double_integral_at(np.ones((11, 1)), 0.1, np.array([0, 5, 10]))[:, 0].round(12).tolist()
     [0.0, 0.125, 0.5]
     """
-    return _double_integral_at(a, h, keep, np.empty(a.shape))
+    return _double_integral_at(a, h, keep)
 
 
-def _double_integral_at(a, h, keep, P):
-    """:func:`double_integral_at` with the prefix sums written into the (n, R) array `P`."""
+def _double_integral_at(a, h, keep, block: int = 64):
+    """:func:`double_integral_at` without the whole (n, R) array of prefix sums.
+
+    The rows go group by group, each a run of consecutive segments between
+    kept rows of about `block` rows: the group's prefix sums P are formed in a
+    small buffer that stays in cache (:func:`prefix_rows`' row additions,
+    carried on from the last row of the group before), the sums of P over
+    its segments are taken there, and Q continues the running sum of the
+    segment sums (the carry added to the group's first segment sum first).
+    The same additions in the same order as the prefix sums of the whole
+    array followed by ``np.add.reduceat`` and ``np.cumsum`` over the segments.
+    """
     n, R = a.shape
-    prefix_rows(a, P)
-    # Q at the kept rows only: sums of P between consecutive kept rows, then their running sum
     kk = keep[keep > 0]
     edges = np.r_[0, kk]
-    seg = np.add.reduceat(P[:kk[-1]], edges[:-1], axis=0)
-    Q = np.cumsum(seg, axis=0)
-    out = np.zeros((keep.size, R))
-    pos = keep > 0
-    out[pos] = Q
-    out[pos] += P[kk]
-    out[pos] += a[kk] / 6
-    out[pos] -= a[0] * (kk / 2 + 1 / 6)[:, None]
-    out *= h * h
-    return out
+    K = kk.size
+    out = np.empty((K, R))
+    work = np.empty((block + 1, R))
+    last = np.zeros(R)              # P at the first row of the group
+    carry = None                    # Q after the segments before the group
+    j0 = 0
+    while j0 < K:
+        # the group: segments j0 .. j1-1, rows r0 .. r1 - 1, and P at row r1 (the kept row kk[j1 - 1])
+        j1 = j0 + 1
+        while j1 < K and edges[j1 + 1] - edges[j0] <= block:
+            j1 += 1
+        r0, r1 = edges[j0], edges[j1]
+        if r1 - r0 + 1 > work.shape[0]:
+            work = np.empty((r1 - r0 + 1, R))
+        P = work[:r1 - r0 + 1]
+        P[0] = last
+        for k in range(1, r1 - r0 + 1):
+            np.add(P[k - 1], a[r0 + k - 1], out=P[k])
+        seg = np.add.reduceat(P[:-1], edges[j0:j1] - r0, axis=0)
+        if carry is not None:
+            seg[0] = carry + seg[0]
+        Q = np.cumsum(seg, axis=0)
+        out[j0:j1] = Q
+        out[j0:j1] += P[edges[j0 + 1:j1 + 1] - r0]
+        carry = Q[-1]
+        last = P[-1].copy()
+        j0 = j1
+    out += a[kk] / 6
+    out -= a[0] * (kk / 2 + 1 / 6)[:, None]
+    full = np.zeros((keep.size, R))
+    full[keep > 0] = out
+    full *= h * h
+    return full
 
 
 def horizontal_3d(h, f, w, keep):

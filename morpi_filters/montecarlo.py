@@ -907,8 +907,7 @@ def _ins_errors(payload, err, psi, h, keep, spare):
     The measured signals are the true ones of the path plus `err`; both go
     through the same integration rules (the truth once, in
     :func:`_ins_truth`), so the difference is the error the sensor errors
-    cause. Overwrites `err` with the measured signals, and then with the
-    prefix sums of the integration. The four horizontal accelerations (3D x,
+    cause. Overwrites `err` with the measured signals. The four horizontal accelerations (3D x,
     y; 2D x, y) are planes of one array, written into the first 4 n R numbers
     of the free buffer `spare` and integrated twice in one call (the
     integration is elementwise over its columns).
@@ -924,7 +923,7 @@ def _ins_errors(payload, err, psi, h, keep, spare):
     bi.horizontal_accel_3d(h, f, w, acc[:, 0], acc[:, 1])
     bi.horizontal_accel_2d(f, psi, acc[:, 2], acc[:, 3], heading=payload.ins_heading)
     del f, w
-    pos = bi._double_integral_at(acc.reshape(n, 4 * R), h, keep, err.reshape(-1)[:n * 4 * R].reshape(n, 4 * R))
+    pos = bi._double_integral_at(acc.reshape(n, 4 * R), h, keep)
     pos = pos.reshape(keep.size, 4, R)
     (x3, y3), (x2, y2) = payload.ins_truth
     return [np.hypot(pos[:, 0] - x3, pos[:, 1] - y3).T, np.hypot(pos[:, 2] - x2, pos[:, 3] - y2).T]
