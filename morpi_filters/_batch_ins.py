@@ -130,9 +130,11 @@ def _propagate(increments, n: int, R: int, block: int):
     ``((M[i,0] q[0] + M[i,1] q[1]) + M[i,2] q[2]) + M[i,3] q[3]`` (numpy adds
     the rows of an axis that is not the last one by one, in order).
     """
-    M = np.empty((block, 4, 4, R))
+    # M (block, 4, 4, R) and Q (block + 1, 4, R) are views of component-major buffers: each element of a
+    # block's matrices and each component of its attitudes is one contiguous (rows, R) plane
+    M = np.empty((4, 4, block, R)).transpose(2, 0, 1, 3)
     tmp = np.empty((4, 4, R))
-    Q = np.empty((block + 1, 4, R))
+    Q = np.empty((4, block + 1, R)).transpose(1, 0, 2)
     Q[0] = 0.0
     Q[0, 0] = 1.0
     for k0 in range(0, n, block):
@@ -331,14 +333,16 @@ def _double_integral_at(a, h, keep, block: int = 64):
     segment sums (the carry added to the group's first segment sum first).
     The same additions in the same order as the prefix sums of the whole
     array followed by ``np.add.reduceat`` and ``np.cumsum`` over the segments.
+    `a` may have any shape (n, ...) and strides (e.g. the (n, 4, R) view of
+    four component-major (n, R) planes); the result is shaped (len(keep), ...).
     """
-    n, R = a.shape
+    n, row = a.shape[0], a.shape[1:]
     kk = keep[keep > 0]
     edges = np.r_[0, kk]
     K = kk.size
-    out = np.empty((K, R))
-    work = np.empty((block + 1, R))
-    last = np.zeros(R)              # P at the first row of the group
+    out = np.empty((K,) + row)
+    work = np.empty((block + 1,) + row)
+    last = np.zeros(row)            # P at the first row of the group
     carry = None                    # Q after the segments before the group
     j0 = 0
     while j0 < K:
@@ -348,7 +352,7 @@ def _double_integral_at(a, h, keep, block: int = 64):
             j1 += 1
         r0, r1 = edges[j0], edges[j1]
         if r1 - r0 + 1 > work.shape[0]:
-            work = np.empty((r1 - r0 + 1, R))
+            work = np.empty((r1 - r0 + 1,) + row)
         P = work[:r1 - r0 + 1]
         P[0] = last
         for k in range(1, r1 - r0 + 1):
@@ -363,8 +367,8 @@ def _double_integral_at(a, h, keep, block: int = 64):
         last = P[-1].copy()
         j0 = j1
     out += a[kk] / 6
-    out -= a[0] * (kk / 2 + 1 / 6)[:, None]
-    full = np.zeros((keep.size, R))
+    out -= a[0] * (kk / 2 + 1 / 6).reshape((K,) + (1,) * len(row))
+    full = np.zeros((keep.size,) + row)
     full[keep > 0] = out
     full *= h * h
     return full
@@ -414,7 +418,7 @@ def horizontal_3d(h, f, w, keep):
     return double_integral_at(a[0], h, keep), double_integral_at(a[1], h, keep)
 
 
-def horizontal_accel_3d(h, f, w, ax, ay, block: int = 64):
+def horizontal_accel_3d(h, f, w, ax, ay, block: int = 16):
     """The horizontal rows of ``C f`` that :func:`horizontal_3d` integrates, written into `ax`, `ay`.
 
     C is propagated from rest (the identity) by :func:`attitude_blocks` with
@@ -433,7 +437,7 @@ def horizontal_accel_3d(h, f, w, ax, ay, block: int = 64):
         Written with the north and east components of ``C f`` [m/s^2] (any
         strides, e.g. planes of one larger array).
     block : int, optional
-        Rows per block (default 64).
+        Rows per block (default 16: the block's matrices and attitudes stay in cache).
 
     Returns
     -------

@@ -908,9 +908,9 @@ def _ins_errors(payload, err, psi, h, keep, spare):
     through the same integration rules (the truth once, in
     :func:`_ins_truth`), so the difference is the error the sensor errors
     cause. Overwrites `err` with the measured signals. The four horizontal accelerations (3D x,
-    y; 2D x, y) are planes of one array, written into the first 4 n R numbers
-    of the free buffer `spare` and integrated twice in one call (the
-    integration is elementwise over its columns).
+    y; 2D x, y) are contiguous (n, R) planes of one array, written into the
+    first 4 n R numbers of the free buffer `spare` and integrated twice in one
+    call (the integration is elementwise over its columns).
     """
     path = payload.ins_path
     for c in range(3):
@@ -919,12 +919,11 @@ def _ins_errors(payload, err, psi, h, keep, spare):
             err[3 + c] += path.omega_b[:, c, None]
     f, w = [err[0], err[1], err[2]], [err[3], err[4], err[5]]
     n, R = psi.shape
-    acc = spare[:n * 4 * R].reshape(n, 4, R)
-    bi.horizontal_accel_3d(h, f, w, acc[:, 0], acc[:, 1])
-    bi.horizontal_accel_2d(f, psi, acc[:, 2], acc[:, 3], heading=payload.ins_heading)
+    acc = spare[:n * 4 * R].reshape(4, n, R)
+    bi.horizontal_accel_3d(h, f, w, acc[0], acc[1])
+    bi.horizontal_accel_2d(f, psi, acc[2], acc[3], heading=payload.ins_heading)
     del f, w
-    pos = bi._double_integral_at(acc.reshape(n, 4 * R), h, keep)
-    pos = pos.reshape(keep.size, 4, R)
+    pos = bi._double_integral_at(acc.transpose(1, 0, 2), h, keep)
     (x3, y3), (x2, y2) = payload.ins_truth
     return [np.hypot(pos[:, 0] - x3, pos[:, 1] - y3).T, np.hypot(pos[:, 2] - x2, pos[:, 3] - y2).T]
 
