@@ -137,6 +137,9 @@ def _propagate(increments, n: int, R: int, block: int):
     Q = np.empty((4, block + 1, R)).transpose(1, 0, 2)
     Q[0] = 0.0
     Q[0, 0] = 1.0
+    # (M[j], Q[j], Q[j + 1]) of every step of a block, as views made once (the buffers are reused)
+    steps = list(zip(M, Q[:-1], Q[1:]))
+    multiply, add = np.multiply, np.add.reduce
     for k0 in range(0, n, block):
         k1 = min(k0 + block, n)
         m = M[:k1 - k0]
@@ -150,10 +153,10 @@ def _propagate(increments, n: int, R: int, block: int):
                     m[:, i, j] = val
                 else:
                     np.negative(val, out=m[:, i, j])
-        for j in range(k1 - k0):
+        for mj, qj, qn in steps[:k1 - k0]:
             # q_next[i] = ((M[i,0] q[0] + M[i,1] q[1]) + M[i,2] q[2]) + M[i,3] q[3]
-            np.multiply(m[j], Q[j], out=tmp)
-            np.add.reduce(tmp, axis=1, out=Q[j + 1])
+            multiply(mj, qj, tmp)
+            add(tmp, 1, None, qn)
         last = k1 == n
         yield k0, Q[:k1 - k0 + (1 if last else 0)]
         Q[0] = Q[k1 - k0]
@@ -344,6 +347,7 @@ def _double_integral_at(a, h, keep, block: int = 64):
     work = np.empty((block + 1,) + row)
     last = np.zeros(row)            # P at the first row of the group
     carry = None                    # Q after the segments before the group
+    add = np.add
     j0 = 0
     while j0 < K:
         # the group: segments j0 .. j1-1, rows r0 .. r1 - 1, and P at row r1 (the kept row kk[j1 - 1])
@@ -355,8 +359,9 @@ def _double_integral_at(a, h, keep, block: int = 64):
             work = np.empty((r1 - r0 + 1,) + row)
         P = work[:r1 - r0 + 1]
         P[0] = last
-        for k in range(1, r1 - r0 + 1):
-            np.add(P[k - 1], a[r0 + k - 1], out=P[k])
+        rows = list(P)
+        for k, ak in enumerate(a[r0:r1], start=1):
+            add(rows[k - 1], ak, rows[k])
         seg = np.add.reduceat(P[:-1], edges[j0:j1] - r0, axis=0)
         if carry is not None:
             seg[0] = carry + seg[0]
