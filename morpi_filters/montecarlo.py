@@ -844,8 +844,9 @@ def _chunk(payload: _Payload, a: int, b: int) -> list:
 
     The studies differ only in the calibration (which scales the same bias
     numbers), the gain scenarios and whether the INS runs. The noise planes
-    are built once; each calibration adds its biases to them once, and those
-    measurement errors serve all its studies. Returns one dict per study:
+    are built once; each calibration adds its biases to them once (the last
+    one in place, the noise being needed no more), and those measurement
+    errors serve all its studies. Returns one dict per study:
     per-run final errors, gain errors and distance errors, and, for a study
     whose curves are kept, the chunk's reductions of the error series (sum of
     squares and histogram counts per epoch), plus the series themselves when
@@ -868,16 +869,18 @@ def _chunk(payload: _Payload, a: int, b: int) -> list:
         np.multiply(zr[:, c, :].T, sa if c < 3 else sg, out=noise[c])
     spare = z.reshape(-1)                   # the draws' buffer, free from here on (the INS accelerations go there)
     del z, zr
-    err = _scratch("err", (6, n, R))
     psi = _scratch("psi", (n, R))
     keep = payload.keep
     out = [None] * len(payload.configs)
-    for cal in dict.fromkeys(c.calibration for c in payload.configs):
+    cals = list(dict.fromkeys(c.calibration for c in payload.configs))
+    for cal in cals:
         members = [i for i, c in enumerate(payload.configs) if c.calibration == cal]
         cfg = payload.configs[members[0]]
         sig_ba, sig_bg = cfg.bias_sigmas()
-        # the measured errors: white noise + bias (the biases as contiguous rows, one per channel)
+        # the measured errors: white noise + bias (the biases as contiguous rows, one per channel); the last
+        # calibration writes them over the noise planes
         bias = np.concatenate([sig_ba * head[:, 0:3], sig_bg * head[:, 3:6]], axis=1).T.copy()
+        err = noise if cal == cals[-1] else _scratch("err", (6, n, R))
         for c in range(6):
             np.add(noise[c], bias[c], out=err[c])
         # heading error integrated from the gyro-z error
