@@ -883,12 +883,7 @@ def _chunk(payload: _Payload, a: int, b: int) -> list:
         err = noise if cal == cals[-1] else _scratch("err", (6, n, R))
         for c in range(6):
             np.add(noise[c], bias[c], out=err[c])
-        # heading error integrated from the gyro-z error
-        # (trapezoid: psi_k = h (sum_{i<k} w_i + (w_k - w_0) / 2))
-        bi.prefix_rows(err[5], psi)
-        psi += 0.5 * err[5]
-        psi -= 0.5 * err[5, 0]
-        psi *= h
+        _heading_error(err[5], h, psi)
         # MoRPI on the sine path: Weinberg terms from the measured signals (constant biases cancel in
         # max - min); heading = true heading + integrated gyro-z error.
         pk = sine.peaks
@@ -901,6 +896,37 @@ def _chunk(payload: _Payload, a: int, b: int) -> list:
             ins_e = _ins_errors(payload, err, psi, h, keep, spare)
         for i in members:
             out[i] = _study_chunk(payload, payload.configs[i], ins_e, dfa, dfg, trig, zg, R, payload.curves[i])
+    return out
+
+
+def _heading_error(w, h, out, block: int = 64):
+    """Heading error integrated from the gyro-z error `w` (n, R) by the trapezoid rule, into `out` (n, R).
+
+    ``psi_k = h (sum_{i<k} w_i + (w_k - w_0) / 2)``, formed as
+    ``((P_k + w_k / 2) - w_0 / 2) h`` with ``P_k = sum_{i<k} w_i`` the row
+    additions of :func:`_batch_ins.prefix_rows`; block by block of `block`
+    rows, each finished while it is in cache (the same operations as over
+    the whole array in turn).
+    """
+    n, R = w.shape
+    w0 = 0.5 * w[0]
+    half = np.empty((block, R))
+    last = np.zeros(R)                      # P of the row before the block
+    add = np.add
+    for r0 in range(0, n, block):
+        r1 = min(r0 + block, n)
+        p = out[r0:r1]
+        rows = list(p)
+        if r0:
+            add(last, w[r0 - 1], rows[0])
+        else:
+            rows[0].fill(0.0)
+        for k in range(1, r1 - r0):
+            add(rows[k - 1], w[r0 + k - 1], rows[k])
+        last[...] = rows[-1]
+        p += np.multiply(w[r0:r1], 0.5, out=half[:r1 - r0])
+        p -= w0
+        p *= h
     return out
 
 
