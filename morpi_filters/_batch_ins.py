@@ -440,7 +440,9 @@ def horizontal_accel_3d(h, f, w, ax, ay, block: int = 16):
         Measured specific force [m/s^2] and angular rate [rad/s] planes, time-major.
     ax, ay : ndarray, shape (n, R)
         Written with the north and east components of ``C f`` [m/s^2] (any
-        strides, e.g. planes of one larger array).
+        strides, e.g. planes of one larger array). They may be the arrays
+        ``w[0]`` and ``w[1]``: the rows of `w` a block needs are read before
+        the block's rows of `ax`, `ay` are written.
     block : int, optional
         Rows per block (default 16: the block's matrices and attitudes stay in cache).
 

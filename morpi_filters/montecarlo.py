@@ -844,9 +844,10 @@ def _chunk(payload: _Payload, a: int, b: int) -> list:
 
     The studies differ only in the calibration (which scales the same bias
     numbers), the gain scenarios and whether the INS runs. The noise planes
-    are built once; each calibration adds its biases to them once (the last
-    one in place, the noise being needed no more), and those measurement
-    errors serve all its studies. Returns one dict per study:
+    are built once; each calibration adds its biases to them once (into the
+    draws' buffer, free once the noise is built, and the last calibration in
+    place, the noise being needed no more), and those measurement errors
+    serve all its studies. Returns one dict per study:
     per-run final errors, gain errors and distance errors, and, for a study
     whose curves are kept, the chunk's reductions of the error series (sum of
     squares and histogram counts per epoch), plus the series themselves when
@@ -867,7 +868,7 @@ def _chunk(payload: _Payload, a: int, b: int) -> list:
     zr = z[:, _N_HEAD:].reshape(R, 6, n)
     for c in range(6):
         np.multiply(zr[:, c, :].T, sa if c < 3 else sg, out=noise[c])
-    spare = z.reshape(-1)                   # the draws' buffer, free from here on (the INS accelerations go there)
+    spare = z.reshape(-1)[:6 * n * R].reshape(6, n, R)     # the draws' buffer, free from here on
     del z, zr
     psi = _scratch("psi", (n, R))
     keep = payload.keep
@@ -880,7 +881,7 @@ def _chunk(payload: _Payload, a: int, b: int) -> list:
         # the measured errors: white noise + bias (the biases as contiguous rows, one per channel); the last
         # calibration writes them over the noise planes
         bias = np.concatenate([sig_ba * head[:, 0:3], sig_bg * head[:, 3:6]], axis=1).T.copy()
-        err = noise if cal == cals[-1] else _scratch("err", (6, n, R))
+        err = noise if cal == cals[-1] else spare
         for c in range(6):
             np.add(noise[c], bias[c], out=err[c])
         _heading_error(err[5], h, psi)
@@ -893,7 +894,7 @@ def _chunk(payload: _Payload, a: int, b: int) -> list:
         trig = (np.cos(hd), np.sin(hd))
         ins_e = None
         if any(payload.configs[i].ins for i in members):
-            ins_e = _ins_errors(payload, err, psi, h, keep, spare)
+            ins_e = _ins_errors(payload, err, psi, h, keep)
         for i in members:
             out[i] = _study_chunk(payload, payload.configs[i], ins_e, dfa, dfg, trig, zg, R, payload.curves[i])
     return out
@@ -930,16 +931,19 @@ def _heading_error(w, h, out, block: int = 64):
     return out
 
 
-def _ins_errors(payload, err, psi, h, keep, spare):
+def _ins_errors(payload, err, psi, h, keep):
     """INS-3D and INS-2D horizontal errors (R, m) on the INS path from rest.
 
     The measured signals are the true ones of the path plus `err`; both go
     through the same integration rules (the truth once, in
     :func:`_ins_truth`), so the difference is the error the sensor errors
-    cause. Overwrites `err` with the measured signals. The four horizontal accelerations (3D x,
-    y; 2D x, y) are contiguous (n, R) planes of one array, written into the
-    first 4 n R numbers of the free buffer `spare` and integrated twice in one
-    call (the integration is elementwise over its columns).
+    cause. Overwrites `err` with the measured signals, and then with the
+    four horizontal accelerations, which take the planes of the signals
+    already consumed: the 3D x and y those of the x and y rates (the kernel
+    reads each block's rates before it writes the block's accelerations),
+    the 2D x and y those of f_z and the z rate (not read by the 2D kernel).
+    Planes 2 to 5 of `err` are then integrated twice in one call (the
+    integration is elementwise over its columns).
     """
     path = payload.ins_path
     for c in range(3):
@@ -947,14 +951,13 @@ def _ins_errors(payload, err, psi, h, keep, spare):
         if path.omega_b[:, c].any():
             err[3 + c] += path.omega_b[:, c, None]
     f, w = [err[0], err[1], err[2]], [err[3], err[4], err[5]]
-    n, R = psi.shape
-    acc = spare[:n * 4 * R].reshape(4, n, R)
-    bi.horizontal_accel_3d(h, f, w, acc[0], acc[1])
-    bi.horizontal_accel_2d(f, psi, acc[2], acc[3], heading=payload.ins_heading)
+    bi.horizontal_accel_3d(h, f, w, err[3], err[4])
+    bi.horizontal_accel_2d(f, psi, err[2], err[5], heading=payload.ins_heading)
     del f, w
-    pos = bi._double_integral_at(acc.transpose(1, 0, 2), h, keep)
+    # columns: 2D x, 3D x, 3D y, 2D y
+    pos = bi._double_integral_at(err[2:].transpose(1, 0, 2), h, keep)
     (x3, y3), (x2, y2) = payload.ins_truth
-    return [np.hypot(pos[:, 0] - x3, pos[:, 1] - y3).T, np.hypot(pos[:, 2] - x2, pos[:, 3] - y2).T]
+    return [np.hypot(pos[:, 1] - x3, pos[:, 2] - y3).T, np.hypot(pos[:, 0] - x2, pos[:, 3] - y2).T]
 
 
 def _ins_truth(path: _Path, h: float, keep: np.ndarray):
