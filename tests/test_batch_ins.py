@@ -106,3 +106,53 @@ def test_block_size_does_not_change_the_3d_kernel():
     bi.horizontal_accel_3d(h, [c[:, 2:4] for c in f], [c[:, 2:4] for c in w], part[0], part[1])
     assert np.array_equal(part, out[1][:, :, 2:4])
 
+
+
+def test_3d_kernel_may_write_over_the_x_and_y_rates():
+    # the Monte Carlo chunk hands the x and y rate planes as the outputs: each block reads its
+    # rates before it writes its rows, so the result is the same bits as with outputs of their own
+    rng = np.random.default_rng(11)
+    n, R, h = 157, 5, 0.01
+    f = [rng.normal(c, 0.3, (n, R)) for c in (0.2, -0.1, 9.8)]
+    w = [rng.normal(c, 0.05, (n, R)) for c in (0.1, -0.1, 0.8)]
+    ax, ay = np.empty((n, R)), np.empty((n, R))
+    bi.horizontal_accel_3d(h, f, w, ax, ay)
+    for block in (1, 7, 16, 200):
+        w2 = [c.copy() for c in w]
+        bi.horizontal_accel_3d(h, f, w2, w2[0], w2[1], block=block)
+        assert np.array_equal(w2[0], ax) and np.array_equal(w2[1], ay)
+
+
+def test_double_integral_by_groups_matches_the_plain_recursion():
+    # kept rows close together, one gap far longer than a group, and the last row; the grouped
+    # prefix sums must give the bits of the same formula over the whole array, and the step by
+    # step rule of a linear in each interval (v += h (a_k + a_k+1) / 2, p += v_k h + h^2 (a_k / 3 +
+    # a_k+1 / 6)) to rounding
+    rng = np.random.default_rng(3)
+    n, R, h = 700, 4, 0.01
+    a = rng.normal(0.0, 1.0, (n, R))
+    keep = np.r_[0, 1, 2, 5, 40, 41, 63, 64, 65, 300, 301, np.arange(400, 700, 37), n - 1]
+    got = bi.double_integral_at(a, h, keep)
+    # the formula over the whole array: P_k = sum_{i<k} a_i row by row, Q over the kept segments
+    P = np.zeros((n, R))
+    for k in range(1, n):
+        P[k] = P[k - 1] + a[k - 1]
+    kk = keep[keep > 0]
+    Q = np.cumsum(np.add.reduceat(P[:kk[-1]], np.r_[0, kk][:-1], axis=0), axis=0)
+    whole = np.zeros((keep.size, R))
+    whole[keep > 0] = Q
+    whole[keep > 0] += P[kk]
+    whole[keep > 0] += a[kk] / 6
+    whole[keep > 0] -= a[0] * (kk / 2 + 1 / 6)[:, None]
+    whole *= h * h
+    assert np.array_equal(got, whole)
+    v, p, ref = np.zeros(R), np.zeros(R), np.zeros((n, R))
+    for k in range(n - 1):
+        p = p + v * h + h * h * (a[k] / 3 + a[k + 1] / 6)
+        v = v + h * (a[k] + a[k + 1]) / 2
+        ref[k + 1] = p
+    np.testing.assert_allclose(got, ref[keep], rtol=1e-10, atol=1e-12)
+    # planes of one array (any strides) give each plane's own result
+    planes = np.stack([a, 2 * a, -a], axis=1)                 # (n, 3, R)
+    got3 = bi.double_integral_at(planes, h, keep)
+    assert np.array_equal(got3[:, 0], got) and np.array_equal(got3[:, 2], bi.double_integral_at(-a, h, keep))
