@@ -274,14 +274,15 @@ def rts_smooth(x_post, P_post, x_prior, P_prior, Phi, fed=None, frozen=None, cov
         return xs, Ps
     # the smoother gains depend on the forward pass only: all of them in one batched call
     Pp, Pq = P_post[:-1], P_prior[1:]
-    if frozen is not None and np.any(frozen):
+    own = frozen is not None and bool(np.any(frozen))     # Pq then an array of the smoother's own
+    if own:
         # the smoother of the filter that takes the frozen states as known (:func:`kf_update`)
         Pp, Pq = _condition(Pp, frozen), _condition(Pq, frozen)
     # G = Pp Phi^T Pq^+ : states without uncertainty (an unused clone or gain, a considered state) have
     # exactly zero rows and columns in Pq, where the pseudo-inverse is zero too; the rest is invertible
     dead = ~(Pq != 0).any(axis=2)
     if dead.any():
-        if Pq.base is not None:               # a view of the caller's P_prior: written in a copy
+        if not own:                           # a view of the caller's P_prior: written in a copy
             Pq = Pq.copy()
         np.einsum("bii->bi", Pq)[...] += dead  # a one on the diagonal of each such state
     G = np.swapaxes(np.linalg.solve(Pq, Phi[1:] @ np.swapaxes(Pp, 1, 2)), 1, 2)
