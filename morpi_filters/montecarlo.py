@@ -906,8 +906,8 @@ def _heading_error(w, h, out, block: int = 64):
     """Heading error integrated from the gyro-z error `w` (n, R) by the trapezoid rule, into `out` (n, R).
 
     ``psi_k = h (sum_{i<k} w_i + (w_k - w_0) / 2)``, formed as
-    ``((P_k + w_k / 2) - w_0 / 2) h`` with ``P_k = sum_{i<k} w_i`` the row
-    additions of :func:`_batch_ins.prefix_rows`; block by block of `block`
+    ``((P_k + w_k / 2) - w_0 / 2) h`` with ``P_k = sum_{i<k} w_i`` by
+    :func:`_batch_ins.prefix_rows`; block by block of `block`
     rows, each finished while it is in cache (the same operations as over
     the whole array in turn).
     """
@@ -915,18 +915,11 @@ def _heading_error(w, h, out, block: int = 64):
     w0 = 0.5 * w[0]
     half = np.empty((block, R))
     last = np.zeros(R)                      # P of the row before the block
-    add = np.add
+    first = np.empty(R)
     for r0 in range(0, n, block):
         r1 = min(r0 + block, n)
-        p = out[r0:r1]
-        rows = list(p)
-        if r0:
-            add(last, w[r0 - 1], rows[0])
-        else:
-            rows[0].fill(0.0)
-        for k in range(1, r1 - r0):
-            add(rows[k - 1], w[r0 + k - 1], rows[k])
-        last[...] = rows[-1]
+        p = bi.prefix_rows(w[r0:r1 - 1], out[r0:r1], start=np.add(last, w[r0 - 1], out=first) if r0 else None)
+        last[...] = p[-1]
         p += np.multiply(w[r0:r1], 0.5, out=half[:r1 - r0])
         p -= w0
         p *= h
