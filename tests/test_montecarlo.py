@@ -441,3 +441,17 @@ def test_labelled_results_and_rng():
     a = mc.run_study(5, np.random.default_rng(9), FAST)
     b = mc.run_study(5, int(np.random.default_rng(9).integers(0, 2**63)), FAST)
     assert a.digest == b.digest and a.seed == b.seed
+
+
+def test_heading_error_by_blocks_is_the_trapezoid_integral():
+    # psi_k = h (sum_{i<k} w_i + (w_k - w_0) / 2): against the trapezoid rule written with cumsum (to
+    # rounding: the two add in other orders, 1e-12 rad on 300 rows of 0.01 rad/s), and the same bits
+    # for any block size (the blocks carry the running sum on, row by row)
+    rng = np.random.default_rng(4)
+    n, R, h = 300, 3, 0.01
+    w = rng.normal(0.0, 0.01, (n, R))
+    ref = np.vstack([np.zeros((1, R)), np.cumsum(0.5 * h * (w[1:] + w[:-1]), axis=0)])
+    out = {b: mc._heading_error(w, h, np.empty((n, R)), block=b) for b in (1, 7, 64, 500)}
+    np.testing.assert_allclose(out[64], ref, rtol=0, atol=1e-12)
+    for b in (1, 7, 500):
+        assert np.array_equal(out[b], out[64])
