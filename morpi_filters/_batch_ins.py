@@ -9,189 +9,22 @@ C_bn matrix (the general strapdown costs about 8 times the drawing of the
 random numbers); the tests check it against them. Every operation is
 elementwise over runs in a fixed order, so a run's result does not depend on
 the chunk it is computed in.
+
+The 3D attitude recursion is a loop over samples that numpy can only run as
+many passes over small arrays; it is compiled by numba (this is the only module
+that imports it, on the first call, so importing the package does not load
+it) from the plain Python function :func:`_accel_3d_rows`, whose operations, in
+their order, are those of the reference rule described in
+:func:`horizontal_accel_3d`.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-__all__ = ["quat_increments", "attitude_blocks", "attitude", "prefix_rows", "cos_sin", "double_integral_at",
-           "horizontal_3d", "horizontal_2d", "horizontal_accel_3d", "horizontal_accel_2d"]
-
-
-def quat_increments(wx, wy, wz, h, out=None):
-    """Attitude increments exp(omega h / 2) as quaternion planes.
-
-    The half-angle x = |omega| h / 2 enters through Taylor series of cos x and
-    sin(x) / x to x^4 (truncation below x^6 / 720 <= 1.4e-15 for x <= 0.01,
-    i.e. |omega| <= 2 rad/s at 100 Hz); elements with a larger x are
-    recomputed with sin/cos. The rule is elementwise, so the result of a run
-    does not depend on its neighbours in the chunk.
-
-    Parameters
-    ----------
-    wx, wy, wz : ndarray, any shape (the same for the three)
-        Body angular rate held over the interval, per axis [rad/s].
-    h : float
-        Length of the interval [s].
-    out : sequence of 4 ndarray, optional
-        Arrays shaped like `wx` to write p0..p3 into (returned).
-
-    Returns
-    -------
-    p0, p1, p2, p3 : tuple of 4 ndarray, each shaped like `wx`
-        Scalar-first unit quaternion of the rotation by the angle |omega| h
-        about omega: ``p0 = cos(x)`` and ``(p1, p2, p3) = sin(x) omega / |omega|``.
-
-    Examples
-    --------
-    Half a turn about z (pi rad/s for 1 s) is the quaternion (0, 0, 0, 1):
-
-    >>> import numpy as np
-    >>> z = np.zeros(1)
-    >>> [round(float(p[0]), 12) for p in quat_increments(z, z, np.array([np.pi]), 1.0)]
-    [0.0, 0.0, 0.0, 1.0]
-    """
-    x2 = wx * wx
-    x2 += wy * wy
-    x2 += wz * wz
-    x2 *= 0.25 * h * h
-    c = np.multiply(x2, 1 / 24, out=None if out is None else out[0])
-    c -= 0.5
-    c *= x2
-    c += 1
-    k = x2 * (1 / 120)
-    k -= 1 / 6
-    k *= x2
-    k += 1
-    big = x2 > 1e-4
-    if big.any():
-        x = np.sqrt(x2[big])
-        c[big] = np.cos(x)
-        k[big] = np.sin(x) / x
-    k *= 0.5 * h
-    if out is None:
-        return c, k * wx, k * wy, k * wz
-    return c, np.multiply(k, wx, out=out[1]), np.multiply(k, wy, out=out[2]), np.multiply(k, wz, out=out[3])
-
-
-def attitude_blocks(wx, wy, wz, h, block: int = 64):
-    """Quaternions of body-to-n from rest, q_{k+1} = q_k (x) exp(omega_k h / 2), block by block.
-
-    Each step is a matrix-vector product with the 4x4 right-multiplication
-    matrix of the increment (:func:`quat_increments`): one multiply and three
-    adds, elementwise over runs in a fixed order, so a run's result does not
-    depend on the chunk size (einsum's does). Working block by block keeps the
-    data in cache for the caller. The first attitude is the identity (1, 0, 0, 0).
-
-    Parameters
-    ----------
-    wx, wy, wz : ndarray, shape (n, R)
-        Time-major planes of the body rate held over each of the n intervals,
-        per axis, for R runs [rad/s].
-    h : float
-        Interval length [s].
-    block : int, optional
-        Rows propagated per block (default 64).
-
-    Yields
-    ------
-    k0 : int
-        Index of the first attitude row of the block.
-    q : ndarray, shape (m, 4, R)
-        Rows k0 .. k0+m-1 of the n + 1 attitudes (scalar first). Consecutive
-        blocks cover every row once; the last block holds one row more than the
-        others would (the attitude after the last interval). The array is a view
-        of a buffer reused by the next block: copy it to keep it.
-
-    Examples
-    --------
-    Four intervals of 0.5 s at pi/2 rad/s about z make half a turn:
-
-    >>> import numpy as np
-    >>> w0, wz = np.zeros((4, 1)), np.full((4, 1), np.pi / 2)
-    >>> blocks = [(k0, q.copy()) for k0, q in attitude_blocks(w0, w0, wz, 0.5, block=2)]
-    >>> [(k0, q.shape) for k0, q in blocks]
-    [(0, (2, 4, 1)), (2, (3, 4, 1))]
-    >>> (np.round(blocks[-1][1][-1, :, 0], 12) + 0.0).tolist()
-    [0.0, 0.0, 0.0, 1.0]
-    """
-    n, R = wx.shape
-    return _propagate(lambda k0, k1, out: quat_increments(wx[k0:k1], wy[k0:k1], wz[k0:k1], h, out=out), n, R, block)
-
-
-def _propagate(increments, n: int, R: int, block: int):
-    """The quaternion recursion of :func:`attitude_blocks`.
-
-    ``increments(k0, k1, out)`` writes p0..p3 of intervals k0..k1-1 into the
-    4 arrays `out` (the first column of the block's M) and returns them.
-
-    Each step multiplies the 4x4 right-multiplication matrix of the increment
-    by q (one product per element) and sums each row in order,
-    ``((M[i,0] q[0] + M[i,1] q[1]) + M[i,2] q[2]) + M[i,3] q[3]`` (numpy adds
-    the rows of an axis that is not the last one by one, in order).
-    """
-    # M (block, 4, 4, R) and Q (block + 1, 4, R) are views of component-major buffers: each element of a
-    # block's matrices and each component of its attitudes is one contiguous (rows, R) plane
-    M = np.empty((4, 4, block, R)).transpose(2, 0, 1, 3)
-    tmp = np.empty((4, 4, R))
-    Q = np.empty((4, block + 1, R)).transpose(1, 0, 2)
-    Q[0] = 0.0
-    Q[0, 0] = 1.0
-    # (M[j], Q[j], Q[j + 1]) of every step of a block, as views made once (the buffers are reused)
-    steps = list(zip(M, Q[:-1], Q[1:]))
-    multiply, add = np.multiply, np.add.reduce
-    for k0 in range(0, n, block):
-        k1 = min(k0 + block, n)
-        m = M[:k1 - k0]
-        # the increments go straight into the first column of M(p): (p0, p1, p2, p3)
-        p0, p1, p2, p3 = increments(k0, k1, (m[:, 0, 0], m[:, 1, 0], m[:, 2, 0], m[:, 3, 0]))
-        # the other columns of M(p) with q (x) p = M(p) q (Hamilton product, scalar first)
-        for i, row in enumerate(((p0, -1, p1, -1, p2, -1, p3), (p1, 1, p0, 1, p3, -1, p2),
-                                 (p2, -1, p3, 1, p0, 1, p1), (p3, 1, p2, -1, p1, 1, p0))):
-            for j, (sign, val) in enumerate(zip(row[1::2], row[2::2]), start=1):
-                if sign > 0:
-                    m[:, i, j] = val
-                else:
-                    np.negative(val, out=m[:, i, j])
-        for mj, qj, qn in steps[:k1 - k0]:
-            # q_next[i] = ((M[i,0] q[0] + M[i,1] q[1]) + M[i,2] q[2]) + M[i,3] q[3]
-            multiply(mj, qj, tmp)
-            add(tmp, 1, None, qn)
-        last = k1 == n
-        yield k0, Q[:k1 - k0 + (1 if last else 0)]
-        Q[0] = Q[k1 - k0]
-
-
-def attitude(wx, wy, wz, h, block: int = 64):
-    """All n + 1 quaternions of :func:`attitude_blocks` in one array.
-
-    Parameters
-    ----------
-    wx, wy, wz : ndarray, shape (n, R)
-        Time-major planes of the body rate held over each interval [rad/s].
-    h : float
-        Interval length [s].
-    block : int, optional
-        Rows propagated per block (default 64); the result does not depend on it.
-
-    Returns
-    -------
-    ndarray, shape (n + 1, 4, R)
-        Scalar-first body-to-n quaternions, the identity at row 0.
-
-    Examples
-    --------
-    A quarter turn about z in two steps of 0.5 s at pi/2 rad/s:
-
-    >>> import numpy as np
-    >>> w0, wz = np.zeros((2, 1)), np.full((2, 1), np.pi / 2)
-    >>> q = attitude(w0, w0, wz, 0.5)
-    >>> q.shape
-    (3, 4, 1)
-    >>> np.round(q[:, :, 0], 6).tolist()
-    [[1.0, 0.0, 0.0, 0.0], [0.92388, 0.0, 0.0, 0.382683], [0.707107, 0.0, 0.0, 0.707107]]
-    """
-    return np.concatenate([q.copy() for _, q in attitude_blocks(wx, wy, wz, h, block)], axis=0)
+__all__ = ["prefix_rows", "cos_sin", "double_integral_at", "horizontal_3d", "horizontal_2d", "horizontal_accel_3d",
+           "horizontal_accel_2d"]
 
 
 def prefix_rows(a, out, start=None):
@@ -422,14 +255,21 @@ def horizontal_3d(h, f, w, keep):
     return double_integral_at(a[0], h, keep), double_integral_at(a[1], h, keep)
 
 
-def horizontal_accel_3d(h, f, w, ax, ay, block: int = 16):
+def horizontal_accel_3d(h, f, w, ax, ay):
     """The horizontal rows of ``C f`` that :func:`horizontal_3d` integrates, written into `ax`, `ay`.
 
-    C is propagated from rest (the identity) by :func:`attitude_blocks` with
-    the trapezoid rate of each interval, ``(h / 2) (w_k + w_k+1)``, and
-    ``C f = f + 2 q0 (u x f) + 2 u x (u x f)`` with ``u = (q1, q2, q3)``.
-    The work goes block by block of `block` rows (the result does not depend
-    on it), so its scratch arrays stay small.
+    C is propagated from rest (the identity) as a scalar-first quaternion,
+    ``q_{k+1} = q_k (x) exp(omega_k h / 2)`` with the trapezoid rate of each
+    interval, ``omega_k = (w_k + w_k+1) / 2``. The half angle
+    ``x = |omega_k| h / 2`` enters through the Taylor series of ``cos x`` and
+    ``sin(x) / x`` to ``x^4`` (truncation below ``x^6 / 720 <= 1.4e-15`` for
+    ``x <= 0.01``, i.e. ``|omega| <= 2`` rad/s at 100 Hz); a larger ``x`` uses
+    sin and cos. The product sums each component in the order
+    ``((M[i,0] q_0 + M[i,1] q_1) + M[i,2] q_2) + M[i,3] q_3`` with ``M`` the
+    right-multiplication matrix of the increment, and
+    ``C f = f + 2 q_0 (u x f) + 2 u x (u x f)`` with ``u = (q_1, q_2, q_3)``.
+    The rule is elementwise over runs, so a run's result does not depend on
+    the others in the chunk. Compiled by numba (:func:`_accel_3d_rows`).
 
     Parameters
     ----------
@@ -440,10 +280,8 @@ def horizontal_accel_3d(h, f, w, ax, ay, block: int = 16):
     ax, ay : ndarray, shape (n, R)
         Written with the north and east components of ``C f`` [m/s^2] (any
         strides, e.g. planes of one larger array). They may be the arrays
-        ``w[0]`` and ``w[1]``: the rows of `w` a block needs are read before
-        the block's rows of `ax`, `ay` are written.
-    block : int, optional
-        Rows per block (default 16: the block's matrices and attitudes stay in cache).
+        ``w[0]`` and ``w[1]``: the rates of a sample are read before its
+        row of `ax`, `ay` is written.
 
     Returns
     -------
@@ -462,40 +300,94 @@ def horizontal_accel_3d(h, f, w, ax, ay, block: int = 16):
     >>> round(float(ax[-1, 0]), 12) + 0.0, round(float(ay[-1, 0]), 12)
     (0.0, 1.0)
     """
-    n, R = f[0].shape
-    rates = np.empty((3, block, R))
-    t = np.empty((4, block + 1, R))
+    _compiled_accel_3d()(float(h), f[0], f[1], f[2], w[0], w[1], w[2], ax, ay)
 
-    def increments(k0, k1, out):
-        # trapezoid rate of each interval: h (w_k + w_k+1) / 2 = (h / 2) (w_k + w_k+1)
-        ws = rates[:, :k1 - k0]
-        for c in range(3):
-            np.add(w[c][k0:k1], w[c][k0 + 1:k1 + 1], out=ws[c])
-        return quat_increments(ws[0], ws[1], ws[2], 0.5 * h, out=out)
 
-    for k0, q in _propagate(increments, n - 1, R, block):
-        k1 = k0 + q.shape[0]
-        q0, q1, q2, q3 = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-        fx, fy, fz = f[0][k0:k1], f[1][k0:k1], f[2][k0:k1]
-        cx, cy, cz, u = t[0, :k1 - k0], t[1, :k1 - k0], t[2, :k1 - k0], t[3, :k1 - k0]
-        # C(q) f = f + 2 q0 (u x f) + 2 u x (u x f), u = (q1, q2, q3); horizontal rows only
-        np.multiply(q2, fz, out=cx)
-        cx -= np.multiply(q3, fy, out=u)
-        np.multiply(q3, fx, out=cy)
-        cy -= np.multiply(q1, fz, out=u)
-        np.multiply(q1, fy, out=cz)
-        cz -= np.multiply(q2, fx, out=u)
-        bx, by = ax[k0:k1], ay[k0:k1]
-        np.multiply(q2, cz, out=bx)
-        bx -= np.multiply(q3, cy, out=u)
-        bx += np.multiply(q0, cx, out=u)
-        bx *= 2
-        bx += fx
-        np.multiply(q3, cx, out=by)
-        by -= np.multiply(q1, cz, out=u)
-        by += np.multiply(q0, cy, out=u)
-        by *= 2
-        by += fy
+_ACCEL_3D = None
+
+
+def _compiled_accel_3d():
+    """:func:`_accel_3d_rows` compiled by numba (once per process; the machine code is cached on disk)."""
+    global _ACCEL_3D
+    if _ACCEL_3D is None:
+        import numba
+
+        _ACCEL_3D = numba.njit(cache=True, nogil=True)(_accel_3d_rows)
+    return _ACCEL_3D
+
+
+def _accel_3d_rows(h, fx, fy, fz, wx, wy, wz, ax, ay):
+    """The loop of :func:`horizontal_accel_3d` over samples (outer) and runs (inner), in plain Python.
+
+    Each line is one rounded operation of the rule in the order it states
+    (no fused multiply-add: numba compiles without fast-math). Runs as is,
+    slowly, without numba; the tests check that both give the same bits.
+    """
+    n, R = fx.shape
+    hh = 0.5 * h                    # the increment's interval, halved: the rate is the sum of two samples
+    s2 = 0.25 * hh * hh
+    kh = 0.5 * hh
+    q0 = np.ones(R)
+    q1 = np.zeros(R)
+    q2 = np.zeros(R)
+    q3 = np.zeros(R)
+    for k in range(n):
+        more = k < n - 1
+        for r in range(R):
+            a0 = q0[r]
+            a1 = q1[r]
+            a2 = q2[r]
+            a3 = q3[r]
+            if more:
+                # the increment exp(omega h / 2) from the sum of the rates at k and k + 1
+                u = wx[k, r] + wx[k + 1, r]
+                v = wy[k, r] + wy[k + 1, r]
+                z = wz[k, r] + wz[k + 1, r]
+                x2 = u * u
+                x2 = x2 + v * v
+                x2 = x2 + z * z
+                x2 = x2 * s2
+                c = x2 * (1 / 24)
+                c = c - 0.5
+                c = c * x2
+                c = c + 1
+                sx = x2 * (1 / 120)
+                sx = sx - 1 / 6
+                sx = sx * x2
+                sx = sx + 1
+                if x2 > 1e-4:
+                    x = math.sqrt(x2)
+                    c = math.cos(x)
+                    sx = math.sin(x) / x
+                sx = sx * kh
+                p1 = sx * u
+                p2 = sx * v
+                p3 = sx * z
+                # q (x) p = M(p) q, M's rows (c, -p1, -p2, -p3), (p1, c, p3, -p2), (p2, -p3, c, p1), (p3, p2, -p1, c)
+                n0 = ((c * a0 + (-p1) * a1) + (-p2) * a2) + (-p3) * a3
+                n1 = ((p1 * a0 + c * a1) + p3 * a2) + (-p2) * a3
+                n2 = ((p2 * a0 + (-p3) * a1) + c * a2) + p1 * a3
+                n3 = ((p3 * a0 + p2 * a1) + (-p1) * a2) + c * a3
+            # the horizontal rows of C(q_k) f_k
+            fxk = fx[k, r]
+            fyk = fy[k, r]
+            fzk = fz[k, r]
+            cx = a2 * fzk - a3 * fyk
+            cy = a3 * fxk - a1 * fzk
+            cz = a1 * fyk - a2 * fxk
+            bx = a2 * cz - a3 * cy
+            bx = bx + a0 * cx
+            bx = bx * 2
+            ax[k, r] = bx + fxk
+            by = a3 * cx - a1 * cz
+            by = by + a0 * cy
+            by = by * 2
+            ay[k, r] = by + fyk
+            if more:
+                q0[r] = n0
+                q1[r] = n1
+                q2[r] = n2
+                q3[r] = n3
 
 
 def horizontal_2d(f, psi, h, keep, heading=None):

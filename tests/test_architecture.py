@@ -187,6 +187,20 @@ def test_only_the_loader_imports_pandas_and_importing_the_package_does_not():
     assert "pandas" not in top
 
 
+def test_only_the_monte_carlo_kernel_imports_numba_and_importing_the_package_does_not():
+    # numba (the compiler of the 3D Monte Carlo kernel) costs about 0.6 s to import and load its
+    # cached machine code: it is imported on the kernel's first call, so only commands that run the
+    # Monte Carlo INS pay for it
+    graph = _graph()
+    assert {n for n, (_, ext) in graph.items() if "numba" in ext} == {"_batch_ins"}
+    names = ["morpi_filters." + n for n in _modules_cache() if n != "__init__"]
+    code = ("import importlib, sys\n"
+            f"for n in {names!r}:\n    importlib.import_module(n)\n"
+            "print('numba' in sys.modules)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=PKG.parent, check=True)
+    assert out.stdout.strip() == "False"
+
+
 #: Markdown a page is made of: a heading at the start of a line, a table row or separator, an
 #: image or a link target, a block quote at the start of the text.
 MARKDOWN = re.compile(r"(^|\n)#{1,6} |(^|\n)\|.*\||\|---|!\[|\]\(|^> ")

@@ -76,51 +76,60 @@ def test_double_integral_of_a_ramp_is_exact():
     np.testing.assert_allclose(p, 2.5 * t[keep] ** 3 / 6, rtol=1e-12, atol=1e-15)
 
 
-def test_quaternion_increments_match_exact_sin_cos():
-    w = np.array([[1e-6, 0.0, 0.0], [0.3, -0.2, 0.1], [1.0, 1.5, -1.2], [40.0, 0.0, 0.0]]).T
-    h = 0.01
-    c, x, y, z = bi.quat_increments(w[0], w[1], w[2], h)
-    out = np.full((4, 4, 3), np.nan)[:, :, 1]                 # strided planes, as the kernel's M columns
-    bi.quat_increments(w[0], w[1], w[2], h, out=out)
-    assert np.array_equal(out, np.stack([c, x, y, z]))
-    ang = np.linalg.norm(w, axis=0) * h / 2
-    np.testing.assert_allclose(c, np.cos(ang), rtol=0, atol=2e-16)
-    np.testing.assert_allclose(x, np.sin(ang) * w[0] / np.linalg.norm(w, axis=0), rtol=1e-14, atol=1e-20)
+@pytest.mark.parametrize("rate", [
+    (1e-6, 0.0, 0.0),           # far inside the series branch
+    (0.3, -0.2, 0.1),           # the series branch at 100 Hz
+    (40.0, 0.0, 0.0),           # beyond it: sin and cos
+    (1.0, 1.5, -120.0),
+])
+def test_3d_kernel_turns_the_force_as_the_exact_rotation(rate):
+    # a constant body rate: every trapezoid rate is that rate and each increment the exact rotation
+    # by |w| h about it, so after k samples C = exp([w x] k h) (Rodrigues' formula, strapdown) and
+    # the kernel's C f must be that rotation of f to rounding (a few 1e-13 after 300 steps)
+    from morpi_filters.strapdown import rotvec_to_C
+
+    n, h = 301, 0.01
+    w = np.array(rate, float)
+    fb = np.array([0.3, -1.2, 9.8])
+    f = [np.full((n, 1), fb[i]) for i in range(3)]
+    ax, ay = np.empty((n, 1)), np.empty((n, 1))
+    bi.horizontal_accel_3d(h, f, [np.full((n, 1), w[i]) for i in range(3)], ax, ay)
+    C = rotvec_to_C(np.arange(n)[:, None] * h * w)
+    want = C @ fb
+    np.testing.assert_allclose(ax[:, 0], want[:, 0], rtol=0, atol=1e-11)
+    np.testing.assert_allclose(ay[:, 0], want[:, 1], rtol=0, atol=1e-11)
 
 
-def test_block_size_does_not_change_the_3d_kernel():
-    # the attitude and rotation go block by block; every operation is elementwise over runs in a
-    # fixed order, so any block size gives the same bits (and so does the chunking of the runs)
+def test_3d_kernel_is_its_python_rule_compiled_run_by_run():
+    # numba compiles the plain Python loop (no fast-math): both give the same bits, and each run's
+    # column is independent of the others (a chunk of other runs, or strided planes, changes nothing)
     rng = np.random.default_rng(5)
     n, R, h = 203, 6, 0.01
     f = [rng.normal(c, 0.3, (n, R)) for c in (0.2, -0.1, 9.8)]
     w = [rng.normal(c, 0.05, (n, R)) for c in (0.0, 0.0, 0.8)]
-    out = {}
-    for block in (1, 7, 64, 500):
-        ax, ay = np.empty((n, R)), np.empty((n, R))
-        bi.horizontal_accel_3d(h, f, w, ax, ay, block=block)
-        out[block] = np.stack([ax, ay])
-    for block in (7, 64, 500):
-        assert np.array_equal(out[block], out[1])
+    w[0][50:60] += 30.0                        # some increments beyond the series branch
+    ax, ay = np.empty((n, R)), np.empty((n, R))
+    bi.horizontal_accel_3d(h, f, w, ax, ay)
+    px, py = np.empty((n, R)), np.empty((n, R))
+    bi._accel_3d_rows(h, *f, *w, px, py)
+    assert np.array_equal(ax, px) and np.array_equal(ay, py)
     part = np.empty((2, n, 2))
     bi.horizontal_accel_3d(h, [c[:, 2:4] for c in f], [c[:, 2:4] for c in w], part[0], part[1])
-    assert np.array_equal(part, out[1][:, :, 2:4])
-
+    assert np.array_equal(part, np.stack([ax, ay])[:, :, 2:4])
 
 
 def test_3d_kernel_may_write_over_the_x_and_y_rates():
-    # the Monte Carlo chunk hands the x and y rate planes as the outputs: each block reads its
-    # rates before it writes its rows, so the result is the same bits as with outputs of their own
+    # the Monte Carlo chunk hands the x and y rate planes as the outputs: each sample's rates are
+    # read before its row is written, so the result is the same bits as with outputs of their own
     rng = np.random.default_rng(11)
     n, R, h = 157, 5, 0.01
     f = [rng.normal(c, 0.3, (n, R)) for c in (0.2, -0.1, 9.8)]
     w = [rng.normal(c, 0.05, (n, R)) for c in (0.1, -0.1, 0.8)]
     ax, ay = np.empty((n, R)), np.empty((n, R))
     bi.horizontal_accel_3d(h, f, w, ax, ay)
-    for block in (1, 7, 16, 200):
-        w2 = [c.copy() for c in w]
-        bi.horizontal_accel_3d(h, f, w2, w2[0], w2[1], block=block)
-        assert np.array_equal(w2[0], ax) and np.array_equal(w2[1], ay)
+    w2 = [c.copy() for c in w]
+    bi.horizontal_accel_3d(h, f, w2, w2[0], w2[1])
+    assert np.array_equal(w2[0], ax) and np.array_equal(w2[1], ay)
 
 
 def test_double_integral_by_groups_matches_the_plain_recursion():
