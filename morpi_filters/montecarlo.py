@@ -399,8 +399,9 @@ class StudyResult:
         Final horizontal position error [m] of every method and scenario.
     distance_error : ndarray, shape (runs, S, 2)
         MoRPI-A and MoRPI-G along-track distance error ``sum(s_k) - D`` [m] per gain scenario.
-    dG : ndarray, shape (runs, S)
-        Gain errors applied.
+    gain_draw : ndarray, shape (runs,)
+        The standard normal number of each run behind its gain errors
+        (:attr:`dG`); the studies of one pass share it (one array).
     distance : float
         True peak-to-peak distance covered by the MoRPI steps [m].
     steps : int
@@ -425,7 +426,7 @@ class StudyResult:
     columns: tuple
     final: np.ndarray
     distance_error: np.ndarray
-    dG: np.ndarray
+    gain_draw: np.ndarray
     distance: float
     steps: int
     gain_ref: tuple
@@ -435,6 +436,18 @@ class StudyResult:
     elapsed: float = 0.0
     rms: np.ndarray | None = None
     bands: np.ndarray | None = None
+
+    @property
+    def dG(self) -> np.ndarray:
+        """Gain errors applied, shape (runs, S): ``mean + std * gain_draw`` of each scenario of the config.
+
+        Formed on each access from :attr:`gain_draw` (8 bytes per run however
+        many scenarios and studies share the draws), as the study formed them.
+        """
+        out = np.empty((self.gain_draw.shape[0], len(self.config.gains)))
+        for s_i, gain in enumerate(self.config.gains):
+            out[:, s_i] = gain.mean + gain.std * self.gain_draw
+        return out
 
     def column(self, name: str) -> np.ndarray:
         """Final errors of one column, shape (runs,): ``"INS-3D"``, ``"INS-2D"`` or ``"MoRPI-A[<gain label>]"``.
@@ -839,7 +852,7 @@ def _draw(seed: int, a: int, b: int, n: int, out: np.ndarray | None = None) -> n
     return z
 
 
-def _chunk(payload: _Payload, a: int, b: int) -> list:
+def _chunk(payload: _Payload, a: int, b: int) -> tuple:
     """Runs a..b-1 of every study of the payload from one draw of their random numbers.
 
     The studies differ only in the calibration (which scales the same bias
@@ -847,8 +860,9 @@ def _chunk(payload: _Payload, a: int, b: int) -> list:
     are built once; each calibration adds its biases to them once (into the
     draws' buffer, free once the noise is built, and the last calibration in
     place, the noise being needed no more), and those measurement errors
-    serve all its studies. Returns one dict per study:
-    per-run final errors, gain errors and distance errors, and, for a study
+    serve all its studies. Returns the runs' gain draws (``{"gain_draw": z}``,
+    shared by every study: each forms its gain errors from them) and one dict
+    per study: per-run final errors and distance errors, and, for a study
     whose curves are kept, the chunk's reductions of the error series (sum of
     squares and histogram counts per epoch), plus the series themselves when
     ``payload.series``.
@@ -899,7 +913,7 @@ def _chunk(payload: _Payload, a: int, b: int) -> list:
             ins_e = _ins_errors(payload, err, psi, h, keep)
         for i in members:
             out[i] = _study_chunk(payload, payload.configs[i], ins_e, dfa, dfg, trig, zg, R, payload.curves[i])
-    return out
+    return {"gain_draw": zg}, out
 
 
 def _heading_error(w, h, out, block: int = 64):
@@ -968,7 +982,7 @@ def _ins_truth(path: _Path, h: float, keep: np.ndarray):
 
 
 def _study_chunk(payload, cfg, ins_e, dfa, dfg, trig, zg, R, curves) -> dict:
-    """One study's part of a chunk: finals, gain and distance errors, and (`curves`) series reductions."""
+    """One study's part of a chunk: finals and distance errors, and (`curves`) series reductions."""
     sine, keep = payload.sine, payload.keep
     pk = sine.peaks
     cps, sps = trig
@@ -1001,7 +1015,7 @@ def _study_chunk(payload, cfg, ins_e, dfa, dfg, trig, zg, R, curves) -> dict:
                 morpi.append(e0)
                 if series is not None:
                     series[:, :, 2 + m] = e0[:, steps_done]
-    part = {"final": final, "dG": dG, "dist": dist}
+    part = {"final": final, "dist": dist}
     if curves and series is not None:
         part.update(sumsq=np.nansum(series * series, axis=0), count=np.isfinite(series).sum(axis=0),
                     hist=_band_counts(series))
@@ -1245,9 +1259,10 @@ def run_studies(runs: int, seed: int, configs, *, chunk: int | None = None, work
     same. Each run's numbers are drawn once and serve every study, and every
     study's result is identical, bit for bit, to what :func:`run_study` gives
     for it alone with the same seed. Chunks are reduced as they finish, so
-    memory grows with the runs only by the per-run final, gain and distance
-    errors (about 8 bytes x (3 + 5 x scenarios) per run and study), not by the
-    error series (unless `series`).
+    memory grows with the runs only by the per-run final and distance errors
+    (8 bytes x (2 + 4 x scenarios) per run and study) and the runs' gain
+    draws (8 bytes per run, shared by the studies), not by the error series
+    (unless `series`).
 
     Parameters
     ----------
@@ -1313,9 +1328,10 @@ def run_studies(runs: int, seed: int, configs, *, chunk: int | None = None, work
     ranges = chunk_ranges(runs, min(chunk, runs))
     prog = Progress(runs, label, runs > 1000 if progress is None else progress)
     acc = [_Reduction(runs) for _ in configs]
+    draws = _Reduction(runs)            # the gain draws, shared by every study (each forms its dG from them)
     try:
         execute(_chunk, payload, ranges, workers=workers, scheduler=scheduler, progress=prog,
-                reduce=lambda parts: [r.add(p) for r, p in zip(acc, parts)])
+                reduce=lambda res: (draws.add(res[0]), [r.add(p) for r, p in zip(acc, res[1])]))
     finally:
         _release_scratch()
     out = []
@@ -1329,7 +1345,7 @@ def run_studies(runs: int, seed: int, configs, *, chunk: int | None = None, work
             bands = band_quantiles(red.hist)
         out.append(StudyResult(
             config=c, runs=runs, seed=seed, time=sine.time[keep], errors=red.cat("series") if series else None,
-            columns=columns, final=final, distance_error=red.cat("dist"), dG=red.cat("dG"),
+            columns=columns, final=final, distance_error=red.cat("dist"), gain_draw=draws.cat("gain_draw"),
             distance=_chord_sum(sine), steps=int(sine.peaks.size - 1), gain_ref=gain_ref, gain_ref_cv=cv,
             digest=digest(final),
             backends={"trajectories": traj_backend,
@@ -1347,7 +1363,7 @@ class _Reduction:
     (no list of chunks concatenated at the end, which would hold them twice).
     """
 
-    _PER_RUN = ("final", "dG", "dist", "series")
+    _PER_RUN = ("final", "dist", "series", "gain_draw")
 
     def __init__(self, runs: int):
         self.runs, self.filled = runs, 0
@@ -1355,7 +1371,7 @@ class _Reduction:
         self.sumsq = self.count = self.hist = None
 
     def add(self, part: dict) -> None:
-        m = part["final"].shape[0]
+        m = next(part[k] for k in self._PER_RUN if k in part).shape[0]
         for k in self._PER_RUN:
             if k in part:
                 if k not in self.arrays:

@@ -60,6 +60,14 @@ def test_one_pass_equals_each_study_alone():
         assert r.digest == alone.digest
         assert np.array_equal(r.errors, alone.errors, equal_nan=True)
         assert np.array_equal(r.distance_error, alone.distance_error) and np.array_equal(r.dG, alone.dG)
+    # the runs' gain draws are kept once for the whole pass (8 bytes per run), each study's gain errors
+    # formed from them: dG = mean + std * z per scenario, with z the runs' own standard normal numbers
+    assert all(r.gain_draw is together[0].gain_draw for r in together)
+    z = together[0].gain_draw
+    assert z.shape == (17,) and abs(float(z.mean())) < 4 / np.sqrt(17)
+    for r in together:
+        for s_i, g in enumerate(r.config.gains):
+            assert np.array_equal(r.dG[:, s_i], g.mean + g.std * z)
 
 
 def test_curves_without_the_series_are_those_of_the_series():
