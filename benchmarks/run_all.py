@@ -85,7 +85,7 @@ def _versions() -> str:
 
     out = [f"Python {platform.python_version()}", f"numpy {numpy.__version__}", f"scipy {scipy.__version__}",
            f"sympy {sympy.__version__}"]
-    for name in ("filterpy", "pandas", "matplotlib"):
+    for name in ("filterpy", "pandas", "matplotlib", "numba"):
         try:
             out.append(f"{name} {importlib.import_module(name).__version__}")
         except Exception:  # noqa: BLE001 - a missing optional package is named as missing
