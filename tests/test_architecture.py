@@ -155,15 +155,20 @@ def test_only_report_plots_imports_matplotlib_and_only_symbolic_imports_sympy():
     assert {n for n, (_, ext) in graph.items() if "sympy" in ext} == {"symbolic"}
 
 
-def test_importing_the_package_loads_no_matplotlib_and_selects_no_backend():
-    # every module imported in a fresh interpreter: none of them may load matplotlib (the figures
-    # are drawn on demand) nor call matplotlib.use
+def _loaded_by_every_module(name: str) -> bool:
+    """Whether importing every module of the package, in a fresh interpreter, loads the package `name`."""
     names = ["morpi_filters." + n for n in _modules_cache() if n != "__init__"]
     code = ("import importlib, sys\n"
             f"for n in {names!r}:\n    importlib.import_module(n)\n"
-            "print('matplotlib' in sys.modules)\n")
+            f"print({name!r} in sys.modules)\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=PKG.parent, check=True)
-    assert out.stdout.strip() == "False"
+    return out.stdout.strip() == "True"
+
+
+def test_importing_the_package_loads_no_matplotlib_and_selects_no_backend():
+    # every module imported in a fresh interpreter: none of them may load matplotlib (the figures
+    # are drawn on demand) nor call matplotlib.use
+    assert not _loaded_by_every_module("matplotlib")
     for name, tree in _modules_cache().items():
         for node in ast.walk(tree):
             if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr == "use":
@@ -175,12 +180,7 @@ def test_only_the_loader_imports_pandas_and_importing_the_package_does_not():
     # loader, when a file is read, so commands that read no recording never pay for it
     graph = _graph()
     assert {n for n, (_, ext) in graph.items() if "pandas" in ext} == {"dataset"}
-    names = ["morpi_filters." + n for n in _modules_cache() if n != "__init__"]
-    code = ("import importlib, sys\n"
-            f"for n in {names!r}:\n    importlib.import_module(n)\n"
-            "print('pandas' in sys.modules)\n")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=PKG.parent, check=True)
-    assert out.stdout.strip() == "False"
+    assert not _loaded_by_every_module("pandas")
     tree = _modules_cache()["dataset"]
     top = {a.name.split(".")[0] for node in tree.body if isinstance(node, (ast.Import, ast.ImportFrom))
            for a in node.names if isinstance(node, ast.Import)}
@@ -193,12 +193,7 @@ def test_only_the_monte_carlo_kernel_imports_numba_and_importing_the_package_doe
     # Monte Carlo INS pay for it
     graph = _graph()
     assert {n for n, (_, ext) in graph.items() if "numba" in ext} == {"_batch_ins"}
-    names = ["morpi_filters." + n for n in _modules_cache() if n != "__init__"]
-    code = ("import importlib, sys\n"
-            f"for n in {names!r}:\n    importlib.import_module(n)\n"
-            "print('numba' in sys.modules)\n")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=PKG.parent, check=True)
-    assert out.stdout.strip() == "False"
+    assert not _loaded_by_every_module("numba")
 
 
 #: Markdown a page is made of: a heading at the start of a line, a table row or separator, an
