@@ -160,6 +160,16 @@ class GainError:
     mean: float
     std: float = 0.0
 
+    def errors(self, z) -> np.ndarray:
+        """The gain errors ``mean + std * z`` of runs whose standard normal numbers are `z` (fractions).
+
+        Examples
+        --------
+        >>> GainError("spread", 0.02, 0.05).errors(np.array([0.0, 1.0, -2.0])).round(12).tolist()
+        [0.02, 0.07, -0.08]
+        """
+        return self.mean + self.std * np.asarray(z, dtype=float)
+
 
 @dataclass(frozen=True)
 class StudyConfig:
@@ -446,7 +456,7 @@ class StudyResult:
         """
         out = np.empty((self.gain_draw.shape[0], len(self.config.gains)))
         for s_i, gain in enumerate(self.config.gains):
-            out[:, s_i] = gain.mean + gain.std * self.gain_draw
+            out[:, s_i] = gain.errors(self.gain_draw)
         return out
 
     def column(self, name: str) -> np.ndarray:
@@ -949,7 +959,7 @@ def _ins_errors(payload, err, psi, h, keep):
     cause. Overwrites `err` with the measured signals, and then with the
     four horizontal accelerations, which take the planes of the signals
     already consumed: the 3D x and y those of the x and y rates (the kernel
-    reads each block's rates before it writes the block's accelerations),
+    reads each sample's rates before it writes the sample's accelerations),
     the 2D x and y those of f_z and the z rate (not read by the 2D kernel).
     Planes 2 to 5 of `err` are then integrated twice in one call (the
     integration is elementwise over its columns).
@@ -997,12 +1007,10 @@ def _study_chunk(payload, cfg, ins_e, dfa, dfg, trig, zg, R, curves) -> dict:
     truth = sine.position[pk, :2] - sine.position[pk[0], :2]   # (K+1, 2)
     D = _chord_sum(sine)
     steps_done = np.clip(np.searchsorted(pk, keep, side="right") - 1, 0, None)   # 0 before the first peak
-    dG = np.empty((R, S))
     dist = np.empty((R, S, 2))
     morpi = []                                                  # (R, K+1) MoRPI errors after 0..K steps
     for s_i, gain in enumerate(cfg.gains):
-        dG[:, s_i] = gain.mean + gain.std * zg
-        scale = 1.0 + dG[:, s_i:s_i + 1]
+        scale = 1.0 + gain.errors(zg)[:, None]
         for m, (df, G) in enumerate(((dfa, payload.gain_ref[0]), (dfg, payload.gain_ref[1]))):
             st = (G * scale) * df                           # (R, K) step lengths
             x = np.cumsum(st * cps, axis=1)
