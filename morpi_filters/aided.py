@@ -48,7 +48,10 @@ members. One predict/update core (:func:`kf_predict`, :func:`kf_update`,
 filterpy's ``KalmanFilter`` equations, Joseph form) serves every measurement,
 and :func:`rts_smooth` is filterpy's Rauch-Tung-Striebel recursion written for
 the fed-back filter. :func:`run_batch` runs many recordings (or one recording
-under many tunings) in one pass: numpy operations act on all members at once.
+under many tunings): each member's forward pass is the same arithmetic written
+as a loop over its samples, compiled by numba (:mod:`morpi_filters._aided_kernel`,
+whose tests hold every piece against these numpy forms), and its smoother is
+:func:`rts_smooth` over the epochs the pass recorded.
 """
 
 from __future__ import annotations
@@ -57,6 +60,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from . import _aided_kernel
 from .error_model import BA, BG, DP, DV, EPS, N_STATES
 from .errors import MorpiError, ParameterError
 from .strapdown import rotvec_to_C
@@ -830,7 +834,7 @@ def _epochs(inp: AidedInput, tun: AidTuning, epoch_s: float):
 
 def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_covariance: bool = True,
               nis: bool = True, innovations=False):
-    """Run the aided filter on many members in one pass.
+    """Run the aided filter on many members (one compiled forward pass each, then the smoother where asked).
 
     Parameters
     ----------
@@ -893,329 +897,96 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
     for b, (t, inp) in enumerate(zip(tunings, inputs)):
         if t.step_heading == "gyro" and t.steps and inp.step_vector is None:
             raise ParameterError(f"member {b}: step_heading='gyro' needs AidedInput.step_vector")
-    n = np.array([i.time.size for i in inputs])
-    longest = np.argsort(-n, kind="stable")
-    if np.any(longest != np.arange(B)):
-        # the members longest first, so that those still running at a sample are the first ones
-        res = run_batch([inputs[i] for i in longest], [tunings[i] for i in longest], epoch_s=epoch_s,
-                        smooth=keep_hist[longest], smoothed_covariance=smoothed_covariance, nis=nis,
-                        innovations=keep_inn[longest])
-        out = [None] * B
-        for j, i in enumerate(longest):
-            out[i] = res[j]
-        return out
-    N = int(n.max())
-    # the number of members still running at each sample (the first ones): the others stand still
-    running = np.searchsorted(-n, -np.arange(N), side="left")
-    T = np.zeros((B, N))
-    F_b = np.zeros((B, N, 3))
-    W_b = np.zeros((B, N, 3))
-    for b, inp in enumerate(inputs):
-        T[b, :n[b]] = inp.time
-        T[b, n[b]:] = inp.time[-1]
-        F_b[b, :n[b]] = inp.f
-        W_b[b, :n[b]] = inp.omega
-    dtk = np.diff(T, axis=1)                      # 0 after each member's end
-    # epochs: every m_b samples from the first, and the last sample
-    is_epoch = np.zeros((B, N), bool)
-    ev = []
-    for b, inp in enumerate(inputs):
-        e = _epochs(inp, tunings[b], epoch_s)
-        is_epoch[b, e[0]] = True
-        ev.append(e)
-    tn = tunings
-    arr = lambda name: np.array([getattr(t, name) for t in tn], float)  # noqa: E731
-    q_a, q_g = arr("accel_noise") ** 2, arr("gyro_noise") ** 2
-    q_a_rest = np.array([t.rest_accel_noise or t.accel_noise for t in tn], float) ** 2
-    q_g_rest = np.array([t.rest_gyro_noise or t.gyro_noise for t in tn], float) ** 2
-    q_ba, q_bg = arr("accel_walk") ** 2, arr("gyro_walk") ** 2
-    step_sig, nhc_sig, zupt_sig = arr("step_sigma"), arr("nhc_sigma"), arr("zupt_sigma")
-    use_nhc = np.array([t.nhc for t in tn])
-    frozen = np.zeros((B, N_AIDED), bool)
-    frozen[:, GAIN] = [not t.gain_estimated for t in tn]
-    any_frozen = bool(frozen.any())
-    gyro_heading = [t.step_heading == "gyro" for t in tn]
-    gvec = np.zeros((B, 3))
-    gvec[:, 2] = [i.g for i in inputs]
-    # the rest's own gyro density (no vibration); divided by sqrt(epoch duration) at use
-    gyro_sig_rest = np.array([t.rest_gyro_noise or t.gyro_noise for t in tn], float)
-
-    # nominal state
-    C = np.array([i.C0 for i in inputs], float)
-    M = C.copy()
-    v = np.zeros((B, 3))
-    p = np.zeros((B, 3))
-    clone = np.zeros((B, 2))
-    ba_hat = np.zeros((B, 3))
-    bg_hat = np.zeros((B, 3))
-    # error state
-    x = np.zeros((B, N_AIDED))
-    P = np.zeros((B, N_AIDED, N_AIDED))
-    I3 = np.eye(3)
-    P[:, DV, DV] = I3 * 1e-6
-    P[:, EPS, EPS] = I3 * (arr("tilt0") ** 2)[:, None, None]
-    P[:, EPS.stop - 1, EPS.stop - 1] = 1e-10      # the heading is zero by definition of the frame
-    P[:, BA, BA] = I3 * (arr("ba0") ** 2)[:, None, None]
-    P[:, BG, BG] = I3 * (arr("bg0") ** 2)[:, None, None]
-    P[:, GAIN, GAIN] = np.array([t.gain_sigma ** 2 if t.steps else 0.0 for t in tn])
-
-    # interval accumulators since the last epoch
-    # (views of one array, reset and read together at an epoch: duration, force, attitude, rate)
-    acc = np.zeros((B, 16))
-    acc_dt, acc_fn, acc_C, acc_w = acc[:, 0], acc[:, 1:4], acc[:, 4:13].reshape(B, 3, 3), acc[:, 13:16]
-    head = np.zeros((B, 2))                       # running sum of the x axis's horizontal direction
-    head_at = [dict() for _ in range(B)]          # epoch sample -> running sum (step starts)
-    keep = []                                     # per epoch: (k, members, p, P_xy)
-    # the smoother's epoch history (:func:`_smooth_member`): each smoothed member's epochs in consecutive rows
-    n_ep = np.array([e[0].size for e in ev])
-    h_start = np.r_[0, np.cumsum(np.where(keep_hist, n_ep, 0))]
-    h_fill = h_start[:-1].copy()
-    rows_h = int(h_start[-1])
-    # per row: the covariance, and the other terms side by side (:data:`_HIST`)
-    hist_P = np.zeros((rows_h, N_AIDED, N_AIDED))
-    hist_rec = np.zeros((rows_h, _HIST_WIDTH))
-    P0_prior = np.zeros((B, N_AIDED, N_AIDED))
-    nis_sum, nis_cnt, nis_dof = {}, {}, {}
-    any_inn = bool(keep_inn.any())
-    inn_log = {}                                  # name -> [(sample, members, z, y, S)] in time order
-    f_prev = F_b[:, 0] - ba_hat
-    w_prev = W_b[:, 0] - bg_hat
-    a_prev = np.einsum("bij,bj->bi", C, f_prev) - gvec
-    pad = lambda a: a if a.size == N else np.r_[a, np.zeros(N - a.size, bool)]  # noqa: E731
-    rest_flags = np.array([pad(e[3]) for e in ev])
-    stand_flags = np.array([pad(e[4]) for e in ev])
-    still_flags = rest_flags | stand_flags
-    ends = [e[1] for e in ev]
-    starts = [e[2] for e in ev]
-    end_flag = np.zeros((B, N), bool)
-    start_flag = np.zeros((B, N), bool)
-    for b in range(B):
-        end_flag[b, list(ends[b])] = True
-        start_flag[b, list(starts[b])] = True
-    # the given step directions' heading error grows by a share of each turn they take (from the previous
-    # step's direction; the first step's from the frame's zero heading), added where the step ends
-    turn_q = np.zeros((B, N)) if any(t.turn_sigma > 0 and g for t, g in zip(tn, gyro_heading)) else None
-    if turn_q is not None:
-        for b in range(B):
-            if not (gyro_heading[b] and tn[b].turn_sigma > 0 and inputs[b].step_vector is not None):
-                continue
-            vec = np.asarray(inputs[b].step_vector, float)
-            psi = np.arctan2(vec[:, 1], vec[:, 0])
-            turn = np.angle(np.exp(1j * np.diff(np.r_[0.0, psi])))
-            for k_end, lst in ends[b].items():
-                turn_q[b, k_end] = sum((tn[b].turn_sigma * turn[j]) ** 2 for _, j in lst)
-    jump2 = arr("accel_jump") ** 2
-    # the per-member noise terms an epoch reads, side by side
-    noise_terms = np.stack([q_a, q_a_rest, q_g, q_g_rest, q_ba, q_bg, jump2], axis=1)
-    was_rest = still_flags[:, 0].copy()
-    T_clone = np.eye(N_AIDED)
-    T_clone[CLONE, :] = 0.0
-    T_clone[CLONE, DP.start:DP.start + 2] = np.eye(2)
-    nominal_now = lambda sel: Nominal(C[sel], v[sel], p[sel], clone[sel])  # noqa: E731
-
-    # scratch for the covariances of the members taking part (the same sizes recur at every epoch: reused
-    # rather than allocated and freed each time)
-    work = np.empty((B, N_AIDED, N_AIDED))
-    taken = np.empty((B, N_AIDED, N_AIDED))
-    P_of = lambda ix: P if isinstance(ix, slice) else np.take(P, ix, axis=0, out=taken[:ix.size])  # noqa: E731
-
-    def update(sel, meas, name):
-        ix = _rows(sel, B)
-        nom = nominal_now(ix)
-        xs = x[ix]
-        y = meas.z - meas.h(xs, nom)
-        Pv = P_of(ix)                             # every member's P itself, else a copy
-        xn, Pv, S = kf_update(xs, Pv, y, meas.H(xs, nom), meas.R(), frozen[ix] if any_frozen else None, out=Pv,
-                              work=work[:sel.size])
-        x[ix] = xn
-        if not isinstance(ix, slice):
-            P[ix] = Pv
-        if any_inn:
-            mine = keep_inn[sel]
-            if mine.any():
-                inn_log.setdefault(name, []).append((k, sel[mine], meas.z[mine], y[mine], S[mine]))
-        if not nis:
-            return
-        val = np.einsum("bi,bi->b", y, np.einsum("bij,bj->bi", np.linalg.inv(S), y))
-        if name not in nis_sum:
-            nis_sum[name], nis_cnt[name], nis_dof[name] = np.zeros(B), np.zeros(B, int), y.shape[1]
-        nis_sum[name][sel] += val
-        nis_cnt[name][sel] += 1
-
-    for k in range(N):
-        if 0 < running[k] < B:
-            # the members that have ended keep their state (their time steps are zero)
-            r_ = slice(0, running[k])
-            dt = dtk[r_, k - 1]
-            fk = F_b[r_, k] - ba_hat[r_]
-            wk = W_b[r_, k] - bg_hat[r_]
-            C_old = C
-            C = C.copy()
-            C[r_] = C_old[r_] @ rotvec_to_C(0.5 * dt[:, None] * (w_prev[r_] + wk))
-            ak = np.einsum("bij,bj->bi", C[r_], fk) - gvec[r_]
-            v_new = v[r_] + 0.5 * dt[:, None] * (a_prev[r_] + ak)
-            p[r_] += 0.5 * dt[:, None] * (v[r_] + v_new)
-            v[r_] = v_new
-            acc_dt[r_] += dt
-            acc_fn[r_] += dt[:, None] * np.einsum("bij,bj->bi", C_old[r_], 0.5 * (f_prev[r_] + fk))
-            acc_C[r_] += dt[:, None, None] * C_old[r_]
-            acc_w[r_] += dt[:, None] * 0.5 * (w_prev[r_] + wk)
-            f_prev[r_], w_prev[r_], a_prev[r_] = fk, wk, ak
-            head[r_] += C[r_, :2, 0]
-        elif k > 0:
-            dt = dtk[:, k - 1]
-            fk = F_b[:, k] - ba_hat
-            wk = W_b[:, k] - bg_hat
-            C_old = C
-            C = C @ rotvec_to_C(0.5 * dt[:, None] * (w_prev + wk))
-            ak = np.einsum("bij,bj->bi", C, fk) - gvec
-            v_new = v + 0.5 * dt[:, None] * (a_prev + ak)
-            p = p + 0.5 * dt[:, None] * (v + v_new)
-            v = v_new
-            acc_dt += dt
-            acc_fn += dt[:, None] * np.einsum("bij,bj->bi", C_old, 0.5 * (f_prev + fk))
-            acc_C += dt[:, None, None] * C_old
-            acc_w += dt[:, None] * 0.5 * (w_prev + wk)
-            f_prev, w_prev, a_prev = fk, wk, ak
-            head += C[:, :2, 0]
-        else:
-            head += C[:, :2, 0]
-        sel = np.flatnonzero(is_epoch[:, k])
-        if sel.size == 0:
-            continue
-        # ---- predict the covariance over the interval
-        if k > 0:
-            a_sel = acc[sel]
-            A = _transition_blocks(a_sel[:, 0], a_sel[:, 1:4], a_sel[:, 4:13].reshape(-1, 3, 3))
-            # an interval that ends where the robot stands: the still phone's own noise, not the vibration
-            # of the moving robot (its integral would leave the standing robot's position uncertain)
-            quiet = still_flags[sel, k]
-            nt = noise_terms[sel]
-            qa_k = np.where(quiet, nt[:, 1], nt[:, 0])
-            qg_k = np.where(quiet, nt[:, 3], nt[:, 2])
-            q = _noise_diagonal(a_sel[:, 0], qa_k, qg_k, nt[:, 4], nt[:, 5])
-            jq = np.where(quiet != was_rest[sel], nt[:, 6], 0.0)
-            q[:, BA] += jq[:, None]
-            tq = turn_q[sel, k] if turn_q is not None else np.zeros(sel.size)
-            q[:, TURN] += tq
-            ix = _rows(sel, B)
-            x[ix], Pv = _predict(x[ix], P_of(ix), A, q, inplace=True)
-            if not isinstance(ix, slice):
-                P[ix] = Pv
-        else:
-            jq = np.zeros(sel.size)
-            tq = np.zeros(sel.size)
-            qa_k, qg_k = q_a[sel], q_g[sel]
-        was_rest[sel] = still_flags[sel, k]
-        P_first = P[sel].copy() if k == 0 else None
-        # ---- updates
-        touched = np.zeros(B, bool)
-        se = sel[end_flag[sel, k]]
-        for r in range(max((len(ends[b][k]) for b in se), default=0)):
-            # members whose r-th step ends here, all in one update
-            mem = np.array([b for b in se if len(ends[b][k]) > r])
-            z = np.empty((mem.size, 2))
-            for i, b in enumerate(mem):
-                a, j = ends[b][k][r]
-                if gyro_heading[b]:
-                    z[i] = inputs[b].step_vector[j]
-                else:
-                    hc, hs = head[b] - head_at[b][a]
-                    psi = np.arctan2(hs, hc)
-                    z[i] = inputs[b].step_length[j] * np.array([np.cos(psi), np.sin(psi)])
-            update(mem, StepDisplacement(z=z, sigma=step_sig[mem], attitude=~np.array(gyro_heading)[mem]), "step")
-        touched[se] = True
-        rs = sel[rest_flags[sel, k]]
-        if rs.size and k > 0:
-            dr = np.maximum(acc_dt[rs], 1e-9)
-            update(rs, ZeroVelocity(sigma=zupt_sig[rs]), "zero velocity")
-            update(rs, ZeroRate(z=acc_w[rs] / dr[:, None], sigma=gyro_sig_rest[rs] / np.sqrt(dr)), "zero rate")
-            touched[rs] = True
-        ws = sel[stand_flags[sel, k]]
-        if ws.size and k > 0:
-            update(ws, ZeroVelocity(sigma=zupt_sig[ws]), "zero velocity")
-            touched[ws] = True
-        ns = sel[~still_flags[sel, k] & use_nhc[sel] & (k > 0) & (k < n[sel])]
-        if ns.size:
-            update(ns, NonHolonomic(M=M[ns], sigma=nhc_sig[ns]), "non-holonomic")
-            touched[ns] = True
-        # ---- feedback
-        fed = np.zeros((sel.size, N_AIDED))
-        tb = np.flatnonzero(touched)
-        if tb.size:
-            xe = x[tb]
-            p[tb] -= xe[:, DP]
-            v[tb] -= xe[:, DV]
-            C[tb] = rotvec_to_C(-xe[:, EPS]) @ C[tb]
-            ba_hat[tb] += xe[:, BA]
-            bg_hat[tb] += xe[:, BG]
-            clone[tb] -= xe[:, CLONE]
-            pos = np.searchsorted(sel, tb)
-            fed[pos, :GAIN] = xe[:, :GAIN]
-            x[tb, :GAIN] = 0.0
-            f_prev[tb] = F_b[tb, k] - ba_hat[tb]
-            w_prev[tb] = W_b[tb, k] - bg_hat[tb]
-            a_prev[tb] = np.einsum("bij,bj->bi", C[tb], f_prev[tb]) - gvec[tb]
-        # ---- step starts: the clone takes the current horizontal position error
-        ss = sel[start_flag[sel, k]]
-        if ss.size:
-            P[ss] = T_clone @ P[ss] @ T_clone.T
-            x[ss] = x[ss] @ T_clone.T
-            clone[ss] = p[ss, :2]
-            for b in ss:
-                head_at[b][k] = head[b].copy()
-        keep.append((k, sel, p[sel], P[sel, :2, :2]))
-        hj = np.flatnonzero(keep_hist[sel]) if rows_h else ()
-        if len(hj):
-            # what the smoother needs: the posterior, the correction fed back and the interval's terms
-            # (the transition and the prediction are rebuilt from them, :func:`_smooth_member`)
-            hb = sel[hj]
-            at = h_fill[hb]
-            h_fill[hb] += 1
-            if P_first is not None:
-                P0_prior[hb] = P_first[hj]
-            hist_P[at] = P[hb]
-            hist_rec[at] = np.concatenate([x[hb], fed[hj], acc[hb, :13],
-                                           np.stack([jq, qa_k, qg_k, tq], axis=1)[hj]], axis=1)
-        acc[sel] = 0.0
-
-    kk = np.concatenate([np.full(e[1].size, e[0]) for e in keep])
-    kb = np.concatenate([e[1] for e in keep])
-    kp = np.concatenate([e[2] for e in keep])
-    kP = np.concatenate([e[3] for e in keep])
-    order = np.argsort(kb, kind="stable")       # per member, epochs in time order
-    bounds = np.searchsorted(kb[order], np.arange(B + 1))
-    inn_of = [dict() for _ in range(B)]
-    for name, parts in inn_log.items():
-        ik = np.concatenate([np.full(m.size, kk_) for kk_, m, *_ in parts])
-        ib = np.concatenate([m for _, m, *_ in parts])
-        iz, iy, iS = (np.concatenate([q[j] for q in parts]) for j in (2, 3, 4))
-        io = np.argsort(ib, kind="stable")                # per member, in time order
-        ibounds = np.searchsorted(ib[io], np.arange(B + 1))
-        for b in range(B):
-            r_ = io[ibounds[b]:ibounds[b + 1]]
-            if r_.size:
-                inn_of[b][name] = Innovations(time=inputs[b].time[ik[r_]], z=iz[r_], y=iy[r_], S=iS[r_])
+    kern = _aided_kernel.compiled()["forward_member"]
     out = []
-    for b, inp in enumerate(inputs):
-        rows = order[bounds[b]:bounds[b + 1]]
-        pos = kp[rows]
-        sm = Psm = None
-        if keep_hist[b]:
-            part = slice(h_start[b], h_start[b + 1])
-            rec = hist_rec[part]
-            sm, Psm = _smooth_member({key: rec[:, cols].reshape((-1,) + shape) for key, (cols, shape) in _HIST.items()}
-                                     | {"P": hist_P[part]}, P0_prior[b], pos, (q_ba[b], q_bg[b]), frozen[b],
-                                     smoothed_covariance)
-        nis = {name: (float(nis_sum[name][b]), int(nis_cnt[name][b]), nis_dof[name])
-               for name in nis_sum if nis_cnt[name][b] > 0}
-        out.append(AidedResult(
-            time=inp.time[kk[rows]], position=pos, P_xy=kP[rows], smoothed=sm, P_xy_smoothed=Psm, nis=nis,
-            gain_error=float(x[b, GAIN]), gain_sigma=float(np.sqrt(max(P[b, GAIN, GAIN], 0.0))),
-            bias_a=ba_hat[b].copy(), bias_g=bg_hat[b].copy(),
-            bias_a_sigma=np.sqrt(np.maximum(np.diag(P[b][BA, BA]), 0.0)),
-            bias_g_sigma=np.sqrt(np.maximum(np.diag(P[b][BG, BG]), 0.0)), innovations=inn_of[b]))
+    for b, (inp, tun) in enumerate(zip(inputs, tunings)):
+        out.append(_run_member(kern, inp, tun, epoch_s, bool(keep_hist[b]), smoothed_covariance, nis,
+                               bool(keep_inn[b])))
     return out
+
+
+def _run_member(kern, inp: AidedInput, tun: AidTuning, epoch_s, smooth, smoothed_covariance, nis, keep_inn):
+    """One member of :func:`run_batch`: the compiled forward pass, the smoother where asked, the result."""
+    K = _aided_kernel
+    a = _kernel_args(inp, tun, epoch_s, smooth, keep_inn)
+    kern(*a.values())
+    time, ep_p, x, P, bias, nis_arr = a["t"], a["ep_p"], a["x"], a["P"], a["bias"], a["nis"]
+    sm = Psm = None
+    if smooth:
+        frozen = np.zeros(N_AIDED, bool)
+        frozen[GAIN] = not tun.gain_estimated
+        rec = a["hist_rec"]
+        sm, Psm = _smooth_member({key: rec[:, cols].reshape((-1,) + shape) for key, (cols, shape) in _HIST.items()}
+                                 | {"P": a["hist_P"]}, a["P0_prior"], ep_p, (tun.accel_walk ** 2, tun.gyro_walk ** 2),
+                                 frozen, smoothed_covariance)
+    # the kinds in the order of their first update
+    kinds = sorted((i for i in range(len(K.KINDS)) if nis_arr[i, 1] > 0), key=lambda i: (nis_arr[i, 2], i))
+    nis_of = {K.KINDS[i]: (float(nis_arr[i, 0]), int(nis_arr[i, 1]), K.KIND_DOF[i]) for i in kinds} if nis else {}
+    inn_of = {}
+    if keep_inn:
+        for i in kinds:
+            u, dof = a["inn_n"][i], K.KIND_DOF[i]
+            inn_of[K.KINDS[i]] = Innovations(time=time[a["inn_k"][i, :u]], z=a["inn_z"][i, :u, :dof].copy(),
+                                             y=a["inn_y"][i, :u, :dof].copy(), S=a["inn_S"][i, :u, :dof, :dof].copy())
+    return AidedResult(
+        time=time[a["ep_k"]], position=ep_p, P_xy=a["ep_P"], smoothed=sm, P_xy_smoothed=Psm, nis=nis_of,
+        gain_error=float(x[GAIN]), gain_sigma=float(np.sqrt(max(P[GAIN, GAIN], 0.0))),
+        bias_a=bias[:3].copy(), bias_g=bias[3:].copy(),
+        bias_a_sigma=np.sqrt(np.maximum(np.diag(P[BA, BA]), 0.0)),
+        bias_g_sigma=np.sqrt(np.maximum(np.diag(P[BG, BG]), 0.0)), innovations=inn_of)
+
+
+def _kernel_args(inp: AidedInput, tun: AidTuning, epoch_s, smooth, keep_inn):
+    """The arguments of :func:`_aided_kernel.forward_member` for one member, by name and in order: its
+    events and tunables, and zeroed outputs sized for it."""
+    K = _aided_kernel
+    time = np.ascontiguousarray(inp.time, float)
+    n = time.size
+    epochs, ends, starts, rest, standing = _epochs(inp, tun, epoch_s)
+    flags = np.zeros(n, np.int64)
+    flags[epochs] |= K.EPOCH
+    flags[rest] |= K.REST
+    flags[standing] |= K.STAND
+    flags[sorted(starts)] |= K.START
+    ev = [(k, a, j) for k in sorted(ends) for a, j in ends[k]]
+    end_k, end_a, end_j = (np.array([e[i] for e in ev], np.int64) for i in range(3))
+    gyro = tun.step_heading == "gyro"
+    nk = np.shape(inp.step_length)[0]
+    step_vec = np.zeros((nk, 2)) if inp.step_vector is None else np.ascontiguousarray(inp.step_vector, float)
+    turn_q = np.zeros(0)
+    if gyro and tun.turn_sigma > 0 and inp.step_vector is not None and ends:
+        # the given directions' heading error grows by a share of each turn they take (from the previous
+        # step's direction; the first step's from the frame's zero heading), added where the step ends
+        psi = np.arctan2(step_vec[:, 1], step_vec[:, 0])
+        turn = np.angle(np.exp(1j * np.diff(np.r_[0.0, psi])))
+        turn_q = np.zeros(n)
+        for k_end, lst in ends.items():
+            turn_q[k_end] = sum((tun.turn_sigma * turn[j]) ** 2 for _, j in lst)
+    par = np.array([tun.accel_noise ** 2, (tun.rest_accel_noise or tun.accel_noise) ** 2, tun.gyro_noise ** 2,
+                    (tun.rest_gyro_noise or tun.gyro_noise) ** 2, tun.accel_walk ** 2, tun.gyro_walk ** 2,
+                    tun.accel_jump ** 2, tun.step_sigma, tun.nhc_sigma, tun.zupt_sigma,
+                    tun.rest_gyro_noise or tun.gyro_noise, float(tun.nhc), float(inp.g), float(gyro)])
+    I3 = np.eye(3)
+    P0 = np.zeros((N_AIDED, N_AIDED))
+    P0[DV, DV] = I3 * 1e-6
+    P0[EPS, EPS] = I3 * tun.tilt0 ** 2
+    P0[EPS.stop - 1, EPS.stop - 1] = 1e-10        # the heading is zero by definition of the frame
+    P0[BA, BA] = I3 * tun.ba0 ** 2
+    P0[BG, BG] = I3 * tun.bg0 ** 2
+    P0[GAIN, GAIN] = tun.gain_sigma ** 2 if tun.steps else 0.0
+    m, kinds = epochs.size, len(K.KINDS)
+    cap = (m + end_k.size) if keep_inn else 0
+    rows = m if smooth else 0
+    return dict(
+        t=time, f=np.ascontiguousarray(inp.f, float), w=np.ascontiguousarray(inp.omega, float), flags=flags,
+        end_k=end_k, end_a=end_a, end_j=end_j, step_len=np.ascontiguousarray(inp.step_length, float),
+        step_vec=step_vec, turn_q=turn_q, par=par, C0=np.ascontiguousarray(inp.C0, float), P0=P0,
+        fj=-1 if tun.gain_estimated else GAIN, keep_inn=bool(keep_inn), keep_hist=bool(smooth),
+        ep_k=np.zeros(m, np.int64), ep_p=np.zeros((m, 3)), ep_P=np.zeros((m, 2, 2)), nis=np.zeros((kinds, 3)),
+        inn_k=np.zeros((kinds, cap), np.int64), inn_z=np.zeros((kinds, cap, 3)), inn_y=np.zeros((kinds, cap, 3)),
+        inn_S=np.zeros((kinds, cap, 3, 3)), inn_n=np.zeros(kinds, np.int64),
+        hist_P=np.zeros((rows, N_AIDED, N_AIDED)), hist_rec=np.zeros((rows, _HIST_WIDTH)),
+        P0_prior=np.zeros((N_AIDED, N_AIDED)), x=np.zeros(N_AIDED), P=np.zeros((N_AIDED, N_AIDED)), bias=np.zeros(6))
 
 
 #: Columns of the smoother's epoch record besides the covariance: name -> (columns, shape of one row).
@@ -1272,11 +1043,6 @@ def _phi(A):
 
 #: Rows and columns of ``Phi - I`` that can be non-zero (:func:`_transition_blocks`).
 _A_ROWS, _A_COLS = slice(DP.start, EPS.stop), slice(DV.start, BG.stop)
-
-
-def _rows(sel, b):
-    """Index of the members `sel` among `b`: a slice (views, no copies) when they are all of them."""
-    return slice(None) if sel.size == b else sel
 
 
 def _predict(x, P, A, q, inplace=False):

@@ -23,7 +23,7 @@ LAYERS = (
     ("foundation", {"errors", "units", "resources", "reporting", "parallel"}),
     ("inputs", {"params", "dataset", "fetch"}),
     ("calibration", {"calibration"}),
-    ("navigation", {"strapdown", "steps", "symbolic", "error_model", "eskf", "aided", "_batch_ins"}),
+    ("navigation", {"strapdown", "steps", "symbolic", "error_model", "eskf", "aided", "_aided_kernel", "_batch_ins"}),
     ("synthetic recordings", {"simulate", "synthetic"}),
     ("field", {"field"}),
     ("evaluation", {"evaluate"}),
@@ -187,12 +187,12 @@ def test_only_the_loader_imports_pandas_and_importing_the_package_does_not():
     assert "pandas" not in top
 
 
-def test_only_the_monte_carlo_kernel_imports_numba_and_importing_the_package_does_not():
-    # numba (the compiler of the 3D Monte Carlo kernel) costs about 0.6 s to import and load its
-    # cached machine code: it is imported on the kernel's first call, so only commands that run the
-    # Monte Carlo INS pay for it
+def test_only_the_compiled_kernels_import_numba_and_importing_the_package_does_not():
+    # numba (the compiler of the 3D Monte Carlo kernel and of the aided filter's forward pass) costs
+    # about 0.6 s to import and load its cached machine code: it is imported on a kernel's first
+    # call, so only commands that run one pay for it
     graph = _graph()
-    assert {n for n, (_, ext) in graph.items() if "numba" in ext} == {"_batch_ins"}
+    assert {n for n, (_, ext) in graph.items() if "numba" in ext} == {"_batch_ins", "_aided_kernel"}
     assert not _loaded_by_every_module("numba")
 
 

@@ -1,0 +1,557 @@
+"""The aided filter's forward pass over one recording: a plain loop that numba compiles.
+
+:func:`aided.run_batch` prepares each member (epoch grid, step events, rest flags, tunables) and
+calls :func:`forward_member`, which runs the strapdown at every sample and the Kalman predict,
+updates and feedback at the epochs, writing into arrays the caller owns. The arithmetic is that of
+:mod:`morpi_filters.aided`, written element by element: the transition blocks of
+``_transition_blocks``, the sparse prediction of ``_predict``, the Joseph update of
+:func:`aided.kf_update` (one considered state at most: the gain error), the measurement models
+``h`` and ``H`` of :class:`aided.StepDisplacement`, :class:`aided.ZeroVelocity`,
+:class:`aided.ZeroRate` and :class:`aided.NonHolonomic`, and Rodrigues' formula of
+:func:`strapdown.rotvec_to_C`. The tests hold each piece against its numpy form.
+
+numba is imported on the first call (:func:`compiled`), not with the package, and its machine code
+is cached on disk. Every function runs as plain Python too (slowly): the tests compare both.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .error_model import BA, BG, DP, DV, EPS, N_STATES
+
+# the aided error state (aided.CLONE, GAIN, TURN, N_AIDED)
+_N = N_STATES + 4
+_DP, _DV, _EPS, _BA, _BG = DP.start, DV.start, EPS.start, BA.start, BG.start
+_CL, _GAIN, _TURN = N_STATES, N_STATES + 2, N_STATES + 3
+# rows and columns of Phi - I that can be non-zero (aided._A_ROWS, _A_COLS)
+_R0, _NR, _C0, _NC = DP.start, EPS.stop - DP.start, DV.start, BG.stop - DV.start
+
+#: Bits of the per-sample flags.
+EPOCH, REST, STAND, START = 1, 2, 4, 8
+#: Measurement kinds, in the order of the NIS and innovation arrays.
+KINDS = ("step", "zero velocity", "zero rate", "non-holonomic")
+#: Their dimensions.
+KIND_DOF = (2, 3, 3, 2)
+#: Entries of the tunables vector `par` of :func:`forward_member`.
+PAR = ("q_a", "q_a_rest", "q_g", "q_g_rest", "q_ba", "q_bg", "jump2", "step_sigma", "nhc_sigma",
+       "zupt_sigma", "gyro_sigma_rest", "nhc", "g", "gyro_heading")
+
+
+def rodrigues(px, py, pz, out):
+    """``exp([phi x])`` into `out` (3, 3): :func:`strapdown.rotvec_to_C` for one vector."""
+    t2 = px * px + py * py + pz * pz
+    if t2 < 1e-8:
+        a = 1.0 - t2 / 6.0 + t2 * t2 / 120.0
+        b = 0.5 - t2 / 24.0 + t2 * t2 / 720.0
+    else:
+        t = math.sqrt(t2)
+        a = math.sin(t) / t
+        b = (1.0 - math.cos(t)) / (t * t)
+    c = 1.0 - b * t2
+    out[0, 0] = b * (px * px) + c
+    out[1, 1] = b * (py * py) + c
+    out[2, 2] = b * (pz * pz) + c
+    out[0, 1] = b * (px * py) - a * pz
+    out[1, 0] = b * (py * px) + a * pz
+    out[0, 2] = b * (px * pz) + a * py
+    out[2, 0] = b * (pz * px) - a * py
+    out[1, 2] = b * (py * pz) - a * px
+    out[2, 1] = b * (pz * py) + a * px
+
+
+def matmul3(a, b, out):
+    """``out = a b`` for 3 x 3 matrices (`out` distinct from both)."""
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = a[i, 0] * b[0, j] + a[i, 1] * b[1, j] + a[i, 2] * b[2, j]
+
+
+def transition_blocks(d, fn, Cm, A):
+    """The blocks ``A = Phi - I`` of one interval into `A` (9, 12): ``aided._transition_blocks``."""
+    A[:, :] = 0.0
+    S = np.zeros((3, 3))
+    S[0, 1], S[0, 2], S[1, 0] = -fn[2], fn[1], fn[2]
+    S[1, 2], S[2, 0], S[2, 1] = -fn[0], -fn[1], fn[0]
+    SC = np.zeros((3, 3))
+    matmul3(S, Cm, SC)
+    for i in range(3):
+        A[i, i] = d                                         # (dp, dv) = T I
+        for j in range(3):
+            A[3 + i, 3 + j] = -S[i, j]                      # (dv, eps) = -[fn x]
+            A[3 + i, 6 + j] = Cm[i, j]                      # (dv, ba) = Cm
+            A[6 + i, 9 + j] = Cm[i, j]                      # (eps, bg) = Cm
+            A[i, 3 + j] = -0.5 * d * S[i, j]                # (dp, eps) = -T [fn x] / 2
+            A[i, 6 + j] = 0.5 * d * Cm[i, j]                # (dp, ba) = T Cm / 2
+            A[3 + i, 9 + j] = -0.5 * SC[i, j]               # (dv, bg) = -[fn x] Cm / 2
+
+
+def predict(x, P, A, q):
+    """``x = Phi x``, ``P = Phi P Phi^T + diag(q)`` in place for ``Phi = I + A``: ``aided._predict``."""
+    n = x.shape[0]
+    AP = np.zeros((_NR, n))
+    for i in range(_NR):
+        for l in range(_NC):
+            a = A[i, l]
+            if a != 0.0:
+                for j in range(n):
+                    AP[i, j] += a * P[_C0 + l, j]
+    APA = np.zeros((_NR, _NR))
+    for i in range(_NR):
+        for j in range(_NR):
+            s = 0.0
+            for l in range(_NC):
+                s += AP[i, _C0 + l] * A[j, l]
+            APA[i, j] = s
+    xa = np.zeros(_NR)
+    for i in range(_NR):
+        s = 0.0
+        for l in range(_NC):
+            s += A[i, l] * x[_C0 + l]
+        xa[i] = s
+    for i in range(_NR):
+        x[_R0 + i] += xa[i]
+        for j in range(n):
+            P[_R0 + i, j] += AP[i, j]
+    for i in range(n):
+        for j in range(_NR):
+            P[i, _R0 + j] += AP[j, i]
+    for i in range(_NR):
+        for j in range(_NR):
+            P[_R0 + i, _R0 + j] += APA[i, j]
+    for i in range(n):
+        P[i, i] += q[i]
+
+
+def inverse(S, m, out):
+    """Inverse of the symmetric positive definite `S` (m x m, m <= 3) into `out`, by its cofactors."""
+    if m == 1:
+        out[0, 0] = 1.0 / S[0, 0]
+    elif m == 2:
+        det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
+        out[0, 0], out[1, 1] = S[1, 1] / det, S[0, 0] / det
+        out[0, 1], out[1, 0] = -S[0, 1] / det, -S[1, 0] / det
+    else:
+        c00 = S[1, 1] * S[2, 2] - S[1, 2] * S[2, 1]
+        c01 = S[1, 2] * S[2, 0] - S[1, 0] * S[2, 2]
+        c02 = S[1, 0] * S[2, 1] - S[1, 1] * S[2, 0]
+        det = S[0, 0] * c00 + S[0, 1] * c01 + S[0, 2] * c02
+        out[0, 0] = c00 / det
+        out[1, 0] = c01 / det
+        out[2, 0] = c02 / det
+        out[0, 1] = (S[0, 2] * S[2, 1] - S[0, 1] * S[2, 2]) / det
+        out[1, 1] = (S[0, 0] * S[2, 2] - S[0, 2] * S[2, 0]) / det
+        out[2, 1] = (S[0, 1] * S[2, 0] - S[0, 0] * S[2, 1]) / det
+        out[0, 2] = (S[0, 1] * S[1, 2] - S[0, 2] * S[1, 1]) / det
+        out[1, 2] = (S[0, 2] * S[1, 0] - S[0, 0] * S[1, 2]) / det
+        out[2, 2] = (S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]) / det
+
+
+def kf_update(x, P, y, H, R, m, fj, S):
+    """Joseph-form update in place, the innovation covariance into `S`: :func:`aided.kf_update`.
+
+    `fj` is the considered (frozen) state, or -1. Returns the NIS ``y^T S^-1 y``.
+    """
+    n = x.shape[0]
+    PHt = np.zeros((n, m))
+    for i in range(n):
+        for a in range(m):
+            s = 0.0
+            for l in range(n):
+                s += P[i, l] * H[a, l]
+            PHt[i, a] = s
+    for a in range(m):
+        for c in range(m):
+            s = 0.0
+            for l in range(n):
+                s += H[a, l] * PHt[l, c]
+            S[a, c] = s + R[a, c]
+    Si = np.zeros((m, m))
+    inverse(S, m, Si)
+    nis = 0.0
+    for a in range(m):
+        for c in range(m):
+            nis += y[a] * Si[a, c] * y[c]
+    KHt = PHt
+    if fj >= 0 and P[fj, fj] > 0:
+        # the filter that takes state fj as known: P conditioned on it (one Schur complement)
+        KHt = PHt.copy()
+        w = 1.0 / P[fj, fj]
+        for a in range(m):
+            hc = 0.0
+            for l in range(n):
+                hc += H[a, l] * P[l, fj]
+            for i in range(n):
+                KHt[i, a] -= w * P[i, fj] * hc
+            KHt[fj, a] = 0.0
+        Sc = np.zeros((m, m))
+        for a in range(m):
+            for c in range(m):
+                s = 0.0
+                for l in range(n):
+                    s += H[a, l] * KHt[l, c]
+                Sc[a, c] = s + R[a, c]
+        inverse(Sc, m, Si)
+    K = np.zeros((n, m))
+    for i in range(n):
+        for c in range(m):
+            s = 0.0
+            for a in range(m):
+                s += KHt[i, a] * Si[a, c]
+            K[i, c] = s
+    for i in range(n):
+        s = 0.0
+        for a in range(m):
+            s += K[i, a] * y[a]
+        x[i] += s
+    # (I - K H) P (I - K H)^T + K R K^T = P + K D^T - P H^T K^T with D = K S - P H^T
+    D = np.zeros((n, m))
+    for i in range(n):
+        for c in range(m):
+            s = 0.0
+            for a in range(m):
+                s += K[i, a] * S[a, c]
+            D[i, c] = s - PHt[i, c]
+    for i in range(n):
+        for j in range(i, n):
+            s1 = 0.0
+            s2 = 0.0
+            for a in range(m):
+                s1 += K[i, a] * D[j, a] - PHt[i, a] * K[j, a]
+                s2 += K[j, a] * D[i, a] - PHt[j, a] * K[i, a]
+            v = 0.5 * ((P[i, j] + s1) + (P[j, i] + s2))
+            P[i, j] = v
+            P[j, i] = v
+    return nis
+
+
+def step_model(x, p, clone, attitude, z, H, y):
+    """Innovation and Jacobian of the MoRPI step: :class:`aided.StepDisplacement`."""
+    gain = 1.0 + x[_GAIN]
+    d0 = (p[0] - x[_DP]) - (clone[0] - x[_CL])
+    d1 = (p[1] - x[_DP + 1]) - (clone[1] - x[_CL + 1])
+    e = x[_EPS + 2] if attitude else x[_TURN]
+    c, s = math.cos(e), math.sin(e)
+    r0, r1 = c * d0 - s * d1, s * d0 + c * d1
+    y[0], y[1] = z[0] - gain * r0, z[1] - gain * r1
+    H[:2, :] = 0.0
+    H[0, _DP], H[0, _DP + 1], H[1, _DP], H[1, _DP + 1] = -gain * c, gain * s, -gain * s, -gain * c
+    H[0, _CL], H[0, _CL + 1], H[1, _CL], H[1, _CL + 1] = gain * c, -gain * s, gain * s, gain * c
+    H[0, _GAIN], H[1, _GAIN] = r0, r1
+    col = _EPS + 2 if attitude else _TURN
+    H[0, col], H[1, col] = -gain * r1, gain * r0
+
+
+def zero_velocity_model(x, v, H, y):
+    """Innovation (measurement zero) and Jacobian of the zero-velocity update: :class:`aided.ZeroVelocity`."""
+    H[:, :] = 0.0
+    for i in range(3):
+        H[i, _DV + i] = -1.0
+        y[i] = -(v[i] - x[_DV + i])
+
+
+def zero_rate_model(x, z, H, y):
+    """Innovation and Jacobian of the zero-rate update (`z` the mean rate): :class:`aided.ZeroRate`."""
+    H[:, :] = 0.0
+    for i in range(3):
+        H[i, _BG + i] = 1.0
+        y[i] = z[i] - x[_BG + i]
+
+
+def nhc_model(x, C, v, M, H, y):
+    """Innovation (measurement zero) and Jacobian of the non-holonomic constraint: :class:`aided.NonHolonomic`."""
+    R = np.zeros((3, 3))
+    rodrigues(-x[_EPS], -x[_EPS + 1], -x[_EPS + 2], R)
+    Ct = np.zeros((3, 3))
+    matmul3(R, C, Ct)
+    u = np.zeros(3)
+    for i in range(3):
+        u[i] = v[i] - x[_DV + i]
+    vb = np.zeros(3)
+    for i in range(3):
+        vb[i] = Ct[0, i] * u[0] + Ct[1, i] * u[1] + Ct[2, i] * u[2]
+    H[:2, :] = 0.0
+    for r in range(2):
+        y[r] = -(M[r + 1, 0] * vb[0] + M[r + 1, 1] * vb[1] + M[r + 1, 2] * vb[2])
+        # rows of M C^T at the fed-back state, and -A [u x]
+        a0 = M[r + 1, 0] * C[0, 0] + M[r + 1, 1] * C[0, 1] + M[r + 1, 2] * C[0, 2]
+        a1 = M[r + 1, 0] * C[1, 0] + M[r + 1, 1] * C[1, 1] + M[r + 1, 2] * C[1, 2]
+        a2 = M[r + 1, 0] * C[2, 0] + M[r + 1, 1] * C[2, 1] + M[r + 1, 2] * C[2, 2]
+        H[r, _DV], H[r, _DV + 1], H[r, _DV + 2] = -a0, -a1, -a2
+        H[r, _EPS] = -(a1 * u[2] - a2 * u[1])
+        H[r, _EPS + 1] = -(a2 * u[0] - a0 * u[2])
+        H[r, _EPS + 2] = -(a0 * u[1] - a1 * u[0])
+
+
+def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn_q, par, C0, P0, fj,
+                   keep_inn, keep_hist, ep_k, ep_p, ep_P, nis, inn_k, inn_z, inn_y, inn_S, inn_n,
+                   hist_P, hist_rec, P0_prior, x, P, bias):
+    """The forward filter over one recording, written into the output arrays.
+
+    Parameters
+    ----------
+    t, f, w : (n,), (n, 3), (n, 3)
+        Times, specific force and angular rate.
+    flags : (n,) int
+        Bits :data:`EPOCH`, :data:`REST`, :data:`STAND`, :data:`START` per sample.
+    end_k, end_a, end_j : (s,) int
+        Step updates in order: end sample, start sample, step index.
+    step_len, step_vec : (k,), (k, 2)
+        Step lengths and given step vectors.
+    turn_q : (n,) or (0,)
+        Turn variance added to the heading error of given directions at a sample.
+    par : (len(PAR),)
+        Tunables (:data:`PAR`).
+    C0, P0 : (3, 3), (N, N)
+        Initial attitude (also the phone-to-robot tilt) and covariance.
+    fj : int
+        Considered state, or -1.
+    keep_inn, keep_hist : bool
+        Whether to write the innovations and the smoother's history.
+
+    The outputs: per epoch its sample, position and horizontal covariance; ``nis`` (4, 3) sums
+    , counts and first update's sample per kind (:data:`KINDS`); the innovations per kind (``inn_n`` of them); the
+    history rows and the covariance before the first epoch's updates; the final ``x``, ``P`` and
+    the bias estimates ``bias`` (6,).
+    """
+    n = t.shape[0]
+    q_a, q_a_rest, q_g, q_g_rest, q_ba, q_bg, jump2 = par[0], par[1], par[2], par[3], par[4], par[5], par[6]
+    step_sig, nhc_sig, zupt_sig, gsr = par[7], par[8], par[9], par[10]
+    use_nhc, g, gyro = par[11] != 0.0, par[12], par[13] != 0.0
+    N = x.shape[0]
+    C = C0.copy()
+    Cn = np.zeros((3, 3))
+    Rt = np.zeros((3, 3))
+    v = np.zeros(3)
+    p = np.zeros(3)
+    clone = np.zeros(2)
+    ba = np.zeros(3)
+    bg = np.zeros(3)
+    x[:] = 0.0
+    P[:, :] = P0
+    acc = np.zeros(16)                         # duration, force integral (3), attitude integral (9), rate (3)
+    head = np.zeros(2)
+    head_at = np.zeros((n, 2))
+    fp = np.zeros(3)
+    wp = np.zeros(3)
+    ap = np.zeros(3)
+    fk = np.zeros(3)
+    wk = np.zeros(3)
+    ak = np.zeros(3)
+    for i in range(3):
+        fp[i] = f[0, i] - ba[i]
+        wp[i] = w[0, i] - bg[i]
+    for i in range(3):
+        ap[i] = C[i, 0] * fp[0] + C[i, 1] * fp[1] + C[i, 2] * fp[2]
+    ap[2] -= g
+    A = np.zeros((_NR, _NC))
+    q = np.zeros(N)
+    H = np.zeros((3, N))
+    Rm = np.zeros((3, 3))
+    y = np.zeros(3)
+    z = np.zeros(3)
+    S = np.zeros((3, 3))
+    fed = np.zeros(N)
+    Cm = np.zeros((3, 3))
+    fn = np.zeros(3)
+    was_still = (flags[0] & (REST | STAND)) != 0
+    e = 0
+    ie = 0
+    for k in range(n):
+        if k > 0:
+            dt = t[k] - t[k - 1]
+            for i in range(3):
+                fk[i] = f[k, i] - ba[i]
+                wk[i] = w[k, i] - bg[i]
+            h = 0.5 * dt
+            rodrigues(h * (wp[0] + wk[0]), h * (wp[1] + wk[1]), h * (wp[2] + wk[2]), Rt)
+            matmul3(C, Rt, Cn)
+            for i in range(3):
+                ak[i] = Cn[i, 0] * fk[0] + Cn[i, 1] * fk[1] + Cn[i, 2] * fk[2]
+            ak[2] -= g
+            acc[0] += dt
+            for i in range(3):
+                vn = v[i] + h * (ap[i] + ak[i])
+                p[i] += h * (v[i] + vn)
+                v[i] = vn
+                acc[1 + i] += dt * (C[i, 0] * (0.5 * (fp[0] + fk[0])) + C[i, 1] * (0.5 * (fp[1] + fk[1]))
+                                    + C[i, 2] * (0.5 * (fp[2] + fk[2])))
+                for j in range(3):
+                    acc[4 + 3 * i + j] += dt * C[i, j]
+                acc[13 + i] += dt * (0.5 * (wp[i] + wk[i]))
+            for i in range(3):
+                fp[i], wp[i], ap[i] = fk[i], wk[i], ak[i]
+                for j in range(3):
+                    C[i, j] = Cn[i, j]
+        head[0] += C[0, 0]
+        head[1] += C[1, 0]
+        fl = flags[k]
+        if (fl & EPOCH) == 0:
+            continue
+        still = (fl & (REST | STAND)) != 0
+        jq = 0.0
+        tq = 0.0
+        qa_k, qg_k = q_a, q_g
+        if k > 0:
+            for i in range(3):
+                fn[i] = acc[1 + i]
+                for j in range(3):
+                    Cm[i, j] = acc[4 + 3 * i + j]
+            d = acc[0]
+            transition_blocks(d, fn, Cm, A)
+            if still:
+                qa_k, qg_k = q_a_rest, q_g_rest
+            q[:] = 0.0
+            if still != was_still:
+                jq = jump2
+            if turn_q.shape[0] > 0:
+                tq = turn_q[k]
+            for i in range(3):
+                q[_DV + i] = qa_k * d
+                q[_EPS + i] = qg_k * d
+                q[_BA + i] = q_ba * d + jq
+                q[_BG + i] = q_bg * d
+            q[_TURN] += tq
+            predict(x, P, A, q)
+        was_still = still
+        if k == 0 and keep_hist:
+            P0_prior[:, :] = P
+        touched = False
+        # ---- updates, all about the same nominal state; the feedback follows them
+        while ie < end_k.shape[0] and end_k[ie] == k:
+            a, j = end_a[ie], end_j[ie]
+            if gyro:
+                z[0], z[1] = step_vec[j, 0], step_vec[j, 1]
+            else:
+                psi = math.atan2(head[1] - head_at[a, 1], head[0] - head_at[a, 0])
+                z[0], z[1] = step_len[j] * math.cos(psi), step_len[j] * math.sin(psi)
+            step_model(x, p, clone, not gyro, z, H, y)
+            Rm[:, :] = 0.0
+            Rm[0, 0] = Rm[1, 1] = step_sig * step_sig
+            _log(0, 2, k, z, y, kf_update(x, P, y, H, Rm, 2, fj, S), S, nis, keep_inn, inn_k, inn_z, inn_y, inn_S, inn_n)
+            touched = True
+            ie += 1
+        if k > 0 and (fl & (REST | STAND)) != 0:
+            # zero velocity (rest and standing), then zero rate (rest only)
+            zero_velocity_model(x, v, H, y)
+            Rm[:, :] = 0.0
+            for i in range(3):
+                Rm[i, i] = zupt_sig * zupt_sig
+                z[i] = 0.0
+            _log(1, 3, k, z, y, kf_update(x, P, y, H, Rm, 3, fj, S), S, nis, keep_inn, inn_k, inn_z, inn_y, inn_S, inn_n)
+            if (fl & REST) != 0:
+                dr = max(acc[0], 1e-9)
+                sg = gsr / math.sqrt(dr)
+                for i in range(3):
+                    Rm[i, i] = sg * sg
+                    z[i] = acc[13 + i] / dr
+                zero_rate_model(x, z, H, y)
+                _log(2, 3, k, z, y, kf_update(x, P, y, H, Rm, 3, fj, S), S, nis, keep_inn, inn_k, inn_z, inn_y, inn_S,
+                     inn_n)
+            touched = True
+        if k > 0 and not still and use_nhc:
+            nhc_model(x, C, v, C0, H, y)
+            Rm[:, :] = 0.0
+            Rm[0, 0] = Rm[1, 1] = nhc_sig * nhc_sig
+            z[0] = z[1] = 0.0
+            _log(3, 2, k, z, y, kf_update(x, P, y, H, Rm, 2, fj, S), S, nis, keep_inn, inn_k, inn_z, inn_y, inn_S, inn_n)
+            touched = True
+        # ---- feedback into the nominal state
+        fed[:] = 0.0
+        if touched:
+            for i in range(3):
+                p[i] -= x[_DP + i]
+                v[i] -= x[_DV + i]
+                ba[i] += x[_BA + i]
+                bg[i] += x[_BG + i]
+            rodrigues(-x[_EPS], -x[_EPS + 1], -x[_EPS + 2], Rt)
+            matmul3(Rt, C, Cn)
+            C[:, :] = Cn
+            clone[0] -= x[_CL]
+            clone[1] -= x[_CL + 1]
+            for i in range(_GAIN):
+                fed[i] = x[i]
+                x[i] = 0.0
+            for i in range(3):
+                fp[i] = f[k, i] - ba[i]
+                wp[i] = w[k, i] - bg[i]
+            for i in range(3):
+                ap[i] = C[i, 0] * fp[0] + C[i, 1] * fp[1] + C[i, 2] * fp[2]
+            ap[2] -= g
+        # ---- a step starts: the clone takes the current horizontal position error
+        if (fl & START) != 0:
+            for r in range(2):
+                for j in range(N):
+                    P[_CL + r, j] = P[_DP + r, j]
+            for r in range(2):
+                for i in range(N):
+                    P[i, _CL + r] = P[i, _DP + r]
+                x[_CL + r] = x[_DP + r]
+                clone[r] = p[r]
+                head_at[k, r] = head[r]
+        ep_k[e] = k
+        for i in range(3):
+            ep_p[e, i] = p[i]
+        for i in range(2):
+            for j in range(2):
+                ep_P[e, i, j] = P[i, j]
+        if keep_hist:
+            hist_P[e, :, :] = P
+            for i in range(N):
+                hist_rec[e, i] = x[i]
+                hist_rec[e, N + i] = fed[i]
+            for i in range(13):
+                hist_rec[e, 2 * N + i] = acc[i]
+            hist_rec[e, 2 * N + 13] = jq
+            hist_rec[e, 2 * N + 14] = qa_k
+            hist_rec[e, 2 * N + 15] = qg_k
+            hist_rec[e, 2 * N + 16] = tq
+        acc[:] = 0.0
+        e += 1
+    for i in range(3):
+        bias[i] = ba[i]
+        bias[3 + i] = bg[i]
+    return e
+
+
+def _log(kind, m, k, z, y, val, S, nis, keep_inn, inn_k, inn_z, inn_y, inn_S, inn_n):
+    """Add one update's NIS to its kind's sum; keep its measurement, innovation and covariance when asked."""
+    if nis[kind, 1] == 0.0:
+        nis[kind, 2] = k
+    nis[kind, 0] += val
+    nis[kind, 1] += 1.0
+    if keep_inn:
+        r = inn_n[kind]
+        inn_k[kind, r] = k
+        for a in range(m):
+            inn_z[kind, r, a] = z[a]
+            inn_y[kind, r, a] = y[a]
+            for c in range(m):
+                inn_S[kind, r, a, c] = S[a, c]
+        inn_n[kind] = r + 1
+
+
+#: The functions numba compiles, callees first (each finds the compiled form of those it calls).
+_FUNCTIONS = ("rodrigues", "matmul3", "transition_blocks", "predict", "inverse", "kf_update", "step_model",
+              "zero_velocity_model", "zero_rate_model", "nhc_model", "_log", "forward_member")
+_COMPILED = None
+
+
+def compiled():
+    """:func:`forward_member` compiled by numba (once per process; the machine code is cached on disk).
+
+    Returns the compiled functions by name (:data:`_FUNCTIONS`).
+    """
+    global _COMPILED
+    if _COMPILED is None:
+        import numba
+
+        space = globals()
+        out = {}
+        for name in _FUNCTIONS:
+            out[name] = numba.njit(cache=True, nogil=True)(space[name])
+            space[name] = out[name]
+        _COMPILED = out
+    return _COMPILED

@@ -1,0 +1,193 @@
+"""The aided filter's compiled forward pass: each piece against its numpy form in `aided`, and the
+compiled loop against the same loop run as plain Python."""
+from __future__ import annotations
+
+import importlib.util
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from morpi_filters import _aided_kernel as K
+from morpi_filters import aided, simulate, units
+from morpi_filters.strapdown import rotvec_to_C
+
+N = aided.N_AIDED
+
+
+@pytest.fixture(scope="module")
+def jit():
+    return K.compiled()
+
+
+def _spd(rng, n=N, scale=1.0):
+    A = rng.normal(size=(n, n)) * scale
+    return A @ A.T + np.eye(n) * 1e-3
+
+
+def _nominal(rng):
+    from scipy.spatial.transform import Rotation
+
+    C = Rotation.from_rotvec(rng.normal(size=(1, 3)) * 0.5).as_matrix()
+    return aided.Nominal(C=C, v=rng.normal(size=(1, 3)), p=rng.normal(size=(1, 3)), clone=rng.normal(size=(1, 2)))
+
+
+def _error_state(rng):
+    # an error state between updates of one epoch: nothing fed back yet, so every state may be non-zero
+    return rng.normal(size=N) * 0.05
+
+
+def test_the_state_layout_is_aideds():
+    assert (K._N, K._CL, K._GAIN, K._TURN) == (N, aided.CLONE.start, aided.GAIN, aided.TURN)
+    assert (K._R0, K._R0 + K._NR, K._C0, K._C0 + K._NC) == (aided._A_ROWS.start, aided._A_ROWS.stop,
+                                                             aided._A_COLS.start, aided._A_COLS.stop)
+
+
+@pytest.mark.parametrize("size", [0.0, 1e-6, 1e-4, 0.3, 3.0])
+def test_rodrigues_is_rotvec_to_C(jit, size):
+    rng = np.random.default_rng(11)
+    for phi in rng.normal(size=(20, 3)) * size:
+        out = np.zeros((3, 3))
+        jit["rodrigues"](phi[0], phi[1], phi[2], out)
+        # the same formula in another order of rounding: a few units of 1e-16
+        np.testing.assert_allclose(out, rotvec_to_C(phi), rtol=0, atol=1e-15)
+
+
+def test_transition_and_prediction_are_the_numpy_ones(jit):
+    rng = np.random.default_rng(12)
+    for _ in range(10):
+        d = rng.uniform(0.01, 0.3)
+        fn = rng.normal(size=3) * 2.0
+        Cm = rotvec_to_C(rng.normal(size=3)) * d
+        A = np.zeros((K._NR, K._NC))
+        jit["transition_blocks"](d, fn, Cm, A)
+        ref = aided._transition_blocks(np.array([d]), fn[None], Cm[None])[0]
+        np.testing.assert_allclose(A, ref, rtol=0, atol=1e-15)
+        x, P, q = rng.normal(size=N), _spd(rng), rng.uniform(0, 1e-3, N)
+        xr, Pr = aided._predict(x[None], P[None], ref[None], q[None])
+        jit["predict"](x, P, A, q)
+        # sums of up to 12 products in another order: relative 1e-13 of the largest entry
+        np.testing.assert_allclose(x, xr[0], rtol=0, atol=1e-13 * np.abs(xr).max())
+        np.testing.assert_allclose(P, Pr[0], rtol=0, atol=1e-13 * np.abs(Pr).max())
+
+
+@pytest.mark.parametrize("m", [1, 2, 3])
+@pytest.mark.parametrize("frozen", [False, True])
+def test_update_is_kf_update(jit, m, frozen):
+    rng = np.random.default_rng(13 + m)
+    for _ in range(10):
+        P = _spd(rng, scale=0.3)
+        x, y = rng.normal(size=N), rng.normal(size=m)
+        H = np.zeros((3, N))
+        H[:m] = rng.normal(size=(m, N))
+        R = np.eye(3) * rng.uniform(0.01, 1.0)
+        fz = np.zeros(N, bool)
+        fz[aided.GAIN] = frozen
+        xr, Pr, Sr = aided.kf_update(x[None], P[None], y[None], H[None, :m], R[None, :m, :m],
+                                     fz[None] if frozen else None)
+        S = np.zeros((3, 3))
+        x0 = x.copy()
+        nis = jit["kf_update"](x, P, y, H, R, m, aided.GAIN if frozen else -1, S)
+        # cofactor inverse against LU, products summed in another order: relative 1e-11 covers the
+        # innovation covariance's condition number (below 1e3 here) times a few 1e-16
+        np.testing.assert_allclose(S[:m, :m], Sr[0], rtol=1e-12)
+        np.testing.assert_allclose(x, xr[0], rtol=0, atol=1e-11 * np.abs(xr).max())
+        np.testing.assert_allclose(P, Pr[0], rtol=0, atol=1e-11 * np.abs(Pr).max())
+        np.testing.assert_allclose(nis, y @ np.linalg.solve(Sr[0], y), rtol=1e-11)
+        assert (x[aided.GAIN] == x0[aided.GAIN]) == frozen          # a considered state is not updated
+
+
+@pytest.mark.parametrize("attitude", [True, False])
+def test_step_model_is_step_displacement(jit, attitude):
+    rng = np.random.default_rng(14)
+    for _ in range(10):
+        nom, x = _nominal(rng), _error_state(rng)
+        z = rng.normal(size=3)
+        meas = aided.StepDisplacement(z=z[None, :2], sigma=np.ones(1), attitude=np.array([attitude]))
+        H, y = np.zeros((3, N)), np.zeros(3)
+        jit["step_model"](x, nom.p[0], nom.clone[0], attitude, z, H, y)
+        np.testing.assert_allclose(y[:2], (meas.z - meas.h(x[None], nom))[0], rtol=0, atol=1e-14)
+        np.testing.assert_allclose(H[:2], meas.H(x[None], nom)[0], rtol=0, atol=1e-14)
+
+
+def test_rest_models_are_zero_velocity_and_zero_rate(jit):
+    rng = np.random.default_rng(17)
+    for _ in range(10):
+        nom, x = _nominal(rng), _error_state(rng)
+        z = rng.normal(size=3) * 1e-3
+        H, y = np.zeros((3, N)), np.zeros(3)
+        zv = aided.ZeroVelocity(sigma=np.ones(1))
+        jit["zero_velocity_model"](x, nom.v[0], H, y)
+        np.testing.assert_allclose(y, (zv.z - zv.h(x[None], nom))[0], rtol=0, atol=1e-15)
+        np.testing.assert_array_equal(H, zv.H(x[None], nom)[0])
+        zr = aided.ZeroRate(z=z[None], sigma=np.ones(1))
+        jit["zero_rate_model"](x, z, H, y)
+        np.testing.assert_allclose(y, (zr.z - zr.h(x[None], nom))[0], rtol=0, atol=1e-15)
+        np.testing.assert_array_equal(H, zr.H(x[None], nom)[0])
+
+
+def test_nhc_model_is_non_holonomic(jit):
+    rng = np.random.default_rng(15)
+    for _ in range(10):
+        nom, x = _nominal(rng), _error_state(rng)
+        M = _nominal(rng).C
+        meas = aided.NonHolonomic(M=M, sigma=np.ones(1))
+        H, y = np.zeros((3, N)), np.zeros(3)
+        jit["nhc_model"](x, nom.C[0], nom.v[0], M[0], H, y)
+        np.testing.assert_allclose(y[:2], (meas.z - meas.h(x[None], nom))[0], rtol=0, atol=1e-14)
+        # the Jacobian at the fed-back state: the class takes eps = 0 as well
+        np.testing.assert_allclose(H[:2], meas.H(x[None], nom)[0], rtol=0, atol=1e-14)
+
+
+def _plain_kernel():
+    """A second copy of the module, never compiled: its functions run as plain Python."""
+    path = Path(K.__file__)
+    spec = importlib.util.spec_from_file_location("morpi_filters._aided_kernel_plain", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _busy_input():
+    # a short sine drive with rest at both ends and a standing stretch: every measurement runs
+    traj = simulate.sine(2.5, period=0.5, amplitude=0.1, rate_hz=100.0)
+    rng = np.random.default_rng(16)
+    d = simulate.imu(traj, units.LSM6DSL, rng, bias_scale=(0.05, 0.05))
+    t, pos = traj.time, traj.position
+    pt = t[np.clip(np.searchsorted(t, np.asarray(traj.period_times)), 0, t.size - 1)]
+    pa = np.array([np.interp(pt[:-1], t, pos[:, j]) for j in range(2)]).T
+    pb = np.array([np.interp(pt[1:], t, pos[:, j]) for j in range(2)]).T
+    vec = (pb - pa) * 1.03
+    rest = ((t[0], t[0] + 0.3), (t[-1] - 0.3, t[-1]))
+    return aided.AidedInput(time=t, f=d.f, omega=d.omega, C0=traj.C_bn[0], g=units.G0, step_start=pt[:-1],
+                            step_end=pt[1:], step_length=np.linalg.norm(vec, axis=1), rest=rest,
+                            standing=((t[0] + 0.3, t[0] + 0.4),), step_vector=vec)
+
+
+@pytest.mark.parametrize("tun", [aided.AidTuning(gain_estimated=False, accel_jump=0.01),
+                                 aided.AidTuning(step_heading="gyro", turn_sigma=0.05, rest_gyro_noise=1e-4)],
+                         ids=["attitude, considered gain", "gyro heading, turns"])
+def test_the_compiled_loop_gives_the_plain_loops_bits(jit, tun):
+    # numba compiles without fast-math (no fused multiply-add, no reordering) and calls the same libm
+    inp = _busy_input()
+    plain = _plain_kernel()
+    a = aided._kernel_args(inp, tun, 0.1, True, True)
+    b = {k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in a.items()}
+    e1 = jit["forward_member"](*a.values())
+    e2 = plain.forward_member(*b.values())
+    assert e1 == e2 == a["ep_k"].size
+    assert np.all(a["nis"][:, 1] > 0), a["nis"]              # every kind of update ran
+    for k in a:
+        if isinstance(a[k], np.ndarray):
+            np.testing.assert_array_equal(a[k], b[k], err_msg=k)
+
+
+def test_run_batch_members_do_not_share_state():
+    # each member's pass starts from its own zeroed state: the same member twice, and beside another
+    inp = _busy_input()
+    tun = aided.AidTuning()
+    other = replace(inp, f=inp.f * 1.01)
+    r1, r2, r3 = aided.run_batch([inp, other, inp], [tun, tun, tun])
+    np.testing.assert_array_equal(r1.position, r3.position)
+    assert not np.array_equal(r1.position, r2.position)
