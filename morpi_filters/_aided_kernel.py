@@ -1,14 +1,21 @@
-"""The aided filter's forward pass over one recording: a plain loop that numba compiles.
+"""The aided filter's forward pass and smoother over one recording: plain loops that numba compiles.
 
 :func:`aided.run_batch` prepares each member (epoch grid, step events, rest flags, tunables) and
 calls :func:`forward_member`, which runs the strapdown at every sample and the Kalman predict,
-updates and feedback at the epochs, writing into arrays the caller owns. The arithmetic is that of
-:mod:`morpi_filters.aided`, written element by element: the transition blocks of
-``_transition_blocks``, the sparse prediction of ``_predict``, the Joseph update of
-:func:`aided.kf_update` (one considered state at most: the gain error), the measurement models
-``h`` and ``H`` of :class:`aided.StepDisplacement`, :class:`aided.ZeroVelocity`,
-:class:`aided.ZeroRate` and :class:`aided.NonHolonomic`, and Rodrigues' formula of
-:func:`strapdown.rotvec_to_C`. The tests hold each piece against its numpy form.
+updates and feedback at the epochs, writing into arrays the caller owns, then, where asked,
+:func:`smooth_member` over the epochs it recorded. The arithmetic is written element by element:
+
+- the transition ``I + F T + (F T)^2 / 2`` of an epoch interval by its non-zero blocks, and the
+  prediction that touches only those (:func:`transition_blocks`, :func:`predict`);
+- the Joseph update of :func:`aided.kf_update` (filterpy's equations; one considered state at
+  most: the gain error);
+- the measurement models ``h`` and ``H`` of :class:`aided.StepDisplacement`,
+  :class:`aided.ZeroVelocity`, :class:`aided.ZeroRate` and :class:`aided.NonHolonomic`;
+- Rodrigues' formula of :func:`strapdown.rotvec_to_C`;
+- the Rauch-Tung-Striebel recursion of :func:`aided.rts_smooth`.
+
+The tests hold each piece against those (the transition against the dense series, the
+prediction against :func:`aided.kf_predict`, the smoother against :func:`aided.rts_smooth`).
 
 numba is imported on the first call (:func:`compiled`), not with the package, and its machine code
 is cached on disk. Every function runs as plain Python too (slowly): the tests compare both.
@@ -287,7 +294,7 @@ def nhc_model(x, C, v, M, H, y):
 
 def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn_q, par, C0, P0, fj,
                    keep_inn, keep_hist, ep_k, ep_p, ep_P, nis, inn_k, inn_z, inn_y, inn_S, inn_n,
-                   hist_P, hist_rec, P0_prior, x, P, bias):
+                   hist_P, hist_rec, x, P, bias):
     """The forward filter over one recording, written into the output arrays.
 
     Parameters
@@ -311,10 +318,11 @@ def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn
     keep_inn, keep_hist : bool
         Whether to write the innovations and the smoother's history.
 
-    The outputs: per epoch its sample, position and horizontal covariance; ``nis`` (4, 3) sums
-    , counts and first update's sample per kind (:data:`KINDS`); the innovations per kind (``inn_n`` of them); the
-    history rows and the covariance before the first epoch's updates; the final ``x``, ``P`` and
-    the bias estimates ``bias`` (6,).
+    The outputs: per epoch its sample, position and horizontal covariance; ``nis`` (4, 3): the
+    sum, the count and the first update's sample per kind (:data:`KINDS`); the innovations per
+    kind (``inn_n`` of them); the smoother's history (:func:`smooth_member`: per epoch the
+    posterior covariance, and the posterior, the correction fed back and the interval's terms
+    in the columns of ``aided._HIST``); the final ``x``, ``P`` and the bias estimates ``bias`` (6,).
     """
     n = t.shape[0]
     q_a, q_a_rest, q_g, q_g_rest, q_ba, q_bg, jump2 = par[0], par[1], par[2], par[3], par[4], par[5], par[6]
@@ -416,8 +424,6 @@ def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn
             q[_TURN] += tq
             predict(x, P, A, q)
         was_still = still
-        if k == 0 and keep_hist:
-            P0_prior[:, :] = P
         touched = False
         # ---- updates, all about the same nominal state; the feedback follows them
         while ie < end_k.shape[0] and end_k[ie] == k:
@@ -533,9 +539,131 @@ def _log(kind, m, k, z, y, val, S, nis, keep_inn, inn_k, inn_z, inn_y, inn_S, in
         inn_n[kind] = r + 1
 
 
+def condition(P, j):
+    """``P`` conditioned on state `j` in place (one Schur complement; its row and column zero):
+    ``aided._condition``."""
+    pjj = P[j, j]
+    if pjj > 0:
+        w = 1.0 / pjj
+        col = P[:, j].copy()
+        for a in range(P.shape[0]):
+            for b in range(P.shape[0]):
+                P[a, b] -= w * col[a] * col[b]
+        P[j, :] = 0.0
+        P[:, j] = 0.0
+
+
+def smooth_member(hist_P, hist_rec, q_ba, q_bg, fj, covariance, xs, Ps_xy):
+    """Rauch-Tung-Striebel smoother over one member's epochs (:func:`aided.rts_smooth`), from the
+    history :func:`forward_member` wrote: the smoothed error states into `xs` (m, N) and, with
+    `covariance`, the smoothed horizontal covariances into `Ps_xy` (m, 2, 2).
+
+    The transitions and predictions are rebuilt from the history's interval terms, as the
+    forward pass computed them. The smoother's gain ``G = P Phi^T Pq^+`` (with `fj` >= 0, from
+    the covariances conditioned on that considered state) is applied as ``P Phi^T u`` with
+    ``Pq u = r``; states without uncertainty (their rows of ``Pq`` zero) take no correction.
+    """
+    m, n = hist_P.shape[0], hist_P.shape[1]
+    A = np.zeros((_NR, _NC))
+    q = np.zeros(n)
+    fn = np.zeros(3)
+    Cm = np.zeros((3, 3))
+    xp = np.zeros(n)
+    Pq = np.zeros((n, n))
+    Pp = np.zeros((n, n))
+    r = np.zeros(n)
+    wv = np.zeros(n)
+    dead = np.zeros(n, np.bool_)
+    Ps = hist_P[m - 1].copy()
+    for i in range(n):
+        xs[m - 1, i] = hist_rec[m - 1, i]
+    if covariance:
+        Ps_xy[m - 1, :, :] = Ps[:2, :2]
+    for k in range(m - 2, -1, -1):
+        # the forward pass's prediction into epoch k + 1
+        e = hist_rec[k + 1]
+        d = e[2 * n]
+        for i in range(3):
+            fn[i] = e[2 * n + 1 + i]
+            for j in range(3):
+                Cm[i, j] = e[2 * n + 4 + 3 * i + j]
+        transition_blocks(d, fn, Cm, A)
+        q[:] = 0.0
+        for i in range(3):
+            q[_DV + i] = e[2 * n + 14] * d
+            q[_EPS + i] = e[2 * n + 15] * d
+            q[_BA + i] = q_ba * d + e[2 * n + 13]
+            q[_BG + i] = q_bg * d
+        q[_TURN] += e[2 * n + 16]
+        for i in range(n):
+            xp[i] = hist_rec[k, i]
+        Pq[:, :] = hist_P[k]
+        predict(xp, Pq, A, q)
+        Pp[:, :] = hist_P[k]
+        Pprior = Pq.copy() if covariance else Pq
+        if fj >= 0:
+            condition(Pp, fj)
+            condition(Pq, fj)
+        for i in range(n):
+            r[i] = xs[k + 1, i] + e[n + i] - xp[i]
+        for i in range(n):
+            dead[i] = True
+            for j in range(n):
+                if Pq[i, j] != 0.0:
+                    dead[i] = False
+                    break
+        for i in range(n):
+            if dead[i]:
+                Pq[i, i] = 1.0
+                r[i] = 0.0
+        # G r = P Phi^T u with Pq u = r
+        u = np.linalg.solve(Pq, r)
+        for i in range(n):
+            wv[i] = u[i]
+        for l in range(_NC):
+            s = 0.0
+            for i in range(_NR):
+                s += A[i, l] * u[_R0 + i]
+            wv[_C0 + l] += s
+        for i in range(n):
+            s = 0.0
+            for j in range(n):
+                s += Pp[i, j] * wv[j]
+            xs[k, i] = hist_rec[k, i] + s
+        if covariance:
+            # Ps = P + G (Ps' - Pq) G^T with G^T = Pq^+ Phi P (the dead states' columns of G zero)
+            PhiPp = Pp.copy()
+            for i in range(_NR):
+                for j in range(n):
+                    s = 0.0
+                    for l in range(_NC):
+                        s += A[i, l] * Pp[_C0 + l, j]
+                    PhiPp[_R0 + i, j] += s
+            Gt = np.linalg.solve(Pq, PhiPp)
+            for i in range(n):
+                if dead[i]:
+                    Gt[i, :] = 0.0
+            Dm = Ps - Pprior
+            GD = np.zeros((n, n))
+            for i in range(n):
+                for j in range(n):
+                    s = 0.0
+                    for l in range(n):
+                        s += Gt[l, i] * Dm[l, j]
+                    GD[i, j] = s
+            for i in range(n):
+                for j in range(n):
+                    s = 0.0
+                    for l in range(n):
+                        s += GD[i, l] * Gt[l, j]
+                    Ps[i, j] = hist_P[k, i, j] + s
+            Ps_xy[k, :, :] = Ps[:2, :2]
+
+
 #: The functions numba compiles, callees first (each finds the compiled form of those it calls).
 _FUNCTIONS = ("rodrigues", "matmul3", "transition_blocks", "predict", "inverse", "kf_update", "step_model",
-              "zero_velocity_model", "zero_rate_model", "nhc_model", "_log", "forward_member")
+              "zero_velocity_model", "zero_rate_model", "nhc_model", "_log", "forward_member", "condition",
+              "smooth_member")
 _COMPILED = None
 
 

@@ -44,14 +44,14 @@ The accelerometer bias may step when the robot starts or stops moving
 
 Every measurement is a small object with its nonlinear model ``h(x, nom)``,
 Jacobian ``H(x, nom)`` and noise ``R``, batched over a leading axis of
-members. One predict/update core (:func:`kf_predict`, :func:`kf_update`,
-filterpy's ``KalmanFilter`` equations, Joseph form) serves every measurement,
+members. One predict/update core serves every measurement: filterpy's
+``KalmanFilter`` equations in Joseph form (:func:`kf_predict`, :func:`kf_update`),
 and :func:`rts_smooth` is filterpy's Rauch-Tung-Striebel recursion written for
 the fed-back filter. :func:`run_batch` runs many recordings (or one recording
-under many tunings): each member's forward pass is the same arithmetic written
-as a loop over its samples, compiled by numba (:mod:`morpi_filters._aided_kernel`,
-whose tests hold every piece against these numpy forms), and its smoother is
-:func:`rts_smooth` over the epochs the pass recorded.
+under many tunings): each member's forward pass and smoother run these
+equations and measurement models as loops over its samples and epochs, compiled
+by numba (:mod:`morpi_filters._aided_kernel`, whose tests hold every piece
+against the functions and classes here).
 """
 
 from __future__ import annotations
@@ -791,7 +791,7 @@ class AidedResult:
         return self.P_xy[-1]
 
 
-# --------------------------------------------------------------------------- the batched pass
+# --------------------------------------------------------------------------- the pass over many members
 
 def _epochs(inp: AidedInput, tun: AidTuning, epoch_s: float):
     """A member's epoch samples, its step events and rest flags.
@@ -897,7 +897,7 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
     for b, (t, inp) in enumerate(zip(tunings, inputs)):
         if t.step_heading == "gyro" and t.steps and inp.step_vector is None:
             raise ParameterError(f"member {b}: step_heading='gyro' needs AidedInput.step_vector")
-    kern = _aided_kernel.compiled()["forward_member"]
+    kern = _aided_kernel.compiled()
     out = []
     for b, (inp, tun) in enumerate(zip(inputs, tunings)):
         out.append(_run_member(kern, inp, tun, epoch_s, bool(keep_hist[b]), smoothed_covariance, nis,
@@ -906,19 +906,22 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
 
 
 def _run_member(kern, inp: AidedInput, tun: AidTuning, epoch_s, smooth, smoothed_covariance, nis, keep_inn):
-    """One member of :func:`run_batch`: the compiled forward pass, the smoother where asked, the result."""
+    """One member of :func:`run_batch`: the compiled forward pass, the smoother where asked, the result.
+
+    `kern` holds the compiled functions (:func:`_aided_kernel.compiled`).
+    """
     K = _aided_kernel
     a = _kernel_args(inp, tun, epoch_s, smooth, keep_inn)
-    kern(*a.values())
+    kern["forward_member"](*a.values())
     time, ep_p, x, P, bias, nis_arr = a["t"], a["ep_p"], a["x"], a["P"], a["bias"], a["nis"]
     sm = Psm = None
     if smooth:
-        frozen = np.zeros(N_AIDED, bool)
-        frozen[GAIN] = not tun.gain_estimated
-        rec = a["hist_rec"]
-        sm, Psm = _smooth_member({key: rec[:, cols].reshape((-1,) + shape) for key, (cols, shape) in _HIST.items()}
-                                 | {"P": a["hist_P"]}, a["P0_prior"], ep_p, (tun.accel_walk ** 2, tun.gyro_walk ** 2),
-                                 frozen, smoothed_covariance)
+        # the smoothed error states (filterpy's recursion, :func:`rts_smooth`) correct the forward positions
+        xs, Ps_xy = np.zeros((ep_p.shape[0], N_AIDED)), np.zeros((ep_p.shape[0], 2, 2))
+        kern["smooth_member"](a["hist_P"], a["hist_rec"], tun.accel_walk ** 2, tun.gyro_walk ** 2, a["fj"],
+                              bool(smoothed_covariance), xs, Ps_xy)
+        sm = ep_p - xs[:, DP]
+        Psm = Ps_xy if smoothed_covariance else None
     # the kinds in the order of their first update
     kinds = sorted((i for i in range(len(K.KINDS)) if nis_arr[i, 1] > 0), key=lambda i: (nis_arr[i, 2], i))
     nis_of = {K.KINDS[i]: (float(nis_arr[i, 0]), int(nis_arr[i, 1]), K.KIND_DOF[i]) for i in kinds} if nis else {}
@@ -986,7 +989,7 @@ def _kernel_args(inp: AidedInput, tun: AidTuning, epoch_s, smooth, keep_inn):
         inn_k=np.zeros((kinds, cap), np.int64), inn_z=np.zeros((kinds, cap, 3)), inn_y=np.zeros((kinds, cap, 3)),
         inn_S=np.zeros((kinds, cap, 3, 3)), inn_n=np.zeros(kinds, np.int64),
         hist_P=np.zeros((rows, N_AIDED, N_AIDED)), hist_rec=np.zeros((rows, _HIST_WIDTH)),
-        P0_prior=np.zeros((N_AIDED, N_AIDED)), x=np.zeros(N_AIDED), P=np.zeros((N_AIDED, N_AIDED)), bias=np.zeros(6))
+        x=np.zeros(N_AIDED), P=np.zeros((N_AIDED, N_AIDED)), bias=np.zeros(6))
 
 
 #: Columns of the smoother's epoch record besides the covariance: name -> (columns, shape of one row).
@@ -995,127 +998,3 @@ _HIST = {"x": (slice(0, N_AIDED), (N_AIDED,)), "fed": (slice(N_AIDED, 2 * N_AIDE
          "Cm": (slice(2 * N_AIDED + 4, 2 * N_AIDED + 13), (3, 3)), "jq": (2 * N_AIDED + 13, ()),
          "qa": (2 * N_AIDED + 14, ()), "qg": (2 * N_AIDED + 15, ()), "tq": (2 * N_AIDED + 16, ())}
 _HIST_WIDTH = 2 * N_AIDED + 17
-
-
-def _transition_blocks(d, fn, Cm):
-    """The part of :func:`_transition` that differs from the identity: ``A = Phi - I`` on rows
-    :data:`_A_ROWS` and columns :data:`_A_COLS` (zero elsewhere), batched.
-
-    Parameters
-    ----------
-    d : ndarray, shape (b,)
-        Interval durations [s].
-    fn : ndarray, shape (b, 3)
-        Integral of the navigation-frame specific force over the interval [m/s].
-    Cm : ndarray, shape (b, 3, 3)
-        Integral of the attitude over the interval [s].
-    """
-    # F T has the blocks (dp, dv) = T I, (dv, eps) = -[fn x], (dv, ba) = Cm, (eps, bg) = Cm; its square
-    # only (dp, eps) = -T [fn x], (dp, ba) = T Cm and (dv, bg) = -[fn x] Cm
-    b = d.shape[0]
-    S = _skew(fn)
-    T = d[:, None, None]
-    r0, c0 = _A_ROWS.start, _A_COLS.start
-    blk = lambda rows, cols: (slice(rows.start - r0, rows.stop - r0), slice(cols.start - c0, cols.stop - c0))  # noqa: E731
-    A = np.zeros((b, _A_ROWS.stop - r0, _A_COLS.stop - c0))
-    A[(slice(None),) + blk(DP, DV)] = np.eye(3) * T
-    A[(slice(None),) + blk(DV, EPS)] = -S
-    A[(slice(None),) + blk(DV, BA)] = Cm
-    A[(slice(None),) + blk(EPS, BG)] = Cm
-    A[(slice(None),) + blk(DP, EPS)] = -0.5 * T * S
-    A[(slice(None),) + blk(DP, BA)] = 0.5 * T * Cm
-    A[(slice(None),) + blk(DV, BG)] = -0.5 * (S @ Cm)
-    return A
-
-
-def _transition(d, fn, Cm):
-    """``Phi = I + F T + (F T)^2 / 2`` of epoch intervals, batched (arguments of :func:`_transition_blocks`)."""
-    return _phi(_transition_blocks(d, fn, Cm))
-
-
-def _phi(A):
-    """The transitions ``I + A`` of the blocks `A` of :func:`_transition_blocks`."""
-    Phi = np.zeros((A.shape[0], N_AIDED, N_AIDED))
-    Phi[:, range(N_AIDED), range(N_AIDED)] = 1.0
-    Phi[:, _A_ROWS, _A_COLS] += A
-    return Phi
-
-
-#: Rows and columns of ``Phi - I`` that can be non-zero (:func:`_transition_blocks`).
-_A_ROWS, _A_COLS = slice(DP.start, EPS.stop), slice(DV.start, BG.stop)
-
-
-def _predict(x, P, A, q, inplace=False):
-    """:func:`kf_predict` for the transitions of :func:`_transition` and a diagonal process noise.
-
-    With ``A = Phi - I`` non-zero in the rows of ``dp, dv, eps`` and the
-    columns of ``dv .. bg`` only (:func:`_transition_blocks`),
-    ``Phi P Phi^T = P + A P + P A^T + A P A^T`` is computed on those blocks
-    (in `P` itself when `inplace`); `q` (shape (b, n)) is the diagonal of ``Q``.
-    """
-    r, c = _A_ROWS, _A_COLS
-    AP = A @ P[:, c, :]                       # rows r of A P
-    Pn = P if inplace else P.copy()
-    Pn[:, r, :] += AP
-    Pn[:, :, r] += np.swapaxes(AP, 1, 2)
-    Pn[:, r, r] += AP[:, :, c] @ np.swapaxes(A, 1, 2)
-    xn = x.copy()
-    xn[:, r] += np.einsum("bij,bj->bi", A, x[:, c])
-    np.einsum("bii->bi", Pn)[...] += q        # the diagonal (a view), in place
-    return xn, Pn
-
-
-def _noise_diagonal(d, q_a, q_g, q_ba, q_bg):
-    """Discrete process noise of epoch intervals (white noise and bias walks times the duration): the
-    diagonal of ``Q``, shape (b, n), batched."""
-    q = np.zeros((d.shape[0], N_AIDED))
-    q[:, DV] = (q_a * d)[:, None]
-    q[:, EPS] = (q_g * d)[:, None]
-    q[:, BA] = (q_ba * d)[:, None]
-    q[:, BG] = (q_bg * d)[:, None]
-    return q
-
-
-def _smooth_member(hist, P0_prior, pos, q, frozen=None, covariance=True):
-    """Smoothed positions of one member from its epoch history (see :func:`rts_smooth`).
-
-    The transitions and predictions are rebuilt from the stored interval
-    terms, as the forward pass computed them. At a step start the clone
-    copies the position error after the update; the stored posterior is the
-    one after the copy, which the next transition propagates.
-
-    Parameters
-    ----------
-    hist : dict of ndarray
-        Per epoch: the posterior ``x``, ``P``, the correction fed back ``fed``,
-        the interval's duration ``d``, force and attitude integrals ``fn``,
-        ``Cm``, and its noise terms ``jq``, ``qa``, ``qg``, ``tq``.
-    P0_prior : ndarray, shape (n, n)
-        The covariance at the first epoch before its updates.
-    pos : ndarray, shape (m, 3)
-        The forward filter's positions at the epochs.
-    q : (float, float)
-        Bias walk densities squared (accelerometer, gyro).
-    frozen : ndarray of bool, optional
-        Considered states (:func:`rts_smooth`).
-    covariance : bool
-        Also return the smoothed horizontal covariances (else None).
-    """
-    m = hist["d"].size
-    x_post, P_post, fed, d = hist["x"], hist["P"], hist["fed"], hist["d"]
-    A = _transition_blocks(d, hist["fn"], hist["Cm"])
-    Phi = _phi(A)
-    Phi[0] = np.eye(N_AIDED)
-    qd = _noise_diagonal(d, hist["qa"], hist["qg"], *(np.full(m, v) for v in q))
-    qd[:, BA] += hist["jq"][:, None]
-    qd[:, TURN] += hist["tq"]
-    # the predictions of the forward pass, computed as it did (:func:`_predict`)
-    x_prior = np.empty_like(x_post)
-    x_prior[0] = 0.0                              # the filter starts from a zero error state
-    P_prior = np.empty_like(P_post)
-    P_prior[0] = P0_prior
-    P_prior[1:] = P_post[:-1]
-    x_prior[1:], _ = _predict(x_post[:-1], P_prior[1:], A[1:], qd[1:], inplace=True)
-    xs, Ps = rts_smooth(x_post, P_post, x_prior, P_prior, Phi, fed=fed, frozen=frozen, covariance=covariance)
-    sm = pos - xs[:, DP]
-    return sm, (None if Ps is None else Ps[:, :2, :2])

@@ -586,34 +586,6 @@ def test_a_cut_input_gives_the_same_forward_estimate_at_the_cut():
     np.testing.assert_allclose(cut.P_xy[k], whole.P_xy[j], rtol=0, atol=1e-12)
 
 
-def test_structured_transition_and_prediction_match_the_dense_ones():
-    """Phi's closed-form blocks against I + F T + (F T)^2 / 2 built densely; the sparse predict against kf_predict."""
-    from morpi_filters.error_model import BA, BG, DP, DV, EPS
-    from scipy.spatial.transform import Rotation
-
-    rng = np.random.default_rng(4)
-    b, n = 5, aided.N_AIDED
-    d = rng.uniform(0.05, 0.2, b)
-    fn = rng.normal(size=(b, 3)) * 2.0
-    Cm = Rotation.from_rotvec(rng.normal(size=(b, 3))).as_matrix() * d[:, None, None]
-    Fd = np.zeros((b, n, n))
-    Fd[:, DP, DV] = np.eye(3) * d[:, None, None]
-    Fd[:, DV, EPS] = -aided._skew(fn)
-    Fd[:, DV, BA] = Cm
-    Fd[:, EPS, BG] = Cm
-    dense = np.eye(n) + Fd + 0.5 * Fd @ Fd
-    Phi = aided._transition(d, fn, Cm)
-    np.testing.assert_allclose(Phi, dense, rtol=0, atol=1e-14)
-    A = rng.normal(size=(b, n, n))
-    P = A @ np.swapaxes(A, 1, 2)
-    Q = np.eye(n) * 1e-3
-    x = rng.normal(size=(b, n))
-    xr, Pr = aided.kf_predict(x, P, Phi, np.broadcast_to(Q, (b, n, n)))
-    xs, Ps = aided._predict(x, P, aided._transition_blocks(d, fn, Cm), np.broadcast_to(np.diag(Q), (b, n)))
-    np.testing.assert_allclose(xs, xr, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(Ps, Pr, rtol=0, atol=1e-11 * np.abs(Pr).max())
-
-
 def test_consider_update_one_state_equals_the_conditioned_covariance_update():
     """The single-frozen-state shortcut against the update on the explicitly conditioned covariance."""
     rng = np.random.default_rng(6)
