@@ -95,24 +95,23 @@ def transition_blocks(d, fn, Cm, A):
             A[3 + i, 9 + j] = -0.5 * SC[i, j]               # (dv, bg) = -[fn x] Cm / 2
 
 
-def predict(x, P, A, q):
-    """``x = Phi x``, ``P = Phi P Phi^T + diag(q)`` in place for ``Phi = I + A``: ``aided._predict``."""
+def predict(x, P, A, q, AP, APA, xa):
+    """``x = Phi x``, ``P = Phi P Phi^T + diag(q)`` in place for ``Phi = I + A`` (:func:`aided.kf_predict`
+    on the non-zero blocks); `AP` (9, n), `APA` (9, 9) and `xa` (9,) are scratch."""
     n = x.shape[0]
-    AP = np.zeros((_NR, n))
+    AP[:, :] = 0.0
     for i in range(_NR):
         for l in range(_NC):
             a = A[i, l]
             if a != 0.0:
                 for j in range(n):
                     AP[i, j] += a * P[_C0 + l, j]
-    APA = np.zeros((_NR, _NR))
     for i in range(_NR):
         for j in range(_NR):
             s = 0.0
             for l in range(_NC):
                 s += AP[i, _C0 + l] * A[j, l]
             APA[i, j] = s
-    xa = np.zeros(_NR)
     for i in range(_NR):
         s = 0.0
         for l in range(_NC):
@@ -156,13 +155,13 @@ def inverse(S, m, out):
         out[2, 2] = (S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]) / det
 
 
-def kf_update(x, P, y, H, R, m, fj, S):
+def kf_update(x, P, y, H, R, m, fj, S, PHt, KHt, K, D, Si, Sc):
     """Joseph-form update in place, the innovation covariance into `S`: :func:`aided.kf_update`.
 
-    `fj` is the considered (frozen) state, or -1. Returns the NIS ``y^T S^-1 y``.
+    `fj` is the considered (frozen) state, or -1. Returns the NIS ``y^T S^-1 y``. `PHt`, `KHt`,
+    `K`, `D` (n, 3) and `Si`, `Sc` (3, 3) are scratch.
     """
     n = x.shape[0]
-    PHt = np.zeros((n, m))
     for i in range(n):
         for a in range(m):
             s = 0.0
@@ -175,16 +174,16 @@ def kf_update(x, P, y, H, R, m, fj, S):
             for l in range(n):
                 s += H[a, l] * PHt[l, c]
             S[a, c] = s + R[a, c]
-    Si = np.zeros((m, m))
     inverse(S, m, Si)
     nis = 0.0
     for a in range(m):
         for c in range(m):
             nis += y[a] * Si[a, c] * y[c]
-    KHt = PHt
+    for i in range(n):
+        for a in range(m):
+            KHt[i, a] = PHt[i, a]
     if fj >= 0 and P[fj, fj] > 0:
         # the filter that takes state fj as known: P conditioned on it (one Schur complement)
-        KHt = PHt.copy()
         w = 1.0 / P[fj, fj]
         for a in range(m):
             hc = 0.0
@@ -193,7 +192,6 @@ def kf_update(x, P, y, H, R, m, fj, S):
             for i in range(n):
                 KHt[i, a] -= w * P[i, fj] * hc
             KHt[fj, a] = 0.0
-        Sc = np.zeros((m, m))
         for a in range(m):
             for c in range(m):
                 s = 0.0
@@ -201,7 +199,6 @@ def kf_update(x, P, y, H, R, m, fj, S):
                     s += H[a, l] * KHt[l, c]
                 Sc[a, c] = s + R[a, c]
         inverse(Sc, m, Si)
-    K = np.zeros((n, m))
     for i in range(n):
         for c in range(m):
             s = 0.0
@@ -214,7 +211,6 @@ def kf_update(x, P, y, H, R, m, fj, S):
             s += K[i, a] * y[a]
         x[i] += s
     # (I - K H) P (I - K H)^T + K R K^T = P + K D^T - P H^T K^T with D = K S - P H^T
-    D = np.zeros((n, m))
     for i in range(n):
         for c in range(m):
             s = 0.0
@@ -363,6 +359,10 @@ def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn
     S = np.zeros((3, 3))
     fed = np.zeros(N)
     Cm = np.zeros((3, 3))
+    # scratch of the prediction and the updates
+    AP, APA, xa = np.zeros((_NR, N)), np.zeros((_NR, _NR)), np.zeros(_NR)
+    W1, W2, W3, W4 = np.zeros((N, 3)), np.zeros((N, 3)), np.zeros((N, 3)), np.zeros((N, 3))
+    Si, Sc = np.zeros((3, 3)), np.zeros((3, 3))
     fn = np.zeros(3)
     was_still = (flags[0] & (REST | STAND)) != 0
     e = 0
@@ -422,7 +422,7 @@ def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn
                 q[_BA + i] = q_ba * d + jq
                 q[_BG + i] = q_bg * d
             q[_TURN] += tq
-            predict(x, P, A, q)
+            predict(x, P, A, q, AP, APA, xa)
         was_still = still
         touched = False
         # ---- updates, all about the same nominal state; the feedback follows them
@@ -436,7 +436,7 @@ def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn
             step_model(x, p, clone, not gyro, z, H, y)
             Rm[:, :] = 0.0
             Rm[0, 0] = Rm[1, 1] = step_sig * step_sig
-            _log(0, 2, k, z, y, kf_update(x, P, y, H, Rm, 2, fj, S), S, nis, keep_inn, inn_k, inn_z, inn_y, inn_S, inn_n)
+            _log(0, 2, k, z, y, kf_update(x, P, y, H, Rm, 2, fj, S, W1, W2, W3, W4, Si, Sc), S, nis, keep_inn, inn_k, inn_z, inn_y, inn_S, inn_n)
             touched = True
             ie += 1
         if k > 0 and (fl & (REST | STAND)) != 0:
@@ -446,7 +446,7 @@ def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn
             for i in range(3):
                 Rm[i, i] = zupt_sig * zupt_sig
                 z[i] = 0.0
-            _log(1, 3, k, z, y, kf_update(x, P, y, H, Rm, 3, fj, S), S, nis, keep_inn, inn_k, inn_z, inn_y, inn_S, inn_n)
+            _log(1, 3, k, z, y, kf_update(x, P, y, H, Rm, 3, fj, S, W1, W2, W3, W4, Si, Sc), S, nis, keep_inn, inn_k, inn_z, inn_y, inn_S, inn_n)
             if (fl & REST) != 0:
                 dr = max(acc[0], 1e-9)
                 sg = gsr / math.sqrt(dr)
@@ -454,7 +454,7 @@ def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn
                     Rm[i, i] = sg * sg
                     z[i] = acc[13 + i] / dr
                 zero_rate_model(x, z, H, y)
-                _log(2, 3, k, z, y, kf_update(x, P, y, H, Rm, 3, fj, S), S, nis, keep_inn, inn_k, inn_z, inn_y, inn_S,
+                _log(2, 3, k, z, y, kf_update(x, P, y, H, Rm, 3, fj, S, W1, W2, W3, W4, Si, Sc), S, nis, keep_inn, inn_k, inn_z, inn_y, inn_S,
                      inn_n)
             touched = True
         if k > 0 and not still and use_nhc:
@@ -462,7 +462,7 @@ def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn
             Rm[:, :] = 0.0
             Rm[0, 0] = Rm[1, 1] = nhc_sig * nhc_sig
             z[0] = z[1] = 0.0
-            _log(3, 2, k, z, y, kf_update(x, P, y, H, Rm, 2, fj, S), S, nis, keep_inn, inn_k, inn_z, inn_y, inn_S, inn_n)
+            _log(3, 2, k, z, y, kf_update(x, P, y, H, Rm, 2, fj, S, W1, W2, W3, W4, Si, Sc), S, nis, keep_inn, inn_k, inn_z, inn_y, inn_S, inn_n)
             touched = True
         # ---- feedback into the nominal state
         fed[:] = 0.0
@@ -574,6 +574,7 @@ def smooth_member(hist_P, hist_rec, q_ba, q_bg, fj, covariance, xs, Ps_xy):
     r = np.zeros(n)
     wv = np.zeros(n)
     dead = np.zeros(n, np.bool_)
+    AP, APA, xa = np.zeros((_NR, n)), np.zeros((_NR, _NR)), np.zeros(_NR)
     Ps = hist_P[m - 1].copy()
     for i in range(n):
         xs[m - 1, i] = hist_rec[m - 1, i]
@@ -598,7 +599,7 @@ def smooth_member(hist_P, hist_rec, q_ba, q_bg, fj, covariance, xs, Ps_xy):
         for i in range(n):
             xp[i] = hist_rec[k, i]
         Pq[:, :] = hist_P[k]
-        predict(xp, Pq, A, q)
+        predict(xp, Pq, A, q, AP, APA, xa)
         Pp[:, :] = hist_P[k]
         Pprior = Pq.copy() if covariance else Pq
         if fj >= 0:

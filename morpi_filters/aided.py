@@ -802,14 +802,16 @@ def _epochs(inp: AidedInput, tun: AidTuning, epoch_s: float):
 
     Returns
     -------
-    (epochs, ends, starts, rest, standing) : sample indices; end sample -> [(start sample, step index)];
-        set of start samples; rest and standing flags per sample
+    (epochs, end_k, end_a, end_j, starts, rest, standing) : the epoch samples (sorted); the step
+        updates in the order they run (end sample, start sample, step index: by end sample, then by
+        step); the start samples; rest and standing flags per sample
     """
     t = inp.time
     n = t.size
     m = max(1, int(round(epoch_s / inp.nominal_dt)))
     grid = [np.arange(0, n, m), [n - 1]]
-    ends, starts = {}, set()
+    none = np.zeros(0, np.int64)
+    end_k, end_a, end_j, starts = none, none, none, none
     if tun.steps and inp.step_length.size:
         def nearest(x):
             j = np.clip(np.searchsorted(t, x), 1, n - 1)
@@ -817,19 +819,20 @@ def _epochs(inp: AidedInput, tun: AidTuning, epoch_s: float):
 
         a = nearest(np.asarray(inp.step_start, float))
         b = nearest(np.asarray(inp.step_end, float))
-        for j in range(inp.step_length.size):
-            if b[j] > a[j] and np.isfinite(inp.step_length[j]):
-                ends.setdefault(int(b[j]), []).append((int(a[j]), j))
-                starts.add(int(a[j]))
-        grid += [np.array(sorted(starts), int), np.array(sorted(ends), int)]
+        end_j = np.flatnonzero((b > a) & np.isfinite(inp.step_length))
+        end_j = end_j[np.argsort(b[end_j], kind="stable")]
+        end_k, end_a = b[end_j].astype(np.int64), a[end_j].astype(np.int64)
+        starts = np.unique(end_a)
+        grid += [starts, end_k]
     rest = np.zeros(n, bool)
     standing = np.zeros(n, bool)
     if tun.rest:
         for t0, t1 in inp.rest:
-            rest[(t >= t0) & (t <= t1)] = True
+            rest[np.searchsorted(t, t0, "left"):np.searchsorted(t, t1, "right")] = True
         for t0, t1 in inp.standing:
-            standing[(t >= t0) & (t <= t1)] = True
-    return np.unique(np.concatenate(grid).astype(int)), ends, starts, rest, standing & ~rest
+            standing[np.searchsorted(t, t0, "left"):np.searchsorted(t, t1, "right")] = True
+    return np.unique(np.concatenate(grid).astype(np.int64)), end_k, end_a, end_j.astype(np.int64), starts, rest, \
+        standing & ~rest
 
 
 def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_covariance: bool = True,
@@ -945,26 +948,23 @@ def _kernel_args(inp: AidedInput, tun: AidTuning, epoch_s, smooth, keep_inn):
     K = _aided_kernel
     time = np.ascontiguousarray(inp.time, float)
     n = time.size
-    epochs, ends, starts, rest, standing = _epochs(inp, tun, epoch_s)
+    epochs, end_k, end_a, end_j, starts, rest, standing = _epochs(inp, tun, epoch_s)
     flags = np.zeros(n, np.int64)
     flags[epochs] |= K.EPOCH
     flags[rest] |= K.REST
     flags[standing] |= K.STAND
-    flags[sorted(starts)] |= K.START
-    ev = [(k, a, j) for k in sorted(ends) for a, j in ends[k]]
-    end_k, end_a, end_j = (np.array([e[i] for e in ev], np.int64) for i in range(3))
+    flags[starts] |= K.START
     gyro = tun.step_heading == "gyro"
     nk = np.shape(inp.step_length)[0]
     step_vec = np.zeros((nk, 2)) if inp.step_vector is None else np.ascontiguousarray(inp.step_vector, float)
     turn_q = np.zeros(0)
-    if gyro and tun.turn_sigma > 0 and inp.step_vector is not None and ends:
+    if gyro and tun.turn_sigma > 0 and inp.step_vector is not None and end_j.size:
         # the given directions' heading error grows by a share of each turn they take (from the previous
         # step's direction; the first step's from the frame's zero heading), added where the step ends
         psi = np.arctan2(step_vec[:, 1], step_vec[:, 0])
         turn = np.angle(np.exp(1j * np.diff(np.r_[0.0, psi])))
         turn_q = np.zeros(n)
-        for k_end, lst in ends.items():
-            turn_q[k_end] = sum((tun.turn_sigma * turn[j]) ** 2 for _, j in lst)
+        np.add.at(turn_q, end_k, (tun.turn_sigma * turn[end_j]) ** 2)
     par = np.array([tun.accel_noise ** 2, (tun.rest_accel_noise or tun.accel_noise) ** 2, tun.gyro_noise ** 2,
                     (tun.rest_gyro_noise or tun.gyro_noise) ** 2, tun.accel_walk ** 2, tun.gyro_walk ** 2,
                     tun.accel_jump ** 2, tun.step_sigma, tun.nhc_sigma, tun.zupt_sigma,

@@ -82,7 +82,7 @@ def test_transition_and_prediction_are_the_dense_ones(jit):
         np.testing.assert_allclose(Phi, dense, rtol=0, atol=1e-14)
         x, P, q = rng.normal(size=N), _spd(rng), rng.uniform(0, 1e-3, N)
         xr, Pr = aided.kf_predict(x[None], P[None], Phi[None], np.diag(q)[None])
-        jit["predict"](x, P, A, q)
+        jit["predict"](x, P, A, q, np.zeros((K._NR, N)), np.zeros((K._NR, K._NR)), np.zeros(K._NR))
         # sums of up to 19 products in another order: relative 1e-12 of the largest entry
         np.testing.assert_allclose(x, xr[0], rtol=0, atol=1e-12 * np.abs(xr).max())
         np.testing.assert_allclose(P, Pr[0], rtol=0, atol=1e-12 * np.abs(Pr).max())
@@ -104,7 +104,8 @@ def test_update_is_kf_update(jit, m, frozen):
                                      fz[None] if frozen else None)
         S = np.zeros((3, 3))
         x0 = x.copy()
-        nis = jit["kf_update"](x, P, y, H, R, m, aided.GAIN if frozen else -1, S)
+        scratch = [np.full((N, 3), np.nan) for _ in range(4)] + [np.full((3, 3), np.nan) for _ in range(2)]
+        nis = jit["kf_update"](x, P, y, H, R, m, aided.GAIN if frozen else -1, S, *scratch)
         # cofactor inverse against LU, products summed in another order: relative 1e-11 covers the
         # innovation covariance's condition number (below 1e3 here) times a few 1e-16
         np.testing.assert_allclose(S[:m, :m], Sr[0], rtol=1e-12)
