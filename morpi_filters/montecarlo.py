@@ -1768,7 +1768,9 @@ def drift_map(gyro_bias=None, *, spec: SensorSpec = MPU6500, duration: float = 1
                   for d in range(draws)])
     payload = _DriftPayload(levels, z, t, keep, float(spec.accel_bias), G0)
     total = levels.size * draws
-    chunk = max(1, _CHUNK_BYTES // (8 * 6 * n)) if chunk is None else int(chunk)
+    # a run of the strapdown holds about 40 floats per sample (its inputs, attitude matrices, increments,
+    # derivative estimates, velocity and position): 43 measured at 58 runs per chunk, 36 at 465
+    chunk = max(1, _CHUNK_BYTES // (8 * 48 * n)) if chunk is None else int(chunk)
     prog = Progress(total, "drift study (gyro bias x time)", total > 1000 if progress is None else progress)
     parts = execute(_drift_chunk, payload, chunk_ranges(total, min(chunk, total)), scheduler=scheduler, progress=prog)
     cat = {k: np.concatenate([p[k] for p in parts]).reshape(levels.size, draws, *parts[0][k].shape[1:])
