@@ -155,6 +155,27 @@ def inverse(S, m, out):
         out[2, 2] = (S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]) / det
 
 
+def product(A, B, transposed, ni, nl, nj, out):
+    """``out[:ni, :nj] = A[:ni, :nl] B[:nl, :nj]`` (or ``B[:nj, :nl]^T`` when `transposed`), each entry
+    summed over l in order."""
+    for i in range(ni):
+        for j in range(nj):
+            s = 0.0
+            for l in range(nl):
+                s += A[i, l] * (B[j, l] if transposed else B[l, j])
+            out[i, j] = s
+
+
+def h_x_plus_r(H, X, R, m, out):
+    """``out = H X + R`` for the first `m` rows of `H` and columns of `X` (an innovation covariance)."""
+    for a in range(m):
+        for c in range(m):
+            s = 0.0
+            for l in range(H.shape[1]):
+                s += H[a, l] * X[l, c]
+            out[a, c] = s + R[a, c]
+
+
 def kf_update(x, P, y, H, R, m, fj, S, PHt, KHt, K, D, Si, Sc):
     """Joseph-form update in place, the innovation covariance into `S`: :func:`aided.kf_update`.
 
@@ -162,18 +183,8 @@ def kf_update(x, P, y, H, R, m, fj, S, PHt, KHt, K, D, Si, Sc):
     `K`, `D` (n, 3) and `Si`, `Sc` (3, 3) are scratch.
     """
     n = x.shape[0]
-    for i in range(n):
-        for a in range(m):
-            s = 0.0
-            for l in range(n):
-                s += P[i, l] * H[a, l]
-            PHt[i, a] = s
-    for a in range(m):
-        for c in range(m):
-            s = 0.0
-            for l in range(n):
-                s += H[a, l] * PHt[l, c]
-            S[a, c] = s + R[a, c]
+    product(P, H, True, n, n, m, PHt)
+    h_x_plus_r(H, PHt, R, m, S)
     inverse(S, m, Si)
     nis = 0.0
     for a in range(m):
@@ -192,19 +203,9 @@ def kf_update(x, P, y, H, R, m, fj, S, PHt, KHt, K, D, Si, Sc):
             for i in range(n):
                 KHt[i, a] -= w * P[i, fj] * hc
             KHt[fj, a] = 0.0
-        for a in range(m):
-            for c in range(m):
-                s = 0.0
-                for l in range(n):
-                    s += H[a, l] * KHt[l, c]
-                Sc[a, c] = s + R[a, c]
+        h_x_plus_r(H, KHt, R, m, Sc)
         inverse(Sc, m, Si)
-    for i in range(n):
-        for c in range(m):
-            s = 0.0
-            for a in range(m):
-                s += KHt[i, a] * Si[a, c]
-            K[i, c] = s
+    product(KHt, Si, False, n, m, m, K)
     for i in range(n):
         s = 0.0
         for a in range(m):
@@ -644,27 +645,14 @@ def smooth_member(hist_P, hist_rec, q_ba, q_bg, fj, covariance, xs, Ps_xy):
             for i in range(n):
                 if dead[i]:
                     Gt[i, :] = 0.0
-            Dm = Ps - Pprior
-            GD = np.zeros((n, n))
-            for i in range(n):
-                for j in range(n):
-                    s = 0.0
-                    for l in range(n):
-                        s += Gt[l, i] * Dm[l, j]
-                    GD[i, j] = s
-            for i in range(n):
-                for j in range(n):
-                    s = 0.0
-                    for l in range(n):
-                        s += GD[i, l] * Gt[l, j]
-                    Ps[i, j] = hist_P[k, i, j] + s
+            Ps = hist_P[k] + np.dot(np.dot(Gt.T, Ps - Pprior), Gt)
             Ps_xy[k, :, :] = Ps[:2, :2]
 
 
 #: The functions numba compiles, callees first (each finds the compiled form of those it calls).
-_FUNCTIONS = ("rodrigues", "matmul3", "transition_blocks", "predict", "inverse", "kf_update", "step_model",
-              "zero_velocity_model", "zero_rate_model", "nhc_model", "_log", "forward_member", "condition",
-              "smooth_member")
+_FUNCTIONS = ("rodrigues", "matmul3", "transition_blocks", "predict", "inverse", "product", "h_x_plus_r",
+              "kf_update", "step_model", "zero_velocity_model", "zero_rate_model", "nhc_model", "_log",
+              "forward_member", "condition", "smooth_member")
 _COMPILED = None
 
 
