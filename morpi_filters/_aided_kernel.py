@@ -33,7 +33,7 @@ from .error_model import BA, BG, DP, DV, EPS, N_STATES
 _N = N_STATES + 4
 _DP, _DV, _EPS, _BA, _BG = DP.start, DV.start, EPS.start, BA.start, BG.start
 _CL, _GAIN, _TURN = N_STATES, N_STATES + 2, N_STATES + 3
-# rows and columns of Phi - I that can be non-zero (aided._A_ROWS, _A_COLS)
+# rows and columns of Phi - I that can be non-zero: dp, dv, eps and dv .. bg
 _R0, _NR, _C0, _NC = DP.start, EPS.stop - DP.start, DV.start, BG.stop - DV.start
 
 #: Bits of the per-sample flags.
@@ -77,7 +77,8 @@ def matmul3(a, b, out):
 
 
 def transition_blocks(d, fn, Cm, A):
-    """The blocks ``A = Phi - I`` of one interval into `A` (9, 12): ``aided._transition_blocks``."""
+    """The blocks ``A = Phi - I`` of one interval into `A` (9, 12): ``Phi = I + F T + (F T)^2 / 2`` with the
+    interval's duration `d`, force integral `fn` and attitude integral `Cm` (the rest of ``Phi - I`` is zero)."""
     A[:, :] = 0.0
     S = np.zeros((3, 3))
     S[0, 1], S[0, 2], S[1, 0] = -fn[2], fn[1], fn[2]
