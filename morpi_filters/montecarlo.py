@@ -1647,21 +1647,24 @@ class DriftMap:
 def _closed_form_symbolic(ba, bg, t, g, kind):
     """Closed-form horizontal position error (z up, C = I, f^n = gravity, gyro-z terms kept).
 
-    ba, bg: (R, 3) biases; t: (m,) times; kind "INS-3D" or "INS-2D". Returns (R, m, 2), one
-    :func:`morpi_filters.symbolic.closed_form_errors` evaluation per run.
+    ba, bg: (R, 3) biases; t: (m,) times; kind "INS-3D" or "INS-2D". Returns (R, m, 2): the
+    function of :func:`morpi_filters.symbolic.closed_form_errors` evaluated for every run at once
+    (runs along axis 0, times along axis 1; elementwise, so each run's numbers are those of its
+    own evaluation).
     """
     from . import symbolic
 
     which = {"INS-3D": "INS-3D position", "INS-2D": "INS-2D position"}[kind]
-    out = np.empty((ba.shape[0], t.size, 2))
-    for r in range(ba.shape[0]):
-        p = {"dv0_mps": [0.0, 0.0, 0.0], "ba_mps2": ba[r].tolist(), "bg_radps": bg[r].tolist(), "g_mps2": g}
-        out[r] = symbolic.closed_form_errors(p, t, which, "z_up", True)[:, :2]
-    return out
+    fn = symbolic.lambdified(which, "z_up", True)
+    R = ba.shape[0]
+    zero = np.zeros((R, 1))
+    cols = fn(t[None, :], zero, zero, zero, *(ba[:, j:j + 1] for j in range(3)), *(bg[:, j:j + 1] for j in range(3)),
+              float(g))
+    return np.stack([np.broadcast_to(np.asarray(c, float), (R, t.size)) for c in cols[:2]], axis=2)
 
 
 def _closed_form():
-    return _closed_form_symbolic, "symbolic.closed_form_errors (z_up, keep_bgz=True)"
+    return _closed_form_symbolic, "symbolic.lambdified (z_up, keep_bgz=True), every run at once"
 
 
 @dataclass(frozen=True)

@@ -251,6 +251,23 @@ def test_strapdown_drift_matches_exact_single_axis_solution():
     assert abs(cf[-1] - p[-1, 1]) / abs(p[-1, 1]) == pytest.approx(expected, rel=1e-3)
 
 
+def test_drift_closed_form_over_runs_is_each_runs_own_evaluation():
+    # the drift map evaluates the closed form for a chunk of runs at once (runs along axis 0): each run's
+    # numbers are those of symbolic.closed_form_errors with its own biases. Elementwise numpy in both; the
+    # tolerance covers numpy's vector and scalar loops of sin/cos, which may differ in the last bit.
+    from morpi_filters import symbolic
+
+    rng = np.random.default_rng(5)
+    ba, bg = rng.normal(size=(4, 3)) * 0.05, rng.normal(size=(4, 3)) * 0.02
+    t = np.linspace(0.1, 15.0, 40)
+    for kind in ("INS-3D", "INS-2D"):
+        many = mc._closed_form()[0](ba, bg, t, G0, kind)
+        for r in range(4):
+            p = {"dv0_mps": [0.0] * 3, "ba_mps2": ba[r].tolist(), "bg_radps": bg[r].tolist(), "g_mps2": G0}
+            one = symbolic.closed_form_errors(p, t, kind + " position", "z_up", True)[:, :2]
+            np.testing.assert_allclose(many[r], one, rtol=1e-14, atol=0)
+
+
 def test_drift_onset_is_monotone_in_the_bias():
     d = mc.drift_map(np.array([0.5, 1.0, 2.0, 4.0]) * DEG_S, draws=6, seed=1)
     on = d.onset("INS-3D", 0.01)
