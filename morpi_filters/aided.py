@@ -965,10 +965,13 @@ def _kernel_args(inp: AidedInput, tun: AidTuning, epoch_s, smooth, keep_inn):
         turn = np.angle(np.exp(1j * np.diff(np.r_[0.0, psi])))
         turn_q = np.zeros(n)
         np.add.at(turn_q, end_k, (tun.turn_sigma * turn[end_j]) ** 2)
-    par = np.array([tun.accel_noise ** 2, (tun.rest_accel_noise or tun.accel_noise) ** 2, tun.gyro_noise ** 2,
-                    (tun.rest_gyro_noise or tun.gyro_noise) ** 2, tun.accel_walk ** 2, tun.gyro_walk ** 2,
-                    tun.accel_jump ** 2, tun.step_sigma, tun.nhc_sigma, tun.zupt_sigma,
-                    tun.rest_gyro_noise or tun.gyro_noise, float(tun.nhc), float(inp.g), float(gyro)])
+    gyro_rest = tun.rest_gyro_noise or tun.gyro_noise
+    named = {"q_a": tun.accel_noise ** 2, "q_a_rest": (tun.rest_accel_noise or tun.accel_noise) ** 2,
+             "q_g": tun.gyro_noise ** 2, "q_g_rest": gyro_rest ** 2, "q_ba": tun.accel_walk ** 2,
+             "q_bg": tun.gyro_walk ** 2, "jump2": tun.accel_jump ** 2, "step_sigma": tun.step_sigma,
+             "nhc_sigma": tun.nhc_sigma, "zupt_sigma": tun.zupt_sigma, "gyro_sigma_rest": gyro_rest,
+             "nhc": float(tun.nhc), "g": float(inp.g), "gyro_heading": float(gyro)}
+    par = np.array([named[k] for k in K.PAR])
     I3 = np.eye(3)
     P0 = np.zeros((N_AIDED, N_AIDED))
     P0[DV, DV] = I3 * 1e-6

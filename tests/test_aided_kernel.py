@@ -1,5 +1,5 @@
-"""The aided filter's compiled forward pass: each piece against its numpy form in `aided`, and the
-compiled loop against the same loop run as plain Python."""
+"""The aided filter's compiled pass and smoother: each piece against the public numpy forms of `aided`
+(or a dense reference built here), and the compiled loop against the same loop run as plain Python."""
 from __future__ import annotations
 
 import importlib.util
@@ -79,6 +79,7 @@ def test_transition_and_prediction_are_the_dense_ones(jit):
         Phi = np.eye(N)
         Phi[K._R0:K._R0 + K._NR, K._C0:K._C0 + K._NC] += A
         dense = _dense_phi(np.array([d]), fn[None], Cm[None])[0]
+        # the same products in another order (entries below 10): a few units of 1e-16 each
         np.testing.assert_allclose(Phi, dense, rtol=0, atol=1e-14)
         x, P, q = rng.normal(size=N), _spd(rng), rng.uniform(0, 1e-3, N)
         xr, Pr = aided.kf_predict(x[None], P[None], Phi[None], np.diag(q)[None])
@@ -124,6 +125,7 @@ def test_step_model_is_step_displacement(jit, attitude):
         meas = aided.StepDisplacement(z=z[None, :2], sigma=np.ones(1), attitude=np.array([attitude]))
         H, y = np.zeros((3, N)), np.zeros(3)
         jit["step_model"](x, nom.p[0], nom.clone[0], attitude, z, H, y)
+        # the same arithmetic on values of order 1, the rotation written out: a few units of 1e-16
         np.testing.assert_allclose(y[:2], (meas.z - meas.h(x[None], nom))[0], rtol=0, atol=1e-14)
         np.testing.assert_allclose(H[:2], meas.H(x[None], nom)[0], rtol=0, atol=1e-14)
 
@@ -136,6 +138,7 @@ def test_rest_models_are_zero_velocity_and_zero_rate(jit):
         H, y = np.zeros((3, N)), np.zeros(3)
         zv = aided.ZeroVelocity(sigma=np.ones(1))
         jit["zero_velocity_model"](x, nom.v[0], H, y)
+        # one subtraction and a sign: the same rounding; 1e-15 leaves room for nothing else
         np.testing.assert_allclose(y, (zv.z - zv.h(x[None], nom))[0], rtol=0, atol=1e-15)
         np.testing.assert_array_equal(H, zv.H(x[None], nom)[0])
         zr = aided.ZeroRate(z=z[None], sigma=np.ones(1))
@@ -152,6 +155,7 @@ def test_nhc_model_is_non_holonomic(jit):
         meas = aided.NonHolonomic(M=M, sigma=np.ones(1))
         H, y = np.zeros((3, N)), np.zeros(3)
         jit["nhc_model"](x, nom.C[0], nom.v[0], M[0], H, y)
+        # a rotation and two 3 x 3 products on values of order 1 in another order: a few units of 1e-16
         np.testing.assert_allclose(y[:2], (meas.z - meas.h(x[None], nom))[0], rtol=0, atol=1e-14)
         # the Jacobian at the fed-back state: the class takes eps = 0 as well
         np.testing.assert_allclose(H[:2], meas.H(x[None], nom)[0], rtol=0, atol=1e-14)
