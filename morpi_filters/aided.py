@@ -56,13 +56,14 @@ against the functions and classes here).
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
 from . import _aided_kernel
 from .error_model import BA, BG, DP, DV, EPS, N_STATES
 from .errors import MorpiError, ParameterError
+from .parallel import available_cores, chunk_ranges, execute
 from .strapdown import rotvec_to_C
 
 #: Clone of the horizontal position error at the last step boundary.
@@ -555,7 +556,8 @@ class AidTuning:
     def __post_init__(self):
         if self.step_heading not in STEP_HEADINGS:
             raise ParameterError(f"AidTuning.step_heading={self.step_heading!r}: expected one of {STEP_HEADINGS}")
-        for k, v in asdict(self).items():
+        for f in fields(self):
+            k, v = f.name, getattr(self, f.name)
             if isinstance(v, (bool, str)):
                 continue
             if not (np.isfinite(v) and v >= 0):
@@ -836,8 +838,12 @@ def _epochs(inp: AidedInput, tun: AidTuning, epoch_s: float):
 
 
 def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_covariance: bool = True,
-              nis: bool = True, innovations=False):
+              nis: bool = True, innovations=False, workers: int | None = None):
     """Run the aided filter on many members (one compiled forward pass each, then the smoother where asked).
+
+    The members are independent: with more than one worker, threads run them
+    side by side (the compiled loops release the GIL) and the results are the
+    same bits as on one thread.
 
     Parameters
     ----------
@@ -860,6 +866,10 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
         Also keep every update's measurement, innovation and its covariance,
         for every member or for those flagged (``AidedResult.innovations``;
         empty without).
+    workers : int, optional
+        Threads that run the members (default: the CPU cores this process may
+        use, :func:`morpi_filters.parallel.available_cores`; 1: the calling
+        thread only).
 
     Returns
     -------
@@ -869,7 +879,8 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
     Raises
     ------
     ParameterError
-        A tuning count that differs from the inputs', or a non-positive `epoch_s`.
+        A tuning count that differs from the inputs', a non-positive `epoch_s`
+        or `workers`.
 
     Examples
     --------
@@ -900,11 +911,21 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
     for b, (t, inp) in enumerate(zip(tunings, inputs)):
         if t.step_heading == "gyro" and t.steps and inp.step_vector is None:
             raise ParameterError(f"member {b}: step_heading='gyro' needs AidedInput.step_vector")
+    if workers is None:
+        workers = available_cores()
+    if not (isinstance(workers, (int, np.integer)) and workers >= 1):
+        raise ParameterError(f"run_batch: workers={workers!r}: expected a whole number >= 1")
     kern = _aided_kernel.compiled()
+
+    def members(_, a, b):
+        return [_run_member(kern, inputs[i], tunings[i], epoch_s, bool(keep_hist[i]), smoothed_covariance, nis,
+                            bool(keep_inn[i])) for i in range(a, b)]
+
+    # ranges of a few members: a thread lays out one member's arguments (Python, under the GIL) while
+    # the other runs a compiled pass
+    chunk = max(1, min(8, B // (4 * int(workers))))
     out = []
-    for b, (inp, tun) in enumerate(zip(inputs, tunings)):
-        out.append(_run_member(kern, inp, tun, epoch_s, bool(keep_hist[b]), smoothed_covariance, nis,
-                               bool(keep_inn[b])))
+    execute(members, None, chunk_ranges(B, chunk), workers=int(workers), reduce=out.extend)
     return out
 
 

@@ -13,7 +13,7 @@ import time as _time
 
 from .errors import MorpiError
 
-__all__ = ["Progress", "chunk_ranges", "execute"]
+__all__ = ["Progress", "available_cores", "chunk_ranges", "execute"]
 
 
 class Progress:
@@ -87,6 +87,27 @@ class Progress:
 
 
 # ----------------------------------------------------------------------------- chunk execution
+
+def available_cores() -> int:
+    """The number of CPU cores this process may run on (its affinity where the system tells it).
+
+    Returns
+    -------
+    int
+        At least 1.
+
+    Examples
+    --------
+    >>> available_cores() >= 1
+    True
+    """
+    import os
+
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):           # not every system tells a process's affinity
+        return max(1, os.cpu_count() or 1)
+
 
 def chunk_ranges(runs: int, chunk: int):
     """Split `runs` into consecutive ranges of at most `chunk` runs.

@@ -214,6 +214,39 @@ def test_run_batch_members_do_not_share_state():
     assert not np.array_equal(r1.position, r2.position)
 
 
+def test_run_batch_on_threads_gives_one_threads_bits():
+    # members differ (scaled inputs, two tunings, smoothing and innovations on some): the threads hand
+    # back each member's own result, in order, with the bits of the one-thread run
+    inp = _busy_input()
+    tuns = [aided.AidTuning(), aided.AidTuning(step_heading="gyro", turn_sigma=0.05)]
+    members = [replace(inp, f=inp.f * (1 + 0.002 * i)) for i in range(11)]
+    tunings = [tuns[i % 2] for i in range(11)]
+    flags = [i % 3 == 0 for i in range(11)]
+    one = aided.run_batch(members, tunings, smooth=flags, innovations=flags, workers=1)
+    many = aided.run_batch(members, tunings, smooth=flags, innovations=flags, workers=3)
+    assert len(one) == len(many) == 11
+    for a, b in zip(one, many):
+        for name in ("time", "position", "P_xy", "bias_a", "bias_g"):
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+        assert (a.smoothed is None) == (b.smoothed is None)
+        if a.smoothed is not None:
+            np.testing.assert_array_equal(a.smoothed, b.smoothed)
+        assert a.nis == b.nis and a.gain_error == b.gain_error
+        assert a.innovations.keys() == b.innovations.keys()
+        for k in a.innovations:
+            np.testing.assert_array_equal(a.innovations[k].y, b.innovations[k].y)
+    assert len({r.position[-1, 0] for r in one}) == 11          # the members really differ
+    for i in (0, 5, 10):                                        # and each result is its own member's
+        (alone,) = aided.run_batch([members[i]], [tunings[i]], workers=1)
+        np.testing.assert_array_equal(alone.position, many[i].position)
+
+
+@pytest.mark.parametrize("workers", [0, -1, 1.5, "2"])
+def test_run_batch_refuses_a_worker_count_that_is_not_a_whole_positive_number(workers):
+    with pytest.raises(aided.ParameterError, match="workers"):
+        aided.run_batch([_busy_input()], aided.AidTuning(), workers=workers)
+
+
 def _reference_smooth(hist_P, hist_rec, q_ba, q_bg, frozen, covariance):
     """filterpy's recursion (:func:`aided.rts_smooth`, tested against ``rts_smoother``) over a recorded
     history, with the transitions built densely and the predictions by :func:`aided.kf_predict`."""
