@@ -13,9 +13,11 @@ files (figures included), in alternation, the ratio taken per pair
 And the computations alone, in process (no figures, no interpreter start): the aided study from
 the CSV files (:func:`field_aided.aided_study`: its field evaluation, the tunable search, the
 test runs and the ablation) against the tables computation of ``bench_tables`` (the tables
-study and its page text).
+study and its page text). The tables computation runs on one thread, so the target row runs the
+aided study on one thread too (``workers=1``); a second row, for information, runs it as the
+command does, its recordings' passes on threads (one per core the process may use).
 
-Target: aided / tables <= 3, for both.
+Target: aided / tables <= 3, for the whole commands and for the one-thread computation.
 
 Usage: ``PYTHONPATH=. python3 benchmarks/bench_aided.py [--data DIR] [--pairs N]``
 """
@@ -52,6 +54,7 @@ def measure(pairs: int = 5, quick: bool = False, data=None):
     from bench_tables import tables
 
     from morpi_filters.field_aided import aided_study
+    from morpi_filters.parallel import available_cores
 
     root = _root(data)
     repo = Path(__file__).resolve().parents[1]
@@ -62,8 +65,12 @@ def measure(pairs: int = 5, quick: bool = False, data=None):
         rows = [paired_commands("morpi aided / morpi tables (whole commands)", cmd("aided"), cmd("tables"),
                                 pairs=pairs, warmup=0, target=3.0, env=env, cwd=tmp)]
     if not quick:
-        rows.append(paired("aided study / tables computation (in process, from the CSV files, no figures)",
-                           lambda: aided_study(root), lambda: tables(root), pairs=pairs, warmup=1, target=3.0))
+        rows.append(paired("aided study, one thread / tables computation (in process, from the CSV files, "
+                           "no figures)", lambda: aided_study(root, workers=1), lambda: tables(root), pairs=pairs,
+                           warmup=1, target=3.0))
+        rows.append(paired(f"aided study, {available_cores()} threads / tables computation (in process, "
+                           "for information)", lambda: aided_study(root), lambda: tables(root), pairs=pairs,
+                           warmup=1))
     return rows
 
 

@@ -85,6 +85,24 @@ def _duration(seconds):
     return f"{seconds / 3600:.0f} h"
 
 
+#: Most threads a command takes (``--workers``): far above the cores of a workstation, and a bound on
+#: the threads an absurd value would start.
+MAX_WORKERS = 256
+
+
+def _workers(text):
+    v = _int_at_least("--workers", 1)(text)
+    if v > MAX_WORKERS:
+        raise argparse.ArgumentTypeError(f"--workers: {v} threads; at most {MAX_WORKERS}")
+    return v
+
+
+def _workers_arg(sp):
+    sp.add_argument("--workers", metavar="N", type=_workers, default=None,
+                    help="threads that run the aided filter (default: the cores this process may use; "
+                         "the results do not depend on it)")
+
+
 def _runs(name):
     at_least_one = _int_at_least(name, 1)
 
@@ -177,6 +195,7 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("aided", help="the MoRPI-aided filter on every MoRPI cell: forward, smoothed, ablation, "
                                      "consistency")
     data_arg(s)
+    _workers_arg(s)
     out_args(s, "aided")
 
     s = sub.add_parser("assess", help="analytical assessment: closed-form 3D/2D INS vs MoRPI-A error")
@@ -237,6 +256,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--seed", type=_nonneg_int("--seed"), default=0, help="seed of the synthetic dataset and studies")
     s.add_argument("--runs", metavar="N", type=_runs("--runs"), default=2000,
                    help=f"Monte Carlo runs (default 2000, at most {MAX_RUNS})")
+    _workers_arg(s)
     return p
 
 
@@ -257,7 +277,7 @@ def _study(name, args, source=None, tables=None):
         from .field_aided import aided_study
         if source is None or source.root is None:
             raise MorpiError(f"aided: no dataset configured; {missing_data_message()}")
-        return aided_study(source.root, result=tables)
+        return aided_study(source.root, result=tables, workers=getattr(args, "workers", None))
     if name == "assessment":
         from .assessment import assessment_study
         return assessment_study(params_path=getattr(args, "params", None), times=getattr(args, "times", None))

@@ -514,7 +514,7 @@ def choose_tunables(data, train, method, mode, config, gain):
     return choice
 
 
-def choose_tunables_many(data, requests) -> list:
+def choose_tunables_many(data, requests, *, workers: int | None = None) -> list:
     """:func:`choose_tunables` for several (train, method, mode, config, gain) at once: the grid in one
     batch per training set, the second stage of every request in one batch.
 
@@ -528,6 +528,9 @@ def choose_tunables_many(data, requests) -> list:
     requests : sequence of tuple
         ``(train, method, mode, config, gain)`` as the arguments of
         :func:`choose_tunables`.
+    workers : int, optional
+        Threads that run the filter (:func:`morpi_filters.aided.run_batch`;
+        default: the cores this process may use). The choice does not depend on it.
 
     Returns
     -------
@@ -558,7 +561,7 @@ def choose_tunables_many(data, requests) -> list:
         inputs += [r.input_for(c, forward_only=True) for c in cands for r in runs]
         tunings += [_tuning(noise, c, rel) for c in cands for _ in runs]
     # one batch per training set (one batch of every set is slower: a larger working set for the same work)
-    res = {train: aided.run_batch(inputs, tunings, nis=False) for train, (inputs, tunings) in groups.items()}
+    res = {train: aided.run_batch(inputs, tunings, nis=False, workers=workers) for train, (inputs, tunings) in groups.items()}
 
     def score(mine, runs, truth):
         ends = [runs[i % len(runs)].end(r) for i, r in enumerate(mine)]
@@ -585,7 +588,7 @@ def choose_tunables_many(data, requests) -> list:
         more = [dict(cands[w], **v) for w in wins for v in variants]
         inputs += [r.input_for(c, forward_only=True) for c in more for r in runs]
         tunings += [_tuning(noise, c, rel) for c in more for _ in runs]
-    res2 = aided.run_batch(inputs, tunings, nis=False)
+    res2 = aided.run_batch(inputs, tunings, nis=False, workers=workers)
     out = []
     for plan, first in zip(plans, firsts):
         if isinstance(plan, MorpiError):
@@ -841,7 +844,7 @@ def _merge_nis(acc, nis):
         a[1] += c
 
 
-def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> AidedStudy:
+def aided_study(root=None, result=None, labels=None, ablation: bool = True, workers: int | None = None) -> AidedStudy:
     """The aided filter on every MoRPI cell of :func:`evaluate.evaluate_tables`.
 
     Parameters
@@ -854,6 +857,9 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
         Only these cells (``CellSpec.label``).
     ablation : bool
         Also run the GC cells with each aid removed in turn.
+    workers : int, optional
+        Threads that run the filter (:func:`morpi_filters.aided.run_batch`;
+        default: the cores this process may use). The results do not depend on it.
 
     Returns
     -------
@@ -875,7 +881,7 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
     # the tunables of every training set, method and calibration in one search
     keys = sorted({(c.spec.train, c.spec.method, c.spec.calibration) for c in wanted})
     picks = choose_tunables_many(data, [(tr, m, cal, res.selections[m].config, gmap[(tr[0], tr[1], m, cal)])
-                                        for tr, m, cal in keys])
+                                        for tr, m, cal in keys], workers=workers)
     chosen = {k: v for k, v in zip(keys, picks) if not isinstance(v, MorpiError)}
     todo = []
     for cell in wanted:
@@ -914,7 +920,7 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True) -> A
         out = aided.run_batch([p.input_for(todo[i][3], forward_only=name is not None) for i, p, name, _ in items],
                               [t for *_, t in items],
                               smooth=[name is None for _, _, name, _ in items], smoothed_covariance=False,
-                              innovations=[name is None for _, _, name, _ in items])
+                              innovations=[name is None for _, _, name, _ in items], workers=workers)
         for (i, p, name, _), r in zip(items, out):
             if name is None:
                 results[(i, p.rel)] = r

@@ -94,10 +94,13 @@ def test_missing_dataset_is_one_line(tmp_path, monkeypatch):
 
 
 @pytest.mark.parametrize("argv", [["montecarlo", "--runs", "0"], ["assess", "--times", "abc"],
-                                  ["simulate", "--out", "x", "--seed", "-1"]])
+                                  ["simulate", "--out", "x", "--seed", "-1"], ["aided", "--workers", "0"],
+                                  ["report", "--workers", "257"], ["aided", "--workers", "two"]])
 def test_bad_parameters_exit_nonzero(argv, tmp_path):
     r = run(*argv, cwd=tmp_path)
     assert r.returncode == 2 and "Traceback" not in r.stderr
+    if "--workers" in argv:
+        assert "--workers" in r.stderr and not (tmp_path / "reports").exists()
 
 
 @pytest.mark.parametrize("argv", [["tables"], ["curves", "--times", "1"], ["montecarlo", "--runs", "2"]])
