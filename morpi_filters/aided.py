@@ -811,21 +811,25 @@ def _epochs(inp: AidedInput, tun: AidTuning, epoch_s: float):
     t = inp.time
     n = t.size
     m = max(1, int(round(epoch_s / inp.nominal_dt)))
-    grid = [np.arange(0, n, m), [n - 1]]
+    on = np.zeros(n, bool)                  # the epoch samples, as a mask
+    on[::m] = True
+    on[-1] = True
     none = np.zeros(0, np.int64)
     end_k, end_a, end_j, starts = none, none, none, none
     if tun.steps and inp.step_length.size:
-        def nearest(x):
-            j = np.clip(np.searchsorted(t, x), 1, n - 1)
-            return np.where(np.abs(t[j - 1] - x) <= np.abs(t[j] - x), j - 1, j)
-
-        a = nearest(np.asarray(inp.step_start, float))
-        b = nearest(np.asarray(inp.step_end, float))
+        k = inp.step_length.size
+        # the sample nearest to each step boundary (the earlier one on a tie): starts, then ends
+        x = np.concatenate([np.asarray(inp.step_start, float), np.asarray(inp.step_end, float)])
+        j = np.searchsorted(t, x)
+        np.clip(j, 1, n - 1, out=j)
+        near = j - (np.abs(t[j - 1] - x) <= np.abs(t[j] - x))
+        a, b = near[:k], near[k:]
         end_j = np.flatnonzero((b > a) & np.isfinite(inp.step_length))
         end_j = end_j[np.argsort(b[end_j], kind="stable")]
         end_k, end_a = b[end_j].astype(np.int64), a[end_j].astype(np.int64)
+        on[end_a] = True
+        on[end_k] = True
         starts = np.unique(end_a)
-        grid += [starts, end_k]
     rest = np.zeros(n, bool)
     standing = np.zeros(n, bool)
     if tun.rest:
@@ -833,8 +837,7 @@ def _epochs(inp: AidedInput, tun: AidTuning, epoch_s: float):
             rest[np.searchsorted(t, t0, "left"):np.searchsorted(t, t1, "right")] = True
         for t0, t1 in inp.standing:
             standing[np.searchsorted(t, t0, "left"):np.searchsorted(t, t1, "right")] = True
-    return np.unique(np.concatenate(grid).astype(np.int64)), end_k, end_a, end_j.astype(np.int64), starts, rest, \
-        standing & ~rest
+    return np.flatnonzero(on), end_k, end_a, end_j.astype(np.int64), starts, rest, standing & ~rest
 
 
 def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_covariance: bool = True,
