@@ -916,7 +916,7 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
             raise ParameterError(f"member {b}: step_heading='gyro' needs AidedInput.step_vector")
     if workers is None:
         workers = available_cores()
-    if not (isinstance(workers, (int, np.integer)) and workers >= 1):
+    if isinstance(workers, bool) or not (isinstance(workers, (int, np.integer)) and workers >= 1):
         raise ParameterError(f"run_batch: workers={workers!r}: expected a whole number >= 1")
     kern = _aided_kernel.compiled()
 

@@ -561,7 +561,8 @@ def choose_tunables_many(data, requests, *, workers: int | None = None) -> list:
         inputs += [r.input_for(c, forward_only=True) for c in cands for r in runs]
         tunings += [_tuning(noise, c, rel) for c in cands for _ in runs]
     # one batch per training set (one batch of every set is slower: a larger working set for the same work)
-    res = {train: aided.run_batch(inputs, tunings, nis=False, workers=workers) for train, (inputs, tunings) in groups.items()}
+    res = {train: aided.run_batch(inputs, tunings, nis=False, workers=workers)
+           for train, (inputs, tunings) in groups.items()}
 
     def score(mine, runs, truth):
         ends = [runs[i % len(runs)].end(r) for i, r in enumerate(mine)]
@@ -844,7 +845,8 @@ def _merge_nis(acc, nis):
         a[1] += c
 
 
-def aided_study(root=None, result=None, labels=None, ablation: bool = True, workers: int | None = None) -> AidedStudy:
+def aided_study(root=None, result=None, labels=None, ablation: bool = True,
+                workers: int | None = None) -> AidedStudy:
     """The aided filter on every MoRPI cell of :func:`evaluate.evaluate_tables`.
 
     Parameters

@@ -241,7 +241,7 @@ def test_run_batch_on_threads_gives_one_threads_bits():
         np.testing.assert_array_equal(alone.position, many[i].position)
 
 
-@pytest.mark.parametrize("workers", [0, -1, 1.5, "2"])
+@pytest.mark.parametrize("workers", [0, -1, 1.5, "2", True])
 def test_run_batch_refuses_a_worker_count_that_is_not_a_whole_positive_number(workers):
     with pytest.raises(aided.ParameterError, match="workers"):
         aided.run_batch([_busy_input()], aided.AidTuning(), workers=workers)
