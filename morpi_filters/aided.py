@@ -924,8 +924,8 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
         return [_run_member(kern, inputs[i], tunings[i], epoch_s, bool(keep_hist[i]), smoothed_covariance, nis,
                             bool(keep_inn[i])) for i in range(a, b)]
 
-    # ranges of a few members (at least 4 ranges per thread): a thread lays out a member's arguments
-    # (Python, under the GIL) while the others run compiled passes
+    # ranges of at most 8 members, about 4 or more per thread when the members allow: a thread lays out
+    # a member's arguments (Python, under the GIL) while the others run compiled passes
     chunk = max(1, min(8, B // (4 * int(workers))))
     out = []
     execute(members, None, chunk_ranges(B, chunk), workers=int(workers), reduce=out.extend)
