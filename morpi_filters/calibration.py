@@ -73,7 +73,7 @@ from .units import SENSORS
 
 __all__ = [
     "MODES", "SITE_LATITUDE_DEG", "LOCAL_GRAVITY", "normal_gravity", "RestWindow", "Calibration",
-    "detect_rest", "calibrate", "calibrated", "rest_windows_summary", "RestRow", "RestSummary", "noise_sigma",
+    "RestMeasures", "rest_measures", "detect_rest", "calibrate", "calibrated", "rest_windows_summary", "RestRow", "RestSummary", "noise_sigma",
 ]
 
 #: Calibration modes: raw data, gyro calibration, gyro and accelerometer calibration.
@@ -354,10 +354,106 @@ def _moving_stats(t: np.ndarray, x: np.ndarray, half: float):
     return mean + ref, np.sqrt(np.maximum(var, 0.0))
 
 
+@dataclass(frozen=True)
+class RestMeasures:
+    """What :func:`detect_rest` measures on a recording before it sets any threshold.
+
+    The noise sigmas, the quiet gyro level and the centred moving statistics
+    depend on the recording and on `max_window_s`, `window_s` and `noise_s`
+    only, so one measurement serves every threshold (every accelerometer
+    floor, for example). Made by :func:`rest_measures`.
+
+    Attributes
+    ----------
+    max_window_s, window_s : float
+        The parameters they were taken with [s].
+    noise_s : float or None
+        The parameter they were taken with [s].
+    n : int
+        Samples of the recording measured.
+    sig_g, sig_a : ndarray, shape (3,)
+        Gyro [rad/s] and accelerometer [m/s^2] noise sigmas (at least the
+        datasheet's white noise for a known phone).
+    med_g : ndarray, shape (3,)
+        Median gyro reading of the quietest noise block [rad/s].
+    m_g, s_g : ndarray, shape (n, 3)
+        Centred moving mean and standard deviation of the gyro [rad/s].
+    s_a : ndarray, shape (n, 3)
+        Centred moving standard deviation of the accelerometer [m/s^2].
+    """
+
+    max_window_s: float
+    window_s: float
+    noise_s: float | None
+    n: int
+    sig_g: np.ndarray
+    sig_a: np.ndarray
+    med_g: np.ndarray
+    m_g: np.ndarray
+    s_g: np.ndarray
+    s_a: np.ndarray
+
+
+def rest_measures(rec: Recording, *, max_window_s: float = 3.0, window_s: float = 0.25,
+                  noise_s: float | None = None) -> RestMeasures:
+    """Measure what :func:`detect_rest` thresholds, once for many thresholds.
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording.
+    max_window_s, window_s, noise_s : float
+        As for :func:`detect_rest`.
+
+    Returns
+    -------
+    RestMeasures
+        To pass to :func:`detect_rest` (``measures=``) with the same
+        `max_window_s`, `window_s` and `noise_s`.
+
+    Raises
+    ------
+    MorpiError
+        For a parameter that is not a positive number.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> t = np.arange(600) * 0.01
+    >>> w = 0.001 * rng.standard_normal((600, 3)); w[300:, 2] += 0.5 * np.sin(2 * np.pi * t[300:])
+    >>> rec = Recording(time=t, f=[0.0, 0.0, 9.8] + 0.01 * rng.standard_normal((600, 3)), omega=w)
+    >>> m = rest_measures(rec)
+    >>> [detect_rest(rec, accel_floor=a, measures=m) == detect_rest(rec, accel_floor=a) for a in (0.05, 1.0)]
+    [True, True]
+    """
+    for name, v in (("max_window_s", max_window_s), ("window_s", window_s),
+                    ("noise_s", 1.0 if noise_s is None else noise_s)):
+        if not (math.isfinite(v) and v > 0):
+            raise MorpiError(f"{name}={v!r}: expected a positive number")
+    t = rec.time - rec.time[0]
+    span = max_window_s if noise_s is None else noise_s
+    sig_g, med_g = _block_sigma(t, rec.omega, span, window_s)
+    sig_a, _ = _block_sigma(t, rec.f, span, window_s)
+    # Noise-free (simulated) rests: stay above floating-point rounding.
+    sig_g = np.maximum(sig_g, _GYRO_SIGMA_MIN)
+    sig_a = np.maximum(sig_a, _ACCEL_SIGMA_MIN)
+    if rec.phone in SENSORS:
+        # Never below the datasheet white noise over the Nyquist band.
+        spec = SENSORS[rec.phone]
+        band = math.sqrt(rec.rate_hz / 2.0)
+        sig_g = np.maximum(sig_g, spec.gyro_noise * band)
+        sig_a = np.maximum(sig_a, spec.accel_noise * band)
+    half = window_s / 2.0
+    m_g, s_g = _moving_stats(t, rec.omega, half)
+    _, s_a = _moving_stats(t, rec.f, half)
+    return RestMeasures(max_window_s=max_window_s, window_s=window_s, noise_s=noise_s, n=rec.n, sig_g=sig_g,
+                        sig_a=sig_a, med_g=med_g, m_g=m_g, s_g=s_g, s_a=s_a)
+
+
 def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: float = 1.0,
                 window_s: float = 0.25, noise_s: float | None = None, k_std: float = 4.0, k_dev: float = 6.0,
                 accel_floor: float = 0.1, sustain_s: float = 1.5, guard_s: float = 0.05,
-                min_samples: int = 10) -> RestWindow:
+                min_samples: int = 10, measures: RestMeasures | None = None) -> RestWindow:
     """Find the initial rest period of a recording.
 
     Parameters
@@ -400,6 +496,10 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
         Gap left between the end of the window and the motion onset [s].
     min_samples : int
         Fewest samples a rest window may have; fewer raise MorpiError.
+    measures : RestMeasures, optional
+        The recording's :func:`rest_measures` with the same `max_window_s`,
+        `window_s` and `noise_s`; measured here when None. Passing them saves
+        measuring again when only thresholds change.
 
     Returns
     -------
@@ -438,23 +538,18 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
         raise MorpiError(f"min_window_s={min_window_s!r}: expected at most max_window_s={max_window_s!r}")
     if not (math.isfinite(guard_s) and guard_s >= 0) or not (math.isfinite(accel_floor) and accel_floor >= 0):
         raise MorpiError(f"guard_s={guard_s!r}, accel_floor={accel_floor!r}: expected non-negative numbers")
+    if measures is None:
+        measures = rest_measures(rec, max_window_s=max_window_s, window_s=window_s, noise_s=noise_s)
+    elif (measures.max_window_s, measures.window_s, measures.noise_s, measures.n) != (
+            max_window_s, window_s, noise_s, rec.n):
+        raise MorpiError(f"measures: taken with max_window_s={measures.max_window_s!r}, "
+                         f"window_s={measures.window_s!r}, noise_s={measures.noise_s!r} on {measures.n} samples; "
+                         f"expected max_window_s={max_window_s!r}, window_s={window_s!r}, noise_s={noise_s!r} "
+                         f"on the {rec.n} samples of {rec.source}")
     t = rec.time - rec.time[0]
     n = rec.n
-    span = max_window_s if noise_s is None else noise_s
-    sig_g, med_g = _block_sigma(t, rec.omega, span, window_s)
-    sig_a, _ = _block_sigma(t, rec.f, span, window_s)
-    # Noise-free (simulated) rests: stay above floating-point rounding.
-    sig_g = np.maximum(sig_g, _GYRO_SIGMA_MIN)
-    sig_a = np.maximum(sig_a, _ACCEL_SIGMA_MIN)
-    if rec.phone in SENSORS:
-        # Never below the datasheet white noise over the Nyquist band.
-        spec = SENSORS[rec.phone]
-        band = math.sqrt(rec.rate_hz / 2.0)
-        sig_g = np.maximum(sig_g, spec.gyro_noise * band)
-        sig_a = np.maximum(sig_a, spec.accel_noise * band)
-    half = window_s / 2.0
-    m_g, s_g = _moving_stats(t, rec.omega, half)
-    m_a, s_a = _moving_stats(t, rec.f, half)
+    sig_g, sig_a, med_g = measures.sig_g, measures.sig_a, measures.med_g
+    m_g, s_g, s_a = measures.m_g, measures.s_g, measures.s_a
     thr_sa = np.maximum(k_std * sig_a, accel_floor)
     moving = ((s_g > k_std * sig_g) | (np.abs(m_g - med_g) > k_dev * sig_g)).any(axis=1) | \
         (s_a > thr_sa).any(axis=1)

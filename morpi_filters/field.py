@@ -287,11 +287,27 @@ class FieldData:
 
     def rest_window(self, rec):
         """The initial rest window (calibration.detect_rest), found once per recording."""
-        from .calibration import detect_rest
-
         key = (rec.source, "rest")
         if key not in self._cal:
-            self._cal[key] = detect_rest(rec, accel_floor=self.accel_floor())
+            self._cal[key] = self.rest_window_at(rec, self.accel_floor())
+        return self._cal[key]
+
+    def rest_measures(self, rec):
+        """What the rest detection measures on the recording (calibration.rest_measures), once per recording."""
+        from .calibration import rest_measures
+
+        key = (rec.source, "rest measures")
+        if key not in self._cal:
+            self._cal[key] = rest_measures(rec)
+        return self._cal[key]
+
+    def rest_window_at(self, rec, accel_floor: float):
+        """The initial rest window with another accelerometer floor [m/s^2], found once per floor."""
+        from .calibration import detect_rest
+
+        key = (rec.source, "rest", accel_floor)
+        if key not in self._cal:
+            self._cal[key] = detect_rest(rec, accel_floor=accel_floor, measures=self.rest_measures(rec))
         return self._cal[key]
 
     def rest_specific_force(self, rec) -> np.ndarray:
@@ -483,12 +499,6 @@ def _train_accel_floor(data: FieldData) -> tuple[float, tuple, tuple]:
     ``k_std`` (the detector's threshold in noise sigmas) times the median of
     those values over the train runs.
     """
-    import inspect
-
-    from .calibration import _moving_stats, detect_rest
-
-    par = inspect.signature(detect_rest).parameters
-    half = par["window_s"].default / 2.0
     vals, files = [], []
     for e in data.train_entries():
         recs = [r for r in data.recordings(e.phone, e.route, e.split) if data.relpath(r) == e.relpath]
@@ -496,11 +506,10 @@ def _train_accel_floor(data: FieldData) -> tuple[float, tuple, tuple]:
             continue
         r = recs[0]
         try:
-            w = detect_rest(r, accel_floor=1e9)
+            w = data.rest_window_at(r, 1e9)
         except MorpiError:
             continue
-        _, sd = _moving_stats(r.time - r.time[0], r.f, half)
-        vals.append(float(sd[w.i0:w.i1].max()))
+        vals.append(float(data.rest_measures(r).s_a[w.i0:w.i1].max()))
         files.append(e.relpath)
     return _floor_from(vals), tuple(vals), tuple(files)
 
@@ -620,8 +629,6 @@ def fold_thresholds(data: FieldData, held_out: str) -> tuple[Thresholds, bool]:
         remaining train run (the thresholds are then exactly the fold's own;
         otherwise the fold needs its own :class:`FieldData`).
     """
-    from .calibration import detect_rest
-
     th = data.thresholds
     floor = _floor_from([v for v, f in zip(th.rest_std, th.rest_files) if f != held_out])
     keep = lambda vals, files: ([v for v, f in zip(vals, files) if f != held_out],
@@ -635,10 +642,7 @@ def fold_thresholds(data: FieldData, held_out: str) -> tuple[Thresholds, bool]:
                 continue
             for r in data.recordings(e.phone, e.route, e.split):
                 if data.relpath(r) == e.relpath:
-                    key = (r.source, "rest", floor)
-                    if key not in data._cal:
-                        data._cal[key] = detect_rest(r, accel_floor=floor)
-                    w, w0 = data._cal[key], data.rest_window(r)
+                    w, w0 = data.rest_window_at(r, floor), data.rest_window(r)
                     same = same and (w.i0, w.i1) == (w0.i0, w0.i1)
     return fold, same
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from morpi_filters.calibration import (LOCAL_GRAVITY, Calibration, RestWindow, calibrate, detect_rest,
-                                       normal_gravity, rest_windows_summary)
+                                       normal_gravity, rest_measures, rest_windows_summary)
 from morpi_filters.dataset import Recording, load_catalogue
 from morpi_filters.errors import MorpiError
 from morpi_filters.report.calibration import rest_windows_table
@@ -139,6 +139,29 @@ def test_bad_parameters(kwargs, match):
         calibrate(rec, **kwargs)
     with pytest.raises(MorpiError, match="min_window_s"):
         detect_rest(rec, min_window_s=5.0, max_window_s=3.0)
+
+
+def test_rest_measured_once_gives_the_same_windows_for_every_threshold():
+    # The window found from stored measures must be the one detect_rest finds measuring itself, whatever the
+    # thresholds: a tap (window starts after it), an early motion, and floors that move the window
+    rng = np.random.default_rng(19)
+    rec, _ = synthetic(rng, rest_s=2.5, tap=(0.2, 0.35))
+    m = rest_measures(rec)
+    windows = set()
+    for kw in (dict(), dict(accel_floor=0.0), dict(accel_floor=0.02), dict(accel_floor=1e9), dict(k_std=2.0),
+               dict(k_dev=3.0, guard_s=0.1), dict(sustain_s=0.5, min_window_s=0.5)):
+        w = detect_rest(rec, measures=m, **kw)
+        assert w == detect_rest(rec, **kw)
+        windows.add((w.i0, w.i1))
+    assert len(windows) > 1                              # the thresholds did move the window
+    # measures taken with other parameters, or on another recording, are refused
+    with pytest.raises(MorpiError, match="measures: taken with .*window_s=0.5"):
+        detect_rest(rec, measures=rest_measures(rec, window_s=0.5))
+    other, _ = synthetic(rng, total_s=6.0)
+    with pytest.raises(MorpiError, match="synthetic.csv"):
+        detect_rest(other, measures=m)
+    with pytest.raises(MorpiError, match="window_s=0"):
+        rest_measures(rec, window_s=0.0)
 
 
 def test_normal_gravity_reference_values():
