@@ -186,6 +186,7 @@ class FieldData:
         self._rec: dict = {}
         self._cal: dict = {}
         self._prep: dict = {}
+        self._signals: dict = {}
         #: Per-recording results of the studies built on this data (keyed by the study), reused across cells.
         self.study_cache: dict = {}
         self._ins: dict = {}
@@ -200,10 +201,10 @@ class FieldData:
                 ins_span: str | None = None) -> "FieldData":
         """The same root and thresholds read another way, reusing `other`'s loaded work.
 
-        The recordings, rest windows, calibrations, motion windows, peaks and
-        INS runs are shared with `other` (none depends on the heading origin;
-        INS runs are keyed by their span); what depends on the heading is
-        computed afresh.
+        The recordings, rest windows, calibrations, motion windows, step
+        signals (resampled and filtered), peaks and INS runs are shared with
+        `other` (none depends on the heading origin; INS runs are keyed by
+        their span); what depends on the heading is computed afresh.
 
         Parameters
         ----------
@@ -336,22 +337,20 @@ class FieldData:
     def prepared(self, rec, mode: str, method: str, cutoff_hz, source: str = "gyro"):
         # RD and GC differ by a constant on omega_z and not at all on f_y. A constant offset changes
         # neither the peaks, the prominence threshold (relative to the signal's range) nor any
-        # max - min, so the signal part is shared between RD and GC and between the heading sources;
-        # only the heading differs
+        # max - min, so the signal part is shared between RD and GC, between the heading sources and
+        # between the instances that share this one's work (FieldData.sharing): only the heading differs
         key = (rec.source, mode, method, cutoff_hz, source)
         if key not in self._prep:
-            crec, _ = self.calibrated(rec, mode)
-            motion = self.activity(rec)
-            shared = next((self._prep[k] for k in ((rec.source, m, method, cutoff_hz, h)
-                                                   for m in ("RD", "GC") for h in HEADING_SOURCES)
-                           if k in self._prep), None) if mode in ("RD", "GC") else None
+            skey = (rec.source, "RD|GC" if mode in ("RD", "GC") else mode, method, cutoff_hz)
+            shared = self._signals.get(skey)
             if shared is not None:
                 from dataclasses import replace
 
                 self._prep[key] = replace(shared, heading=self.heading(rec, mode, source))
             else:
-                self._prep[key] = st.prepare_signal(crec, method, cutoff_hz, motion=motion,
-                                                    heading=self.heading(rec, mode, source))
+                crec, _ = self.calibrated(rec, mode)
+                self._prep[key] = self._signals[skey] = st.prepare_signal(
+                    crec, method, cutoff_hz, motion=self.activity(rec), heading=self.heading(rec, mode, source))
         return self._prep[key]
 
     def heading(self, rec, mode: str, source: str = "gyro") -> np.ndarray:
