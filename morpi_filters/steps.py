@@ -596,6 +596,12 @@ class PreparedSignal:
     steps_memo: dict = field(default_factory=dict, init=False, repr=False)
 
     @cached_property
+    def motion_index(self) -> tuple:
+        """Grid indices ``(i0, i1)`` of the motion: ``grid[i0:i1]`` lies within :attr:`motion`."""
+        i0, i1 = np.searchsorted(self.grid, [self.motion[0], self.motion[1] + 1e-9])
+        return int(i0), int(i1)
+
+    @cached_property
     def heading_integral(self) -> np.ndarray:
         """Trapezoidal integral of the heading from the first sample [rad s], shape (n,), read-only."""
         psi, t = self.heading, self.time
@@ -822,7 +828,7 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
     p = prepared
     grid, g, graw, t = p.grid, p.filtered, p.raw, p.time
     m0, m1 = p.motion
-    i0, i1 = np.searchsorted(grid, [m0, m1 + 1e-9])
+    i0, i1 = p.motion_index
     if i1 - i0 < 3:
         raise MorpiError(f"{p.source}: no periodic motion found in the {method} signal")
     lo, hi = p.span
@@ -887,7 +893,7 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
                                - np.minimum.reduceat(psi, bi[:-1])[:bi.size - 1])
             med = _median(swing)
         psi_s, psi_e = np.interp(st, t, psi), np.interp(et, t, psi)
-        idx = np.clip(np.searchsorted(t, grid[bounds]), 0, t.shape[0] - 1)
+        idx = np.minimum(np.searchsorted(t, grid[bounds]), t.shape[0] - 1)
         peaks = Peaks(grid_time=grid, grid_signal=g, grid_index=bounds, index=idx,
                       properties={"prominence_threshold": prom})
         for a in (st, et, weight, frac, psi_s, psi_e, idx):
@@ -900,15 +906,19 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
     elif config.heading == "change":
         dpsi = psi_e - psi_s
     elif config.heading == "turns":
-        bt = grid[bounds]
-        stretches = turn_stretches(bt, np.interp(bt, t, psi), np.radians(config.turn_deg),
-                                   2 if config.segment == "extrema" else 1)
+        tkey = ("turns", pkey, config.turn_deg)                 # the stretches do not depend on the ends
+        stretches = memo.get(tkey)
+        if stretches is None:
+            bt = grid[bounds]
+            stretches = memo[tkey] = tuple(turn_stretches(bt, np.interp(bt, t, psi), np.radians(config.turn_deg),
+                                                          2 if config.segment == "extrema" else 1))
         dpsi = psi_e - psi_s + turn_heading(st, t, psi, stretches)
     else:
         cpsi = p.heading_integral
         span = et - st
-        with np.errstate(invalid="ignore", divide="ignore"):
-            dpsi = np.where(span > 1e-9, (np.interp(et, t, cpsi) - np.interp(st, t, cpsi)) / span, psi_s)
+        # the mean heading over each step; the heading at its start for a step of no length
+        dpsi = np.divide(np.interp(et, t, cpsi) - np.interp(st, t, cpsi), span, out=np.array(psi_s),
+                         where=span > 1e-9)
     return Steps(start_time=st, end_time=et, weight=weight, fraction=frac, heading=dpsi, peaks=peaks,
                  motion=(m0, m1), swing_deg=med)
 
