@@ -579,7 +579,7 @@ class PreparedSignal:
     steps_memo : dict
         Filled by :func:`extract_steps`: what every heading reading of the
         same steps shares (boundaries, end steps, weights, swing, boundary
-        headings), read-only arrays.
+        headings, turn stretches), read-only.
     """
 
     source: str
