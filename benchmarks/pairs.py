@@ -6,10 +6,13 @@ land on one side only; running them A B A B ... and dividing each A by the B
 next to it cancels most of it. Every benchmark script of the project reports
 its ratios through :func:`paired` (work done in this process) or
 :func:`paired_commands` (whole commands, as a user runs them), as
-min / median / max over the pairs.
+min / median / max over the pairs. In process, each call's result is freed
+and the garbage collected between the timed windows, so that neither side
+pays for releasing the other's work.
 """
 from __future__ import annotations
 
+import gc
 import os
 import subprocess
 import sys
@@ -102,6 +105,10 @@ def paired(name, a, b, *, pairs: int = 5, warmup: int = 1, target: float | None 
             t0 = time.perf_counter()
             out = fn()
             dt = float(out) if self_timed else time.perf_counter() - t0
+            # release the result and collect the garbage outside the timed window: otherwise the next
+            # call (often the other side's) pays for freeing this one's work
+            del out
+            gc.collect()
             if k >= warmup:
                 acc.append(dt)
     return PairedRatio(name, np.array(ta), np.array(tb), target)
