@@ -796,11 +796,18 @@ def _held_out_error(data: FieldData, method, config, k: int, rel: str) -> float:
 
 
 def _loo_score(data: FieldData, method, config, mode="GC", exclude=frozenset()) -> tuple[float, int]:
-    """Leave-one-out mean end-point error [%] over the short-route train runs not in `exclude`."""
-    errs = _loo_vector(data, method, config, mode, exclude)
-    if errs is None or not errs.size:
-        return float("inf"), 0
-    return float(np.mean(errs)), int(errs.size)
+    """Leave-one-out mean end-point error [%] over the short-route train runs not in `exclude`.
+
+    Cached on `data` with the train summaries: the searches of one method, of the other and of both
+    (:func:`select_config`) score many of the same rules.
+    """
+    key = ("loo score", method, config, mode, exclude)
+    out = data._train_summaries.get(key)
+    if out is None:
+        errs = _loo_vector(data, method, config, mode, exclude)
+        out = (float("inf"), 0) if errs is None or not errs.size else (float(np.mean(errs)), int(errs.size))
+        data._train_summaries[key] = out
+    return out
 
 
 def select_config(data: FieldData, methods=_MORPI_METHODS, *, exclude=(), thresholds: Thresholds | None = None
