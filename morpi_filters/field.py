@@ -907,12 +907,14 @@ def _search(data: FieldData, methods, exclude, start) -> tuple:
         trials.append((cfg, sc))
         if sc < best_score:
             best, best_score, n = cfg, sc, n_
+    tried = {c for c, _ in trials}
     for k, values in TUNABLE_GRID.items():
         base = best
         for v in values:
             cfg = base.with_(**{k: v})
-            if any(c == cfg for c, _ in trials):
+            if cfg in tried:
                 continue
+            tried.add(cfg)
             sc, n_ = score(cfg)
             trials.append((cfg, sc))
             if sc < best_score:

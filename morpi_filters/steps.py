@@ -49,7 +49,7 @@ References
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from functools import cached_property, lru_cache
 
 import numpy as np
@@ -155,6 +155,18 @@ class StepConfig:
             raise MorpiError(f"StepConfig.cutoff_hz={self.cutoff_hz}: expected None or 0 < f < {GRID_HZ / 2} Hz")
         if not 0 < self.turn_deg < 360:
             raise MorpiError(f"StepConfig.turn_deg={self.turn_deg}: expected a heading change 0 < turn_deg < 360 [deg]")
+
+    def __hash__(self):
+        # a rule keys every cache of its steps and scores: its fields are hashed once
+        h = self.__dict__.get("_hash")
+        if h is None:
+            h = hash(tuple(getattr(self, f.name) for f in fields(self)))
+            object.__setattr__(self, "_hash", h)
+        return h
+
+    def __getstate__(self):
+        # the hash of strings differs between processes: a copy or a pickle hashes again
+        return {k: v for k, v in self.__dict__.items() if k != "_hash"}
 
     def with_(self, **kw) -> "StepConfig":
         """A copy with some fields changed.

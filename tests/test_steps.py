@@ -390,3 +390,23 @@ def test_turns_reading_drifts_less_than_absolute_on_a_biased_straight_sine(metho
     e_turns = np.linalg.norm(turns.end_point - truth)
     np.testing.assert_array_equal(turns.steps.heading, change.steps.heading)
     assert e_turns < 0.25 and e_turns < e_abs / 3, (e_turns, e_abs)
+
+
+def test_a_rule_keys_caches_by_its_fields_in_this_process_and_after_a_pickle_from_another():
+    import os
+    import pickle
+    import subprocess
+    import sys
+
+    a = st.StepConfig(heading="turns", prominence=0.2)
+    b = st.StepConfig().with_(prominence=0.2).with_(heading="turns")     # equal fields, another object
+    cache = {a: "steps of a"}
+    assert b == a and hash(b) == hash(a) and cache[b] == "steps of a"
+    assert b.with_(prominence=0.35) not in cache
+    # a rule hashed and pickled by a process with another string-hash seed must still find its equal here
+    code = ("import pickle, sys; from morpi_filters.steps import StepConfig; "
+            "c = StepConfig(heading='turns', prominence=0.2); hash(c); sys.stdout.buffer.write(pickle.dumps(c))")
+    for seed in ("1", "2"):
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, check=True,
+                             env=dict(os.environ, PYTHONHASHSEED=seed)).stdout
+        assert cache[pickle.loads(out)] == "steps of a"
