@@ -73,7 +73,8 @@ from .units import SENSORS
 
 __all__ = [
     "MODES", "SITE_LATITUDE_DEG", "LOCAL_GRAVITY", "normal_gravity", "RestWindow", "Calibration",
-    "RestMeasures", "rest_measures", "detect_rest", "calibrate", "calibrated", "rest_windows_summary", "RestRow", "RestSummary", "noise_sigma",
+    "RestMeasures", "rest_measures", "detect_rest", "calibrate", "calibrated", "rest_windows_summary", "RestRow",
+    "RestSummary", "noise_sigma",
 ]
 
 #: Calibration modes: raw data, gyro calibration, gyro and accelerometer calibration.
