@@ -176,7 +176,23 @@ class StepConfig:
     >>> StepConfig().with_(prominence=0.3).prominence
     0.3
     """
-        return replace(self, **kw)
+        # the rule searches derive the same rules over and over: one instance per rule and change, whose
+        # hash is then computed once and which a cache finds by identity
+        try:
+            key = (self, tuple(sorted(kw.items())))
+            out = _DERIVED.get(key)
+        except TypeError:                                       # an unhashable value: refused by the check
+            return replace(self, **kw)
+        if out is None:
+            out = replace(self, **kw)
+            if len(_DERIVED) < _DERIVED_MAX:
+                _DERIVED[key] = out
+        return out
+
+
+#: Rules derived by :meth:`StepConfig.with_`, by rule and change (bounded: a search derives a few hundred).
+_DERIVED: dict = {}
+_DERIVED_MAX = 1 << 14
 
 
 @dataclass(frozen=True)
@@ -926,11 +942,15 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
                                                           2 if config.segment == "extrema" else 1))
         dpsi = psi_e - psi_s + turn_heading(st, t, psi, stretches)
     else:
-        cpsi = p.heading_integral
-        span = et - st
-        # the mean heading over each step; the heading at its start for a step of no length
-        dpsi = np.divide(np.interp(et, t, cpsi) - np.interp(st, t, cpsi), span, out=np.array(psi_s),
-                         where=span > 1e-9)
+        akey = ("mean", mkey)                                   # shared by every reading of these steps
+        dpsi = memo.get(akey)
+        if dpsi is None:
+            # the mean heading over each step; the heading at its start for a step of no length. The steps
+            # tile the motion (each starts where the one before ends), so the integral is read at k + 1 edges
+            c = np.interp(np.append(st, et[-1]), t, p.heading_integral)
+            span = et - st
+            dpsi = memo[akey] = np.divide(c[1:] - c[:-1], span, out=np.array(psi_s), where=span > 1e-9)
+            dpsi.flags.writeable = False
     return Steps(start_time=st, end_time=et, weight=weight, fraction=frac, heading=dpsi, peaks=peaks,
                  motion=(m0, m1), swing_deg=med)
 

@@ -195,6 +195,18 @@ def test_heading_readings_differ_as_documented():
     np.testing.assert_allclose(s_abs.heading, 0.5)  # a constant heading read back: exact up to default tolerances
     np.testing.assert_allclose(s_chg.heading, 0.0)  # the change of a constant heading is zero: default tolerances
     np.testing.assert_allclose(s_mean.heading, 0.5)  # the mean of a constant heading: default tolerances
+    # a heading growing linearly (a rad/s): its mean over a step is its value at the step's middle, partial end
+    # steps included. The integral (a t^2 / 2, exact on the samples: trapezoids) is read between samples
+    # by linear interpolation, off by at most a h^2 / 8 at each end (h the largest sample spacing): over a
+    # step of length L the mean is off by at most a h^2 / (4 L)
+    t0, a = rec.time[0], 0.1
+    h = np.diff(rec.time).max()
+    for ends in ("fraction", "drop"):
+        s = st.extract_steps(rec, "MoRPI-G", base.with_(heading="mean", ends=ends), heading=a * (rec.time - t0))
+        span = s.end_time - s.start_time
+        assert span.min() > 0
+        err = np.abs(s.heading - a * (0.5 * (s.start_time + s.end_time) - t0))
+        assert np.all(err <= a * h * h / (4 * span) + 1e-12), (ends, err)
 
 
 # ----------------------------------------------------------------------------- bad input
@@ -390,6 +402,19 @@ def test_turns_reading_drifts_less_than_absolute_on_a_biased_straight_sine(metho
     e_turns = np.linalg.norm(turns.end_point - truth)
     np.testing.assert_array_equal(turns.steps.heading, change.steps.heading)
     assert e_turns < 0.25 and e_turns < e_abs / 3, (e_turns, e_abs)
+
+
+def test_a_derived_rule_is_one_object_and_a_bad_change_is_refused_every_time():
+    base = st.StepConfig(heading="turns")
+    a = base.with_(prominence=0.2, ends="whole")
+    assert a is base.with_(ends="whole", prominence=0.2)          # the searches' caches find it by identity
+    assert (a.prominence, a.ends, a.heading) == (0.2, "whole", "turns") and base.prominence == 0.35
+    assert a == st.StepConfig(heading="turns", prominence=0.2, ends="whole")
+    for _ in range(2):
+        with pytest.raises(MorpiError, match="StepConfig.prominence"):
+            base.with_(prominence=-1.0)
+        with pytest.raises(MorpiError, match="StepConfig.heading"):
+            base.with_(heading=["mean"])                          # not hashable: checked all the same
 
 
 def test_a_rule_keys_caches_by_its_fields_in_this_process_and_after_a_pickle_from_another():
