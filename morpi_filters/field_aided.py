@@ -34,8 +34,8 @@ import numpy as np
 from . import aided
 from .errors import MorpiError
 
-__all__ = ["GRID", "ABLATIONS", "AidedCell", "AidedStudy", "Prepared", "aided_study", "choose_tunables",
-           "choose_tunables_many", "prepare",
+__all__ = ["GRID", "ABLATIONS", "AidedCell", "AidedStudy", "PairedDifference", "Prepared", "aided_study",
+           "choose_tunables", "choose_tunables_many", "paired_difference", "prepare",
            "still_spans", "rest_noise", "gyro_drift", "gain_estimate_pays", "route_vectors"]
 
 #: Train-only grid: factor on the rest-window noise densities (the moving robot vibrates far above
@@ -701,6 +701,94 @@ def _estimate_wins(err, err_e, inside_e, k_hat, k_true) -> bool:
 
 
 @dataclass(frozen=True)
+class PairedDifference:
+    """End-point errors of one method minus another's over the same runs [pp of the route's distance].
+
+    Attributes
+    ----------
+    mean_pp : float
+        Mean of the per-run differences (negative: the first method is better).
+    se_pp : float
+        Its standard error (sample standard deviation / sqrt(runs)); NaN below two runs.
+    runs : int
+        Runs where both errors are finite.
+    p_value : float
+        Two-sided paired t-test of a zero mean difference (NaN below two runs, 1 when every difference
+        is zero).
+    alpha : float
+        Level of :attr:`verdict`.
+    """
+
+    mean_pp: float
+    se_pp: float
+    runs: int
+    p_value: float
+    alpha: float = 0.05
+
+    @property
+    def verdict(self) -> str:
+        """``"better"`` or ``"worse"`` where the test rejects a zero difference at :attr:`alpha`, else ``"tie"``."""
+        if not self.p_value < self.alpha:
+            return "tie"
+        return "better" if self.mean_pp < 0 else "worse"
+
+
+def paired_difference(errors_m, reference_m, distance_m: float, *, alpha: float = 0.05) -> PairedDifference:
+    """Compare two methods' end-point errors run by run (paired t-test).
+
+    With ten or so test runs per cell, a mean difference of a few tenths of a
+    per cent is often within the runs' own spread; the test says which
+    differences the runs support.
+
+    Parameters
+    ----------
+    errors_m, reference_m : array_like, shape (n,)
+        End-point errors of the method and of the reference on the same runs [m]; pairs with a NaN are
+        left out.
+    distance_m : float
+        The route's distance [m] (the errors are reported in % of it).
+    alpha : float
+        Level of the test, in (0, 1).
+
+    Returns
+    -------
+    PairedDifference
+
+    Raises
+    ------
+    MorpiError
+        For arrays of different shapes, a distance that is not positive or `alpha` outside (0, 1).
+
+    Examples
+    --------
+    >>> d = paired_difference([1.0, 1.2, 0.9, 1.1], [1.5, 1.6, 1.4, 1.7], 50.0)
+    >>> round(d.mean_pp, 3), d.runs, d.verdict
+    (-1.0, 4, 'better')
+    """
+    a = np.asarray(errors_m, dtype=float)
+    b = np.asarray(reference_m, dtype=float)
+    if a.ndim != 1 or a.shape != b.shape:
+        raise MorpiError(f"paired_difference: errors of shapes {a.shape} and {b.shape}, expected two (n,) arrays")
+    if not (np.isfinite(distance_m) and distance_m > 0):
+        raise MorpiError(f"distance_m={distance_m!r}: expected a positive route distance [m]")
+    if not 0 < alpha < 1:
+        raise MorpiError(f"alpha={alpha!r}: expected a test level in (0, 1)")
+    ok = np.isfinite(a) & np.isfinite(b)
+    d = (a[ok] - b[ok]) / distance_m * 100
+    n = int(d.size)
+    if n < 2:
+        return PairedDifference(float(d.mean()) if n else float("nan"), float("nan"), n, float("nan"), alpha)
+    mean, se = float(d.mean()), float(d.std(ddof=1) / np.sqrt(n))
+    if se > 0:
+        from scipy import stats
+
+        p = float(2 * stats.t.sf(abs(mean) / se, n - 1))
+    else:
+        p = 1.0 if mean == 0 else 0.0
+    return PairedDifference(mean, se, n, p, alpha)
+
+
+@dataclass(frozen=True)
 class TunableChoice:
     """The tunables chosen on a training set's train runs.
 
@@ -767,6 +855,8 @@ class AidedCell:
         short) and across it (``cross_mean_m``, ``cross_rms_m``) [m], and the
         median spread the filter expected along the step
         (``predicted_along_sigma_m``) [m]; empty without step updates.
+    paired : PairedDifference or None
+        The smoothed filter minus MoRPI alone, run by run (:func:`paired_difference`).
     """
 
     spec: object
@@ -784,6 +874,7 @@ class AidedCell:
     failed: tuple = ()
     steps_percent: float = float("nan")
     step_innovation: dict = field(default_factory=dict)
+    paired: PairedDifference | None = None
 
     @property
     def label(self) -> str:
@@ -976,7 +1067,9 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
             train_percent=score, train_loo_percent=choice.loo_percent, train_morpi_percent=choice.morpi_percent,
             nis={k: (v[0] / max(v[1], 1), v[2]) for k, v in nis.items()}, paths=tuple(paths), failed=failed,
             steps_percent=float(np.mean([q["steps_m"] for q in rows]) / d),
-            step_innovation=_innovation_summary(innov)))
+            step_innovation=_innovation_summary(innov),
+            paired=paired_difference([q["smoothed_m"] for q in rows], [q["morpi_m"] for q in rows],
+                                     truth.distance_m)))
         if ablation and sp.calibration == "GC":
             for name, change in ABLATIONS.items():
                 if not change:

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from morpi_filters import aided, simulate, units
-from morpi_filters.errors import ParameterError
+from morpi_filters.errors import MorpiError, ParameterError
 
 
 def _nominal(rng, b=3):
@@ -309,6 +309,37 @@ def test_bad_inputs_are_refused():
         aided.run_batch([shorter, still], aided.AidTuning(), smooth=[True, False, True])
 
 
+def test_paired_difference_is_scipys_paired_t_test():
+    from scipy import stats
+
+    from morpi_filters.field_aided import paired_difference
+
+    rng = np.random.default_rng(5)
+    ref = rng.uniform(0.2, 1.5, 12)
+    for shift, verdict in ((-0.4, "better"), (0.4, "worse"), (0.0, "tie")):
+        err = ref + shift + rng.normal(0.0, 0.1, 12)
+        err[3] = np.nan                                          # a failed run leaves its pair out
+        ok = np.isfinite(err)
+        d = paired_difference(err, ref, 40.0)
+        t = stats.ttest_rel(err[ok], ref[ok])
+        assert d.runs == 11
+        assert d.mean_pp == pytest.approx(np.mean(err[ok] - ref[ok]) / 40.0 * 100, rel=1e-12)
+        assert d.mean_pp / d.se_pp == pytest.approx(t.statistic, rel=1e-9)
+        assert d.p_value == pytest.approx(t.pvalue, rel=1e-9)
+        assert d.verdict == verdict, (shift, d)
+    # the level decides: the same runs are a tie at a stricter level
+    err = ref - 0.05 + rng.normal(0.0, 0.05, 12)
+    d = paired_difference(err, ref, 40.0)
+    assert d.p_value < 0.05 and d.verdict == "better"
+    assert paired_difference(err, ref, 40.0, alpha=d.p_value / 2).verdict == "tie"
+    assert paired_difference([1.0], [2.0], 40.0).verdict == "tie"   # one run tells nothing
+    for bad, match in ((dict(errors_m=[1.0, 2.0], reference_m=[1.0]), "shapes"),
+                       (dict(errors_m=[1.0], reference_m=[1.0], distance_m=0.0), "distance_m"),
+                       (dict(errors_m=[1.0], reference_m=[1.0], alpha=1.0), "alpha")):
+        with pytest.raises(MorpiError, match=match):
+            paired_difference(**{"distance_m": 40.0, **bad})
+
+
 # --------------------------------------------------------------------------- field
 
 @pytest.mark.field
@@ -331,6 +362,10 @@ def test_field_cell_json_contract_and_consistency(field_root):
                                                           "gain state", "smoothing"}
     assert all(set(a) == {"cell", "removed", "smoothed_percent"} for a in payload["ablation"])
     assert 0.0 <= payload["coverage_95"] <= 1.0
+    # smoothed minus MoRPI alone, paired over the runs: its mean is the difference of the cell's means
+    pair = payload["cells"][0]["smoothed_vs_morpi"]
+    assert pair["runs"] == len(c.runs) and pair["verdict"] in ("better", "worse", "tie")
+    assert pair["mean_pp"] == pytest.approx(c.smoothed_percent - c.morpi_percent, abs=1e-9)
     # the step updates' innovations, up to the read-out: at least one step per run, an RMS that bounds the mean
     inn = payload["cells"][0]["step_innovation"]
     assert inn["updates"] >= len(c.runs) and inn["predicted_along_sigma_m"] > 0

@@ -15,6 +15,13 @@ def _nis(d: dict) -> dict:
     return {k: {"mean": v[0], "dof": v[1]} for k, v in sorted(d.items())}
 
 
+def _paired(d) -> dict | None:
+    if d is None:
+        return None
+    return {"mean_pp": d.mean_pp, "se_pp": d.se_pp, "runs": d.runs, "p_value": d.p_value, "alpha": d.alpha,
+            "verdict": d.verdict}
+
+
 def study_json(study) -> dict:
     """The section's JSON (the names of the contract are kept stable).
 
@@ -36,7 +43,9 @@ def study_json(study) -> dict:
         ``calibration``, ``route``, ``label``, ``paper_percent``,
         ``morpi_percent``, ``forward_percent``, ``smoothed_percent``,
         ``ins_percent``, ``steps_percent``, ``train_percent``, ``train_loo_percent``,
-        ``train_morpi_percent``, ``nis``, ``step_innovation``, ``runs``, ``failed``), ``ablation``,
+        ``train_morpi_percent``, ``nis``, ``step_innovation``, ``smoothed_vs_morpi`` (the smoothed
+        filter minus MoRPI alone, paired over the runs: ``mean_pp``, ``se_pp``, ``runs``, ``p_value``,
+        ``alpha``, ``verdict``), ``runs``, ``failed``), ``ablation``,
         ``coverage_95``, ``nis`` (measurement -> ``{mean, dof}``), ``note`` and
         ``tunables`` (``grid``, ``fixed``, ``chosen``).
 
@@ -60,6 +69,7 @@ def study_json(study) -> dict:
                       "train_percent": c.train_percent,
                       "train_loo_percent": c.train_loo_percent, "train_morpi_percent": c.train_morpi_percent,
                       "nis": _nis(c.nis), "step_innovation": dict(c.step_innovation),
+                      "smoothed_vs_morpi": _paired(c.paired),
                       "runs": list(c.runs), "failed": list(c.failed)})
     return {"cells": cells, "ablation": list(study.ablation), "coverage_95": study.coverage_95,
             "nis": _nis(study.nis), "note": study.note,
@@ -71,6 +81,12 @@ def study_json(study) -> dict:
                                       if k in ("gyro_walk", "zupt_sigma", "tilt0", "ba0", "bg0")}},
                          "chosen": [{"cell": c.label, "train_percent": c.train_percent, **c.tuning}
                                     for c in study.cells]}}
+
+
+def _paired_cell(d) -> str:
+    if d is None or not d.runs:
+        return "-"
+    return f"{fmt(d.mean_pp)} ± {fmt(d.se_pp)} ({d.verdict})"
 
 
 def _figures(study, out: Path) -> list[str]:
@@ -134,10 +150,14 @@ def _page(study, source, figures) -> str:
     gc_better = sum(c.smoothed_percent < c.morpi_percent for c in gc)
     below_paper = [c for c in gc if c.spec.method == "MoRPI-G" and c.smoothed_percent <= c.spec.paper_percent]
     rows = [[c.label, len(c.runs), fmt(c.smoothed_percent), fmt(c.forward_percent), fmt(c.morpi_percent),
-             fmt(c.steps_percent), fmt(c.ins_percent, 0), fmt(c.spec.paper_percent), fmt(c.train_percent), fmt(c.train_loo_percent),
+             _paired_cell(c.paired), fmt(c.steps_percent), fmt(c.ins_percent, 0), fmt(c.spec.paper_percent), fmt(c.train_percent), fmt(c.train_loo_percent),
              fmt(c.train_morpi_percent),
              ", ".join(f"{k} {('on' if v else 'off') if isinstance(v, bool) else v if isinstance(v, str) else f'{v:g}'}"
                        for k, v in c.tuning.items() if k in field_aided.GRID)] for c in cells]
+    verdicts = {v: sum(c.paired is not None and c.paired.verdict == v for c in gc) for v in ("better", "worse", "tie")}
+    alpha = next((c.paired.alpha for c in cells if c.paired is not None), 0.05)
+    lost = [f"{c.label}, {fmt(c.paired.mean_pp)} ± {fmt(c.paired.se_pp)} pp" for c in gc
+            if c.paired is not None and c.paired.verdict == "tie" and c.paired.mean_pp >= 0]
     with_steps = [c for c in cells if np.isfinite(c.steps_percent)]
     over_steps = sum(c.smoothed_percent < c.steps_percent for c in with_steps)
     base = {c.label: c.smoothed_percent for c in cells}
@@ -211,12 +231,20 @@ def _page(study, source, figures) -> str:
         f"routes (the routes the tunables are trained on), {fmt(_ratio(gc, short=False))} on the long and L "
         f"routes. Against its own step vectors summed without the INS, the smoothed filter is better in "
         f"{over_steps} of {len(with_steps)} cells: most of its gain over MoRPI alone comes from the step "
-        "direction it reads, not from the INS. The ablation below shows what each aid contributes.\n\n"
+        "direction it reads, not from the INS. "
+        f"Run by run (paired t-test at {fmt(alpha * 100, 0)} %), the smoothed filter is better than MoRPI alone in "
+        f"{verdicts['better']} of the {len(gc)} GC cells and worse in {verdicts['worse']}; in "
+        f"{verdicts['tie']} the difference lies within the spread of the cell's test runs"
+        + (f"; within that spread the filter's mean is behind MoRPI alone's in {'; '.join(lost)}" if lost else "")
+        + ". The ablation below shows what each aid contributes.\n\n"
         "## Cells (test runs, mean end-point error in % of the route's distance)\n\n"
         + "`train` is the filter's mean end-point error on the training set's train runs with the chosen "
         "tunables, `train LOO` the same with the tunables chosen without the run scored (nested "
-        "leave-one-out), `train MoRPI` MoRPI alone on those runs.\n\n"
-        + md_table(["cell", "runs", "smoothed", "forward", "MoRPI alone", "its steps alone", "INS alone", "paper",
+        "leave-one-out), `train MoRPI` MoRPI alone on those runs. `smoothed - MoRPI` is the mean of the "
+        "per-run differences with its standard error, and the paired t-test's verdict at "
+        f"{fmt(alpha * 100, 0)} %: `better`, `worse`, or `tie` where the runs do not tell.\n\n"
+        + md_table(["cell", "runs", "smoothed", "forward", "MoRPI alone", "smoothed - MoRPI [pp]",
+                    "its steps alone", "INS alone", "paper",
                     "train",
                     "train LOO", "train MoRPI", "tunables (train)"], rows)
         + "\n\n## Ablation (GC cells, each aid removed in turn, smoothed end point)\n\n"
