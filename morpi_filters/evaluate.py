@@ -403,6 +403,15 @@ def _ins_cell(data: FieldData, spec: CellSpec) -> Cell:
 
 
 def _morpi_cell(data: FieldData, spec: CellSpec, config, gain: Gain | None) -> Cell:
+    # the report's alternatives evaluate some cells under the rule and gain the tables already used
+    key = ("MoRPI cell", spec, config, None if gain is None else gain.mean)
+    cell = data.study_cache.get(key)
+    if cell is None:
+        cell = data.study_cache[key] = _evaluate_morpi_cell(data, spec, config, gain)
+    return cell
+
+
+def _evaluate_morpi_cell(data: FieldData, spec: CellSpec, config, gain: Gain | None) -> Cell:
     folder = f"{spec.phone}/{spec.route}/{spec.split}"
     if gain is None:
         return Cell(spec, (), missing=f"{spec.train[0]}/{spec.train[1]}/train: no training runs for the gain")

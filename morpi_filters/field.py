@@ -386,13 +386,37 @@ class FieldData:
             self._prep[key] = psi
         return self._prep[key]
 
-    def steps(self, rec, mode, method, config):
+    def _canonical(self, config):
         # one extraction serves every least swing (a check on the result) and, unless the heading follows
         # turns, every turn threshold (unused)
         canon = self._canon.get(config)
         if canon is None:
             canon = self._canon[config] = config.with_(
                 min_swing_deg=0.0, turn_deg=config.turn_deg if config.heading == "turns" else st.StepConfig.turn_deg)
+        return canon
+
+    def step_sums(self, rec, mode, method, config) -> tuple:
+        """:func:`morpi_filters.steps.step_sums` of a recording: ``(w, ux, uy, swing_deg)``, cached.
+
+        What :meth:`steps` gives, reduced to what a gain and an end point need; raises as it does.
+        """
+        canon = self._canonical(config)
+        key = ("sums", rec.source, mode, method, canon)
+        out = self._steps.get(key)
+        if out is None:
+            try:
+                out = st.step_sums(self.prepared(rec, mode, method, config.cutoff_hz, config.heading_source), method,
+                                   canon, peak_cache=self._peaks)
+            except MorpiError as exc:
+                out = exc
+            self._steps[key] = out
+        if isinstance(out, MorpiError):
+            raise out
+        st.require_swing(rec.source, method, out[3], config.min_swing_deg)
+        return out
+
+    def steps(self, rec, mode, method, config):
+        canon = self._canonical(config)
         key = (rec.source, mode, method, canon)
         if key not in self._steps:
             try:
@@ -695,16 +719,16 @@ def trained_gain(data: FieldData, phone, route, calibration, method, config) -> 
     if not recs:
         return None
     truth = ds.route(route)
-    steps_list, files, skipped = [], [], list(data.load_errors(phone, route, "train"))
+    weights, files, skipped = [], [], list(data.load_errors(phone, route, "train"))
     for r in recs:
         try:
-            steps_list.append(data.steps(r, calibration, method, config))
+            weights.append(data.step_sums(r, calibration, method, config)[0])
             files.append(data.relpath(r))
         except MorpiError as exc:
             skipped.append(str(exc))
-    if not steps_list:
+    if not weights:
         return None
-    mean, std, per = st.train_gain(steps_list, truth.distance_m)
+    mean, std, per = st.train_gain(weights, truth.distance_m)
     return Gain(phone, route, method, calibration, mean, std, tuple(float(g) for g in per), tuple(files),
                 tuple(skipped))
 
@@ -743,13 +767,12 @@ def _train_summary(data: FieldData, method, config, mode="GC"):
             truth = ds.route(route)
             for i, r in enumerate(recs):
                 try:
-                    s = data.steps(r, mode, method, config)
+                    w, ux, uy, _ = data.step_sums(r, mode, method, config)
                 except MorpiError:
                     failed.add(rels[i])
                     continue
-                g[i] = truth.distance_m / s.effective_weight
-                u[i] = [np.dot(s.weight * s.fraction, np.cos(s.heading)),
-                        np.dot(s.weight * s.fraction, np.sin(s.heading))]
+                g[i] = truth.distance_m / w
+                u[i] = ux, uy
             loo = _loo_errors(truth, g, u) if g.size >= 2 and not failed else None
             out.append((truth, frozenset(rels), rels, g, u, loo, frozenset(failed)))
         data._train_summaries[key] = tuple(out)

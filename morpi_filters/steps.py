@@ -67,7 +67,7 @@ __all__ = [
     "GRID_HZ", "ACTIVITY_WINDOW_S", "HEADINGS", "SEGMENTS", "ENDS", "HEADING_SOURCES", "METHODS", "StepConfig",
     "Peaks", "Steps", "MorpiTrack",
     "resample_uniform", "lowpass", "detect_peaks", "weinberg_length", "integrate_heading",
-    "motion_span", "activity_span", "PreparedSignal", "prepare_signal", "extract_steps", "train_gain",
+    "motion_span", "activity_span", "PreparedSignal", "prepare_signal", "extract_steps", "step_sums", "train_gain",
     "dead_reckon", "morpi_track", "DEFAULT_CONFIGS", "require_swing", "period_changes", "turn_stretches", "turn_heading",
 ]
 
@@ -632,10 +632,14 @@ class PreparedSignal:
     @cached_property
     def heading_integral(self) -> np.ndarray:
         """Trapezoidal integral of the heading from the first sample [rad s], shape (n,), read-only."""
-        psi, t = self.heading, self.time
-        out = np.concatenate([[0.0], np.cumsum(0.5 * (psi[1:] + psi[:-1]) * np.diff(t))])
+        out = _running_integral(self.time, self.heading)
         out.flags.writeable = False
         return out
+
+
+def _running_integral(t, x) -> np.ndarray:
+    """Trapezoidal integral of `x` from the first sample, shape (n,)."""
+    return np.concatenate([[0.0], np.cumsum(0.5 * (x[1:] + x[:-1]) * np.diff(t))])
 
 
 def _attitude_heading(rec, rest_end_time=None) -> np.ndarray:
@@ -850,10 +854,77 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
         if heading is None and config.heading_source == "attitude":
             heading = _attitude_heading(rec, rest_end_time)
         prepared = prepare_signal(rec, method, config.cutoff_hz, rest_end_time=rest_end_time, heading=heading)
-    elif prepared.cutoff_hz != config.cutoff_hz or prepared.method != method:
+    else:
+        _check_prepared(prepared, method, config)
+    (st, et, weight, frac, _, _, med, peaks), dpsi, _ = _find_steps(prepared, method, config, peak_cache)
+    return Steps(start_time=st, end_time=et, weight=weight, fraction=frac, heading=dpsi, peaks=peaks,
+                 motion=prepared.motion, swing_deg=med)
+
+
+def step_sums(prepared: PreparedSignal, method: str, config: StepConfig, *, peak_cache: dict | None = None
+              ) -> tuple[float, float, float, float]:
+    """What a gain and an end point need of a run's steps, without building them.
+
+    MoRPI's end point is linear in the gain: a run dead-reckoned with gain
+    ``G`` travels ``G * w`` and ends at ``G * (ux, uy)``. The train-only rule
+    searches score thousands of rules on these sums alone.
+
+    Parameters
+    ----------
+    prepared : PreparedSignal
+        Output of :func:`prepare_signal` with ``config.cutoff_hz``.
+    method : str
+        ``"MoRPI-A"`` or ``"MoRPI-G"``.
+    config : StepConfig
+        The step rule.
+    peak_cache : dict, optional
+        As for :func:`extract_steps` (the two share it, and the prepared
+        signal's memo).
+
+    Returns
+    -------
+    w, ux, uy, swing_deg : float
+        ``sum(weight * fraction)`` (:attr:`Steps.effective_weight`), the end
+        point per unit gain ``sum(weight * fraction * [cos, sin](heading))``
+        and the median heading swing per period [deg], each equal to what
+        the :class:`Steps` of :func:`extract_steps` give.
+
+    Raises
+    ------
+    MorpiError
+        As :func:`extract_steps`.
+
+    Examples
+    --------
+    >>> from morpi_filters import simulate, units
+    >>> traj = simulate.sine(6.3, period=1.0, amplitude=0.1)
+    >>> rec = simulate.imu(traj, units.LSM6DSL, np.random.default_rng(0), bias_scale=(0.0, 0.0)).recording()
+    >>> cfg = DEFAULT_CONFIGS["MoRPI-G"]
+    >>> w, ux, uy, _ = step_sums(prepare_signal(rec, "MoRPI-G", cfg.cutoff_hz), "MoRPI-G", cfg)
+    >>> end = morpi_track(extract_steps(rec, "MoRPI-G", cfg), gain=1.0).end_point
+    >>> bool(np.allclose([ux, uy], end, rtol=1e-12, atol=1e-12))
+    True
+    """
+    _check_prepared(prepared, method, config)
+    shared, dpsi, mkey = _find_steps(prepared, method, config, peak_cache)
+    memo = prepared.steps_memo
+    skey = ("sums", mkey)
+    ws = memo.get(skey)
+    if ws is None:
+        wf = shared[2] * shared[3]
+        ws = memo[skey] = (wf, float(np.sum(wf)))               # the sum of Steps.effective_weight
+    wf, w = ws
+    return w, float(np.dot(wf, np.cos(dpsi))), float(np.dot(wf, np.sin(dpsi))), shared[6]
+
+
+def _check_prepared(prepared, method, config):
+    if prepared.cutoff_hz != config.cutoff_hz or prepared.method != method:
         raise MorpiError(f"{prepared.source}: prepared signal ({prepared.method}, cutoff {prepared.cutoff_hz}) "
                          f"does not match ({method}, cutoff {config.cutoff_hz})")
-    p = prepared
+
+
+def _find_steps(p, method, config, peak_cache):
+    """The steps of :func:`extract_steps`: the parts every heading reading shares, the heading, the memo key."""
     grid, g, graw, t = p.grid, p.filtered, p.raw, p.time
     m0, m1 = p.motion
     i0, i1 = p.motion_index
@@ -940,7 +1011,7 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
             bt = grid[bounds]
             stretches = memo[tkey] = tuple(turn_stretches(bt, np.interp(bt, t, psi), np.radians(config.turn_deg),
                                                           2 if config.segment == "extrema" else 1))
-        dpsi = psi_e - psi_s + turn_heading(st, t, psi, stretches)
+        dpsi = psi_e - psi_s + turn_heading(st, t, psi, stretches, integral=p.heading_integral)
     else:
         akey = ("mean", mkey)                                   # shared by every reading of these steps
         dpsi = memo.get(akey)
@@ -951,8 +1022,7 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
             span = et - st
             dpsi = memo[akey] = np.divide(c[1:] - c[:-1], span, out=np.array(psi_s), where=span > 1e-9)
             dpsi.flags.writeable = False
-    return Steps(start_time=st, end_time=et, weight=weight, fraction=frac, heading=dpsi, peaks=peaks,
-                 motion=(m0, m1), swing_deg=med)
+    return memo[mkey], dpsi, mkey
 
 
 def require_swing(source, method: str, swing_deg: float, min_swing_deg: float) -> None:
@@ -1083,7 +1153,7 @@ def turn_stretches(boundary_time, boundary_heading, threshold: float, per_period
             for a, b in spans]
 
 
-def turn_heading(time, t, psi, stretches) -> np.ndarray:
+def turn_heading(time, t, psi, stretches, *, integral=None) -> np.ndarray:
     """The heading followed only through the turning stretches, at `time` [rad].
 
     Zero before the first stretch; between stretches it holds the sum of the
@@ -1102,6 +1172,9 @@ def turn_heading(time, t, psi, stretches) -> np.ndarray:
         The heading on its samples [s], [rad].
     stretches : sequence of (float, float, float, float)
         :func:`turn_stretches`.
+    integral : array_like, shape (n,), optional
+        The heading's trapezoidal integral from the first sample [rad s]
+        (:attr:`PreparedSignal.heading_integral`); computed when not given.
 
     Returns
     -------
@@ -1120,7 +1193,12 @@ def turn_heading(time, t, psi, stretches) -> np.ndarray:
     out = np.zeros(time.shape)
     if not len(stretches):
         return out
-    cpsi = np.concatenate([[0.0], np.cumsum(0.5 * (psi[1:] + psi[:-1]) * np.diff(t))])
+    if integral is None:
+        cpsi = _running_integral(t, psi)
+    else:
+        cpsi = np.asarray(integral, float)
+        if cpsi.shape != t.shape:
+            raise MorpiError(f"turn_heading: integral of shape {cpsi.shape}, expected {t.shape} (one per sample)")
 
     def mean(a, b):
         if b - a <= 1e-9:
@@ -1143,8 +1221,10 @@ def train_gain(steps_list, distances):
 
     Parameters
     ----------
-    steps_list : sequence of Steps
-        The steps of each training run (:func:`extract_steps`).
+    steps_list : sequence of Steps or of float
+        The steps of each training run (:func:`extract_steps`), or their
+        effective weights (:attr:`Steps.effective_weight`, the ``w`` of
+        :func:`step_sums`).
     distances : float or sequence of float
         Travelled distance of each run [m]; one value serves every run.
 
@@ -1168,7 +1248,8 @@ def train_gain(steps_list, distances):
     if not steps_list:
         raise MorpiError("train_gain: no training runs")
     d = np.broadcast_to(np.asarray(distances, float), (len(steps_list),))
-    w = np.array([s.effective_weight for s in steps_list])
+    w = np.array([s if isinstance(s, (float, int, np.floating)) else s.effective_weight for s in steps_list],
+                 dtype=float)
     if np.any(w <= 0):
         raise MorpiError("train_gain: a training run has no step amplitude")
     g = d / w

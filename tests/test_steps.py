@@ -1,6 +1,8 @@
 """Tests of morpi_filters.steps on synthetic signals with known peaks and distances."""
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 from scipy.integrate import cumulative_trapezoid, quad
@@ -402,6 +404,47 @@ def test_turns_reading_drifts_less_than_absolute_on_a_biased_straight_sine(metho
     e_turns = np.linalg.norm(turns.end_point - truth)
     np.testing.assert_array_equal(turns.steps.heading, change.steps.heading)
     assert e_turns < 0.25 and e_turns < e_abs / 3, (e_turns, e_abs)
+
+
+def test_step_sums_are_the_steps_own_sums_for_every_reading_and_refuse_the_same_runs():
+    from morpi_filters import simulate
+
+    L = simulate.l_route(period=1.0, amplitude=0.1)
+    rec = _simulated(L, 2, bias_dps=0.1, pattern="s6")
+    for method in st.METHODS:
+        cache = {}
+        for heading, segment, ends in itertools.product(st.HEADINGS, st.SEGMENTS, st.ENDS):
+            cfg = st.StepConfig(heading=heading, segment=segment, ends=ends, turn_deg=45.0)
+            prep = st.prepare_signal(rec, method, cfg.cutoff_hz)
+            # sums first, then the steps: each fills the memo the other reads
+            w, ux, uy, swing = st.step_sums(prep, method, cfg, peak_cache=cache)
+            s = st.extract_steps(None, method, cfg, prepared=prep, peak_cache=cache)
+            assert w == s.effective_weight and swing == s.swing_deg
+            end = st.morpi_track(s, 1.0).end_point                 # a sum in another order: to rounding
+            np.testing.assert_allclose([ux, uy], end, rtol=0, atol=1e-12 * s.effective_weight)
+            assert (ux, uy) == (np.dot(s.weight * s.fraction, np.cos(s.heading)),
+                                np.dot(s.weight * s.fraction, np.sin(s.heading)))
+    # the L route turns: the turns reading's integral, given or computed, gives the same heading
+    prep = st.prepare_signal(rec, "MoRPI-G", 3.0)
+    bt = prep.grid[::400]
+    stretches = st.turn_stretches(bt, np.interp(bt, prep.time, prep.heading), np.radians(45.0), 2)
+    assert stretches
+    a = st.turn_heading(prep.grid, prep.time, prep.heading, stretches)
+    b = st.turn_heading(prep.grid, prep.time, prep.heading, stretches, integral=prep.heading_integral)
+    assert np.array_equal(a, b)
+    with pytest.raises(MorpiError, match="integral of shape"):
+        st.turn_heading(prep.grid, prep.time, prep.heading, stretches, integral=prep.heading_integral[1:])
+    # what extract_steps refuses, step_sums refuses with the same message
+    flat = _rest_recording(name="/data/flat.csv", noise=0.02)
+    cfg = st.DEFAULT_CONFIGS["MoRPI-G"]
+    prep = st.prepare_signal(flat, "MoRPI-G", cfg.cutoff_hz)
+    with pytest.raises(MorpiError) as a:
+        st.extract_steps(None, "MoRPI-G", cfg, prepared=prep)
+    with pytest.raises(MorpiError) as b:
+        st.step_sums(prep, "MoRPI-G", cfg)
+    assert str(a.value) == str(b.value) and "flat.csv: no periodic motion" in str(a.value)
+    with pytest.raises(MorpiError, match="does not match"):
+        st.step_sums(prep, "MoRPI-G", cfg.with_(cutoff_hz=cfg.cutoff_hz / 2))
 
 
 def test_a_derived_rule_is_one_object_and_a_bad_change_is_refused_every_time():
