@@ -964,42 +964,56 @@ def _find_steps(p, method, config, peak_cache):
         if peak_cache is not None:
             weight.flags.writeable = False                      # shared by every Steps of this key
             peak_cache[wkey] = (weight, bi)
-    # what every heading reading of these steps shares, kept on the prepared signal (its heading)
+    # what every heading reading of these steps shares, kept on the prepared signal (its heading), in
+    # three levels: the boundaries (peaks), their weights, the end steps
     memo = p.steps_memo
+    psi = p.heading
     mkey = wkey + (config.ends,)
     if mkey in memo:
         st, et, weight, frac, psi_s, psi_e, med, peaks = memo[mkey]
     else:
-        st, et = grid[bounds[:-1]], grid[bounds[1:]]
-        frac = np.ones_like(weight)
-        if config.ends != "drop":
-            per = _median(et - st)
-            wmed = _median(weight)
+        bkey = ("boundaries", pkey)
+        if bkey not in memo:
+            bt = grid[bounds]
+            idx = np.minimum(np.searchsorted(t, bt), t.shape[0] - 1)
+            peaks = Peaks(grid_time=grid, grid_signal=g, grid_index=bounds, index=idx,
+                          properties={"prominence_threshold": prom})
+            # the heading at the boundaries and at the motion's ends: every end-step reading's edges
+            psi_b = np.interp(bt, t, psi)
+            psi_m = np.interp([m0, m1], t, psi)
+            for a in (bt, idx, psi_b):
+                a.flags.writeable = False                       # shared by the Steps of every reading
+            memo[bkey] = (bt, psi_b, psi_m, _median(bt[1:] - bt[:-1]), peaks)
+        bt, psi_b, psi_m, per, peaks = memo[bkey]
+        skey = ("swing", wkey)
+        if skey not in memo:
+            med = float("nan")
+            if bi.size >= 2:
+                swing = np.degrees(np.maximum.reduceat(psi, bi[:-1])[:bi.size - 1]
+                                   - np.minimum.reduceat(psi, bi[:-1])[:bi.size - 1])
+                med = _median(swing)
+            memo[skey] = med, _median(weight)
+        med, wmed = memo[skey]
+        if config.ends == "drop":
+            st, et, psi_s, psi_e = bt[:-1], bt[1:], psi_b[:-1], psi_b[1:]
+            frac = np.ones_like(weight)
+        else:
             parts = []
-            for f in ((grid[bounds[0]] - m0) / per, (m1 - grid[bounds[-1]]) / per):
+            for f in ((bt[0] - m0) / per, (m1 - bt[-1]) / per):
                 f = min(max(f, 0.0), 1.0)
                 if config.ends == "whole":
                     f = 1.0 if f >= 0.5 else 0.0
                 parts.append(f)
-            st = np.concatenate([[m0], st, [grid[bounds[-1]]]])
-            et = np.concatenate([[grid[bounds[0]]], et, [m1]])
+            st = np.concatenate([[m0], bt])
+            et = np.concatenate([bt, [m1]])
+            psi_s = np.concatenate([psi_m[:1], psi_b])
+            psi_e = np.concatenate([psi_b, psi_m[1:]])
             weight = np.concatenate([[wmed], weight, [wmed]])
-            frac = np.concatenate([[parts[0]], frac, [parts[1]]])
-        psi = p.heading
-        med = float("nan")
-        if bi.size >= 2:
-            swing = np.degrees(np.maximum.reduceat(psi, bi[:-1])[:bi.size - 1]
-                               - np.minimum.reduceat(psi, bi[:-1])[:bi.size - 1])
-            med = _median(swing)
-        psi_s, psi_e = np.interp(st, t, psi), np.interp(et, t, psi)
-        idx = np.minimum(np.searchsorted(t, grid[bounds]), t.shape[0] - 1)
-        peaks = Peaks(grid_time=grid, grid_signal=g, grid_index=bounds, index=idx,
-                      properties={"prominence_threshold": prom})
-        for a in (st, et, weight, frac, psi_s, psi_e, idx):
+            frac = np.concatenate([[parts[0]], np.ones(bt.shape[0] - 1), [parts[1]]])
+        for a in (st, et, weight, frac, psi_s, psi_e):
             a.flags.writeable = False                           # shared by the Steps of every reading
         memo[mkey] = (st, et, weight, frac, psi_s, psi_e, med, peaks)
     require_swing(p.source, method, med, config.min_swing_deg)
-    psi = p.heading
     if config.heading == "absolute":
         dpsi = psi_e
     elif config.heading == "change":
@@ -1008,8 +1022,8 @@ def _find_steps(p, method, config, peak_cache):
         tkey = ("turns", pkey, config.turn_deg)                 # the stretches do not depend on the ends
         stretches = memo.get(tkey)
         if stretches is None:
-            bt = grid[bounds]
-            stretches = memo[tkey] = tuple(turn_stretches(bt, np.interp(bt, t, psi), np.radians(config.turn_deg),
+            bt, psi_b = memo[("boundaries", pkey)][:2]
+            stretches = memo[tkey] = tuple(turn_stretches(bt, psi_b, np.radians(config.turn_deg),
                                                           2 if config.segment == "extrema" else 1))
         dpsi = psi_e - psi_s + turn_heading(st, t, psi, stretches, integral=p.heading_integral)
     else:
