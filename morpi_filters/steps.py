@@ -1027,7 +1027,7 @@ def _find_steps(p, method, config, peak_cache):
                                                           2 if config.segment == "extrema" else 1))
         dpsi = psi_e - psi_s + turn_heading(st, t, psi, stretches, integral=p.heading_integral)
     else:
-        akey = ("mean", mkey)                                   # shared by every reading of these steps
+        akey = ("mean", mkey)                                   # kept with these steps
         dpsi = memo.get(akey)
         if dpsi is None:
             # the mean heading over each step; the heading at its start for a step of no length. The steps

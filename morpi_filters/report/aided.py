@@ -150,8 +150,8 @@ def _page(study, source, figures) -> str:
     gc_better = sum(c.smoothed_percent < c.morpi_percent for c in gc)
     below_paper = [c for c in gc if c.spec.method == "MoRPI-G" and c.smoothed_percent <= c.spec.paper_percent]
     rows = [[c.label, len(c.runs), fmt(c.smoothed_percent), fmt(c.forward_percent), fmt(c.morpi_percent),
-             _paired_cell(c.paired), fmt(c.steps_percent), fmt(c.ins_percent, 0), fmt(c.spec.paper_percent), fmt(c.train_percent), fmt(c.train_loo_percent),
-             fmt(c.train_morpi_percent),
+             _paired_cell(c.paired), fmt(c.steps_percent), fmt(c.ins_percent, 0), fmt(c.spec.paper_percent),
+             fmt(c.train_percent), fmt(c.train_loo_percent), fmt(c.train_morpi_percent),
              ", ".join(f"{k} {('on' if v else 'off') if isinstance(v, bool) else v if isinstance(v, str) else f'{v:g}'}"
                        for k, v in c.tuning.items() if k in field_aided.GRID)] for c in cells]
     verdicts = {v: sum(c.paired is not None and c.paired.verdict == v for c in gc) for v in ("better", "worse", "tie")}
