@@ -940,9 +940,10 @@ def _find_steps(p, method, config, peak_cache):
     else:
         dist = max(1, int(round(config.min_period_s * GRID_HZ)))
         seg = g[i0:i1]
-        imax = _signal().find_peaks(seg, distance=dist, prominence=prom)[0] + i0
+        ckey = (p.source, method, config.cutoff_hz, config.min_period_s)
+        imax = _prominent(seg, dist, prom, peak_cache, ckey + ("max",)) + i0
         if config.segment == "extrema":
-            imin = _signal().find_peaks(-seg, distance=dist, prominence=prom)[0] + i0
+            imin = _prominent(-seg, dist, prom, peak_cache, ckey + ("min",)) + i0
             bounds = np.sort(np.concatenate([imax, imin]))
         else:
             bounds = imax
@@ -1037,6 +1038,20 @@ def _find_steps(p, method, config, peak_cache):
             dpsi = memo[akey] = np.divide(c[1:] - c[:-1], span, out=np.array(psi_s), where=span > 1e-9)
             dpsi.flags.writeable = False
     return memo[mkey], dpsi, mkey
+
+
+def _prominent(x, distance, prominence, cache, key):
+    """``scipy.signal.find_peaks(x, distance=distance, prominence=prominence)[0]``, with the peaks kept by the
+    distance and their prominences cached under `key`: find_peaks applies the distance before it measures
+    the prominences, so every prominence threshold selects from the same candidates."""
+    found = None if cache is None else cache.get(key)
+    if found is None:
+        peaks, props = _signal().find_peaks(x, distance=distance, prominence=0.0)
+        found = (peaks, props["prominences"])
+        if cache is not None:
+            cache[key] = found
+    peaks, prominences = found
+    return peaks[prominences >= prominence]
 
 
 def require_swing(source, method: str, swing_deg: float, min_swing_deg: float) -> None:

@@ -447,6 +447,27 @@ def test_step_sums_are_the_steps_own_sums_for_every_reading_and_refuse_the_same_
         st.step_sums(prep, "MoRPI-G", cfg.with_(cutoff_hz=cfg.cutoff_hz / 2))
 
 
+def test_peaks_shared_across_prominence_thresholds_are_scipys_own():
+    from scipy.signal import find_peaks
+
+    rec, _ = sine_path_recording(8, seed=21)
+    prep = st.prepare_signal(rec, "MoRPI-G", 3.0)
+    i0, i1 = prep.motion_index
+    seg = prep.filtered[i0:i1]
+    cache, counts = {}, set()
+    # thresholds up and down, each against scipy called afresh with that threshold
+    for prominence in (0.5, 0.05, 0.35, 0.9, 0.2, 0.0):
+        cfg = st.StepConfig(heading="absolute", prominence=prominence, min_swing_deg=0.0)
+        s = st.extract_steps(None, "MoRPI-G", cfg, prepared=prep, peak_cache=cache)
+        prom = prominence * (prep.span[1] - prep.span[0])
+        dist = int(round(cfg.min_period_s * st.GRID_HZ))
+        expected = np.sort(np.concatenate([find_peaks(seg, distance=dist, prominence=prom)[0],
+                                           find_peaks(-seg, distance=dist, prominence=prom)[0]])) + i0
+        np.testing.assert_array_equal(s.peaks.grid_index, expected)
+        counts.add(expected.size)
+    assert len(counts) > 2                                      # the thresholds do select different peaks
+
+
 def test_a_derived_rule_is_one_object_and_a_bad_change_is_refused_every_time():
     base = st.StepConfig(heading="turns")
     a = base.with_(prominence=0.2, ends="whole")
