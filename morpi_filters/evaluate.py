@@ -421,14 +421,15 @@ def _evaluate_morpi_cell(data: FieldData, spec: CellSpec, config, gain: Gain | N
         return Cell(spec, (), gain=gain.mean, failed=tuple(bad), missing=f"{folder}: no recordings")
     truth = ds.route(spec.route)
     runs, failed = [], list(bad)
+    G = gain.mean
     for r in recs:
         try:
-            s = data.steps(r, spec.calibration, spec.method, config)
+            w, ux, uy, _, n = data.step_sums(r, spec.calibration, spec.method, config)
         except MorpiError as exc:
             failed.append(str(exc))
             continue
-        tr = st.morpi_track(s, gain.mean)
-        runs.append(_run_result(data.relpath(r), tr.end_point, truth, tr.distance, s.n, data=data, rec=r))
+        # the end point is linear in the gain (steps.step_sums): the track's end, to rounding
+        runs.append(_run_result(data.relpath(r), (G * ux, G * uy), truth, G * w, n, data=data, rec=r))
     return Cell(spec, tuple(runs), gain=gain.mean, failed=tuple(failed))
 
 

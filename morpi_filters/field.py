@@ -396,7 +396,7 @@ class FieldData:
         return canon
 
     def step_sums(self, rec, mode, method, config) -> tuple:
-        """:func:`morpi_filters.steps.step_sums` of a recording: ``(w, ux, uy, swing_deg)``, cached.
+        """:func:`morpi_filters.steps.step_sums` of a recording (:class:`~morpi_filters.steps.StepSums`), cached.
 
         What :meth:`steps` gives, reduced to what a gain and an end point need; raises as it does.
         """
@@ -767,7 +767,7 @@ def _train_summary(data: FieldData, method, config, mode="GC"):
             truth = ds.route(route)
             for i, r in enumerate(recs):
                 try:
-                    w, ux, uy, _ = data.step_sums(r, mode, method, config)
+                    w, ux, uy = data.step_sums(r, mode, method, config)[:3]
                 except MorpiError:
                     failed.add(rels[i])
                     continue

@@ -51,6 +51,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, fields, replace
 from functools import cached_property, lru_cache
+from typing import NamedTuple
 
 import numpy as np
 
@@ -67,8 +68,8 @@ __all__ = [
     "GRID_HZ", "ACTIVITY_WINDOW_S", "HEADINGS", "SEGMENTS", "ENDS", "HEADING_SOURCES", "METHODS", "StepConfig",
     "Peaks", "Steps", "MorpiTrack",
     "resample_uniform", "lowpass", "detect_peaks", "weinberg_length", "integrate_heading",
-    "motion_span", "activity_span", "PreparedSignal", "prepare_signal", "extract_steps", "step_sums", "train_gain",
-    "dead_reckon", "morpi_track", "DEFAULT_CONFIGS", "require_swing", "period_changes", "turn_stretches", "turn_heading",
+    "motion_span", "activity_span", "PreparedSignal", "prepare_signal", "extract_steps", "StepSums", "step_sums",
+    "train_gain", "dead_reckon", "morpi_track", "DEFAULT_CONFIGS", "require_swing", "period_changes", "turn_stretches", "turn_heading",
 ]
 
 #: Rate of the uniform grid peak detection works on [Hz].
@@ -861,8 +862,22 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
                  motion=prepared.motion, swing_deg=med)
 
 
+class StepSums(NamedTuple):
+    """What a gain and an end point need of a run's steps (:func:`step_sums`)."""
+
+    #: ``sum(weight * fraction)`` (:attr:`Steps.effective_weight`): the distance per unit gain.
+    w: float
+    #: The end point per unit gain, ``sum(weight * fraction * [cos, sin](heading))``.
+    ux: float
+    uy: float
+    #: Median heading swing per period [deg] (:attr:`Steps.swing_deg`).
+    swing_deg: float
+    #: Number of steps (:attr:`Steps.n`).
+    n: int
+
+
 def step_sums(prepared: PreparedSignal, method: str, config: StepConfig, *, peak_cache: dict | None = None
-              ) -> tuple[float, float, float, float]:
+              ) -> StepSums:
     """What a gain and an end point need of a run's steps, without building them.
 
     MoRPI's end point is linear in the gain: a run dead-reckoned with gain
@@ -883,11 +898,13 @@ def step_sums(prepared: PreparedSignal, method: str, config: StepConfig, *, peak
 
     Returns
     -------
-    w, ux, uy, swing_deg : float
-        ``sum(weight * fraction)`` (:attr:`Steps.effective_weight`), the end
-        point per unit gain ``sum(weight * fraction * [cos, sin](heading))``
-        and the median heading swing per period [deg], each equal to what
-        the :class:`Steps` of :func:`extract_steps` give.
+    StepSums
+        ``w = sum(weight * fraction)`` (:attr:`Steps.effective_weight`), the
+        end point per unit gain ``(ux, uy) = sum(weight * fraction * [cos,
+        sin](heading))``, the median heading swing per period ``swing_deg``
+        [deg] and the number of steps ``n``, each equal to what the
+        :class:`Steps` of :func:`extract_steps` give (the end point to
+        rounding: :func:`dead_reckon` sums the steps in order).
 
     Raises
     ------
@@ -900,7 +917,7 @@ def step_sums(prepared: PreparedSignal, method: str, config: StepConfig, *, peak
     >>> traj = simulate.sine(6.3, period=1.0, amplitude=0.1)
     >>> rec = simulate.imu(traj, units.LSM6DSL, np.random.default_rng(0), bias_scale=(0.0, 0.0)).recording()
     >>> cfg = DEFAULT_CONFIGS["MoRPI-G"]
-    >>> w, ux, uy, _ = step_sums(prepare_signal(rec, "MoRPI-G", cfg.cutoff_hz), "MoRPI-G", cfg)
+    >>> w, ux, uy, _, n = step_sums(prepare_signal(rec, "MoRPI-G", cfg.cutoff_hz), "MoRPI-G", cfg)
     >>> end = morpi_track(extract_steps(rec, "MoRPI-G", cfg), gain=1.0).end_point
     >>> bool(np.allclose([ux, uy], end, rtol=1e-12, atol=1e-12))
     True
@@ -914,7 +931,7 @@ def step_sums(prepared: PreparedSignal, method: str, config: StepConfig, *, peak
         wf = shared[2] * shared[3]
         ws = memo[skey] = (wf, float(np.sum(wf)))               # the sum of Steps.effective_weight
     wf, w = ws
-    return w, float(np.dot(wf, np.cos(dpsi))), float(np.dot(wf, np.sin(dpsi))), shared[6]
+    return StepSums(w, float(np.dot(wf, np.cos(dpsi))), float(np.dot(wf, np.sin(dpsi))), shared[6], wf.shape[0])
 
 
 def _check_prepared(prepared, method, config):

@@ -417,9 +417,9 @@ def test_step_sums_are_the_steps_own_sums_for_every_reading_and_refuse_the_same_
             cfg = st.StepConfig(heading=heading, segment=segment, ends=ends, turn_deg=45.0)
             prep = st.prepare_signal(rec, method, cfg.cutoff_hz)
             # sums first, then the steps: each fills the memo the other reads
-            w, ux, uy, swing = st.step_sums(prep, method, cfg, peak_cache=cache)
+            w, ux, uy, swing, n = st.step_sums(prep, method, cfg, peak_cache=cache)
             s = st.extract_steps(None, method, cfg, prepared=prep, peak_cache=cache)
-            assert w == s.effective_weight and swing == s.swing_deg
+            assert w == s.effective_weight and swing == s.swing_deg and n == s.n
             end = st.morpi_track(s, 1.0).end_point                 # a sum in another order: to rounding
             np.testing.assert_allclose([ux, uy], end, rtol=0, atol=1e-12 * s.effective_weight)
             assert (ux, uy) == (np.dot(s.weight * s.fraction, np.cos(s.heading)),
