@@ -395,7 +395,7 @@ class FieldData:
                 min_swing_deg=0.0, turn_deg=config.turn_deg if config.heading == "turns" else st.StepConfig.turn_deg)
         return canon
 
-    def step_sums(self, rec, mode, method, config) -> tuple:
+    def step_sums(self, rec, mode, method, config) -> st.StepSums:
         """:func:`morpi_filters.steps.step_sums` of a recording (:class:`~morpi_filters.steps.StepSums`), cached.
 
         What :meth:`steps` gives, reduced to what a gain and an end point need; raises as it does.

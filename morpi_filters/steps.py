@@ -69,7 +69,8 @@ __all__ = [
     "Peaks", "Steps", "MorpiTrack",
     "resample_uniform", "lowpass", "detect_peaks", "weinberg_length", "integrate_heading",
     "motion_span", "activity_span", "PreparedSignal", "prepare_signal", "extract_steps", "StepSums", "step_sums",
-    "train_gain", "dead_reckon", "morpi_track", "DEFAULT_CONFIGS", "require_swing", "period_changes", "turn_stretches", "turn_heading",
+    "train_gain", "dead_reckon", "morpi_track", "DEFAULT_CONFIGS", "require_swing", "period_changes", "turn_stretches",
+    "turn_heading",
 ]
 
 #: Rate of the uniform grid peak detection works on [Hz].
@@ -867,8 +868,9 @@ class StepSums(NamedTuple):
 
     #: ``sum(weight * fraction)`` (:attr:`Steps.effective_weight`): the distance per unit gain.
     w: float
-    #: The end point per unit gain, ``sum(weight * fraction * [cos, sin](heading))``.
+    #: The end point's x per unit gain, ``sum(weight * fraction * cos(heading))``.
     ux: float
+    #: The end point's y per unit gain, ``sum(weight * fraction * sin(heading))``.
     uy: float
     #: Median heading swing per period [deg] (:attr:`Steps.swing_deg`).
     swing_deg: float
