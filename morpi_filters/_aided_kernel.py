@@ -1,4 +1,5 @@
-"""The aided filter's forward pass and smoother over one recording: plain loops that numba compiles.
+"""The aided filter's forward pass and smoother over one recording, and the strapdown's attitude loop:
+plain loops that numba compiles.
 
 :func:`aided.run_batch` prepares each member (epoch grid, step events, rest flags, tunables) and
 calls :func:`forward_member`, which runs the strapdown at every sample and the Kalman predict,
@@ -11,7 +12,8 @@ updates and feedback at the epochs, writing into arrays the caller owns, then, w
   most: the gain error);
 - the measurement models ``h`` and ``H`` of :class:`aided.StepDisplacement`,
   :class:`aided.ZeroVelocity`, :class:`aided.ZeroRate` and :class:`aided.NonHolonomic`;
-- Rodrigues' formula of :func:`strapdown.rotvec_to_C`;
+- Rodrigues' formula of :func:`strapdown.rotvec_to_C`, and with it the running attitude product of
+  one run of :func:`strapdown.ins3d` (:func:`attitude_chain`);
 - the Rauch-Tung-Striebel recursion of :func:`aided.rts_smooth`.
 
 The tests hold each piece against those (the transition against the dense series, the
@@ -74,6 +76,16 @@ def matmul3(a, b, out):
     for i in range(3):
         for j in range(3):
             out[i, j] = a[i, 0] * b[0, j] + a[i, 1] * b[1, j] + a[i, 2] * b[2, j]
+
+
+def attitude_chain(phi, C0, out):
+    """``out[0] = C0``, ``out[k + 1] = out[k] exp([phi[k] x])`` for the rotation vectors `phi` (m, 3): the
+    attitude of one run of :func:`strapdown.ins3d`, `out` (m + 1, 3, 3)."""
+    out[0, :, :] = C0
+    E = np.empty((3, 3))
+    for k in range(phi.shape[0]):
+        rodrigues(phi[k, 0], phi[k, 1], phi[k, 2], E)
+        matmul3(out[k], E, out[k + 1])
 
 
 def transition_blocks(d, fn, Cm, A):
@@ -651,7 +663,7 @@ def smooth_member(hist_P, hist_rec, q_ba, q_bg, fj, covariance, xs, Ps_xy):
 
 
 #: The functions numba compiles, callees first (each finds the compiled form of those it calls).
-_FUNCTIONS = ("rodrigues", "matmul3", "transition_blocks", "predict", "inverse", "product", "h_x_plus_r",
+_FUNCTIONS = ("rodrigues", "matmul3", "attitude_chain", "transition_blocks", "predict", "inverse", "product", "h_x_plus_r",
               "kf_update", "step_model", "zero_velocity_model", "zero_rate_model", "nhc_model", "_log",
               "forward_member", "condition", "smooth_member")
 _COMPILED = None

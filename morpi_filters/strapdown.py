@@ -37,8 +37,10 @@ trapezoid rule; on irregular grids (S6) it removes the trapezoid's
 dt-dependent bias, which otherwise reaches ~1 mm of end error on a sine path.
 
 Only the attitude needs a loop over time (a running product of rotation
-matrices); increments, accelerations, velocity and position are vectorized
-over time and runs. Batched inputs (``(runs, n, 3)``) share one time vector.
+matrices): one run's is compiled by numba (``_aided_kernel.attitude_chain``,
+imported on the first call), a batch's steps every run together in numpy.
+Increments, accelerations, velocity and position are vectorized over time
+and runs. Batched inputs (``(runs, n, 3)``) share one time vector.
 
 References
 ----------
@@ -411,15 +413,12 @@ def _attitude_matrices(time, wb, C0b) -> np.ndarray:
     phi_t = np.swapaxes(phi, 0, 1)                              # (n-1, B, 3)
     Ct = np.empty((n, B, 3, 3))
     Ct[0] = C0b
-    if B == 1 and n > 2:
-        # one run: the running product C0 E_0 E_1 ... by doubling (log2(n) batched products instead of
-        # n small ones; the same product in another association, equal to rounding)
-        S = rotvec_to_C(phi_t[:, 0])
-        d = 1
-        while d < S.shape[0]:
-            S[d:] = S[:-d] @ S[d:]
-            d *= 2
-        np.matmul(C0b[0], S, out=Ct[1:, 0])
+    if B == 1:
+        # one run: the running product C0 E_0 E_1 ... as a compiled loop (numba, loaded on the first call):
+        # the batched loop's Rodrigues formula and products, each sum in plain order, so equal to rounding
+        from ._aided_kernel import compiled
+
+        compiled()["attitude_chain"](np.ascontiguousarray(phi[0]), np.array(C0b[0], order="C"), Ct[:, 0])
     else:
         block = max(1, _BLOCK // max(B, 1))                     # bound the memory of the increments
         for k0 in range(0, n - 1, block):

@@ -204,6 +204,23 @@ def test_the_compiled_loop_gives_the_plain_loops_bits(jit, tun):
             np.testing.assert_array_equal(a[k], b[k], err_msg=k)
 
 
+def test_the_attitude_chain_is_the_running_product_of_rotvec_to_C(jit):
+    # a tumbling run: large and tiny increments (both branches of Rodrigues' formula)
+    rng = np.random.default_rng(12)
+    phi = rng.normal(size=(400, 3)) * np.repeat([0.3, 1e-5], 200)[:, None]
+    C0 = rotvec_to_C(rng.normal(size=3))
+    out = np.empty((401, 3, 3))
+    jit["attitude_chain"](phi, C0, out)
+    ref = [C0]
+    for E in rotvec_to_C(phi):
+        ref.append(ref[-1] @ E)
+    # the numpy product in another order of rounding: 400 steps of a few units of 1e-16
+    np.testing.assert_allclose(out, np.array(ref), rtol=0, atol=1e-13)
+    plain = np.empty_like(out)
+    _plain_kernel().attitude_chain(phi, C0, plain)
+    np.testing.assert_array_equal(out, plain)
+
+
 def test_run_batch_members_do_not_share_state():
     # each member's pass starts from its own zeroed state: the same member twice, and beside another
     inp = _busy_input()

@@ -188,9 +188,9 @@ def test_only_the_loader_imports_pandas_and_importing_the_package_does_not():
 
 
 def test_only_the_compiled_kernels_import_numba_and_importing_the_package_does_not():
-    # numba (the compiler of the 3D Monte Carlo kernel and of the aided filter's forward pass) costs
-    # about 0.6 s to import and load its cached machine code: it is imported on a kernel's first
-    # call, so only commands that run one pay for it
+    # numba (the compiler of the 3D Monte Carlo kernel, of the aided filter's forward pass and of one
+    # strapdown run's attitude loop) costs about 0.6 s to import and load its cached machine code: it
+    # is imported on a kernel's first call, so only commands that run one pay for it
     graph = _graph()
     assert {n for n, (_, ext) in graph.items() if "numba" in ext} == {"_batch_ins", "_aided_kernel"}
     assert not _loaded_by_every_module("numba")

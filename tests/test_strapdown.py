@@ -272,8 +272,9 @@ def test_start_on_a_slope_needs_the_measured_tilt():
 
 
 def test_one_run_attitude_product_equals_the_step_by_step_product():
-    """A single run multiplies its attitude increments by doubling, a batch step by step: the same product
-    associated differently, so equal to rounding (1e-12 over 3000 steps of an irregular, tumbling motion)."""
+    """A single run multiplies its attitude increments in a compiled loop, a batch step by step in numpy: the
+    same products summed in another order, so equal to rounding (1e-12 over 3000 steps of an irregular,
+    tumbling motion)."""
     rng = np.random.default_rng(3)
     t = np.cumsum(np.r_[0.0, rng.uniform(0.005, 0.02, 2999)])
     w = np.stack([np.sin(t), 0.5 * np.cos(2 * t), 0.3 + 0.2 * np.sin(3 * t)], axis=1) + 0.05 * rng.normal(size=(t.size, 3))
