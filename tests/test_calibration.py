@@ -248,3 +248,44 @@ def test_blockwise_noise_sigma_is_the_per_block_one():
     want = np.array([noise_sigma(x[a:b]) for a, b in blocks])
     np.testing.assert_array_equal(got, want)
     assert got[5, 1] == np.finfo(float).tiny
+
+
+def _numpy_moving_stats(t, x, half):
+    # the window sums written with numpy: a binary search for each window's ends, cumulative sums
+    ref = x[0]
+    d = x - ref
+    lo = np.searchsorted(t, t - half, side="left")
+    hi = np.searchsorted(t, t + half, side="right")
+    c1 = np.vstack([np.zeros((1, x.shape[1])), np.cumsum(d, axis=0)])
+    c2 = np.vstack([np.zeros((1, x.shape[1])), np.cumsum(d * d, axis=0)])
+    cnt = (hi - lo)[:, None].astype(float)
+    mean = (c1[hi] - c1[lo]) / cnt
+    var = (c2[hi] - c2[lo]) / cnt - mean ** 2
+    return mean + ref, np.sqrt(np.maximum(var, 0.0))
+
+
+def test_moving_stats_are_the_numpy_window_sums_bit_for_bit():
+    import importlib.util
+
+    from morpi_filters import _rest_kernel
+    from morpi_filters.calibration import _moving_stats
+
+    rng = np.random.default_rng(21)
+    t = np.cumsum(rng.uniform(0.002, 0.012, 3000))                # irregular steps, windows of 10 to 60 samples
+    x = np.column_stack([rng.normal(size=t.size), np.full(t.size, 9.8),  # a constant column: variance clamped at 0
+                         1e4 + 0.01 * rng.normal(size=t.size)])     # a large offset: the sums are taken from x[0]
+    for half in (0.0, 0.125, 2.0):
+        mean, std = _moving_stats(t, x, half)
+        ref_mean, ref_std = _numpy_moving_stats(t, x, half)
+        np.testing.assert_array_equal(mean, ref_mean)
+        np.testing.assert_array_equal(std, ref_std)
+    assert np.all(std[:, 1] == 0.0)
+    # the compiled loop gives the plain Python loop's bits (no fast-math)
+    spec = importlib.util.spec_from_file_location("morpi_filters._rest_kernel_plain", _rest_kernel.__file__)
+    plain = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(plain)
+    m2, s2 = np.empty_like(x[:500]), np.empty_like(x[:500])
+    plain.moving_stats(t[:500], x[:500], 0.125, m2, s2)
+    m1, s1 = _moving_stats(t[:500], x[:500], 0.125)
+    np.testing.assert_array_equal(m1, m2)
+    np.testing.assert_array_equal(s1, s2)
