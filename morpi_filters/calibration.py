@@ -343,12 +343,12 @@ def _block_sigma(t: np.ndarray, x: np.ndarray, span: float, block: float):
 
 def _moving_stats(t: np.ndarray, x: np.ndarray, half: float):
     """Centred time-window mean and std of each column (window [t-half, t+half]): a compiled loop."""
-    from ._rest_kernel import compiled
+    from ._signal_kernel import compiled
 
     t = np.array(t, dtype=float, order="C")                   # writable C arrays: one compiled signature
     x = np.array(x, dtype=float, order="C")
     mean, std = np.empty_like(x), np.empty_like(x)
-    compiled()(t, x, float(half), mean, std)
+    compiled()["moving_stats"](t, x, float(half), mean, std)
     return mean, std
 
 

@@ -355,7 +355,15 @@ def resample_uniform(time, values, rate_hz: float = GRID_HZ):
 
 @lru_cache(maxsize=64)
 def _butter(order: int, cutoff_hz: float, rate_hz: float):
-    return _signal().butter(order, cutoff_hz, btype="low", fs=rate_hz, output="sos")
+    """The Butterworth sections, their steady-state initial conditions and the odd padding of
+    :func:`scipy.signal.sosfiltfilt` (its default: three times the taps), read-only."""
+    sig = _signal()
+    sos = sig.butter(order, cutoff_hz, btype="low", fs=rate_hz, output="sos")
+    zi = sig.sosfilt_zi(sos)
+    ntaps = 2 * sos.shape[0] + 1 - min(int((sos[:, 2] == 0).sum()), int((sos[:, 5] == 0).sum()))
+    for a in (sos, zi):
+        a.flags.writeable = False
+    return sos, zi, 3 * ntaps
 
 
 def _median(x) -> float:
@@ -391,10 +399,21 @@ def lowpass(x, cutoff_hz: float, rate_hz: float = GRID_HZ, order: int = 2):
     >>> float(lowpass(np.ones(200), 1.0)[100].round(6))      # a constant passes unchanged
     1.0
     """
-    sos = _butter(int(order), float(cutoff_hz), float(rate_hz))
+    sos, zi, pad = _butter(int(order), float(cutoff_hz), float(rate_hz))
+    x = np.asarray(x, dtype=float)
     if x.shape[0] <= 3 * (2 * sos.shape[0] + 1):
-        return np.asarray(x, dtype=float)
-    return _signal().sosfiltfilt(sos, x, axis=0)
+        return x
+    # scipy's sosfiltfilt (odd padding, steady-state start of both passes) as a compiled loop, per column
+    from ._signal_kernel import compiled
+
+    filt = compiled()["filtfilt"]
+    cols = x.reshape(x.shape[0], -1)
+    out = np.empty(cols.shape)
+    col = np.empty(x.shape[0])
+    for j in range(cols.shape[1]):
+        filt(sos, zi, pad, np.array(cols[:, j], order="C"), col)
+        out[:, j] = col
+    return out.reshape(x.shape)
 
 
 def detect_peaks(signal, time, *, min_period_s: float, min_prominence: float = 0.0,

@@ -22,7 +22,7 @@ PKG = Path(__file__).resolve().parents[1] / "morpi_filters"
 LAYERS = (
     ("foundation", {"errors", "units", "resources", "reporting", "parallel"}),
     ("inputs", {"params", "dataset", "fetch"}),
-    ("calibration", {"calibration", "_rest_kernel"}),
+    ("calibration", {"calibration", "_signal_kernel"}),
     ("navigation", {"strapdown", "steps", "symbolic", "error_model", "eskf", "aided", "_aided_kernel", "_batch_ins"}),
     ("synthetic recordings", {"simulate", "synthetic"}),
     ("field", {"field"}),
@@ -189,11 +189,11 @@ def test_only_the_loader_imports_pandas_and_importing_the_package_does_not():
 
 def test_only_the_compiled_kernels_import_numba_and_importing_the_package_does_not():
     # numba (the compiler of the 3D Monte Carlo kernel, of the aided filter's forward pass, of one
-    # strapdown run's attitude loop and of rest detection's moving statistics) costs about 0.6 s to
-    # import and load its cached machine code: it is imported on a kernel's first call, so only
-    # commands that run one pay for it
+    # strapdown run's attitude loop and of the per-recording signal loops) costs about 0.6 s to import
+    # and load its cached machine code: it is imported on a kernel's first call, so only commands that
+    # run one pay for it
     graph = _graph()
-    assert {n for n, (_, ext) in graph.items() if "numba" in ext} == {"_batch_ins", "_aided_kernel", "_rest_kernel"}
+    assert {n for n, (_, ext) in graph.items() if "numba" in ext} == {"_batch_ins", "_aided_kernel", "_signal_kernel"}
     assert not _loaded_by_every_module("numba")
 
 

@@ -267,7 +267,7 @@ def _numpy_moving_stats(t, x, half):
 def test_moving_stats_are_the_numpy_window_sums_bit_for_bit():
     import importlib.util
 
-    from morpi_filters import _rest_kernel
+    from morpi_filters import _signal_kernel
     from morpi_filters.calibration import _moving_stats
 
     rng = np.random.default_rng(21)
@@ -281,7 +281,7 @@ def test_moving_stats_are_the_numpy_window_sums_bit_for_bit():
         np.testing.assert_array_equal(std, ref_std)
     assert np.all(std[:, 1] == 0.0)
     # the compiled loop gives the plain Python loop's bits (no fast-math)
-    spec = importlib.util.spec_from_file_location("morpi_filters._rest_kernel_plain", _rest_kernel.__file__)
+    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
     plain = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(plain)
     m2, s2 = np.empty_like(x[:500]), np.empty_like(x[:500])

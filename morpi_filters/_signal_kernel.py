@@ -1,0 +1,115 @@
+"""Loops of the per-recording signal work that numba compiles.
+
+- :func:`moving_stats`, what :func:`morpi_filters.calibration.rest_measures` measures on every
+  gyro and accelerometer sample: the mean and standard deviation over the window
+  ``[t - half, t + half]``, from running sums of the deviations from the first sample (less
+  cancellation in ``E[x^2] - E[x]^2``). The window's ends advance with the samples (two pointers)
+  instead of a binary search per sample.
+- :func:`filtfilt`, the zero-phase low-pass of :func:`morpi_filters.steps.lowpass`: the
+  forward-backward second-order-sections filter of :func:`scipy.signal.sosfiltfilt` with its
+  default odd padding, each section's update in the order scipy's own loop takes, so the result has
+  scipy's bits.
+
+numba is imported on the first call (:func:`compiled`), not with the package, and its machine code
+is cached on disk. The functions run as plain Python too (slowly): the tests compare both, and hold
+them to numpy's sums and to scipy's filter.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def moving_stats(t, x, half, mean, std):
+    """Centred moving mean and standard deviation of each column of `x` (n, k) into `mean` and `std` (n, k).
+
+    `t` (n,) strictly increasing; the window of sample i holds the samples with
+    ``t[i] - half <= t <= t[i] + half``.
+    """
+    n, k = x.shape
+    ref = np.empty(k)
+    for j in range(k):
+        ref[j] = x[0, j]
+    c1 = np.zeros((n + 1, k))
+    c2 = np.zeros((n + 1, k))
+    for i in range(n):
+        for j in range(k):
+            d = x[i, j] - ref[j]
+            c1[i + 1, j] = c1[i, j] + d
+            c2[i + 1, j] = c2[i, j] + d * d
+    lo = 0
+    hi = 0
+    for i in range(n):
+        a = t[i] - half
+        b = t[i] + half
+        while lo < n and t[lo] < a:
+            lo += 1
+        while hi < n and t[hi] <= b:
+            hi += 1
+        cnt = float(hi - lo)
+        for j in range(k):
+            m = (c1[hi, j] - c1[lo, j]) / cnt
+            v = (c2[hi, j] - c2[lo, j]) / cnt - m * m
+            mean[i, j] = m + ref[j]
+            std[i, j] = math.sqrt(max(v, 0.0))
+
+
+def _sections(sos, zi, y, start, stop, step):
+    """Run the sections over ``y[start:stop:step]`` in place, from the states `zi` (sections, 2)."""
+    for i in range(start, stop, step):
+        x_cur = y[i]
+        for s in range(sos.shape[0]):
+            x_new = sos[s, 0] * x_cur + zi[s, 0]
+            zi[s, 0] = sos[s, 1] * x_cur - sos[s, 4] * x_new + zi[s, 1]
+            zi[s, 1] = sos[s, 2] * x_cur - sos[s, 5] * x_new
+            x_cur = x_new
+        y[i] = x_cur
+
+
+def filtfilt(sos, zi, pad, x, out):
+    """Forward-backward filter of `x` (n,) into `out` (n,): ``scipy.signal.sosfiltfilt(sos, x)``.
+
+    `zi` (sections, 2) is ``scipy.signal.sosfilt_zi(sos)``, `pad` the odd extension's length at
+    each end (``n > pad``).
+    """
+    n = x.shape[0]
+    m = n + 2 * pad
+    y = np.empty(m)
+    for i in range(pad):
+        y[i] = 2.0 * x[0] - x[pad - i]
+        y[pad + n + i] = 2.0 * x[n - 1] - x[n - 2 - i]
+    for i in range(n):
+        y[pad + i] = x[i]
+    z = np.empty((sos.shape[0], 2))
+    for s in range(sos.shape[0]):
+        z[s, 0] = zi[s, 0] * y[0]
+        z[s, 1] = zi[s, 1] * y[0]
+    _sections(sos, z, y, 0, m, 1)
+    for s in range(sos.shape[0]):
+        z[s, 0] = zi[s, 0] * y[m - 1]
+        z[s, 1] = zi[s, 1] * y[m - 1]
+    _sections(sos, z, y, m - 1, -1, -1)
+    for i in range(n):
+        out[i] = y[pad + i]
+
+
+#: The functions numba compiles, callees first.
+_FUNCTIONS = ("moving_stats", "_sections", "filtfilt")
+_COMPILED = None
+
+
+def compiled():
+    """The functions of :data:`_FUNCTIONS` compiled by numba, by name (once per process; the machine code
+    is cached on disk)."""
+    global _COMPILED
+    if _COMPILED is None:
+        import numba
+
+        space = globals()
+        out = {}
+        for name in _FUNCTIONS:
+            out[name] = numba.njit(cache=True, nogil=True)(space[name])
+            space[name] = out[name]
+        _COMPILED = out
+    return _COMPILED
