@@ -5,6 +5,10 @@
   ``[t - half, t + half]``, from running sums of the deviations from the first sample (less
   cancellation in ``E[x^2] - E[x]^2``). The window's ends advance with the samples (two pointers)
   instead of a binary search per sample.
+- :func:`increments`, the integral of sampled signals over each interval of the real time grid
+  (the corrected trapezoid of :mod:`morpi_filters.strapdown`: 3-point slopes, cubic Hermite
+  interpolant), the element-wise arithmetic in numpy's order, so with numpy's bits, and
+  :func:`running_integral`, the plain trapezoid's running sum;
 - :func:`filtfilt`, the zero-phase low-pass of :func:`morpi_filters.steps.lowpass`: the
   forward-backward second-order-sections filter of :func:`scipy.signal.sosfiltfilt` with its
   default odd padding, each section's update in the order scipy's own loop takes, so the result has
@@ -55,6 +59,57 @@ def moving_stats(t, x, half, mean, std):
             std[i, j] = math.sqrt(max(v, 0.0))
 
 
+def increments(time, x, inc, d):
+    """Slopes `d` (B, n, k) and interval integrals `inc` (B, n - 1, k) of samples `x` (B, n, k) on `time` (n,).
+
+    ``d`` the 3-point non-uniform differences (one-sided quadratics at both ends; the chord for
+    n = 2), ``inc = dt (x_j + x_j+1) / 2 + dt^2 (d_j - d_j+1) / 12``.
+    """
+    B, n, K = x.shape
+    if n == 2:
+        for r in range(B):
+            for j in range(K):
+                d[r, 0, j] = (x[r, 1, j] - x[r, 0, j]) / (time[1] - time[0])
+                d[r, 1, j] = d[r, 0, j]
+    else:
+        a = time[1] - time[0]
+        b = time[2] - time[1]
+        e0 = -(2 * a + b) / (a * (a + b))
+        e1 = (a + b) / (a * b)
+        e2 = a / (b * (a + b))
+        a = time[n - 2] - time[n - 3]
+        b = time[n - 1] - time[n - 2]
+        f0 = b / (a * (a + b))
+        f1 = (a + b) / (a * b)
+        f2 = (a + 2 * b) / (b * (a + b))
+        for i in range(1, n - 1):
+            h1 = time[i] - time[i - 1]
+            h2 = time[i + 1] - time[i]
+            c0 = -h2 / (h1 * (h1 + h2))
+            c1 = (h2 - h1) / (h1 * h2)
+            c2 = h1 / (h2 * (h1 + h2))
+            for r in range(B):
+                for j in range(K):
+                    d[r, i, j] = c0 * x[r, i - 1, j] + c1 * x[r, i, j] + c2 * x[r, i + 1, j]
+        for r in range(B):
+            for j in range(K):
+                d[r, 0, j] = e0 * x[r, 0, j] + e1 * x[r, 1, j] - e2 * x[r, 2, j]
+                d[r, n - 1, j] = f0 * x[r, n - 3, j] - f1 * x[r, n - 2, j] + f2 * x[r, n - 1, j]
+    for i in range(n - 1):
+        dt = time[i + 1] - time[i]
+        q = dt * dt / 12.0
+        for r in range(B):
+            for j in range(K):
+                inc[r, i, j] = 0.5 * (x[r, i, j] + x[r, i + 1, j]) * dt + (d[r, i, j] - d[r, i + 1, j]) * q
+
+
+def running_integral(t, x, out):
+    """``out[0] = 0``, ``out[i + 1] = out[i] + (x[i + 1] + x[i]) / 2 (t[i + 1] - t[i])`` for `t`, `x` (n,)."""
+    out[0] = 0.0
+    for i in range(t.shape[0] - 1):
+        out[i + 1] = out[i] + 0.5 * (x[i + 1] + x[i]) * (t[i + 1] - t[i])
+
+
 def _sections(sos, zi, y, start, stop, step):
     """Run the sections over ``y[start:stop:step]`` in place, from the states `zi` (sections, 2)."""
     for i in range(start, stop, step):
@@ -95,7 +150,7 @@ def filtfilt(sos, zi, pad, x, out):
 
 
 #: The functions numba compiles, callees first.
-_FUNCTIONS = ("moving_stats", "_sections", "filtfilt")
+_FUNCTIONS = ("moving_stats", "increments", "running_integral", "_sections", "filtfilt")
 _COMPILED = None
 
 

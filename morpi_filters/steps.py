@@ -659,8 +659,12 @@ class PreparedSignal:
 
 
 def _running_integral(t, x) -> np.ndarray:
-    """Trapezoidal integral of `x` from the first sample, shape (n,)."""
-    return np.concatenate([[0.0], np.cumsum(0.5 * (x[1:] + x[:-1]) * np.diff(t))])
+    """Trapezoidal integral of `x` from the first sample, shape (n,): a compiled loop."""
+    from ._signal_kernel import compiled
+
+    out = np.empty(t.shape[0])
+    compiled()["running_integral"](np.require(t, float, ["C", "W"]), np.require(x, float, ["C", "W"]), out)
+    return out
 
 
 def _attitude_heading(rec, rest_end_time=None) -> np.ndarray:

@@ -39,8 +39,10 @@ dt-dependent bias, which otherwise reaches ~1 mm of end error on a sine path.
 Only the attitude needs a loop over time (a running product of rotation
 matrices): one run's is compiled by numba (``_aided_kernel.attitude_chain``,
 imported on the first call), a batch's steps every run together in numpy.
-Increments, accelerations, velocity and position are vectorized over time
-and runs. Batched inputs (``(runs, n, 3)``) share one time vector.
+The interval integrals are a compiled loop too (``_signal_kernel.increments``,
+numpy's element-wise arithmetic in its order); accelerations, velocity and
+position are vectorized over time and runs. Batched inputs
+(``(runs, n, 3)``) share one time vector.
 
 References
 ----------
@@ -291,42 +293,23 @@ def _batch_shape(name_shapes) -> tuple:
 _BLOCK = 1 << 18
 
 
-def _slopes(time, x):
-    """Time derivative of samples `x` (B, n, ...) along axis 1: 3-point non-uniform differences.
-
-    Second-order accurate: the derivative of the quadratic through each sample and
-    its two neighbours (one-sided quadratics at both ends).
-    """
-    n = time.shape[0]
-    d = np.empty_like(x)
-    if n == 2:
-        d[:] = ((x[:, 1] - x[:, 0]) / (time[1] - time[0]))[:, None]
-        return d
-    h = np.diff(time)
-    h1, h2 = h[:-1], h[1:]
-    shape = (1, n - 2) + (1,) * (x.ndim - 2)
-    c0 = (-h2 / (h1 * (h1 + h2))).reshape(shape)
-    c1 = ((h2 - h1) / (h1 * h2)).reshape(shape)
-    c2 = (h1 / (h2 * (h1 + h2))).reshape(shape)
-    d[:, 1:-1] = c0 * x[:, :-2] + c1 * x[:, 1:-1] + c2 * x[:, 2:]
-    a, b = h[0], h[1]
-    d[:, 0] = (-(2 * a + b) / (a * (a + b)) * x[:, 0] + (a + b) / (a * b) * x[:, 1]
-               - a / (b * (a + b)) * x[:, 2])
-    a, b = h[-2], h[-1]
-    d[:, -1] = (b / (a * (a + b)) * x[:, -3] - (a + b) / (a * b) * x[:, -2]
-                + (a + 2 * b) / (b * (a + b)) * x[:, -1])
-    return d
-
-
 def _increments(time, x):
     """Integral of `x` (B, n, ...) over each interval: trapezoid with the Hermite end correction.
 
     ``int = dt (x_k + x_k+1) / 2 + dt^2 (x'_k - x'_k+1) / 12``, exact for cubics when the
-    slopes are exact; with 3-point slopes the local error is O(dt^4).
+    slopes are exact; with 3-point slopes the local error is O(dt^4). The slopes ``x'`` are the
+    3-point non-uniform differences (the derivative of the quadratic through each sample and its
+    two neighbours, one-sided quadratics at both ends; second-order accurate). Returns the
+    integrals (B, n - 1, ...) and the slopes (B, n, ...), computed by a compiled loop
+    (``_signal_kernel.increments``).
     """
-    dt = np.diff(time).reshape((1, -1) + (1,) * (x.ndim - 2))
-    d = _slopes(time, x)
-    return 0.5 * (x[:, :-1] + x[:, 1:]) * dt + (d[:, :-1] - d[:, 1:]) * (dt * dt / 12.0), d
+    from ._signal_kernel import compiled
+
+    B, n = x.shape[:2]
+    x3 = np.require(x, float, ["C", "W"]).reshape(B, n, -1)    # one compiled signature
+    inc, d = np.empty((B, n - 1, x3.shape[2])), np.empty(x3.shape)
+    compiled()["increments"](np.require(time, float, ["C", "W"]), x3, inc, d)
+    return inc.reshape((B, n - 1) + x.shape[2:]), d.reshape(x.shape)
 
 
 def integrate_rate(time, rate, x0=0.0) -> np.ndarray:

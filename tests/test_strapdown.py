@@ -287,3 +287,61 @@ def test_one_run_attitude_product_equals_the_step_by_step_product():
         np.testing.assert_allclose(one.position, two.position[k], rtol=0, atol=1e-9)
     np.testing.assert_allclose(np.einsum("nij,nkj->nik", one.C_bn, one.C_bn), np.broadcast_to(np.eye(3), one.C_bn.shape),
                                atol=1e-12)
+
+
+def _numpy_increments(time, x):
+    # the interval integrals written with numpy: 3-point non-uniform slopes, one-sided at both ends
+    n = time.shape[0]
+    d = np.empty_like(x)
+    if n == 2:
+        d[:] = ((x[:, 1] - x[:, 0]) / (time[1] - time[0]))[:, None]
+    else:
+        h = np.diff(time)
+        h1, h2 = h[:-1], h[1:]
+        shape = (1, n - 2) + (1,) * (x.ndim - 2)
+        c0 = (-h2 / (h1 * (h1 + h2))).reshape(shape)
+        c1 = ((h2 - h1) / (h1 * h2)).reshape(shape)
+        c2 = (h1 / (h2 * (h1 + h2))).reshape(shape)
+        d[:, 1:-1] = c0 * x[:, :-2] + c1 * x[:, 1:-1] + c2 * x[:, 2:]
+        a, b = h[0], h[1]
+        d[:, 0] = -(2 * a + b) / (a * (a + b)) * x[:, 0] + (a + b) / (a * b) * x[:, 1] - a / (b * (a + b)) * x[:, 2]
+        a, b = h[-2], h[-1]
+        d[:, -1] = b / (a * (a + b)) * x[:, -3] - (a + b) / (a * b) * x[:, -2] + (a + 2 * b) / (b * (a + b)) * x[:, -1]
+    dt = np.diff(time).reshape((1, -1) + (1,) * (x.ndim - 2))
+    return 0.5 * (x[:, :-1] + x[:, 1:]) * dt + (d[:, :-1] - d[:, 1:]) * (dt * dt / 12.0), d
+
+
+@pytest.mark.parametrize("n", [2, 3, 4, 500])
+def test_increments_and_running_integral_are_the_numpy_sums_bit_for_bit(n):
+    import importlib.util
+
+    from morpi_filters import _signal_kernel
+    from morpi_filters.steps import _running_integral
+    from morpi_filters.strapdown import _increments
+
+    rng = np.random.default_rng(41)
+    time = 3.0 + np.cumsum(rng.uniform(0.003, 0.02, n))           # irregular steps
+    for shape in ((1, n), (4, n), (1, n, 3), (2, n, 3)):
+        x = rng.normal(size=shape)
+        inc, d = _increments(time, x)
+        ref_inc, ref_d = _numpy_increments(time, x)
+        assert inc.shape == ref_inc.shape and d.shape == ref_d.shape
+        np.testing.assert_array_equal(inc, ref_inc)
+        np.testing.assert_array_equal(d, ref_d)
+    # exact on a cubic (the slopes of a quadratic are exact; the Hermite rule integrates cubics)
+    x = (1.0 + 2.0 * time - 0.5 * time ** 2)[None]
+    if n >= 3:
+        exact = (time + time ** 2 - time ** 3 / 6.0)
+        np.testing.assert_allclose(_increments(time, x)[0][0], np.diff(exact), rtol=1e-12, atol=1e-12)
+    psi = rng.normal(size=n)
+    np.testing.assert_array_equal(_running_integral(time, psi),
+                                  np.concatenate([[0.0], np.cumsum(0.5 * (psi[1:] + psi[:-1]) * np.diff(time))]))
+    # the compiled loops give the plain Python loops' bits
+    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
+    plain = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(plain)
+    x = rng.normal(size=(2, n, 3))
+    inc, d = np.empty((2, n - 1, 3)), np.empty((2, n, 3))
+    plain.increments(time, x, inc, d)
+    np.testing.assert_array_equal(inc, _increments(time, x)[0])
+    np.testing.assert_array_equal(d, _increments(time, x)[1])
