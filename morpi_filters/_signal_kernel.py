@@ -5,6 +5,8 @@
   ``[t - half, t + half]``, from running sums of the deviations from the first sample (less
   cancellation in ``E[x^2] - E[x]^2``). The window's ends advance with the samples (two pointers)
   instead of a binary search per sample.
+- :func:`motion_flags`, the samples :func:`morpi_filters.calibration.detect_rest` takes as
+  moving: a gyro deviation or spread, or an accelerometer spread, above its threshold on any axis;
 - :func:`increments`, the integral of sampled signals over each interval of the real time grid
   (the corrected trapezoid of :mod:`morpi_filters.strapdown`: 3-point slopes, cubic Hermite
   interpolant), the element-wise arithmetic in numpy's order, so with numpy's bits, and
@@ -57,6 +59,18 @@ def moving_stats(t, x, half, mean, std):
             v = (c2[hi, j] - c2[lo, j]) / cnt - m * m
             mean[i, j] = m + ref[j]
             std[i, j] = math.sqrt(max(v, 0.0))
+
+
+def motion_flags(s_g, m_g, s_a, g_spread, g_level, g_dev, a_spread, out):
+    """``out[i]`` (n,): any axis j with ``s_g[i, j] > g_spread[j]``, ``|m_g[i, j] - g_level[j]| > g_dev[j]``
+    or ``s_a[i, j] > a_spread[j]`` (each of `s_g`, `m_g`, `s_a` (n, 3))."""
+    for i in range(s_g.shape[0]):
+        flag = False
+        for j in range(s_g.shape[1]):
+            if s_g[i, j] > g_spread[j] or abs(m_g[i, j] - g_level[j]) > g_dev[j] or s_a[i, j] > a_spread[j]:
+                flag = True
+                break
+        out[i] = flag
 
 
 def increments(time, x, inc, d):
@@ -150,7 +164,7 @@ def filtfilt(sos, zi, pad, x, out):
 
 
 #: The functions numba compiles, callees first.
-_FUNCTIONS = ("moving_stats", "increments", "running_integral", "_sections", "filtfilt")
+_FUNCTIONS = ("moving_stats", "motion_flags", "increments", "running_integral", "_sections", "filtfilt")
 _COMPILED = None
 
 

@@ -549,8 +549,13 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
     sig_g, sig_a, med_g = measures.sig_g, measures.sig_a, measures.med_g
     m_g, s_g, s_a = measures.m_g, measures.s_g, measures.s_a
     thr_sa = np.maximum(k_std * sig_a, accel_floor)
-    moving = ((s_g > k_std * sig_g) | (np.abs(m_g - med_g) > k_dev * sig_g)).any(axis=1) | \
-        (s_a > thr_sa).any(axis=1)
+    # a sample moves when, on any axis, the gyro's spread or its deviation from the quiet level, or the
+    # accelerometer's spread, exceeds its threshold (a compiled loop over the samples)
+    from ._signal_kernel import compiled
+
+    moving = np.empty(n, dtype=bool)
+    compiled()["motion_flags"](s_g, m_g, s_a, np.array(k_std * sig_g), np.array(med_g, dtype=float),
+                               np.array(k_dev * sig_g), np.array(thr_sa, dtype=float), moving)
     # Runs of flagged samples, merged across gaps shorter than `window_s`
     # (a window's worth of quiet inside motion is not rest).
     runs = _runs(moving, t, window_s)

@@ -289,3 +289,27 @@ def test_moving_stats_are_the_numpy_window_sums_bit_for_bit():
     m1, s1 = _moving_stats(t[:500], x[:500], 0.125)
     np.testing.assert_array_equal(m1, m2)
     np.testing.assert_array_equal(s1, s2)
+
+
+def test_motion_flags_are_the_numpy_comparisons():
+    import importlib.util
+
+    from morpi_filters import _signal_kernel
+
+    rng = np.random.default_rng(22)
+    n = 2000
+    s_g, m_g, s_a = rng.exponential(size=(n, 3)), rng.normal(size=(n, 3)), rng.exponential(size=(n, 3))
+    s_g[::97, 1] = np.nan                                         # NaN compares false, as in numpy
+    g_spread, g_level, g_dev, a_spread = rng.uniform(1, 4, 3), rng.normal(size=3), rng.uniform(1, 4, 3), \
+        rng.uniform(1, 4, 3)
+    ref = ((s_g > g_spread) | (np.abs(m_g - g_level) > g_dev)).any(axis=1) | (s_a > a_spread).any(axis=1)
+    assert 0.1 < ref.mean() < 0.9                                 # both outcomes are exercised
+    out = np.empty(n, dtype=bool)
+    _signal_kernel.compiled()["motion_flags"](s_g, m_g, s_a, g_spread, g_level, g_dev, a_spread, out)
+    np.testing.assert_array_equal(out, ref)
+    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
+    plain = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(plain)
+    out2 = np.empty(n, dtype=bool)
+    plain.motion_flags(s_g, m_g, s_a, g_spread, g_level, g_dev, a_spread, out2)
+    np.testing.assert_array_equal(out2, ref)
