@@ -676,12 +676,7 @@ def compiled():
     """
     global _COMPILED
     if _COMPILED is None:
-        import numba
+        from ._signal_kernel import jit_functions
 
-        space = globals()
-        out = {}
-        for name in _FUNCTIONS:
-            out[name] = numba.njit(cache=True, nogil=True)(space[name])
-            space[name] = out[name]
-        _COMPILED = out
+        _COMPILED = jit_functions(globals(), _FUNCTIONS)
     return _COMPILED

@@ -168,17 +168,21 @@ _FUNCTIONS = ("moving_stats", "motion_flags", "increments", "running_integral", 
 _COMPILED = None
 
 
+def jit_functions(space: dict, names) -> dict:
+    """Compile the functions `names` of a module's namespace `space` with numba (callees first), each put
+    back in `space` so the later ones call the compiled forms; returns them by name. numba is imported
+    here, and its machine code is cached on disk."""
+    import numba
+
+    out = {}
+    for name in names:
+        out[name] = space[name] = numba.njit(cache=True, nogil=True)(space[name])
+    return out
+
+
 def compiled():
-    """The functions of :data:`_FUNCTIONS` compiled by numba, by name (once per process; the machine code
-    is cached on disk)."""
+    """The functions of :data:`_FUNCTIONS` compiled by numba, by name (once per process)."""
     global _COMPILED
     if _COMPILED is None:
-        import numba
-
-        space = globals()
-        out = {}
-        for name in _FUNCTIONS:
-            out[name] = numba.njit(cache=True, nogil=True)(space[name])
-            space[name] = out[name]
-        _COMPILED = out
+        _COMPILED = jit_functions(globals(), _FUNCTIONS)
     return _COMPILED
