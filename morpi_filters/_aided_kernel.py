@@ -663,14 +663,15 @@ def smooth_member(hist_P, hist_rec, q_ba, q_bg, fj, covariance, xs, Ps_xy):
 
 
 #: The functions numba compiles, callees first (each finds the compiled form of those it calls).
-_FUNCTIONS = ("rodrigues", "matmul3", "attitude_chain", "transition_blocks", "predict", "inverse", "product", "h_x_plus_r",
-              "kf_update", "step_model", "zero_velocity_model", "zero_rate_model", "nhc_model", "_log",
+_FUNCTIONS = ("rodrigues", "matmul3", "attitude_chain", "transition_blocks", "predict", "inverse", "product",
+              "h_x_plus_r", "kf_update", "step_model", "zero_velocity_model", "zero_rate_model", "nhc_model", "_log",
               "forward_member", "condition", "smooth_member")
 _COMPILED = None
 
 
 def compiled():
-    """:func:`forward_member` compiled by numba (once per process; the machine code is cached on disk).
+    """:func:`forward_member`, :func:`smooth_member` and :func:`attitude_chain` compiled by numba (once per
+    process; the machine code is cached on disk).
 
     Returns the compiled functions by name (:data:`_FUNCTIONS`).
     """

@@ -16,8 +16,8 @@
   default odd padding, each section's update in the order scipy's own loop takes, so the result has
   scipy's bits.
 
-numba is imported on the first call (:func:`compiled`), not with the package, and its machine code
-is cached on disk. The functions run as plain Python too (slowly): the tests compare both, and hold
+numba is imported on the first call (:func:`compiled`, through :func:`jit_functions`, which also
+compiles the loops of ``_aided_kernel``), not with the package, and its machine code is cached on disk. The functions run as plain Python too (slowly): the tests compare both, and hold
 them to numpy's sums and to scipy's filter.
 """
 from __future__ import annotations
