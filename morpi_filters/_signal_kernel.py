@@ -34,9 +34,7 @@ def moving_stats(t, x, half, mean, std):
     ``t[i] - half <= t <= t[i] + half``.
     """
     n, k = x.shape
-    ref = np.empty(k)
-    for j in range(k):
-        ref[j] = x[0, j]
+    ref = x[0].copy()
     c1 = np.zeros((n + 1, k))
     c2 = np.zeros((n + 1, k))
     for i in range(n):

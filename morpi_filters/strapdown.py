@@ -392,8 +392,6 @@ def _attitude_matrices(time, wb, C0b) -> np.ndarray:
     phi[..., 0] += (w0[..., 1] * w1[..., 2] - w0[..., 2] * w1[..., 1]) * coning
     phi[..., 1] += (w0[..., 2] * w1[..., 0] - w0[..., 0] * w1[..., 2]) * coning
     phi[..., 2] += (w0[..., 0] * w1[..., 1] - w0[..., 1] * w1[..., 0]) * coning
-    # time-major so each step works on one contiguous (B, 3, 3) block
-    phi_t = np.swapaxes(phi, 0, 1)                              # (n-1, B, 3)
     Ct = np.empty((n, B, 3, 3))
     Ct[0] = C0b
     if B == 1:
@@ -403,6 +401,8 @@ def _attitude_matrices(time, wb, C0b) -> np.ndarray:
 
         compiled()["attitude_chain"](np.ascontiguousarray(phi[0]), np.array(C0b[0], order="C"), Ct[:, 0])
     else:
+        # time-major so each step works on one contiguous (B, 3, 3) block
+        phi_t = np.swapaxes(phi, 0, 1)                          # (n-1, B, 3)
         block = max(1, _BLOCK // max(B, 1))                     # bound the memory of the increments
         for k0 in range(0, n - 1, block):
             E = rotvec_to_C(phi_t[k0:k0 + block])
