@@ -14,7 +14,10 @@
 - :func:`filtfilt`, the zero-phase low-pass of :func:`morpi_filters.steps.lowpass`: the
   forward-backward second-order-sections filter of :func:`scipy.signal.sosfiltfilt` with its
   default odd padding, each section's update in the order scipy's own loop takes, so the result has
-  scipy's bits.
+  scipy's bits;
+- :func:`reading_sums`, what :func:`morpi_filters.steps.step_sums` returns for one step rule: the steps
+  between the boundaries under each end and heading reading, summed in step order (the rule searches
+  read thousands of rules per run).
 
 numba is imported on the first call (:func:`compiled`, through :func:`jit_functions`, which also
 compiles the loops of ``_aided_kernel``), not with the package, and its machine code is cached on disk. The functions run as plain Python too (slowly): the tests compare both, and hold
@@ -161,8 +164,64 @@ def filtfilt(sos, zi, pad, x, out):
         out[i] = y[pad + i]
 
 
+def reading_sums(bt, psi_b, weight, aux, m0, m1, psi_m0, psi_m1, per, wmed, ends, heading):
+    """``(w, ux, uy, n)`` of the steps between the boundaries `bt` (k,), in the order the steps run.
+
+    `psi_b` (k,) the heading at the boundaries, `weight` (k - 1,) the Weinberg weights of the whole
+    steps, `m0`, `m1` the motion's ends with their headings `psi_m0`, `psi_m1`, `per` and `wmed` the
+    median step duration and weight (the partial end steps'); `ends` 0 drop, 1 fraction, 2 whole;
+    `heading` 0 the heading at the step's end, 1 its change over the step, 2 the change plus the turn
+    heading at the step's start, 3 the mean over the step. `aux` (k + 2,) holds a value at
+    ``[m0, bt..., m1]``: the turn heading (2) or the heading's running integral (3). A step's heading
+    and weight are those of ``steps._find_steps``, element for element; ``w = sum(weight * fraction)``,
+    ``(ux, uy) = sum(weight * fraction * [cos, sin](heading))``.
+    """
+    k = bt.shape[0]
+    f0 = 1.0
+    f1 = 1.0
+    if ends != 0:
+        f0 = (bt[0] - m0) / per
+        f1 = (m1 - bt[k - 1]) / per
+        f0 = 0.0 if f0 < 0.0 else (1.0 if f0 > 1.0 else f0)
+        f1 = 0.0 if f1 < 0.0 else (1.0 if f1 > 1.0 else f1)
+        if ends == 2:
+            f0 = 1.0 if f0 >= 0.5 else 0.0
+            f1 = 1.0 if f1 >= 0.5 else 0.0
+    n = k - 1 if ends == 0 else k + 1
+    w = 0.0
+    ux = 0.0
+    uy = 0.0
+    for j in range(n):
+        if ends == 0:
+            s = j + 1                                           # aux index of the step's start
+            st, et, ps, pe, wf = bt[j], bt[j + 1], psi_b[j], psi_b[j + 1], weight[j]
+        elif j == 0:
+            s = 0
+            st, et, ps, pe, wf = m0, bt[0], psi_m0, psi_b[0], wmed * f0
+        elif j == k:
+            s = k
+            st, et, ps, pe, wf = bt[k - 1], m1, psi_b[k - 1], psi_m1, wmed * f1
+        else:
+            s = j
+            st, et, ps, pe, wf = bt[j - 1], bt[j], psi_b[j - 1], psi_b[j], weight[j - 1] * 1.0
+        if heading == 0:
+            d = pe
+        elif heading == 1:
+            d = pe - ps
+        elif heading == 2:
+            d = pe - ps + aux[s]
+        else:
+            span = et - st
+            d = (aux[s + 1] - aux[s]) / span if span > 1e-9 else ps
+        w += wf
+        ux += wf * math.cos(d)
+        uy += wf * math.sin(d)
+    return w, ux, uy, n
+
+
 #: The functions numba compiles, callees first.
-_FUNCTIONS = ("moving_stats", "motion_flags", "increments", "running_integral", "_sections", "filtfilt")
+_FUNCTIONS = ("moving_stats", "motion_flags", "increments", "running_integral", "_sections", "filtfilt",
+              "reading_sums")
 _COMPILED = None
 
 

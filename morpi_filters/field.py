@@ -346,11 +346,19 @@ class FieldData:
             if shared is not None:
                 from dataclasses import replace
 
-                self._prep[key] = replace(shared, heading=self.heading(rec, mode, source))
+                p = replace(shared, heading=self.heading(rec, mode, source))
             else:
                 crec, _ = self.calibrated(rec, mode)
-                self._prep[key] = self._signals[skey] = st.prepare_signal(
+                p = self._signals[skey] = st.prepare_signal(
                     crec, method, cutoff_hz, motion=self.activity(rec), heading=self.heading(rec, mode, source))
+            # the heading's integral is the same for every method and cut-off: computed once, then given
+            # to each signal as its cached property
+            ikey = (rec.source, mode, "heading integral", source)
+            if ikey in self._prep:
+                p.__dict__["heading_integral"] = self._prep[ikey]
+            else:
+                self._prep[ikey] = p.heading_integral
+            self._prep[key] = p
         return self._prep[key]
 
     def heading(self, rec, mode: str, source: str = "gyro") -> np.ndarray:
@@ -782,7 +790,8 @@ def _train_summary(data: FieldData, method, config, mode="GC"):
 def _loo_errors(truth, g, u) -> np.ndarray:
     """End-point errors [%] of each run with the mean gain of the others (leave-one-out)."""
     gi = (g.sum() - g) / (g.size - 1)
-    return np.linalg.norm(gi[:, None] * u - truth.end_point_m, axis=1) / truth.distance_m * 100
+    d = gi[:, None] * u - truth.end_point_m
+    return np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]) / truth.distance_m * 100   # numpy's norm along rows
 
 
 def _loo_vector(data: FieldData, method, config, mode="GC", exclude=frozenset()) -> np.ndarray | None:

@@ -157,18 +157,19 @@ class StepConfig:
             raise MorpiError(f"StepConfig.cutoff_hz={self.cutoff_hz}: expected None or 0 < f < {GRID_HZ / 2} Hz")
         if not 0 < self.turn_deg < 360:
             raise MorpiError(f"StepConfig.turn_deg={self.turn_deg}: expected a heading change 0 < turn_deg < 360 [deg]")
+        # a rule keys every cache of its steps and scores: its fields are hashed once
+        object.__setattr__(self, "_hash", hash(tuple(getattr(self, f.name) for f in fields(self))))
 
     def __hash__(self):
-        # a rule keys every cache of its steps and scores: its fields are hashed once
-        h = self.__dict__.get("_hash")
-        if h is None:
-            h = hash(tuple(getattr(self, f.name) for f in fields(self)))
-            object.__setattr__(self, "_hash", h)
-        return h
+        return self._hash
 
     def __getstate__(self):
         # the hash of strings differs between processes: a copy or a pickle hashes again
         return {k: v for k, v in self.__dict__.items() if k != "_hash"}
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        object.__setattr__(self, "_hash", hash(tuple(getattr(self, f.name) for f in fields(self))))
 
     def with_(self, **kw) -> "StepConfig":
         """A copy with some fields changed.
@@ -626,9 +627,10 @@ class PreparedSignal:
         2nd and 98th percentile of the filtered signal during the motion
         (the scale of the prominence threshold).
     steps_memo : dict
-        Filled by :func:`extract_steps`: what every heading reading of the
-        same steps shares (boundaries, end steps, weights, swing, boundary
-        headings, turn stretches), read-only.
+        Filled by :func:`extract_steps` and :func:`step_sums`: what every
+        heading reading of the same steps shares (boundary headings, end
+        steps, swing, the turn heading and the heading's integral at the
+        step edges), read-only.
     """
 
     source: str
@@ -881,7 +883,7 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
         prepared = prepare_signal(rec, method, config.cutoff_hz, rest_end_time=rest_end_time, heading=heading)
     else:
         _check_prepared(prepared, method, config)
-    (st, et, weight, frac, _, _, med, peaks), dpsi, _ = _find_steps(prepared, method, config, peak_cache)
+    (st, et, weight, frac, _, _, med, peaks), dpsi = _find_steps(prepared, method, config, peak_cache)
     return Steps(start_time=st, end_time=et, weight=weight, fraction=frac, heading=dpsi, peaks=peaks,
                  motion=prepared.motion, swing_deg=med)
 
@@ -927,9 +929,9 @@ def step_sums(prepared: PreparedSignal, method: str, config: StepConfig, *, peak
         ``w = sum(weight * fraction)`` (:attr:`Steps.effective_weight`), the
         end point per unit gain ``(ux, uy) = sum(weight * fraction * [cos,
         sin](heading))``, the median heading swing per period ``swing_deg``
-        [deg] and the number of steps ``n``, each equal to what the
-        :class:`Steps` of :func:`extract_steps` give (the end point to
-        rounding: :func:`dead_reckon` sums the steps in order).
+        [deg] and the number of steps ``n``: what the :class:`Steps` of
+        :func:`extract_steps` give, the sums to rounding (a compiled loop
+        adds the steps' own terms in step order).
 
     Raises
     ------
@@ -948,15 +950,31 @@ def step_sums(prepared: PreparedSignal, method: str, config: StepConfig, *, peak
     True
     """
     _check_prepared(prepared, method, config)
-    shared, dpsi, mkey = _find_steps(prepared, method, config, peak_cache)
-    memo = prepared.steps_memo
-    skey = ("sums", mkey)
-    ws = memo.get(skey)
-    if ws is None:
-        wf = shared[2] * shared[3]
-        ws = memo[skey] = (wf, float(np.sum(wf)))               # the sum of Steps.effective_weight
-    wf, w = ws
-    return StepSums(w, float(np.dot(wf, np.cos(dpsi))), float(np.dot(wf, np.sin(dpsi))), shared[6], wf.shape[0])
+    pkey, _, bt, psi_b, psi_m, per, _, weight, med, wmed = _boundaries(prepared, method, config, peak_cache)
+    require_swing(prepared.source, method, med, config.min_swing_deg)
+    heading = _HEADING_CODES[config.heading]
+    edge = _edge_values(prepared, config, pkey, bt, psi_b) if heading >= 2 else _NO_EDGES
+    m0, m1 = prepared.motion
+    w, ux, uy, n = (_READING_SUMS or _reading_sums())(bt, psi_b, weight, edge, m0, m1, psi_m[0], psi_m[1], per, wmed,
+                                              _ENDS_CODES[config.ends], heading)
+    return StepSums(w, ux, uy, med, n)
+
+
+_READING_SUMS = None
+
+
+def _reading_sums():
+    global _READING_SUMS
+    from ._signal_kernel import compiled
+
+    _READING_SUMS = compiled()["reading_sums"]
+    return _READING_SUMS
+
+
+#: The codes of the readings in ``_signal_kernel.reading_sums``.
+_HEADING_CODES = {"absolute": 0, "change": 1, "turns": 2, "mean": 3}
+_ENDS_CODES = {"drop": 0, "fraction": 1, "whole": 2}
+_NO_EDGES = np.zeros(0)
 
 
 def _check_prepared(prepared, method, config):
@@ -965,8 +983,17 @@ def _check_prepared(prepared, method, config):
                          f"does not match ({method}, cutoff {config.cutoff_hz})")
 
 
-def _find_steps(p, method, config, peak_cache):
-    """The steps of :func:`extract_steps`: the parts every heading reading shares, the heading, the memo key."""
+def _boundaries(p, method, config, peak_cache):
+    """What every reading of a run's peaks shares, memoized on the prepared signal (its heading) and in
+    `peak_cache`: ``(pkey, wkey, bt, psi_b, psi_m, per, bounds, weight, med, wmed)``, the peak set's key
+    and with the weights' source, the boundary times and headings, the headings at the motion's ends, the
+    median step duration, the boundaries' grid indices, the whole steps' Weinberg weights, the median
+    heading swing [deg] and the median weight."""
+    memo = p.steps_memo
+    rule = (config.prominence, config.min_period_s, config.segment, config.amplitude_from)
+    out = memo.get(rule)                                        # the rule's peaks on this signal, found before
+    if out is not None:
+        return out
     grid, g, graw, t = p.grid, p.filtered, p.raw, p.time
     m0, m1 = p.motion
     i0, i1 = p.motion_index
@@ -976,10 +1003,12 @@ def _find_steps(p, method, config, peak_cache):
     if not hi - lo > 0:
         raise MorpiError(f"{p.source}: no periodic motion found in the {method} signal (flat signal)")
     prom = config.prominence * (hi - lo)
+    # the peaks, the boundaries and the weights do not depend on the heading: kept in `peak_cache` (shared by
+    # the prepared signals of the same recording, method and cut-off); the headings on the prepared signal
+    cache = p.steps_memo if peak_cache is None else peak_cache
     pkey = (p.source, method, config.cutoff_hz, config.prominence, config.min_period_s, config.segment)
-    if peak_cache is not None and pkey in peak_cache:
-        imax, bounds = peak_cache[pkey]
-    else:
+    found = cache.get(pkey)
+    if found is None:
         dist = max(1, int(round(config.min_period_s * GRID_HZ)))
         seg = g[i0:i1]
         ckey = (p.source, method, config.cutoff_hz, config.min_period_s)
@@ -989,54 +1018,87 @@ def _find_steps(p, method, config, peak_cache):
             bounds = np.sort(np.concatenate([imax, imin]))
         else:
             bounds = imax
-        if peak_cache is not None:
-            peak_cache[pkey] = (imax, bounds)
+        bt = grid[bounds]
+        bt.flags.writeable = False                              # shared by the Steps of every reading
+        found = cache[pkey] = (imax, bounds, bt, _median(bt[1:] - bt[:-1]) if bt.size >= 2 else float("nan"))
+    imax, bounds, bt, per = found
     if bounds.size < 2:
         raise MorpiError(f"{p.source}: no periodic motion found in the {method} signal "
                          f"({bounds.size} peak(s) between {m0 - t[0]:.1f} s and {m1 - t[0]:.1f} s)")
     wkey = pkey + (config.amplitude_from,)
-    if peak_cache is not None and wkey in peak_cache:
-        weight, bi = peak_cache[wkey]
-    else:
+    found = cache.get(wkey)
+    if found is None:
         amp = g if config.amplitude_from == "filtered" else graw
         # max and min over each closed interval [bounds[j], bounds[j+1]] of the grid
         vmax = np.maximum(np.maximum.reduceat(amp, bounds[:-1])[:bounds.size - 1], amp[bounds[1:]])
         vmin = np.minimum(np.minimum.reduceat(amp, bounds[:-1])[:bounds.size - 1], amp[bounds[1:]])
         weight = weinberg_length(vmax, vmin, 1.0)
-        bi = np.searchsorted(t, grid[imax])
-        if peak_cache is not None:
-            weight.flags.writeable = False                      # shared by every Steps of this key
-            peak_cache[wkey] = (weight, bi)
-    # what every heading reading of these steps shares, kept on the prepared signal (its heading), in
-    # three levels: the boundaries (peaks), their weights, the end steps
-    memo = p.steps_memo
+        weight.flags.writeable = False                          # shared by every Steps of this key
+        found = cache[wkey] = (weight, _median(weight))
+    weight, wmed = found
+    # the headings: at the motion's ends, at the boundaries, and the swing between the maxima
     psi = p.heading
+    psi_m = memo.get("motion heading")
+    if psi_m is None:
+        psi_m = memo["motion heading"] = np.interp([m0, m1], t, psi)
+    bkey = ("boundary heading", pkey)
+    psi_b = memo.get(bkey)
+    if psi_b is None:
+        psi_b = memo[bkey] = np.interp(bt, t, psi)
+        psi_b.flags.writeable = False                           # shared by the Steps of every reading
+    skey = ("swing",) + pkey[3:5]                               # the maxima: prominence, least period
+    med = memo.get(skey)
+    if med is None:
+        med = float("nan")
+        bi = np.searchsorted(t, grid[imax])
+        if bi.size >= 2:
+            swing = np.degrees(np.maximum.reduceat(psi, bi[:-1])[:bi.size - 1]
+                               - np.minimum.reduceat(psi, bi[:-1])[:bi.size - 1])
+            med = _median(swing)
+        memo[skey] = med
+    out = memo[rule] = (pkey, wkey, bt, psi_b, psi_m, per, bounds, weight, med, wmed)
+    return out
+
+
+def _edge_values(p, config, pkey, bt, psi_b) -> np.ndarray:
+    """What the heading readings "turns" and "mean" read at ``[m0, bt..., m1]`` (the motion's ends and the
+    boundaries, where every step starts and ends): the turn heading, or the heading's running integral.
+    Memoized on the prepared signal; read-only."""
+    memo = p.steps_memo
+    if config.heading == "turns":
+        key = ("turn values", pkey, config.turn_deg)            # the stretches do not depend on the ends
+    else:
+        key = ("integral values", pkey)
+    out = memo.get(key)
+    if out is None:
+        t = p.time
+        x = np.concatenate([p.motion[:1], bt, p.motion[1:]])
+        if config.heading == "turns":
+            stretches = turn_stretches(bt, psi_b, np.radians(config.turn_deg), 2 if config.segment == "extrema" else 1)
+            out = turn_heading(x, t, p.heading, stretches, integral=p.heading_integral)
+        else:
+            out = np.interp(x, t, p.heading_integral)
+        out.flags.writeable = False
+        memo[key] = out
+    return out
+
+
+def _find_steps(p, method, config, peak_cache):
+    """The steps of :func:`extract_steps`: the parts every heading reading shares and the heading."""
+    pkey, wkey, bt, psi_b, psi_m, per, bounds, weight, med, wmed = _boundaries(p, method, config, peak_cache)
+    m0, m1 = p.motion
+    memo = p.steps_memo
+    peaks = memo.get(("peaks", pkey))
+    if peaks is None:
+        idx = np.minimum(np.searchsorted(p.time, bt), p.time.shape[0] - 1)
+        idx.flags.writeable = False
+        lo, hi = p.span
+        peaks = memo[("peaks", pkey)] = Peaks(grid_time=p.grid, grid_signal=p.filtered, grid_index=bounds, index=idx,
+                                              properties={"prominence_threshold": config.prominence * (hi - lo)})
     mkey = wkey + (config.ends,)
     if mkey in memo:
         st, et, weight, frac, psi_s, psi_e, med, peaks = memo[mkey]
     else:
-        bkey = ("boundaries", pkey)
-        if bkey not in memo:
-            bt = grid[bounds]
-            idx = np.minimum(np.searchsorted(t, bt), t.shape[0] - 1)
-            peaks = Peaks(grid_time=grid, grid_signal=g, grid_index=bounds, index=idx,
-                          properties={"prominence_threshold": prom})
-            # the heading at the boundaries and at the motion's ends: every end-step reading's edges
-            psi_b = np.interp(bt, t, psi)
-            psi_m = np.interp([m0, m1], t, psi)
-            for a in (bt, idx, psi_b):
-                a.flags.writeable = False                       # shared by the Steps of every reading
-            memo[bkey] = (bt, psi_b, psi_m, _median(bt[1:] - bt[:-1]), peaks)
-        bt, psi_b, psi_m, per, peaks = memo[bkey]
-        skey = ("swing", wkey)
-        if skey not in memo:
-            med = float("nan")
-            if bi.size >= 2:
-                swing = np.degrees(np.maximum.reduceat(psi, bi[:-1])[:bi.size - 1]
-                                   - np.minimum.reduceat(psi, bi[:-1])[:bi.size - 1])
-                med = _median(swing)
-            memo[skey] = med, _median(weight)
-        med, wmed = memo[skey]
         if config.ends == "drop":
             st, et, psi_s, psi_e = bt[:-1], bt[1:], psi_b[:-1], psi_b[1:]
             frac = np.ones_like(weight)
@@ -1058,28 +1120,18 @@ def _find_steps(p, method, config, peak_cache):
         memo[mkey] = (st, et, weight, frac, psi_s, psi_e, med, peaks)
     require_swing(p.source, method, med, config.min_swing_deg)
     if config.heading == "absolute":
-        dpsi = psi_e
-    elif config.heading == "change":
-        dpsi = psi_e - psi_s
-    elif config.heading == "turns":
-        tkey = ("turns", pkey, config.turn_deg)                 # the stretches do not depend on the ends
-        stretches = memo.get(tkey)
-        if stretches is None:
-            bt, psi_b = memo[("boundaries", pkey)][:2]
-            stretches = memo[tkey] = tuple(turn_stretches(bt, psi_b, np.radians(config.turn_deg),
-                                                          2 if config.segment == "extrema" else 1))
-        dpsi = psi_e - psi_s + turn_heading(st, t, psi, stretches, integral=p.heading_integral)
-    else:
-        akey = ("mean", mkey)                                   # kept with these steps
-        dpsi = memo.get(akey)
-        if dpsi is None:
-            # the mean heading over each step; the heading at its start for a step of no length. The steps
-            # tile the motion (each starts where the one before ends), so the integral is read at k + 1 edges
-            c = np.interp(np.append(st, et[-1]), t, p.heading_integral)
-            span = et - st
-            dpsi = memo[akey] = np.divide(c[1:] - c[:-1], span, out=np.array(psi_s), where=span > 1e-9)
-            dpsi.flags.writeable = False
-    return memo[mkey], dpsi, mkey
+        return memo[mkey], psi_e
+    if config.heading == "change":
+        return memo[mkey], psi_e - psi_s
+    # the turn heading or the heading's integral at the steps' edges: the steps tile the motion (each
+    # starts where the one before ends), so the edges are [m0, bt..., m1], or bt when the ends are dropped
+    edge = _edge_values(p, config, pkey, bt, psi_b)
+    edge = edge[1:-1] if config.ends == "drop" else edge
+    if config.heading == "turns":
+        return memo[mkey], psi_e - psi_s + edge[:-1]
+    # the mean heading over each step; the heading at its start for a step of no length
+    span = et - st
+    return memo[mkey], np.divide(edge[1:] - edge[:-1], span, out=np.array(psi_s), where=span > 1e-9)
 
 
 def _prominent(x, distance, prominence, cache, key):

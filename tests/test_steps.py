@@ -432,10 +432,18 @@ def test_turns_reading_drifts_less_than_absolute_on_a_biased_straight_sine(metho
 
 
 def test_step_sums_are_the_steps_own_sums_for_every_reading_and_refuse_the_same_runs():
-    from morpi_filters import simulate
+    import importlib.util
+    import math
 
+    from morpi_filters import _signal_kernel, simulate
+
+    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
+    plain = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(plain)
+    eps = np.finfo(float).eps
     L = simulate.l_route(period=1.0, amplitude=0.1)
     rec = _simulated(L, 2, bias_dps=0.1, pattern="s6")
+    turning = 0
     for method in st.METHODS:
         cache = {}
         for heading, segment, ends in itertools.product(st.HEADINGS, st.SEGMENTS, st.ENDS):
@@ -444,11 +452,22 @@ def test_step_sums_are_the_steps_own_sums_for_every_reading_and_refuse_the_same_
             # sums first, then the steps: each fills the memo the other reads
             w, ux, uy, swing, n = st.step_sums(prep, method, cfg, peak_cache=cache)
             s = st.extract_steps(None, method, cfg, prepared=prep, peak_cache=cache)
-            assert w == s.effective_weight and swing == s.swing_deg and n == s.n
-            end = st.morpi_track(s, 1.0).end_point                 # a sum in another order: to rounding
+            assert swing == s.swing_deg and n == s.n
+            # the compiled loop sums the steps' own terms in step order: against the exact (fsum) sums of the
+            # Steps' terms, the rounding of n additions and of each product and cosine (a few ulp each)
+            wf = s.weight * s.fraction
+            for got, terms in ((w, wf), (ux, wf * np.cos(s.heading)), (uy, wf * np.sin(s.heading))):
+                assert abs(got - math.fsum(terms)) <= (n + 4) * eps * np.abs(terms).sum(), (heading, segment, ends)
+            end = st.morpi_track(s, 1.0).end_point
             np.testing.assert_allclose([ux, uy], end, rtol=0, atol=1e-12 * s.effective_weight)
-            assert (ux, uy) == (np.dot(s.weight * s.fraction, np.cos(s.heading)),
-                                np.dot(s.weight * s.fraction, np.sin(s.heading)))
+            turning += heading == "turns" and bool(np.any(s.heading != st.extract_steps(
+                None, method, cfg.with_(heading="change"), prepared=prep, peak_cache=cache).heading))
+            # the compiled loop gives the plain Python loop's bits
+            pkey, _, bt, psi_b, psi_m, per, _, weight, _, wmed = st._boundaries(prep, method, cfg, cache)
+            edge = st._edge_values(prep, cfg, pkey, bt, psi_b) if heading in ("turns", "mean") else np.zeros(0)
+            assert plain.reading_sums(bt, psi_b, weight, edge, *prep.motion, *psi_m, per, wmed,
+                                      st._ENDS_CODES[ends], st._HEADING_CODES[heading]) == (w, ux, uy, n)
+    assert turning == 2 * len(st.SEGMENTS) * len(st.ENDS)        # the L route's turn enters every turns reading
     # the L route turns: the turns reading's integral, given or computed, gives the same heading
     prep = st.prepare_signal(rec, "MoRPI-G", 3.0)
     bt = prep.grid[::400]
@@ -470,6 +489,42 @@ def test_step_sums_are_the_steps_own_sums_for_every_reading_and_refuse_the_same_
     assert str(a.value) == str(b.value) and "flat.csv: no periodic motion" in str(a.value)
     with pytest.raises(MorpiError, match="does not match"):
         st.step_sums(prep, "MoRPI-G", cfg.with_(cutoff_hz=cfg.cutoff_hz / 2))
+
+
+def test_reading_sums_kernel_by_hand():
+    import importlib.util
+    import math
+
+    from morpi_filters import _signal_kernel
+
+    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
+    plain = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(plain)
+    bt, psi_b, weight = np.array([1.0, 2.0, 3.0]), np.array([0.0, 0.1, 0.2]), np.array([2.0, 3.0])
+    # the motion starts on the first boundary (an empty first step) and ends half a median step after the last
+    m0, m1, psi_m0, psi_m1, per, wmed = 1.0, 3.5, 0.0, 0.3, 1.0, 2.5
+    integral = np.array([0.0, 0.0, 0.05, 0.2, 0.3])              # at [m0, bt..., m1]
+    turn = np.array([0.0, 0.0, 0.7, 0.7, 0.7])
+    cases = [  # (ends, heading, aux, [(weight * fraction, heading) per step])
+        (0, 0, np.zeros(0), [(2.0, 0.1), (3.0, 0.2)]),
+        (0, 1, np.zeros(0), [(2.0, 0.1), (3.0, 0.1)]),
+        (0, 2, turn, [(2.0, 0.1 + 0.0), (3.0, 0.1 + 0.7)]),
+        (0, 3, integral, [(2.0, 0.05), (3.0, 0.15)]),
+        # fraction: the empty first step counts 0 of a step, with the heading at its start (no 0 / 0)
+        (1, 3, integral, [(0.0, 0.0), (2.0, 0.05), (3.0, 0.15), (1.25, 0.1 / 0.5)]),
+        (1, 0, np.zeros(0), [(0.0, 0.0), (2.0, 0.1), (3.0, 0.2), (1.25, 0.3)]),
+        # whole: half a step or more counts as one
+        (2, 2, turn, [(0.0, 0.0 + 0.0), (2.0, 0.1 + 0.0), (3.0, 0.1 + 0.7), (2.5, 0.1 + 0.7)]),
+    ]
+    eps = np.finfo(float).eps
+    for ends, heading, aux, steps in cases:
+        wf = [a for a, _ in steps]
+        want = (math.fsum(wf), math.fsum(a * math.cos(h) for a, h in steps),
+                math.fsum(a * math.sin(h) for a, h in steps), len(steps))
+        for f in (plain.reading_sums, _signal_kernel.compiled()["reading_sums"]):
+            got = f(bt, psi_b, weight, aux, m0, m1, psi_m0, psi_m1, per, wmed, ends, heading)
+            assert got[3] == want[3] and all(math.isfinite(v) for v in got[:3]), (ends, heading, got)
+            np.testing.assert_allclose(got[:3], want[:3], rtol=8 * eps, atol=8 * eps, err_msg=str((ends, heading)))
 
 
 def test_peaks_shared_across_prominence_thresholds_are_scipys_own():
