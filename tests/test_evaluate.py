@@ -639,3 +639,29 @@ def test_fold_thresholds_equal_the_thresholds_of_the_train_runs_without_the_held
     assert sorted(fold.swings_deg) == sorted(ref.swings_deg) and len(fold.rest_std) == len(th.rest_std) - 1
     if which != "first":
         assert (fold.min_swing_deg, fold.turn_deg) != (th.min_swing_deg, th.turn_deg)
+
+
+def test_a_study_freezes_the_heap_only_while_it_runs_and_only_when_nobody_else_did():
+    import gc
+
+    from morpi_filters import evaluate as ev
+
+    seen = []
+    study = ev._frozen_heap(lambda x: seen.append(gc.get_freeze_count()) or x + 1)
+    assert gc.get_freeze_count() == 0
+    assert study(1) == 2 and seen[-1] > 0 and gc.get_freeze_count() == 0
+
+    def fails():
+        raise ZeroDivisionError
+
+    with pytest.raises(ZeroDivisionError):
+        ev._frozen_heap(fails)()
+    assert gc.get_freeze_count() == 0
+    gc.freeze()                                                  # a caller's own freeze is left as it is
+    try:
+        frozen = gc.get_freeze_count()
+        study(1)
+        assert seen[-1] == frozen and gc.get_freeze_count() == frozen
+    finally:
+        gc.unfreeze()
+    assert ev.tables_study.__doc__.startswith("Compute everything the tables section shows")

@@ -111,6 +111,14 @@ def test_lowpass_is_scipys_sosfiltfilt_bit_for_bit(cutoff_hz):
     np.testing.assert_array_equal(out, st.lowpass(x, cutoff_hz))
 
 
+def test_span_percentiles_are_numpys_bit_for_bit():
+    rng = np.random.default_rng(5)
+    for n in (3, 4, 5, 26, 50, 51, 76, 6000, 6001):               # 26, 76: an index halfway between two
+        for x in (rng.normal(size=n), 1e3 + 1e-3 * rng.normal(size=n), np.round(rng.normal(size=n), 1)):
+            assert st._percentiles(x, (2.0, 98.0)) == tuple(np.percentile(x, [2, 98]).tolist())
+            assert st._percentiles(x, (0.0, 50.0, 100.0)) == tuple(np.percentile(x, [0, 50, 100]).tolist())
+
+
 def test_weinberg_length_of_a_sinusoid():
     # a sinusoid of amplitude A has max - min = 2A in every period: length gain * (2A)^(1/4)
     rng = np.random.default_rng(4)
