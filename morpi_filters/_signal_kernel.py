@@ -15,6 +15,8 @@
   forward-backward second-order-sections filter of :func:`scipy.signal.sosfiltfilt` with its
   default odd padding, each section's update in the order scipy's own loop takes, so the result has
   scipy's bits;
+- :func:`interp` and :func:`swing_median`, the boundary headings and the median heading swing of a
+  step rule, with numpy's arithmetic (``np.interp``; ``searchsorted`` and ``reduceat`` windows);
 - :func:`reading_sums`, what :func:`morpi_filters.steps.step_sums` returns for one step rule: the steps
   between the boundaries under each end and heading reading, summed in step order (the rule searches
   read thousands of rules per run).
@@ -164,6 +166,73 @@ def filtfilt(sos, zi, pad, x, out):
         out[i] = y[pad + i]
 
 
+def interp(x, xp, fp, out):
+    """``out[:] = np.interp(x, xp, fp)`` for `xp` (m,) strictly increasing, with numpy's arithmetic
+    (``slope * (x - xp[j]) + fp[j]``, the far end's form when that is NaN), so numpy's bits."""
+    m = xp.shape[0]
+    for i in range(x.shape[0]):
+        v = x[i]
+        if v > xp[m - 1]:
+            out[i] = fp[m - 1]
+        elif v < xp[0]:
+            out[i] = fp[0]
+        else:
+            lo = 0                                              # xp[lo] <= v < xp[hi]
+            hi = m
+            while hi - lo > 1:
+                mid = (lo + hi) // 2
+                if xp[mid] <= v:
+                    lo = mid
+                else:
+                    hi = mid
+            if lo == m - 1 or xp[lo] == v:
+                out[i] = fp[lo]
+            else:
+                slope = (fp[lo + 1] - fp[lo]) / (xp[lo + 1] - xp[lo])
+                r = slope * (v - xp[lo]) + fp[lo]
+                if r != r:
+                    r = slope * (v - xp[lo + 1]) + fp[lo + 1]
+                    if r != r and fp[lo] == fp[lo + 1]:
+                        r = fp[lo]
+                out[i] = r
+
+
+def swing_median(t, psi, at):
+    """Median heading swing [deg] between the samples first at or after the times `at` (k,): what
+    ``steps._boundaries`` reads with ``np.searchsorted`` and ``np.maximum.reduceat``, so the same
+    windows (the last one runs to the end of `psi`; a window of no sample is the sample it starts
+    on); NaN for k < 2."""
+    k = at.shape[0]
+    if k < 2:
+        return np.nan
+    n = t.shape[0]
+    b = np.empty(k, np.int64)
+    j = 0
+    for i in range(k):                                          # at is increasing: one pass
+        while j < n and t[j] < at[i]:
+            j += 1
+        b[i] = j
+    sw = np.empty(k - 1)
+    for i in range(k - 1):
+        a = b[i]
+        e = b[i + 1] if i < k - 2 else n
+        if e <= a:
+            e = a + 1
+        if a >= n:                                              # past the last sample: numpy's reduceat refuses
+            return np.nan
+        hi = psi[a]
+        lo = psi[a]
+        for r in range(a + 1, e):
+            if psi[r] > hi:
+                hi = psi[r]
+            if psi[r] < lo:
+                lo = psi[r]
+        sw[i] = (hi - lo) * (180.0 / math.pi)
+    sw.sort()
+    h = (k - 1) // 2
+    return sw[h] if (k - 1) % 2 else 0.5 * (sw[h - 1] + sw[h])
+
+
 def reading_sums(bt, psi_b, weight, aux, m0, m1, psi_m0, psi_m1, per, wmed, ends, heading):
     """``(w, ux, uy, n)`` of the steps between the boundaries `bt` (k,), in the order the steps run.
 
@@ -221,7 +290,7 @@ def reading_sums(bt, psi_b, weight, aux, m0, m1, psi_m0, psi_m1, per, wmed, ends
 
 #: The functions numba compiles, callees first.
 _FUNCTIONS = ("moving_stats", "motion_flags", "increments", "running_integral", "_sections", "filtfilt",
-              "reading_sums")
+              "interp", "swing_median", "reading_sums")
 _COMPILED = None
 
 

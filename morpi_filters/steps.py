@@ -974,20 +974,21 @@ def step_sums(prepared: PreparedSignal, method: str, config: StepConfig, *, peak
     heading = _HEADING_CODES[config.heading]
     edge = _edge_values(prepared, config, pkey, bt, psi_b) if heading >= 2 else _NO_EDGES
     m0, m1 = prepared.motion
-    w, ux, uy, n = (_READING_SUMS or _reading_sums())(bt, psi_b, weight, edge, m0, m1, psi_m[0], psi_m[1], per, wmed,
+    w, ux, uy, n = (_KERNELS or _kernels())["reading_sums"](bt, psi_b, weight, edge, m0, m1, psi_m[0], psi_m[1], per, wmed,
                                               _ENDS_CODES[config.ends], heading)
     return StepSums(w, ux, uy, med, n)
 
 
-_READING_SUMS = None
+_KERNELS = None
 
 
-def _reading_sums():
-    global _READING_SUMS
+def _kernels() -> dict:
+    """The compiled loops of ``_signal_kernel`` (numba is imported on the first call)."""
+    global _KERNELS
     from ._signal_kernel import compiled
 
-    _READING_SUMS = compiled()["reading_sums"]
-    return _READING_SUMS
+    _KERNELS = compiled()
+    return _KERNELS
 
 
 #: The codes of the readings in ``_signal_kernel.reading_sums``.
@@ -1057,24 +1058,20 @@ def _boundaries(p, method, config, peak_cache):
     weight, wmed = found
     # the headings: at the motion's ends, at the boundaries, and the swing between the maxima
     psi = p.heading
+    kernel = _KERNELS or _kernels()
     psi_m = memo.get("motion heading")
     if psi_m is None:
         psi_m = memo["motion heading"] = np.interp([m0, m1], t, psi)
     bkey = ("boundary heading", pkey)
     psi_b = memo.get(bkey)
     if psi_b is None:
-        psi_b = memo[bkey] = np.interp(bt, t, psi)
+        psi_b = memo[bkey] = np.empty(bt.shape[0])
+        kernel["interp"](bt, t, psi, psi_b)                     # np.interp(bt, t, psi)
         psi_b.flags.writeable = False                           # shared by the Steps of every reading
     skey = ("swing",) + pkey[3:5]                               # the maxima: prominence, least period
     med = memo.get(skey)
     if med is None:
-        med = float("nan")
-        bi = np.searchsorted(t, grid[imax])
-        if bi.size >= 2:
-            swing = np.degrees(np.maximum.reduceat(psi, bi[:-1])[:bi.size - 1]
-                               - np.minimum.reduceat(psi, bi[:-1])[:bi.size - 1])
-            med = _median(swing)
-        memo[skey] = med
+        med = memo[skey] = float(kernel["swing_median"](t, psi, grid[imax]))
     out = memo[rule] = (pkey, wkey, bt, psi_b, psi_m, per, bounds, weight, med, wmed)
     return out
 

@@ -499,6 +499,50 @@ def test_step_sums_are_the_steps_own_sums_for_every_reading_and_refuse_the_same_
         st.step_sums(prep, "MoRPI-G", cfg.with_(cutoff_hz=cfg.cutoff_hz / 2))
 
 
+def test_interp_and_swing_kernels_are_numpys_bit_for_bit():
+    import importlib.util
+
+    from morpi_filters import _signal_kernel
+
+    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
+    plain = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(plain)
+    rng = np.random.default_rng(8)
+    t = np.cumsum(rng.uniform(0.005, 0.02, 3000))
+    psi = np.cumsum(rng.normal(0.0, 0.01, 3000))
+    # inside, outside, on the samples, on the last sample; a step and a NaN in fp
+    mid = 0.5 * (t[:-1] + t[1:])
+    x = np.concatenate([rng.uniform(t[0] - 1, t[-1] + 1, 500), t[::7], t[-1:], [t[0] - 5, t[-1] + 5],
+                        mid[[99, 100, 105, 109, 110, 499, 500, 501, 1999, 2000]]])
+    fp = psi.copy()
+    fp[100:110] = 3.0
+    fp[500:502] = np.inf                                         # inf - inf: numpy's fallbacks
+    fp[2000] = np.nan
+    for f in (plain.interp, _signal_kernel.compiled()["interp"]):
+        for values in (psi, fp):
+            out = np.empty(x.shape[0])
+            with np.errstate(invalid="ignore"):                  # inf - inf in the plain loop's numpy scalars
+                f(x, t, values, out)
+            np.testing.assert_array_equal(out, np.interp(x, t, values))
+
+    def numpy_swing(at):
+        bi = np.searchsorted(t, at)
+        if bi.size < 2:
+            return float("nan")
+        return st._median(np.degrees(np.maximum.reduceat(psi, bi[:-1])[:bi.size - 1]
+                                     - np.minimum.reduceat(psi, bi[:-1])[:bi.size - 1]))
+
+    # peaks a sample apart, two peaks on one sample (a window of none), an odd and an even count
+    at = np.sort(rng.uniform(t[0], t[-1], 41))
+    cases = [at, at[:-1], np.sort(np.r_[at, at[5], t[10] + 1e-4, t[10] + 2e-4]), at[:2], at[:1],
+             np.array([t[10] + 1e-4, t[10] + 2e-4, t[50]])]
+    for f in (plain.swing_median, _signal_kernel.compiled()["swing_median"]):
+        for a in cases:
+            want = numpy_swing(a)
+            got = f(t, psi, a)
+            assert (np.isnan(want) and np.isnan(got)) or got == want, (a.size, got, want)
+
+
 def test_reading_sums_kernel_by_hand():
     import importlib.util
     import math
