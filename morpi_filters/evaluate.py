@@ -376,15 +376,21 @@ def _frozen_heap(study):
 
     @functools.wraps(study)
     def run(*args, **kwargs):
-        if gc.get_freeze_count():
+        global _FREEZING
+        if _FREEZING or gc.get_freeze_count():                  # (the count walks the frozen objects)
             return study(*args, **kwargs)
         gc.freeze()
+        _FREEZING = True
         try:
             return study(*args, **kwargs)
         finally:
+            _FREEZING = False
             gc.unfreeze()
 
     return run
+
+
+_FREEZING = False
 
 
 # --------------------------------------------------------------------------- cells
