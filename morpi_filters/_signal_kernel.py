@@ -80,7 +80,8 @@ def increments(time, x, inc, d):
     """Slopes `d` (B, n, k) and interval integrals `inc` (B, n - 1, k) of samples `x` (B, n, k) on `time` (n,).
 
     ``d`` the 3-point non-uniform differences (one-sided quadratics at both ends; the chord for
-    n = 2), ``inc = dt (x_j + x_j+1) / 2 + dt^2 (d_j - d_j+1) / 12``.
+    n = 2), ``inc = dt (x_j + x_j+1) / 2 + dt^2 (d_j - d_j+1) / 12``. The coefficients of the time
+    steps are computed once; each column then runs along time (the loop the compiler vectorizes).
     """
     B, n, K = x.shape
     if n == 2:
@@ -89,6 +90,15 @@ def increments(time, x, inc, d):
                 d[r, 0, j] = (x[r, 1, j] - x[r, 0, j]) / (time[1] - time[0])
                 d[r, 1, j] = d[r, 0, j]
     else:
+        c0 = np.empty(n)
+        c1 = np.empty(n)
+        c2 = np.empty(n)
+        for i in range(1, n - 1):
+            h1 = time[i] - time[i - 1]
+            h2 = time[i + 1] - time[i]
+            c0[i] = -h2 / (h1 * (h1 + h2))
+            c1[i] = (h2 - h1) / (h1 * h2)
+            c2[i] = h1 / (h2 * (h1 + h2))
         a = time[1] - time[0]
         b = time[2] - time[1]
         e0 = -(2 * a + b) / (a * (a + b))
@@ -99,25 +109,21 @@ def increments(time, x, inc, d):
         f0 = b / (a * (a + b))
         f1 = (a + b) / (a * b)
         f2 = (a + 2 * b) / (b * (a + b))
-        for i in range(1, n - 1):
-            h1 = time[i] - time[i - 1]
-            h2 = time[i + 1] - time[i]
-            c0 = -h2 / (h1 * (h1 + h2))
-            c1 = (h2 - h1) / (h1 * h2)
-            c2 = h1 / (h2 * (h1 + h2))
-            for r in range(B):
-                for j in range(K):
-                    d[r, i, j] = c0 * x[r, i - 1, j] + c1 * x[r, i, j] + c2 * x[r, i + 1, j]
         for r in range(B):
             for j in range(K):
+                for i in range(1, n - 1):
+                    d[r, i, j] = c0[i] * x[r, i - 1, j] + c1[i] * x[r, i, j] + c2[i] * x[r, i + 1, j]
                 d[r, 0, j] = e0 * x[r, 0, j] + e1 * x[r, 1, j] - e2 * x[r, 2, j]
                 d[r, n - 1, j] = f0 * x[r, n - 3, j] - f1 * x[r, n - 2, j] + f2 * x[r, n - 1, j]
+    dt = np.empty(n - 1)
+    q = np.empty(n - 1)
     for i in range(n - 1):
-        dt = time[i + 1] - time[i]
-        q = dt * dt / 12.0
-        for r in range(B):
-            for j in range(K):
-                inc[r, i, j] = 0.5 * (x[r, i, j] + x[r, i + 1, j]) * dt + (d[r, i, j] - d[r, i + 1, j]) * q
+        dt[i] = time[i + 1] - time[i]
+        q[i] = dt[i] * dt[i] / 12.0
+    for r in range(B):
+        for j in range(K):
+            for i in range(n - 1):
+                inc[r, i, j] = 0.5 * (x[r, i, j] + x[r, i + 1, j]) * dt[i] + (d[r, i, j] - d[r, i + 1, j]) * q[i]
 
 
 def running_integral(t, x, out):
