@@ -9,8 +9,9 @@
   moving: a gyro deviation or spread, or an accelerometer spread, above its threshold on any axis;
 - :func:`increments`, the integral of sampled signals over each interval of the real time grid
   (the corrected trapezoid of :mod:`morpi_filters.strapdown`: 3-point slopes, cubic Hermite
-  interpolant), the element-wise arithmetic in numpy's order, so with numpy's bits, and
-  :func:`running_integral`, the plain trapezoid's running sum;
+  interpolant), the element-wise arithmetic in numpy's order, so with numpy's bits, the velocity and
+  position they give (:func:`translation`), and :func:`running_integral`, the plain trapezoid's
+  running sum;
 - :func:`filtfilt`, the zero-phase low-pass of :func:`morpi_filters.steps.lowpass`: the
   forward-backward second-order-sections filter of :func:`scipy.signal.sosfiltfilt` with its
   default odd padding, each section's update in the order scipy's own loop takes, so the result has
@@ -124,6 +125,30 @@ def increments(time, x, inc, d):
         for j in range(K):
             for i in range(n - 1):
                 inc[r, i, j] = 0.5 * (x[r, i, j] + x[r, i + 1, j]) * dt[i] + (d[r, i, j] - d[r, i + 1, j]) * q[i]
+
+
+def translation(dt, a, d, dv, c3, v0, p0, v, p):
+    """Velocity `v` and position `p` (B, n, k) from accelerations `a` (B, n, k), their slopes `d` and
+    interval integrals `dv` (:func:`increments`), the time steps `dt` (n - 1,) and ``c3 = dt**3 / 60``
+    (numpy's power), from `v0`, `p0` (B, k): ``v`` the running sum of `dv`,
+    ``dp = v dt + (7 a_j + 3 a_j+1) dt^2 / 20 + (3 d_j - 2 d_j+1) c3`` and its running sum, each in
+    numpy's order (``cumsum``, then the start added)."""
+    B, n, K = a.shape
+    for r in range(B):
+        for j in range(K):
+            v[r, 0, j] = v0[r, j]
+            p[r, 0, j] = p0[r, j]
+            sv = 0.0
+            sp = 0.0
+            for i in range(n - 1):
+                sv = dv[r, i, j] if i == 0 else sv + dv[r, i, j]
+                v[r, i + 1, j] = sv + v0[r, j]
+            for i in range(n - 1):
+                dp = v[r, i, j] * dt[i]
+                dp = dp + (7.0 * a[r, i, j] + 3.0 * a[r, i + 1, j]) * (dt[i] * dt[i] / 20.0)
+                dp = dp + (3.0 * d[r, i, j] - 2.0 * d[r, i + 1, j]) * c3[i]
+                sp = dp if i == 0 else sp + dp
+                p[r, i + 1, j] = sp + p0[r, j]
 
 
 def running_integral(t, x, out):
@@ -295,7 +320,7 @@ def reading_sums(bt, psi_b, weight, aux, m0, m1, psi_m0, psi_m1, per, wmed, ends
 
 
 #: The functions numba compiles, callees first.
-_FUNCTIONS = ("moving_stats", "motion_flags", "increments", "running_integral", "_sections", "filtfilt",
+_FUNCTIONS = ("moving_stats", "motion_flags", "increments", "translation", "running_integral", "_sections", "filtfilt",
               "interp", "swing_median", "reading_sums")
 _COMPILED = None
 

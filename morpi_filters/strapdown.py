@@ -361,19 +361,14 @@ def _integrate_translation(time, a, v0, p0):
     both ends): ``dv = dt (a_k + a_k+1)/2 + dt^2 (a'_k - a'_k+1)/12``,
     ``dp = v_k dt + dt^2 (7 a_k + 3 a_k+1)/20 + dt^3 (3 a'_k - 2 a'_k+1)/60``.
     """
-    dt = np.diff(time)[None, :, None]
+    from ._signal_kernel import compiled
+
+    dt = np.diff(time)
+    a = np.require(a, float, ["C", "W"])
     dv, d = _increments(time, a)
-    v = np.empty_like(a)
-    v[:, 0] = v0
-    np.cumsum(dv, axis=1, out=v[:, 1:])
-    v[:, 1:] += v0[:, None, :]
-    dp = v[:, :-1] * dt
-    dp += (7.0 * a[:, :-1] + 3.0 * a[:, 1:]) * (dt * dt / 20.0)
-    dp += (3.0 * d[:, :-1] - 2.0 * d[:, 1:]) * (dt ** 3 / 60.0)
-    p = np.empty_like(a)
-    p[:, 0] = p0
-    np.cumsum(dp, axis=1, out=p[:, 1:])
-    p[:, 1:] += p0[:, None, :]
+    v, p = np.empty(a.shape), np.empty(a.shape)
+    compiled()["translation"](dt, a, d, dv, dt ** 3 / 60.0, np.require(v0, float, ["C", "W"]),
+                              np.require(p0, float, ["C", "W"]), v, p)
     return v, p
 
 

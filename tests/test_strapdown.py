@@ -311,6 +311,39 @@ def _numpy_increments(time, x):
     return 0.5 * (x[:, :-1] + x[:, 1:]) * dt + (d[:, :-1] - d[:, 1:]) * (dt * dt / 12.0), d
 
 
+@pytest.mark.parametrize("n", [2, 3, 500])
+def test_translation_is_the_numpy_sums_bit_for_bit(n):
+    import importlib.util
+
+    from morpi_filters import _signal_kernel
+    from morpi_filters.strapdown import _integrate_translation
+
+    rng = np.random.default_rng(43)
+    time = 1.0 + np.cumsum(rng.uniform(0.003, 0.02, n))
+    for B in (1, 2):
+        a, v0, p0 = rng.normal(size=(B, n, 3)), rng.normal(size=(B, 3)), rng.normal(size=(B, 3))
+        # the numpy form: running sums of the Hermite velocity and position increments
+        dt = np.diff(time)[None, :, None]
+        dv, d = _numpy_increments(time, a)
+        v = np.concatenate([v0[:, None], np.cumsum(dv, axis=1) + v0[:, None]], axis=1)
+        dp = v[:, :-1] * dt
+        dp += (7.0 * a[:, :-1] + 3.0 * a[:, 1:]) * (dt * dt / 20.0)
+        dp += (3.0 * d[:, :-1] - 2.0 * d[:, 1:]) * (dt ** 3 / 60.0)
+        p = np.concatenate([p0[:, None], np.cumsum(dp, axis=1) + p0[:, None]], axis=1)
+        got_v, got_p = _integrate_translation(time, a, v0, p0)
+        np.testing.assert_array_equal(got_v, v)
+        np.testing.assert_array_equal(got_p, p)
+    # the compiled loop gives the plain Python loop's bits
+    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
+    plain = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(plain)
+    pv, pp = np.empty(a.shape), np.empty(a.shape)
+    dv, d = _numpy_increments(time, a)
+    plain.translation(np.diff(time), a, d, dv, np.diff(time) ** 3 / 60.0, v0, p0, pv, pp)
+    np.testing.assert_array_equal(pv, got_v)
+    np.testing.assert_array_equal(pp, got_p)
+
+
 @pytest.mark.parametrize("n", [2, 3, 4, 500])
 def test_increments_and_running_integral_are_the_numpy_sums_bit_for_bit(n):
     import importlib.util
