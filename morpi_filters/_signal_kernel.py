@@ -5,6 +5,12 @@
   ``[t - half, t + half]``, from running sums of the deviations from the first sample (less
   cancellation in ``E[x^2] - E[x]^2``). The window's ends advance with the samples (two pointers)
   instead of a binary search per sample.
+- :func:`block_sigma_loops` (:func:`block_edges`, :func:`block_noise`, :func:`block_pick`,
+  :func:`sort_head`), what :func:`morpi_filters.calibration.rest_measures` reads of the first
+  seconds of a recording: each block's noise sigma (the robust sigma of the first differences,
+  :func:`morpi_filters.calibration.noise_sigma`) and spread, the lower quartile of the sigmas and
+  the median of the quietest block, with numpy's arithmetic in numpy's order (on a C-ordered array
+  of 2 to 7 columns every sum of that code adds its terms one after the other from 0.0), so its bits;
 - :func:`motion_flags`, the samples :func:`morpi_filters.calibration.detect_rest` takes as
   moving: a gyro deviation or spread, or an accelerometer spread, above its threshold on any axis;
 - :func:`increments`, the integral of sampled signals over each interval of the real time grid
@@ -319,8 +325,254 @@ def reading_sums(bt, psi_b, weight, aux, m0, m1, psi_m0, psi_m1, per, wmed, ends
     return w, ux, uy, n
 
 
+#: The smallest positive float, the bound of the block noise sigmas (:func:`block_noise`).
+_TINY = float(np.finfo(float).tiny)
+_SQRT2 = math.sqrt(2.0)
+_SQRT12 = math.sqrt(12.0)
+
+
+def sort_head(a, n):
+    """Sort ``a[:n]`` in place (a 1-d float array without NaN): insertion sort up to 48 values, else
+    numba's sort. Sorting is exact, so the sorted values are numpy's whatever the method."""
+    if n <= 48:
+        for i in range(1, n):
+            v = a[i]
+            p = i
+            while p > 0 and a[p - 1] > v:
+                a[p] = a[p - 1]
+                p -= 1
+            a[p] = v
+    else:
+        a[:n].sort()
+
+
+def block_edges(t, span, block):
+    """The block edges of ``_block_sigma``: ``np.searchsorted(t, np.arange(0.0, max(span, block) + 1e-12,
+    block), side="left")`` for strictly increasing `t` (n,), as an int64 array.
+
+    numpy's float ``arange`` has ``ceil(stop / block)`` values ``0.0 + i * block`` (its fill adds
+    ``i * (buffer[1] - buffer[0])`` to the start); each edge is the first index with ``t >= value``.
+    """
+    stop = max(span, block) + 1e-12
+    count = max(int(math.ceil(stop / block)), 0)
+    edges = np.empty(count, dtype=np.int64)
+    p = 0
+    n = t.shape[0]
+    for i in range(count):
+        v = 0.0 + i * block
+        while p < n and t[p] < v:
+            p += 1
+        edges[i] = p
+    return edges
+
+
+def block_noise(x, edges, bounds, sig, spread):
+    """Noise sigma and standard deviation of each block of five samples or more, per column; their count.
+
+    `x` (n, k) samples, `edges` (e,) ascending sample indices: the candidate blocks are
+    ``x[edges[i]:edges[i + 1]]``, those of ``edges[i + 1] - edges[i] >= 5`` rows are taken, in order.
+    For the b-th taken block ``x[a:b_]`` it writes ``bounds[b] = (a, b_)`` ((e - 1, 2) integers), its
+    :func:`morpi_filters.calibration.noise_sigma` into ``sig[b]`` and ``x[a:b_].std(axis=0)`` into
+    ``spread[b]`` (each (e - 1, k)), and returns the number of blocks taken; -1 as soon as a block's
+    sum, difference, variance or sigma is not finite (a NaN or an infinity in `x`, or an overflow:
+    numpy's sorts, comparisons and reductions then follow their own NaN rules; left to the numpy
+    code). So every value it writes is finite.
+
+    Per column the noise sigma of the ``n = b_ - a - 1`` first differences ``d`` is: ``med`` their
+    median; ``dev = |d - med|``; ``q90`` the linear-interpolation 0.9 quantile of ``dev``
+    (``pos = (n - 1) 0.9``, ``lo = floor(pos)``, ``hi = min(lo + 1, n - 1)``, ``f = pos - lo``: ``s[hi] -
+    (s[hi] - s[lo]) (1 - f)`` when ``f >= 0.5``, else ``s[lo] + (s[hi] - s[lo]) f``, ``s`` the sorted
+    ``dev``); ``sigma = sqrt(sum(dev^2 | dev <= q90) / count) / 0.7891 / sqrt(2)``, the kept squares
+    added in row order from 0.0; at least the smallest positive ``|d|`` over ``sqrt(12)`` (0 without
+    one) and the smallest positive float.
+
+    The differences are sorted (:func:`sort_head`); the deviations are not: ``|s_d[i] - med|``
+    decreases up to the median and increases after it (rounding is monotone), so the two runs are
+    merged from the ends of the sorted differences inwards, largest first, down to the rank ``lo``
+    (about n / 10 steps).
+    """
+    k = x.shape[1]
+    width = 1
+    for e in range(edges.shape[0] - 1):
+        if edges[e + 1] - edges[e] > width:
+            width = edges[e + 1] - edges[e]
+    d = np.empty(width)
+    srt = np.empty(width)
+    nb = 0
+    for e in range(edges.shape[0] - 1):
+        a = edges[e]
+        b = edges[e + 1]
+        m = b - a
+        if m < 5:
+            continue
+        bounds[nb, 0] = a
+        bounds[nb, 1] = b
+        n = m - 1
+        pos = (n - 1) * 0.9
+        lo = int(math.floor(pos))
+        hi = min(lo + 1, n - 1)
+        frac = pos - lo
+        mid = (n - 1) // 2
+        for j in range(k):
+            # standard deviation of the samples: two sequential sums
+            s = 0.0
+            for i in range(a, b):
+                s += x[i, j]
+            if not abs(s) < np.inf:
+                return -1
+            mean = s / m
+            s = 0.0
+            for i in range(a, b):
+                v = x[i, j] - mean
+                s += v * v
+            if not s < np.inf:
+                return -1
+            spread[nb, j] = math.sqrt(s / m)
+            # first differences, sorted
+            for i in range(n):
+                v = x[a + i + 1, j] - x[a + i, j]
+                if not abs(v) < np.inf:
+                    return -1
+                d[i] = v
+                srt[i] = v
+            sort_head(srt, n)
+            if n % 2 == 1:
+                med = srt[mid]
+            else:
+                med = (srt[mid] + srt[min(mid + 1, n - 1)]) / 2.0
+            # ranks lo and hi of |d - med|: the largest deviations lie at the ends of the sorted
+            # differences; merge the two runs from the ends inwards down to rank lo
+            p = 0
+            while p < n and srt[p] < med:
+                p += 1
+            il = 0
+            ir = n - 1
+            s_lo = 0.0
+            s_hi = 0.0
+            for r in range(n - 1, lo - 1, -1):                  # r: the rank taken
+                vl = abs(srt[il] - med) if il < p else -1.0
+                vr = abs(srt[ir] - med) if ir >= p else -1.0
+                if vl >= vr:
+                    v = vl
+                    il += 1
+                else:
+                    v = vr
+                    ir -= 1
+                if r == hi:
+                    s_hi = v
+                s_lo = v
+            step = s_hi - s_lo
+            if frac >= 0.5:
+                q90 = s_hi - step * (1.0 - frac)
+            else:
+                q90 = s_lo + step * frac
+            # sum of the kept squares in row order; the smallest positive step
+            ss = 0.0
+            cnt = 0
+            pos_min = np.inf
+            for i in range(n):
+                v = abs(d[i] - med)
+                if v <= q90:
+                    ss += v * v
+                    cnt += 1
+                ad = abs(d[i])
+                if ad > 0.0 and ad < pos_min:
+                    pos_min = ad
+            sigma = math.sqrt(ss / cnt) / 0.7891 / _SQRT2
+            floor = (pos_min if pos_min < np.inf else 0.0) / _SQRT12
+            if not sigma < np.inf:
+                return -1
+            r = sigma if sigma >= floor else floor
+            sig[nb, j] = r if r >= _TINY else _TINY
+        nb += 1
+    return nb
+
+
+def block_pick(x, bounds, nb, sig, spread, q, med):
+    """The quietest of the `nb` blocks of :func:`block_noise`, the lower quartile of their sigmas and its median.
+
+    The quietest block is the first ``argmin`` over the blocks of ``sum_j spread[b, j] /
+    max(min_b sig[b, j], 1e-300)`` (summed in column order from 0.0). Writes per column ``q`` (k,)
+    ``np.quantile(sig[:nb], 0.25, axis=0)`` (linear interpolation between the sorted values at
+    ``floor((nb - 1) / 4)`` and the next, with numpy's rule of ``b - (b - a)(1 - g)`` for a weight
+    ``g >= 0.5``) and ``med`` (k,) ``np.median`` of the block's rows (``(0.0 + a) / 1`` or
+    ``(0.0 + a + b) / 2`` of the middle values, as numpy's mean takes them); returns the block's
+    index.
+    """
+    k = x.shape[1]
+    den = np.empty(k)
+    for j in range(k):
+        lo = sig[0, j]
+        for i in range(1, nb):
+            if sig[i, j] < lo:
+                lo = sig[i, j]
+        den[j] = lo if lo >= 1e-300 else 1e-300
+    best = 0
+    best_score = 0.0
+    for i in range(nb):
+        s = 0.0
+        for j in range(k):
+            s += spread[i, j] / den[j]
+        if i == 0 or s < best_score:                       # the first of equal scores, as np.argmin
+            best = i
+            best_score = s
+    # lower quartile over the blocks
+    col = np.empty(max(nb, bounds[best, 1] - bounds[best, 0]))
+    vi = (nb - 1) * 0.25
+    if vi >= nb - 1:
+        prev = nb - 1
+        nxt = nb - 1
+        gamma = vi + 1.0                                   # numpy's gamma from the index -1
+    else:
+        prev = int(math.floor(vi))
+        nxt = prev + 1
+        gamma = vi - prev
+    for j in range(k):
+        for i in range(nb):
+            col[i] = sig[i, j]
+        sort_head(col, nb)
+        lo_v = col[prev]
+        hi_v = col[nxt]
+        step = hi_v - lo_v
+        if gamma >= 0.5:
+            q[j] = hi_v - step * (1.0 - gamma)
+        else:
+            q[j] = lo_v + step * gamma
+    # median of the quietest block
+    a = bounds[best, 0]
+    m = bounds[best, 1] - a
+    h = m // 2
+    for j in range(k):
+        for i in range(m):
+            col[i] = x[a + i, j]
+        sort_head(col, m)
+        if m % 2 == 1:
+            med[j] = (0.0 + col[h]) / 1.0
+        else:
+            med[j] = (0.0 + col[h - 1] + col[h]) / 2.0
+    return best
+
+
+def block_sigma_loops(t, x, span, block, q, med):
+    """The whole per-block work of ``_block_sigma(t, x, span, block)`` in one call: :func:`block_edges`,
+    :func:`block_noise`, then :func:`block_pick` writing the lower quartile of the sigmas into `q` (k,)
+    and the quietest block's median into `med` (k,). Returns the number of blocks (0: none of five
+    samples, -1: a non-finite value; `q` and `med` are then not written)."""
+    edges = block_edges(t, span, block)
+    nc = max(edges.shape[0] - 1, 0)
+    k = x.shape[1]
+    bounds = np.empty((nc, 2), dtype=np.int64)
+    sig = np.empty((nc, k))
+    spread = np.empty((nc, k))
+    nb = block_noise(x, edges, bounds, sig, spread)
+    if nb > 0:
+        block_pick(x, bounds, nb, sig, spread, q, med)
+    return nb
+
+
 #: The functions numba compiles, callees first.
-_FUNCTIONS = ("moving_stats", "motion_flags", "increments", "translation", "running_integral", "_sections", "filtfilt",
+_FUNCTIONS = ("moving_stats", "motion_flags", "sort_head", "block_edges", "block_noise", "block_pick",
+              "block_sigma_loops", "increments", "translation", "running_integral", "_sections", "filtfilt",
               "interp", "swing_median", "reading_sums")
 _COMPILED = None
 

@@ -328,8 +328,28 @@ def _block_sigma(t: np.ndarray, x: np.ndarray, span: float, block: float):
     """Noise sigma and rest level from blocks of `block` seconds within the first `span` seconds.
 
     Returns the lower quartile over the blocks of :func:`noise_sigma` (shape
-    (k,)) and the median of the quietest block (shape (k,)).
+    (k,)) and the median of the quietest block (shape (k,)): the compiled loops
+    of ``_signal_kernel.block_sigma_loops``, with the bits of the numpy form
+    (:func:`_block_sigma_numpy`), which serves the cases whose sums numpy takes
+    in another order (not a C-ordered array of 2 to 7 columns), a non-finite
+    value in a block, no block of five samples, and a block or span that is not
+    a finite positive length.
     """
+    from ._signal_kernel import compiled
+
+    t = np.asarray(t, dtype=float)
+    x = np.asarray(x, dtype=float)
+    if (x.ndim != 2 or not 2 <= x.shape[1] <= 7 or not x.flags.c_contiguous or t.ndim != 1
+            or not (block > 0 and math.isfinite(block) and math.isfinite(span))):
+        return _block_sigma_numpy(t, x, span, block)
+    q, med = np.empty(x.shape[1]), np.empty(x.shape[1])
+    if compiled()["block_sigma_loops"](t, x, float(span), float(block), q, med) <= 0:
+        return _block_sigma_numpy(t, x, span, block)
+    return q, med
+
+
+def _block_sigma_numpy(t: np.ndarray, x: np.ndarray, span: float, block: float):
+    """:func:`_block_sigma` in numpy: the form the compiled loops are held to."""
     edges = np.searchsorted(t, np.arange(0.0, max(span, block) + 1e-12, block), side="left")
     blocks = [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b - a >= 5]
     if not blocks:

@@ -1,6 +1,7 @@
 """Rest detection and zero-order calibration on synthetic data with known truth and on the field data."""
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -313,3 +314,124 @@ def test_motion_flags_are_the_numpy_comparisons():
     out2 = np.empty(n, dtype=bool)
     plain.motion_flags(s_g, m_g, s_a, g_spread, g_level, g_dev, a_spread, out2)
     np.testing.assert_array_equal(out2, ref)
+
+
+# ----------------------------------------------------------------------------- block noise kernel
+
+def _block_kernels(compiled):
+    """The block loops of ``_signal_kernel``, compiled by numba or as plain Python."""
+    import importlib.util
+
+    from morpi_filters import _signal_kernel
+
+    if compiled:
+        return _signal_kernel.compiled()
+    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
+    plain = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(plain)
+    return {n: getattr(plain, n) for n in ("block_edges", "block_noise", "block_pick", "block_sigma_loops")}
+
+
+def _same_bits(ref, got):
+    for r, g in zip(ref, got, strict=True):
+        assert g.dtype == r.dtype and g.shape == r.shape and g.tobytes() == r.tobytes()   # -0.0 too
+
+
+def _check_block_sigma(t, x, span, block, compiled):
+    """``_block_sigma`` (and the loops run plain when not `compiled`) against the numpy form, bit for bit;
+    each block's sigma and spread, the quietest block's index and the edges too (the outputs hide the
+    spreads' bits: only the choice of the block depends on them)."""
+    from morpi_filters.calibration import _block_sigma, _block_sigma_numpy, _noise_sigma_blocks
+
+    ref = _block_sigma_numpy(t, x, span, block)
+    _same_bits(ref, _block_sigma(t, x, span, block))
+    fns = _block_kernels(compiled)
+    edges = np.searchsorted(t, np.arange(0.0, max(span, block) + 1e-12, block), side="left")
+    np.testing.assert_array_equal(fns["block_edges"](t, float(span), float(block)), edges)
+    blocks = [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b - a >= 5]
+    if not blocks:
+        return
+    sig = _noise_sigma_blocks(x, blocks)
+    spread = np.array([x[a:b].std(axis=0) for a, b in blocks])
+    best = int(np.argmin((spread / np.maximum(sig.min(axis=0), 1e-300)).sum(axis=1)))
+    k = x.shape[1]
+    bounds, s, sp = np.empty((len(edges) - 1, 2), np.int64), np.empty((len(edges) - 1, k)), np.empty((len(edges) - 1, k))
+    nb = fns["block_noise"](x, edges, bounds, s, sp)
+    assert nb == len(blocks)
+    np.testing.assert_array_equal(bounds[:nb], blocks)
+    assert s[:nb].tobytes() == sig.tobytes() and sp[:nb].tobytes() == spread.tobytes()
+    q, med = np.empty(k), np.empty(k)
+    assert fns["block_pick"](x, bounds, nb, s, sp, q, med) == best
+    _same_bits(ref, (q, med))
+
+
+def test_block_noise_kernel_is_the_numpy_form_bit_for_bit_on_the_field_recordings(field_root):
+    recs = load_catalogue(field_root)
+    assert len(recs) == 143
+    for i, rec in enumerate(recs):
+        t = rec.time - rec.time[0]                               # as rest_measures passes it
+        for x in (rec.omega, rec.f):
+            _check_block_sigma(t, x, 3.0, 0.25, compiled=True)
+            if i % 20 == 0:
+                _check_block_sigma(t, x, 1.0, 0.5, compiled=False)
+
+
+def _noise_signal(rng, n, kind):
+    """(n, 3) samples: noise on offsets large enough that the summation order shows in the last bits."""
+    x = np.array([1e4, -3.0, 9.81]) + rng.standard_normal((n, 3)) * np.array([1e-3, 0.05, 0.02])
+    if kind == "quantized":                                      # many zero differences
+        x = np.round(rng.standard_normal((n, 3)) * 0.01 + np.array([0.0, 9.8, -1.0]), 2)
+    elif kind == "constant":                                     # a constant column, a zero column
+        x[:, 0] = 9.8
+        x[:, 2] = 0.0
+    elif kind == "drift":                                        # a trend and a burst (a moving block)
+        x += np.linspace(0.0, 5.0, n)[:, None]
+        x[n // 3: n // 3 + 40] += rng.standard_normal((min(40, n - n // 3), 3))
+    elif kind == "wide":                                         # magnitudes from 1e-9 to 1e9
+        x = rng.standard_normal((n, 3)) * np.exp(rng.uniform(-20, 20, (n, 3)))
+    return x
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_block_noise_kernel_on_blocks_of_every_size_and_kind(compiled):
+    dt = 1.0 / 1024.0                                            # exact times: block edges fall on samples
+    # 5 samples (the least), below, at and above numpy's 8-term and 128-term summation blocks
+    # 12 blocks and 6: with the short block of 7 samples at the end, 13 and 7 (the quartile halfway
+    # between two blocks' sigmas)
+    for m, nblk in itertools.product((5, 6, 8, 9, 127, 128, 129, 300), (12, 6)):
+        for kind in ("noise", "quantized", "constant", "drift", "wide"):
+            rng = np.random.default_rng(1000 * m + len(kind) + nblk)
+            n = m * nblk + 7                                     # a short block left at the end
+            t = np.arange(n) * dt
+            _check_block_sigma(t, _noise_signal(rng, n, kind), m * nblk * dt, m * dt, compiled)
+    for seed in range(6 if compiled else 2):                     # uneven blocks: steps that wander, gaps
+        rng = np.random.default_rng(seed)
+        n = int(rng.integers(300, 3000))
+        steps = rng.choice([0.002, 0.005, 0.01]) * rng.uniform(0.2, 2.5, n)
+        steps[rng.random(n) < 0.02] *= 8.0
+        t = np.concatenate([[0.0], np.cumsum(steps[1:])])
+        x = _noise_signal(rng, n, ["noise", "quantized", "constant", "drift", "wide"][seed % 5])
+        _check_block_sigma(t, x, float(rng.choice([3.0, 1.0, t[-1]])), float(rng.choice([0.25, 0.5, 0.1])), compiled)
+
+
+def test_block_noise_kernel_leaves_other_layouts_and_bad_values_to_the_numpy_form():
+    from morpi_filters.calibration import _block_sigma, _block_sigma_numpy
+
+    rng = np.random.default_rng(4)
+    dt = 1.0 / 1024.0
+    t = np.arange(3000) * dt
+    x = 1e4 + 1e-3 * rng.standard_normal((3000, 3))
+    wide = np.zeros((3000, 9))
+    wide[:, 2:5] = x
+    # numpy sums these in another order (column-major, one column, 8 columns or more)
+    for xx in (np.asfortranarray(x), wide[:, 2:5], x[:, :1], wide, 1e3 + wide[:, :7]):
+        _same_bits(_block_sigma_numpy(t, xx, 2.0, 300 * dt), _block_sigma(t, xx, 2.0, 300 * dt))
+    with np.errstate(invalid="ignore", over="ignore"):
+        for bad in (np.nan, np.inf):
+            y = x.copy()
+            y[300, 1] = bad
+            _same_bits(_block_sigma_numpy(t, y, 0.9, 64 * dt), _block_sigma(t, y, 0.9, 64 * dt))
+        y = 1e306 * rng.standard_normal((3000, 3))               # the sums overflow
+        _same_bits(_block_sigma_numpy(t, y, 0.9, 64 * dt), _block_sigma(t, y, 0.9, 64 * dt))
+    short = np.arange(40) * 0.1                                  # 3 samples per block: no block of five
+    _same_bits(_block_sigma_numpy(short, x[:40], 3.0, 0.25), _block_sigma(short, x[:40], 3.0, 0.25))
