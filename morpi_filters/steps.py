@@ -1152,16 +1152,34 @@ def _find_steps(p, method, config, peak_cache):
 
 def _prominent(x, distance, prominence, cache, key):
     """``scipy.signal.find_peaks(x, distance=distance, prominence=prominence)[0]``, with the peaks kept by the
-    distance and their prominences cached under `key`: find_peaks applies the distance before it measures
-    the prominences, so every prominence threshold selects from the same candidates."""
+    distance and their prominences (:func:`_find_peaks`) cached under `key`: find_peaks applies the distance
+    before it measures the prominences, so every prominence threshold selects from the same candidates."""
     found = None if cache is None else cache.get(key)
     if found is None:
-        peaks, props = _signal().find_peaks(x, distance=distance, prominence=0.0)
-        found = (peaks, props["prominences"])
+        found = _find_peaks(x, distance)
         if cache is not None:
             cache[key] = found
     peaks, prominences = found
     return peaks[prominences >= prominence]
+
+
+def _find_peaks(x, distance: int):
+    """``peaks, props["prominences"]`` of ``scipy.signal.find_peaks(x, distance=distance, prominence=0.0)``
+    for a finite 1-D `x` and an integer `distance` >= 1, bit for bit, from the compiled loops of
+    ``_signal_kernel`` (scipy's own argsort of the heights ranks equal peaks)."""
+    kernel = _KERNELS or _kernels()
+    x = np.require(x, float, ["C"])
+    peaks = np.empty(x.shape[0] // 2, dtype=np.intp)
+    m = kernel["local_maxima"](x, peaks)
+    peaks, prom = peaks[:m], np.empty(m)
+    kernel["maxima_prominences"](x, peaks, prom)
+    if distance > 1 and m > 1:                                  # distance 1 drops nothing
+        keep = np.empty(m, dtype=bool)
+        if kernel["select_by_distance"](peaks, np.argsort(x[peaks]), distance, keep) < m:
+            m = kernel["compress"](peaks, prom, keep)
+            peaks, prom = peaks[:m], prom[:m]
+    m = kernel["drop_below"](peaks, prom, 0.0)                  # scipy's prominence >= 0 (all, for a finite x)
+    return peaks[:m].copy(), prom[:m].copy()
 
 
 def require_swing(source, method: str, swing_deg: float, min_swing_deg: float) -> None:

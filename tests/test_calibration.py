@@ -355,7 +355,8 @@ def _check_block_sigma(t, x, span, block, compiled):
     spread = np.array([x[a:b].std(axis=0) for a, b in blocks])
     best = int(np.argmin((spread / np.maximum(sig.min(axis=0), 1e-300)).sum(axis=1)))
     k = x.shape[1]
-    bounds, s, sp = np.empty((len(edges) - 1, 2), np.int64), np.empty((len(edges) - 1, k)), np.empty((len(edges) - 1, k))
+    nc = len(edges) - 1
+    bounds, s, sp = np.empty((nc, 2), np.int64), np.empty((nc, k)), np.empty((nc, k))
     nb = fns["block_noise"](x, edges, bounds, s, sp)
     assert nb == len(blocks)
     np.testing.assert_array_equal(bounds[:nb], blocks)
