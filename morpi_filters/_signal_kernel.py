@@ -29,6 +29,8 @@
   walk per peak: the same samples, so the same bits);
 - :func:`interp` and :func:`swing_median`, the boundary headings and the median heading swing of a
   step rule, with numpy's arithmetic (``np.interp``; ``searchsorted`` and ``reduceat`` windows);
+- :func:`turn_values`, the turn heading of ``steps.turn_heading`` at the step edges, with the turning
+  stretches of ``steps.turn_stretches``, comparison for comparison and with :func:`interp`;
 - :func:`reading_sums`, what :func:`morpi_filters.steps.step_sums` returns for one step rule: the steps
   between the boundaries under each end and heading reading, summed in step order (the rule searches
   read thousands of rules per run).
@@ -273,6 +275,97 @@ def swing_median(t, psi, at):
     sw.sort()
     h = (k - 1) // 2
     return sw[h] if (k - 1) % 2 else 0.5 * (sw[h - 1] + sw[h])
+
+
+def _interp1(v, xp, fp):
+    """:func:`interp` at one point."""
+    out = np.empty(1)
+    x = np.empty(1)
+    x[0] = v
+    interp(x, xp, fp, out)
+    return out[0]
+
+
+def _window_mean(a, b, t, psi, integral):
+    """The mean of the heading `psi` over ``[a, b]`` from its running `integral` (the heading at `a` for
+    ``b - a <= 1e-9``), as ``steps.turn_heading`` reads it."""
+    if b - a <= 1e-9:
+        return _interp1(a, t, psi)
+    return (_interp1(b, t, integral) - _interp1(a, t, integral)) / (b - a)
+
+
+def turn_values(bt, psi_b, threshold, per_period, x, t, psi, integral, out):
+    """``steps.turn_heading(x, t, psi, steps.turn_stretches(bt, psi_b, threshold, per_period),
+    integral=integral)`` into `out` (like `x`), comparison for comparison and with numpy's
+    arithmetic (:func:`interp`), so its bits; returns the number of turning stretches.
+
+    A full period's heading change ``psi_b[j + per_period] - psi_b[j]`` above `threshold` in
+    magnitude turns; turning windows that overlap or touch merge, widen by a period on each side
+    and merge again; each stretch's turn is the mean heading over the period after it minus the
+    mean over the period before, followed in proportion to the heading inside the stretch.
+    """
+    k = bt.shape[0]
+    for i in range(x.shape[0]):
+        out[i] = 0.0
+    last = k - 1
+    count = 0
+    j = 0
+    span_a = -1
+    span_b = -1
+    while j <= k - 1 - per_period:
+        if abs(psi_b[j + per_period] - psi_b[j]) > threshold:
+            # a run of turning windows, consecutive ones at most per_period apart
+            first = j
+            end = j
+            j += 1
+            while j <= k - 1 - per_period:
+                if abs(psi_b[j + per_period] - psi_b[j]) > threshold:
+                    if j - end > per_period:
+                        break
+                    end = j
+                j += 1
+            a = first - per_period
+            a = a if a > 0 else 0
+            b = end + per_period + per_period
+            b = b if b < last else last
+            if span_b >= 0 and a <= span_b:
+                span_b = b                                      # merges with the stretch before
+            else:
+                if span_b >= 0:
+                    _add_turn(bt, span_a, span_b, per_period, last, x, t, psi, integral, out)
+                    count += 1
+                span_a = a
+                span_b = b
+        else:
+            j += 1
+    if span_b >= 0:
+        _add_turn(bt, span_a, span_b, per_period, last, x, t, psi, integral, out)
+        count += 1
+    return count
+
+
+def _add_turn(bt, a, b, per_period, last, x, t, psi, integral, out):
+    """Add the turn of the stretch between boundaries `a` and `b` to `out` (``steps.turn_heading``)."""
+    i0 = a - per_period
+    before = bt[i0 if i0 > 0 else 0]
+    i1 = b + per_period
+    after = bt[i1 if i1 < last else last]
+    sa = bt[a]
+    sb = bt[b]
+    turn = _window_mean(sb, after, t, psi, integral) - _window_mean(before, sa, t, psi, integral)
+    pa = _interp1(sa, t, psi)
+    pb = _interp1(sb, t, psi)
+    for i in range(x.shape[0]):
+        v = x[i]
+        if pb != pa:
+            c = v if v > sa else sa                             # np.clip(time, a, b)
+            c = c if c < sb else sb
+            done = (_interp1(c, t, psi) - pa) / (pb - pa)
+        else:
+            done = 1.0 if v >= sb else 0.0
+        done = done if done > 0.0 else 0.0                      # np.clip(done, 0, 1)
+        done = done if done < 1.0 else 1.0
+        out[i] += turn * done
 
 
 def reading_sums(bt, psi_b, weight, aux, m0, m1, psi_m0, psi_m1, per, wmed, ends, heading):
@@ -711,8 +804,8 @@ def block_sigma_loops(t, x, span, block, q, med):
 #: The functions numba compiles, callees first.
 _FUNCTIONS = ("moving_stats", "motion_flags", "sort_head", "block_edges", "block_noise", "block_pick",
               "block_sigma_loops", "increments", "translation", "running_integral", "_sections", "filtfilt",
-              "interp", "swing_median", "reading_sums", "local_maxima", "select_by_distance", "compress",
-              "maxima_prominences", "drop_below")
+              "interp", "swing_median", "_interp1", "_window_mean", "_add_turn", "turn_values", "reading_sums",
+              "local_maxima", "select_by_distance", "compress", "maxima_prominences", "drop_below")
 _COMPILED = None
 
 

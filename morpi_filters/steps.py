@@ -1087,13 +1087,15 @@ def _edge_values(p, config, pkey, bt, psi_b) -> np.ndarray:
         key = ("integral values", pkey)
     out = memo.get(key)
     if out is None:
-        t = p.time
+        kernel = _KERNELS or _kernels()
         x = np.concatenate([p.motion[:1], bt, p.motion[1:]])
+        out = np.empty(x.shape[0])
         if config.heading == "turns":
-            stretches = turn_stretches(bt, psi_b, np.radians(config.turn_deg), 2 if config.segment == "extrema" else 1)
-            out = turn_heading(x, t, p.heading, stretches, integral=p.heading_integral)
+            # turn_heading(x, t, psi, turn_stretches(bt, psi_b, ...), integral=...) in one compiled call
+            kernel["turn_values"](bt, psi_b, np.radians(config.turn_deg), 2 if config.segment == "extrema" else 1,
+                                  x, p.time, p.heading, p.heading_integral, out)
         else:
-            out = np.interp(x, t, p.heading_integral)
+            kernel["interp"](x, p.time, p.heading_integral, out)
         out.flags.writeable = False
         memo[key] = out
     return out

@@ -543,6 +543,55 @@ def test_interp_and_swing_kernels_are_numpys_bit_for_bit():
             assert (np.isnan(want) and np.isnan(got)) or got == want, (a.size, got, want)
 
 
+def test_turn_values_kernel_is_turn_heading_of_turn_stretches_bit_for_bit():
+    import importlib.util
+
+    from morpi_filters import _signal_kernel
+
+    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
+    plain = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(plain)
+    rng = np.random.default_rng(17)
+    t = np.cumsum(rng.uniform(0.005, 0.02, 4000))
+    stretches_seen = set()
+    for case in range(60):
+        # a zigzag heading with a few turns of random size and length (some merge, some stay apart)
+        psi = 0.3 * np.sin(2 * np.pi * t / rng.uniform(0.5, 2.0))
+        for _ in range(int(rng.integers(0, 5))):
+            t0, dur, size = rng.uniform(t[0], t[-1]), rng.uniform(0.2, 8.0), rng.uniform(-2.0, 2.0)
+            psi = psi + size * np.clip((t - t0) / dur, 0.0, 1.0)
+        if case % 10 == 0:
+            psi[1500:2500] = psi[1500]                              # a flat stretch: pb == pa
+        integral = st._running_integral(t, psi)
+        bt = np.sort(rng.choice(t[50:-50], int(rng.integers(2, 120)), replace=False))
+        psi_b = np.interp(bt, t, psi)
+        x = np.concatenate([[t[10]], bt, [t[-10]]])
+        for per_period, threshold in ((1, 0.4), (2, 0.4), (2, 1.5), (1, 0.05)):
+            stretches = st.turn_stretches(bt, psi_b, threshold, per_period)
+            stretches_seen.add(min(len(stretches), 3))
+            want = st.turn_heading(x, t, psi, stretches, integral=integral)
+            for f in (_signal_kernel.compiled()["turn_values"], plain.turn_values):
+                out = np.empty(x.shape[0])
+                assert f(bt, psi_b, threshold, per_period, x, t, psi, integral, out) == len(stretches)
+                np.testing.assert_array_equal(out, want)
+    assert stretches_seen == {0, 1, 2, 3}                           # none, one, several stretches
+    # a stretch that starts and ends on the same heading (pb == pa) with a turn around it: the turn is
+    # taken whole at the stretch's end, which is one of the edges read
+    bt = np.arange(7.0)
+    psi_b = np.array([0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 1.0])
+    tt = np.linspace(0.0, 6.0, 601)
+    pp = np.interp(tt, bt, psi_b)
+    integral = st._running_integral(tt, pp)
+    stretches = st.turn_stretches(bt, psi_b, 1.5, 1)
+    assert stretches == [(0.0, 1.0, 5.0, 6.0)]
+    want = st.turn_heading(bt, tt, pp, stretches, integral=integral)
+    assert want[5] != 0.0 and want[4] == 0.0
+    for f in (_signal_kernel.compiled()["turn_values"], plain.turn_values):
+        out = np.empty(7)
+        f(bt, psi_b, 1.5, 1, bt, tt, pp, integral, out)
+        np.testing.assert_array_equal(out, want)
+
+
 def test_reading_sums_kernel_by_hand():
     import importlib.util
     import math
