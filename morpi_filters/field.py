@@ -253,6 +253,12 @@ class FieldData:
         self._folder_recs[key] = tuple(out)
         return out
 
+    def _entry_recording(self, entry):
+        """The recording of a catalogue entry, or None when it does not load (:meth:`load_errors`)."""
+        self.recordings(entry.phone, entry.route, entry.split)
+        r = self._rec[entry.relpath]
+        return None if isinstance(r, MorpiError) else r
+
     def load_errors(self, phone, route, split) -> list[str]:
         """One line per file of the folder that could not be loaded."""
         self.recordings(phone, route, split)
@@ -671,10 +677,10 @@ def fold_thresholds(data: FieldData, held_out: str) -> tuple[Thresholds, bool]:
         for e in data.train_entries():
             if e.relpath == held_out:
                 continue
-            for r in data.recordings(e.phone, e.route, e.split):
-                if data.relpath(r) == e.relpath:
-                    w, w0 = data.rest_window_at(r, floor), data.rest_window(r)
-                    same = same and (w.i0, w.i1) == (w0.i0, w0.i1)
+            r = data._entry_recording(e)
+            if r is not None:
+                w, w0 = data.rest_window_at(r, floor), data.rest_window(r)
+                same = same and (w.i0, w.i1) == (w0.i0, w0.i1)
     return fold, same
 
 
