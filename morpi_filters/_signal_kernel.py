@@ -16,7 +16,8 @@
 - :func:`increments`, the integral of sampled signals over each interval of the real time grid
   (the corrected trapezoid of :mod:`morpi_filters.strapdown`: 3-point slopes, cubic Hermite
   interpolant), the element-wise arithmetic in numpy's order, so with numpy's bits, the velocity and
-  position they give (:func:`translation`), and :func:`running_integral`, the plain trapezoid's
+  position they give (:func:`translation`), the attitude increments' coning term (:func:`coning`),
+  and :func:`running_integral`, the plain trapezoid's
   running sum;
 - :func:`filtfilt`, the zero-phase low-pass of :func:`morpi_filters.steps.lowpass`: the
   forward-backward second-order-sections filter of :func:`scipy.signal.sosfiltfilt` with its
@@ -138,6 +139,19 @@ def increments(time, x, inc, d):
         for j in range(K):
             for i in range(n - 1):
                 inc[r, i, j] = 0.5 * (x[r, i, j] + x[r, i + 1, j]) * dt[i] + (d[r, i, j] - d[r, i + 1, j]) * q[i]
+
+
+def coning(time, w, phi):
+    """Add the coning term to the rotation increments `phi` (B, n - 1, 3) of the rates `w` (B, n, 3):
+    ``phi_j += (w_j x w_j+1) dt^2 / 12``, in numpy's order."""
+    B, n, _ = w.shape
+    for r in range(B):
+        for i in range(n - 1):
+            dt = time[i + 1] - time[i]
+            c = dt * dt / 12.0
+            phi[r, i, 0] += (w[r, i, 1] * w[r, i + 1, 2] - w[r, i, 2] * w[r, i + 1, 1]) * c
+            phi[r, i, 1] += (w[r, i, 2] * w[r, i + 1, 0] - w[r, i, 0] * w[r, i + 1, 2]) * c
+            phi[r, i, 2] += (w[r, i, 0] * w[r, i + 1, 1] - w[r, i, 1] * w[r, i + 1, 0]) * c
 
 
 def translation(dt, a, d, dv, c3, v0, p0, v, p):
@@ -803,7 +817,7 @@ def block_sigma_loops(t, x, span, block, q, med):
 
 #: The functions numba compiles, callees first.
 _FUNCTIONS = ("moving_stats", "motion_flags", "sort_head", "block_edges", "block_noise", "block_pick",
-              "block_sigma_loops", "increments", "translation", "running_integral", "_sections", "filtfilt",
+              "block_sigma_loops", "increments", "coning", "translation", "running_integral", "_sections", "filtfilt",
               "interp", "swing_median", "_interp1", "_window_mean", "_add_turn", "turn_values", "reading_sums",
               "local_maxima", "select_by_distance", "compress", "maxima_prominences", "drop_below")
 _COMPILED = None

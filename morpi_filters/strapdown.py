@@ -379,14 +379,13 @@ def _attitude_matrices(time, wb, C0b) -> np.ndarray:
 
     `time` (n,) checked, `wb` (B, n, 3) the body rates, `C0b` (B, 3, 3) the initial attitudes.
     """
+    from ._signal_kernel import compiled as signal_loops
+
     n, B = time.shape[0], wb.shape[0]
-    dt = np.diff(time)[None, :, None]
-    w0, w1 = wb[:, :-1], wb[:, 1:]
+    wb = np.require(wb, float, ["C", "W"])
     phi = _increments(time, wb)[0]
-    coning = dt[..., 0] * dt[..., 0] / 12.0                    # (1, n-1)
-    phi[..., 0] += (w0[..., 1] * w1[..., 2] - w0[..., 2] * w1[..., 1]) * coning
-    phi[..., 1] += (w0[..., 2] * w1[..., 0] - w0[..., 0] * w1[..., 2]) * coning
-    phi[..., 2] += (w0[..., 0] * w1[..., 1] - w0[..., 1] * w1[..., 0]) * coning
+    # the coning term, (w_j x w_j+1) dt^2 / 12 per interval (a compiled loop)
+    signal_loops()["coning"](time, wb, phi)
     Ct = np.empty((n, B, 3, 3))
     Ct[0] = C0b
     if B == 1:

@@ -311,6 +311,32 @@ def _numpy_increments(time, x):
     return 0.5 * (x[:, :-1] + x[:, 1:]) * dt + (d[:, :-1] - d[:, 1:]) * (dt * dt / 12.0), d
 
 
+def test_coning_term_is_the_numpy_form_bit_for_bit():
+    import importlib.util
+
+    from morpi_filters import _signal_kernel
+
+    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
+    plain = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(plain)
+    rng = np.random.default_rng(44)
+    for n, B in ((2, 1), (300, 1), (300, 3)):
+        time = np.cumsum(rng.uniform(0.003, 0.02, n))
+        w = rng.normal(size=(B, n, 3))
+        phi = 1e-5 * rng.normal(size=(B, n - 1, 3))                # the size of the term: its bits show
+        dt = np.diff(time)[None, :]
+        c = dt * dt / 12.0
+        w0, w1 = w[:, :-1], w[:, 1:]
+        want = phi.copy()
+        want[..., 0] += (w0[..., 1] * w1[..., 2] - w0[..., 2] * w1[..., 1]) * c
+        want[..., 1] += (w0[..., 2] * w1[..., 0] - w0[..., 0] * w1[..., 2]) * c
+        want[..., 2] += (w0[..., 0] * w1[..., 1] - w0[..., 1] * w1[..., 0]) * c
+        for f in (_signal_kernel.compiled()["coning"], plain.coning):
+            got = phi.copy()
+            f(time, w, got)
+            np.testing.assert_array_equal(got, want)
+
+
 @pytest.mark.parametrize("n", [2, 3, 500])
 def test_translation_is_the_numpy_sums_bit_for_bit(n):
     import importlib.util
