@@ -11,6 +11,8 @@
   :func:`morpi_filters.calibration.noise_sigma`) and spread, the lower quartile of the sigmas and
   the median of the quietest block, with numpy's arithmetic in numpy's order (on a C-ordered array
   of 2 to 7 columns every sum of that code adds its terms one after the other from 0.0), so its bits;
+- :func:`window_spread`, the moving spread of the gyro on the uniform grid that
+  :func:`morpi_filters.steps.activity_span` thresholds;
 - :func:`motion_flags`, the samples :func:`morpi_filters.calibration.detect_rest` takes as
   moving: a gyro deviation or spread, or an accelerometer spread, above its threshold on any axis;
 - :func:`increments`, the integral of sampled signals over each interval of the real time grid
@@ -77,6 +79,31 @@ def moving_stats(t, x, half, mean, std):
             v = (c2[hi, j] - c2[lo, j]) / cnt - m * m
             mean[i, j] = m + ref[j]
             std[i, j] = math.sqrt(max(v, 0.0))
+
+
+def window_spread(w, k, sd):
+    """``sd[r]`` (m - k + 1,): the standard deviations of the columns of ``w[r:r + k]`` (w (m, c)) summed
+    over the columns, from running sums as ``steps.activity_span`` takes them (``cumsum`` of `w` and of
+    ``w * w``, differences over `k`, ``sqrt(maximum(var, 0))``, the columns added in order from 0.0),
+    so numpy's bits."""
+    m, c = w.shape
+    c1 = np.zeros((m + 1, c))
+    c2 = np.zeros((m + 1, c))
+    for j in range(c):
+        c1[1, j] = w[0, j]
+        c2[1, j] = w[0, j] * w[0, j]
+        for i in range(1, m):
+            c1[i + 1, j] = c1[i, j] + w[i, j]
+            c2[i + 1, j] = c2[i, j] + w[i, j] * w[i, j]
+    for r in range(m - k + 1):
+        s = 0.0
+        for j in range(c):
+            mean = (c1[r + k, j] - c1[r, j]) / k
+            var = (c2[r + k, j] - c2[r, j]) / k - mean * mean
+            if var < 0.0:                                       # np.maximum(var, 0.0) (NaN stays)
+                var = 0.0
+            s += math.sqrt(var)
+        sd[r] = s
 
 
 def motion_flags(s_g, m_g, s_a, g_spread, g_level, g_dev, a_spread, out):
@@ -816,7 +843,7 @@ def block_sigma_loops(t, x, span, block, q, med):
 
 
 #: The functions numba compiles, callees first.
-_FUNCTIONS = ("moving_stats", "motion_flags", "sort_head", "block_edges", "block_noise", "block_pick",
+_FUNCTIONS = ("moving_stats", "window_spread", "motion_flags", "sort_head", "block_edges", "block_noise", "block_pick",
               "block_sigma_loops", "increments", "coning", "translation", "running_integral", "_sections", "filtfilt",
               "interp", "swing_median", "_interp1", "_window_mean", "_add_turn", "turn_values", "reading_sums",
               "local_maxima", "select_by_distance", "compress", "maxima_prominences", "drop_below")

@@ -807,10 +807,9 @@ def activity_span(time, omega, *, window_s: float = ACTIVITY_WINDOW_S, factor: f
     k = max(2, int(round(window_s * GRID_HZ)))
     if grid.shape[0] <= k:
         return float(time[0]), float(time[-1])
-    c1 = np.vstack([np.zeros((1, 3)), np.cumsum(w, axis=0)])
-    c2 = np.vstack([np.zeros((1, 3)), np.cumsum(w * w, axis=0)])
-    mean = (c1[k:] - c1[:-k]) / k
-    sd = np.sqrt(np.maximum((c2[k:] - c2[:-k]) / k - mean * mean, 0.0)).sum(axis=1)
+    # the moving standard deviation summed over the axes, from running sums (a compiled loop)
+    sd = np.empty(grid.shape[0] - k + 1)
+    (_KERNELS or _kernels())["window_spread"](np.require(w, float, ["C"]), k, sd)
     first = 0
     if rest is None:
         n_rest = max(1, int(rest_s * GRID_HZ) - k)

@@ -592,6 +592,29 @@ def test_turn_values_kernel_is_turn_heading_of_turn_stretches_bit_for_bit():
         np.testing.assert_array_equal(out, want)
 
 
+def test_window_spread_kernel_is_the_numpy_running_sums_bit_for_bit():
+    import importlib.util
+
+    from morpi_filters import _signal_kernel
+
+    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
+    plain = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(plain)
+    rng = np.random.default_rng(23)
+    # gyro-like noise, on offsets (cancellation in E[x^2] - E[x]^2: clipped at 0), a constant column
+    for w in (0.01 * rng.normal(size=(3000, 3)), 5.0 + 1e-4 * rng.normal(size=(500, 3)),
+              np.c_[np.full(400, 0.3), rng.normal(size=(400, 2))]):
+        for k in (2, 3, 50, w.shape[0]):
+            c1 = np.vstack([np.zeros((1, 3)), np.cumsum(w, axis=0)])
+            c2 = np.vstack([np.zeros((1, 3)), np.cumsum(w * w, axis=0)])
+            mean = (c1[k:] - c1[:-k]) / k
+            want = np.sqrt(np.maximum((c2[k:] - c2[:-k]) / k - mean * mean, 0.0)).sum(axis=1)
+            for f in (_signal_kernel.compiled()["window_spread"], plain.window_spread):
+                sd = np.empty(w.shape[0] - k + 1)
+                f(w, k, sd)
+                np.testing.assert_array_equal(sd, want)
+
+
 def test_reading_sums_kernel_by_hand():
     import importlib.util
     import math
