@@ -205,6 +205,17 @@ def translation(dt, a, d, dv, c3, v0, p0, v, p):
                 p[r, i + 1, j] = sp + p0[r, j]
 
 
+def time_order(t):
+    """0 when the times `t` (n,) are finite and strictly increasing, 1 when one is not finite, else 2."""
+    bad = 0
+    for i in range(t.shape[0]):
+        if not abs(t[i]) < np.inf:
+            return 1
+        if i > 0 and not t[i] > t[i - 1]:
+            bad = 2
+    return bad
+
+
 def running_integral(t, x, out):
     """``out[0] = 0``, ``out[i + 1] = out[i] + (x[i + 1] + x[i]) / 2 (t[i + 1] - t[i])`` for `t`, `x` (n,)."""
     out[0] = 0.0
@@ -844,7 +855,7 @@ def block_sigma_loops(t, x, span, block, q, med):
 
 #: The functions numba compiles, callees first.
 _FUNCTIONS = ("moving_stats", "window_spread", "motion_flags", "sort_head", "block_edges", "block_noise", "block_pick",
-              "block_sigma_loops", "increments", "coning", "translation", "running_integral", "_sections", "filtfilt",
+              "block_sigma_loops", "increments", "coning", "translation", "time_order", "running_integral", "_sections", "filtfilt",
               "interp", "swing_median", "_interp1", "_window_mean", "_add_turn", "turn_values", "reading_sums",
               "local_maxima", "select_by_distance", "compress", "maxima_prominences", "drop_below")
 _COMPILED = None

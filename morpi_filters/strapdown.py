@@ -250,12 +250,16 @@ def coarse_level(f_rest) -> np.ndarray:
     return Ry @ Rx
 
 def _check_time(time) -> np.ndarray:
+    from ._signal_kernel import compiled
+
     time = np.asarray(time, dtype=float)
     if time.ndim != 1 or time.shape[0] < 2:
         raise MorpiError(f"time: expected a 1-D array of at least 2 samples, got shape {time.shape}")
-    if not np.isfinite(time).all():
+    time = np.require(time, float, ["C"])
+    order = compiled()["time_order"](time)                      # one pass: finite, strictly increasing
+    if order == 1:
         raise MorpiError("time: contains NaN or inf, expected finite sample times")
-    if not (np.diff(time) > 0).all():
+    if order == 2:
         raise MorpiError("time: not strictly increasing, expected strictly increasing sample times")
     return time
 

@@ -405,3 +405,15 @@ def test_increments_and_running_integral_are_the_numpy_sums_bit_for_bit(n):
     plain.increments(time, x, inc, d)
     np.testing.assert_array_equal(inc, _increments(time, x)[0])
     np.testing.assert_array_equal(d, _increments(time, x)[1])
+
+
+def test_time_checks_name_what_is_wrong():
+    from morpi_filters.strapdown import integrate_rate
+
+    good = np.arange(6.0)
+    assert integrate_rate(good[::2], np.ones(3))[-1] == pytest.approx(4.0)           # a strided view
+    for bad, what in (([0.0, np.nan, 2.0], "NaN or inf"), ([0.0, 1.0, np.inf], "NaN or inf"),
+                      ([0.0, 2.0, 1.0], "not strictly increasing"), ([0.0, 1.0, 1.0], "not strictly increasing"),
+                      ([0.0, 2.0, 1.0, np.nan], "NaN or inf"), ([1.0], "at least 2 samples")):
+        with pytest.raises(MorpiError, match=what):
+            integrate_rate(bad, np.ones(len(bad)))
