@@ -409,6 +409,10 @@ def lowpass(x, cutoff_hz: float, rate_hz: float = GRID_HZ, order: int = 2):
     from ._signal_kernel import compiled
 
     filt = compiled()["filtfilt"]
+    if x.ndim == 1:
+        out = np.empty(x.shape[0])
+        filt(sos, zi, pad, np.require(x, float, ["C"]), out)
+        return out
     cols = x.reshape(x.shape[0], -1)
     out = np.empty(cols.shape)
     col = np.empty(x.shape[0])
