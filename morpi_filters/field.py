@@ -414,15 +414,19 @@ class FieldData:
 
         What :meth:`steps` gives, reduced to what a gain and an end point need; raises as it does.
         """
-        canon = self._canonical(config)
-        key = ("sums", rec.source, mode, method, canon)
+        key = ("sums", rec.source, mode, method, config)
         out = self._steps.get(key)
         if out is None:
-            try:
-                out = st.step_sums(self.prepared(rec, mode, method, config.cutoff_hz, config.heading_source), method,
-                                   canon, peak_cache=self._peaks)
-            except MorpiError as exc:
-                out = exc
+            canon = self._canonical(config)                    # the rules that differ only in a check share it
+            ckey = ("sums", rec.source, mode, method, canon)
+            out = self._steps.get(ckey)
+            if out is None:
+                try:
+                    out = st.step_sums(self.prepared(rec, mode, method, config.cutoff_hz, config.heading_source),
+                                       method, canon, peak_cache=self._peaks)
+                except MorpiError as exc:
+                    out = exc
+                self._steps[ckey] = out
             self._steps[key] = out
         if isinstance(out, MorpiError):
             raise out
