@@ -797,11 +797,25 @@ def _train_summary(data: FieldData, method, config, mode="GC"):
     return data._train_summaries[key]
 
 
-def _loo_errors(truth, g, u) -> np.ndarray:
-    """End-point errors [%] of each run with the mean gain of the others (leave-one-out)."""
-    gi = (g.sum() - g) / (g.size - 1)
-    d = gi[:, None] * u - truth.end_point_m
-    return np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]) / truth.distance_m * 100   # numpy's norm along rows
+def _loo_errors(truth, g, u, keep=None) -> np.ndarray:
+    """End-point errors [%] of each run (each flagged in `keep`) with the mean gain of the others (leave-one-out).
+
+    ``gi = (sum(g) - g) / (n - 1)``, ``|gi u - end| / distance * 100``: a compiled loop
+    (``_signal_kernel.loo_errors``) with numpy's arithmetic and its order of the sum.
+    """
+    global _LOO
+    if _LOO is None:
+        from ._signal_kernel import compiled
+
+        _LOO = compiled()["loo_errors"]
+    out = np.empty(g.shape[0])
+    end = truth.end_point_m
+    m = _LOO(g, u, np.ones(g.shape[0], dtype=bool) if keep is None else keep, float(end[0]), float(end[1]),
+             float(truth.distance_m), out)
+    return out[:m]
+
+
+_LOO = None
 
 
 def _loo_vector(data: FieldData, method, config, mode="GC", exclude=frozenset()) -> np.ndarray | None:
@@ -820,7 +834,7 @@ def _loo_vector(data: FieldData, method, config, mode="GC", exclude=frozenset())
             continue
         keep = np.array([r not in exclude for r in rels], dtype=bool)
         if keep.sum() >= 2:
-            errs.append(_loo_errors(truth, g[keep], u[keep]))
+            errs.append(_loo_errors(truth, g, u, keep))
     return np.concatenate(errs) if errs else np.empty(0)
 
 
@@ -834,7 +848,7 @@ def _held_out_error(data: FieldData, method, config, k: int, rel: str) -> float:
     if rel not in ok or len(ok) < 2:
         return float("nan")
     keep = np.array([r not in failed for r in rels], dtype=bool)
-    return float(_loo_errors(truth, g[keep], u[keep])[ok.index(rel)])
+    return float(_loo_errors(truth, g, u, keep)[ok.index(rel)])
 
 
 def _loo_score(data: FieldData, method, config, mode="GC", exclude=frozenset()) -> tuple[float, int]:
