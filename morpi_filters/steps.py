@@ -1091,7 +1091,8 @@ def _edge_values(p, config, pkey, bt, psi_b) -> np.ndarray:
     out = memo.get(key)
     if out is None:
         kernel = _KERNELS or _kernels()
-        x = np.concatenate([p.motion[:1], bt, p.motion[1:]])
+        x = np.empty(bt.shape[0] + 2)
+        x[0], x[1:-1], x[-1] = p.motion[0], bt, p.motion[1]
         out = np.empty(x.shape[0])
         if config.heading == "turns":
             # turn_heading(x, t, psi, turn_stretches(bt, psi_b, ...), integral=...) in one compiled call
