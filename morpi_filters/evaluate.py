@@ -400,10 +400,14 @@ def _run_result(rel, end, truth, distance, n_steps=None, data=None, rec=None, fu
     e = math.sqrt(d.dot(d))                                     # numpy's norm: the same bits, less overhead
     rest = motion = None
     if data is not None:
-        w = data.rest_window(rec)
-        rest = (float(w.start_s), float(w.end_s))
-        motion = ((float(rec.time[0]), float(rec.time[-1])) if full_span
-                  else tuple(float(v) for v in data.activity(rec)))
+        key = ("run windows", rec.source, full_span)            # the same for every cell of the recording
+        windows = data.study_cache.get(key)
+        if windows is None:
+            w = data.rest_window(rec)
+            windows = data.study_cache[key] = (
+                (float(w.start_s), float(w.end_s)),
+                (float(rec.time[0]), float(rec.time[-1])) if full_span else tuple(float(v) for v in data.activity(rec)))
+        rest, motion = windows
     return RunResult(file=rel, end_point=(float(end[0]), float(end[1])), end_error_m=e,
                      end_error_percent=e / truth.distance_m * 100, distance_m=float(distance),
                      distance_error_percent=abs(distance - truth.distance_m) / truth.distance_m * 100,
