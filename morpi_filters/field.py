@@ -353,6 +353,7 @@ class FieldData:
                 from dataclasses import replace
 
                 p = replace(shared, heading=self.heading(rec, mode, source))
+                p.__dict__["motion_index"] = shared.motion_index       # the same grid and motion
             else:
                 crec, _ = self.calibrated(rec, mode)
                 p = self._signals[skey] = st.prepare_signal(

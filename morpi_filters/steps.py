@@ -733,9 +733,11 @@ def prepare_signal(rec, method: str, cutoff_hz: float | None, *, rest_end_time: 
     psi = integrate_heading(t, rec.omega[:, 2]) if heading is None else np.asarray(heading, float)
     i0, i1 = np.searchsorted(grid, [motion[0], motion[1] + 1e-9])
     span = _percentiles(g[i0:i1], (2.0, 98.0)) if i1 - i0 >= 3 else (0.0, 0.0)
-    return PreparedSignal(source=rec.source, method=method, grid=grid, raw=graw, filtered=g,
-                          cutoff_hz=cutoff_hz, motion=(float(motion[0]), float(motion[1])), time=t, heading=psi,
-                          span=span)
+    out = PreparedSignal(source=rec.source, method=method, grid=grid, raw=graw, filtered=g,
+                         cutoff_hz=cutoff_hz, motion=(float(motion[0]), float(motion[1])), time=t, heading=psi,
+                         span=span)
+    out.__dict__["motion_index"] = (int(i0), int(i1))           # the cached property, found here already
+    return out
 
 
 def _percentiles(x, qs) -> tuple:
@@ -1064,7 +1066,8 @@ def _boundaries(p, method, config, peak_cache):
     kernel = _KERNELS or _kernels()
     psi_m = memo.get("motion heading")
     if psi_m is None:
-        psi_m = memo["motion heading"] = np.interp([m0, m1], t, psi)
+        psi_m = memo["motion heading"] = np.empty(2)
+        kernel["interp"](np.array([m0, m1]), t, psi, psi_m)     # np.interp([m0, m1], t, psi)
     bkey = ("boundary heading", pkey)
     psi_b = memo.get(bkey)
     if psi_b is None:
