@@ -19,8 +19,8 @@
   (the corrected trapezoid of :mod:`morpi_filters.strapdown`: 3-point slopes, cubic Hermite
   interpolant), the element-wise arithmetic in numpy's order, so with numpy's bits, the velocity and
   position they give (:func:`translation`), the attitude increments' coning term (:func:`coning`),
-  and :func:`running_integral`, the plain trapezoid's
-  running sum;
+  :func:`running_integral`, the plain trapezoid's running sum, and :func:`time_order`, the check that
+  sample times are finite and strictly increasing;
 - :func:`filtfilt`, the zero-phase low-pass of :func:`morpi_filters.steps.lowpass`: the
   forward-backward second-order-sections filter of :func:`scipy.signal.sosfiltfilt` with its
   default odd padding, each section's update in the order scipy's own loop takes, so the result has
@@ -36,11 +36,16 @@
   stretches of ``steps.turn_stretches``, comparison for comparison and with :func:`interp`;
 - :func:`reading_sums`, what :func:`morpi_filters.steps.step_sums` returns for one step rule: the steps
   between the boundaries under each end and heading reading, summed in step order (the rule searches
-  read thousands of rules per run).
+  read thousands of rules per run);
+- :func:`loo_errors`, the leave-one-out end-point errors the rule searches score
+  (``field._loo_errors``), with :func:`pairwise_sum`, numpy's order of a sum (in order below 8 terms,
+  8 accumulators up to 128, halves above).
 
 numba is imported on the first call (:func:`compiled`, through :func:`jit_functions`, which also
-compiles the loops of ``_aided_kernel``), not with the package, and its machine code is cached on disk. The functions run as plain Python too (slowly): the tests compare both, and hold
-them to numpy's sums and to scipy's filter.
+compiles the loops of ``_aided_kernel``), not with the package, and its machine code is cached on disk
+(so no function here calls itself: numba's cache does not hold recursive functions). The functions run
+as plain Python too (slowly): the tests compare both, and hold them to the numpy or scipy form they
+restate, bit for bit where the bits are the same.
 """
 from __future__ import annotations
 

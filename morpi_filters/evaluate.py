@@ -404,9 +404,9 @@ def _run_result(rel, end, truth, distance, n_steps=None, data=None, rec=None, fu
         windows = data.study_cache.get(key)
         if windows is None:
             w = data.rest_window(rec)
-            windows = data.study_cache[key] = (
-                (float(w.start_s), float(w.end_s)),
-                (float(rec.time[0]), float(rec.time[-1])) if full_span else tuple(float(v) for v in data.activity(rec)))
+            motion = ((float(rec.time[0]), float(rec.time[-1])) if full_span
+                      else tuple(float(v) for v in data.activity(rec)))
+            windows = data.study_cache[key] = ((float(w.start_s), float(w.end_s)), motion)
         rest, motion = windows
     return RunResult(file=rel, end_point=(float(end[0]), float(end[1])), end_error_m=e,
                      end_error_percent=e / truth.distance_m * 100, distance_m=float(distance),
