@@ -486,7 +486,7 @@ def assessment_figure(curves, title: str = "Analytical assessment of 3D & 2D INS
     >>> len(ax.get_lines()), float(ax.get_ylim()[0]), [t.get_text() for t in ax.get_legend().get_texts()][:2]
     (6, 0.0, ['3D INS', '2D INS'])
     """
-    ax, _ = new_axes(ax, (6.4, 4.2))
+    ax, new = new_axes(ax, (6.4, 4.2))
     order = sorted(range(len(curves.times)), key=lambda i: curves.times[i])
     t = [curves.times[i] for i in order]
     ax.plot(t, [curves.e3d[i] for i in order], color="tab:red", lw=2, label="3D INS")
@@ -505,6 +505,8 @@ def assessment_figure(curves, title: str = "Analytical assessment of 3D & 2D INS
     ax.legend(loc="upper left", fontsize=9)
     ax.set_xlim(left=min(t) if t else 0.0)
     ax.set_ylim(bottom=0.0)
+    if new:
+        _fixed_layout(ax.figure, [ax])
     return ax
 
 
@@ -559,6 +561,8 @@ def plot_curves(curves):
     axes[0].set_ylabel("horizontal position error [m]")
     axes[0].legend(fontsize=8)
     fig.suptitle(curves.case.title)
+    _plain_log_labels(*(ax.yaxis for ax in axes))
+    _fixed_layout(fig, list(axes), 1, 3, suptitle=True)
     return fig
 
 
