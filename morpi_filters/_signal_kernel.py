@@ -11,8 +11,8 @@
   :func:`morpi_filters.calibration.noise_sigma`) and spread, the lower quartile of the sigmas and
   the median of the quietest block, with numpy's arithmetic in numpy's order (on a C-ordered array
   of 2 to 7 columns every sum of that code adds its terms one after the other from 0.0), so its bits;
-- :func:`window_spread`, the moving spread of the gyro on the uniform grid that
-  :func:`morpi_filters.steps.activity_span` thresholds;
+- :func:`window_spread`, the moving spread and mean of the gyro on the uniform grid that
+  :func:`morpi_filters.steps.activity_span` and ``field_aided.still_spans`` threshold;
 - :func:`motion_flags`, the samples :func:`morpi_filters.calibration.detect_rest` takes as
   moving: a gyro deviation or spread, or an accelerometer spread, above its threshold on any axis;
 - :func:`increments`, the integral of sampled signals over each interval of the real time grid
@@ -86,11 +86,12 @@ def moving_stats(t, x, half, mean, std):
             std[i, j] = math.sqrt(max(v, 0.0))
 
 
-def window_spread(w, k, sd):
+def window_spread(w, k, sd, mean):
     """``sd[r]`` (m - k + 1,): the standard deviations of the columns of ``w[r:r + k]`` (w (m, c)) summed
-    over the columns, from running sums as ``steps.activity_span`` takes them (``cumsum`` of `w` and of
-    ``w * w``, differences over `k`, ``sqrt(maximum(var, 0))``, the columns added in order from 0.0),
-    so numpy's bits."""
+    over the columns, and ``mean[r]`` (m - k + 1, c) their means, from running sums as
+    ``steps.activity_span`` and ``field_aided.still_spans`` take them (``cumsum`` of `w` and of ``w * w``,
+    differences over `k`, ``sqrt(maximum(var, 0))``, the columns added in order from 0.0), so numpy's
+    bits."""
     m, c = w.shape
     c1 = np.zeros((m + 1, c))
     c2 = np.zeros((m + 1, c))
@@ -103,11 +104,12 @@ def window_spread(w, k, sd):
     for r in range(m - k + 1):
         s = 0.0
         for j in range(c):
-            mean = (c1[r + k, j] - c1[r, j]) / k
-            var = (c2[r + k, j] - c2[r, j]) / k - mean * mean
+            mu = (c1[r + k, j] - c1[r, j]) / k
+            var = (c2[r + k, j] - c2[r, j]) / k - mu * mu
             if var < 0.0:                                       # np.maximum(var, 0.0) (NaN stays)
                 var = 0.0
             s += math.sqrt(var)
+            mean[r, j] = mu
         sd[r] = s
 
 

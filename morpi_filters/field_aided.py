@@ -120,16 +120,13 @@ def still_spans(time, omega, motion, rest_slice) -> tuple:
     >>> still_spans(t, omega, (3.0, 6.0), (0, 300))
     ((0.0, 2.99), (6.01, 9.99))
     """
-    from .steps import GRID_HZ, resample_uniform
+    from .steps import GRID_HZ, resample_uniform, window_spread
 
     grid, g = resample_uniform(time, omega)
     k = max(2, int(round(STILL_WINDOW_S * GRID_HZ)))
     if grid.size <= k:
         return ()
-    c1 = np.vstack([np.zeros((1, 3)), np.cumsum(g, axis=0)])
-    c2 = np.vstack([np.zeros((1, 3)), np.cumsum(g * g, axis=0)])
-    mean = (c1[k:] - c1[:-k]) / k
-    sd = np.sqrt(np.maximum((c2[k:] - c2[:-k]) / k - mean * mean, 0.0)).sum(axis=1)
+    sd, mean = window_spread(g, k)
     lo, hi = grid[: sd.size], grid[k - 1: k - 1 + sd.size]     # window j covers [lo[j], hi[j]]
     i0, i1 = rest_slice
     ref = (lo >= time[i0]) & (hi <= time[max(i1 - 1, i0)])

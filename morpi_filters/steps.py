@@ -813,9 +813,7 @@ def activity_span(time, omega, *, window_s: float = ACTIVITY_WINDOW_S, factor: f
     k = max(2, int(round(window_s * GRID_HZ)))
     if grid.shape[0] <= k:
         return float(time[0]), float(time[-1])
-    # the moving standard deviation summed over the axes, from running sums (a compiled loop)
-    sd = np.empty(grid.shape[0] - k + 1)
-    (_KERNELS or _kernels())["window_spread"](np.require(w, float, ["C"]), k, sd)
+    sd = window_spread(w, k)[0]
     first = 0
     if rest is None:
         n_rest = max(1, int(rest_s * GRID_HZ) - k)
@@ -842,6 +840,16 @@ def activity_span(time, omega, *, window_s: float = ACTIVITY_WINDOW_S, factor: f
     ends = np.r_[on[breaks], on[-1]]
     j = int(np.argmax(ends - starts))
     return float(grid[min(starts[j], grid.shape[0] - 1)]), float(grid[max(ends[j], starts[j])])
+
+
+def window_spread(w, k: int) -> tuple:
+    """The standard deviation of each column of `w` (m, c) over every window of `k` samples, summed over the
+    columns, shape (m - k + 1,), and the windows' means, shape (m - k + 1, c): from running sums (a compiled
+    loop, numpy's bits)."""
+    w = np.require(w, float, ["C"])
+    sd, mean = np.empty(w.shape[0] - k + 1), np.empty((w.shape[0] - k + 1, w.shape[1]))
+    (_KERNELS or _kernels())["window_spread"](w, k, sd, mean)
+    return sd, mean
 
 
 def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_end_time: float | None = None,

@@ -610,9 +610,11 @@ def test_window_spread_kernel_is_the_numpy_running_sums_bit_for_bit():
             mean = (c1[k:] - c1[:-k]) / k
             want = np.sqrt(np.maximum((c2[k:] - c2[:-k]) / k - mean * mean, 0.0)).sum(axis=1)
             for f in (_signal_kernel.compiled()["window_spread"], plain.window_spread):
-                sd = np.empty(w.shape[0] - k + 1)
-                f(w, k, sd)
+                sd, means = np.empty(w.shape[0] - k + 1), np.empty((w.shape[0] - k + 1, 3))
+                f(w, k, sd, means)
                 np.testing.assert_array_equal(sd, want)
+                np.testing.assert_array_equal(means, mean)
+            np.testing.assert_array_equal(st.window_spread(w, k)[1], mean)
 
 
 def test_reading_sums_kernel_by_hand():
