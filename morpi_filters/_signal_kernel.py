@@ -660,33 +660,34 @@ def maxima_prominences(x, maxima, out):
                 v = x[i]
         valley[j] = v
         lo = hi
+    left = np.empty(m)
+    right = np.empty(m)
+    _side_minima(x, maxima, valley, True, left)
+    _side_minima(x, maxima, valley, False, right)
+    for j in range(m):
+        out[j] = x[maxima[j]] - (left[j] if left[j] > right[j] else right[j])
+
+
+def _side_minima(x, maxima, valley, before, out):
+    """``out[j]``: the smallest of the valleys (:func:`maxima_prominences`) between maximum j and the nearest
+    strictly higher maximum before it (`before`) or after it, or the signal's end: one pass over the maxima
+    with a stack of those still unbeaten, each holding the smallest valley since the one below it."""
+    m = maxima.shape[0]
     stack = np.empty(m, dtype=np.intp)
     acc = np.empty(m)
-    left = np.empty(m)
     top = 0
-    for j in range(m):
+    for i in range(m):
+        j = i if before else m - 1 - i
         h = x[maxima[j]]
-        cur = valley[j]
+        cur = valley[j] if before else valley[j + 1]
         while top > 0 and x[maxima[stack[top - 1]]] <= h:
             top -= 1
             if acc[top] < cur:
                 cur = acc[top]
-        left[j] = cur
+        out[j] = cur
         stack[top] = j
         acc[top] = cur
         top += 1
-    top = 0
-    for j in range(m - 1, -1, -1):
-        h = x[maxima[j]]
-        cur = valley[j + 1]
-        while top > 0 and x[maxima[stack[top - 1]]] <= h:
-            top -= 1
-            if acc[top] < cur:
-                cur = acc[top]
-        stack[top] = j
-        acc[top] = cur
-        top += 1
-        out[j] = h - (left[j] if left[j] > cur else cur)
 
 
 def drop_below(peaks, values, vmin):
@@ -946,10 +947,15 @@ def block_sigma_loops(t, x, span, block, q, med):
 
 
 #: The functions numba compiles, callees first.
-_FUNCTIONS = ("moving_stats", "window_spread", "motion_flags", "sort_head", "block_edges", "block_noise", "block_pick",
-              "block_sigma_loops", "increments", "coning", "translation", "time_order", "running_integral", "_sections", "filtfilt",
-              "_pairwise_block", "pairwise_sum", "loo_errors", "interp", "swing_median", "_interp1", "_window_mean", "_add_turn", "turn_values", "reading_sums",
-              "local_maxima", "select_by_distance", "compress", "maxima_prominences", "drop_below")
+_FUNCTIONS = (
+    "moving_stats", "window_spread", "motion_flags",
+    "sort_head", "block_edges", "block_noise", "block_pick", "block_sigma_loops",
+    "increments", "coning", "translation", "time_order", "running_integral",
+    "_sections", "filtfilt",
+    "_pairwise_block", "pairwise_sum", "loo_errors",
+    "interp", "swing_median", "_interp1", "_window_mean", "_add_turn", "turn_values", "reading_sums",
+    "local_maxima", "select_by_distance", "compress", "_side_minima", "maxima_prominences", "drop_below",
+)
 _COMPILED = None
 
 

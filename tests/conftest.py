@@ -24,6 +24,19 @@ def _field_root():
     return None
 
 
+def plain_kernels():
+    """``morpi_filters._signal_kernel`` loaded a second time and never compiled: its loops as plain Python,
+    which the tests run beside the compiled ones (same bits)."""
+    import importlib.util
+
+    from morpi_filters import _signal_kernel
+
+    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
+    plain = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(plain)
+    return plain
+
+
 @pytest.fixture(scope="session")
 def field_root():
     root = _field_root()

@@ -12,6 +12,7 @@ from morpi_filters.calibration import (LOCAL_GRAVITY, Calibration, RestWindow, c
 from morpi_filters.dataset import Recording, load_catalogue
 from morpi_filters.errors import MorpiError
 from morpi_filters.report.calibration import rest_windows_table
+from conftest import plain_kernels
 
 GYRO_BIAS = np.array([0.012, -0.021, 0.0305])   # rad/s, of the order of the field recordings' biases
 ACCEL_BIAS = np.array([0.15, -0.22, 0.09])      # m/s^2
@@ -266,9 +267,6 @@ def _numpy_moving_stats(t, x, half):
 
 
 def test_moving_stats_are_the_numpy_window_sums_bit_for_bit():
-    import importlib.util
-
-    from morpi_filters import _signal_kernel
     from morpi_filters.calibration import _moving_stats
 
     rng = np.random.default_rng(21)
@@ -282,9 +280,7 @@ def test_moving_stats_are_the_numpy_window_sums_bit_for_bit():
         np.testing.assert_array_equal(std, ref_std)
     assert np.all(std[:, 1] == 0.0)
     # the compiled loop gives the plain Python loop's bits (no fast-math)
-    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
-    plain = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(plain)
+    plain = plain_kernels()
     m2, s2 = np.empty_like(x[:500]), np.empty_like(x[:500])
     plain.moving_stats(t[:500], x[:500], 0.125, m2, s2)
     m1, s1 = _moving_stats(t[:500], x[:500], 0.125)
@@ -293,8 +289,6 @@ def test_moving_stats_are_the_numpy_window_sums_bit_for_bit():
 
 
 def test_motion_flags_are_the_numpy_comparisons():
-    import importlib.util
-
     from morpi_filters import _signal_kernel
 
     rng = np.random.default_rng(22)
@@ -308,9 +302,7 @@ def test_motion_flags_are_the_numpy_comparisons():
     out = np.empty(n, dtype=bool)
     _signal_kernel.compiled()["motion_flags"](s_g, m_g, s_a, g_spread, g_level, g_dev, a_spread, out)
     np.testing.assert_array_equal(out, ref)
-    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
-    plain = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(plain)
+    plain = plain_kernels()
     out2 = np.empty(n, dtype=bool)
     plain.motion_flags(s_g, m_g, s_a, g_spread, g_level, g_dev, a_spread, out2)
     np.testing.assert_array_equal(out2, ref)
@@ -320,15 +312,11 @@ def test_motion_flags_are_the_numpy_comparisons():
 
 def _block_kernels(compiled):
     """The block loops of ``_signal_kernel``, compiled by numba or as plain Python."""
-    import importlib.util
-
     from morpi_filters import _signal_kernel
 
     if compiled:
         return _signal_kernel.compiled()
-    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
-    plain = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(plain)
+    plain = plain_kernels()
     return {n: getattr(plain, n) for n in ("block_edges", "block_noise", "block_pick", "block_sigma_loops")}
 
 

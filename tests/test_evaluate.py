@@ -17,6 +17,7 @@ from morpi_filters import simulate, units
 from morpi_filters import steps as st
 from morpi_filters.report.tables import report_tables
 from morpi_filters.reporting import DataSource
+from conftest import plain_kernels
 
 
 
@@ -672,13 +673,9 @@ def test_a_study_freezes_the_heap_only_while_it_runs_and_only_when_nobody_else_d
 
 
 def test_leave_one_out_errors_kernel_is_the_numpy_form_bit_for_bit():
-    import importlib.util
-
     from morpi_filters import _signal_kernel
 
-    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
-    plain = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(plain)
+    plain = plain_kernels()
     rng = np.random.default_rng(29)
     for n in list(range(0, 140)) + [255, 256, 257, 300, 1029, 5000]:              # numpy's sum, bit for bit
         a = rng.normal(size=n) * 10.0 ** rng.uniform(-3, 3, n)

@@ -10,6 +10,7 @@ from scipy.integrate import cumulative_trapezoid, quad
 from morpi_filters import steps as st
 from morpi_filters.dataset import Recording
 from morpi_filters.errors import MorpiError
+from conftest import plain_kernels
 
 
 def _jittered_time(duration, rate, rng, t0=12.3):
@@ -88,11 +89,7 @@ def test_lowpass_cutoff_removes_noise_peaks():
 
 @pytest.mark.parametrize("cutoff_hz", [0.5, 3.0, 20.0])
 def test_lowpass_is_scipys_sosfiltfilt_bit_for_bit(cutoff_hz):
-    import importlib.util
-
     from scipy import signal
-
-    from morpi_filters import _signal_kernel
 
     rng = np.random.default_rng(31)
     sos = signal.butter(2, cutoff_hz, fs=st.GRID_HZ, output="sos")
@@ -102,9 +99,7 @@ def test_lowpass_is_scipys_sosfiltfilt_bit_for_bit(cutoff_hz):
     short = rng.normal(size=9)                                   # too short for the padding: returned as is
     np.testing.assert_array_equal(st.lowpass(short, cutoff_hz), short)
     # the compiled loop gives the plain Python loop's bits
-    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
-    plain = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(plain)
+    plain = plain_kernels()
     x = rng.normal(size=200)
     out = np.empty(200)
     plain.filtfilt(sos, signal.sosfilt_zi(sos), 9, x, out)
@@ -440,14 +435,11 @@ def test_turns_reading_drifts_less_than_absolute_on_a_biased_straight_sine(metho
 
 
 def test_step_sums_are_the_steps_own_sums_for_every_reading_and_refuse_the_same_runs():
-    import importlib.util
     import math
 
-    from morpi_filters import _signal_kernel, simulate
+    from morpi_filters import simulate
 
-    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
-    plain = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(plain)
+    plain = plain_kernels()
     eps = np.finfo(float).eps
     L = simulate.l_route(period=1.0, amplitude=0.1)
     rec = _simulated(L, 2, bias_dps=0.1, pattern="s6")
@@ -500,13 +492,9 @@ def test_step_sums_are_the_steps_own_sums_for_every_reading_and_refuse_the_same_
 
 
 def test_interp_and_swing_kernels_are_numpys_bit_for_bit():
-    import importlib.util
-
     from morpi_filters import _signal_kernel
 
-    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
-    plain = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(plain)
+    plain = plain_kernels()
     rng = np.random.default_rng(8)
     t = np.cumsum(rng.uniform(0.005, 0.02, 3000))
     psi = np.cumsum(rng.normal(0.0, 0.01, 3000))
@@ -544,13 +532,9 @@ def test_interp_and_swing_kernels_are_numpys_bit_for_bit():
 
 
 def test_turn_values_kernel_is_turn_heading_of_turn_stretches_bit_for_bit():
-    import importlib.util
-
     from morpi_filters import _signal_kernel
 
-    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
-    plain = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(plain)
+    plain = plain_kernels()
     rng = np.random.default_rng(17)
     t = np.cumsum(rng.uniform(0.005, 0.02, 4000))
     stretches_seen = set()
@@ -593,13 +577,9 @@ def test_turn_values_kernel_is_turn_heading_of_turn_stretches_bit_for_bit():
 
 
 def test_window_spread_kernel_is_the_numpy_running_sums_bit_for_bit():
-    import importlib.util
-
     from morpi_filters import _signal_kernel
 
-    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
-    plain = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(plain)
+    plain = plain_kernels()
     rng = np.random.default_rng(23)
     # gyro-like noise, on offsets (cancellation in E[x^2] - E[x]^2: clipped at 0), a constant column
     for w in (0.01 * rng.normal(size=(3000, 3)), 5.0 + 1e-4 * rng.normal(size=(500, 3)),
@@ -618,14 +598,11 @@ def test_window_spread_kernel_is_the_numpy_running_sums_bit_for_bit():
 
 
 def test_reading_sums_kernel_by_hand():
-    import importlib.util
     import math
 
     from morpi_filters import _signal_kernel
 
-    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
-    plain = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(plain)
+    plain = plain_kernels()
     bt, psi_b, weight = np.array([1.0, 2.0, 3.0]), np.array([0.0, 0.1, 0.2]), np.array([2.0, 3.0])
     # the motion starts on the first boundary (an empty first step) and ends half a median step after the last
     m0, m1, psi_m0, psi_m1, per, wmed = 1.0, 3.5, 0.0, 0.3, 1.0, 2.5
@@ -666,16 +643,10 @@ def _scipy_peaks(x, distance):
 
 @pytest.mark.parametrize("compiled", [True, False])
 def test_find_peaks_kernel_is_scipys_bit_for_bit(compiled, monkeypatch):
-    import importlib.util
-
     from scipy import signal
 
-    from morpi_filters import _signal_kernel
-
     if not compiled:                                             # the same loops run as plain Python
-        spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
-        plain = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(plain)
+        plain = plain_kernels()
         monkeypatch.setattr(st, "_KERNELS", {n: getattr(plain, n) for n in plain._FUNCTIONS})
     rng = np.random.default_rng(12)
     t = np.arange(6000) / 100.0

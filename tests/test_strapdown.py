@@ -13,6 +13,7 @@ from scipy.integrate import quad
 from morpi_filters import units
 from morpi_filters.errors import MorpiError
 from morpi_filters.strapdown import coarse_level, heading_from_C, ins2d, ins3d, rotvec_to_C, yaw_to_C
+from conftest import plain_kernels
 
 G = units.G0
 # The acceptance bar: noise-free INS end error under 1 mm after 15 s at 100 Hz.
@@ -312,13 +313,9 @@ def _numpy_increments(time, x):
 
 
 def test_coning_term_is_the_numpy_form_bit_for_bit():
-    import importlib.util
-
     from morpi_filters import _signal_kernel
 
-    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
-    plain = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(plain)
+    plain = plain_kernels()
     rng = np.random.default_rng(44)
     for n, B in ((2, 1), (300, 1), (300, 3)):
         time = np.cumsum(rng.uniform(0.003, 0.02, n))
@@ -339,9 +336,6 @@ def test_coning_term_is_the_numpy_form_bit_for_bit():
 
 @pytest.mark.parametrize("n", [2, 3, 500])
 def test_translation_is_the_numpy_sums_bit_for_bit(n):
-    import importlib.util
-
-    from morpi_filters import _signal_kernel
     from morpi_filters.strapdown import _integrate_translation
 
     rng = np.random.default_rng(43)
@@ -360,9 +354,7 @@ def test_translation_is_the_numpy_sums_bit_for_bit(n):
         np.testing.assert_array_equal(got_v, v)
         np.testing.assert_array_equal(got_p, p)
     # the compiled loop gives the plain Python loop's bits
-    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
-    plain = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(plain)
+    plain = plain_kernels()
     pv, pp = np.empty(a.shape), np.empty(a.shape)
     dv, d = _numpy_increments(time, a)
     plain.translation(np.diff(time), a, d, dv, np.diff(time) ** 3 / 60.0, v0, p0, pv, pp)
@@ -372,9 +364,6 @@ def test_translation_is_the_numpy_sums_bit_for_bit(n):
 
 @pytest.mark.parametrize("n", [2, 3, 4, 500])
 def test_increments_and_running_integral_are_the_numpy_sums_bit_for_bit(n):
-    import importlib.util
-
-    from morpi_filters import _signal_kernel
     from morpi_filters.steps import _running_integral
     from morpi_filters.strapdown import _increments
 
@@ -397,9 +386,7 @@ def test_increments_and_running_integral_are_the_numpy_sums_bit_for_bit(n):
     np.testing.assert_array_equal(_running_integral(time, psi),
                                   np.concatenate([[0.0], np.cumsum(0.5 * (psi[1:] + psi[:-1]) * np.diff(time))]))
     # the compiled loops give the plain Python loops' bits
-    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
-    plain = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(plain)
+    plain = plain_kernels()
     x = rng.normal(size=(2, n, 3))
     inc, d = np.empty((2, n - 1, 3)), np.empty((2, n, 3))
     plain.increments(time, x, inc, d)
