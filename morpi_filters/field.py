@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import _signal_kernel
 from . import dataset as ds
 from . import steps as st
 from .errors import MorpiError
@@ -804,19 +805,11 @@ def _loo_errors(truth, g, u, keep=None) -> np.ndarray:
     ``gi = (sum(g) - g) / (n - 1)``, ``|gi u - end| / distance * 100``: a compiled loop
     (``_signal_kernel.loo_errors``) with numpy's arithmetic and its order of the sum.
     """
-    global _LOO
-    if _LOO is None:
-        from ._signal_kernel import compiled
-
-        _LOO = compiled()["loo_errors"]
     out = np.empty(g.shape[0])
     end = truth.end_point_m
-    m = _LOO(g, u, np.ones(g.shape[0], dtype=bool) if keep is None else keep, float(end[0]), float(end[1]),
+    m = _signal_kernel.compiled()["loo_errors"](g, u, np.ones(g.shape[0], dtype=bool) if keep is None else keep, float(end[0]), float(end[1]),
              float(truth.distance_m), out)
     return out[:m]
-
-
-_LOO = None
 
 
 def _loo_vector(data: FieldData, method, config, mode="GC", exclude=frozenset()) -> np.ndarray | None:

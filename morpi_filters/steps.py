@@ -406,9 +406,7 @@ def lowpass(x, cutoff_hz: float, rate_hz: float = GRID_HZ, order: int = 2):
     if x.shape[0] <= 3 * (2 * sos.shape[0] + 1):
         return x
     # scipy's sosfiltfilt (odd padding, steady-state start of both passes) as a compiled loop, per column
-    from ._signal_kernel import compiled
-
-    filt = compiled()["filtfilt"]
+    filt = (_KERNELS or _kernels())["filtfilt"]
     if x.ndim == 1:
         out = np.empty(x.shape[0])
         filt(sos, zi, pad, np.require(x, float, ["C"]), out)
@@ -667,10 +665,8 @@ class PreparedSignal:
 
 def _running_integral(t, x) -> np.ndarray:
     """Trapezoidal integral of `x` from the first sample, shape (n,): a compiled loop."""
-    from ._signal_kernel import compiled
-
     out = np.empty(t.shape[0])
-    compiled()["running_integral"](np.require(t, float, ["C", "W"]), np.require(x, float, ["C", "W"]), out)
+    (_KERNELS or _kernels())["running_integral"](np.require(t, float, ["C", "W"]), np.require(x, float, ["C", "W"]), out)
     return out
 
 
@@ -987,8 +983,8 @@ def step_sums(prepared: PreparedSignal, method: str, config: StepConfig, *, peak
     heading = _HEADING_CODES[config.heading]
     edge = _edge_values(prepared, config, pkey, bt, psi_b) if heading >= 2 else _NO_EDGES
     m0, m1 = prepared.motion
-    w, ux, uy, n = (_KERNELS or _kernels())["reading_sums"](bt, psi_b, weight, edge, m0, m1, psi_m[0], psi_m[1], per, wmed,
-                                              _ENDS_CODES[config.ends], heading)
+    w, ux, uy, n = (_KERNELS or _kernels())["reading_sums"](
+        bt, psi_b, weight, edge, m0, m1, psi_m[0], psi_m[1], per, wmed, _ENDS_CODES[config.ends], heading)
     return StepSums(w, ux, uy, med, n)
 
 

@@ -39,10 +39,11 @@ dt-dependent bias, which otherwise reaches ~1 mm of end error on a sine path.
 Only the attitude needs a loop over time (a running product of rotation
 matrices): one run's is compiled by numba (``_aided_kernel.attitude_chain``,
 imported on the first call), a batch's steps every run together in numpy.
-The interval integrals are a compiled loop too (``_signal_kernel.increments``,
-numpy's element-wise arithmetic in its order); accelerations, velocity and
-position are vectorized over time and runs. Batched inputs
-(``(runs, n, 3)``) share one time vector.
+The interval integrals, the coning term, the sample-time checks and the
+velocity and position sums are compiled loops too (``_signal_kernel``:
+``increments``, ``coning``, ``time_order``, ``translation``; numpy's arithmetic
+in its order); the accelerations are vectorized over time and runs. Batched
+inputs (``(runs, n, 3)``) share one time vector.
 
 References
 ----------
