@@ -335,16 +335,21 @@ def _field_source(args, required=True):
 def _require_recordings(source, args):
     """`source`, after stopping (DataError) when recordings under it are bad or missing, unless --partial."""
     from .dataset import check_tree
-    from .errors import DataError
 
     if source is None or source.root is None or getattr(args, "partial", False):
         return source
-    problems, _ = check_tree(source.root)
+    _stop_on_problems(source.root, check_tree(source.root)[0])
+    return source
+
+
+def _stop_on_problems(root, problems):
+    """Raise DataError naming the first of `problems` (lines of recording problems under `root`), if any."""
+    from .errors import DataError
+
     if problems:
         shown = "; ".join(problems[:5]) + (f"; and {len(problems) - 5} more" if len(problems) > 5 else "")
-        raise DataError(f"{source.root}: {len(problems)} recording problem(s): {shown} "
+        raise DataError(f"{root}: {len(problems)} recording problem(s): {shown} "
                         "(run `morpi check` for the full list, or pass --partial to go on without them)")
-    return source
 
 
 def _clean_stale(*folders) -> None:
@@ -448,16 +453,18 @@ def _cmd_report(args):
         print(f"morpi report: field dataset {field_root}, report written to {out}/", flush=True)
     _clean_stale(out.parent, out, CACHE_DIR)
     source = _report_source(args)
-    if source is not None and not source.synthetic:
-        _require_recordings(source, args)
     tables = None
     if source is not None and source.root is not None:
-        # the field evaluation, once for every section that reads the recordings
-        from .evaluate import evaluate_tables
+        # the field evaluation, once for every section that reads the recordings; the recordings are
+        # checked from the same loads
+        from .evaluate import dataset_problems, evaluate_tables
         from .field import FieldData
 
+        data = FieldData(source.root)
+        if not source.synthetic and not getattr(args, "partial", False):
+            _stop_on_problems(source.root, dataset_problems(data))
         print("[field evaluation] ...", flush=True)
-        tables = evaluate_tables(source.root, data=FieldData(source.root))
+        tables = evaluate_tables(source.root, data=data)
     summaries = []
     with Outputs("morpi report") as outputs:
         outputs.root(out)

@@ -103,7 +103,8 @@ def test_bad_parameters_exit_nonzero(argv, tmp_path):
         assert "--workers" in r.stderr and not (tmp_path / "reports").exists()
 
 
-@pytest.mark.parametrize("argv", [["tables"], ["curves", "--times", "1"], ["montecarlo", "--runs", "2"]])
+@pytest.mark.parametrize("argv", [["tables"], ["curves", "--times", "1"], ["montecarlo", "--runs", "2"], ["aided"],
+                                  ["report", "--runs", "2"]])
 def test_data_commands_stop_on_a_bad_recording(tmp_path, argv):
     """Every command that reads the recordings names a bad one and exits 1 (before computing anything)."""
     from morpi_filters.synthetic import write_dataset
@@ -117,6 +118,7 @@ def test_data_commands_stop_on_a_bad_recording(tmp_path, argv):
     err = r.stderr.strip().splitlines()
     assert len(err) == 1 and f"{bad}: empty file" in err[0] and "--partial" in err[0]
     assert not out.exists() and "Traceback" not in r.stderr
+    assert "[field evaluation]" not in r.stdout             # the report stops before evaluating
 
 
 def test_the_command_skips_the_collectors_shutdown_sweeps_and_a_call_does_not(tmp_path):
