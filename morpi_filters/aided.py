@@ -56,6 +56,7 @@ against the functions and classes here).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, fields
 
 import numpy as np
@@ -556,11 +557,11 @@ class AidTuning:
     def __post_init__(self):
         if self.step_heading not in STEP_HEADINGS:
             raise ParameterError(f"AidTuning.step_heading={self.step_heading!r}: expected one of {STEP_HEADINGS}")
-        for f in fields(self):
-            k, v = f.name, getattr(self, f.name)
+        for k in _TUNING_FIELDS:
+            v = getattr(self, k)
             if isinstance(v, (bool, str)):
                 continue
-            if not (np.isfinite(v) and v >= 0):
+            if not (math.isfinite(v) and v >= 0):
                 raise ParameterError(f"AidTuning.{k}={v!r}: expected a finite value >= 0")
         for k in ("step_sigma", "nhc_sigma", "zupt_sigma"):
             if getattr(self, k) <= 0:
@@ -578,6 +579,9 @@ class AidTuning:
         from dataclasses import replace
 
         return replace(self, **kw)
+
+
+_TUNING_FIELDS = tuple(f.name for f in fields(AidTuning))
 
 
 @dataclass(frozen=True, eq=False)

@@ -353,12 +353,7 @@ def prepare(data, rec, mode, method, config, gain) -> Prepared:
         return cache[key]
     crec, _ = data.calibrated(rec, mode)
     w = data.rest_window(rec)
-    f_rest = crec.f[w.i0:w.i1].mean(axis=0)
-    # rest updates: before the motion the calibration's own rest window (the stretch up to the onset may
-    # carry the motors' start), after it every stretch where the gyro is as quiet as at rest (the phone
-    # is handled after some runs)
-    after = still_spans(crec.time, crec.omega, data.activity(rec), (w.i0, w.i1))
-    rest = ((float(w.start_s), float(w.end_s)),) + tuple(s for s in after if s[0] > w.end_s)
+    f_rest, rest, shift, drift, noise = _rest_terms(data, rec, mode)
     s = data.steps(rec, mode, method, config)
     track = st.morpi_track(s, gain)
     # between the rest window and the motion onset (the start of the motion window, where MoRPI's steps
@@ -377,16 +372,36 @@ def prepare(data, rec, mode, method, config, gain) -> Prepared:
     # read where MoRPI's track ends: the gain is trained on MoRPI's step sum, which covers the motion up
     # to the last step boundary (the robot's creep after it is part of what the gain absorbs)
     stop = float(s.end_time[-1]) if s.end_time.size else data.activity(rec)[1]
-    a, b = data.activity(rec)
-    moving = (crec.time >= a) & (crec.time <= b)
-    # the specific force's mean shift under way (the run starts and ends at rest: no net acceleration)
-    shift = crec.f[moving].mean(axis=0) - f_rest if moving.any() else np.zeros(3)
     bt = s.peaks.grid_time[s.peaks.grid_index]
     along = route_vectors(track.length, s.start_time, s.end_time, bt, crec.time,
                           data.heading(rec, mode, config.heading_source), config.turn_deg,
                           2 if config.segment == "extrema" else 1)
-    cache[key] = Prepared(data.relpath(rec), inp, replace(inp, step_vector=along), track.position, rest_noise(rec, w), float(stop),
-                          gyro_drift(crec, w, rest), shift)
+    cache[key] = Prepared(data.relpath(rec), inp, replace(inp, step_vector=along), track.position, noise, float(stop),
+                          drift, shift)
+    return cache[key]
+
+
+def _rest_terms(data, rec, mode):
+    """What :func:`prepare` reads from one recording and calibration whatever the steps: the mean specific
+    force of the rest window, the rest stretches, the specific force's shift under way, the gyro drift and the
+    rest noise (cached in ``data.study_cache``)."""
+    key = (rec.source, mode, "aided rest")
+    cache = data.study_cache
+    if key in cache:
+        return cache[key]
+    crec, _ = data.calibrated(rec, mode)
+    w = data.rest_window(rec)
+    f_rest = crec.f[w.i0:w.i1].mean(axis=0)
+    # rest updates: before the motion the calibration's own rest window (the stretch up to the onset may
+    # carry the motors' start), after it every stretch where the gyro is as quiet as at rest (the phone
+    # is handled after some runs)
+    after = still_spans(crec.time, crec.omega, data.activity(rec), (w.i0, w.i1))
+    rest = ((float(w.start_s), float(w.end_s)),) + tuple(s for s in after if s[0] > w.end_s)
+    a, b = data.activity(rec)
+    moving = (crec.time >= a) & (crec.time <= b)
+    # the specific force's mean shift under way (the run starts and ends at rest: no net acceleration)
+    shift = crec.f[moving].mean(axis=0) - f_rest if moving.any() else np.zeros(3)
+    cache[key] = f_rest, rest, shift, gyro_drift(crec, w, rest), rest_noise(rec, w)
     return cache[key]
 
 
