@@ -187,6 +187,31 @@ def test_monte_carlo_log_axes_label_the_same_ticks_in_plain_text():
                         assert shown == (power if c == 1 else f"{c}\u00d7{power}")
 
 
+def test_drift_map_is_placed_once_with_its_colour_bar_beside_it_on_the_canvas():
+    # the map and its colour bar are placed from their labels (no layout engine): everything on the canvas, the
+    # bar right of the map's labels and annotations, its tick labels and the map's y labels in plain text
+    bias, t = np.logspace(-2, 1, 26), np.linspace(0.1, 15.0, 150)
+    rel = np.clip(1e-3 * np.outer(bias, t) ** 1.5, 0, 3.0)
+    ax = plots.drift_disagreement_map(bias, t, rel, marks=[(6.0, 14.0, "S6 datasheet, 14 s")],
+                                      title="INS-3D INS at rest: strapdown vs small-angle closed form "
+                                            "(median of 32 draws)")
+    fig = ax.figure
+    assert fig.get_layout_engine() is None or type(fig.get_layout_engine()).__name__ == "PlaceHolderLayoutEngine"
+    assert _inside(fig)
+    renderer = _drawn(fig)
+    cax = [a for a in fig.axes if a is not ax]
+    assert len(cax) == 1
+    bar = cax[0].get_tightbbox(renderer)
+    parts = [ax.bbox, ax.title.get_window_extent(renderer), ax.xaxis.get_tightbbox(renderer),
+             *(a.get_window_extent(renderer) for a in ax.texts)]
+    assert all(not bar.overlaps(p) for p in parts)
+    for axis in (ax.yaxis, cax[0].yaxis):
+        shown = [tk.label1.get_text() for tk in axis.get_major_ticks() if tk.label1.get_text()]
+        assert shown and all("$" not in x for x in shown)
+    assert any(lbl.get_text() == "10\u2070" for lbl in cax[0].yaxis.get_ticklabels() + cax[0].yaxis.get_ticklabels(
+        which="both"))
+
+
 def test_monte_carlo_margins_hold_wide_labels_an_offset_text_and_a_long_title():
     # tick labels of many digits, a y offset text ("+1e3") above the Axes with the title above it, and a title
     # wider than the Axes: all on the canvas

@@ -219,7 +219,7 @@ def _under_room(ax) -> float:
     return _XTICKS_IN - _LABEL_IN + label
 
 
-def _fixed_layout(fig, axes, nrow=1, ncol=1, suptitle=False):
+def _fixed_layout(fig, axes, nrow=1, ncol=1, suptitle=False, right_room=0.0):
     """Place the `nrow` x `ncol` grid of `axes` with margins sized to their labels (no layout pass when drawn).
 
     The margins hold the tick labels the Axes show at their limits (measured
@@ -227,6 +227,8 @@ def _fixed_layout(fig, axes, nrow=1, ncol=1, suptitle=False):
     the Axes, with the tight layout's pad around them; the figure then draws
     in one pass. An Axes of fixed aspect (``adjustable="datalim"``) gets its
     limits for the final box here, and its labels are measured at those.
+    `right_room` [in] is kept free right of the grid (for a colour bar placed
+    there by the caller).
     """
     w, h = fig.get_size_inches()
     fixed = [ax for ax in axes if ax.get_aspect() != "auto"]
@@ -243,11 +245,11 @@ def _fixed_layout(fig, axes, nrow=1, ncol=1, suptitle=False):
         rooms = [_label_room(ax) for ax in axes]
         left = max(r[0] for r in rooms)
         gap = _PAD_IN + left
-        right = _PAD_IN + beyond
+        right = _PAD_IN + beyond + right_room
         for _ in range(2):              # the x labels' overhang depends on the Axes width, which depends on it
             width = (w - _PAD_IN - left - right - (ncol - 1) * gap) / ncol
             over = max(max(0.0, half - frac * width) for _, frac, half in rooms)
-            right, gap = _PAD_IN + max(over, beyond), _PAD_IN + left + over
+            right, gap = _PAD_IN + max(over, beyond + right_room), _PAD_IN + left + over
         if ncol == 1 and title:
             # a title wider than the Axes overhangs both sides equally: keep it on the canvas
             widest = max(_text_width([ax.get_title()], ax.title.get_fontsize()) for ax in axes)
@@ -972,7 +974,7 @@ def drift_disagreement_map(gyro_bias_deg_s, time, rel, *, title="", marks=(), ax
     import numpy as np
     from matplotlib.colors import LogNorm
 
-    ax, _ = new_axes(ax, (7, 4.5))
+    ax, new = new_axes(ax, (7, 4.5))
     fig = ax.figure
     r = np.clip(np.asarray(rel, float), 1e-7, None)
     m = ax.pcolormesh(time, gyro_bias_deg_s, r, norm=LogNorm(vmin=1e-5, vmax=max(1.0, r.max())), shading="nearest",
@@ -981,13 +983,28 @@ def drift_disagreement_map(gyro_bias_deg_s, time, rel, *, title="", marks=(), ax
     ax.clabel(cs, fmt={0.01: "1 %", 0.1: "10 %"}, fontsize=8)
     for b, t, text in marks:
         ax.plot([t], [b], "r*", ms=9)
-        ax.annotate(text, (t, b), textcoords="offset points", xytext=(-60, 6), color="r", fontsize=8)
+        ax.annotate(text, (t, b), textcoords="offset points", xytext=(-60, -14), color="r", fontsize=8)
     ax.set_yscale("log")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("gyro bias, 1 sigma per axis [deg/s]")
-    fig.colorbar(m, ax=ax, label="|dp strapdown - dp closed form| / |dp strapdown|")
     if title:
         ax.set_title(title, fontsize=10)
+    label = "|dp strapdown - dp closed form| / |dp strapdown|"
+    _plain_log_labels(ax.yaxis)
+    if not new:
+        fig.colorbar(m, ax=ax, label=label)
+        return ax
+    # the colour bar in an Axes of its own right of the map: room for it, its tick labels and its label is
+    # kept out of the map's margins, and both are placed once (no layout pass when drawn)
+    cax = fig.add_axes((0.9, 0.1, 0.02, 0.8))
+    fig.colorbar(m, cax=cax, label=label)
+    _plain_log_labels(cax.yaxis)
+    gap, bar = 0.15, 0.16                       # [in]: between map and bar, the bar's width (about 1/20 of its height)
+    room = gap + bar + _TICK_IN + _text_width([t for _, t in _tick_labels(cax.yaxis)]) + _LABEL_IN
+    _fixed_layout(fig, [ax], right_room=room)
+    w, _ = fig.get_size_inches()
+    box = ax.get_position()
+    cax.set_position((box.x1 + gap / w, box.y0, bar / w, box.height))
     return ax
 
 
