@@ -320,8 +320,15 @@ def _write(name, out: Path, study, source=None):
 
 
 def _section(name, out: Path, args, source=None, tables=None):
-    """Build one report section into folder `out`: run its study, write its files; its summary."""
-    return _write(name, out, _study(name, args, source, tables), source)
+    """Build one report section into folder `out`: run its study, write its files; its summary.
+
+    The section runs with the heap frozen (:func:`morpi_filters.parallel.heap_frozen`): the collector's
+    full collections, which sympy's import and the figures trigger, walk only what the section allocates.
+    """
+    from .parallel import heap_frozen
+
+    with heap_frozen():
+        return _write(name, out, _study(name, args, source, tables), source)
 
 
 def _field_source(args, required=True):
@@ -459,12 +466,14 @@ def _cmd_report(args):
         # checked from the same loads
         from .evaluate import dataset_problems, evaluate_tables
         from .field import FieldData
+        from .parallel import heap_frozen
 
-        data = FieldData(source.root)
-        if not source.synthetic and not getattr(args, "partial", False):
-            _stop_on_problems(source.root, dataset_problems(data))
-        print("[field evaluation] ...", flush=True)
-        tables = evaluate_tables(source.root, data=data)
+        with heap_frozen():
+            data = FieldData(source.root)
+            if not source.synthetic and not getattr(args, "partial", False):
+                _stop_on_problems(source.root, dataset_problems(data))
+            print("[field evaluation] ...", flush=True)
+            tables = evaluate_tables(source.root, data=data)
     summaries = []
     with Outputs("morpi report") as outputs:
         outputs.root(out)

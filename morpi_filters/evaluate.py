@@ -61,7 +61,6 @@ References
 from __future__ import annotations
 
 import functools
-import gc
 import itertools
 import math
 from dataclasses import dataclass, field
@@ -75,6 +74,7 @@ from .field import (
     _MORPI_METHODS, LEVELED, RULES, SHORT_SETS, FieldData, Gain, Selection, _loo_vector, trained_gain,
     nested_rule_comparison, select_config,
 )
+from .parallel import heap_frozen
 
 __all__ = [
     "TABLES", "PAPER_CELLS", "PAPER_COMPARISON", "CellSpec", "RunResult", "Cell",
@@ -369,28 +369,15 @@ def rule_sensitivity(result: TablesResult) -> list[dict]:
 
 
 def _frozen_heap(study):
-    """Run `study` with the objects that exist before it (the imported modules: numba, scipy and pandas
-    bring about 150,000) in the collector's permanent generation, so that its full collections walk only
-    what the study allocates; they return to the oldest generation afterwards. A heap someone else froze
-    is left as it is."""
+    """`study` run with the heap frozen (:func:`morpi_filters.parallel.heap_frozen`): its full collections
+    walk only what it allocates, not the imported modules."""
 
     @functools.wraps(study)
     def run(*args, **kwargs):
-        global _FREEZING
-        if _FREEZING or gc.get_freeze_count():                  # (the count walks the frozen objects)
+        with heap_frozen():
             return study(*args, **kwargs)
-        gc.freeze()
-        _FREEZING = True
-        try:
-            return study(*args, **kwargs)
-        finally:
-            _FREEZING = False
-            gc.unfreeze()
 
     return run
-
-
-_FREEZING = False
 
 
 # --------------------------------------------------------------------------- cells

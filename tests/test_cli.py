@@ -140,3 +140,17 @@ def test_the_command_skips_the_collectors_shutdown_sweeps_and_a_call_does_not(tm
     r = subprocess.run([sys.executable, "-c", code.replace("'a'", "'b'")], capture_output=True, text=True, env=env)
     assert r.returncode == 0, r.stderr
     assert "status 0" in r.stdout and "frozen False" in r.stdout
+
+
+def test_a_report_section_runs_with_the_heap_frozen_and_leaves_it_as_it_was(monkeypatch, tmp_path):
+    # the collector's full collections (sympy's import, the figures) walk only what the section allocates
+    import gc
+
+    from morpi_filters import cli
+
+    seen = []
+    monkeypatch.setattr(cli, "_study", lambda name, *a: seen.append(gc.get_freeze_count()) or "study")
+    monkeypatch.setattr(cli, "_write", lambda name, out, study, source=None: seen.append(gc.get_freeze_count()) or study)
+    assert gc.get_freeze_count() == 0
+    assert cli._section("drift", tmp_path, None) == "study"
+    assert len(seen) == 2 and min(seen) > 0 and gc.get_freeze_count() == 0

@@ -651,10 +651,13 @@ def test_a_study_freezes_the_heap_only_while_it_runs_and_only_when_nobody_else_d
     study = ev._frozen_heap(lambda x: seen.append(gc.get_freeze_count()) or x + 1)
     assert gc.get_freeze_count() == 0
     assert study(1) == 2 and seen[-1] > 0 and gc.get_freeze_count() == 0
-    # a study inside a study: the inner one leaves the heap frozen for the rest of the outer one
-    outer = ev._frozen_heap(lambda: (study(1), seen.append(gc.get_freeze_count())))
+    # a study inside a study: the inner one freezes what the outer one allocated before it (here 5000 lists),
+    # and leaves the heap frozen for the rest of the outer one
+    kept = []
+    outer = ev._frozen_heap(lambda: (seen.append(gc.get_freeze_count()), kept.extend([] for _ in range(5000)),
+                                     study(1), seen.append(gc.get_freeze_count())))
     outer()
-    assert seen[-2] > 0 and seen[-1] > 0 and gc.get_freeze_count() == 0
+    assert seen[-2] >= seen[-3] + 5000 and seen[-1] >= seen[-3] + 5000 and gc.get_freeze_count() == 0
 
     def fails():
         raise ZeroDivisionError
