@@ -13,7 +13,7 @@ updates and feedback at the epochs, writing into arrays the caller owns, then, w
 - the measurement models ``h`` and ``H`` of :class:`aided.StepDisplacement`,
   :class:`aided.ZeroVelocity`, :class:`aided.ZeroRate` and :class:`aided.NonHolonomic`;
 - Rodrigues' formula of :func:`strapdown.rotvec_to_C`, and with it the running attitude product of
-  one run of :func:`strapdown.ins3d` (:func:`attitude_chain`);
+  each run of :func:`strapdown.ins3d` (:func:`attitude_chain`, :func:`attitude_chains`);
 - the Rauch-Tung-Striebel recursion of :func:`aided.rts_smooth`.
 
 The tests hold each piece against those (the transition against the dense series, the
@@ -86,6 +86,12 @@ def attitude_chain(phi, C0, out):
     for k in range(phi.shape[0]):
         rodrigues(phi[k, 0], phi[k, 1], phi[k, 2], E)
         matmul3(out[k], E, out[k + 1])
+
+
+def attitude_chains(phi, C0, out):
+    """:func:`attitude_chain` for each of B runs: `phi` (B, m, 3), `C0` (B, 3, 3), `out` (B, m + 1, 3, 3)."""
+    for b in range(phi.shape[0]):
+        attitude_chain(phi[b], C0[b], out[b])
 
 
 def transition_blocks(d, fn, Cm, A):
@@ -663,7 +669,7 @@ def smooth_member(hist_P, hist_rec, q_ba, q_bg, fj, covariance, xs, Ps_xy):
 
 
 #: The functions numba compiles, callees first (each finds the compiled form of those it calls).
-_FUNCTIONS = ("rodrigues", "matmul3", "attitude_chain", "transition_blocks", "predict", "inverse", "product",
+_FUNCTIONS = ("rodrigues", "matmul3", "attitude_chain", "attitude_chains", "transition_blocks", "predict", "inverse", "product",
               "h_x_plus_r", "kf_update", "step_model", "zero_velocity_model", "zero_rate_model", "nhc_model", "_log",
               "forward_member", "condition", "smooth_member")
 _COMPILED = None

@@ -37,8 +37,9 @@ trapezoid rule; on irregular grids (S6) it removes the trapezoid's
 dt-dependent bias, which otherwise reaches ~1 mm of end error on a sine path.
 
 Only the attitude needs a loop over time (a running product of rotation
-matrices): one run's is compiled by numba (``_aided_kernel.attitude_chain``,
-imported on the first call), a batch's steps every run together in numpy.
+matrices): each run's is compiled by numba (``_aided_kernel.attitude_chains``,
+imported on the first call), so a run's attitude does not depend on the batch
+it is in.
 The interval integrals, the coning term, the sample-time checks and the
 velocity and position sums are compiled loops too (``_signal_kernel``:
 ``increments``, ``coning``, ``time_order``, ``translation``; numpy's arithmetic
@@ -294,9 +295,6 @@ def _batch_shape(name_shapes) -> tuple:
         raise MorpiError(f"batch shapes do not match: {desc}; expected the same leading runs axis") from None
 
 
-#: Rotation increments built at once in :func:`ins3d` (steps x runs), to bound memory.
-_BLOCK = 1 << 18
-
 
 def _increments(time, x):
     """Integral of `x` (B, n, ...) over each interval: trapezoid with the Hermite end correction.
@@ -384,6 +382,7 @@ def _attitude_matrices(time, wb, C0b) -> np.ndarray:
 
     `time` (n,) checked, `wb` (B, n, 3) the body rates, `C0b` (B, 3, 3) the initial attitudes.
     """
+    from ._aided_kernel import compiled as attitude_loops
     from ._signal_kernel import compiled as signal_loops
 
     n, B = time.shape[0], wb.shape[0]
@@ -391,23 +390,11 @@ def _attitude_matrices(time, wb, C0b) -> np.ndarray:
     phi = _increments(time, wb)[0]
     # the coning term, (w_j x w_j+1) dt^2 / 12 per interval (a compiled loop)
     signal_loops()["coning"](time, wb, phi)
-    Ct = np.empty((n, B, 3, 3))
-    Ct[0] = C0b
-    if B == 1:
-        # one run: the running product C0 E_0 E_1 ... as a compiled loop (numba, loaded on the first call):
-        # the batched loop's Rodrigues formula and products, each sum in plain order, so equal to rounding
-        from ._aided_kernel import compiled
-
-        compiled()["attitude_chain"](np.ascontiguousarray(phi[0]), np.array(C0b[0], order="C"), Ct[:, 0])
-    else:
-        # time-major so each step works on one contiguous (B, 3, 3) block
-        phi_t = np.swapaxes(phi, 0, 1)                          # (n-1, B, 3)
-        block = max(1, _BLOCK // max(B, 1))                     # bound the memory of the increments
-        for k0 in range(0, n - 1, block):
-            E = rotvec_to_C(phi_t[k0:k0 + block])
-            for j in range(E.shape[0]):
-                np.matmul(Ct[k0 + j], E[j], out=Ct[k0 + j + 1])
-    return np.swapaxes(Ct, 0, 1)
+    # each run's running product C0 E_0 E_1 ... in a compiled loop (numba, loaded on the first call): Rodrigues'
+    # formula and 3 x 3 products, each sum in plain order; a run's attitude does not depend on its batch
+    C = np.empty((B, n, 3, 3))
+    attitude_loops()["attitude_chains"](phi, np.require(np.broadcast_to(C0b, (B, 3, 3)), float, ["C"]), C)
+    return C
 
 
 def ins3d(time, f, omega, *, C0=None, v0=None, p0=None, g: float = units.G0) -> InsResult:
@@ -452,9 +439,9 @@ def ins3d(time, f, omega, *, C0=None, v0=None, p0=None, g: float = units.G0) -> 
     with ``x'`` the 3-point derivative estimate on the real time grid (see
     the module docstring).
 
-    The loop runs over time only; all runs advance together.
-    Memory: ``C_bn`` holds ``runs * n * 9`` floats; chunk large Monte Carlo
-    batches.
+    The attitude is a compiled loop over time per run; the other terms are
+    vectorized over time and runs. Memory: ``C_bn`` holds ``runs * n * 9``
+    floats; chunk large Monte Carlo batches.
 
     Examples
     --------

@@ -188,8 +188,8 @@ def test_only_the_loader_imports_pandas_and_importing_the_package_does_not():
 
 
 def test_only_the_compiled_kernels_import_numba_and_importing_the_package_does_not():
-    # numba (the compiler of the 3D Monte Carlo kernel, of the aided filter's forward pass, of one
-    # strapdown run's attitude loop and of the per-recording signal loops) costs about 0.6 s to import
+    # numba (the compiler of the 3D Monte Carlo kernel, of the aided filter's forward pass, of the
+    # strapdown's attitude loop and of the per-recording signal loops) costs about 0.6 s to import
     # and load its cached machine code: it is imported on a kernel's first call, so only commands that
     # run one pay for it
     graph = _graph()
