@@ -632,7 +632,8 @@ def plot_aided_paths(cell, truth_xy, *, ax=None):
     Returns
     -------
     matplotlib.axes.Axes
-        The route and three lines per run, titled with the cell's label.
+        The route and three lines (MoRPI, forward, smoothed), each through
+        every run's path, titled with the cell's label.
 
     Examples
     --------
@@ -641,16 +642,24 @@ def plot_aided_paths(cell, truth_xy, *, ax=None):
     >>> xy = np.array([[0.0, 0.0], [3.0, 0.1], [6.3, 0.0]])
     >>> run = (np.array([0.0, 5.0, 10.0]), xy, xy, xy + 0.1, np.tile(np.eye(2) * 0.01, (3, 1, 1)))
     >>> ax = plot_aided_paths(SimpleNamespace(label="s8 short", paths=(run, run)), np.array([[0.0, 0.0], [6.3, 0.0]]))
-    >>> len(ax.get_lines()), ax.get_title()
-    (7, 's8 short')
+    >>> len(ax.get_lines()), ax.get_title()                 # the route, and one line per kind for every run
+    (4, 's8 short')
     """
+    import numpy as np
+
     ax, new = new_axes(ax, (8, 4))
     ax.plot(truth_xy[:, 0], truth_xy[:, 1], "k-", lw=2, label="true route")
-    for j, (_, fwd, sm, morpi, _) in enumerate(cell.paths):
-        first = j == 0
-        ax.plot(morpi[:, 0], morpi[:, 1], "-", color="C1", lw=0.8, label="MoRPI alone" if first else None)
-        ax.plot(fwd[:, 0], fwd[:, 1], "-", color="C0", lw=0.8, label="forward filter" if first else None)
-        ax.plot(sm[:, 0], sm[:, 1], "--", color="C2", lw=0.8, label="smoothed" if first else None)
+
+    def runs(k):
+        # every run's path as one line, the runs apart (a NaN row between two runs breaks the line)
+        gap = np.full((1, 2), np.nan)
+        return np.concatenate([part for p in cell.paths for part in (np.asarray(p[k], float)[:, :2], gap)][:-1])
+
+    for k, style, color, label in ((3, "-", "C1", "MoRPI alone"), (1, "-", "C0", "forward filter"),
+                                   (2, "--", "C2", "smoothed")):
+        if cell.paths:
+            xy = runs(k)
+            ax.plot(xy[:, 0], xy[:, 1], style, color=color, lw=0.8, label=label)
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
