@@ -778,13 +778,11 @@ def _train_summary(data: FieldData, method, config, mode="GC"):
     `data`.
     """
     key = (method, config, mode)
-    if key not in data._train_summaries:
+    out = data._train_summaries.get(key)
+    if out is None:
         out = []
-        for phone, route, _ in SHORT_SETS:
-            recs = data.recordings(phone, route, "train")
-            rels = tuple(data.relpath(r) for r in recs)
+        for truth, members, rels, recs in _train_sets(data):
             g, u, failed = np.full(len(recs), np.nan), np.full((len(recs), 2), np.nan), set()
-            truth = ds.route(route)
             for i, r in enumerate(recs):
                 try:
                     w, ux, uy = data.step_sums(r, mode, method, config)[:3]
@@ -794,9 +792,23 @@ def _train_summary(data: FieldData, method, config, mode="GC"):
                 g[i] = truth.distance_m / w
                 u[i] = ux, uy
             loo = _loo_errors(truth, g, u) if g.size >= 2 and not failed else None
-            out.append((truth, frozenset(rels), rels, g, u, loo, frozenset(failed)))
-        data._train_summaries[key] = tuple(out)
-    return data._train_summaries[key]
+            out.append((truth, members, rels, g, u, loo, frozenset(failed)))
+        out = data._train_summaries[key] = tuple(out)
+    return out
+
+
+def _train_sets(data: FieldData):
+    """Per short-route set: its truth, its train runs' relative paths (as a set and in catalogue order) and
+    the runs (cached on `data`: every rule's train summary reads them)."""
+    out = data._train_summaries.get("train sets")
+    if out is None:
+        out = []
+        for phone, route, _ in SHORT_SETS:
+            recs = tuple(data.recordings(phone, route, "train"))
+            rels = tuple(data.relpath(r) for r in recs)
+            out.append((ds.route(route), frozenset(rels), rels, recs))
+        out = data._train_summaries["train sets"] = tuple(out)
+    return out
 
 
 def _loo_errors(truth, g, u, keep=None) -> np.ndarray:
