@@ -669,9 +669,9 @@ def smooth_member(hist_P, hist_rec, q_ba, q_bg, fj, covariance, xs, Ps_xy):
 
 
 #: The functions numba compiles, callees first (each finds the compiled form of those it calls).
-_FUNCTIONS = ("rodrigues", "matmul3", "attitude_chain", "attitude_chains", "transition_blocks", "predict", "inverse", "product",
-              "h_x_plus_r", "kf_update", "step_model", "zero_velocity_model", "zero_rate_model", "nhc_model", "_log",
-              "forward_member", "condition", "smooth_member")
+_FUNCTIONS = ("rodrigues", "matmul3", "attitude_chain", "attitude_chains", "transition_blocks", "predict", "inverse",
+              "product", "h_x_plus_r", "kf_update", "step_model", "zero_velocity_model", "zero_rate_model",
+              "nhc_model", "_log", "forward_member", "condition", "smooth_member")
 _COMPILED = None
 
 

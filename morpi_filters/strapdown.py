@@ -295,7 +295,6 @@ def _batch_shape(name_shapes) -> tuple:
         raise MorpiError(f"batch shapes do not match: {desc}; expected the same leading runs axis") from None
 
 
-
 def _increments(time, x):
     """Integral of `x` (B, n, ...) over each interval: trapezoid with the Hermite end correction.
 
