@@ -819,8 +819,8 @@ def _loo_errors(truth, g, u, keep=None) -> np.ndarray:
     """
     out = np.empty(g.shape[0])
     end = truth.end_point_m
-    m = _signal_kernel.compiled()["loo_errors"](g, u, np.ones(g.shape[0], dtype=bool) if keep is None else keep, float(end[0]), float(end[1]),
-             float(truth.distance_m), out)
+    keep = np.ones(g.shape[0], dtype=bool) if keep is None else keep
+    m = _signal_kernel.compiled()["loo_errors"](g, u, keep, float(end[0]), float(end[1]), float(truth.distance_m), out)
     return out[:m]
 
 

@@ -666,7 +666,8 @@ class PreparedSignal:
 def _running_integral(t, x) -> np.ndarray:
     """Trapezoidal integral of `x` from the first sample, shape (n,): a compiled loop."""
     out = np.empty(t.shape[0])
-    (_KERNELS or _kernels())["running_integral"](np.require(t, float, ["C", "W"]), np.require(x, float, ["C", "W"]), out)
+    kernel = _KERNELS or _kernels()
+    kernel["running_integral"](np.require(t, float, ["C", "W"]), np.require(x, float, ["C", "W"]), out)
     return out
 
 

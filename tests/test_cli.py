@@ -150,7 +150,8 @@ def test_a_report_section_runs_with_the_heap_frozen_and_leaves_it_as_it_was(monk
 
     seen = []
     monkeypatch.setattr(cli, "_study", lambda name, *a: seen.append(gc.get_freeze_count()) or "study")
-    monkeypatch.setattr(cli, "_write", lambda name, out, study, source=None: seen.append(gc.get_freeze_count()) or study)
+    monkeypatch.setattr(cli, "_write",
+                        lambda name, out, study, source=None: seen.append(gc.get_freeze_count()) or study)
     assert gc.get_freeze_count() == 0
     assert cli._section("drift", tmp_path, None) == "study"
     assert len(seen) == 2 and min(seen) > 0 and gc.get_freeze_count() == 0
