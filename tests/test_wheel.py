@@ -1,9 +1,13 @@
 """The package works when installed from a wheel, away from the source tree.
 
 The wheel is built from a copy of the project, installed without dependencies
-into a fresh virtual environment (numpy, scipy, ... come from the system site
-packages), and its ``morpi`` script runs the analytical assessment and the
-field tables on a small synthetic dataset from an empty working directory.
+into a fresh virtual environment, and its ``morpi`` script runs the analytical
+assessment and the field tables on a small synthetic dataset from an empty
+working directory. The environment reaches numpy, scipy, ... through the site
+folders of the interpreter running the suite (a ``.pth`` file naming them), so
+it has what the suite has whether the suite runs in the system Python or in a
+virtual environment; ``venv --system-site-packages`` would instead reach the
+base interpreter's folders, which a user's virtual environment does not share.
 Only files shipped in the wheel (code and ``morpi_filters/data``) are reachable
 there, so a parameter file or route catalogue read from outside the package
 fails this test.
@@ -13,6 +17,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import site
 import subprocess
 import sys
 from pathlib import Path
@@ -28,6 +33,14 @@ def _run(argv, cwd, env=None):
     out = subprocess.run(argv, cwd=cwd, env=env, capture_output=True, text=True)
     assert out.returncode == 0, f"{argv} failed ({out.returncode}):\n{out.stdout}\n{out.stderr}"
     return out
+
+
+def _suite_site_dirs() -> list:
+    """The site folders the running interpreter imports its packages from."""
+    dirs = list(site.getsitepackages())
+    if site.ENABLE_USER_SITE:
+        dirs.append(site.getusersitepackages())
+    return [d for d in dict.fromkeys(dirs) if Path(d).is_dir()]
 
 
 def _contains_values(tree, value) -> bool:
@@ -55,8 +68,13 @@ def installed(tmp_path_factory):
     wheels = list(dist.glob("morpi_filters-*.whl"))
     assert len(wheels) == 1, wheels
     venv = base / "venv"
-    _run([sys.executable, "-m", "venv", "--system-site-packages", str(venv)], cwd=base)
+    _run([sys.executable, "-m", "venv", str(venv)], cwd=base)
     py = venv / "bin" / "python"
+    # The suite's own site folders, after the venv's: their .pth files are not
+    # run, so an editable install of the source tree there stays out of sight.
+    purelib = _run([str(py), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+                   cwd=base).stdout.strip()
+    (Path(purelib) / "suite_site.pth").write_text("".join(d + "\n" for d in _suite_site_dirs()))
     _run([str(py), "-m", "pip", "install", "--no-deps", "--no-index", "-q", "--force-reinstall",
           str(wheels[0])], cwd=base)
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "MORPI_DATA")}
