@@ -683,7 +683,9 @@ def compiled():
     """
     global _COMPILED
     if _COMPILED is None:
-        from ._signal_kernel import jit_functions
+        from ._signal_kernel import COMPILE_LOCK, jit_functions
 
-        _COMPILED = jit_functions(globals(), _FUNCTIONS)
+        with COMPILE_LOCK:
+            if _COMPILED is None:
+                _COMPILED = jit_functions(globals(), _FUNCTIONS)
     return _COMPILED

@@ -50,6 +50,7 @@ restate, bit for bit where the bits are the same.
 from __future__ import annotations
 
 import math
+import threading
 
 import numpy as np
 
@@ -957,6 +958,9 @@ _FUNCTIONS = (
     "local_maxima", "select_by_distance", "compress", "_side_minima", "maxima_prominences", "drop_below",
 )
 _COMPILED = None
+#: Held while a module's functions are put through numba: threads that reach a kernel at once (a study's
+#: chunks on threads or Dask workers) wrap each function once, never a function already wrapped.
+COMPILE_LOCK = threading.Lock()
 
 
 def jit_functions(space: dict, names) -> dict:
@@ -975,5 +979,7 @@ def compiled():
     """The functions of :data:`_FUNCTIONS` compiled by numba, by name (once per process)."""
     global _COMPILED
     if _COMPILED is None:
-        _COMPILED = jit_functions(globals(), _FUNCTIONS)
+        with COMPILE_LOCK:
+            if _COMPILED is None:
+                _COMPILED = jit_functions(globals(), _FUNCTIONS)
     return _COMPILED

@@ -305,3 +305,27 @@ def test_the_compiled_smoother_is_filterpys_recursion(jit, tun, covariance):
     assert np.abs(xr[:, :2]).max() > 1e-3                 # the smoother moves the path
     if covariance:
         np.testing.assert_allclose(Ps_xy, Pr[:, :2, :2], rtol=0, atol=1e-9 * np.abs(Pr[:, :2, :2]).max())
+
+
+def test_kernels_wrapped_once_when_threads_reach_them_together():
+    # A fresh interpreter, so no kernel is wrapped yet: four threads (a study's chunks on threads or Dask
+    # workers) ask for both kernel modules at once, and none may wrap a function another already wrapped.
+    import subprocess
+    import sys
+
+    code = (
+        "import threading\n"
+        "from morpi_filters import _signal_kernel, _aided_kernel\n"
+        "errors = []\n"
+        "def call(mod):\n"
+        "    try:\n"
+        "        mod.compiled()\n"
+        "    except Exception as exc:\n"
+        "        errors.append(repr(exc))\n"
+        "threads = [threading.Thread(target=call, args=(m,)) for m in (_signal_kernel, _aided_kernel) * 2]\n"
+        "[t.start() for t in threads]\n"
+        "[t.join() for t in threads]\n"
+        "print(len(errors), errors[:1])\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split()[0] == "0", out.stdout
