@@ -140,7 +140,8 @@ def test_run_i_depends_only_on_its_own_seed(reference_study):
 
 
 def test_dask_local_cluster_gives_the_same_digest(reference_study):
-    distributed = pytest.importorskip("distributed")
+    import distributed  # the test extra installs it: a missing one is a failure, not a skip
+
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster:
         r = mc.run_study(13, 7, FAST, chunk=4, scheduler=cluster.scheduler_address)

@@ -1,16 +1,14 @@
 """The figures as a library: each function draws on the Axes it is given, or returns a new Figure, and saves nothing."""
 from __future__ import annotations
 
+import matplotlib
 import numpy as np
 import pytest
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
 
-matplotlib = pytest.importorskip("matplotlib")
-
-from matplotlib.axes import Axes  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-
-from morpi_filters.report import plots  # noqa: E402
-from morpi_filters.report.common import save_figure  # noqa: E402
+from morpi_filters.report import plots
+from morpi_filters.report.common import save_figure
 
 
 class _Curves:
