@@ -151,6 +151,13 @@ class Recording:
     split : str or None
         ``"train"``, ``"test"`` or None for folders without a split.
 
+    Raises
+    ------
+    MorpiError
+        Arrays of the wrong shapes.
+    DataError
+        A value that is not finite, or times that do not strictly increase (naming the sample).
+
     Examples
     --------
     >>> t = 10.0 + np.arange(201) * 0.01
@@ -174,6 +181,17 @@ class Recording:
             raise MorpiError(
                 f"{self.source}: expected time (n,), f (n, 3), omega (n, 3); got "
                 f"{self.time.shape}, {self.f.shape}, {self.omega.shape}")
+        for label, values in (("time", self.time), ("f", self.f), ("omega", self.omega)):
+            bad = ~np.isfinite(values)
+            if bad.any():
+                i = int(np.flatnonzero(bad.reshape(n, -1).any(axis=1))[0])
+                raise DataError(f"{self.source}: {label} of sample {i} is {values[i]!r}, expected finite numbers")
+        if n > 1:
+            step = np.diff(self.time)
+            if not (step > 0).all():
+                i = int(np.flatnonzero(~(step > 0))[0]) + 1
+                raise DataError(f"{self.source}: time of sample {i} ({self.time[i]!r}) is not after the one before "
+                                f"({self.time[i - 1]!r}), expected strictly increasing times")
 
     @property
     def n(self) -> int:
@@ -985,6 +1003,11 @@ def catalogue(root) -> list[CatalogueEntry]:
         Sorted by phone, route, split, then file number (``2.csv`` before
         ``10.csv``).
 
+    Raises
+    ------
+    DataError
+        `root` is not a directory.
+
     Examples
     --------
     >>> import pathlib, tempfile
@@ -996,6 +1019,8 @@ def catalogue(root) -> list[CatalogueEntry]:
     [('s6/L_line/1.csv', None), ('s8/L_shape/test/2.csv', 'test'), ('s8/L_shape/test/10.csv', 'test')]
     """
     root = Path(root)
+    if not root.is_dir():
+        raise DataError(f"{root}: not a directory; expected a dataset root (the folder holding s6 and s8)")
     known = routes()
     out = []
     for path in root.rglob("*.csv"):

@@ -52,6 +52,11 @@ class SensorSpec:
         Accelerometer white-noise density [m/s^2/sqrt(Hz)].
     rate_hz : float
         Nominal sampling rate [Hz].
+
+    Raises
+    ------
+    ParameterError
+        A negative or non-finite error figure, or a rate that is not positive, naming the field.
     """
 
     name: str
@@ -61,6 +66,19 @@ class SensorSpec:
     accel_bias: float
     accel_noise: float
     rate_hz: float = 100.0
+
+    def __post_init__(self):
+        from .errors import ParameterError
+
+        for key in ("gyro_bias", "gyro_noise", "accel_bias", "accel_noise", "rate_hz"):
+            v = getattr(self, key)
+            try:
+                ok = math.isfinite(float(v)) and float(v) >= 0 and (key != "rate_hz" or float(v) > 0)
+            except (TypeError, ValueError):
+                ok = False
+            if not ok:
+                what = "a positive rate [Hz]" if key == "rate_hz" else "a finite value >= 0 (SI)"
+                raise ParameterError(f"SensorSpec {self.name!r}: {key}={v!r}, expected {what}")
 
     @classmethod
     def from_datasheet(cls, name: str, *, gyro_bias_deg_s: float, accel_bias_mg: float,

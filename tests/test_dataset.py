@@ -436,3 +436,36 @@ def test_keep_parsed_parses_a_file_once_and_again_when_it_changes(tmp_path, monk
     load_csv(path)
     assert len(parsed) == 4
     np.testing.assert_array_equal(first.f, np.asarray(rows)[:, 1:4])
+
+
+# --------------------------------------------------------------------------- a Recording made in memory
+
+def _memory_recording(time, f=None):
+    n = len(time)
+    return Recording(time=np.asarray(time, dtype=float), f=np.zeros((n, 3)) if f is None else f,
+                     omega=np.zeros((n, 3)), source="<arrays>")
+
+
+@pytest.mark.parametrize("time, where", [
+    ([0.0, 0.01, 0.01, 0.03], "sample 2"),          # a repeated time stamp
+    ([0.0, 0.02, 0.01, 0.03], "sample 2"),          # going back
+    ([0.0, 0.01, np.nan, 0.03], "sample 2"),        # not a number
+    ([0.0, 0.01, 0.02, np.inf], "sample 3"),
+])
+def test_a_recording_in_memory_refuses_bad_time(time, where):
+    with pytest.raises(DataError, match=f"<arrays>: time of {where}"):
+        _memory_recording(time)
+
+
+def test_a_recording_in_memory_refuses_non_finite_readings():
+    f = np.zeros((4, 3))
+    f[1, 2] = np.nan
+    with pytest.raises(DataError, match="<arrays>: f of sample 1"):
+        _memory_recording([0.0, 0.01, 0.02, 0.03], f)
+    assert _memory_recording([0.0, 0.01, 0.02, 0.03]).n == 4       # the same arrays, finite: accepted
+
+
+def test_a_dataset_root_that_does_not_exist_is_an_error(tmp_path):
+    with pytest.raises(DataError, match="not a directory"):
+        catalogue(tmp_path / "nowhere")
+    assert catalogue(tmp_path) == []                                  # an empty folder is a dataset of none

@@ -36,3 +36,14 @@ def test_impossible_datasheet_values_are_refused_by_name(key, value):
     sheet[key] = value
     with pytest.raises(ParameterError, match=key):
         units.SensorSpec.from_datasheet("x", **sheet)
+
+
+@pytest.mark.parametrize("field, value", [
+    ("gyro_bias", -1e-3), ("gyro_noise", math.nan), ("accel_bias", math.inf), ("accel_noise", -0.1),
+    ("rate_hz", 0.0), ("rate_hz", -100.0), ("gyro_noise", "loud"),
+])
+def test_a_plain_spec_refuses_impossible_figures(field, value):
+    good = dict(name="X", phone="", gyro_bias=1e-3, gyro_noise=1e-4, accel_bias=0.1, accel_noise=1e-3, rate_hz=100.0)
+    units.SensorSpec(**good)                                          # the same spec with good figures is fine
+    with pytest.raises(ParameterError, match=f"SensorSpec 'X': {field}="):
+        units.SensorSpec(**{**good, field: value})
