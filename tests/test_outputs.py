@@ -160,10 +160,16 @@ def test_report_replaces_only_its_sections_and_index(tmp_path, fake_sections, mo
 
 
 def test_committed_report_folders_carry_the_marker():
+    from morpi_filters.reporting import check_output_dir, foreign_entry
+
     reports = ROOT / "reports"
     assert (reports / MARKER).is_file()
     for name in cli.REPORT_SECTIONS:
         assert (reports / name / MARKER).is_file(), name
+        # each marker lists every committed file, so `morpi report` may replace the section
+        assert foreign_entry(reports / name) is None, name
+        assert json.loads((reports / name / MARKER).read_text())["kind"] == name
+    check_output_dir(reports, kind="report", replace=False, writes=("index.md",))
 
 
 # ----------------------------------------------------------------------------- --out and --json checks
