@@ -3,12 +3,14 @@
 Each subcommand parses its arguments, calls one library function and writes
 into ``reports/`` (or the folder given by ``--out``). Outputs are checked
 before anything is computed (a folder is replaced only when it is new, empty
-or marked as an earlier morpi output), built in staging places and swapped in
-together only when complete. Errors a user can cause are printed on one line
-(``morpi: error: ...``). Exit status: 0 success, 1 bad input data, 2 bad
-arguments or parameters (or an output folder that is not morpi's), 130
-interrupted (SIGINT), 143 terminated (SIGTERM). Commands that read the
-recordings stop when one they need is bad or missing, unless ``--partial``.
+or an earlier output of the same kind holding nothing its marker does not
+list; a ``--json`` file only when morpi wrote it, or with ``--force``), built
+in staging places and swapped in together only when complete. Errors a user
+can cause are printed on one line (``morpi: error: ...``). Exit status: 0
+success, 1 bad input data, 2 bad arguments or parameters (or an output folder
+that is not morpi's), 130 interrupted (SIGINT), 143 terminated (SIGTERM).
+Commands that read the recordings stop when one they need is bad or missing,
+unless ``--partial``.
 """
 from __future__ import annotations
 
@@ -181,8 +183,10 @@ def build_parser() -> argparse.ArgumentParser:
     def out_args(sp, section):
         sp.add_argument("--out", metavar="DIR", type=_path("--out"), default=Path("reports") / section,
                         help=f"output folder (default: reports/{section}); replaced only if new, empty or "
-                             "written by morpi")
-        sp.add_argument("--json", metavar="FILE", type=_path("--json"), help="also write the JSON result here")
+                             "this section's earlier output, holding nothing morpi did not write")
+        sp.add_argument("--json", metavar="FILE", type=_path("--json"),
+                        help="also write the JSON result here (an existing file only if morpi wrote it)")
+        sp.add_argument("--force", action="store_true", help="let --json overwrite a file morpi did not write")
 
     s = sub.add_parser("check", help="validate every recording under a dataset folder")
     data_arg(s)
@@ -376,21 +380,23 @@ def _clean_stale(*folders) -> None:
 
 def _run_section(name, args, source_of=None):
     """One report section into ``--out`` (and ``--json``): outputs checked first, swapped in together."""
-    from .reporting import Outputs, check_output_dir, check_output_file
+    from .reporting import Outputs, check_output_dir, check_output_file, stamp_json
 
-    out = check_output_dir(args.out)
+    out = check_output_dir(args.out, kind=name)
     if args.json is not None:
-        check_output_file(args.json)
+        check_output_file(args.json, force=args.force, folder=out)
     _clean_stale(out.parent, *([args.json.parent] if args.json is not None else []))
     source = source_of(args) if source_of is not None else None
     with Outputs(f"morpi {args.command}") as outputs:
         stage = outputs.folder(out, name)
         summary = _section(name, stage, args, source)
+        result = stage / "result.json"
+        if result.is_file():
+            stamp_json(result, f"morpi {args.command}", name)
         if args.json is not None:
-            result = stage / "result.json"
             if not result.is_file():
                 raise MorpiError(f"--json: section {name} wrote no result.json")
-            outputs.file(args.json).write_text(result.read_text())
+            outputs.file(args.json, force=args.force).write_text(result.read_text())
     page = out / summary.page
     print(f"{summary.title}: {page}")
     return 0
@@ -446,13 +452,13 @@ def _report_source(args):
 
 def _cmd_report(args):
     from .dataset import resolve_data_root
-    from .reporting import Outputs, check_output_dir
+    from .reporting import Outputs, check_output_dir, stamp_json
 
     field_root = resolve_data_root(args.data, required=False)
     out = args.out if args.out is not None else (REPORT_DIR if field_root is not None else SYNTHETIC_REPORT_DIR)
-    check_output_dir(out)
+    check_output_dir(out, kind="report", replace=False, writes=("index.md",))
     for name in REPORT_SECTIONS:
-        check_output_dir(out / name)
+        check_output_dir(out / name, kind=name)
     if field_root is None:
         print(f"morpi report: no field dataset configured (--data DIR or MORPI_DATA), so every section is "
               f"computed on a seeded synthetic dataset (seed {args.seed}) and written to {out}/", flush=True)
@@ -484,6 +490,8 @@ def _cmd_report(args):
             stage = outputs.folder(out / name, name)
             print(f"[{name}] ...", flush=True)
             summaries.append(_section(name, stage, sec_args, source, tables))
+            if (stage / "result.json").is_file():
+                stamp_json(stage / "result.json", "morpi report", name)
         from .report.index import index_page
 
         outputs.file(out / "index.md").write_text(index_page(summaries, source))

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import json
 import math
-import shutil
 import zlib
 from pathlib import Path
 
@@ -74,6 +73,8 @@ DATASET_OPTIONS = {
 
 
 _MANIFEST = "manifest.json"
+#: The kind of output a synthetic dataset folder's marker records.
+DATASET_KIND = "dataset"
 
 
 def _seed_for(seed: int, *labels) -> np.random.SeedSequence:
@@ -138,9 +139,11 @@ def write_dataset(out, *, seed: int = 0, runs_per_folder: int | None = None) -> 
     out : str or Path
         Destination folder. It is built in a staging folder beside it and
         renamed into place when complete; an existing folder is replaced only
-        if it is empty or was written by morpi (it has the manifest or the
-        ``.morpi-output`` marker), otherwise a ParameterError is raised
-        before anything is computed.
+        if it is empty or an earlier synthetic dataset holding nothing but the
+        files morpi wrote (those its ``.morpi-output`` marker lists, or, for a
+        dataset of an earlier version, its manifest), otherwise a
+        ParameterError naming what is in the way is raised before anything is
+        computed.
     seed : int
         Seed; each file draws from a child seed keyed by its folder and run,
         so the output does not depend on the order files are written.
@@ -161,7 +164,7 @@ def write_dataset(out, *, seed: int = 0, runs_per_folder: int | None = None) -> 
     MorpiError
         A negative or non-integer `seed`, or a `runs_per_folder` below 1.
     ParameterError
-        `out` exists and holds files morpi did not write.
+        `out` exists and holds files morpi did not write, or another kind of morpi output.
 
     Examples
     --------
@@ -181,20 +184,18 @@ def write_dataset(out, *, seed: int = 0, runs_per_folder: int | None = None) -> 
     if runs_per_folder is not None and (isinstance(runs_per_folder, bool) or
                                         not isinstance(runs_per_folder, (int, np.integer)) or runs_per_folder < 1):
         raise MorpiError(f"runs_per_folder: expected a positive integer, got {runs_per_folder!r}")
-    from .reporting import MARKER, check_output_dir, foreign_entry, new_stage_dir, remove_stale
-    if not (out.is_dir() and (out / _MANIFEST).is_file()):
+    from .reporting import MARKER, Outputs, check_output_dir, foreign_entry, remove_stale, write_json
+    if not (out / MARKER).is_file() and not (out / _MANIFEST).is_file():
         bad = foreign_entry(out)
         if bad is not None:
             raise ParameterError(f"{out}: not a synthetic dataset (no {_MANIFEST}) and "
                                  + ("not a folder" if bad == out else f"holds {bad.name}, which morpi did not write")
                                  + "; refusing to replace it, expected a new or empty folder")
-        check_output_dir(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
+    claimed = _manifest_files(out)
+    check_output_dir(out, kind=DATASET_KIND, claimed=claimed)
     remove_stale(out.parent)
-    stage = new_stage_dir(out)
-    try:
-        (stage / MARKER).write_text("Written by morpi simulate (synthetic dataset). The next run may replace "
-                                    "this folder; files added to it are then lost.\n")
+    with Outputs("morpi simulate") as outputs:
+        stage = outputs.folder(out, DATASET_KIND, claimed=claimed)
         files, runs_info = {}, {}
         for folder, n_runs in sorted(dataset.layout().items()):
             for run in range(1, (runs_per_folder or n_runs) + 1):
@@ -208,13 +209,21 @@ def write_dataset(out, *, seed: int = 0, runs_per_folder: int | None = None) -> 
         files["README.md"] = sha256_file(stage / "README.md")
         manifest = dict(generator="morpi_filters.simulate", version=GENERATOR_VERSION, seed=int(seed),
                         runs_per_folder=runs_per_folder, files=files, runs=runs_info)
-        from .reporting import swap_in, write_json
         write_json(stage / _MANIFEST, manifest)
-        swap_in(stage, out)
-    except BaseException:
-        shutil.rmtree(stage, ignore_errors=True)
-        raise
     return out
+
+
+def _manifest_files(root: Path) -> tuple:
+    """The files an earlier ``write_dataset`` wrote in `root`, by its manifest (empty without one)."""
+    try:
+        m = json.loads((Path(root) / _MANIFEST).read_text())
+    except (OSError, ValueError):
+        return ()
+    if not isinstance(m, dict) or m.get("generator") != "morpi_filters.simulate":
+        return ()
+    if not isinstance(m.get("files"), dict):
+        return ()
+    return (_MANIFEST, *m["files"])
 
 
 def _verify(root: Path, seed: int) -> bool:

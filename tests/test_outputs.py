@@ -7,6 +7,7 @@ report's own folder, and the bounds on ``--runs`` and ``--times``.
 """
 from __future__ import annotations
 
+import json
 import os
 import signal
 import socket
@@ -53,6 +54,22 @@ def _foreign_tree(folder: Path) -> dict:
 
 def _snapshot(folder: Path) -> dict:
     return {p.relative_to(folder).as_posix(): p.read_bytes() for p in folder.rglob("*") if p.is_file()}
+
+
+#: The kind of output each command of WRITERS records in its folder's marker.
+KINDS = {"tables": "tables", "assess": "assessment", "curves": "curves", "montecarlo": "montecarlo", "drift": "drift"}
+
+
+def _earlier_output(folder: Path, kind: str, files: dict, command: str = "morpi earlier", folders=()) -> None:
+    """`folder` as an earlier run of `command` left it: `files` and a marker in the documented format listing them."""
+    folder.mkdir(parents=True, exist_ok=True)
+    for rel, data in files.items():
+        (folder / rel).parent.mkdir(parents=True, exist_ok=True)
+        (folder / rel).write_bytes(data)
+    subfolders = {str(Path(rel).parent.as_posix()) for rel in files} - {"."}
+    marker = {"morpi_output": 1, "command": command, "kind": kind, "files": sorted(files),
+              "folders": sorted(subfolders | set(folders))}
+    (folder / MARKER).write_text(json.dumps(marker))
 
 
 @pytest.fixture
@@ -106,8 +123,8 @@ def test_report_refuses_a_foreign_folder_and_a_foreign_section(tmp_path, fake_se
     assert fake_sections == [] and _snapshot(out) == files
     # A marked report folder whose section folder holds someone else's files.
     out2 = tmp_path / "r2"
+    _earlier_output(out2, "report", {"index.md": b"earlier index"}, "morpi report", folders=["curves"])
     (out2 / "curves").mkdir(parents=True)
-    (out2 / MARKER).write_text("earlier report\n")
     (out2 / "curves" / "notes.md").write_text("mine")
     capsys.readouterr()
     assert cli.main(["report", "--out", str(out2)]) == 2
@@ -119,9 +136,7 @@ def test_report_refuses_a_foreign_folder_and_a_foreign_section(tmp_path, fake_se
 @pytest.mark.parametrize("command", sorted(WRITERS))
 def test_marked_folder_is_replaced_and_marked_again(command, tmp_path, fake_sections):
     out = tmp_path / "sec"
-    out.mkdir()
-    (out / MARKER).write_text("an earlier run\n")
-    (out / "old.png").write_bytes(b"old")
+    _earlier_output(out, KINDS[command], {"old.png": b"old"})
     assert cli.main([*WRITERS[command], "--out", str(out)]) == 0
     assert sorted(p.name for p in out.iterdir()) == [MARKER, "README.md", "result.json"]
     assert "morpi" in (out / MARKER).read_text()
@@ -132,10 +147,8 @@ def test_report_replaces_only_its_sections_and_index(tmp_path, fake_sections, mo
     out = tmp_path / "reports"
     (out / "simulation").mkdir(parents=True)
     (out / "simulation" / "run.png").write_bytes(b"figure of an analysis script")
-    (out / MARKER).write_text("earlier report\n")
-    (out / "tables").mkdir()
-    (out / "tables" / MARKER).write_text("earlier tables\n")
-    (out / "tables" / "stale.png").write_bytes(b"stale")
+    _earlier_output(out, "report", {"index.md": b"earlier index"}, "morpi report", folders=["tables"])
+    _earlier_output(out / "tables", "tables", {"stale.png": b"stale"}, "morpi report")
     assert cli.main(["report", "--out", str(out)]) == 0
     assert fake_sections == list(cli.REPORT_SECTIONS)
     assert (out / "simulation" / "run.png").read_bytes() == b"figure of an analysis script"
@@ -147,10 +160,16 @@ def test_report_replaces_only_its_sections_and_index(tmp_path, fake_sections, mo
 
 
 def test_committed_report_folders_carry_the_marker():
+    from morpi_filters.reporting import check_output_dir, foreign_entry
+
     reports = ROOT / "reports"
     assert (reports / MARKER).is_file()
     for name in cli.REPORT_SECTIONS:
         assert (reports / name / MARKER).is_file(), name
+        # each marker lists every committed file, so `morpi report` may replace the section
+        assert foreign_entry(reports / name) is None, name
+        assert json.loads((reports / name / MARKER).read_text())["kind"] == name
+    check_output_dir(reports, kind="report", replace=False, writes=("index.md",))
 
 
 # ----------------------------------------------------------------------------- --out and --json checks
@@ -198,9 +217,7 @@ def test_out_and_json_checked_before_computing(case, tmp_path, fake_sections, ca
 
 def test_failing_json_leaves_out_untouched(tmp_path, monkeypatch, capsys):
     out = tmp_path / "sec"
-    out.mkdir()
-    (out / MARKER).write_text("earlier run\n")
-    (out / "old.txt").write_text("previous result")
+    _earlier_output(out, "drift", {"old.txt": b"previous result"})
 
     def no_result(name, stage, args, source=None):
         (stage / "README.md").write_text("new page")
@@ -240,9 +257,7 @@ def test_outputs_get_the_users_umask(umask, tmp_path):
 @pytest.mark.parametrize("sig, code, word", [(signal.SIGTERM, 143, "terminated"), (signal.SIGINT, 130, "interrupted")])
 def test_signal_ends_cleanly_and_keeps_the_previous_output(sig, code, word, tmp_path):
     out = tmp_path / "mc"
-    out.mkdir()
-    (out / MARKER).write_text("earlier run\n")
-    (out / "old.txt").write_text("previous result")
+    _earlier_output(out, "montecarlo", {"old.txt": b"previous result"})
     p = subprocess.Popen([sys.executable, "-m", "morpi_filters.cli", "montecarlo", "--runs", "150000",
                           "--out", str(out)], env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
@@ -275,33 +290,109 @@ def _dead_pid():
     return p.pid
 
 
+#: A run of ``drift --out D/sec --json D/r.json`` killed (SIGKILL, no cleanup of any kind) at a point
+#: given on its command line: while the section is computed (both outputs staged), between moving the old
+#: folder aside and renaming the new one in, or after both renames, before the old folder is removed.
+_KILLED_RUN = """
+import os, signal, sys
+from pathlib import Path
+from morpi_filters import reporting
+
+folder, point = Path(sys.argv[1]), sys.argv[2]
+
+
+def die(*args, **kwargs):
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+outputs = reporting.Outputs("morpi drift")
+stage = outputs.folder(folder / "sec", "drift")
+(stage / "README.md").write_text("new page")
+outputs.file(folder / "r.json").write_text("{")
+if point == "while computing":
+    die()
+if point == "between the renames":
+    replace = os.replace
+    os.replace = lambda src, dst: die() if Path(src) == stage else replace(src, dst)
+if point == "after the renames":
+    reporting._remove_owned = die
+outputs.__exit__(None, None, None)
+"""
+
+
+def _killed_run(folder: Path, point: str) -> None:
+    r = subprocess.run([sys.executable, "-c", _KILLED_RUN, str(folder), point], env=_env(), capture_output=True,
+                       text=True)
+    assert r.returncode == -signal.SIGKILL, r.stderr[-2000:]
+
+
+@pytest.mark.parametrize("point", ["while computing", "between the renames", "after the renames"])
+def test_a_killed_run_leaves_only_what_the_next_run_removes(point, tmp_path, fake_sections):
+    from morpi_filters.reporting import remove_stale
+
+    _earlier_output(tmp_path / "sec", "drift", {"README.md": b"old page"}, "morpi drift")
+    _killed_run(tmp_path, point)
+    left = sorted(p.name for p in tmp_path.iterdir() if p.name != "sec")
+    assert left and all(n.startswith((".staging-", ".previous-")) for n in left), left
+    # the leftovers go; an output moved aside and not yet replaced comes back
+    assert remove_stale(tmp_path) == []
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["sec"]
+    page = "new page" if point == "after the renames" else "old page"
+    assert (tmp_path / "sec" / "README.md").read_text() == page
+    _killed_run(tmp_path, point)
+    # the next command removes them too, then writes its own outputs
+    assert cli.main(["drift", "--out", str(tmp_path / "sec"), "--json", str(tmp_path / "r.json")]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.json", "sec"]
+    assert (tmp_path / "sec" / "README.md").read_text() == "# drift\n"
+
+
 def test_stale_staging_of_dead_runs_removed_live_ones_kept(tmp_path, fake_sections):
-    live = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    live_code = ("import sys, time\nfrom morpi_filters.reporting import new_stage_dir\n"
+                 "print(new_stage_dir(sys.argv[1]).name, flush=True)\ntime.sleep(60)\n")
+    live = subprocess.Popen([sys.executable, "-c", live_code, str(tmp_path / "other")], env=_env(),
+                            stdout=subprocess.PIPE, text=True)
     try:
-        dead = _dead_pid()
-        stale = [tmp_path / f".staging-sec-{dead}-abcd1234", tmp_path / f".previous-sec-{dead}-efgh_678"]
-        for s in stale:
-            (s / "sec").mkdir(parents=True)
-            (s / "sec" / "half.png").write_bytes(b"half")
-        stale_file = tmp_path / f".staging-r.json-{dead}-ab12cd34.tmp"
-        stale_file.write_text("{")
-        kept = tmp_path / f".staging-sec-{live.pid}-live1234"
-        kept.mkdir()
-        other = tmp_path / ".staging-notes"          # not a morpi name: left alone
-        other.mkdir()
+        kept = live.stdout.readline().strip()
+        _killed_run(tmp_path, "while computing")
         assert cli.main(["drift", "--out", str(tmp_path / "sec"), "--json", str(tmp_path / "r.json")]) == 0
         names = sorted(p.name for p in tmp_path.iterdir())
-        assert names == sorted([kept.name, other.name, "r.json", "sec"])
+        assert names == sorted([kept, "r.json", "sec"])
     finally:
         live.kill()
         live.wait()
 
 
+def test_cleanup_touches_only_what_it_can_prove_a_killed_run_left(tmp_path, fake_sections):
+    dead = _dead_pid()
+    # a staging folder a killed run really left, to copy its marker from (the proof of another name)
+    (tmp_path / "x").mkdir()
+    _killed_run(tmp_path / "x", "while computing")
+    real = next((tmp_path / "x").glob(".staging-sec-*"))
+    forged = tmp_path / f".staging-sec-{dead}-0123456789abcdef"
+    forged.mkdir()
+    (forged / MARKER).write_bytes((real / MARKER).read_bytes())   # a marker, for another pid and token
+    user = {   # the user's files and folders whose names look like morpi's staging names
+        ".previous-draft-2023-abcdefgh/notes.md": b"draft of 2023",
+        f".staging-thesis-{dead}-abcd1234/chapter.tex": b"chapter one",
+        f".previous-sec-{dead}-fedcba9876543210/sec/result.json": b"{}",
+        f".staging-r.json-{dead}-ab12cd34.tmp": b"{\"mine\": 1}",
+        f".staging-r.json-{dead}-0123456789abcdef": b"a file, not a folder",
+        f".staging-sec-{dead}-0123456789abcdef/page.md": b"mine too",
+    }
+    for rel, data in user.items():
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_bytes(data)
+    assert cli.main(["drift", "--out", str(tmp_path / "sec"), "--json", str(tmp_path / "r.json")]) == 0
+    for rel, data in user.items():
+        assert (tmp_path / rel).read_bytes() == data, rel
+    assert (forged / MARKER).read_bytes() == (real / MARKER).read_bytes()
+
+
 def test_stale_staging_that_cannot_be_removed_is_named(tmp_path, fake_sections, monkeypatch, capsys):
     import morpi_filters.reporting as reporting
 
-    stale = tmp_path / f".staging-sec-{_dead_pid()}-abcd1234"
-    stale.mkdir()
+    _killed_run(tmp_path, "while computing")
+    stale = next(tmp_path.glob(".staging-sec-*"))
 
     def refuse(path, *a, **k):
         raise PermissionError(13, "Permission denied", str(path))
@@ -315,12 +406,211 @@ def test_stale_staging_that_cannot_be_removed_is_named(tmp_path, fake_sections, 
 def test_report_removes_stale_staging_inside_the_report_folder(tmp_path, fake_sections, monkeypatch):
     monkeypatch.setattr(cli, "_report_source", lambda args: None)
     out = tmp_path / "reports"
-    out.mkdir()
-    (out / MARKER).write_text("earlier report\n")
-    dead = _dead_pid()
-    (out / f".staging-tables-{dead}-zz99zz99").mkdir()
+    _earlier_output(out, "report", {"index.md": b"earlier index"}, "morpi report")
+    _killed_run(out, "while computing")
+    assert list(out.glob(".staging-*"))
     assert cli.main(["report", "--out", str(out)]) == 0
     assert not list(out.glob(".staging-*"))
+
+
+# ----------------------------------------------------------------------------- what the user owns survives
+
+#: Files a user keeps where a morpi command writes, and what they hold.
+_FOREIGN_JSON = {
+    "plain JSON": b'{"my": "own results"}\n',
+    "not JSON": b"a lab notebook\n",
+    "empty": b"",
+    "the key, not first": b'{"data": 1, "morpi_output": {"format": 1, "command": "morpi drift"}}\n',
+    "the key, not morpi's": b'{"morpi_output": "my own field"}\n',
+}
+
+
+@pytest.mark.parametrize("content", sorted(_FOREIGN_JSON))
+def test_json_refuses_a_file_morpi_did_not_write_before_computing(content, tmp_path, fake_sections, capsys):
+    js, out = tmp_path / "results.json", tmp_path / "sec"
+    js.write_bytes(_FOREIGN_JSON[content])
+    assert cli.main(["drift", "--out", str(out), "--json", str(js)]) == 2
+    assert fake_sections == [] and js.read_bytes() == _FOREIGN_JSON[content]
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(js) in err[0] and "--force" in err[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["results.json"]
+    # --force overwrites it; the file is then morpi's: its first key says which command wrote it
+    assert cli.main(["drift", "--out", str(out), "--json", str(js), "--force"]) == 0
+    written = json.loads(js.read_text())
+    assert next(iter(written)) == "morpi_output"
+    assert written["morpi_output"] == {"format": 1, "command": "morpi drift", "section": "drift"}
+    assert js.read_text() == (out / "result.json").read_text()
+    # a morpi JSON is replaced without --force, by any command
+    assert cli.main(["assess", "--out", str(tmp_path / "a"), "--json", str(js)]) == 0
+    assert json.loads(js.read_text())["morpi_output"]["command"] == "morpi assess"
+
+
+@pytest.mark.parametrize("command", sorted(WRITERS))
+def test_files_added_to_a_morpi_folder_survive_the_next_run(command, tmp_path, fake_sections, capsys):
+    out = tmp_path / "sec"
+    assert cli.main([*WRITERS[command], "--out", str(out)]) == 0
+    fake_sections.clear()
+    for rel, data in {"notes.txt": b"my notes", "more/extra.csv": b"1,2\n"}.items():
+        (out / rel).parent.mkdir(exist_ok=True)
+        (out / rel).write_bytes(data)
+    before = _snapshot(out)
+    capsys.readouterr()
+    assert cli.main([*WRITERS[command], "--out", str(out)]) == 2
+    assert fake_sections == [] and _snapshot(out) == before
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(out) in err[0] and "notes.txt" in err[0] and "more" in err[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["sec"]
+    # moved out, the folder is morpi's again
+    (out / "notes.txt").unlink()
+    (out / "more" / "extra.csv").unlink()
+    (out / "more").rmdir()
+    assert cli.main([*WRITERS[command], "--out", str(out)]) == 0
+
+
+def test_files_added_to_a_report_survive_the_next_report(tmp_path, fake_sections, monkeypatch, capsys):
+    monkeypatch.setattr(cli, "_report_source", lambda args: None)
+    out = tmp_path / "r"
+    assert cli.main(["report", "--out", str(out)]) == 0
+    (out / "tables" / "notes.md").write_text("my reading of table 2")
+    (out / "mine.txt").write_text("next to the sections")
+    fake_sections.clear()
+    capsys.readouterr()
+    assert cli.main(["report", "--out", str(out)]) == 2
+    assert fake_sections == [] and (out / "tables" / "notes.md").read_text() == "my reading of table 2"
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(out / "tables") in err[0] and "notes.md" in err[0]
+    (out / "tables" / "notes.md").unlink()
+    assert cli.main(["report", "--out", str(out)]) == 0
+    assert (out / "mine.txt").read_text() == "next to the sections"     # the report folder keeps what it does not own
+
+
+def test_a_marker_of_an_earlier_version_vouches_for_nothing_else(tmp_path, fake_sections, capsys):
+    out = tmp_path / "sec"
+    out.mkdir()
+    (out / MARKER).write_text("Written by morpi drift (drift). The next run of a morpi command may replace this "
+                              "folder or the entries it writes in it; files added to it are then lost.\n")
+    (out / "notes.txt").write_text("added later")
+    assert cli.main(["drift", "--out", str(out)]) == 2
+    assert fake_sections == [] and (out / "notes.txt").read_text() == "added later"
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "notes.txt" in err[0] and "earlier morpi version" in err[0]
+    (out / "notes.txt").unlink()          # the marker alone: an empty folder
+    assert cli.main(["drift", "--out", str(out)]) == 0
+
+
+def _no_simulation(monkeypatch):
+    from morpi_filters import synthetic
+
+    def boom(*args, **kwargs):
+        raise AssertionError("the dataset was computed")
+
+    monkeypatch.setattr(synthetic, "_synthetic_run", boom)
+
+
+def test_simulate_refuses_a_dataset_holding_the_users_files(tmp_path, monkeypatch, capsys):
+    out = tmp_path / "syn"
+    assert cli.main(["simulate", "--out", str(out), "--runs-per-folder", "1", "--seed", "1"]) == 0
+    dataset = _snapshot(out)
+    user = {"notes.txt": b"what I changed", "s6/L_line/99.csv": b"time,f_x\n0,1\n", "mine/plot.py": b"print(1)\n"}
+    for rel, data in user.items():
+        (out / rel).parent.mkdir(exist_ok=True)
+        (out / rel).write_bytes(data)
+    capsys.readouterr()
+    with monkeypatch.context() as m:
+        _no_simulation(m)
+        assert cli.main(["simulate", "--out", str(out), "--runs-per-folder", "1", "--seed", "2"]) == 2
+    assert _snapshot(out) == {**dataset, **user}
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and all(n in err[0] for n in ("notes.txt", "s6/L_line/99.csv", "mine"))
+    # a dataset of an earlier version (a plain-text marker) is known by its manifest: the same rule
+    (out / MARKER).write_text("Written by morpi simulate (synthetic dataset). The next run may replace this "
+                              "folder; files added to it are then lost.\n")
+    with monkeypatch.context() as m:
+        _no_simulation(m)
+        assert cli.main(["simulate", "--out", str(out), "--runs-per-folder", "1", "--seed", "2"]) == 2
+    assert (out / "notes.txt").read_bytes() == user["notes.txt"]
+    (out / MARKER).unlink()               # no marker at all: the manifest still tells morpi's files apart
+    with monkeypatch.context() as m:
+        _no_simulation(m)
+        assert cli.main(["simulate", "--out", str(out), "--runs-per-folder", "1", "--seed", "2"]) == 2
+    assert _snapshot(out) == {k: v for k, v in {**dataset, **user}.items() if k != MARKER}
+    for rel in user:
+        (out / rel).unlink()
+    (out / "mine").rmdir()
+    assert cli.main(["simulate", "--out", str(out), "--runs-per-folder", "1", "--seed", "2"]) == 0
+    assert json.loads((out / "manifest.json").read_text())["seed"] == 2
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["syn"]
+
+
+def test_json_inside_out_goes_into_the_new_folder(tmp_path, fake_sections):
+    out = tmp_path / "sec"
+    for _ in range(2):
+        assert cli.main(["drift", "--out", str(out), "--json", str(out / "copy" / "r.json")]) == 0
+        assert (out / "copy" / "r.json").read_text() == (out / "result.json").read_text()
+        assert "copy/r.json" in json.loads((out / MARKER).read_text())["files"]
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["sec"]
+    assert fake_sections == ["drift", "drift"]
+
+
+@pytest.mark.parametrize("case", ["the folder itself", "the marker", "around the folder"])
+def test_json_that_collides_with_out_is_refused_before_computing(case, tmp_path, fake_sections, capsys):
+    out = tmp_path / "sec"
+    js = {"the folder itself": out, "the marker": out / MARKER, "around the folder": tmp_path}[case]
+    if case == "around the folder":
+        out = tmp_path / "r.json" / "sec"
+        js = tmp_path / "r.json"
+    assert cli.main(["drift", "--out", str(out), "--json", str(js)]) == 2
+    assert fake_sections == []
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--json" in err[0] and ("output folder" in err[0] or MARKER in err[0])
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("case", [".", "the current directory by name", "..", "/"])
+def test_a_folder_that_holds_the_current_directory_is_refused_before_computing(case, tmp_path, fake_sections,
+                                                                                monkeypatch, capsys):
+    work = tmp_path / "work"
+    _earlier_output(work, "drift", {"README.md": b"earlier page"}, "morpi drift")   # a morpi folder of this kind
+    monkeypatch.chdir(work)
+    out = str(work) if case == "the current directory by name" else case
+    assert cli.main(["drift", "--out", out]) == 2
+    assert fake_sections == []
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"--out {out}:" in err[0] and "current directory" in err[0]
+    assert (work / "README.md").read_bytes() == b"earlier page"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["work"]
+    assert sorted(p.name for p in work.iterdir()) == [MARKER, "README.md"]
+
+
+def test_a_mount_point_is_refused_before_computing(tmp_path, fake_sections, capsys):
+    mount = next((Path(p) for p in ("/proc", "/sys", "/dev") if os.path.ismount(p)), None)
+    if mount is None:
+        pytest.skip("no mount point to try")
+    assert cli.main(["drift", "--out", str(mount)]) == 2
+    assert fake_sections == []
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "mount point" in err[0]
+
+
+@pytest.mark.parametrize("first, second", [
+    (["assess"], ["report"]), (["report"], ["assess"]), (["drift"], ["assess"]), (["assess"], ["simulate"]),
+    (["simulate", "--runs-per-folder", "1"], ["drift"]),
+])
+def test_a_command_never_mixes_its_output_with_another_commands(first, second, tmp_path, fake_sections, monkeypatch,
+                                                                 capsys):
+    monkeypatch.setattr(cli, "_report_source", lambda args: None)
+    out = tmp_path / "out"
+    assert cli.main([*first, "--out", str(out)]) == 0
+    before = _snapshot(out)
+    fake_sections.clear()
+    capsys.readouterr()
+    with monkeypatch.context() as m:
+        _no_simulation(m)
+        assert cli.main([*second, "--out", str(out)]) == 2
+    assert fake_sections == [] and _snapshot(out) == before
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"morpi {first[0]}" in err[0] and str(out) in err[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
 
 
 # ----------------------------------------------------------------------------- a first run that tells the truth

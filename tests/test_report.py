@@ -54,7 +54,8 @@ def test_report_without_dataset_has_every_section(synthetic_report):
 def test_interrupted_report_keeps_previous(tmp_path, monkeypatch):
     out = tmp_path / "reports"
     (out / "tables").mkdir(parents=True)
-    (out / ".morpi-output").write_text("an earlier report")
+    (out / ".morpi-output").write_text('{"morpi_output": 1, "command": "morpi report", "kind": "report", '
+                                       '"files": ["index.md"], "folders": ["tables"]}')   # an earlier report's marker
     (out / "index.md").write_text("previous complete report")
     (out / "extra").mkdir()
     (out / "extra" / "fig.png").write_bytes(b"x")

@@ -3,6 +3,10 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -47,3 +51,76 @@ def test_staged_dir_swaps_on_success_and_keeps_old_on_failure(tmp_path):
 
 def test_md_table():
     assert md_table(["a", "b"], [[1, 2]]) == "| a | b |\n|---|---|\n| 1 | 2 |\n"
+
+
+# ----------------------------------------------------------------------------- what morpi owns
+
+@pytest.mark.parametrize("obj, indent", [({"x": [1, 2], "y": {"z": None}}, 2), ({}, 2), ({"a": "b"}, None),
+                                         ({"morpi_output": {"format": 0}, "a": 1}, 2)])
+def test_stamp_json_puts_the_header_first_and_keeps_the_rest(obj, indent, tmp_path):
+    from morpi_filters.reporting import is_morpi_json, stamp_json
+
+    p = tmp_path / "r.json"
+    p.write_text(json.dumps(obj, indent=indent))
+    assert not is_morpi_json(p) or "morpi_output" in obj
+    stamp_json(p, "morpi curves", "curves")
+    got = json.loads(p.read_text())
+    assert list(got)[0] == "morpi_output"
+    assert got.pop("morpi_output") == {"format": 1, "command": "morpi curves", "section": "curves"}
+    assert got == {k: v for k, v in obj.items() if k != "morpi_output"}
+    assert is_morpi_json(p) and p.read_text().endswith("}\n")
+
+
+def _marked(folder, files: dict, folders=()):
+    """An earlier output in `folder`: `files` and the marker listing them (the documented format)."""
+    folder.mkdir()
+    for rel, data in files.items():
+        (folder / rel).parent.mkdir(parents=True, exist_ok=True)
+        (folder / rel).write_bytes(data)
+    listed = sorted(set(folders) | {rel.rsplit("/", 1)[0] for rel in files if "/" in rel})
+    (folder / ".morpi-output").write_text(json.dumps({"morpi_output": 1, "command": "morpi drift", "kind": "drift",
+                                                      "files": sorted(files), "folders": listed}))
+
+
+def test_swap_in_removes_only_what_the_old_marker_lists(tmp_path):
+    # a file added to the old folder after it was checked (while the new one was computed) is not deleted:
+    # the folder holding it stays aside, and a later run's cleanup leaves it too, naming it
+    from morpi_filters.reporting import remove_stale
+
+    final = tmp_path / "sec"
+    _marked(final, {"README.md": b"old page", "fig/a.png": b"old figure"})
+    (final / "added.txt").write_bytes(b"written during the run")
+    (final / "fig" / "mine.png").write_bytes(b"the user's figure")
+    code = ("import sys\nfrom pathlib import Path\nfrom morpi_filters.reporting import new_stage_dir, swap_in\n"
+            "final = Path(sys.argv[1])\nstage = new_stage_dir(final)\n(stage / 'README.md').write_text('new page')\n"
+            "print(swap_in(stage, final).name)\n")
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]))   # this checkout's package
+    r = subprocess.run([sys.executable, "-c", code, str(final)], capture_output=True, text=True, check=True, env=env)
+    keep = tmp_path / r.stdout.strip()
+    assert (final / "README.md").read_text() == "new page"
+    assert keep.name.startswith(".previous-sec-")
+    assert sorted(p.relative_to(keep / "sec").as_posix() for p in (keep / "sec").rglob("*")) == [
+        ".morpi-output", "added.txt", "fig", "fig/mine.png"]
+    assert remove_stale(tmp_path) == [keep]       # its process is gone: named, not emptied
+    assert (keep / "sec" / "added.txt").read_bytes() == b"written during the run"
+    assert (keep / "sec" / "fig" / "mine.png").read_bytes() == b"the user's figure"
+
+
+def test_a_marker_never_reaches_outside_its_folder(tmp_path):
+    from morpi_filters.reporting import new_stage_dir, swap_in
+
+    outside = tmp_path / "home"
+    outside.mkdir()
+    (outside / "secret.txt").write_bytes(b"keep")
+    (tmp_path / "top.txt").write_bytes(b"keep too")
+    final = tmp_path / "sec"
+    _marked(final, {"README.md": b"old"})
+    (final / "link").symlink_to(outside)
+    marker = json.loads((final / ".morpi-output").read_text())
+    marker["files"] += ["link/secret.txt", "../../top.txt", str(tmp_path / "top.txt")]
+    marker["folders"] += ["link"]
+    (final / ".morpi-output").write_text(json.dumps(marker))
+    stage = new_stage_dir(final)
+    keep = swap_in(stage, final)
+    assert (outside / "secret.txt").read_bytes() == b"keep" and (tmp_path / "top.txt").read_bytes() == b"keep too"
+    assert keep is not None and (keep / "sec" / "link").is_symlink()

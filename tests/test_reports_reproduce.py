@@ -21,7 +21,7 @@ from morpi_filters import evaluate as ev
 from morpi_filters.assessment import assessment_study
 from morpi_filters.report.assessment import report_assessment
 from morpi_filters.report.tables import report_tables
-from morpi_filters.reporting import DataSource
+from morpi_filters.reporting import DataSource, stamp_json
 
 REPORTS = Path(__file__).resolve().parent.parent / "reports"
 #: Relative and absolute tolerance of the numbers (see the module docstring).
@@ -73,6 +73,7 @@ def test_diff_sees_a_moved_number():
 def test_committed_assessment_is_reproduced(tmp_path):
     committed = json.loads((REPORTS / "assessment" / "result.json").read_text())
     report_assessment(tmp_path / "assessment", assessment_study())
+    stamp_json(tmp_path / "assessment" / "result.json", "morpi report", "assessment")   # as the command does
     fresh = json.loads((tmp_path / "assessment" / "result.json").read_text())
     assert _diff(committed, fresh) == []
 
@@ -82,6 +83,7 @@ def test_committed_tables_are_reproduced(field_root, tmp_path):
     committed = json.loads((REPORTS / "tables" / "result.json").read_text())
     assert committed["synthetic"] is False
     report_tables(tmp_path / "tables", ev.tables_study(field_root), DataSource(field_root))
+    stamp_json(tmp_path / "tables" / "result.json", "morpi report", "tables")   # as the command does
     fresh = json.loads((tmp_path / "tables" / "result.json").read_text())
     diffs = _diff(committed, fresh)
     assert diffs == [], f"{len(diffs)} difference(s), first: {diffs[:5]}"
