@@ -113,7 +113,7 @@ def _cut(rec, n):
 def test_every_length_gives_a_window_or_one_line_naming_the_file(tap):
     # Every cut of a recording (3.5 s of rest, optionally a tap, then the motion), from one sample to all
     # of them: a window inside the cut, or a DataError of one line naming the file and the length needed;
-    # never another exception (cuts ending inside the first movement once indexed past the last sample).
+    # never another exception.
     rng = np.random.default_rng(20)
     rec, onset = synthetic(rng, rest_s=3.5, total_s=6.0, tap=tap)
     kinds = set()
