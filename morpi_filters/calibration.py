@@ -38,7 +38,10 @@ The detector works on the real, non-uniform time stamps:
    seconds at most in the field recordings); shorter runs before it are
    disturbances (in the field recordings, mostly a fraction of a second of
    jitter from the tap that starts the recording) and the rest window starts
-   ``guard_s`` after the last of them.
+   ``guard_s`` after the last of them. A disturbance is followed by rest: a
+   recording that ends inside a shorter run, with no motion before it, is
+   too short to tell which it is, and is refused (``DataError``, saying how
+   long it would have to be).
 5. The onset is refined from the start of the motion run (up to half a window
    early) to the first sample whose gyro reading departs from the rest mean by
    more than ``k_dev`` sigmas. The rest window ends ``guard_s`` before the
@@ -68,7 +71,7 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 
 from .dataset import Recording
-from .errors import MorpiError
+from .errors import DataError, MorpiError
 from .units import SENSORS
 
 __all__ = [
@@ -513,7 +516,7 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
     guard_s : float
         Gap left between the end of the window and the motion onset [s].
     min_samples : int
-        Fewest samples a rest window may have; fewer raise MorpiError.
+        Fewest samples a rest window may have; fewer raise DataError.
     measures : RestMeasures, optional
         The recording's :func:`rest_measures` with the same `max_window_s`,
         `window_s` and `noise_s`; measured here when None. Passing them saves
@@ -528,9 +531,14 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
 
     Raises
     ------
-    MorpiError
+    DataError
         Naming the recording, when it moves from its first samples (fewer than
-        `min_samples` samples at rest), or for a bad parameter.
+        `min_samples` samples at rest), or when it is too short to tell: it
+        ends inside a movement that has not yet lasted `sustain_s` (with no
+        motion before), or fewer than `min_samples` samples after the last
+        disturbance. The message says how long the recording would have to be.
+    MorpiError
+        For a bad parameter.
 
     Examples
     --------
@@ -556,6 +564,9 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
         raise MorpiError(f"min_window_s={min_window_s!r}: expected at most max_window_s={max_window_s!r}")
     if not (math.isfinite(guard_s) and guard_s >= 0) or not (math.isfinite(accel_floor) and accel_floor >= 0):
         raise MorpiError(f"guard_s={guard_s!r}, accel_floor={accel_floor!r}: expected non-negative numbers")
+    if rec.n < min_samples:
+        raise DataError(f"{rec.source}: {rec.n} samples is too short for a rest window: at least "
+                        f"min_samples={min_samples} samples needed")
     if measures is None:
         measures = rest_measures(rec, max_window_s=max_window_s, window_s=window_s, noise_s=noise_s)
     elif (measures.max_window_s, measures.window_s, measures.noise_s, measures.n) != (
@@ -597,6 +608,15 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
         out = np.flatnonzero((np.abs(rec.omega[coarse:stop] - rest_mean) > k_dev * sig_g).any(axis=1))
         onset = coarse + int(out[0]) if out.size else coarse
         end_idx = int(np.searchsorted(t, t[onset] - guard_s, side="left"))
+    if main is None and runs and runs[-1][1] == n:
+        # The recording ends inside a movement shorter than `sustain_s`: whether it is the motion or a
+        # disturbance the rest resumes after cannot be told from what the recording holds.
+        s0 = runs[-1][0]
+        until = t[s0] + sustain_s
+        raise DataError(f"{rec.source}: {n} samples ({t[-1]:.2f} s) is too short: it ends {t[-1] - t[s0]:.2f} s "
+                        f"into a movement that starts at {t[s0]:.2f} s, which is told from a disturbance only "
+                        f"once it lasts sustain_s={sustain_s:g} s: at least {until:.2f} s "
+                        f"(about {s0 + math.ceil(sustain_s * rec.rate_hz) + 1} samples) needed")
     motion_s = None if onset is None else float(rec.time[onset])
     # The window starts after the last brief disturbance before the motion
     # (a tap on the screen when the recording starts), plus a guard.
@@ -604,12 +624,17 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
     i0 = 0
     if before:
         i0 = int(np.searchsorted(t, t[before[-1][1] - 1] + guard_s, side="right"))
-    i1 = min(end_idx, int(np.searchsorted(t, t[i0] + max_window_s, side="right")))
+    i1 = min(end_idx, int(np.searchsorted(t, t[i0] + max_window_s, side="right"))) if i0 < n else n
     if i1 - i0 < min_samples:
-        when = f"{t[onset]:.3f} s" if onset is not None else "?"
-        raise MorpiError(f"{rec.source}: no initial rest found: motion starts {when} after the first sample "
-                         f"({max(i1 - i0, 0)} samples at rest, expected at least {min_samples}); "
-                         f"cannot calibrate {name}")
+        if onset is not None:
+            raise DataError(f"{rec.source}: no initial rest found: motion starts {t[onset]:.3f} s after the first "
+                            f"sample ({max(i1 - i0, 0)} samples at rest, expected at least {min_samples}); "
+                            f"cannot calibrate {name}")
+        # no motion: the recording ends too soon after its first samples or after a disturbance
+        after = f" after a movement at {t[before[-1][0]]:.2f}-{t[before[-1][1] - 1]:.2f} s" if before else ""
+        raise DataError(f"{rec.source}: {n} samples ({t[-1]:.2f} s) is too short: {max(i1 - i0, 0)} samples at "
+                        f"rest{after}, expected at least min_samples={min_samples}: at least {i0 + min_samples} "
+                        f"samples needed")
     dur = float(t[i1 - 1] - t[i0])
     notes = []
     if i0 > 0:

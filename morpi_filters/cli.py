@@ -345,11 +345,11 @@ def _field_source(args, required=True):
 
 def _require_recordings(source, args):
     """`source`, after stopping (DataError) when recordings under it are bad or missing, unless --partial."""
-    from .dataset import check_tree
+    from .field import check_recordings
 
     if source is None or source.root is None or getattr(args, "partial", False):
         return source
-    _stop_on_problems(source.root, check_tree(source.root)[0])
+    _stop_on_problems(source.root, check_recordings(source.root)[0])
     return source
 
 
@@ -403,10 +403,11 @@ def _run_section(name, args, source_of=None):
 
 
 def _cmd_check(args):
-    from .dataset import check_tree, resolve_data_root
+    from .dataset import resolve_data_root
+    from .field import check_recordings
 
     root = resolve_data_root(args.data)
-    problems, n_ok = check_tree(root)
+    problems, n_ok = check_recordings(root)
     for line in problems:
         print(line)
     print(f"{n_ok} recording(s) OK, {len(problems)} problem(s) under {root}")

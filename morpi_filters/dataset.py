@@ -1274,13 +1274,17 @@ def layout_problems(root, entries=None) -> list[str]:
     return out
 
 
-def check_tree(root) -> tuple[list[str], int]:
+def check_tree(root, *, usable=None) -> tuple[list[str], int]:
     r"""Validate every recording under `root` and the folder layout.
 
     Parameters
     ----------
     root : str or Path
         The dataset root.
+    usable : callable, optional
+        A further check of each recording that loads (with its labels):
+        ``usable(recording)`` returns a one-line problem, or None
+        (``morpi check`` passes :meth:`morpi_filters.field.FieldData.problem`).
 
     Returns
     -------
@@ -1289,7 +1293,7 @@ def check_tree(root) -> tuple[list[str], int]:
         (:func:`layout_problems`: missing or unexpected folders, wrong counts,
         no recordings at all).
     n_ok : int
-        Number of files that loaded cleanly.
+        Number of files that loaded cleanly (and passed `usable`).
 
     Examples
     --------
@@ -1311,8 +1315,13 @@ def check_tree(root) -> tuple[list[str], int]:
     problems, n_ok = [], 0
     for e in entries:
         try:
-            load_csv(e.path)
-            n_ok += 1
+            rec = e.load()
         except MorpiError as exc:
             problems.append(str(exc))
+            continue
+        line = None if usable is None else usable(rec)
+        if line is None:
+            n_ok += 1
+        else:
+            problems.append(line)
     return problems + layout_problems(root, entries), n_ok

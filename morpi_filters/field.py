@@ -23,7 +23,8 @@ from .errors import MorpiError
 
 __all__ = ["SHORT_SETS", "RULES", "INS_SPANS", "LEVELED", "HEADING_ORIGINS", "HEADING_SOURCES", "Gain",
            "Selection", "Thresholds", "FieldData", "train_thresholds", "fold_thresholds", "select_config", "nested_rule_comparison",
-           "READING_GRID", "TUNABLE_GRID", "SWING_MARGIN", "TURN_MARGIN", "SOURCE_SE", "trained_gain"]
+           "READING_GRID", "TUNABLE_GRID", "SWING_MARGIN", "TURN_MARGIN", "SOURCE_SE", "trained_gain",
+           "check_recordings"]
 
 #: Short-route training/test sets: (phone, route, p2p).
 SHORT_SETS = (("s8", "short_distance", 1.0), ("s8", "short_distance_1.5p2p", 1.5), ("s6", "short_distance", 1.0))
@@ -237,34 +238,59 @@ class FieldData:
         return {(e.phone, e.route, e.split) for e in self._entries}
 
     def recordings(self, phone, route, split) -> list:
-        """The recordings of a folder that load cleanly (see :meth:`load_errors` for the others)."""
+        """The recordings of a folder that load cleanly and have an initial rest window (:meth:`problem`).
+
+        See :meth:`load_errors` for the others.
+        """
         key = (phone, route, split)
         if key in self._folder_recs:
             return list(self._folder_recs[key])
-        out = []
-        for e in self.entries(phone, route, split):
-            if e.relpath not in self._rec:
-                try:
-                    self._rec[e.relpath] = e.load()
-                except MorpiError as exc:
-                    self._rec[e.relpath] = exc
-            r = self._rec[e.relpath]
-            if not isinstance(r, MorpiError):
-                out.append(r)
+        out = [r for r in map(self._entry_recording, self.entries(phone, route, split))
+               if r is not None and self.problem(r) is None]
         self._folder_recs[key] = tuple(out)
         return out
 
     def _entry_recording(self, entry):
-        """The recording of a catalogue entry, or None when it does not load (:meth:`load_errors`)."""
-        self.recordings(entry.phone, entry.route, entry.split)
+        """The recording of a catalogue entry, loaded once, or None when it does not load (whether or not
+        it has a :meth:`problem`)."""
+        if entry.relpath not in self._rec:
+            try:
+                self._rec[entry.relpath] = entry.load()
+            except MorpiError as exc:
+                self._rec[entry.relpath] = exc
         r = self._rec[entry.relpath]
         return None if isinstance(r, MorpiError) else r
 
+    def problem(self, rec) -> str | None:
+        """Why a recording that loads cannot be evaluated (one line naming its file), or None when it can.
+
+        Every calibration, motion window and method starts from the
+        recording's initial rest window (:meth:`rest_window`: the rest
+        detection of :func:`morpi_filters.calibration.detect_rest` with this
+        root's accelerometer floor). A recording in which it finds none, one
+        that moves from its first samples or one too short to tell its motion
+        from a disturbance, is named here (the detection's DataError), listed
+        by :meth:`load_errors` and left out of :meth:`recordings`.
+        """
+        key = (rec.source, "problem")
+        if key not in self._cal:
+            try:
+                self.rest_window(rec)
+                self._cal[key] = None
+            except MorpiError as exc:
+                self._cal[key] = str(exc)
+        return self._cal[key]
+
     def load_errors(self, phone, route, split) -> list[str]:
-        """One line per file of the folder that could not be loaded."""
+        """One line per file of the folder that could not be loaded or cannot be evaluated (:meth:`problem`)."""
         self.recordings(phone, route, split)
-        return [str(self._rec[e.relpath]) for e in self.entries(phone, route, split)
-                if isinstance(self._rec[e.relpath], MorpiError)]
+        out = []
+        for e in self.entries(phone, route, split):
+            r = self._rec[e.relpath]
+            line = str(r) if isinstance(r, MorpiError) else self.problem(r)
+            if line is not None:
+                out.append(line)
+        return out
 
     def relpath(self, rec) -> str:
         """The recording's path relative to the root (its source when outside)."""
@@ -530,6 +556,54 @@ class FieldData:
         v = np.concatenate([[0.0], np.cumsum(0.5 * (a[1:] + a[:-1]) * dt)])
         return float(np.degrees(np.mean(np.arcsin(s)))), float(np.sum(0.5 * (v[1:] + v[:-1]) * dt))
 
+def check_recordings(root) -> tuple[list[str], int]:
+    """Validate every recording under a dataset root as the evaluation reads it (``morpi check``).
+
+    :func:`morpi_filters.dataset.check_tree` (each file, the layout), and for
+    each file that loads, :meth:`FieldData.problem`: a recording without an
+    initial rest window (one that moves from its first samples, or one too
+    short to tell its motion from a disturbance) is a problem too, so what
+    passes is what the commands evaluate.
+
+    Parameters
+    ----------
+    root : str or Path
+        The dataset root.
+
+    Returns
+    -------
+    problems : list of str
+        One line per bad file and per difference from the expected layout.
+    n_ok : int
+        Number of files that load and have an initial rest window.
+
+    Examples
+    --------
+    Two recordings of 4 s at rest, the second turning from 3 s on: it ends before the turn can be told
+    from a disturbance.
+
+    >>> import json, pathlib, tempfile
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> files = {"s8/line_dataset/1.csv": "", "s8/line_dataset/2.csv": ""}
+    >>> _ = (root / "manifest.json").write_text(json.dumps({"generator": "morpi_filters.simulate", "files": files}))
+    >>> (root / "s8" / "line_dataset").mkdir(parents=True)
+    >>> rng = np.random.default_rng(0)
+    >>> t = np.arange(400) * 0.01
+    >>> f = [0.0, 0.0, 9.8] + 0.01 * rng.standard_normal((400, 3))
+    >>> w = 0.002 * rng.standard_normal((400, 3))
+    >>> ds.write_csv(root / "s8/line_dataset/1.csv", ds.Recording(time=t, f=f, omega=w))
+    >>> w[300:, 2] += 0.5 * np.sin(2 * np.pi * t[300:])
+    >>> ds.write_csv(root / "s8/line_dataset/2.csv", ds.Recording(time=t, f=f, omega=w))
+    >>> problems, n_ok = check_recordings(root)
+    >>> n_ok, [p.replace(str(root), "ROOT") for p in problems]    # doctest: +NORMALIZE_WHITESPACE
+    (1, ['ROOT/s8/line_dataset/2.csv: 400 samples (3.99 s) is too short: it ends 1.09 s into a movement that
+    starts at 2.90 s, which is told from a disturbance only once it lasts sustain_s=1.5 s: at least 4.40 s
+    (about 441 samples) needed'])
+    """
+    data = FieldData(root)
+    return ds.check_tree(root, usable=data.problem)
+
+
 # --------------------------------------------------------------------------- thresholds from the train runs
 
 def _train_accel_floor(data: FieldData) -> tuple[float, tuple, tuple]:
@@ -544,10 +618,9 @@ def _train_accel_floor(data: FieldData) -> tuple[float, tuple, tuple]:
     """
     vals, files = [], []
     for e in data.train_entries():
-        recs = [r for r in data.recordings(e.phone, e.route, e.split) if data.relpath(r) == e.relpath]
-        if not recs:
+        r = data._entry_recording(e)
+        if r is None:
             continue
-        r = recs[0]
         try:
             w = data.rest_window_at(r, 1e9)
         except MorpiError:
@@ -684,8 +757,12 @@ def fold_thresholds(data: FieldData, held_out: str) -> tuple[Thresholds, bool]:
             if e.relpath == held_out:
                 continue
             r = data._entry_recording(e)
-            if r is not None:
-                w, w0 = data.rest_window_at(r, floor), data.rest_window(r)
+            if r is not None and data.problem(r) is None:
+                try:
+                    w, w0 = data.rest_window_at(r, floor), data.rest_window(r)
+                except MorpiError:                          # no rest window under the fold's floor
+                    same = False
+                    continue
                 same = same and (w.i0, w.i1) == (w0.i0, w0.i1)
     return fold, same
 

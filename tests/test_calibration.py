@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import re
 
 import numpy as np
 import pytest
@@ -10,7 +11,7 @@ import pytest
 from morpi_filters.calibration import (LOCAL_GRAVITY, Calibration, RestWindow, calibrate, detect_rest,
                                        normal_gravity, rest_measures, rest_windows_summary)
 from morpi_filters.dataset import Recording, load_catalogue
-from morpi_filters.errors import MorpiError
+from morpi_filters.errors import DataError, MorpiError
 from morpi_filters.report.calibration import rest_windows_table
 from conftest import plain_kernels
 
@@ -101,6 +102,62 @@ def test_motion_from_first_sample_raises_naming_file():
         detect_rest(rec)
     with pytest.raises(MorpiError, match="synthetic.csv"):
         calibrate(rec, "GC")
+
+
+def _cut(rec, n):
+    """The first `n` samples of a recording."""
+    return Recording(time=rec.time[:n], f=rec.f[:n], omega=rec.omega[:n], source=rec.source)
+
+
+@pytest.mark.parametrize("tap", [None, (1.0, 1.3)])
+def test_every_length_gives_a_window_or_one_line_naming_the_file(tap):
+    # Every cut of a recording (3.5 s of rest, optionally a tap, then the motion), from one sample to all
+    # of them: a window inside the cut, or a DataError of one line naming the file and the length needed;
+    # never another exception.
+    rng = np.random.default_rng(20)
+    rec, onset = synthetic(rng, rest_s=3.5, total_s=6.0, tap=tap)
+    kinds = set()
+    for n in range(1, rec.n + 1):
+        try:
+            w = detect_rest(_cut(rec, n))
+        except DataError as exc:
+            msg = str(exc)
+            assert "\n" not in msg and msg.startswith("synthetic.csv: ") and "needed" in msg, (n, msg)
+            kinds.add("too short" if "too short" in msg else msg)
+            continue
+        assert 0 <= w.i0 < w.i1 <= n and w.n >= 10, (n, w)
+        kinds.add("rest only" if w.motion_s is None else "motion")
+    # the cuts inside the rest give a window, those into the first 1.5 s of the motion (and, with the tap,
+    # those into it or just after it) are too short, the longer ones find the motion
+    assert kinds == {"too short", "rest only", "motion"}
+
+
+def test_a_recording_cut_inside_its_first_movement_says_how_long_it_must_be():
+    # The message names the time the recording must reach (the movement's start plus sustain_s, to its
+    # 0.01 s): every cut ending before it is refused, every cut reaching it finds the motion.
+    for seed in range(20, 26):
+        rng = np.random.default_rng(seed)
+        rec, onset = synthetic(rng, rest_s=3.5, total_s=8.0)
+        tau = rec.time - rec.time[0]
+        with pytest.raises(DataError) as ei:
+            detect_rest(_cut(rec, onset + 40))                    # 0.4 s into the motion
+        msg = str(ei.value)
+        m = re.search(r"into a movement that starts at ([0-9.]+) s, .* at least ([0-9.]+) s "
+                      r"\(about (\d+) samples\) needed$", msg)
+        assert m and "\n" not in msg and msg.startswith("synthetic.csv: "), msg
+        start, need_s, need_n = float(m[1]), float(m[2]), int(m[3])
+        # the movement is flagged from half a centred window (0.125 s) before the motion, to a time step
+        assert 0.0 < tau[onset] - start <= 0.125 + 0.0125 + 0.005
+        assert need_s == pytest.approx(start + 1.5, abs=0.011)   # both printed to 0.01 s
+        short = int(np.searchsorted(tau, need_s - 0.005, side="left"))      # last sample before the time
+        enough = int(np.searchsorted(tau, need_s + 0.005, side="left")) + 1  # first sample after it
+        for n in [*range(onset + 10, short, 7), short]:
+            with pytest.raises(DataError, match="too short"):
+                detect_rest(_cut(rec, n))
+        for n in (enough, enough + 1, rec.n):
+            assert detect_rest(_cut(rec, n)).motion_s == detect_rest(rec).motion_s
+        # the sample count is that time at the median rate: a few samples off at most (0.0095-0.0125 s steps)
+        assert abs(need_n - enough) <= 3, (need_n, enough)
 
 
 def test_rd_changes_nothing_and_gac_levels_the_rest():

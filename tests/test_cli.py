@@ -121,6 +121,56 @@ def test_data_commands_stop_on_a_bad_recording(tmp_path, argv):
     assert "[field evaluation]" not in r.stdout             # the report stops before evaluating
 
 
+def _cut_in_first_movement(root, rel, seconds=0.5):
+    """Cut a synthetic recording `seconds` after its motion starts (the manifest's start time); its path."""
+    import json
+
+    start = json.loads((root / "manifest.json").read_text())["runs"][rel]["start_time"]
+    path = root / rel
+    lines = path.read_text().splitlines(keepends=True)
+    path.write_text("".join([lines[0]] + [x for x in lines[1:] if float(x.split(",")[0]) < start + seconds]))
+    return path
+
+
+@pytest.mark.parametrize("argv", [["tables"], ["curves", "--times", "1"], ["montecarlo", "--runs", "2"], ["aided"],
+                                  ["report", "--runs", "2"]])
+def test_data_commands_stop_on_a_recording_too_short_for_its_motion(tmp_path, argv):
+    """A recording cut 0.5 s into its first movement loads, but no rest window can be told from it: every
+    command that reads the recordings names it on one line, with the length needed, and exits 1."""
+    from morpi_filters.synthetic import write_dataset
+
+    root = write_dataset(tmp_path / "ds", seed=2, runs_per_folder=1)
+    short = _cut_in_first_movement(root, "s8/short_distance/test/1.csv")
+    out = tmp_path / "out"
+    r = run(*argv, "--data", str(root), "--out", str(out))
+    assert r.returncode == 1, r.stderr
+    err = r.stderr.strip().splitlines()
+    assert len(err) == 1 and f"{short}: " in err[0] and "is too short" in err[0] and "needed" in err[0], err
+    assert "--partial" in err[0] and "Traceback" not in r.stderr and not out.exists()
+
+
+def test_check_names_a_recording_too_short_for_its_motion_and_tables_leave_it_out_with_partial(tmp_path):
+    from morpi_filters.synthetic import write_dataset
+
+    root = write_dataset(tmp_path / "ds", seed=2, runs_per_folder=1)
+    assert run("check", "--data", str(root)).returncode == 0
+    short = _cut_in_first_movement(root, "s8/short_distance/test/1.csv")
+    r = run("check", "--data", str(root))
+    assert r.returncode == 1 and "Traceback" not in r.stderr
+    lines = r.stdout.strip().splitlines()
+    assert len(lines) == 2 and lines[0].startswith(f"{short}: ") and "is too short" in lines[0]
+    assert lines[1].startswith("10 recording(s) OK, 1 problem(s)")
+    out, js = tmp_path / "out", tmp_path / "tables.json"
+    r = run("tables", "--data", str(root), "--out", str(out), "--json", str(js), "--partial")
+    assert r.returncode == 0, r.stderr
+    payload = __import__("json").loads(js.read_text())
+    assert payload["left_out"] == [lines[0]]
+    for c in payload["cells"]:
+        if (c["table"], c["phone"], c["p2p_m"]) == ("short_route", "s8", 1.0):
+            assert c["n_runs"] == 0 and c["failed"] == [lines[0]], c
+    assert str(short) in (out / "README.md").read_text()
+
+
 def test_the_command_skips_the_collectors_shutdown_sweeps_and_a_call_does_not(tmp_path):
     # as the process's command (argv from sys.argv), main leaves an exit handler that freezes the garbage
     # collector, so the interpreter's shutdown does not sweep every object; an exit handler registered before

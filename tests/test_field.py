@@ -1,0 +1,183 @@
+"""FieldData's per-recording path on recordings of any length: a result, or one line naming the file.
+
+What ``morpi tables`` and ``morpi aided`` compute per recording (rest window, RD/GC/GAC, motion window,
+INS, steps, the aided filter's input and run) on cuts of a recording around every window and threshold
+of that path.
+"""
+from __future__ import annotations
+
+import inspect
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from morpi_filters import aided, field_aided, simulate, synthetic, units
+from morpi_filters import dataset as ds
+from morpi_filters import steps as st
+from morpi_filters.calibration import detect_rest
+from morpi_filters.errors import DataError, MorpiError
+from morpi_filters.field import INS_SPANS, LEVELED, FieldData, Thresholds
+
+#: The thresholds of a root without train runs (the library's defaults).
+THRESHOLDS = Thresholds(accel_floor=0.1, min_swing_deg=st.StepConfig().min_swing_deg)
+
+
+def _run(phone: str):
+    """A short-route run drawn as the synthetic dataset draws them: at rest from 0.4 s to 3.6 s, the sine path
+    (6.3 m), at rest again for 3 s; the recording and the samples where the motion starts and stops."""
+    rng = np.random.default_rng(7)
+    o = synthetic.DATASET_OPTIONS
+    traj = simulate.route_trajectory("short_distance", rest=(3.2, 3.0), t0=0.4, amplitude=0.05)
+    data = simulate.imu(traj, units.sensor_for_phone(phone), rng, sampling=phone,
+                        bias_scale=synthetic.REALISTIC_BIAS_FRACTION[phone], misalignment=o["misalignment"],
+                        vibration=o["vibration"], bias_instability=o["bias_instability"],
+                        correlation_time=o["correlation_time"])
+    rec = data.recording(source="run.csv", phone=phone, route="short_distance", split="test")
+    return rec, int(np.searchsorted(rec.time, traj.start_time)), int(np.searchsorted(rec.time, traj.stop_time))
+
+
+def _windows_s() -> dict:
+    """Every window and threshold of the per-recording path [s], read from the code."""
+    rest = inspect.signature(detect_rest).parameters
+    act = inspect.signature(st.activity_span).parameters
+    epoch = inspect.signature(field_aided.rest_noise).parameters["epoch_s"].default
+    _, _, pad = st._butter(2, 1.0, st.GRID_HZ)                  # the low-pass's odd padding [grid samples]
+    return {
+        "rest: moving window, noise blocks": rest["window_s"].default,
+        "rest: guard": rest["guard_s"].default,
+        "rest: fewest samples": rest["min_samples"].default / 100.0,
+        "rest: shortest window without a note": rest["min_window_s"].default,
+        "rest: longest window, noise span": rest["max_window_s"].default,
+        "rest: shortest motion": rest["sustain_s"].default,
+        "motion window: moving window": st.ACTIVITY_WINDOW_S,
+        "motion window: rest without a window": act["rest_s"].default,
+        "motion window: longest pause": act["min_pause_s"].default,
+        "still spans: window, shortest": field_aided.STILL_WINDOW_S,
+        "rest noise: epoch": epoch,
+        "rest noise: four epochs": 4 * epoch,
+        "aided filter: epoch": inspect.signature(aided.run_batch).parameters["epoch_s"].default,
+        "steps: peak distance": st.StepConfig().min_period_s,
+        "steps: two peak distances": 2 * st.StepConfig().min_period_s,
+        "low-pass: padding": pad / st.GRID_HZ,
+    }
+
+
+def _cut(rec, n: int, root):
+    """The first `n` samples of `rec`, as a file of the layout under `root` (each cut its own file)."""
+    folder = root.joinpath(*[p for p in (rec.phone, rec.route, rec.split) if p])
+    return replace(rec, time=rec.time[:n], f=rec.f[:n], omega=rec.omega[:n], source=str(folder / f"{n}.csv"))
+
+
+def _one_line(msg: str, rec) -> None:
+    assert "\n" not in msg and msg.startswith(f"{rec.source}: "), msg
+
+
+def _evaluate(data: FieldData, rec) -> tuple[list, list]:
+    """Every per-recording stage of the tables and the aided filter: the stages that gave a result, and those
+    that raised a MorpiError (one line naming the file: a cell lists it as failed)."""
+    done, failed = [], []
+
+    def stage(name, compute):
+        try:
+            out = compute()
+        except MorpiError as exc:
+            _one_line(str(exc), rec)
+            failed.append(name)
+            return None
+        done.append(name)
+        return out
+
+    for mode in ("RD", "GC", "GAC"):
+        stage(f"calibration {mode}", lambda: data.calibrated(rec, mode))
+    stage("motion window", lambda: data.activity(rec))
+    for span in INS_SPANS:
+        for mode, method in (("RD", "INS-3D"), ("RD", "INS-2D"), ("GAC", "INS-3D"), ("GAC", "INS-2D"),
+                             (LEVELED, "INS-3D")):
+            stage(f"INS {mode} {method} {span}", lambda: data.ins(rec, mode, method, span))
+    stage("tilt", lambda: data.tilt_leak(rec, "GAC"))
+    tuning = aided.AidTuning(step_sigma=0.02, gain_sigma=0.0, step_heading="gyro")
+    for method, cfg in st.DEFAULT_CONFIGS.items():
+        for source in st.HEADING_SOURCES:
+            c = cfg.with_(heading_source=source)
+            for mode in ("RD", "GC", "GAC"):
+                stage(f"step sums {method} {mode} {source}", lambda: data.step_sums(rec, mode, method, c))
+                s = stage(f"steps {method} {mode} {source}", lambda: data.steps(rec, mode, method, c))
+                if s is not None:
+                    st.morpi_track(s, 0.5)
+                p = stage(f"aided {method} {mode} {source}",
+                          lambda: field_aided.prepare(data, rec, mode, method, c, 0.5))
+                if p is not None and mode == "GC":
+                    r, = aided.run_batch([p.input], tuning, smooth=True, workers=1)
+                    p.end(r)
+    return done, failed
+
+
+@pytest.mark.parametrize("phone", ["s8", "s6"])
+def test_every_length_gives_results_or_one_line_naming_the_file(tmp_path, phone):
+    rec, onset, stop = _run(phone)
+    data = FieldData(tmp_path, thresholds=THRESHOLDS)
+    rate = rec.rate_hz
+    # the shortest cut in which the rest detection tells the motion: the movement is flagged from at most
+    # half a moving window (0.125 s) before the motion starts (later as the robot speeds up over its 1 s
+    # ramp), and told from a disturbance once it lasts 1.5 s
+    first = onset
+    while data.problem(_cut(rec, first, tmp_path)) is not None or data.rest_window(
+            _cut(rec, first, tmp_path)).motion_s is None:
+        first += 1
+    told = rec.time[first - 1] - rec.time[onset]
+    assert 1.5 - 0.125 - 1.5 / rate <= told <= 1.5 + 1.0, told
+    # w - 1, w and w + 1 samples for every window w: from the first sample, from the motion's start, from the
+    # first cut that tells it, before and after the motion's stop; and the check's fewest samples
+    counts = {ds.MIN_SAMPLES, first, onset, stop, rec.n}
+    for w in _windows_s().values():
+        k = int(round(w * rate))
+        counts |= {k, onset + k, first + k, stop - k, stop + k}
+    lengths = sorted(n + d for n in counts for d in (-1, 0, 1) if ds.MIN_SAMPLES <= n + d <= rec.n)
+    kinds = set()
+    for n in lengths:
+        cut = _cut(rec, n, tmp_path)
+        problem = data.problem(cut)
+        assert problem is None or n < first, (n, problem)      # a motion told stays told in a longer cut
+        if problem is not None:
+            # refused: one line naming the file and the length it needs, the rest detection's DataError
+            _one_line(problem, cut)
+            assert "is too short" in problem and "needed" in problem, problem
+            with pytest.raises(DataError) as ei:
+                data.rest_window(cut)
+            assert str(ei.value) == problem
+            # only cuts ending in the first movement (flagged from 0.125 s before it at most)
+            assert n > onset - 0.15 * rate, (n, problem)
+            kinds.add("refused")
+            continue
+        _, failed = _evaluate(data, cut)
+        # a rest window, its calibrations, the motion window and every INS on it, whatever the length
+        assert not [s for s in failed if not s.startswith(("step", "aided"))], (n, failed)
+        kinds.add("steps" if not failed else "no steps")
+    assert kinds == {"refused", "no steps", "steps"}, kinds
+    # the whole recording: every stage gives a result
+    assert not _evaluate(data, _cut(rec, rec.n, tmp_path))[1]
+
+
+@pytest.mark.field
+def test_field_recordings_cut_to_any_length_in_their_first_seconds(field_root, tmp_path):
+    # Field recordings cut to 250-300 rows (and to every 20th length from 100 to 520), many of them inside
+    # the first movement: with the tables' accelerometer floor (the train runs'), a cut is refused on one
+    # line naming it, or the per-recording path gives its results.
+    floor = FieldData(field_root).accel_floor()
+    data = FieldData(tmp_path, thresholds=replace(THRESHOLDS, accel_floor=floor))
+    kinds = set()
+    for rel in ("s8/short_distance/test/3.csv", "s6/short_distance/train/1.csv", "s8/line_dataset/29.csv"):
+        rec, _ = ds.load_recording(field_root / rel)
+        for n in sorted({*range(250, 301, 2), *range(100, 521, 20)}):
+            cut = _cut(rec, n, tmp_path)
+            problem = data.problem(cut)
+            if problem is not None:
+                _one_line(problem, cut)
+                assert "is too short" in problem and "needed" in problem, problem
+                kinds.add("refused")
+                continue
+            _, failed = _evaluate(data, cut)
+            assert not [s for s in failed if not s.startswith(("step", "aided"))], (rel, n, failed)
+            kinds.add("evaluated")
+    assert kinds == {"refused", "evaluated"}
