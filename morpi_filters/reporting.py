@@ -310,8 +310,8 @@ def _same_json(a, b) -> bool:
         return a.keys() == b.keys() and all(_same_json(a[k], b[k]) for k in a)
     if isinstance(a, list) and isinstance(b, list):
         return len(a) == len(b) and all(_same_json(x, y) for x, y in zip(a, b))
-    if type(a) is float and type(b) is float:
-        return _same_numbers(a, b)
+    if type(a) is float and type(b) is float:   # the previous file's float is at the stated precision too
+        return _same_numbers(a, b) and round_significant(a, JSON_DIGITS) == a
     return type(a) is type(b) and a == b
 
 
@@ -329,7 +329,8 @@ def same_output(old, new) -> bool:
 
     ``.json`` files: the same structure, keys, strings, booleans, nulls and
     integers, floats within :data:`SAME_REL` relative or :data:`SAME_ABS`
-    absolute. ``.md`` files: the same text around the numbers (a number is
+    absolute, the floats of `old` at :data:`JSON_DIGITS` digits (a file
+    written at another precision is replaced). ``.md`` files: the same text around the numbers (a number is
     not glued to a word, a path or a hexadecimal digest), the same integers,
     the numbers with a decimal point or an exponent within the same margin.
     Any other file, or one that cannot be read or parsed: the same bytes.
@@ -357,8 +358,11 @@ def same_output(old, new) -> bool:
     >>> _ = (d / "a.json").write_text('{"rms_m": 0.123456789012, "n": 40}')
     >>> _ = (d / "b.json").write_text('{"rms_m": 0.123456789013, "n": 40}')
     >>> _ = (d / "c.json").write_text('{"rms_m": 0.123456789913, "n": 40}')
+    >>> _ = (d / "d.json").write_text('{"rms_m": 0.12345678901234567, "n": 40}')
     >>> same_output(d / "a.json", d / "b.json"), same_output(d / "a.json", d / "c.json")
     (True, False)
+    >>> same_output(d / "d.json", d / "a.json")          # 17 digits: not a file of this precision
+    False
     """
     old, new = Path(old), Path(new)
     try:

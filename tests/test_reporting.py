@@ -102,6 +102,18 @@ def test_outputs_keep_a_file_that_states_the_same_result(tmp_path):
     assert sorted(p.name for p in out.iterdir()) == [".morpi-output", "index.md", "sec"]
 
 
+def test_outputs_replace_a_json_file_of_another_precision(tmp_path):
+    # a result.json written with every float's 17 digits (an older writer) is replaced by the 12-digit one,
+    # though its numbers agree within the margin
+    out = tmp_path / "reports"
+    x = 0.123456789012345
+    _write_section(out, x)
+    old = '{"rms_m": 0.12345678901234512, "what": "runs", "digest": "2a8affc79930"}\n'
+    (out / "sec" / "result.json").write_text(old)
+    _write_section(out, x)
+    assert json.loads((out / "sec" / "result.json").read_text())["rms_m"] == 0.123456789012
+
+
 @pytest.mark.parametrize("old, new, same", [
     ("digest `2a8affc79930ffd4`", "digest `2a8affc79930ffd5`", False),
     ("digest `1234567890123456`", "digest `1234567890123457`", False),   # integers: written the same
