@@ -180,16 +180,17 @@ def write_text(path, text: str) -> Path:
     return Path(path)
 
 
-#: Significant digits of every float :func:`write_json` writes. A decimal step of at most 1e-11 relative:
-#: finer than the machine-to-machine differences (up to a few 1e-11), so the file keeps every digit the
-#: arithmetic can vouch for, and 100 times finer than :data:`SAME_REL`, so rounding never decides whether
-#: two results are the same.
-JSON_DIGITS = 12
+#: Significant digits of every float :func:`write_json` writes. A decimal step of at most 1e-12 relative
+#: (a rounding error of at most 5e-13): finer than the machine-to-machine differences (up to a few 1e-11),
+#: so the file keeps every digit the arithmetic can vouch for and a reader comparing at 1e-12 still finds
+#: the computed value, and 1000 times finer than :data:`SAME_REL`, so rounding never decides whether two
+#: results are the same.
+JSON_DIGITS = 13
 
 #: Relative and absolute margin within which two numbers of a result are the same number
 #: (:func:`same_output`). Another CPU, libm or BLAS moves the reports' numbers by at most a few 1e-11
-#: relative (3.3e-11 seen between two machines), a rounding to :data:`JSON_DIGITS` by at most 1e-11
-#: more; 1e-9 leaves a factor 20 above both, and no page reads a number to more than 6 digits. The absolute
+#: relative (3.3e-11 seen between two machines), a rounding to :data:`JSON_DIGITS` by at most 5e-13
+#: more; 1e-9 leaves a factor 29 above both, and lies far below the digits the pages print. The absolute
 #: margin [SI units] covers values that are zero up to rounding (a mean of signed errors, a difference
 #: of equal sums), whose relative difference means nothing.
 SAME_REL, SAME_ABS = 1e-9, 1e-12
@@ -291,7 +292,7 @@ def write_json(path, obj) -> Path:
     >>> p = write_json(Path(tempfile.mkdtemp()) / "r.json", {"rms_m": np.float64(0.25), "bad": float("inf"),
     ...                                                      "third": 1.0 / 3.0})
     >>> json.loads(p.read_text())
-    {'rms_m': 0.25, 'bad': None, 'third': 0.333333333333}
+    {'rms_m': 0.25, 'bad': None, 'third': 0.3333333333333}
     """
     text = json.dumps(to_jsonable(obj, JSON_DIGITS), indent=2, allow_nan=False)
     return write_text(path, text + "\n")
