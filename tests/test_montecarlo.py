@@ -25,12 +25,59 @@ def test_child_seed_is_the_spawned_child():
         assert np.array_equal(mc.child_seed(1234, i).generate_state(8), kids[i].generate_state(8))
 
 
-def test_digest_depends_on_every_byte():
-    a = np.arange(12.0).reshape(6, 2)
-    b = a.copy()
-    b[5, 1] = np.nextafter(b[5, 1], np.inf)
+def _mid_step(x):
+    """`x` moved to the middle of its rounding interval in the digest (a multiple of the step: half a step
+    from either boundary)."""
+    m, e = np.frexp(np.asarray(x, dtype=float))
+    return np.ldexp(np.rint(np.ldexp(m, mc.DIGEST_BITS)), e - mc.DIGEST_BITS)
+
+
+def test_digest_depends_on_every_value_at_its_precision():
+    # a change of one value by two rounding steps (2^-19 relative) changes the digest, wherever it is
+    a = _mid_step(np.random.default_rng(3).uniform(0.01, 500.0, (6, 2)))
     assert mc.digest(a) == mc.digest(a.copy())
-    assert mc.digest(a) != mc.digest(b)
+    for i, j in ((0, 0), (5, 1), (2, 0)):
+        b = a.copy()
+        b[i, j] *= 1 + 2.0 ** -(mc.DIGEST_BITS - 1)
+        assert mc.digest(a) != mc.digest(b)
+
+
+def test_digest_is_the_same_under_another_machines_last_digits():
+    # values perturbed at 1e-12 relative (far above the differences of another libm or CPU), each value in
+    # the middle of its rounding step: the digest does not move; the bits it hashed before did
+    rng = np.random.default_rng(4)
+    a = _mid_step(rng.uniform(0.01, 500.0, (300, 8)))
+    b = a * (1 + 1e-12 * rng.choice([-1.0, 1.0], a.shape))
+    assert not np.array_equal(a, b)
+    assert mc.digest(b) == mc.digest(a)
+    # NaN bits (sign, payload) and the sign of zero differ between machines too: not part of the digest
+    odd_nan = np.frombuffer(np.uint64(0xFFF8000000000001).tobytes(), dtype=np.float64)[0]
+    c, d = a.copy(), a.copy()
+    c[0, 0], d[0, 0] = np.nan, odd_nan
+    c[1, 1], d[1, 1] = 0.0, -0.0
+    assert mc.digest(c) == mc.digest(d)
+
+
+def test_field_gain_figures_below_their_precision_leave_the_study_unchanged(tmp_path, monkeypatch):
+    # the field evaluation of another machine gives the spread and mismatch a few 1e-11 apart: the gain
+    # scenario, every per-run error and the digests are the same
+    from morpi_filters import evaluate
+    from morpi_filters.reporting import DataSource
+
+    root = tmp_path / "recordings"
+    root.mkdir()
+    (root / "1.csv").write_text("time,f_x\n")
+    figures = (0.0502360, 0.00251238)            # six digits: the middle of their rounding intervals
+    pages = []
+    for scale in (1.0, 1 + 3e-11):
+        monkeypatch.setattr(evaluate, "training_gain_spread",
+                            lambda source, tables=None, k=scale: (figures[0] * k, figures[1] * k))
+        pages.append(mc.gain_error_page(runs=12, seed=5, source=DataSource(root)))
+    a, b = pages
+    assert (a.spread, a.mismatch) == (b.spread, b.mismatch) == figures
+    assert np.array_equal(a.calibrated.final, b.calibrated.final, equal_nan=True)
+    assert a.calibrated.digest == b.calibrated.digest and a.training.digests == b.training.digests
+    assert not a.assumed and str(root) not in a.spread_note and "1 recording" in a.spread_note
 
 
 @pytest.fixture(scope="module")
