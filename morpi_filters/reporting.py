@@ -1474,7 +1474,7 @@ class Outputs:
         for entry in self._files:
             tmp, final = entry[0], entry[1]
             if final.is_file() and not final.is_symlink() and same_output(final, tmp):
-                os.unlink(tmp)
+                _drop_stage(tmp.parent)          # the temporary file and the staging folder holding it
             else:
                 changed.append(entry)
         self._files = changed
