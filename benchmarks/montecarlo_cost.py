@@ -24,8 +24,10 @@ at two run counts R1 < R2; for each run the script reads the child's CPU time
 
 CPU time, not wall time, is fitted: the command runs on one thread, so on an
 idle machine the two agree, and the CPU time is far less disturbed by other
-work on a shared machine. The script prints every point, the fitted constants as
-Python lines, and each point's prediction against its measurement.
+work on a shared machine. The script prints every point, what the current
+``montecarlo.page_cost`` says of it, the fitted constants as Python lines, and
+each point's fit against its measurement (``--quick``: the points and the current
+estimates only).
 
 Usage: ``PYTHONPATH=. python3 benchmarks/montecarlo_cost.py [--data DIR] [--quick] [--save FILE | --points FILE]``
 """
@@ -131,7 +133,15 @@ def main(argv=None):
               f"({b['wall']:.2f} s wall, {b['peak'] / 1e6:.0f} MB)", flush=True)
     if args.save:
         Path(args.save).write_text(json.dumps(rows, indent=1))
-    fit_points(rows)
+    from morpi_filters.montecarlo import page_cost
+
+    for (duration, speed, r1, r2), row in zip(QUICK if args.quick else DESIGN, rows):
+        est = page_cost(r2, duration=duration, speed_mps=speed)
+        print(f"{duration} s, speed {speed or 'default'}, {r2} runs: {row[5]['cpu']:.1f} s CPU and "
+              f"{row[5]['peak'] / 1e6:.0f} MB; montecarlo.page_cost says {est.seconds:.1f} s and "
+              f"{est.bytes / 1e6:.0f} MB")
+    if not args.quick:                  # three points do not fix the seven constants
+        fit_points(rows)
     if args.data:
         plain, field = run(200, 15), run(200, 15, data=args.data)
         print(f"FIELD_SECONDS, FIELD_BYTES = {field['cpu'] - plain['cpu']:.3g}, {field['peak'] - plain['peak']:.3g}")
