@@ -528,3 +528,57 @@ def test_heading_error_by_blocks_is_the_trapezoid_integral():
     np.testing.assert_allclose(out[64], ref, rtol=0, atol=1e-12)
     for b in (1, 7, 500):
         assert np.array_equal(out[b], out[64])
+
+
+# ----------------------------------------------------------------------------- the cost estimate
+
+@pytest.mark.parametrize("duration, speed", [(None, None), (60.0, None), (30.0, 2.0), (None, 0.2), (40.0, 0.1)])
+def test_the_estimate_counts_the_samples_and_steps_of_the_path_the_study_drives(duration, speed):
+    cfg = mc.StudyConfig(duration=duration, speed_mps=speed).resolved()
+    _, sine, _ = mc._paths(cfg)                         # the path the study builds
+    cost = mc.page_cost(10, duration=duration, speed_mps=speed)
+    assert cost.duration == cfg.duration and cost.samples == sine.time.size
+    assert abs(cost.steps - (sine.peaks.size - 1)) <= 1
+
+
+def test_the_estimate_is_affine_in_the_runs_and_grows_faster_than_the_duration():
+    c = [mc.page_cost(r, duration=60.0) for r in (1000, 2000, 3000)]
+    assert c[1].seconds - c[0].seconds == pytest.approx(c[2].seconds - c[1].seconds, rel=1e-12)
+    assert c[1].bytes - c[0].bytes == pytest.approx(1000 * mc.RUN_BYTES, rel=1e-12)
+    per_run = {d: mc.page_cost(2, duration=d).seconds - mc.page_cost(1, duration=d).seconds
+               for d in (15.0, 60.0, 240.0, 600.0)}
+    for short, long in ((15.0, 60.0), (60.0, 240.0), (240.0, 600.0)):
+        assert per_run[long] > long / short * per_run[short] > 0
+    # more steps in the same time cost more (the fast path of the same duration)
+    assert mc.page_cost(1000, duration=600.0, speed_mps=10.0).seconds > mc.page_cost(1000, duration=600.0).seconds
+    # a configured dataset adds the field gain training
+    assert mc.page_cost(10, field=True).seconds > mc.page_cost(10).seconds
+
+
+def test_a_larger_chunk_costs_at_least_its_scratch_planes(monkeypatch):
+    # the chunk kernel's scratch arrays, left in place after a study, against the estimate's bytes per sample
+    monkeypatch.setattr(mc, "_release_scratch", lambda: None)
+    mc._SCRATCH.arrays = {}
+    cfg = mc.StudyConfig(training_runs=20, duration=8.0)
+    mc.run_study(24, 0, cfg, chunk=24)
+    n = mc._samples(cfg.resolved().duration, cfg.rate_hz)
+    planes = sum(a.nbytes for a in mc._SCRATCH.arrays.values())
+    mc._SCRATCH.arrays = {}
+    assert planes / (24 * n) >= 13 * 8                   # draws (6 n + 7), noise (6 n), heading (n) per run
+    assert mc.CHUNK_SAMPLE_BYTES >= planes / (24 * n) * (1 - 1e-3)
+    big, plain = mc.page_cost(100_000, chunk=20_000), mc.page_cost(100_000)
+    default = mc._default_chunk(plain.samples)
+    assert big.bytes - plain.bytes >= planes / (24 * n) * plain.samples * (20_000 - default) * (1 - 1e-3)
+    assert big.seconds == plain.seconds
+
+
+@pytest.mark.parametrize("kwargs", [{"runs": 0}, {"runs": 10, "duration": 2.0}, {"runs": 10, "chunk": 0},
+                                    {"runs": 10, "speed_mps": -1.0}])
+def test_the_estimate_refuses_what_the_study_refuses(kwargs):
+    runs = kwargs.pop("runs")
+    with pytest.raises(MorpiError):
+        mc.page_cost(runs, **kwargs)
+
+
+def test_a_speed_alone_sets_the_duration_of_the_paper_length():
+    assert mc.page_cost(1, speed_mps=0.01).duration == pytest.approx(mc.DEFAULT_LENGTH_M / 0.01 + mc.RAMP_S)
