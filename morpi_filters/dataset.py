@@ -926,6 +926,8 @@ def plausibility_problems(rec: Recording) -> list[str]:
     """
     src = rec.source
     out = []
+    if rec.n == 0:
+        return out
     i0, i1 = _still_stretch(rec.time, rec.omega)
     rest = np.concatenate((rec.f[i0:i1], rec.omega[i0:i1]), axis=1)
     if (rest.max(axis=0) > rest.min(axis=0)).any():               # the recording carries sensor noise
