@@ -3,7 +3,11 @@
 A :class:`Recording` holds one IMU recording in SI units and phone axes (see
 the package docstring for frames). :func:`load_csv` reads one file and rejects
 anything that is not a clean recording with a :class:`MorpiError` naming the
-file, and the line where there is one. :func:`catalogue` walks a dataset root
+file, and the line where there is one. :func:`plausibility_problems` reads what
+a clean file says at rest (gravity's magnitude and direction, the gyro's offset
+and noise, channels that never move) and names what no phone IMU in SI units
+and the z-up frame would record; the catalogue's loader and :func:`check_tree`
+apply it (:func:`check_plausible`). :func:`catalogue` walks a dataset root
 laid out as the public MoRPI repository (``s8/short_distance/train/3.csv``)
 and attaches phone, route, split and the route's ground truth, which lives in
 ``data/routes.json`` (a file this project owns).
@@ -30,13 +34,14 @@ import numpy as np
 
 from .errors import DataError, MorpiError
 from .resources import project_data
-from .units import G0
+from .units import DEG, G0, SENSORS
 
 __all__ = [
     "COLUMNS", "MIN_SAMPLES", "ACCEL_LIMIT_MPS2", "GYRO_LIMIT_RADPS", "MAX_GAP_S", "TIME_LIMIT_S", "DATA_ENV", "Route", "Recording", "CatalogueEntry",
     "load_csv", "load_recording", "write_csv", "routes", "route", "catalogue", "load_catalogue",
     "resolve_data_root", "missing_data_message", "check_tree", "keep_parsed", "PROJECT_DATA",
-    "layout", "expected_layout", "layout_problems", "folder_key",
+    "layout", "expected_layout", "layout_problems", "folder_key", "GRAVITY_BAND_MPS2", "UP_FRACTION_MIN",
+    "GYRO_REST_LIMIT_RADPS", "GYRO_NOISE_FACTOR", "plausibility_problems", "check_plausible",
 ]
 
 #: The columns every recording must have (the header names them; any order is read).
@@ -60,6 +65,40 @@ MAX_GAP_S = 1.0
 #: the phone's boot; beyond this a float64 time stamp is no plausible clock reading (and its
 #: resolution, 1.5e-8 s at 1e8 s, would start to eat into the 10 ms sample interval).
 TIME_LIMIT_S = 1e8
+#: Plausibility at rest (:func:`plausibility_problems`): the magnitude of the specific force over the
+#: recording's first still stretch must lie within this band around standard gravity :data:`G0`
+#: [m/s^2]. It adds three times the larger zero-g offset of the two IMUs (60 mg for the MPU-6500,
+#: 40 mg for the LSM6DSL: the paper's table of manufacturer errors, 1 sigma per axis as
+#: :class:`~morpi_filters.units.SensorSpec` holds them), 1.77 m/s^2; the MPU-6500 datasheet's
+#: initial sensitivity tolerance of +-3 %, 0.29 m/s^2 at 1 g; and 0.05 m/s^2 for the place on Earth
+#: (normal gravity runs from 9.780 m/s^2 at the equator to 9.832 at the poles, 0.003 less per km of
+#: height). Tilt changes the direction of the specific force at rest, not its magnitude, and the
+#: medians over the still stretch average vibration out, so neither takes a margin. About 2.11 m/s^2:
+#: an accelerometer written in g (reading about 1) or without gravity (about 0, linear acceleration) lies
+#: more than 6 m/s^2 outside it. The field recordings read 9.8066 to 9.8067 m/s^2.
+GRAVITY_BAND_MPS2 = 3 * max(s.accel_bias for s in SENSORS.values()) + 0.03 * G0 + 0.05
+#: Least share of the rest specific force the z axis must carry, positive: cos 45 deg. The phone
+#: frame is z up (a level phone at rest reads f_z = +g), and z is the axis nearest the vertical as
+#: long as the phone is tilted less than 45 deg about a horizontal axis; beyond that x or y is nearer
+#: the vertical (columns swapped under a kept header, or a phone standing on its edge), and a
+#: negative f_z is a z-down frame (a phone face down, or axes written north-east-down). Both break the
+#: paper's level start and its calibration, which puts gravity on +z. The field recordings carry at
+#: least 0.977 of it on z (12 deg of tilt).
+UP_FRACTION_MIN = math.cos(math.radians(45.0))
+#: Largest mean angular rate of one gyro axis at rest [rad/s]: three times the larger zero-rate
+#: offset of the two IMUs (6 deg/s for the MPU-6500, 3 deg/s for the LSM6DSL, 1 sigma per axis in
+#: the paper's table), 18 deg/s; the earth's rate (7.3e-5 rad/s) is negligible beside it. A gyro
+#: column holding gravity (9.8) or a tilted phone's horizontal specific force lies beyond it, and so
+#: do rates written in deg/s (57.3 times larger) from a gyro whose offset exceeds 0.31 deg/s on some
+#: axis. The field rest periods read at most 0.032 rad/s.
+GYRO_REST_LIMIT_RADPS = 3 * max(s.gyro_bias for s in SENSORS.values())
+#: Largest white noise of a gyro axis at rest, as a multiple of the noisier IMU's datasheet noise at
+#: the recording's sampling rate (the MPU-6500's 0.01 deg/s/sqrt(Hz) times sqrt(rate), the sample
+#: standard deviation :func:`morpi_filters.simulate.imu` draws): 10, or 1 deg/s rms at 100 Hz. Rates
+#: written in deg/s carry 57.3 times their noise, beyond the bound for any gyro whose noise exceeds
+#: 10 / 57.3 = 0.17 of that density (the LSM6DSL's datasheet density is 0.4 of it). The field rest
+#: periods read at most 1.8 times the density (a median change of two quantization steps on the S6).
+GYRO_NOISE_FACTOR = 10.0
 #: Environment variable naming the dataset root.
 DATA_ENV = "MORPI_DATA"
 #: Folder of the small files this project owns (ground truth, checksums).
@@ -253,12 +292,13 @@ class CatalogueEntry:
         Returns
         -------
         Recording
-            :func:`load_csv` of ``path`` with ``phone``, ``route`` and ``split`` set.
+            :func:`load_csv` of ``path`` with ``phone``, ``route`` and ``split``
+            set, checked by :func:`check_plausible`.
 
         Raises
         ------
         DataError
-            Every error of :func:`load_csv`.
+            Every error of :func:`load_csv` and :func:`check_plausible`.
 
         Examples
         --------
@@ -272,7 +312,7 @@ class CatalogueEntry:
         >>> rec.name, rec.n
         ('s6/L_line/1.csv', 100)
         """
-        return load_csv(self.path, phone=self.phone, route=self.route, split=self.split)
+        return check_plausible(load_csv(self.path, phone=self.phone, route=self.route, split=self.split))
 
 
 # --------------------------------------------------------------------------- loading
@@ -776,6 +816,245 @@ def _row_values(s: str, i: int, header: list[str], name: str) -> list[float]:
     return vals
 
 
+# --------------------------------------------------------------------------- plausibility at rest
+
+#: Still-stretch search of :func:`plausibility_problems`: blocks of this length [s] ...
+_STILL_BLOCK_S = 0.5
+#: ... each still when every gyro column's peak-to-peak stays within this multiple of its quietest
+#: block's (at least one quantization step): the peak-to-peak of white noise over a block of 50
+#: samples is about 4.5 sigma and rarely leaves 3 to 6.5 sigma, so rest blocks stay within about
+#: twice the quietest one, while a turn or a hand moves the gyro by hundreds of noise sigmas.
+_STILL_RATIO = 4.0
+#: Shortest and longest still stretch used [blocks]: 1 to 3 s (the paper calibrates on 3 s).
+_STILL_BLOCKS = (2, 6)
+#: Fewest samples a block needs to count (a block at a gap or at the end may hold a few).
+_STILL_MIN_SAMPLES = 5
+
+
+def _still_stretch(time: np.ndarray, omega: np.ndarray) -> tuple[int, int]:
+    """Sample slice ``(i0, i1)`` of the first still stretch of a recording.
+
+    The recording is cut into blocks of :data:`_STILL_BLOCK_S` from its first
+    sample; a block is still when the peak-to-peak of each gyro column is at
+    most :data:`_STILL_RATIO` times that column's quietest block (floored at
+    its smallest step, the quantization). The stretch is the first run of at
+    least ``_STILL_BLOCKS[0]`` still blocks, cut at ``_STILL_BLOCKS[1]``; when
+    there is none, the quietest block. Stillness is read from the gyro
+    columns alone, each against itself, so it does not depend on their units:
+    the phones' accelerometer channels are low-pass filtered and settle during
+    the first seconds (whole blocks of repeated values, then slow drifts, in
+    the field recordings), while a hand or a turn shows on the gyro.
+    """
+    n = time.shape[0]
+    block = np.floor((time - time[0]) / _STILL_BLOCK_S)
+    starts = np.concatenate(([0], np.flatnonzero(block[1:] != block[:-1]) + 1))
+    ends = np.concatenate((starts[1:], [n]))
+    ptp = np.maximum.reduceat(omega, starts, axis=0) - np.minimum.reduceat(omega, starts, axis=0)
+    counted = (ends - starts) >= _STILL_MIN_SAMPLES
+    if not counted.any():
+        return 0, n
+    ref = ptp[counted].min(axis=0)
+    for j in np.flatnonzero(ref == 0):              # a block without a change: its quantization step instead
+        steps = np.abs(np.diff(omega[:, j]))
+        ref[j] = steps[steps > 0].min() if (steps > 0).any() else 0.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(ptp > 0, ptp / ref, 0.0).max(axis=1)      # a column never moving: ratio 0
+    still = counted & (ratio <= _STILL_RATIO)
+    shortest, longest = _STILL_BLOCKS
+    b = 0
+    while b < still.size:
+        if still[b]:
+            e = b
+            while e + 1 < still.size and still[e + 1]:
+                e += 1
+            if e - b + 1 >= shortest:
+                return int(starts[b]), int(ends[min(e, b + longest - 1)])
+            b = e + 1
+        else:
+            b += 1
+    quiet = int(np.argmin(np.where(counted, ratio, np.inf)))
+    return int(starts[quiet]), int(ends[quiet])
+
+
+def _gyro_noise(omega: np.ndarray) -> np.ndarray:
+    """White-noise standard deviation per gyro axis, from the median absolute sample-to-sample change.
+
+    For white noise of standard deviation sigma the changes have standard deviation sqrt(2) sigma and
+    their median absolute value is 0.6745 of it; the median ignores a few outliers. Zeros with fewer
+    than three samples.
+    """
+    if omega.shape[0] < 3:
+        return np.zeros(omega.shape[1])
+    return np.median(np.abs(np.diff(omega, axis=0)), axis=0) / (0.6745 * math.sqrt(2.0))
+
+
+def _vec(v) -> str:
+    return "(" + ", ".join(f"{x:.3g}" for x in v) + ")"
+
+
+def plausibility_problems(rec: Recording) -> list[str]:
+    """One line per way a recording is implausible for a phone IMU in SI units and the z-up frame.
+
+    The checks read the recording's first still stretch (the MoRPI recordings
+    start at rest; a handling disturbance before the rest is skipped): the
+    medians of the specific force and of the angular rate over it, and the
+    gyro noise there. Each bound is a sensor or physics figure, given with its
+    source beside its constant:
+
+    - dead channel: a sensor column that reads the same value in every sample
+      (all zero, or stuck), when the recording carries sensor noise (some
+      column moves during the still stretch; a noise-free synthetic recording
+      is not judged on this);
+    - gravity: the magnitude of the rest specific force within
+      :data:`GRAVITY_BAND_MPS2` of :data:`G0` (an accelerometer in g, one
+      without gravity, or specific force on the gyro columns is named);
+    - up axis: ``f_z`` at least :data:`UP_FRACTION_MIN` of that magnitude,
+      positive (gravity on x or y, or a z-down frame, is named);
+    - gyro at rest: each axis's rest mean within :data:`GYRO_REST_LIMIT_RADPS`
+      and its white noise within :data:`GYRO_NOISE_FACTOR` times the
+      datasheet noise at the recording's rate (deg/s, or gravity on a gyro
+      column, is named).
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording, as loaded (SI units claimed, phone axes).
+
+    Returns
+    -------
+    list of str
+        The problems, each one line starting with ``rec.source``; empty when
+        the recording is plausible.
+
+    Examples
+    --------
+    A phone at rest, then the same recording with the accelerometer written in g:
+
+    >>> rng = np.random.default_rng(0)
+    >>> t = np.arange(400) * 0.01
+    >>> f = [0.1, -0.2, 9.8] + 0.02 * rng.standard_normal((400, 3))
+    >>> w = [0.01, 0.0, -0.02] + 0.002 * rng.standard_normal((400, 3))
+    >>> plausibility_problems(Recording(time=t, f=f, omega=w, source="a.csv"))
+    []
+    >>> import textwrap
+    >>> for line in plausibility_problems(Recording(time=t, f=f / G0, omega=w, source="a.csv")):
+    ...     print(textwrap.fill(line, 90))
+    a.csv: specific force at rest is 1.00 m/s^2 (f = (0.00994, -0.0204, 0.999)), expected |f|
+    = 9.81 +- 2.11 m/s^2: looks like the accelerometer is in g, not m/s^2
+    """
+    src = rec.source
+    out = []
+    if rec.n == 0:
+        return out
+    i0, i1 = _still_stretch(rec.time, rec.omega)
+    rest = np.concatenate((rec.f[i0:i1], rec.omega[i0:i1]), axis=1)
+    if (rest.max(axis=0) > rest.min(axis=0)).any():               # the recording carries sensor noise
+        dead = np.concatenate([np.maximum.reduceat(x, [0], axis=0)[0] == np.minimum.reduceat(x, [0], axis=0)[0]
+                               for x in (rec.f, rec.omega)])     # (reduceat: much faster than max(axis=0) here)
+        for j in np.flatnonzero(dead):
+            v, col = float(rest[0, j]), COLUMNS[1 + j]
+            what = "all zero" if v == 0 else f"stuck at {v!r}"
+            out.append(f"{src}: column {col} is {what} in all {rec.n} samples: a dead channel, expected a live "
+                       "sensor (white noise moves every MEMS axis, as the recording's other columns move at rest)")
+    f_mean, w_mean = np.split(np.median(rest, axis=0), 2)
+    mag, w_mag = float(np.linalg.norm(f_mean)), float(np.linalg.norm(w_mean))
+    band = GRAVITY_BAND_MPS2
+    gravity_ok = abs(mag - G0) <= band
+    in_g = abs(mag * G0 - G0) <= band
+    gravity_on_gyro = abs(w_mag - G0) <= band
+    expect_f = f"expected |f| = {G0:.2f} +- {band:.2f} m/s^2"
+    if not gravity_ok:
+        if in_g:
+            hint = "looks like the accelerometer is in g, not m/s^2"
+        elif gravity_on_gyro:
+            hint = (f"the gyro columns carry it instead (|w| = {w_mag:.3g} at rest, w = {_vec(w_mean)}): "
+                    "looks like specific-force and angular-rate columns swapped under their header")
+        elif mag < band:
+            hint = "no gravity: looks like linear acceleration (gravity removed) or a column that is not specific force"
+        else:
+            hint = "not the gravity a phone at rest reads: another unit or another quantity under the header"
+        out.append(f"{src}: specific force at rest is {mag:.2f} m/s^2 (f = {_vec(f_mean)}), {expect_f}: {hint}")
+    if gravity_ok or in_g:
+        share = f_mean[2] / mag
+        if share < UP_FRACTION_MIN:
+            if -share >= UP_FRACTION_MIN:
+                out.append(f"{src}: f_z at rest is {f_mean[2]:.3g} (f = {_vec(f_mean)}), expected +|f| on z (the "
+                           "phone frame is z up): a z-down frame (north-east-down axes) or a phone lying face down")
+            else:
+                j = int(np.argmax(np.abs(f_mean)))
+                other = COLUMNS[1 + j]
+                cause = (f"looks like {other} and f_z swapped under their header, or a phone standing on its edge"
+                         if j < 2 else "a phone tilted beyond 45 deg")
+                out.append(f"{src}: gravity at rest is on {other} (f = {_vec(f_mean)}), expected at least "
+                           f"{UP_FRACTION_MIN:.2f} of |f| on +f_z (the phone frame is z up): {cause}")
+    noise = _gyro_noise(rest[:, 3:])
+    dt = np.diff(rec.time[i0:i1] if i1 - i0 > 1 else rec.time)
+    rate = float(1.0 / np.median(dt)) if dt.size else 100.0      # the stretch's median sampling rate [Hz]
+    noise_limit = GYRO_NOISE_FACTOR * max(s.gyro_noise for s in SENSORS.values()) * math.sqrt(rate)
+    bias_bad = np.abs(w_mean) > GYRO_REST_LIMIT_RADPS
+    noise_bad = noise > noise_limit
+    if bias_bad.any() or noise_bad.any():
+        said = []
+        if bias_bad.any():
+            j = int(np.argmax(np.abs(w_mean)))
+            said.append(f"mean {w_mean[j]:.3g} rad/s on {COLUMNS[4 + j]} (expected within "
+                        f"+-{GYRO_REST_LIMIT_RADPS:.2f} rad/s, three zero-rate offsets)")
+        if noise_bad.any():
+            j = int(np.argmax(noise))
+            said.append(f"noise {noise[j]:.3g} rad/s on {COLUMNS[4 + j]} (expected at most {noise_limit:.3g} rad/s, "
+                        f"{GYRO_NOISE_FACTOR:g} times the datasheet noise at {rate:.0f} Hz)")
+        as_deg = (np.abs(w_mean) * DEG <= GYRO_REST_LIMIT_RADPS).all() and (noise * DEG <= noise_limit).all()
+        odd = np.flatnonzero(bias_bad | noise_bad)
+        if gravity_on_gyro:
+            # said with the specific force when the accelerometer lacks it
+            hint = "looks like gravity, specific force under a gyro header" if gravity_ok else None
+        elif as_deg and odd.size > 1:            # deg/s scales every axis, its noise too
+            hint = "looks like deg/s, not rad/s"
+        elif as_deg:
+            hint = f"looks like deg/s (not rad/s), or specific force under the {COLUMNS[4 + odd[0]]} header"
+        else:
+            hint = "the gyro columns do not read a gyro at rest: another unit or another quantity under the header"
+        if hint is not None:
+            out.append(f"{src}: angular rate at rest: {'; '.join(said)}: {hint}")
+    return out
+
+
+def check_plausible(rec: Recording) -> Recording:
+    """Return `rec` when it is plausible (:func:`plausibility_problems`), else raise.
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording to check.
+
+    Returns
+    -------
+    Recording
+        `rec` itself.
+
+    Raises
+    ------
+    DataError
+        One line: the source, then every problem of :func:`plausibility_problems`.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(1)
+    >>> t = np.arange(300) * 0.01
+    >>> w = 0.002 * rng.standard_normal((300, 3))
+    >>> f = np.column_stack([np.zeros(300), 0.02 * rng.standard_normal(300), 9.8 + 0.02 * rng.standard_normal(300)])
+    >>> check_plausible(Recording(time=t, f=f, omega=w, source="b.csv"))
+    Traceback (most recent call last):
+    ...
+    morpi_filters.errors.DataError: b.csv: column f_x is all zero in all 300 samples: a dead channel, ...
+    """
+    problems = plausibility_problems(rec)
+    if problems:
+        prefix = f"{rec.source}: "
+        raise DataError(prefix + "; ".join(p[len(prefix):] if p.startswith(prefix) else p for p in problems))
+    return rec
+
+
 def write_csv(path, recording: Recording) -> None:
     """Write a recording in the dataset's CSV format (atomically: temp file, then rename).
 
@@ -1052,14 +1331,15 @@ def load_recording(path) -> tuple[Recording, "Route | None"]:
     Returns
     -------
     recording : Recording
-        The validated recording (:func:`load_csv`), labelled when in the layout.
+        The validated recording (:func:`load_csv`, :func:`check_plausible`),
+        labelled when in the layout.
     truth : Route or None
         The route's ground truth; None outside the layout.
 
     Raises
     ------
     DataError
-        Every error of :func:`load_csv`.
+        Every error of :func:`load_csv` and :func:`check_plausible`.
 
     Warns
     -----
@@ -1087,10 +1367,11 @@ def load_recording(path) -> tuple[Recording, "Route | None"]:
         labels = _split_parts(Path(*parts)) if len(parts) == depth else None
         if labels is not None and labels[1] in known:
             phone, route_name, split = labels
-            return load_csv(path, phone=phone, route=route_name, split=split), known[route_name]
+            rec = load_csv(path, phone=phone, route=route_name, split=split)
+            return check_plausible(rec), known[route_name]
     warnings.warn(f"{path}: not in the MoRPI layout (<phone>/<route>[/<split>]/<n>.csv): loaded without "
                   "phone, route, split or ground truth", stacklevel=2)
-    return load_csv(path), None
+    return check_plausible(load_csv(path)), None
 
 
 def load_catalogue(root, *, phone=None, route=None, split=None) -> list[Recording]:
@@ -1112,7 +1393,7 @@ def load_catalogue(root, *, phone=None, route=None, split=None) -> list[Recordin
     Raises
     ------
     DataError
-        For the first file that does not load (:func:`load_csv`).
+        For the first file that does not load (:func:`CatalogueEntry.load`).
 
     Examples
     --------
@@ -1289,11 +1570,13 @@ def check_tree(root, *, usable=None) -> tuple[list[str], int]:
     Returns
     -------
     problems : list of str
-        One line per bad file, and per difference from the expected layout
-        (:func:`layout_problems`: missing or unexpected folders, wrong counts,
-        no recordings at all).
+        One line per file that does not load (:func:`load_csv`), per
+        implausible reading of a file that does (:func:`plausibility_problems`:
+        a dead channel, wrong units, swapped columns, a z-down frame), and per
+        difference from the expected layout (:func:`layout_problems`: missing
+        or unexpected folders, wrong counts, no recordings at all).
     n_ok : int
-        Number of files that loaded cleanly (and passed `usable`).
+        Number of files that loaded cleanly and passed every plausibility check (and `usable`).
 
     Examples
     --------
@@ -1315,13 +1598,14 @@ def check_tree(root, *, usable=None) -> tuple[list[str], int]:
     problems, n_ok = [], 0
     for e in entries:
         try:
-            rec = e.load()
+            rec = load_csv(e.path, phone=e.phone, route=e.route, split=e.split)
         except MorpiError as exc:
             problems.append(str(exc))
             continue
-        line = None if usable is None else usable(rec)
-        if line is None:
-            n_ok += 1
-        else:
-            problems.append(line)
+        found = plausibility_problems(rec)           # every one, where a load names the first
+        if not found and usable is not None:
+            line = usable(rec)
+            found = [] if line is None else [line]
+        problems += found
+        n_ok += not found
     return problems + layout_problems(root, entries), n_ok

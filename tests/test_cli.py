@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -44,6 +45,36 @@ def test_check_reports_each_bad_file(tmp_path):
     # 2 bad files, then the layout: 3 of the 24 line_dataset runs, the other 10 folders absent
     assert lines[-1].startswith("1 recording(s) OK, 13 problem(s)")
     assert any("line_dataset: 3 recording(s), expected 24" in s for s in lines)
+
+
+def test_check_names_a_recording_in_g_and_one_in_deg_per_s(tmp_path):
+    """Within every limit, but no phone at rest in SI units: one line each, naming the file and the unit."""
+    import numpy as np
+
+    rng = np.random.default_rng(8)
+    d = tmp_path / "s8" / "line_dataset"
+    d.mkdir(parents=True)
+    rows = [[0.3 + 0.01 * k, 0.1, -0.1, 9.8, 0.01, -0.02, 0.03] for k in range(300)]
+    noisy = np.asarray(rows) + np.c_[np.zeros(300), 0.01 * rng.standard_normal((300, 3)),
+                                     0.001 * rng.standard_normal((300, 3))]
+    write_rows(d / "1.csv", noisy.tolist())
+    in_g, in_deg = noisy.copy(), noisy.copy()
+    in_g[:, 1:4] /= 9.80665
+    in_deg[:, 4:7] = np.degrees(in_deg[:, 4:7])
+    write_rows(d / "2.csv", in_g.tolist())
+    write_rows(d / "3.csv", in_deg.tolist())
+    r = run("check", "--data", str(tmp_path))
+    assert r.returncode == 1 and "Traceback" not in r.stderr
+    lines = r.stdout.strip().splitlines()
+    # (0.1, -0.1, 9.8) m/s^2 read in g is (0.0102, -0.0102, 0.9993); 0.03 rad/s read in deg/s is 1.72
+    (g,) = [s for s in lines if s.startswith(str(d / "2.csv"))]
+    assert re.fullmatch(re.escape(f"{d / '2.csv'}: specific force at rest is 1.00 m/s^2 (f = (") + r"0\.010\d, "
+                        r"-0\.010\d, 0\.999\)\), expected \|f\| = 9\.81 \+- 2\.11 m/s\^2: looks like the "
+                        r"accelerometer is in g, not m/s\^2", g), g
+    (deg,) = [s for s in lines if s.startswith(str(d / "3.csv"))]
+    assert deg.endswith("looks like deg/s, not rad/s") and re.search(r"mean 1\.7\d rad/s on g_z", deg), deg
+    assert not any(s.startswith(str(d / "1.csv")) for s in lines)
+    assert lines[-1].startswith("1 recording(s) OK")
 
 
 def test_check_names_missing_folders(tmp_path):

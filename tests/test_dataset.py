@@ -1,6 +1,8 @@
 """The loader, its validation, and the catalogue of the MoRPI layout."""
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -469,3 +471,163 @@ def test_a_dataset_root_that_does_not_exist_is_an_error(tmp_path):
     with pytest.raises(DataError, match="not a directory"):
         catalogue(tmp_path / "nowhere")
     assert catalogue(tmp_path) == []                                  # an empty folder is a dataset of none
+
+
+# ----------------------------------------------------------------- plausibility at rest
+
+from morpi_filters import dataset as ds  # noqa: E402
+
+
+def _phone_at_rest_then_turning(seed=3, n=700, lead=None):
+    """A noisy recording built here from known truth: a phone tilted 3 deg about x standing for 3.5 s (gravity
+    on +z, datasheet-sized offsets, white noise), then swinging about z at 1 Hz (0.5 rad/s, 29 deg/s) while its y axis
+    accelerates. `lead` prepends that many samples of a hand turning the phone (1.5 rad/s about x and z)."""
+    rng = np.random.default_rng(seed)
+    t = 0.25 + np.cumsum(np.full(n, 0.01) + rng.uniform(-0.001, 0.001, n))
+    tilt = np.radians(3.0)
+    f = np.tile([0.05, units.G0 * np.sin(tilt) - 0.1, units.G0 * np.cos(tilt) + 0.2], (n, 1))
+    w = np.tile([0.012, -0.02, 0.031], (n, 1))
+    moving = t > t[0] + 3.5
+    f[moving, 1] += 0.5 * np.sin(2 * np.pi * (t[moving] - t[0]))
+    w[moving, 2] += 0.5 * np.sin(2 * np.pi * (t[moving] - t[0]))
+    f += 0.01 * rng.standard_normal((n, 3))
+    w += 0.0015 * rng.standard_normal((n, 3))
+    if lead:
+        tl = t[0] - 0.01 * np.arange(lead, 0, -1)
+        hand = np.sin(np.pi * (tl - tl[0]) / (tl[-1] - tl[0]))[:, None]
+        t = np.r_[tl, t]
+        f = np.vstack([f[:lead] + 2.0 * hand * [1.0, 1.0, 0.0], f])
+        w = np.vstack([w[:lead] + 1.5 * hand * [1.0, 0.0, 1.0], w])
+    return Recording(time=t, f=f, omega=w)
+
+
+def _written(tmp_path, rec, rel="s8/line_dataset/1.csv"):
+    path = tmp_path / rel
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_csv(path, rec)
+    return path
+
+
+def test_a_phone_at_rest_in_si_units_and_z_up_is_plausible(tmp_path):
+    rec = _phone_at_rest_then_turning()
+    path = _written(tmp_path, rec)
+    assert ds.plausibility_problems(load_csv(path)) == []
+    assert catalogue(tmp_path)[0].load().n == rec.n
+    problems, n_ok = check_tree(tmp_path)
+    assert n_ok == 1 and not any(str(path) in p for p in problems)
+
+
+def _swap(a, i, b, j):
+    a[:, i], b[:, j] = b[:, j].copy(), a[:, i].copy()
+
+
+def _mutant(kind):
+    rec = _phone_at_rest_then_turning()
+    f, w = rec.f.copy(), rec.omega.copy()
+    if kind == "dead gyro axis":
+        w[:, 1] = 0.0
+    elif kind == "stuck accelerometer axis":
+        f[:, 0] = f[7, 0]
+    elif kind == "accelerometer in g":
+        f /= units.G0
+    elif kind == "gravity removed":
+        f -= np.median(f[:300], axis=0)
+    elif kind == "gyro in deg/s":
+        w = np.degrees(w)
+    elif kind == "gyro in deg/s, no offset":          # only its noise tells: mean rates at rest near zero
+        w = np.degrees(w - np.median(w[:300], axis=0))
+    elif kind == "f_z and g_x swapped":
+        _swap(f, 2, w, 0)
+    elif kind == "f_x and g_y swapped on a tilted phone":   # the horizontal specific force read as a rate
+        f[:, 0] += units.G0 * np.sin(np.radians(5.0))
+        _swap(f, 0, w, 1)
+    elif kind == "f_x and f_z swapped":
+        f[:, [0, 2]] = f[:, [2, 0]]
+    elif kind == "f_y and f_z swapped":
+        f[:, [1, 2]] = f[:, [2, 1]]
+    elif kind == "z down":                            # turned 180 deg about x: a right-handed z-down frame
+        f[:, 1:] *= -1
+        w[:, 1:] *= -1
+    return Recording(time=rec.time, f=f, omega=w)
+
+
+@pytest.mark.parametrize("kind, expect", [
+    ("dead gyro axis", r"column g_y is all zero in all 700 samples: a dead channel"),
+    ("stuck accelerometer axis", r"column f_x is stuck at [-0-9.e]+ in all 700 samples: a dead channel"),
+    ("accelerometer in g", r"specific force at rest is 1\.0\d m/s\^2 \(f = .*\), expected \|f\| = 9\.81 \+- 2\.11 "
+                           r"m/s\^2: looks like the accelerometer is in g, not m/s\^2"),
+    ("gravity removed", r"specific force at rest is 0\.00 m/s\^2 .*: no gravity"),
+    ("gyro in deg/s", r"angular rate at rest: mean .* rad/s on g_z .*; noise .*: looks like deg/s, not rad/s"),
+    ("gyro in deg/s, no offset", r"angular rate at rest: noise .* rad/s on g_[xyz] \(expected at most 0\.017\d rad/s, "
+                                 r"10 times the datasheet noise at \d+ Hz\): looks like deg/s, not rad/s"),
+    ("f_z and g_x swapped", r"specific force at rest is 0\.4\d m/s\^2 .*: the gyro columns carry it instead "
+                            r"\(\|w\| = 9\.\d+ at rest"),
+    ("f_x and g_y swapped on a tilted phone", r"angular rate at rest: mean 0\.9\d+ rad/s on g_y \(expected within "
+                                              r"\+-0\.31 rad/s.*specific force under the g_y header"),
+    ("f_x and f_z swapped", r"gravity at rest is on f_x \(f = .*\), expected at least 0\.71 of \|f\| on \+f_z"),
+    ("f_y and f_z swapped", r"gravity at rest is on f_y .*looks like f_y and f_z swapped"),
+    ("z down", r"f_z at rest is -9\.\d+ .*expected \+\|f\| on z .*: a z-down frame"),
+])
+def test_implausible_recordings_are_named_by_the_loader_and_by_check(tmp_path, kind, expect):
+    """Each mutant keeps every documented limit (the plain reader takes it) and is refused by the catalogue's
+    loader and listed by check_tree, one line naming the file and what was expected."""
+    path = _written(tmp_path, _mutant(kind))
+    load_csv(path)                                          # within the limits: the parser alone accepts it
+    with pytest.raises(DataError, match=expect) as ei:
+        catalogue(tmp_path)[0].load()
+    assert str(ei.value).startswith(f"{path}: ") and "\n" not in str(ei.value)
+    with pytest.raises(DataError, match=expect):
+        ds.load_recording(path)
+    problems, n_ok = check_tree(tmp_path)
+    mine = [p for p in problems if p.startswith(f"{path}: ")]
+    assert n_ok == 0 and mine and any(re.search(expect, p) for p in mine)
+    assert all("\n" not in p for p in mine)
+
+
+def test_a_handling_before_the_rest_is_skipped(tmp_path):
+    """A hand turning the phone for the first second (1.5 rad/s) is no rest: the still stretch starts after it,
+    and the recording passes; read over the first second, its gyro would exceed the rest bound."""
+    rec = _phone_at_rest_then_turning(lead=100)
+    i0, i1 = ds._still_stretch(rec.time, rec.omega)
+    assert rec.time[i0] >= rec.time[100] - ds._STILL_BLOCK_S and rec.time[i1 - 1] < rec.time[100] + 3.5
+    assert np.abs(np.median(rec.omega[:100], axis=0)).max() > ds.GYRO_REST_LIMIT_RADPS
+    assert ds.plausibility_problems(rec) == []
+    _written(tmp_path, rec)
+    assert catalogue(tmp_path)[0].load().n == rec.n
+
+
+def test_a_noise_free_recording_is_not_judged_dead_but_a_noisy_one_is():
+    """Without noise on any column at rest (an ideal simulation) a column that never moves proves nothing;
+    with noise on the others it is a dead channel."""
+    t = np.arange(300) * 0.01
+    ideal = Recording(time=t, f=np.tile([0.0, 0.0, 9.8], (300, 1)), omega=np.zeros((300, 3)))
+    assert ds.plausibility_problems(ideal) == []
+    noisy = Recording(time=t, f=ideal.f + 0.01 * np.random.default_rng(0).standard_normal((300, 3)),
+                      omega=ideal.omega)
+    assert [p.split(": ")[1][:20] for p in ds.plausibility_problems(noisy)] == ["column g_x is all ze",
+                                                                                "column g_y is all ze",
+                                                                                "column g_z is all ze"]
+
+
+def test_the_rest_bounds_are_the_datasheet_figures():
+    # recomputed from the figures the constants' comments cite: 3 x 60 mg + 3 % of g + 0.05 m/s^2 for the
+    # place on Earth; 3 x 6 deg/s per gyro axis; cos 45 deg; 10 x 0.01 deg/s/sqrt(Hz) at the sampling rate
+    assert ds.GRAVITY_BAND_MPS2 == pytest.approx(3 * 0.060 * units.G0 + 0.03 * units.G0 + 0.05, rel=1e-12)
+    assert ds.GYRO_REST_LIMIT_RADPS == pytest.approx(np.radians(18.0), rel=1e-12)
+    assert ds.UP_FRACTION_MIN == pytest.approx(np.sqrt(0.5), rel=1e-12)
+    assert ds.GYRO_NOISE_FACTOR * units.MPU6500.gyro_noise * 10 == pytest.approx(np.radians(1.0), rel=1e-12)
+    # an accelerometer in g, or without gravity, is far outside the band; so is the smallest gravity on Earth
+    assert abs(1.0 - units.G0) > 3 * ds.GRAVITY_BAND_MPS2 and ds.GRAVITY_BAND_MPS2 < units.G0 / 4
+
+
+@pytest.mark.field
+def test_every_field_recording_reads_gravity_and_a_quiet_gyro_at_rest(field_root):
+    """The 143 recordings pass with room: at rest |f| - g, the gyro offsets and noise stay well inside the bounds."""
+    for e in catalogue(field_root):
+        rec = load_csv(e.path)
+        assert ds.plausibility_problems(rec) == [], e.relpath
+        i0, i1 = ds._still_stretch(rec.time, rec.omega)
+        f = np.median(rec.f[i0:i1], axis=0)
+        assert abs(np.linalg.norm(f) - units.G0) < 0.01 * ds.GRAVITY_BAND_MPS2, e.relpath
+        assert f[2] / np.linalg.norm(f) > 0.97, e.relpath
+        assert np.abs(np.median(rec.omega[i0:i1], axis=0)).max() < 0.2 * ds.GYRO_REST_LIMIT_RADPS, e.relpath
