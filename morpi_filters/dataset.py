@@ -69,8 +69,10 @@ TIME_LIMIT_S = 1e8
 #: recording's first still stretch must lie within this band around standard gravity :data:`G0`
 #: [m/s^2]. It adds three times the larger zero-g offset of the two IMUs (60 mg for the MPU-6500,
 #: 40 mg for the LSM6DSL: the paper's table of manufacturer errors, 1 sigma per axis as
-#: :class:`~morpi_filters.units.SensorSpec` holds them), 1.77 m/s^2; the MPU-6500 datasheet's
-#: initial sensitivity tolerance of +-3 %, 0.29 m/s^2 at 1 g; and 0.05 m/s^2 for the place on Earth
+#: :class:`~morpi_filters.units.SensorSpec` holds them), 1.77 m/s^2; an initial sensitivity tolerance
+#: of +-3 %, 0.29 m/s^2 at 1 g (the figure InvenSense's MPU-6000/6050 product specification, table 6.2,
+#: gives for its accelerometer, taken for the MPU-6500 of the same family; the LSM6DSL's is tighter);
+#: and 0.05 m/s^2 for the place on Earth
 #: (normal gravity runs from 9.780 m/s^2 at the equator to 9.832 at the poles, 0.003 less per km of
 #: height). Tilt changes the direction of the specific force at rest, not its magnitude, and the
 #: medians over the still stretch average vibration out, so neither takes a margin. About 2.11 m/s^2:
