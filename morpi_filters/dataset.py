@@ -37,8 +37,8 @@ from .units import G0
 
 __all__ = [
     "COLUMNS", "MIN_SAMPLES", "ACCEL_LIMIT_MPS2", "GYRO_LIMIT_RADPS", "MAX_GAP_S", "TIME_LIMIT_S", "DATA_ENV", "Route", "Recording", "CatalogueEntry",
-    "ColumnLayout", "load_csv", "read_columns", "load_recording", "write_csv", "routes", "route", "catalogue",
-    "load_catalogue",
+    "ColumnLayout", "load_csv", "read_columns", "check_recording", "load_recording", "write_csv", "routes", "route",
+    "catalogue", "load_catalogue",
     "resolve_data_root", "missing_data_message", "check_tree", "keep_parsed", "PROJECT_DATA",
     "layout", "expected_layout", "layout_problems", "folder_key",
 ]
@@ -298,12 +298,17 @@ class ColumnLayout:
         is divided by it.
     factors : tuple of float
         For each column after time, the SI value of one unit of the file
-        (9.80665 for g): the column is multiplied by it. Empty: all 1.
+        (standard gravity, :data:`~morpi_filters.units.G0`, for g): the
+        column is multiplied by it. Empty: all 1.
     units : tuple of str
         For each column after time, the file's unit, named in messages
         when its factor is not 1. Empty: SI.
     rate_hz : float or None
         Sampling rate [Hz] when the file has no time column.
+    time_from_first : bool
+        Count time from the first row (its reading subtracted, in the
+        file's unit, before the division): for a clock beyond
+        :data:`TIME_LIMIT_S`, such as Unix time, whose origin does not matter.
 
     Examples
     --------
@@ -316,8 +321,8 @@ class ColumnLayout:
     ...                    time_per_s=1e3, factors=(G0,) * 3 + (math.pi / 180,) * 3,
     ...                    units=("g",) * 3 + ("deg/s",) * 3)
     >>> time, f, omega = read_columns(path, lay)
-    >>> time.tolist(), f[0].tolist(), round(float(omega[0, 2]), 12)
-    ([0.0, 0.01], [0.0, 0.0, 9.80665], 1.570796326795)
+    >>> time.tolist(), f[0].tolist() == [0.0, 0.0, G0], round(float(omega[0, 2]), 12)
+    ([0.0, 0.01], True, 1.570796326795)
     """
 
     columns: tuple
@@ -328,6 +333,7 @@ class ColumnLayout:
     factors: tuple = ()
     units: tuple = ()
     rate_hz: float | None = None
+    time_from_first: bool = False
 
     def __post_init__(self):
         cols = tuple(self.columns)
@@ -501,6 +507,47 @@ def read_columns(path, layout: ColumnLayout, *, min_rows: int = 1) -> tuple:
     if cols[0].shape[0] < min_rows:
         raise DataError(f"{path}: too few rows: {cols[0].shape[0]}, expected at least {min_rows}")
     return cols
+
+
+def check_recording(recording: Recording, *, min_samples: int = MIN_SAMPLES) -> None:
+    r"""Apply the checks of :func:`load_csv` to a recording built in memory.
+
+    Parameters
+    ----------
+    recording : Recording
+        The samples (SI units).
+    min_samples : int, optional
+        Fewest samples accepted (default :data:`MIN_SAMPLES`).
+
+    Returns
+    -------
+    None
+        When every check passes.
+
+    Raises
+    ------
+    DataError
+        One line naming the recording's ``source`` and the first bad row by
+        its index: a value that is not finite or beyond a limit, time not
+        strictly increasing or with a gap above :data:`MAX_GAP_S`; or fewer
+        than `min_samples` samples.
+
+    Examples
+    --------
+    >>> t = np.arange(200) * 0.01
+    >>> rec = Recording(time=t, f=np.tile([0.0, 0.0, 9.8], (200, 1)), omega=np.zeros((200, 3)), source="mine")
+    >>> check_recording(rec)
+    >>> rec.time[50] = rec.time[49]
+    >>> check_recording(rec)
+    Traceback (most recent call last):
+    ...
+    morpi_filters.errors.DataError: mine: row index 50: repeated time stamp 0.49 (row index 49 has 0.49), expected strictly increasing time
+    """
+    data = np.column_stack([recording.time, recording.f, recording.omega])
+    if data.shape[0] < min_samples:
+        raise DataError(f"{recording.source}: too few samples: {data.shape[0]} rows, expected at least {min_samples}")
+    if not (np.isfinite(data).all() and _within_limits(data)):
+        _name_bad_line(data, range(data.shape[0]), recording.source, word="row index")
 
 
 def _read(path: Path, lay: ColumnLayout) -> tuple:
@@ -714,14 +761,18 @@ def _parse_lines(lines, name: str, lay: ColumnLayout = _IMU):
 
 
 def _convert(data: np.ndarray, lay: ColumnLayout) -> np.ndarray:
-    """The columns read (in the layout's order, the absent time left out) in SI: time divided by
-    ``time_per_s``, each other column times its factor. Unchanged (the same array) when all are 1."""
+    """The columns read (in the layout's order, the absent time left out) in SI: time less its first reading
+    when ``time_from_first``, divided by ``time_per_s``, each other column times its factor. Unchanged (the
+    same array) when nothing is to be done."""
     present = lay._present()
     scale = [(k, j) for k, j in enumerate(present)
              if (j == 0 and lay.time_per_s != 1.0) or (j > 0 and lay._factor(j) != 1.0)]
-    if not scale:
+    shift = lay.has_time and lay.time_from_first
+    if not scale and not shift:
         return data
     data = np.array(data, dtype=np.float64)
+    if shift and data.shape[0]:
+        data[:, 0] -= data[0, 0]
     for k, j in scale:
         if j == 0:
             data[:, k] /= lay.time_per_s
@@ -973,7 +1024,7 @@ def _fast_columns(blocks, capacity: int | None, order: list[int], lay: ColumnLay
         parsed = (_read_rows(block, width, lenient) for block in blocks)
     time = np.empty(capacity) if pos_t is not None else None
     groups = [np.empty((capacity, 3)) for _ in group_idx]
-    n, prev_t = 0, None
+    n, prev_t, t_first = 0, None, None
     for rows in parsed:
         if rows is None:
             return None
@@ -984,6 +1035,9 @@ def _fast_columns(blocks, capacity: int | None, order: list[int], lay: ColumnLay
         if time is not None:
             t = time[n:n + m]
             t[:] = rows[:, order[pos_t]]
+            if lay.time_from_first and m:
+                t_first = t[0] if t_first is None else t_first
+                t -= t_first
             if lay.time_per_s != 1.0:
                 t /= lay.time_per_s
         parts = []

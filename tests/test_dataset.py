@@ -640,3 +640,18 @@ def test_keep_parsed_keeps_a_file_per_layout(tmp_path):
         a, b = read_columns(p, in_g), read_columns(p, in_si)
         assert a[1][0, 2] == units.G0 and b[1][0, 2] == 1.0
         assert read_columns(p, in_g)[1] is a[1]
+
+
+def test_time_from_first_counts_a_unix_clock_from_its_first_row(tmp_path):
+    from morpi_filters import dataset as ds
+
+    rows = [[1_700_000_000_000 + 10 * k, 0.0, 0.0, 9.8, 0.0, 0.0, 0.1] for k in range(50)]   # Unix time in ms
+    p = tmp_path / "u.csv"
+    p.write_text(_logger_text(rows))
+    with pytest.raises(DataError, match=r"line 2: column t: 1700000000.0 s is beyond the limit of \+-1e\+08 s"):
+        read_columns(p, _logger_layout(time_per_s=1e3))
+    lay = _logger_layout(time_per_s=1e3, time_from_first=True)
+    time, _, _ = read_columns(p, lay)
+    assert time[0] == 0.0 and time[1] == 0.01 and time[-1] == 0.49
+    for a, b in zip(ds._fast_parse(p, lay), ds._parse(p, lay)):
+        assert np.array_equal(a, b)
