@@ -111,6 +111,18 @@ def test_simulate_layout_writes_a_dataset_check_accepts(tmp_path):
     assert r.returncode == 0 and r.stdout.strip().endswith(f"2 recording(s) OK, 0 problem(s) in {out / 'dataset.toml'}")
 
 
+def test_simulate_layout_keeps_the_users_folder_and_names_the_layouts(tmp_path, capsys):
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "thesis.tex").write_text("mine")
+    assert main(["simulate", "--layout", "frd", "--out", str(out)]) == 2
+    assert [p.name for p in out.iterdir()] == ["thesis.tex"] and (out / "thesis.tex").read_text() == "mine"
+    assert main(["simulate", "--layout", "boat", "--out", str(tmp_path / "new")]) == 2
+    err = capsys.readouterr().err
+    assert "which morpi did not write" in err and "--layout: 'boat' is not a layout, expected one of " in err
+    assert ", ".join(sorted(LAYOUTS)) in err and not (tmp_path / "new").exists()
+
+
 # ----------------------------------------------------------------------------- hand-made files, closed forms
 
 def _imu_csv(path, rows, header="t,ax,ay,az,gx,gy,gz"):
