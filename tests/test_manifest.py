@@ -206,13 +206,14 @@ def test_defaults_are_inherited_key_by_key(tmp_path):
     defaults = (f'[defaults]\nsplit = "train"\ngroup = "g"\n{_ROUTE}\n'
                 f'[defaults.imu]\ncolumns = {_COLS}\naxes = "FRD"\nskip_rows = 0\n')
     body = ('[[recording]]\nid = "a"\nimu.file = "a.csv"\n'                               # everything inherited
-            '[[recording]]\nid = "b"\nsplit = "test"\nimu = { file = "b.csv", axes = "FLU", accel_unit = "g" }\n'
+            '[[recording]]\nid = "b"\nsplit = "test"\nnotes = "windy"\n'
+            'imu = { file = "b.csv", axes = "FLU", accel_unit = "g" }\n'
             # an .npy file: the skip_rows of the defaults is ignored
             '[[recording]]\nid = "c"\nimu = { file = "c.npy", axes = "FLU", rate_hz = 50.0, '
             'columns = { f_x = 0, f_y = 1, f_z = 2, g_x = 3, g_y = 4, g_z = 5 } }\n')
     ds = load_dataset(_manifest(tmp_path, body, defaults))
     a, b, c = ds["a"], ds["b"], ds["c"]
-    assert (a.split, a.group, b.split, b.group) == ("train", "g", "test", "g")
+    assert (a.split, a.group, b.split, b.group, a.notes, b.notes) == ("train", "g", "test", "g", "", "windy")
     assert a.recording.f[0, 2] == 9.81 and b.recording.f[0, 2] == 9.80665 and c.recording.f[0, 2] == 9.81
     assert c.recording.time[1] == 1 / 50.0 and a.truth.distance_m == 2.0
 
