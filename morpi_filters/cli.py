@@ -241,8 +241,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help="also write the JSON result here (an existing file only if morpi wrote it)")
         sp.add_argument("--force", action="store_true", help="let --json overwrite a file morpi did not write")
 
-    s = sub.add_parser("check", help="validate every recording under a dataset folder")
+    s = sub.add_parser("check", help="validate every recording under a dataset folder, or of a dataset manifest")
     data_arg(s)
+    s.add_argument("--dataset", metavar="FILE", type=_path("--dataset"),
+                   help="a dataset manifest (TOML, docs/manifest.md): load and check every recording it describes")
 
     s = sub.add_parser("tables", help="every table of the paper on the recordings, ours beside the paper's")
     data_arg(s)
@@ -278,6 +280,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--runs-per-folder", metavar="N", type=_Number(True, 1, MAX_RUNS_PER_FOLDER, "runs"),
                    help=f"runs in every folder (default: as many as the field dataset; at most "
                         f"{MAX_RUNS_PER_FOLDER})")
+    s.add_argument("--layout", metavar="NAME",
+                   help="write instead a small simulated dataset in another robot's layout, with its manifest "
+                        "(dataset.toml): a name of morpi_filters.foreign.LAYOUTS, such as robot (npy at 120 Hz, "
+                        "FRD axes, g and deg/s, a NED truth track)")
 
     s = sub.add_parser("montecarlo", help="Monte Carlo gain-error study")
     s.add_argument("--runs", metavar="N", type=_runs(), default=2000,
@@ -498,6 +504,8 @@ def _cmd_check(args):
     from .dataset import resolve_data_root
     from .field import check_recordings
 
+    if args.dataset is not None:
+        return _check_manifest(args)
     root = resolve_data_root(args.data)
     problems, n_ok = check_recordings(root)
     for line in problems:
@@ -506,9 +514,36 @@ def _cmd_check(args):
     return 1 if problems else 0
 
 
+def _check_manifest(args):
+    """``morpi check --dataset FILE``: one line per problem; exit 2 for a manifest problem, 1 for bad data."""
+    from .errors import ParameterError
+    from .manifest import check_dataset
+
+    if args.data is not None:
+        raise ParameterError("--data and --dataset: give one (a dataset folder in the MoRPI layout, or a manifest)")
+    problems, n_ok = check_dataset(args.dataset)
+    for exc in problems:
+        print(exc)
+    print(f"{n_ok} recording(s) OK, {len(problems)} problem(s) in {args.dataset}")
+    return max((exc.exit_code for exc in problems), default=0)
+
+
 def _cmd_simulate(args):
     from .synthetic import write_dataset
 
+    if args.layout is not None:
+        from .errors import ParameterError
+        from .foreign import LAYOUTS, write_foreign_dataset
+
+        if args.layout not in LAYOUTS:
+            raise ParameterError(f"--layout: {args.layout!r} is not a layout, expected one of "
+                                 f"{', '.join(sorted(LAYOUTS))}")
+        if args.runs_per_folder is not None:
+            raise ParameterError("--runs-per-folder: not used with --layout (its runs are fixed by the layout)")
+        _clean_stale(args.out.parent)
+        written = write_foreign_dataset(args.out, LAYOUTS[args.layout], seed=args.seed)
+        print(f"simulated dataset ({args.layout}): {written.manifest}")
+        return 0
     _clean_stale(args.out.parent)
     root = write_dataset(args.out, seed=args.seed, runs_per_folder=args.runs_per_folder)
     print(f"synthetic dataset: {root}")

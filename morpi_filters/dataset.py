@@ -3,7 +3,10 @@
 A :class:`Recording` holds one IMU recording in SI units and phone axes (see
 the package docstring for frames). :func:`load_csv` reads one file and rejects
 anything that is not a clean recording with a :class:`MorpiError` naming the
-file, and the line where there is one. :func:`plausibility_problems` reads what
+file, and the line where there is one; :func:`read_columns` reads a table in
+another layout and units (a :class:`ColumnLayout`: a logger's CSV or an
+``.npy`` array) with the same checks on the values converted to SI.
+:func:`plausibility_problems` reads what
 a clean file says at rest (gravity's magnitude and direction, the gyro's offset
 and noise, channels that never move) and names what no phone IMU in SI units
 and the z-up frame would record; the catalogue's loader and :func:`check_tree`
@@ -38,7 +41,8 @@ from .units import DEG, G0, SENSORS
 
 __all__ = [
     "COLUMNS", "MIN_SAMPLES", "ACCEL_LIMIT_MPS2", "GYRO_LIMIT_RADPS", "MAX_GAP_S", "TIME_LIMIT_S", "DATA_ENV", "Route", "Recording", "CatalogueEntry",
-    "load_csv", "load_recording", "write_csv", "routes", "route", "catalogue", "load_catalogue",
+    "ColumnLayout", "load_csv", "read_columns", "check_recording", "load_recording", "write_csv", "routes", "route",
+    "catalogue", "load_catalogue",
     "resolve_data_root", "missing_data_message", "check_tree", "keep_parsed", "PROJECT_DATA",
     "layout", "expected_layout", "layout_problems", "folder_key", "GRAVITY_BAND_MPS2", "UP_FRACTION_MIN",
     "GYRO_REST_LIMIT_RADPS", "GYRO_NOISE_FACTOR", "plausibility_problems", "check_plausible",
@@ -319,6 +323,132 @@ class CatalogueEntry:
 
 # --------------------------------------------------------------------------- loading
 
+@dataclass(frozen=True)
+class ColumnLayout:
+    """Where a file other than the dataset's own CSV holds the columns of a table, and in which units.
+
+    A table is a time column followed by groups of three columns: a
+    recording's :data:`COLUMNS`, or a truth track's ``("time", "x", "y",
+    "z")``. :func:`read_columns` reads a file through a layout with the
+    checks of :func:`load_csv`, on the values converted to SI: finite numbers,
+    time strictly increasing with no gap above :data:`MAX_GAP_S` and within
+    :data:`TIME_LIMIT_S`, specific force (columns ``f_*``) within
+    :data:`ACCEL_LIMIT_MPS2` and angular rate (columns ``g_*``) within
+    :data:`GYRO_LIMIT_RADPS`; other columns need only be finite.
+
+    A CSV read through a layout may be a logger's export: lines before the
+    header (`skip_rows`), columns besides those named (ignored, their cells
+    not read), blanks after a comma (also before a quoted field), and a comma
+    at the end of every line (an unnamed, empty last column).
+
+    Attributes
+    ----------
+    columns : tuple of str
+        The table's columns: ``"time"`` first, then groups of three.
+    names : tuple
+        For each of `columns`, its header name (``format="csv"``) or its
+        0-based column index (``format="npy"``); None for a time column the
+        file does not have (time is then ``k / rate_hz``, from 0).
+    format : str
+        ``"csv"`` or ``"npy"`` (a 2-D array of numbers, samples on axis 0).
+    skip_rows : int
+        Lines before the CSV header.
+    time_per_s : float
+        Units of the file's time per second (1000 for milliseconds): time
+        is divided by it.
+    factors : tuple of float
+        For each column after time, the SI value of one unit of the file
+        (standard gravity, :data:`~morpi_filters.units.G0`, for g): the
+        column is multiplied by it. Empty: all 1.
+    units : tuple of str
+        For each column after time, the file's unit, named in messages
+        when its factor is not 1. Empty: SI.
+    rate_hz : float or None
+        Sampling rate [Hz] when the file has no time column.
+    time_from_first : bool
+        Count time from the first row (its reading subtracted, in the
+        file's unit, before the division): for a clock beyond
+        :data:`TIME_LIMIT_S`, such as Unix time, whose origin does not matter.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "log.csv")
+    >>> with open(path, "w") as fh:
+    ...     _ = fh.write('logger v2\\nt_ms, ax, ay, az, gx, gy, gz, temp,\\n0, 0, 0, "1", 0, 0, 90, 21.5,\\n'
+    ...                  '10, 0, 0, "1", 0, 0, 90, 21.5,\\n')
+    >>> lay = ColumnLayout(COLUMNS, ("t_ms", "ax", "ay", "az", "gx", "gy", "gz"), skip_rows=1,
+    ...                    time_per_s=1e3, factors=(G0,) * 3 + (math.pi / 180,) * 3,
+    ...                    units=("g",) * 3 + ("deg/s",) * 3)
+    >>> time, f, omega = read_columns(path, lay)
+    >>> time.tolist(), f[0].tolist() == [0.0, 0.0, G0], round(float(omega[0, 2]), 12)
+    ([0.0, 0.01], True, 1.570796326795)
+    """
+
+    columns: tuple
+    names: tuple
+    format: str = "csv"
+    skip_rows: int = 0
+    time_per_s: float = 1.0
+    factors: tuple = ()
+    units: tuple = ()
+    rate_hz: float | None = None
+    time_from_first: bool = False
+
+    def __post_init__(self):
+        cols = tuple(self.columns)
+        problems = []
+        if not cols or cols[0] != "time" or (len(cols) - 1) % 3 or len(cols) < 4:
+            problems.append(f"columns {cols}: expected 'time' then groups of three")
+        if len(self.names) != len(cols):
+            problems.append(f"names: {len(self.names)} given for {len(cols)} columns")
+        elif any(n is None for n in self.names[1:]):
+            problems.append("names: only the time column may be absent (None)")
+        elif self.names[0] is None and not (isinstance(self.rate_hz, (int, float)) and self.rate_hz > 0):
+            problems.append("rate_hz: expected a rate > 0 for a file without a time column")
+        if self.format not in ("csv", "npy"):
+            problems.append(f"format {self.format!r}: expected 'csv' or 'npy'")
+        for label, seq in (("factors", self.factors), ("units", self.units)):
+            if seq and len(seq) != len(cols) - 1:
+                problems.append(f"{label}: {len(seq)} given, expected one per column after time ({len(cols) - 1})")
+        if problems:
+            raise MorpiError("ColumnLayout: " + "; ".join(problems))
+
+    @property
+    def has_time(self) -> bool:
+        """Whether the file has a time column."""
+        return self.names[0] is not None
+
+    def _present(self) -> list[int]:
+        """Indices (in `columns`) of the columns the file holds."""
+        return [j for j, n in enumerate(self.names) if n is not None]
+
+    def _factor(self, j: int) -> float:
+        return float(self.factors[j - 1]) if self.factors else 1.0
+
+    def _unit(self, j: int) -> str:
+        return self.units[j - 1] if self.units else ""
+
+
+#: The dataset's own CSV format: :data:`COLUMNS` by header name, SI units, nothing else on a line.
+_IMU = ColumnLayout(COLUMNS, COLUMNS)
+
+
+def _limit(column: str):
+    """(limit, what, unit, sensor) of a column by its name in the table, or None (finite only)."""
+    if column.startswith("f_"):
+        return ACCEL_LIMIT_MPS2, "specific force", "m/s^2", "accelerometer"
+    if column.startswith("g_"):
+        return GYRO_LIMIT_RADPS, "angular rate", "rad/s", "gyro"
+    return None
+
+
+def _header_text(lay: ColumnLayout) -> str:
+    if lay is _IMU:
+        return ",".join(COLUMNS)
+    return "naming the columns " + ", ".join(repr(str(n)) for n in lay.names if n is not None)
+
+
 def load_csv(path, *, phone=None, route=None, split=None, min_samples: int = MIN_SAMPLES) -> Recording:
     r"""Read one recording and validate it.
 
@@ -358,7 +488,8 @@ def load_csv(path, *, phone=None, route=None, split=None, min_samples: int = MIN
     first call), block by block into arrays allocated once: memory stays near
     the float64 result, 56 bytes per row. Anything the fast reader is not sure
     of (a bad row, a limit broken, an unusual but valid spelling) is decided
-    by a line-by-line reading, which names the first bad line.
+    by a line-by-line reading, which names the first bad line. Files in
+    other layouts and units are read by :func:`read_columns`.
 
     Examples
     --------
@@ -379,22 +510,132 @@ def load_csv(path, *, phone=None, route=None, split=None, min_samples: int = MIN
     morpi_filters.errors.DataError: ...: line 4: repeated time stamp 0.01 (line 3 has 0.01), expected strictly increasing time
     """
     path = Path(path)
-    key = _kept_key(path)
-    if key is not None and key in _KEPT:
-        time, f, omega = _KEPT[key]
-    else:
-        columns = _fast_parse(path) if path.is_file() else None
-        time, f, omega = columns if columns is not None else _parse(path)
-        if key is not None:
-            for a in (time, f, omega):
-                a.flags.writeable = False         # shared by every later reading of the file
-            _KEPT[key] = (time, f, omega)
+    time, f, omega = _read(path, _IMU)
     if time.shape[0] < min_samples:
         raise DataError(f"{path}: too few samples: {time.shape[0]} rows, expected at least {min_samples}")
     return Recording(time=time, f=f, omega=omega, source=str(path), phone=phone, route=route, split=split)
 
 
-#: Files parsed inside :func:`keep_parsed`: (path, size, modification time) -> (time, f, omega).
+def read_columns(path, layout: ColumnLayout, *, min_rows: int = 1) -> tuple:
+    r"""Read a table (a recording or a truth track) in another layout and units, converted to SI and validated.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV or ``.npy`` file (as ``layout.format`` says).
+    layout : ColumnLayout
+        Where the file holds each column and in which unit.
+    min_rows : int, optional
+        Fewest rows accepted (default 1).
+
+    Returns
+    -------
+    tuple of ndarray
+        ``(time, group, ...)``: time [s], shape (n,) (``k / rate_hz`` when
+        the file has none), and one array of shape (n, 3) per group of three
+        columns after it, in SI units; C-contiguous, each value the file's
+        number (``float(cell)`` for a CSV) times its factor (time divided by
+        ``time_per_s``).
+
+    Raises
+    ------
+    DataError
+        With one line naming the file and the line (a CSV) or the row index
+        (an ``.npy`` array): every check of :func:`load_csv`, on the converted
+        values; for an ``.npy`` file, one that is not a 2-D array of numbers
+        or lacks a column; fewer than `min_rows` rows.
+
+    Examples
+    --------
+    A truth track in an ``.npy`` array at 10 Hz without a time column:
+
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "truth.npy")
+    >>> np.save(path, np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.2, 0.05, 0.0]]))
+    >>> lay = ColumnLayout(("time", "n", "e", "d"), (None, 0, 1, 2), format="npy", rate_hz=10.0)
+    >>> time, ned = read_columns(path, lay)
+    >>> time.tolist(), ned[2].tolist()
+    ([0.0, 0.1, 0.2], [0.2, 0.05, 0.0])
+    >>> np.save(path, np.array([[0.0, 0.0, np.nan]]))
+    >>> read_columns(path, lay)
+    Traceback (most recent call last):
+    ...
+    morpi_filters.errors.DataError: ...truth.npy: row index 0: column 2: nan is not finite, expected a real number
+    """
+    path = Path(path)
+    cols = _read(path, layout)
+    if cols[0].shape[0] < min_rows:
+        raise DataError(f"{path}: too few rows: {cols[0].shape[0]}, expected at least {min_rows}")
+    return cols
+
+
+def check_recording(recording: Recording, *, min_samples: int = MIN_SAMPLES) -> None:
+    r"""Apply the checks of :func:`load_csv` to a recording built in memory.
+
+    Parameters
+    ----------
+    recording : Recording
+        The samples (SI units).
+    min_samples : int, optional
+        Fewest samples accepted (default :data:`MIN_SAMPLES`).
+
+    Returns
+    -------
+    None
+        When every check passes.
+
+    Raises
+    ------
+    DataError
+        One line naming the recording's ``source`` and the first bad row by
+        its index: a value that is not finite or beyond a limit, time not
+        strictly increasing or with a gap above :data:`MAX_GAP_S`; or fewer
+        than `min_samples` samples.
+
+    Examples
+    --------
+    >>> t = np.arange(200) * 0.01
+    >>> rec = Recording(time=t, f=np.tile([0.0, 0.0, 9.8], (200, 1)), omega=np.zeros((200, 3)), source="mine")
+    >>> check_recording(rec)
+    >>> rec.time[50] = rec.time[49]
+    >>> check_recording(rec)
+    Traceback (most recent call last):
+    ...
+    morpi_filters.errors.DataError: mine: row index 50: repeated time stamp 0.49 (row index 49 has 0.49), expected strictly increasing time
+    """
+    data = np.column_stack([recording.time, recording.f, recording.omega])
+    if data.shape[0] < min_samples:
+        raise DataError(f"{recording.source}: too few samples: {data.shape[0]} rows, expected at least {min_samples}")
+    if not (np.isfinite(data).all() and _within_limits(data)):
+        _name_bad_line(data, range(data.shape[0]), recording.source, word="row index")
+
+
+def _read(path: Path, lay: ColumnLayout) -> tuple:
+    """The columns ``(time, group, ...)`` of a file in layout `lay`, parsed once inside :func:`keep_parsed`."""
+    key = _kept_key(path)
+    if key is not None and lay is not _IMU:
+        key = key + (lay,)
+    if key is not None and key in _KEPT:
+        return _KEPT[key]
+    if lay.format == "npy":
+        cols = _read_npy(path, lay)
+    elif lay is _IMU:
+        cols = _fast_parse(path) if path.is_file() else None
+        cols = cols if cols is not None else _parse(path)
+    else:
+        cols = _fast_parse(path, lay) if path.is_file() else None
+        cols = cols if cols is not None else _parse(path, lay)
+    if cols[0] is None:
+        cols = (np.arange(cols[1].shape[0]) / float(lay.rate_hz),) + tuple(cols[1:])
+    if key is not None:
+        for a in cols:
+            a.flags.writeable = False         # shared by every later reading of the file
+        _KEPT[key] = cols
+    return cols
+
+
+#: Files parsed inside :func:`keep_parsed`: (path, size, modification time[, layout]) -> (time, f, omega) or
+#: the columns of :func:`read_columns`.
 _KEPT: dict | None = None
 
 
@@ -410,8 +651,8 @@ def _kept_key(path: Path):
 
 @contextmanager
 def keep_parsed():
-    r"""Within the block, :func:`load_csv` parses a file once: a later call on the
-    unchanged file (same size and modification time) returns its arrays
+    r"""Within the block, :func:`load_csv` and :func:`read_columns` parse a file once: a later call on the
+    unchanged file (same size and modification time, and layout) returns its arrays
     (read-only, shared). Files that fail are read again. For a command that
     checks every recording before its study reads them.
 
@@ -442,13 +683,24 @@ def keep_parsed():
             _KEPT = None
 
 
-def _csv_fields(line: str) -> list[str]:
-    """The fields of one CSV line (standard quoting), stripped of blanks."""
-    return [c.strip() for c in next(csv.reader([line]), [])]
+def _csv_fields(line: str, lenient: bool = False) -> list[str]:
+    """The fields of one CSV line (standard quoting), stripped of blanks; `lenient` also reads a quoted field
+    after blanks (a logger's ``1.5, "2.5"``)."""
+    return [c.strip() for c in next(csv.reader([line], skipinitialspace=lenient), [])]
 
 
-def _header_order(header: list[str], name: str) -> list[int] | None:
-    """Column index of each of :data:`COLUMNS` in the file; None when already in order."""
+def _header_order(header: list[str], name: str, lay: ColumnLayout = _IMU, line: int = 1) -> list[int] | None:
+    """Column index in the file of each column the layout reads, in its order; None when already in order."""
+    if lay is not _IMU:
+        wanted = [n for n in lay.names if n is not None]
+        missing = [n for n in wanted if n not in header]
+        repeated = [n for n in wanted if header.count(n) > 1]
+        if missing or repeated:
+            what = (["missing column(s) " + ", ".join(repr(n) for n in missing)] if missing else []) + \
+                   (["repeated column(s) " + ", ".join(repr(n) for n in repeated)] if repeated else [])
+            shown = ", ".join(repr(c) for c in header[:12]) + (", ..." if len(header) > 12 else "")
+            raise DataError(f"{name}: line {line}: {'; '.join(what)}; the header has {shown}")
+        return [header.index(n) for n in wanted]
     if header == list(COLUMNS):
         return None
     missing = [c for c in COLUMNS if c not in header]
@@ -462,13 +714,14 @@ def _header_order(header: list[str], name: str) -> list[int] | None:
     if repeated:
         what.append("repeated column(s) " + ", ".join(repeated))
     if what:
-        raise DataError(f"{name}: line 1: {'; '.join(what)}; expected the header {','.join(COLUMNS)} "
+        raise DataError(f"{name}: line {line}: {'; '.join(what)}; expected the header {','.join(COLUMNS)} "
                         "(in any order)")
     return [header.index(c) for c in COLUMNS]
 
 
-def _parse(path: Path):
-    """Read and validate a file line by line, naming the first bad line; the columns ``(time, f, omega)``.
+def _parse(path: Path, lay: ColumnLayout | None = None):
+    """Read and validate a file line by line, naming the first bad line; the columns ``(time, f, omega)``
+    (``(time or None, group, ...)`` for a layout `lay`).
 
     The precise path, which decides whatever :func:`_fast_parse` leaves (it is
     tried first). Its rules are the documented ones: UTF-8 text with an
@@ -479,6 +732,7 @@ def _parse(path: Path):
     come first, whatever line they are on), then the rows, kept as float64
     values with their line numbers (64 bytes per row).
     """
+    lay = _IMU if lay is None else lay
     name = str(path)
     binary = not_utf8 = False
     content = False
@@ -508,9 +762,9 @@ def _parse(path: Path):
     if not_utf8:
         raise DataError(f"{name}: not CSV text (not UTF-8)")
     if not content:
-        raise DataError(f"{name}: empty file, expected the header {','.join(COLUMNS)} and data rows")
+        raise DataError(f"{name}: empty file, expected the header {_header_text(lay)} and data rows")
     try:
-        return _parse_lines(_text_lines(path), name)
+        return _parse_lines(_text_lines(path), name, lay)
     except OSError as exc:
         raise DataError(f"{name}: cannot read ({exc.strerror})") from None
 
@@ -530,29 +784,104 @@ def _text_lines(path: Path):
         yield from (carry + decoder.decode(b"", final=True)).splitlines()
 
 
-def _parse_lines(lines, name: str):
-    """Validate the lines of a recording (an iterator), naming the first bad line; ``(time, f, omega)``."""
+def _parse_lines(lines, name: str, lay: ColumnLayout = _IMU):
+    """Validate the lines of a table (an iterator), naming the first bad line; ``(time, f, omega)`` (or the
+    columns of layout `lay`, time None when the file has none)."""
+    lenient = lay is not _IMU
+    for k in range(lay.skip_rows):
+        if next(lines, None) is None:
+            raise DataError(f"{name}: {k} line(s), expected {lay.skip_rows} line(s) before the header "
+                            f"(skip_rows) and the header {_header_text(lay)}")
+    h = lay.skip_rows + 1
     first = next(lines, "")
     if not first.strip():
-        raise DataError(f"{name}: line 1: blank line before the header {','.join(COLUMNS)}")
+        raise DataError(f"{name}: line {h}: blank line before the header {_header_text(lay)}")
     try:
-        header = _csv_fields(first)
+        header = _csv_fields(first, lenient)
     except csv.Error as exc:
-        raise DataError(f"{name}: line 1: not a CSV header ({exc})") from None
-    order = _header_order(header, name)
+        raise DataError(f"{name}: line {h}: not a CSV header ({exc})") from None
+    order = _header_order(header, name, lay, h)
+    read = list(range(len(COLUMNS))) if order is None else order
+    in_file = sorted(read)                      # the cells read, in the file's order
     values, line_of = array.array("d"), array.array("q")
-    for i, s in enumerate(lines, start=2):
+    for i, s in enumerate(lines, start=h + 1):
         if s.strip():
-            values.extend(_row_values(s, i, header, name))
+            values.extend(_row_values(s, i, header, name, in_file if lenient else None, lenient))
             line_of.append(i)
     if not line_of:
         raise DataError(f"{name}: header only, no data rows")
-    data = np.frombuffer(values, dtype=np.float64).reshape(-1, len(COLUMNS))
-    if order is not None:
-        data = data[:, order]
-    if not (np.isfinite(data).all() and _within_limits(data)):
-        _name_bad_line(data, line_of, name)
-    return np.ascontiguousarray(data[:, 0]), np.ascontiguousarray(data[:, 1:4]), np.ascontiguousarray(data[:, 4:7])
+    data = np.frombuffer(values, dtype=np.float64).reshape(-1, len(read))
+    back = [in_file.index(j) for j in read]
+    if back != list(range(len(read))):
+        data = data[:, back]
+    data = _convert(data, lay)
+    if not (np.isfinite(data).all() and _within_limits(data, lay)):
+        _name_bad_line(data, line_of, name, lay)
+    return _split_columns(data, lay)
+
+
+def _convert(data: np.ndarray, lay: ColumnLayout) -> np.ndarray:
+    """The columns read (in the layout's order, the absent time left out) in SI: time less its first reading
+    when ``time_from_first``, divided by ``time_per_s``, each other column times its factor. Unchanged (the
+    same array) when nothing is to be done."""
+    present = lay._present()
+    scale = [(k, j) for k, j in enumerate(present)
+             if (j == 0 and lay.time_per_s != 1.0) or (j > 0 and lay._factor(j) != 1.0)]
+    shift = lay.has_time and lay.time_from_first
+    if not scale and not shift:
+        return data
+    data = np.array(data, dtype=np.float64)
+    if shift and data.shape[0]:
+        data[:, 0] -= data[0, 0]
+    for k, j in scale:
+        if j == 0:
+            data[:, k] /= lay.time_per_s
+        else:
+            data[:, k] *= lay._factor(j)
+    return data
+
+
+def _split_columns(data: np.ndarray, lay: ColumnLayout) -> tuple:
+    """``(time or None, group, ...)`` of the converted columns, each C-contiguous."""
+    k = 1 if lay.has_time else 0
+    time = np.ascontiguousarray(data[:, 0]) if lay.has_time else None
+    groups = tuple(np.ascontiguousarray(data[:, p:p + 3]) for p in range(k, data.shape[1], 3))
+    return (time,) + groups
+
+
+def _read_npy(path: Path, lay: ColumnLayout) -> tuple:
+    """The columns ``(time or None, group, ...)`` of an ``.npy`` array, converted and validated."""
+    name = str(path)
+    try:
+        with open(path, "rb") as fh:
+            magic = fh.read(6)
+        if magic != b"\x93NUMPY":
+            raise DataError(f"{name}: not a .npy array file (it does not start with the NumPy format's "
+                            "header), expected one 2-D array written by numpy.save")
+        arr = np.load(path, mmap_mode="r", allow_pickle=False)
+    except FileNotFoundError:
+        raise DataError(f"{name}: no such file") from None
+    except IsADirectoryError:
+        raise DataError(f"{name}: is a directory, expected a .npy file") from None
+    except (ValueError, OSError, EOFError) as exc:
+        reason = (str(exc).splitlines() or [type(exc).__name__])[0]
+        raise DataError(f"{name}: not a .npy array file ({reason})") from None
+    if arr.ndim != 2:
+        raise DataError(f"{name}: array of shape {arr.shape}, expected 2-D (samples, columns)")
+    if arr.dtype.kind not in "fiu":
+        raise DataError(f"{name}: array of {arr.dtype}, expected numbers (float or integer)")
+    index = [lay.names[j] for j in lay._present()]
+    beyond = [f"{i} ({lay.columns[j]})" for j, i in zip(lay._present(), index) if i >= arr.shape[1]]
+    if beyond:
+        raise DataError(f"{name}: no column {', '.join(beyond)}: the array has {arr.shape[1]} column(s), "
+                        f"indices 0 to {arr.shape[1] - 1}")
+    if arr.shape[0] == 0:
+        raise DataError(f"{name}: no rows")
+    data = _convert(np.array(arr[:, index], dtype=np.float64), lay)
+    del arr
+    if not (np.isfinite(data).all() and _within_limits(data, lay)):
+        _name_bad_line(data, range(data.shape[0]), name, lay, word="row index")
+    return _split_columns(data, lay)
 
 
 #: The bytes a data line may hold for the C reader to take the file: digits, the characters of a
@@ -606,7 +935,7 @@ def _float_options(version: str) -> dict:
     return {} if (major, minor) >= (3, 1) else {"float_precision": "round_trip"}
 
 
-def _fast_parse(path: Path):
+def _fast_parse(path: Path, lay: ColumnLayout | None = None):
     """The columns ``(time, f, omega)`` of a well-formed file, read by pandas' C tokenizer, or None.
 
     None means "let the precise path decide" (:func:`_parse`, which names the
@@ -619,24 +948,39 @@ def _fast_parse(path: Path):
     :data:`MAX_GAP_S`. Floats are correctly rounded (:func:`_pandas_options`):
     bit-identical to ``float(cell)``.
 
+    Through a layout `lay` (``(time or None, group, ...)``): the `skip_rows`
+    lines before the header free of line breaks other than ``\\n`` (or
+    ``\\r\\n``), a header naming each column read once, and every data line
+    holding as many fields as the header (its commas outside quotes counted),
+    blank lines aside; the values read are converted before the limits.
+
     A file up to :data:`_KEEP_BYTES` is read at once. A longer one is read
     twice in blocks: once to count its lines, then block by block (each
     ending at a line end) into arrays allocated for that many rows, so memory
     stays near the float64 result (56 bytes per row) whatever its length.
     """
+    lay = _IMU if lay is None else lay
     try:
         with open(path, "rb") as fh:
             whole = os.fstat(fh.fileno()).st_size <= _KEEP_BYTES
             head = fh.read() if whole else fh.read(_HEAD_BYTES)
-            end = head.find(b"\n")
-            header = _fast_header(head[:end]) if end >= 0 else None
+            start = 0
+            for _ in range(lay.skip_rows):
+                start = head.find(b"\n", start) + 1
+                if not start:
+                    return None
+            if start and not _plain_preamble(head[:start]):
+                return None
+            end = head.find(b"\n", start)
+            header = _fast_header(head[start:end], lay, bom=start == 0) if end >= 0 else None
             if header is None:
                 return None
-            order = [header.index(c) for c in COLUMNS]
+            order = [header.index(c) for c in COLUMNS] if lay is _IMU else \
+                [header.index(n) for n in lay.names if n is not None]
             if whole:
                 rest = head[end + 1:]
                 del head
-                return _fast_columns([rest], None, order)
+                return _fast_columns([rest], None, order, lay, len(header))
             del head
             fh.seek(end + 1)
             n_lines = 1
@@ -644,9 +988,19 @@ def _fast_parse(path: Path):
                 n_lines += chunk.count(b"\n")
             del chunk
             fh.seek(end + 1)
-            return _fast_columns(_line_blocks(fh), n_lines, order)
+            return _fast_columns(_line_blocks(fh), n_lines, order, lay, len(header))
     except OSError:
         return None
+
+
+def _plain_preamble(block: bytes) -> bool:
+    """Whether the lines before a header (ending at a ``\\n``) are UTF-8 with no line break of
+    ``str.splitlines`` but their ``\\n`` (or ``\\r\\n``), so both readers count them alike."""
+    try:
+        text = block.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        return False
+    return not any(c in text.replace("\r\n", "\n") for c in _HEADER_BREAKS)
 
 
 def _plain_block(block: bytes) -> bool:
@@ -662,150 +1016,218 @@ def _plain_block(block: bytes) -> bool:
     return not parity[-1] and not parity[a == ord("\n")].any()
 
 
-def _fast_header(line: bytes) -> list[str] | None:
-    """The header's column names when the line is exactly a permutation of :data:`COLUMNS`, else None."""
+def _fields_per_line(block: bytes, width: int) -> bool:
+    """Whether every line of a plain block (:func:`_plain_block`) holds `width` fields (its commas outside
+    quotes counted) or is blank: the C reader would fill a short row's missing cells with NaN, which
+    a column left unread would not show."""
+    a = np.frombuffer(block, dtype=np.uint8)
+    ends = np.flatnonzero(a == ord("\n"))
+    if a.size and a[-1] != ord("\n"):
+        ends = np.append(ends, a.size)
+    if not ends.size:
+        return True
+    comma = a == ord(",")
+    if b'"' in block:
+        comma &= (np.cumsum(a == ord('"'), dtype=np.uint8) & 1) == 0
+    per_line = np.bincount(np.searchsorted(ends, np.flatnonzero(comma)), minlength=ends.size)
+    starts = np.concatenate([[0], ends[:-1] + 1])
+    return all(not block[starts[k]:ends[k]].strip() for k in np.flatnonzero(per_line != width - 1))
+
+
+def _fast_header(line: bytes, lay: ColumnLayout | None = None, *, bom: bool = True) -> list[str] | None:
+    """The header's column names when the line is exactly a permutation of :data:`COLUMNS` (or, for a
+    layout, names each column read once), else None. A byte-order mark is dropped when `bom` (the file's
+    first line)."""
+    lay = _IMU if lay is None else lay
     try:
         text = line.decode("utf-8")
     except UnicodeDecodeError:
         return None
-    text = text[1:] if text.startswith("\ufeff") else text
+    text = text[1:] if bom and text.startswith("\ufeff") else text
     text = text[:-1] if text.endswith("\r") else text
     if any(c in text for c in _HEADER_BREAKS) or text.count('"') % 2:
         return None
     try:
-        header = _csv_fields(text)
+        header = _csv_fields(text, lay is not _IMU)
     except csv.Error:
         return None
+    if lay is not _IMU:
+        return header if all(header.count(n) == 1 for n in lay.names if n is not None) else None
     return header if len(header) == len(COLUMNS) and sorted(header) == sorted(COLUMNS) else None
 
 
-def _fast_columns(blocks, capacity: int | None, order: list[int]):
-    """Parse blocks of data lines into C-ordered ``(time, f, omega)``; None at the first doubt.
+def _fast_columns(blocks, capacity: int | None, order: list[int], lay: ColumnLayout | None = None,
+                  width: int = len(COLUMNS)):
+    """Parse blocks of data lines into C-ordered ``(time, f, omega)`` (the groups of a layout); None at
+    the first doubt.
 
     `capacity` bounds the number of rows (the arrays are allocated once); None when `blocks`
-    holds one block, whose rows then set it.
+    holds one block, whose rows then set it. `order` holds the file's index of each column read,
+    `width` the number of fields of a line.
     """
-    it, i_f, i_w = order[0], order[1:4], order[4:7]
+    lay = _IMU if lay is None else lay
+    lenient = lay is not _IMU
+    present = lay._present()
+    pos_t = 0 if lay.has_time else None
+    first = 1 if lay.has_time else 0
+    group_idx = [order[p:p + 3] for p in range(first, len(order), 3)]
+    group_cols = [present[p:p + 3] for p in range(first, len(present), 3)]
+    limits = [_limit(lay.columns[cols[0]]) for cols in group_cols]
     if capacity is None:
         (block,) = blocks
-        rows = _read_rows(block)
+        rows = _read_rows(block, width, lenient)
         if rows is None:
             return None
         parsed, capacity = iter([rows]), rows.shape[0]
         del rows
     else:
-        parsed = (_read_rows(block) for block in blocks)
-    time, f, omega = np.empty(capacity), np.empty((capacity, 3)), np.empty((capacity, 3))
-    n, prev_t = 0, None
+        parsed = (_read_rows(block, width, lenient) for block in blocks)
+    time = np.empty(capacity) if pos_t is not None else None
+    groups = [np.empty((capacity, 3)) for _ in group_idx]
+    n, prev_t, t_first = 0, None, None
     for rows in parsed:
         if rows is None:
             return None
         m = rows.shape[0]
         if n + m > capacity:
             return None
-        t, tf, tw = time[n:n + m], f[n:n + m], omega[n:n + m]
-        t[:] = rows[:, it]
-        for j in range(3):      # column by column: pandas' rows are in Fortran order
-            tf[:, j], tw[:, j] = rows[:, i_f[j]], rows[:, i_w[j]]
-        if not _block_within_limits(t, tf, tw, prev_t):
+        t = None
+        if time is not None:
+            t = time[n:n + m]
+            t[:] = rows[:, order[pos_t]]
+            if lay.time_from_first and m:
+                t_first = t[0] if t_first is None else t_first
+                t -= t_first
+            if lay.time_per_s != 1.0:
+                t /= lay.time_per_s
+        parts = []
+        for g, idx, cols in zip(groups, group_idx, group_cols):
+            part = g[n:n + m]
+            for j in range(3):      # column by column: pandas' rows are in Fortran order
+                part[:, j] = rows[:, idx[j]]
+                if lay._factor(cols[j]) != 1.0:
+                    part[:, j] *= lay._factor(cols[j])
+            parts.append(part)
+        if not _block_within_limits(t, parts, limits, prev_t):
             return None
         n += m
-        prev_t = t[-1] if m else prev_t
+        prev_t = t[-1] if m and t is not None else prev_t
     if n == 0:
         return None
+    out = [time] + groups
     if n < capacity:       # blank lines and the final line end: a trimmed copy only when much is spare
-        time, f, omega = (a[:n] if n > capacity // 2 else a[:n].copy() for a in (time, f, omega))
-    return time, f, omega
+        out = [None if a is None else (a[:n] if n > capacity // 2 else a[:n].copy()) for a in out]
+    return tuple(out)
 
 
-def _read_rows(block: bytes) -> np.ndarray | None:
-    """The rows of a block of data lines as float64, shape (m, 7) (m = 0 for blank lines); None when the
+def _read_rows(block: bytes, width: int = len(COLUMNS), lenient: bool = False) -> np.ndarray | None:
+    """The rows of a block of data lines as float64, shape (m, width) (m = 0 for blank lines); None when the
     bytes are not plain (:func:`_plain_block`), pandas' C reader refuses them (a cell that is not a
-    number, a long row) or they are not seven columns."""
+    number, a long row) or they are not `width` columns (`lenient`: a line of another width)."""
     import warnings
 
     import pandas as pd
 
-    if not _plain_block(block):
+    if not _plain_block(block) or (lenient and not _fields_per_line(block, width)):
         return None
     if not block or block.isspace():
-        return np.empty((0, len(COLUMNS)))
+        return np.empty((0, width))
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             frame = pd.read_csv(io.BytesIO(block), header=None, index_col=False, dtype=np.float64,
-                                engine="c", low_memory=False, **_pandas_options())
+                                engine="c", low_memory=False, skipinitialspace=lenient, **_pandas_options())
     except (ValueError, pd.errors.ParserError, pd.errors.EmptyDataError):
         return None
     rows = frame.to_numpy(dtype=np.float64)
-    return rows if rows.ndim == 2 and rows.shape[1] == len(COLUMNS) else None
+    return rows if rows.ndim == 2 and rows.shape[1] == width else None
 
 
-def _block_within_limits(t: np.ndarray, f: np.ndarray, w: np.ndarray, prev_t) -> bool:
-    """Whether rows are finite and within every limit (NaN fails every comparison), time following `prev_t`."""
-    if not t.size:
-        return True
-    dt = np.diff(t) if prev_t is None else np.diff(t, prepend=prev_t)
-    return bool(t.max() <= TIME_LIMIT_S and -t.min() <= TIME_LIMIT_S and (dt > 0).all()
-                and (dt <= MAX_GAP_S).all() and f.max() <= ACCEL_LIMIT_MPS2 and -f.min() <= ACCEL_LIMIT_MPS2
-                and w.max() <= GYRO_LIMIT_RADPS and -w.min() <= GYRO_LIMIT_RADPS)
+def _block_within_limits(t, groups, limits, prev_t) -> bool:
+    """Whether rows are finite and within every limit (NaN fails every comparison), time following `prev_t`.
+    `t` is None for a table without time; `limits` holds one :func:`_limit` (or None: finite) per group."""
+    if t is not None and t.size:
+        dt = np.diff(t) if prev_t is None else np.diff(t, prepend=prev_t)
+        if not (t.max() <= TIME_LIMIT_S and -t.min() <= TIME_LIMIT_S and (dt > 0).all() and (dt <= MAX_GAP_S).all()):
+            return False
+    for g, lim in zip(groups, limits):
+        if not g.size:
+            continue
+        if lim is None:
+            if not np.isfinite(g).all():
+                return False
+        elif not (g.max() <= lim[0] and -g.min() <= lim[0]):
+            return False
+    return True
 
 
-def _within_limits(data: np.ndarray) -> bool:
-    t = data[:, 0]
-    dt = np.diff(t)
-    return bool(np.abs(t).max() <= TIME_LIMIT_S and (dt > 0).all() and (dt <= MAX_GAP_S).all()
-                and np.abs(data[:, 1:4]).max() <= ACCEL_LIMIT_MPS2
-                and np.abs(data[:, 4:7]).max() <= GYRO_LIMIT_RADPS)
+def _within_limits(data: np.ndarray, lay: ColumnLayout = _IMU) -> bool:
+    """Whether finite rows (columns in the layout's order, the absent time left out) are within every limit."""
+    present = lay._present()
+    ok = True
+    if lay.has_time:
+        t = data[:, 0]
+        dt = np.diff(t)
+        ok = bool(np.abs(t).max() <= TIME_LIMIT_S and (dt > 0).all() and (dt <= MAX_GAP_S).all())
+    for k, j in enumerate(present):
+        lim = _limit(lay.columns[j]) if j else None
+        if ok and lim is not None:
+            ok = bool(np.abs(data[:, k]).max() <= lim[0])
+    return ok
 
 
-def _name_bad_line(data: np.ndarray, line_of, name: str) -> None:
-    """Raise the error of the first row that breaks a limit (the data parsed as numbers, `line_of` the line
-    number of each row)."""
-    cols = COLUMNS
+def _name_bad_line(data: np.ndarray, line_of, name: str, lay: ColumnLayout = _IMU, word: str = "line") -> None:
+    """Raise the error of the first row that breaks a limit (the data parsed as numbers and converted, `line_of`
+    the line number of each row, or its index: `word`)."""
+    present = lay._present()
+    cols = [str(lay.names[j]) for j in present]
+    timed = lay.has_time
+    checked = [(k, j, _limit(lay.columns[j])) for k, j in enumerate(present) if j and _limit(lay.columns[j])]
     prev_t = -math.inf
     for k in range(data.shape[0]):
         row, i = data[k], line_of[k]
         for j, col in enumerate(cols):
             v = float(row[j])
             if not math.isfinite(v):
-                raise DataError(f"{name}: line {i}: column {col}: {v} is not finite, expected a real number")
-        t = float(row[0])
-        if abs(t) > TIME_LIMIT_S:
-            raise DataError(f"{name}: line {i}: column time: {t!r} s is beyond the limit of "
+                raise DataError(f"{name}: {word} {i}: column {col}: {v} is not finite, expected a real number")
+        t = float(row[0]) if timed else 0.0
+        if timed and abs(t) > TIME_LIMIT_S:
+            raise DataError(f"{name}: {word} {i}: column {cols[0]}: {t!r} s is beyond the limit of "
                             f"+-{TIME_LIMIT_S:g} s, expected a plausible clock reading")
-        for j in range(1, 7):
-            v, limit = float(row[j]), (ACCEL_LIMIT_MPS2 if j < 4 else GYRO_LIMIT_RADPS)
+        for c, j, (limit, what, unit, sensor) in checked:
+            v = float(row[c])
             if abs(v) > limit:
-                what = ("specific force", "m/s^2", "accelerometer") if j < 4 else ("angular rate", "rad/s", "gyro")
-                raise DataError(f"{name}: line {i}: column {cols[j]}: {what[0]} {v!r} {what[1]} is beyond "
-                                f"+-{limit:.4g} {what[1]}, the {what[2]} full scale of a phone IMU")
-        if k:
+                read = f" (converted from {lay._unit(j)})" if lay._factor(j) != 1.0 and lay._unit(j) else ""
+                raise DataError(f"{name}: {word} {i}: column {cols[c]}: {what} {v!r} {unit}{read} is beyond "
+                                f"+-{limit:.4g} {unit}, the {sensor} full scale of a phone IMU")
+        if timed and k:
             if t <= prev_t:
                 what = "repeated" if t == prev_t else "decreasing"
-                raise DataError(f"{name}: line {i}: {what} time stamp {t!r} (line {line_of[k - 1]} has "
+                raise DataError(f"{name}: {word} {i}: {what} time stamp {t!r} ({word} {line_of[k - 1]} has "
                                 f"{prev_t!r}), expected strictly increasing time")
             if t - prev_t > MAX_GAP_S:
-                raise DataError(f"{name}: line {i}: time gap of {t - prev_t:.6g} s after line {line_of[k - 1]}, "
-                                f"expected at most {MAX_GAP_S:g} s between samples")
+                raise DataError(f"{name}: {word} {i}: time gap of {t - prev_t:.6g} s after {word} "
+                                f"{line_of[k - 1]}, expected at most {MAX_GAP_S:g} s between samples")
         prev_t = t
     raise AssertionError("limits broken but no row found")  # pragma: no cover
 
 
-def _row_values(s: str, i: int, header: list[str], name: str) -> list[float]:
-    """The numbers of data line `i` (text `s`, cells in the file's column order), or the error naming it."""
+def _row_values(s: str, i: int, header: list[str], name: str, read=None, lenient: bool = False) -> list[float]:
+    """The numbers of data line `i` (text `s`, cells in the file's column order), or the error naming it.
+    `read`: the indices of the cells to read (ascending); None reads every cell."""
     if '"' in s:
         try:
-            cells = _csv_fields(s)
+            cells = _csv_fields(s, lenient)
         except csv.Error as exc:
             raise DataError(f"{name}: line {i}: not a CSV row ({exc})") from None
     else:       # without quotes the csv module splits at every comma
         cells = [c.strip() for c in s.split(",")]
-    if len(cells) != len(COLUMNS):
-        kind = "short" if len(cells) < len(COLUMNS) else "long"
-        raise DataError(f"{name}: line {i}: {kind} row, {len(cells)} fields, expected {len(COLUMNS)}")
+    if len(cells) != len(header):
+        kind = "short" if len(cells) < len(header) else "long"
+        raise DataError(f"{name}: line {i}: {kind} row, {len(cells)} fields, expected {len(header)}")
     vals = []
-    for j, c in enumerate(cells):
+    for j in (range(len(cells)) if read is None else read):
+        c = cells[j]
         try:
             if "_" in c:
                 raise ValueError(c)

@@ -631,3 +631,222 @@ def test_every_field_recording_reads_gravity_and_a_quiet_gyro_at_rest(field_root
         assert abs(np.linalg.norm(f) - units.G0) < 0.01 * ds.GRAVITY_BAND_MPS2, e.relpath
         assert f[2] / np.linalg.norm(f) > 0.97, e.relpath
         assert np.abs(np.median(rec.omega[i0:i1], axis=0)).max() < 0.2 * ds.GYRO_REST_LIMIT_RADPS, e.relpath
+
+
+# ----------------------------------------------------------------- other layouts and units (read_columns)
+
+import math
+
+from morpi_filters.dataset import ColumnLayout, read_columns
+
+#: A logger's names for the columns of a recording.
+_LOGGER = ("t", "ax", "ay", "az", "gx", "gy", "gz")
+
+
+def _logger_layout(**kw):
+    return ColumnLayout(COLUMNS, _LOGGER, **kw)
+
+
+def _logger_text(rows, *, preamble=(), extra=True, trailing=True, quote=False, space=", ", crlf=False):
+    """A logger's CSV of rows (time, f, omega cells as strings or numbers), written by hand."""
+    header = list(_LOGGER) + (["temp"] if extra else [])
+    lines = list(preamble) + [space.join(header) + ("," if trailing else "")]
+    for r in rows:
+        cells = [repr(float(v)) if not isinstance(v, str) else v for v in r] + (["21.5"] if extra else [])
+        if quote:
+            cells = [f'"{c}"' for c in cells]
+        lines.append(space.join(cells) + ("," if trailing else ""))
+    return ("\r\n" if crlf else "\n").join(lines) + "\n"
+
+
+def test_read_columns_converts_units_closed_form(tmp_path):
+    # milliseconds, g and deg/s: 1500 ms is 1.5 s, 1 g is 9.80665 m/s^2 (units.G0), 180 deg/s is pi rad/s
+    p = tmp_path / "u.csv"
+    rows = [[1500 + 10 * k, 0.0, -0.5, 1.0, 180.0, 0.0, -90.0] for k in range(5)]
+    p.write_text(_logger_text(rows, extra=False, trailing=False))
+    lay = _logger_layout(time_per_s=1e3, factors=(units.G0,) * 3 + (math.pi / 180,) * 3)
+    time, f, omega = read_columns(p, lay)
+    assert time[0] == 1.5 and time[1] == 1.51
+    assert f[0].tolist() == [0.0, -0.5 * 9.80665, 9.80665]
+    assert omega[0, 0] == pytest.approx(math.pi, rel=1e-15) and omega[0, 2] == pytest.approx(-math.pi / 2, rel=1e-15)
+    # no time column: time is k / rate_hz from 0
+    p.write_text(_logger_text([r[1:] for r in rows], extra=False, trailing=False).replace("t, ", "", 1))
+    time, f, _ = read_columns(p, ColumnLayout(COLUMNS, (None,) + _LOGGER[1:], rate_hz=120.0, factors=lay.factors))
+    assert time.tolist() == [k / 120.0 for k in range(5)] and f[0, 2] == 9.80665
+
+
+def test_a_loggers_export_reads_the_numbers_of_the_plain_file(tmp_path):
+    # a preamble, blanks after commas, a comma ending each line, quoted fields, a column not read, CRLF:
+    # the numbers of the same rows written plainly, bit for bit, and the C reader takes the unquoted forms
+    from morpi_filters import dataset as ds
+
+    rows = [[0.3 + 0.01 * k + 1e-4 * (k % 3), 0.1 * k, -0.2, 9.81, 0.01, -0.02 * k, 1 / 3] for k in range(150)]
+    plain = tmp_path / "plain.csv"
+    plain.write_text(_logger_text(rows, extra=False, trailing=False, space=","))
+    ref = read_columns(plain, _logger_layout())
+    variants = {
+        "preamble": (dict(preamble=["logger v2.1, unit 7", "started 2024-05-01"]), True),
+        "spaces, trailing comma, extra column": (dict(), True),
+        "crlf": (dict(crlf=True, preamble=["# exported"]), True),
+        "quoted": (dict(quote=True), True),
+        "quoted after blanks, no trailing comma": (dict(quote=True, trailing=False), True),
+    }
+    for label, (kw, fast) in variants.items():
+        p = tmp_path / "v.csv"
+        p.write_text(_logger_text(rows, **kw))
+        lay = _logger_layout(skip_rows=len(kw.get("preamble", ())))
+        got = read_columns(p, lay)
+        for a, b in zip(got, ref):
+            assert np.array_equal(a.view(np.int64), b.view(np.int64)), label
+        precise = ds._parse(p, lay)
+        for a, b in zip(precise, ref):
+            assert np.array_equal(a.view(np.int64), b.view(np.int64)), label
+        assert (ds._fast_parse(p, lay) is not None) == fast, label
+
+
+def test_read_columns_checks_the_converted_values(tmp_path):
+    lay = _logger_layout(time_per_s=1e3, factors=(1.0,) * 3 + (math.pi / 180,) * 3,
+                         units=("m/s^2",) * 3 + ("deg/s",) * 3)
+    rows = [[10.0 * k, 0.0, 0.0, 9.8, 0.0, 0.0, 100.0] for k in range(50)]   # 10 ms steps, 100 deg/s
+    p = tmp_path / "c.csv"
+    p.write_text(_logger_text(rows))
+    time, _, omega = read_columns(p, lay)            # 10 ms steps and 100 deg/s are within every limit
+    assert time[-1] == 0.49 and omega[0, 2] == pytest.approx(100 * math.pi / 180, rel=1e-15)
+    bad = [list(r) for r in rows]
+    bad[20][6] = 2200.0                              # above 2000 deg/s * 1.05
+    p.write_text(_logger_text(bad))
+    with pytest.raises(DataError, match=r"c.csv: line 22: column gz: angular rate 38.39\d* rad/s \(converted from "
+                                        r"deg/s\) is beyond \+-36.65 rad/s"):
+        read_columns(p, lay)
+    bad = [[v + (1500.0 if k >= 30 and j == 0 else 0.0) for j, v in enumerate(r)] for k, r in enumerate(rows)]
+    p.write_text(_logger_text(bad))
+    with pytest.raises(DataError, match=r"line 32: time gap of 1.51 s after line 31"):
+        read_columns(p, lay)
+
+
+@pytest.mark.parametrize("edit, expect", [
+    (lambda ls: ls.__setitem__(8, ls[8].replace(", 21.5,", "")), r"line 9: short row, 7 fields, expected 9"),
+    (lambda ls: ls.__setitem__(8, ls[8] + "1,"), r"line 9: long row, 10 fields, expected 9"),
+    (lambda ls: ls.__setitem__(8, ls[8].replace("9.8", "")), r"line 9: column az: '' is not a number"),
+    (lambda ls: ls.__setitem__(0, "t, ax, ay, accz, gx, gy, gz, temp,"),
+     r"line 1: missing column\(s\) 'az'; the header has 't'"),
+    (lambda ls: ls.__setitem__(0, "t, ax, ay, az, gx, gy, gz, gz,"), r"line 1: repeated column\(s\) 'gz'"),
+])
+def test_a_loggers_export_names_its_bad_line(tmp_path, edit, expect):
+    rows = [[0.01 * k, 0.0, 0.0, 9.8, 0.0, 0.0, 0.1] for k in range(50)]
+    lines = _logger_text(rows).splitlines()
+    edit(lines)
+    p = tmp_path / "b.csv"
+    p.write_text("\n".join(lines) + "\n")
+    with pytest.raises(DataError, match=expect):
+        read_columns(p, _logger_layout())
+
+
+def test_a_column_not_read_may_hold_anything(tmp_path):
+    rows = [[0.01 * k, 0.0, 0.0, 9.8, 0.0, 0.0, 0.1] for k in range(50)]
+    text = _logger_text(rows).replace("21.5", "ok", 3).replace("21.5", "", 3)
+    p = tmp_path / "x.csv"
+    p.write_text(text)
+    time, f, _ = read_columns(p, _logger_layout())
+    assert time.size == 50 and f[0, 2] == 9.8
+
+
+def test_logger_reader_takes_only_what_the_line_by_line_reading_reads_the_same(tmp_path):
+    """Seeded edits of a logger's export: whenever the C reader takes a file, the precise path reads the same
+    bits, and when the precise path refuses it, the C reader did not take it."""
+    from morpi_filters import dataset as ds
+    from morpi_filters.errors import DataError as DE
+
+    rng = np.random.default_rng(20260601)
+    rows = [[0.01 * k, 0.1, -0.2, 9.8, 0.01, -0.02, 0.3] for k in range(60)]
+    base = _logger_text(rows, preamble=["# log"]).splitlines()
+    lay = _logger_layout(skip_rows=1, factors=(units.G0,) * 3 + (1.0,) * 3)
+    edits = [
+        lambda c: c[:-2],                                  # a row without its last field (extra column)
+        lambda c: c[:3] + [""] + c[4:],                    # an empty cell read
+        lambda c: c[:-2] + [""] + c[-1:],                  # an empty cell not read
+        lambda c: c + [""],                                # a long row
+        lambda c: [f' "{x.strip()}"' if x else x for x in c],   # quoted after a blank
+        lambda c: c[:1] + [" 1e400"] + c[2:],              # infinite after conversion
+        lambda c: c[:-2] + ["1,5"] + c[-1:],               # a comma inside a field not read
+        lambda c: c[:-2] + ['"1,5"'] + c[-1:],             # the same, quoted
+        lambda c: c[:6] + ["40"] + c[7:],                  # beyond the gyro limit
+    ]
+    taken = 0
+    for case in range(250):
+        lines = list(base)
+        for _ in range(int(rng.integers(1, 3))):
+            k = int(rng.integers(2, len(lines)))
+            cells = lines[k].split(",")
+            kind = int(rng.integers(len(edits) + 2))
+            if kind == len(edits):
+                lines.insert(k, " " * int(rng.integers(0, 3)))     # a blank line
+            elif kind == len(edits) + 1:
+                lines[k] = lines[k].replace(", ", ",")
+            else:
+                lines[k] = ",".join(edits[kind](cells))
+        p = tmp_path / f"f{case}.csv"
+        p.write_text("\n".join(lines) + "\n")
+        fast = ds._fast_parse(p, lay)
+        try:
+            precise = ds._parse(p, lay)
+        except DE:
+            assert fast is None, case
+            continue
+        if fast is not None:
+            taken += 1
+            for a, b in zip(fast, precise):
+                assert a.shape == b.shape and np.array_equal(a.view(np.int64), b.view(np.int64)), case
+    assert taken >= 20, taken
+
+
+def test_read_columns_of_npy_arrays(tmp_path):
+    p = tmp_path / "a.npy"
+    data = np.column_stack([np.zeros(10), np.zeros(10), np.ones(10), np.full(10, 90.0), np.zeros(10), np.zeros(10)])
+    np.save(p, data.astype(np.float32))
+    lay = ColumnLayout(COLUMNS, (None, 0, 1, 2, 3, 4, 5), format="npy", rate_hz=120.0,
+                       factors=(units.G0,) * 3 + (math.pi / 180,) * 3)
+    time, f, omega = read_columns(p, lay)
+    assert time[1] == 1 / 120.0 and f[0, 2] == units.G0 and omega[0, 0] == pytest.approx(math.pi / 2, rel=1e-15)
+    data[7, 3] = 2200.0
+    np.save(p, data)
+    with pytest.raises(DataError, match=r"a.npy: row index 7: column 3: angular rate 38.39\d* rad/s"):
+        read_columns(p, lay)
+    for content, expect in ((np.zeros(5), r"shape \(5,\), expected 2-D"),
+                            (np.zeros((5, 4)), r"no column 4 \(g_y\), 5 \(g_z\)"),
+                            (np.zeros((5, 6), dtype=bool), "expected numbers"), (np.zeros((0, 6)), "no rows")):
+        np.save(p, content)
+        with pytest.raises(DataError, match=expect):
+            read_columns(p, lay)
+    p.write_text("0,0,9.8,0,0,0\n")
+    with pytest.raises(DataError, match="not a .npy array file"):
+        read_columns(p, lay)
+
+
+def test_keep_parsed_keeps_a_file_per_layout(tmp_path):
+    from morpi_filters import dataset as ds
+
+    rows = [[10.0 * k, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0] for k in range(20)]
+    p = tmp_path / "k.csv"
+    p.write_text(_logger_text(rows))
+    in_g = _logger_layout(time_per_s=1e3, factors=(units.G0,) * 3 + (1.0,) * 3)
+    in_si = _logger_layout(time_per_s=1e3)
+    with ds.keep_parsed():
+        a, b = read_columns(p, in_g), read_columns(p, in_si)
+        assert a[1][0, 2] == units.G0 and b[1][0, 2] == 1.0
+        assert read_columns(p, in_g)[1] is a[1]
+
+
+def test_time_from_first_counts_a_unix_clock_from_its_first_row(tmp_path):
+    from morpi_filters import dataset as ds
+
+    rows = [[1_700_000_000_000 + 10 * k, 0.0, 0.0, 9.8, 0.0, 0.0, 0.1] for k in range(50)]   # Unix time in ms
+    p = tmp_path / "u.csv"
+    p.write_text(_logger_text(rows))
+    with pytest.raises(DataError, match=r"line 2: column t: 1700000000.0 s is beyond the limit of \+-1e\+08 s"):
+        read_columns(p, _logger_layout(time_per_s=1e3))
+    lay = _logger_layout(time_per_s=1e3, time_from_first=True)
+    time, _, _ = read_columns(p, lay)
+    assert time[0] == 0.0 and time[1] == 0.01 and time[-1] == 0.49
+    for a, b in zip(ds._fast_parse(p, lay), ds._parse(p, lay)):
+        assert np.array_equal(a, b)
