@@ -340,6 +340,22 @@ def test_paired_difference_is_scipys_paired_t_test():
             paired_difference(**{"distance_m": 40.0, **bad})
 
 
+def test_a_filter_started_later_knows_nothing_before():
+    """Started at the motion onset, a rest window before it does not hold the filter: the INS drifts freely."""
+    t = np.arange(0.0, 4.0, 0.01)
+    f = np.tile([0.05, 0.0, units.G0], (t.size, 1))       # an accelerometer offset the rest updates would see
+    inp = aided.AidedInput(time=t, f=f, omega=np.zeros((t.size, 3)), C0=np.eye(3), g=units.G0,
+                           rest=((0.0, 2.0),), standing=((2.0, 2.5),))
+    late = inp.since(2.5)
+    assert late.time[0] == pytest.approx(2.5) and late.rest == () and late.standing == ((t[250], 2.5),)
+    tun = aided.AidTuning(accel_noise=1e-3, nhc=False)
+    whole, started = aided.run_batch([inp, late], tun)
+    # started at 2.5 s it integrates 1.5 s of the offset: 0.05 x 1.5^2 / 2 m (up to the filter's own bias
+    # estimate on the standing sample, ~0); the whole run's rest updates have learnt the offset
+    assert started.end_point[0] == pytest.approx(0.05 * 1.5 ** 2 / 2, rel=0.05)
+    assert abs(whole.end_point[0]) < 0.2 * started.end_point[0]
+
+
 # --------------------------------------------------------------------------- field
 
 @pytest.mark.field
