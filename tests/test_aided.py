@@ -643,6 +643,15 @@ def test_field_cell_json_contract_and_consistency(field_root, monkeypatch):
     assert rows["smoothing"]["smoothed_percent"] == rows["smoothing"]["forward_percent"] == c.forward_percent
     assert rows["steps"]["full_percent"] == c.smoothed_percent and rows["steps"]["used"]
     assert rows["rest updates"]["start"] == "motion onset"
+    # the rest updates' row: the filter started at the motion onset, with and without them
+    late = [p.input_for(t).since(p.onset_s) for p in preps]
+    assert all(li.time[0] <= p.onset_s < li.time[1] and all(a > p.onset_s for a, _ in li.rest)
+               for li, p in zip(late, preps))
+    for key, tuning in (("full", tun), ("smoothed", tun.with_(rest=False))):
+        got = aided.run_batch(late, tuning, smooth=True)
+        err = [np.linalg.norm(r.smoothed[r.index_at(p.stop_s), :2] - end) for p, r in zip(preps, got)]
+        assert rows["rest updates"][f"{key}_percent"] == pytest.approx(np.mean(err) / truth.distance_m * 100,
+                                                                       rel=1e-9)
     # one ablation batch: per run the steps removed, and the rest updates with and without from the onset;
     # the aids the filter does not use are not run
     (ablated,) = [b for b, kw in batches if kw.get("smooth") is True and not kw.get("innovations")]
