@@ -621,7 +621,8 @@ def test_field_cell_json_contract_and_consistency(field_root, monkeypatch):
         inside_fw += m2f <= stats.chi2.ppf(0.95, 2)
     assert (cell["coverage_95"], cell["coverage_95_forward"]) == (inside / len(preps), inside_fw / len(preps))
     assert payload["coverage"]["smoothed"]["runs"] == len(preps)
-    assert payload["coverage_95"] == cell["coverage_95"] and payload["coverage_95_forward"] == cell["coverage_95_forward"]
+    assert payload["coverage_95"] == cell["coverage_95"]
+    assert payload["coverage_95_forward"] == cell["coverage_95_forward"]
     for kind, q in cell["nis"].items():
         total = count = 0
         for r in out:

@@ -150,7 +150,8 @@ def test_aided_page_states_the_corrected_wins_and_names_the_cells_with_odd_step_
                          step_innovation=inn, paired=pair, steps_alone_percent=3.05,
                          paired_steps=PairedDifference(-0.05, 0.1, 10, 0.6, p_holm=1.0, mdd_pp=0.3),
                          coverage_95=0.9, coverage_95_forward=0.9,
-                         coverage_axes={"smoothed": {"along_95": 0.9, "cross_95": 1.0}}, cross_zero_by_construction=True)
+                         coverage_axes={"smoothed": {"along_95": 0.9, "cross_95": 1.0}},
+                         cross_zero_by_construction=True)
 
     odd = cell("odd cell", 0.01, PairedDifference(-0.2, 0.05, 10, 0.003, p_holm=0.006, mdd_pp=0.2), 0.2, 1.0)
     fine = cell("fine cell", 1.0, PairedDifference(-0.2, 0.08, 10, 0.03, p_holm=0.06, mdd_pp=0.3), 0.3, 0.3)

@@ -69,8 +69,10 @@ def study_json(study) -> dict:
     --------
     >>> from morpi_filters.field_aided import GRID, AidedStudy
     >>> js = study_json(AidedStudy(cells=(), ablation=(), coverage_95=float("nan"), nis={}, note="no cell"))
-    >>> sorted(js), js["tunables"]["grid"] == {k: list(v) for k, v in GRID.items()}
-    (['ablation', 'cells', 'coverage', 'coverage_95', 'coverage_95_forward', 'nis', 'note', 'significance', 'tunables'], True)
+    >>> sorted(js)
+    ['ablation', 'cells', 'coverage', 'coverage_95', 'coverage_95_forward', 'nis', 'note', 'significance', 'tunables']
+    >>> js["tunables"]["grid"] == {k: list(v) for k, v in GRID.items()}
+    True
     """
     from .. import aided, field_aided
 
