@@ -128,3 +128,43 @@ def test_aided_page_reads_the_step_innovations_by_their_numbers():
     text = _innovation_sentence([cell(50, 0.01, 0.3, 0.7)])
     assert "not a steady over- or under-run" in text and "within the spread" in text
     assert _innovation_sentence([]) == ""
+
+
+def test_aided_page_states_the_corrected_wins_and_names_the_cells_with_odd_step_nis():
+    """The page's verdict reads the Holm-corrected counts, and lists each GC cell whose step NIS per degree
+    of freedom lies outside the wording range, with the innovations that explain it."""
+    from types import SimpleNamespace
+
+    from morpi_filters.field_aided import AidedCell, AidedStudy, PairedDifference
+    from morpi_filters.report.aided import NIS_WORDING_RANGE, _page
+
+    def cell(name, step_nis, pair, along_rms, sigma):
+        spec = SimpleNamespace(label=name, calibration="GC", method="MoRPI-G", table="short_route",
+                               train=("s8", "short_distance"), paper_percent=4.0)
+        tuning = {"vibration": 300.0, "step_sigma": 0.02, "gain_state": "considered", "step_heading": "route",
+                  "nhc": False}
+        inn = {"updates": 100, "along_mean_m": 0.0, "along_rms_m": along_rms, "cross_mean_m": 0.0,
+               "cross_rms_m": 0.05, "predicted_along_sigma_m": sigma}
+        return AidedCell(spec=spec, forward_percent=3.0, smoothed_percent=3.0, morpi_percent=3.2, ins_percent=500.0,
+                         runs=({},) * 10, tuning=tuning, train_percent=3.1, train_loo_percent=3.1,
+                         train_morpi_percent=3.3, nis={"step": (2 * step_nis, 2, 100)}, paths=(),
+                         step_innovation=inn, paired=pair, steps_alone_percent=3.05,
+                         paired_steps=PairedDifference(-0.05, 0.1, 10, 0.6, p_holm=1.0, mdd_pp=0.3),
+                         coverage_95=0.9, coverage_95_forward=0.9,
+                         coverage_axes={"smoothed": {"along_95": 0.9, "cross_95": 1.0}},
+                         cross_zero_by_construction=True)
+
+    odd = cell("odd cell", 0.01, PairedDifference(-0.2, 0.05, 10, 0.003, p_holm=0.006, mdd_pp=0.2), 0.2, 1.0)
+    fine = cell("fine cell", 1.0, PairedDifference(-0.2, 0.08, 10, 0.03, p_holm=0.06, mdd_pp=0.3), 0.3, 0.3)
+    sig = {"cells": 2, "wins_uncorrected": 2, "wins_corrected": 1, "losses_uncorrected": 0, "losses_corrected": 0,
+           "ties_corrected": 1, "alpha": 0.05, "power": 0.8, "vs_steps_alone": {"wins_uncorrected": 0,
+                                                                                "wins_corrected": 0}}
+    study = AidedStudy(cells=(odd, fine), ablation=(), coverage_95=0.9, nis={}, significance=sig)
+    page = _page(study, None, [])
+    assert "better in 2 and worse in 0 before any correction" in page
+    assert "over the 2 GC cells (the family-wise level 5 %), better in 1, worse in 0, and a tie in 1" in page
+    # the tie states what the runs could have detected, not an equivalence
+    assert "A tie is no equivalence" in page and "is 0.30 to 0.30 pp" in page
+    listed = page.split(f"lies outside [{NIS_WORDING_RANGE[0]:.1f}, {NIS_WORDING_RANGE[1]:.1f}]:")[1].split("\n\n")[1]
+    assert listed.startswith("- odd cell: step NIS per dof 0.010") and "fine cell" not in listed
+    assert "0.200 m RMS along the step against the 1.000 m the filter expects" in listed
