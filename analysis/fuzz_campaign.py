@@ -1,7 +1,7 @@
 """A seeded campaign of corrupted recordings through the tables evaluation (a script, not a test).
 
 Every case rewrites one test recording of a tiny synthetic dataset with the
-generators of ``tests/test_fuzz.py`` and runs it the way ``morpi tables`` does:
+generators of the suite's ``tests/test_fuzz.py`` and runs it the way ``morpi tables`` does:
 the commands' loader (:meth:`dataset.CatalogueEntry.load`, the parser and the
 plausibility checks at rest), the recordings gate
 (:func:`evaluate.dataset_problems`) and, when the file loads, the whole
@@ -18,7 +18,7 @@ file is among its cell's runs or named among its failed runs. A family case
 that loads is a silent acceptance. Anything else, including any exception other
 than the project's ``DataError``, is counted as a failure and printed.
 
-Usage: ``python3 tests/fuzz_tables_campaign.py [--cases 1000] [--seed 7]``
+Usage: ``python3 analysis/fuzz_campaign.py [--cases 1000] [--seed 7]``
 (the suite runs the same checks on fewer cases in ``test_fuzz_through_the_tables``,
 ``test_each_plausible_but_wrong_family_is_refused_and_named`` and
 ``test_families_under_further_corruption_are_never_accepted``).
@@ -35,7 +35,8 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path[:0] = [str(Path(__file__).resolve().parent), str(Path(__file__).resolve().parent.parent)]  # this checkout's
+_ROOT = Path(__file__).resolve().parent.parent
+sys.path[:0] = [str(_ROOT / "tests"), str(_ROOT)]  # this checkout's package and fuzz generators
 from test_fuzz import FAMILIES, FAMILY_TARGETS, TARGET, _ri, corrupt  # noqa: E402
 
 from morpi_filters import dataset as ds  # noqa: E402
