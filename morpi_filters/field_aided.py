@@ -48,7 +48,8 @@ from .errors import MorpiError
 __all__ = ["GRID", "ABLATIONS", "AidedCell", "AidedStudy", "PairedDifference", "Prepared", "aided_study",
            "choose_tunables", "choose_tunables_many", "paired_difference", "prepare",
            "still_spans", "rest_noise", "gyro_drift", "gain_estimate_pays", "route_vectors", "steps_alone",
-           "holm", "detectable_difference", "ellipse_coverage", "nis_consistency", "aid_used"]
+           "holm", "detectable_difference", "READING_SE", "ReadingChoice", "route_sums",
+           "route_reading_pays", "choose_reading", "ellipse_coverage", "nis_consistency", "aid_used"]
 
 #: Train-only grid: factor on the rest-window noise densities (the moving robot vibrates far above
 #: them), step displacement noise [m], whether the gain error is estimated or only considered (the
@@ -90,6 +91,11 @@ ABLATIONS = {"steps": {"steps": False}, "non-holonomic": {"nhc": False}, "rest u
 #: Level of the paired tests, and the power at which a tie states the smallest difference the runs
 #: could have detected (:func:`detectable_difference`).
 ALPHA, POWER = 0.05, 0.8
+#: Tie tolerance of MoRPI alone's reading choice (:func:`choose_reading`): the route's heading replaces the
+#: step rule's own reading only when its train leave-one-out error is lower by more than this many standard
+#: errors of the paired difference over the train runs (the one-standard-error rule of
+#: :data:`morpi_filters.field.SOURCE_SE`): the reading the rule search chose is kept within it.
+READING_SE = 1.0
 #: Two-sided 95 % point of the standard normal: the bound of one axis' 95 % interval [sigma].
 Z_95 = 1.959963984540054
 
@@ -407,10 +413,7 @@ def prepare(data, rec, mode, method, config, gain) -> Prepared:
     # read where MoRPI's track ends: the gain is trained on MoRPI's step sum, which covers the motion up
     # to the last step boundary (the robot's creep after it is part of what the gain absorbs)
     stop = float(s.end_time[-1]) if s.end_time.size else data.activity(rec)[1]
-    bt = s.peaks.grid_time[s.peaks.grid_index]
-    along = route_vectors(track.length, s.start_time, s.end_time, bt, crec.time,
-                          data.heading(rec, mode, config.heading_source), config.turn_deg,
-                          2 if config.segment == "extrema" else 1)
+    along = _route_steps(data, rec, mode, config, s, track.length)
     cache[key] = Prepared(data.relpath(rec), inp, replace(inp, step_vector=along), track.position, noise, float(stop),
                           drift, shift, onset)
     return cache[key]
@@ -484,6 +487,168 @@ def route_vectors(length, start, end, boundaries, time, psi, turn_deg, per_perio
     stretches = st.turn_stretches(bt, np.interp(bt, time, psi), np.radians(turn_deg), per_period)
     h = st.turn_heading(0.5 * (np.asarray(start, float) + np.asarray(end, float)), time, psi, stretches)
     return np.asarray(length, float)[:, None] * np.stack([np.cos(h), np.sin(h)], axis=1)
+
+
+def _route_steps(data, rec, mode, config, s, length) -> np.ndarray:
+    """:func:`route_vectors` of a recording's steps `s` (found under `config`) with the step lengths `length`."""
+    crec, _ = data.calibrated(rec, mode)
+    bt = s.peaks.grid_time[s.peaks.grid_index]
+    return route_vectors(length, s.start_time, s.end_time, bt, crec.time,
+                         data.heading(rec, mode, config.heading_source), config.turn_deg,
+                         2 if config.segment == "extrema" else 1)
+
+
+def route_sums(data, rec, mode, method, config) -> tuple[float, np.ndarray]:
+    """MoRPI alone's distance and end point per unit gain with the route's heading (:func:`route_vectors`).
+
+    The steps, their Weinberg weights and fractions are those of `config`
+    (:meth:`~morpi_filters.field.FieldData.steps`); only the heading is the
+    route's, the same the filter's ``"route"`` step direction reads. A run
+    dead-reckoned with gain ``G`` ends at ``G * u``.
+
+    Parameters
+    ----------
+    data : field.FieldData
+    rec : dataset.Recording
+    mode : {"RD", "GC", "GAC"}
+    method : {"MoRPI-A", "MoRPI-G"}
+    config : steps.StepConfig
+
+    Returns
+    -------
+    w : float
+        ``sum(weight * fraction)``: the distance per unit gain.
+    u : ndarray, shape (2,)
+        The end point per unit gain.
+
+    Raises
+    ------
+    MorpiError
+        When no steps are found (as :meth:`~morpi_filters.field.FieldData.steps`).
+    """
+    s = data.steps(rec, mode, method, config)
+    unit = np.asarray(s.weight, float) * np.asarray(s.fraction, float)
+    v = _route_steps(data, rec, mode, config, s, unit)
+    return float(unit.sum()), (v.sum(axis=0) if v.size else np.zeros(2))
+
+
+@dataclass(frozen=True)
+class ReadingChoice:
+    """MoRPI alone's heading reading chosen on the train runs for one method (:func:`choose_reading`).
+
+    Attributes
+    ----------
+    method : str
+    reading : str
+        ``"route"`` (:func:`route_sums`) or the step rule's own heading reading
+        (:attr:`steps.StepConfig.heading`).
+    rule_percent, route_percent : float
+        Leave-one-out mean end-point error of the train runs under the rule's reading and under the
+        route's heading [%] (infinite when a train run cannot be processed).
+    difference_se_pp : float
+        Standard error of the per-run difference (route minus rule) [pp].
+    runs : int
+        Train runs scored.
+    """
+
+    method: str
+    reading: str
+    rule_percent: float
+    route_percent: float
+    difference_se_pp: float
+    runs: int
+
+
+def route_reading_pays(rule_errors, route_errors, *, se_factor: float = READING_SE) -> bool:
+    """Whether the route's heading beats the rule's reading on the train runs, beyond the tie tolerance.
+
+    The per-run difference (route minus rule, the same runs in the same
+    order) must have a mean below ``-se_factor`` standard errors of itself
+    (:data:`READING_SE`): within that the rule's own reading is kept.
+
+    Parameters
+    ----------
+    rule_errors, route_errors : array_like, shape (n,)
+        Per train run, the leave-one-out end-point errors [%].
+    se_factor : float
+        Tie tolerance in standard errors of the paired difference.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> route_reading_pays([3.0, 4.0, 5.0, 4.0], [2.0, 3.1, 3.9, 3.0])     # 1 pp better on every run
+    True
+    >>> route_reading_pays([3.0, 4.0, 5.0, 4.0], [3.5, 3.0, 5.0, 3.9])     # better on average, within the spread
+    False
+    """
+    a = np.asarray(rule_errors, float)
+    b = np.asarray(route_errors, float)
+    if a.shape != b.shape or a.ndim != 1 or a.size < 2 or not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+        return False
+    d = b - a
+    return bool(d.mean() < -se_factor * (d.std(ddof=1) / np.sqrt(d.size)))
+
+
+def _route_loo(data, method, config, mode="GC"):
+    """Per short-route train run, the leave-one-out end-point errors [%] of the rule's reading and of the
+    route's heading, the same gains (:func:`morpi_filters.field._train_summary`); None when a run fails."""
+    from . import field as fd
+
+    rule, route = [], []
+    for (truth, _, _, g, u, loo, failed), (_, _, _, recs) in zip(fd._train_summary(data, method, config, mode),
+                                                                fd._train_sets(data)):
+        if failed:
+            return None
+        if loo is None:
+            continue
+        ur = np.empty_like(u)
+        for i, r in enumerate(recs):
+            try:
+                ur[i] = route_sums(data, r, mode, method, config)[1]
+            except MorpiError:
+                return None
+        rule.append(loo)
+        route.append(fd._loo_errors(truth, g, ur))
+    if not rule:
+        return None
+    return np.concatenate(rule), np.concatenate(route)
+
+
+def choose_reading(data, method, config) -> ReadingChoice:
+    """MoRPI alone's best heading reading on the train runs: the rule's own, or the route's heading.
+
+    The rule (:func:`morpi_filters.field.select_config`) already holds the
+    best of MoRPI alone's own readings; the route's heading
+    (:func:`route_sums`, the filter's ``"route"`` step direction) is offered
+    beside it and scored by the same criterion: the leave-one-out end-point
+    error of the short-route train runs under GC (each run dead-reckoned with
+    the mean gain of its set's other runs). It is chosen only when it beats
+    the rule beyond the tie tolerance (:func:`route_reading_pays`). Nothing of
+    a ``test`` folder is read.
+
+    Parameters
+    ----------
+    data : field.FieldData
+    method : {"MoRPI-A", "MoRPI-G"}
+    config : steps.StepConfig
+        The method's step rule.
+
+    Returns
+    -------
+    ReadingChoice
+    """
+    errs = _route_loo(data, method, config)
+    if errs is None:
+        return ReadingChoice(method, config.heading, float("inf"), float("inf"), float("nan"), 0)
+    rule, route = errs
+    d = route - rule
+    se = float(d.std(ddof=1) / np.sqrt(d.size)) if d.size > 1 else float("nan")
+    pick = "route" if route_reading_pays(rule, route) else config.heading
+    return ReadingChoice(method, pick, float(rule.sum()) / rule.size, float(route.sum()) / route.size, se,
+                         int(rule.size))
 
 
 def _tuning(noise, info, gain_rel) -> aided.AidTuning:
@@ -1222,6 +1387,15 @@ class AidedCell:
         Every step vector of every run lies along the route's start-to-end line: the steps put no
         cross-track displacement, so the cross-track estimate is the INS's alone (near zero under a
         loose INS) and the ellipse tests the along-track axis.
+    morpi_best_percent : float
+        MoRPI alone (the same steps, Weinberg lengths, trained gain, method and calibration) under its best
+        train-chosen heading reading (:func:`choose_reading`: the rule's own or the route's heading) [%];
+        per run ``morpi_best_m`` in :attr:`runs`.
+    morpi_reading : str
+        That reading (:attr:`ReadingChoice.reading`).
+    paired_best : PairedDifference or None
+        The smoothed filter minus :attr:`morpi_best_percent`'s MoRPI alone, run by run (Holm-adjusted over
+        the study's cells of its calibration).
     """
 
     spec: object
@@ -1246,6 +1420,9 @@ class AidedCell:
     coverage_95_forward: float = float("nan")
     coverage_axes: dict = field(default_factory=dict)
     cross_zero_by_construction: bool = False
+    morpi_best_percent: float = float("nan")
+    morpi_reading: str = ""
+    paired_best: PairedDifference | None = None
 
     @property
     def label(self) -> str:
@@ -1281,7 +1458,10 @@ class AidedStudy:
         The paired tests over the GC cells (``family``), Holm-corrected (``correction``): for the
         smoothed filter against MoRPI alone ``wins_uncorrected``, ``wins_corrected``,
         ``losses_uncorrected``, ``losses_corrected``, ``ties_corrected``; the same against its own steps
-        alone under ``vs_steps_alone``; ``alpha``, ``power`` (of the smallest detectable differences).
+        alone under ``vs_steps_alone``, against MoRPI alone under its best train-chosen reading under
+        ``vs_morpi_best``; ``alpha``, ``power`` (of the smallest detectable differences).
+    readings : tuple of ReadingChoice
+        MoRPI alone's train-chosen heading reading per method (:func:`choose_reading`).
     """
 
     cells: tuple
@@ -1292,6 +1472,7 @@ class AidedStudy:
     coverage_95_forward: float = float("nan")
     coverage: dict = field(default_factory=dict)
     significance: dict = field(default_factory=dict)
+    readings: tuple = ()
 
 
 def _innovation_summary(parts) -> dict:
@@ -1390,6 +1571,8 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
     picks = choose_tunables_many(data, [(tr, m, cal, res.selections[m].config, gmap[(tr[0], tr[1], m, cal)])
                                         for tr, m, cal in keys], workers=workers)
     chosen = {k: v for k, v in zip(keys, picks) if not isinstance(v, MorpiError)}
+    # MoRPI alone's best train-chosen heading reading per method: the baseline the filter is also tested against
+    readings = {m: choose_reading(data, m, res.selections[m].config) for m in sorted({c.spec.method for c in wanted})}
     todo = []
     for cell in wanted:
         sp = cell.spec
@@ -1473,13 +1656,19 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
             _merge_nis(nis, r.nis)
             inp = p.input_for(info)
             alone = steps_alone(inp) if info["step_heading"] == "route" else np.full(2, np.nan)
+            morpi_m = float(by_file[p.rel].end_error_m)
+            if readings[sp.method].reading == "route":
+                u = route_sums(data, rec, sp.calibration, sp.method, res.selections[sp.method].config)[1]
+                best_m = float(np.linalg.norm(g.mean * u - end))
+            else:
+                best_m = morpi_m
             alone_m = float(np.linalg.norm(alone - end))
             if cross_free:
                 v = np.asarray(inp.step_vector, float)[aided.applied_steps(inp)]
                 cross_free = bool(np.all(v @ np.array([-along[1], along[0]]) == 0.0))
             rows.append({"file": p.rel, "forward_m": float(np.linalg.norm(dxy)),
                          "smoothed_m": float(np.linalg.norm(dsm)),
-                         "morpi_m": float(by_file[p.rel].end_error_m), "ins_m": ins_m,
+                         "morpi_m": morpi_m, "morpi_best_m": best_m, "ins_m": ins_m,
                          "mahalanobis2": m2, "inside_95": bool(m2 <= aided.CHI2_95_2DOF),
                          "mahalanobis2_smoothed": m2s, "inside_95_smoothed": bool(m2s <= aided.CHI2_95_2DOF),
                          "gain_error": r.gain_error, "gain_error_sigma": r.gain_sigma,
@@ -1505,7 +1694,9 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
             paired_steps=(paired_difference(col("smoothed_m"), col("steps_alone_m"), truth.distance_m)
                           if info["step_heading"] == "route" else None),
             coverage_95=cov_sm["inside_95"], coverage_95_forward=cov_fw["inside_95"],
-            coverage_axes={"smoothed": cov_sm, "forward": cov_fw}, cross_zero_by_construction=cross_free))
+            coverage_axes={"smoothed": cov_sm, "forward": cov_fw}, cross_zero_by_construction=cross_free,
+            morpi_best_percent=mean("morpi_best_m"), morpi_reading=readings[sp.method].reading,
+            paired_best=paired_difference(col("smoothed_m"), col("morpi_best_m"), truth.distance_m)))
         if ablation and sp.calibration == "GC":
             base = _tuning(noise, info, g.std / g.mean)
             full = (cells[-1].smoothed_percent, cells[-1].forward_percent)
@@ -1533,11 +1724,13 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
         fam = [cells[k] for k in idx]
         vs_morpi, s_morpi = _family(fam, "paired")
         vs_steps, s_steps = _family(fam, "paired_steps")
-        for k, a, b in zip(idx, vs_morpi, vs_steps):
-            cells[k] = replace(cells[k], paired=a, paired_steps=b)
+        vs_best, s_best = _family(fam, "paired_best")
+        for k, a, b, e in zip(idx, vs_morpi, vs_steps, vs_best):
+            cells[k] = replace(cells[k], paired=a, paired_steps=b, paired_best=e)
         if cal == "GC":
             significance = {"family": "GC cells", "correction": "holm", "test": "two-sided paired t-test",
-                            "alpha": ALPHA, "power": POWER, **s_morpi, "vs_steps_alone": s_steps}
+                            "alpha": ALPHA, "power": POWER, **s_morpi, "vs_steps_alone": s_steps,
+                            "vs_morpi_best": s_best}
     # coverage and NIS over the GC cells' runs, each (run, method) once
     seen, per_run, nis_all = set(), {"smoothed": [], "forward": []}, {}
     for i, c in enumerate(cells):
@@ -1561,4 +1754,4 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
                       coverage_95=coverage.get("smoothed", {}).get("inside_95", float("nan")),
                       nis=_nis_means(nis_all),
                       coverage_95_forward=coverage.get("forward", {}).get("inside_95", float("nan")),
-                      coverage=coverage, significance=significance)
+                      coverage=coverage, significance=significance, readings=tuple(readings.values()))

@@ -1015,3 +1015,72 @@ def test_what_precedes_the_initial_rest_does_not_move_the_filter(field_root, tmp
     ra, rb = aided.run_batch([pa.input, replace(pb.input, **steps)],
                              aided.AidTuning(step_sigma=0.02, gain_sigma=0.0, step_heading="gyro"))
     assert np.linalg.norm(ra.end_point - rb.end_point) < 1e-6
+
+
+# ----------------------------------------------------------------------------- MoRPI alone's best reading
+
+def _drifting_root(root: Path, drift: float, *, test_gyro_scale: float = 1.0) -> Path:
+    """A short-route set (s6, 4 train and 2 test runs) whose z gyro gains `drift` [rad/s] while the robot
+    moves (after the rest window, so the GC calibration keeps it): the absolute heading turns away from the
+    straight route, the route's heading (no turn) does not. With `test_gyro_scale` the test gyros are scaled."""
+    from morpi_filters import dataset as ds
+
+    rng = np.random.default_rng(11)
+    for split, n in (("train", 4), ("test", 2)):
+        for i in range(n):
+            traj = simulate.route_trajectory("short_distance", speed=0.3 * (1.0 + 0.1 * rng.standard_normal()))
+            imu = simulate.imu(traj, units.MPU6500, rng, sampling="s6", bias_scale=0.0)
+            omega = imu.omega.copy()
+            moving = (imu.time >= traj.start_time) & (imu.time <= traj.stop_time)
+            omega[moving, 2] += drift
+            if split == "test":
+                omega = omega * test_gyro_scale
+            rec = ds.Recording(time=imu.time, f=imu.f, omega=omega, source="synthetic")
+            ds.write_csv(root / "s6" / "short_distance" / split / f"{i + 1}.csv", rec)
+    return root
+
+
+def test_the_route_heading_is_chosen_where_the_rule_reading_drifts(tmp_path):
+    """Synthetic straight runs whose heading drifts while moving: MoRPI alone's absolute reading ends off
+    the route, the route's heading does not, and the train runs' leave-one-out choice takes it; the rule's
+    score is the rule search's own."""
+    from morpi_filters import field as fd
+    from morpi_filters.field_aided import choose_reading
+
+    data = fd.FieldData(_drifting_root(tmp_path / "drift", 0.03))
+    config = fd.select_config(data, "MoRPI-G").config.with_(heading="absolute")
+    pick = choose_reading(data, "MoRPI-G", config)
+    assert pick.runs == 4 and pick.reading == "route"
+    assert pick.rule_percent == fd._loo_score(data, "MoRPI-G", config)[0]
+    assert pick.route_percent < pick.rule_percent - pick.difference_se_pp
+
+
+def test_route_reading_within_the_tie_tolerance_keeps_the_rule_reading():
+    from morpi_filters.field_aided import READING_SE, route_reading_pays
+
+    rule = np.array([3.0, 4.0, 5.0, 4.5, 3.5])
+    d = np.array([-0.4, 0.2, -0.5, 0.3, -0.35])            # mean -0.15 pp, standard error 0.17 pp
+    se = d.std(ddof=1) / np.sqrt(d.size)
+    assert -d.mean() < READING_SE * se < 2 * -d.mean()
+    # better on average but within one standard error: the rule's own reading stays
+    assert not route_reading_pays(rule, rule + d)
+    # the same differences shifted beyond the tolerance: the route's heading is taken
+    assert route_reading_pays(rule, rule + d - 2 * se)
+    # a run the route's heading cannot read (not finite): no choice of it
+    assert not route_reading_pays(rule, np.append(rule[:-1] - 1.0, np.nan))
+
+
+def test_reading_choice_ignores_corrupted_test_recordings(tmp_path):
+    """Every test recording's gyro scaled by 1.5: the same rules and the same readings, scores and all."""
+    from morpi_filters import field as fd
+    from morpi_filters.field_aided import choose_reading
+
+    picks = []
+    for name, scale in (("clean", 1.0), ("corrupted", 1.5)):
+        data = fd.FieldData(_drifting_root(tmp_path / name, 0.03, test_gyro_scale=scale))
+        out = []
+        for m in ("MoRPI-A", "MoRPI-G"):
+            config = fd.select_config(data, m).config
+            out += [config, choose_reading(data, m, config), choose_reading(data, m, config.with_(heading="absolute"))]
+        picks.append(out)
+    assert picks[0] == picks[1]
