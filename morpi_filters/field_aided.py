@@ -28,7 +28,11 @@ Each cell holds, beside MoRPI alone, the filter's own steps alone
 (:func:`steps_alone`: the step vectors it is fed, summed without the INS), the
 run-by-run tests against both with Holm's correction over the cells of a
 calibration (:func:`paired_difference`, :func:`holm`, with the smallest
-difference a tie could have shown: :func:`detectable_difference`), the share of
+difference a tie could have shown: :func:`detectable_difference`), the same
+tests against MoRPI alone under its best train-chosen heading reading (the
+rule's own, or the route's heading where the train runs prefer it beyond the
+tie tolerance: :func:`choose_reading`; the tables' cells are left as they
+are), the share of
 true end points inside the 95 % regions of the smoothed and the forward
 estimate, each under its own covariance (:func:`ellipse_coverage`), and the
 NIS of each measurement per degree of freedom with its chi-square band

@@ -603,6 +603,16 @@ def test_field_cell_json_contract_and_consistency(field_root, monkeypatch):
         alone.append(np.linalg.norm(xy - end))
     assert c.tuning["step_heading"] == "route"
     assert cell["steps_alone_percent"] == pytest.approx(np.mean(alone) / truth.distance_m * 100, rel=1e-9)
+    # MoRPI alone under its best train-chosen reading: with the route's heading, the same step vectors summed
+    # (a second path to the same numbers); with the rule's own, MoRPI alone as the tables have it
+    best = [r["morpi_best_m"] for r in c.runs]
+    if cell["morpi_reading"] == "route":
+        assert best == pytest.approx(alone, rel=1e-9)
+    else:
+        assert cell["morpi_reading"] == config.heading and best == [r["morpi_m"] for r in c.runs]
+    assert cell["smoothed_vs_morpi_best"]["mean_pp"] == pytest.approx(c.smoothed_percent - c.morpi_best_percent,
+                                                                      abs=1e-9)
+    assert payload["significance"]["vs_morpi_best"]["cells"] == 1
     t = c.tuning
     tun = field_aided._tuning((t["rest_accel_noise"], t["gyro_noise"] / t["vibration"], t["rest_gyro_noise"],
                                t["gyro_walk"], t["accel_jump"]), t, t["gain_sigma"])

@@ -72,9 +72,10 @@ def study_json(study) -> dict:
     --------
     >>> from morpi_filters.field_aided import GRID, AidedStudy
     >>> js = study_json(AidedStudy(cells=(), ablation=(), coverage_95=float("nan"), nis={}, note="no cell"))
-    >>> sorted(js)
-    ['ablation', 'cells', 'coverage', 'coverage_95', 'coverage_95_forward', 'morpi_readings', 'nis', 'note',
-     'significance', 'tunables']
+    >>> sorted(js)[:5]
+    ['ablation', 'cells', 'coverage', 'coverage_95', 'coverage_95_forward']
+    >>> sorted(js)[5:]
+    ['morpi_readings', 'nis', 'note', 'significance', 'tunables']
     >>> js["tunables"]["grid"] == {k: list(v) for k, v in GRID.items()}
     True
     """
