@@ -53,7 +53,8 @@ __all__ = ["GRID", "ABLATIONS", "AidedCell", "AidedStudy", "PairedDifference", "
            "choose_tunables", "choose_tunables_many", "paired_difference", "prepare",
            "still_spans", "rest_noise", "gyro_drift", "gain_estimate_pays", "route_vectors", "steps_alone",
            "holm", "detectable_difference", "READING_SE", "ReadingChoice", "route_sums",
-           "route_reading_pays", "choose_reading", "ellipse_coverage", "nis_consistency", "aid_used"]
+           "route_reading_pays", "choose_reading",
+           "LENGTHS", "period_sums", "period_length", "LengthChoice", "choose_length", "ellipse_coverage", "nis_consistency", "aid_used"]
 
 #: Train-only grid: factor on the rest-window noise densities (the moving robot vibrates far above
 #: them), step displacement noise [m], whether the gain error is estimated or only considered (the
@@ -653,6 +654,188 @@ def choose_reading(data, method, config) -> ReadingChoice:
     pick = "route" if route_reading_pays(rule, route) else config.heading
     return ReadingChoice(method, pick, float(rule.sum()) / rule.size, float(route.sum()) / route.size, se,
                          int(rule.size))
+
+
+#: The step lengths MoRPI alone may use: the Weinberg length of the trained gain, or the period count (each
+#: half period a fixed length learnt on the train runs: :func:`period_sums`).
+LENGTHS = ("weinberg", "period count")
+
+
+def period_sums(data, rec, mode, method, config, reading) -> tuple[float, np.ndarray]:
+    """MoRPI alone's half periods and end point per unit half-period length: the period count.
+
+    Each step of `config` counts its half periods (two between maxima, one
+    between extrema) times its counted fraction; every half period has the
+    same length. The step directions are those of `reading`: the route's
+    heading (:func:`route_vectors`) or the rule's own.
+
+    Parameters
+    ----------
+    data : field.FieldData
+    rec : dataset.Recording
+    mode : {"RD", "GC", "GAC"}
+    method : {"MoRPI-A", "MoRPI-G"}
+    config : steps.StepConfig
+    reading : str
+        ``"route"`` or the rule's heading reading (:attr:`ReadingChoice.reading`).
+
+    Returns
+    -------
+    n : float
+        Half periods counted.
+    u : ndarray, shape (2,)
+        The end point per unit half-period length [m / m].
+
+    Raises
+    ------
+    MorpiError
+        When no steps are found.
+    """
+    s = data.steps(rec, mode, method, config)
+    c = np.asarray(s.fraction, float) * (2.0 if config.segment == "maxima" else 1.0)
+    if reading == "route":
+        v = _route_steps(data, rec, mode, config, s, c)
+    else:
+        h = np.asarray(s.heading, float)
+        v = c[:, None] * np.stack([np.cos(h), np.sin(h)], axis=1)
+    return float(c.sum()), (v.sum(axis=0) if v.size else np.zeros(2))
+
+
+def _unit_sums(data, rec, mode, method, config, reading, length):
+    """Distance and end point per unit gain (Weinberg) or per unit half-period length (period count)."""
+    if length == "period count":
+        return period_sums(data, rec, mode, method, config, reading)
+    if reading == "route":
+        return route_sums(data, rec, mode, method, config)
+    w, ux, uy = data.step_sums(rec, mode, method, config)[:3]
+    return float(w), np.array([ux, uy])
+
+
+def _phone_sets(data, phone):
+    """The phone's short-route training sets: (truth, train recordings) of those holding train runs."""
+    from . import field as fd
+
+    return [(truth, recs) for (ph, _, _), (truth, _, _, recs) in zip(fd.SHORT_SETS, fd._train_sets(data))
+            if ph == phone and recs]
+
+
+def period_length(data, phone, mode, method, config, reading) -> float:
+    """The period count's half-period length [m]: total train distance over total train half periods.
+
+    Over every train run of the phone's short-route training sets
+    (:data:`morpi_filters.field.SHORT_SETS`), the method's steps under
+    `config` and `mode`. NaN when a train run has no steps or there are none.
+
+    Parameters
+    ----------
+    data : field.FieldData
+    phone : str
+    mode : {"RD", "GC", "GAC"}
+    method : {"MoRPI-A", "MoRPI-G"}
+    config : steps.StepConfig
+    reading : str
+        As for :func:`period_sums` (the count does not depend on it).
+
+    Returns
+    -------
+    float
+    """
+    dist = halves = 0.0
+    for truth, recs in _phone_sets(data, phone):
+        for r in recs:
+            try:
+                halves += period_sums(data, r, mode, method, config, reading)[0]
+            except MorpiError:
+                return float("nan")
+            dist += truth.distance_m
+    return dist / halves if halves > 0 else float("nan")
+
+
+@dataclass(frozen=True)
+class LengthChoice:
+    """MoRPI alone's step length chosen on one phone's train runs for one method (:func:`choose_length`).
+
+    Attributes
+    ----------
+    phone, method : str
+    length : str
+        One of :data:`LENGTHS`.
+    weinberg_percent, period_percent : float
+        Held-out mean end-point error of the train runs with each length [%] (infinite when a run
+        cannot be processed).
+    held_out : str
+        ``"training set"`` (each of several training sets held out in turn) or ``"run"`` (leave-one-out).
+    runs : int
+        Train runs scored.
+    """
+
+    phone: str
+    method: str
+    length: str
+    weinberg_percent: float
+    period_percent: float
+    held_out: str
+    runs: int
+
+
+def choose_length(data, phone, method, config, reading) -> LengthChoice:
+    """The Weinberg length or the period count for MoRPI alone, chosen on the phone's train runs.
+
+    Each length is learnt on held-out data: with several short-route
+    training sets for the phone, each set is held out in turn and scored with
+    the length learnt on the others (the Weinberg gain: the mean of the runs'
+    own gains; the period count: their total distance over their total half
+    periods); with one set, each run is held out. Scored under GC with the
+    method's `reading`; the period count is taken only when it beats the
+    Weinberg length beyond the tie tolerance (:func:`route_reading_pays`'s
+    one-standard-error rule). Nothing of a ``test`` folder is read.
+
+    Parameters
+    ----------
+    data : field.FieldData
+    phone : str
+    method : {"MoRPI-A", "MoRPI-G"}
+    config : steps.StepConfig
+    reading : str
+        As for :func:`period_sums`.
+
+    Returns
+    -------
+    LengthChoice
+    """
+    sets = []
+    for truth, recs in _phone_sets(data, phone):
+        rows = []
+        for r in recs:
+            try:
+                rows.append([_unit_sums(data, r, "GC", method, config, reading, k) for k in LENGTHS])
+            except MorpiError:
+                return LengthChoice(phone, method, "weinberg", float("inf"), float("inf"), "-", 0)
+        end = np.asarray(truth.end_point_m, float)
+        d = truth.distance_m
+        sets.append((d, end, np.array([[q[0] for q in row] for row in rows]),
+                     np.array([[q[1] for q in row] for row in rows])))
+    err = {k: [] for k in LENGTHS}
+    by_set = len(sets) > 1
+    for k, (d, end, n, u) in enumerate(sets):
+        for i in range(n.shape[0]):
+            if by_set:
+                other = [x for j, x in enumerate(sets) if j != k]
+            else:
+                keep = np.arange(n.shape[0]) != i
+                other = [(d, end, n[keep], u[keep])] if keep.sum() else []
+            if not other:
+                continue
+            gain = np.mean(np.concatenate([dd / nn[:, 0] for dd, _, nn, _ in other]))
+            half = sum(dd * nn.shape[0] for dd, _, nn, _ in other) / sum(nn[:, 1].sum() for _, _, nn, _ in other)
+            err["weinberg"].append(np.linalg.norm(gain * u[i, 0] - end) / d * 100)
+            err["period count"].append(np.linalg.norm(half * u[i, 1] - end) / d * 100)
+    a, b = np.array(err["weinberg"]), np.array(err["period count"])
+    if not a.size:
+        return LengthChoice(phone, method, "weinberg", float("inf"), float("inf"), "-", 0)
+    pick = "period count" if route_reading_pays(a, b) else "weinberg"
+    return LengthChoice(phone, method, pick, float(a.mean()), float(b.mean()), "training set" if by_set else "run",
+                        int(a.size))
 
 
 def _tuning(noise, info, gain_rel) -> aided.AidTuning:
@@ -1393,10 +1576,17 @@ class AidedCell:
         loose INS) and the ellipse tests the along-track axis.
     morpi_best_percent : float
         MoRPI alone (the same steps, Weinberg lengths, trained gain, method and calibration) under its best
-        train-chosen heading reading (:func:`choose_reading`: the rule's own or the route's heading) [%];
+        train-chosen heading reading (:func:`choose_reading`: the rule's own or the route's heading) and
+        step length (:func:`choose_length`: the Weinberg length or the period count) [%];
         per run ``morpi_best_m`` in :attr:`runs`.
     morpi_reading : str
         That reading (:attr:`ReadingChoice.reading`).
+    morpi_length : str
+        Its step length (:attr:`LengthChoice.length`, chosen for the training phone and method).
+    period_count_percent : float
+        MoRPI alone with the period count (:func:`period_sums`, the half-period length
+        :func:`period_length` of the training phone, method and calibration) and the chosen reading [%];
+        per run ``period_count_m``.
     paired_best : PairedDifference or None
         The smoothed filter minus :attr:`morpi_best_percent`'s MoRPI alone, run by run (Holm-adjusted over
         the study's cells of its calibration).
@@ -1427,6 +1617,8 @@ class AidedCell:
     morpi_best_percent: float = float("nan")
     morpi_reading: str = ""
     paired_best: PairedDifference | None = None
+    morpi_length: str = ""
+    period_count_percent: float = float("nan")
 
     @property
     def label(self) -> str:
@@ -1466,6 +1658,8 @@ class AidedStudy:
         ``vs_morpi_best``; ``alpha``, ``power`` (of the smallest detectable differences).
     readings : tuple of ReadingChoice
         MoRPI alone's train-chosen heading reading per method (:func:`choose_reading`).
+    lengths : tuple of LengthChoice
+        Its train-chosen step length per training phone and method (:func:`choose_length`).
     """
 
     cells: tuple
@@ -1477,6 +1671,7 @@ class AidedStudy:
     coverage: dict = field(default_factory=dict)
     significance: dict = field(default_factory=dict)
     readings: tuple = ()
+    lengths: tuple = ()
 
 
 def _innovation_summary(parts) -> dict:
@@ -1577,6 +1772,12 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
     chosen = {k: v for k, v in zip(keys, picks) if not isinstance(v, MorpiError)}
     # MoRPI alone's best train-chosen heading reading per method: the baseline the filter is also tested against
     readings = {m: choose_reading(data, m, res.selections[m].config) for m in sorted({c.spec.method for c in wanted})}
+    # and its step length per training phone and method (the Weinberg length or the period count), the period
+    # count's half-period length per phone, method and calibration
+    lengths = {(ph, m): choose_length(data, ph, m, res.selections[m].config, readings[m].reading)
+               for ph, m in sorted({(c.spec.train[0], c.spec.method) for c in wanted})}
+    halves = {(ph, m, cal): period_length(data, ph, cal, m, res.selections[m].config, readings[m].reading)
+              for ph, m, cal in sorted({(c.spec.train[0], c.spec.method, c.spec.calibration) for c in wanted})}
     todo = []
     for cell in wanted:
         sp = cell.spec
@@ -1661,18 +1862,23 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
             inp = p.input_for(info)
             alone = steps_alone(inp) if info["step_heading"] == "route" else np.full(2, np.nan)
             morpi_m = float(by_file[p.rel].end_error_m)
-            if readings[sp.method].reading == "route":
-                u = route_sums(data, rec, sp.calibration, sp.method, res.selections[sp.method].config)[1]
+            reading, rule = readings[sp.method].reading, res.selections[sp.method].config
+            if reading == "route":
+                u = route_sums(data, rec, sp.calibration, sp.method, rule)[1]
                 best_m = float(np.linalg.norm(g.mean * u - end))
             else:
                 best_m = morpi_m
+            u = period_sums(data, rec, sp.calibration, sp.method, rule, reading)[1]
+            period_m = float(np.linalg.norm(halves[(sp.train[0], sp.method, sp.calibration)] * u - end))
+            if lengths[(sp.train[0], sp.method)].length == "period count":
+                best_m = period_m
             alone_m = float(np.linalg.norm(alone - end))
             if cross_free:
                 v = np.asarray(inp.step_vector, float)[aided.applied_steps(inp)]
                 cross_free = bool(np.all(v @ np.array([-along[1], along[0]]) == 0.0))
             rows.append({"file": p.rel, "forward_m": float(np.linalg.norm(dxy)),
                          "smoothed_m": float(np.linalg.norm(dsm)),
-                         "morpi_m": morpi_m, "morpi_best_m": best_m, "ins_m": ins_m,
+                         "morpi_m": morpi_m, "morpi_best_m": best_m, "period_count_m": period_m, "ins_m": ins_m,
                          "mahalanobis2": m2, "inside_95": bool(m2 <= aided.CHI2_95_2DOF),
                          "mahalanobis2_smoothed": m2s, "inside_95_smoothed": bool(m2s <= aided.CHI2_95_2DOF),
                          "gain_error": r.gain_error, "gain_error_sigma": r.gain_sigma,
@@ -1700,6 +1906,7 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
             coverage_95=cov_sm["inside_95"], coverage_95_forward=cov_fw["inside_95"],
             coverage_axes={"smoothed": cov_sm, "forward": cov_fw}, cross_zero_by_construction=cross_free,
             morpi_best_percent=mean("morpi_best_m"), morpi_reading=readings[sp.method].reading,
+            morpi_length=lengths[(sp.train[0], sp.method)].length, period_count_percent=mean("period_count_m"),
             paired_best=paired_difference(col("smoothed_m"), col("morpi_best_m"), truth.distance_m)))
         if ablation and sp.calibration == "GC":
             base = _tuning(noise, info, g.std / g.mean)
@@ -1758,4 +1965,5 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
                       coverage_95=coverage.get("smoothed", {}).get("inside_95", float("nan")),
                       nis=_nis_means(nis_all),
                       coverage_95_forward=coverage.get("forward", {}).get("inside_95", float("nan")),
-                      coverage=coverage, significance=significance, readings=tuple(readings.values()))
+                      coverage=coverage, significance=significance, readings=tuple(readings.values()),
+                      lengths=tuple(lengths.values()))

@@ -1029,7 +1029,7 @@ def test_what_precedes_the_initial_rest_does_not_move_the_filter(field_root, tmp
 
 # ----------------------------------------------------------------------------- MoRPI alone's best reading
 
-def _drifting_root(root: Path, drift: float, *, test_gyro_scale: float = 1.0) -> Path:
+def _drifting_root(root: Path, drift: float, *, test_gyro_scale: float = 1.0, amplitudes=None) -> Path:
     """A short-route set (s6, 4 train and 2 test runs) whose z gyro gains `drift` [rad/s] while the robot
     moves (after the rest window, so the GC calibration keeps it): the absolute heading turns away from the
     straight route, the route's heading (no turn) does not. With `test_gyro_scale` the test gyros are scaled."""
@@ -1038,7 +1038,9 @@ def _drifting_root(root: Path, drift: float, *, test_gyro_scale: float = 1.0) ->
     rng = np.random.default_rng(11)
     for split, n in (("train", 4), ("test", 2)):
         for i in range(n):
-            traj = simulate.route_trajectory("short_distance", speed=0.3 * (1.0 + 0.1 * rng.standard_normal()))
+            amp = None if amplitudes is None else amplitudes[i]
+            traj = simulate.route_trajectory("short_distance", speed=0.3 * (1.0 + 0.1 * rng.standard_normal()),
+                                             amplitude=amp)
             imu = simulate.imu(traj, units.MPU6500, rng, sampling="s6", bias_scale=0.0)
             omega = imu.omega.copy()
             moving = (imu.time >= traj.start_time) & (imu.time <= traj.stop_time)
@@ -1081,9 +1083,9 @@ def test_route_reading_within_the_tie_tolerance_keeps_the_rule_reading():
 
 
 def test_reading_choice_ignores_corrupted_test_recordings(tmp_path):
-    """Every test recording's gyro scaled by 1.5: the same rules and the same readings, scores and all."""
+    """Every test recording's gyro scaled by 1.5: the same rules, readings and step lengths, scores and all."""
     from morpi_filters import field as fd
-    from morpi_filters.field_aided import choose_reading
+    from morpi_filters.field_aided import choose_length, choose_reading, period_length
 
     picks = []
     for name, scale in (("clean", 1.0), ("corrupted", 1.5)):
@@ -1091,6 +1093,27 @@ def test_reading_choice_ignores_corrupted_test_recordings(tmp_path):
         out = []
         for m in ("MoRPI-A", "MoRPI-G"):
             config = fd.select_config(data, m).config
-            out += [config, choose_reading(data, m, config), choose_reading(data, m, config.with_(heading="absolute"))]
+            pick = choose_reading(data, m, config)
+            out += [config, pick, choose_reading(data, m, config.with_(heading="absolute")),
+                    choose_length(data, "s6", m, config, pick.reading),
+                    period_length(data, "s6", "RD", m, config, pick.reading)]
         picks.append(out)
     assert picks[0] == picks[1]
+
+
+def test_the_period_count_is_chosen_where_the_amplitude_varies_and_counts_half_metres(tmp_path):
+    """Synthetic 1 m periods whose lateral amplitude varies from run to run (0.03 to 0.15 m): the Weinberg
+    weight follows the amplitude, the distance per period does not. The period count's half-period length
+    is the designed half metre up to the partial end steps (at most one period of the 12.6 half periods of
+    6.3 m left uncounted), and the held-out choice takes it."""
+    from morpi_filters import field as fd
+    from morpi_filters.field_aided import choose_length, period_length
+
+    data = fd.FieldData(_drifting_root(tmp_path / "amp", 0.0, amplitudes=(0.03, 0.15, 0.05, 0.1)))
+    for m in ("MoRPI-A", "MoRPI-G"):
+        config = fd.select_config(data, m).config
+        assert 0.5 * 0.99 <= period_length(data, "s6", "GC", m, config, config.heading) <= 6.3 / (12.6 - 2.0)
+    config = fd.select_config(data, "MoRPI-G").config
+    pick = choose_length(data, "s6", "MoRPI-G", config, config.heading)
+    assert pick.held_out == "run" and pick.runs == 4
+    assert pick.length == "period count" and pick.period_percent < pick.weinberg_percent

@@ -186,7 +186,8 @@ def test_aided_page_compares_the_filter_with_morpi_alone_under_its_best_reading(
                      runs=({},) * 10, tuning=tuning, train_percent=3.1, train_loo_percent=3.1,
                      train_morpi_percent=3.3, nis={}, paths=(), steps_alone_percent=3.05,
                      paired=PairedDifference(-0.5, 0.1, 10, 0.001, p_holm=0.001, mdd_pp=0.3),
-                     morpi_best_percent=3.04, morpi_reading="route", paired_best=best)
+                     morpi_best_percent=3.04, morpi_reading="route", paired_best=best, morpi_length="weinberg",
+                     period_count_percent=3.6)
     sig = {"cells": 1, "wins_uncorrected": 1, "wins_corrected": 1, "losses_uncorrected": 0, "losses_corrected": 0,
            "ties_corrected": 0, "alpha": 0.05, "power": 0.8,
            "vs_morpi_best": {"cells": 1, "wins_uncorrected": 0, "wins_corrected": 0, "losses_uncorrected": 0,
@@ -198,7 +199,7 @@ def test_aided_page_compares_the_filter_with_morpi_alone_under_its_best_reading(
     assert "MoRPI-G route (train LOO 4.20 % with the rule's reading, 3.10 % with the route's)" in section
     assert "better run by run in 0 and worse in 0 at 5 %" in section
     assert "after Holm over the 1 GC cells better in 0, worse in 0, a tie in 1" in section
-    assert "| a cell | 3.50 | route | 3.04 | 3.05 | 3.00 |" in section
+    assert "| a cell | 3.50 | route | weinberg | 3.60 | 3.04 | 3.05 | 3.00 |" in section
     js = study_json(study)
     assert js["cells"][0]["morpi_best_percent"] == 3.04 and js["cells"][0]["morpi_reading"] == "route"
     assert js["cells"][0]["smoothed_vs_morpi_best"]["mean_pp"] == -0.04
