@@ -31,8 +31,9 @@ calibration (:func:`paired_difference`, :func:`holm`, with the smallest
 difference a tie could have shown: :func:`detectable_difference`), the same
 tests against MoRPI alone under its best train-chosen heading reading (the
 rule's own, or the route's heading where the train runs prefer it beyond the
-tie tolerance: :func:`choose_reading`; the tables' cells are left as they
-are), the share of
+tie tolerance: :func:`choose_reading`; with the Weinberg length or the period
+count, :func:`choose_length`; the tables' cells are left as they are), the
+share of
 true end points inside the 95 % regions of the smoothed and the forward
 estimate, each under its own covariance (:func:`ellipse_coverage`), and the
 NIS of each measurement per degree of freedom with its chi-square band
@@ -53,8 +54,8 @@ __all__ = ["GRID", "ABLATIONS", "AidedCell", "AidedStudy", "PairedDifference", "
            "choose_tunables", "choose_tunables_many", "paired_difference", "prepare",
            "still_spans", "rest_noise", "gyro_drift", "gain_estimate_pays", "route_vectors", "steps_alone",
            "holm", "detectable_difference", "READING_SE", "ReadingChoice", "route_sums",
-           "route_reading_pays", "choose_reading",
-           "LENGTHS", "period_sums", "period_length", "LengthChoice", "choose_length", "ellipse_coverage", "nis_consistency", "aid_used"]
+           "route_reading_pays", "choose_reading", "LENGTHS", "period_sums", "period_length", "LengthChoice",
+           "choose_length", "ellipse_coverage", "nis_consistency", "aid_used"]
 
 #: Train-only grid: factor on the rest-window noise densities (the moving robot vibrates far above
 #: them), step displacement noise [m], whether the gain error is estimated or only considered (the

@@ -603,10 +603,13 @@ def test_field_cell_json_contract_and_consistency(field_root, monkeypatch):
         alone.append(np.linalg.norm(xy - end))
     assert c.tuning["step_heading"] == "route"
     assert cell["steps_alone_percent"] == pytest.approx(np.mean(alone) / truth.distance_m * 100, rel=1e-9)
-    # MoRPI alone under its best train-chosen reading: with the route's heading, the same step vectors summed
-    # (a second path to the same numbers); with the rule's own, MoRPI alone as the tables have it
+    # MoRPI alone under its best train-chosen reading: with the Weinberg length and the route's heading, the
+    # same step vectors summed (a second path to the same numbers); with the rule's own, MoRPI alone as the
+    # tables have it
     best = [r["morpi_best_m"] for r in c.runs]
-    if cell["morpi_reading"] == "route":
+    if cell["morpi_length"] == "period count":
+        assert best == [r["period_count_m"] for r in c.runs]
+    elif cell["morpi_reading"] == "route":
         assert best == pytest.approx(alone, rel=1e-9)
     else:
         assert cell["morpi_reading"] == config.heading and best == [r["morpi_m"] for r in c.runs]
