@@ -28,7 +28,12 @@ Each cell holds, beside MoRPI alone, the filter's own steps alone
 (:func:`steps_alone`: the step vectors it is fed, summed without the INS), the
 run-by-run tests against both with Holm's correction over the cells of a
 calibration (:func:`paired_difference`, :func:`holm`, with the smallest
-difference a tie could have shown: :func:`detectable_difference`), the share of
+difference a tie could have shown: :func:`detectable_difference`), the same
+tests against MoRPI alone under its best train-chosen heading reading (the
+rule's own, or the route's heading where the train runs prefer it beyond the
+tie tolerance: :func:`choose_reading`; with the Weinberg length or the period
+count, :func:`choose_length`; the tables' cells are left as they are), the
+share of
 true end points inside the 95 % regions of the smoothed and the forward
 estimate, each under its own covariance (:func:`ellipse_coverage`), and the
 NIS of each measurement per degree of freedom with its chi-square band
@@ -48,7 +53,9 @@ from .errors import MorpiError
 __all__ = ["GRID", "ABLATIONS", "AidedCell", "AidedStudy", "PairedDifference", "Prepared", "aided_study",
            "choose_tunables", "choose_tunables_many", "paired_difference", "prepare",
            "still_spans", "rest_noise", "gyro_drift", "gain_estimate_pays", "route_vectors", "steps_alone",
-           "holm", "detectable_difference", "ellipse_coverage", "nis_consistency", "aid_used"]
+           "holm", "detectable_difference", "READING_SE", "ReadingChoice", "route_sums",
+           "route_reading_pays", "choose_reading", "LENGTHS", "period_sums", "period_length", "LengthChoice",
+           "choose_length", "ellipse_coverage", "nis_consistency", "aid_used"]
 
 #: Train-only grid: factor on the rest-window noise densities (the moving robot vibrates far above
 #: them), step displacement noise [m], whether the gain error is estimated or only considered (the
@@ -90,6 +97,11 @@ ABLATIONS = {"steps": {"steps": False}, "non-holonomic": {"nhc": False}, "rest u
 #: Level of the paired tests, and the power at which a tie states the smallest difference the runs
 #: could have detected (:func:`detectable_difference`).
 ALPHA, POWER = 0.05, 0.8
+#: Tie tolerance of MoRPI alone's reading choice (:func:`choose_reading`): the route's heading replaces the
+#: step rule's own reading only when its train leave-one-out error is lower by more than this many standard
+#: errors of the paired difference over the train runs (the one-standard-error rule of
+#: :data:`morpi_filters.field.SOURCE_SE`): the reading the rule search chose is kept within it.
+READING_SE = 1.0
 #: Two-sided 95 % point of the standard normal: the bound of one axis' 95 % interval [sigma].
 Z_95 = 1.959963984540054
 
@@ -407,10 +419,7 @@ def prepare(data, rec, mode, method, config, gain) -> Prepared:
     # read where MoRPI's track ends: the gain is trained on MoRPI's step sum, which covers the motion up
     # to the last step boundary (the robot's creep after it is part of what the gain absorbs)
     stop = float(s.end_time[-1]) if s.end_time.size else data.activity(rec)[1]
-    bt = s.peaks.grid_time[s.peaks.grid_index]
-    along = route_vectors(track.length, s.start_time, s.end_time, bt, crec.time,
-                          data.heading(rec, mode, config.heading_source), config.turn_deg,
-                          2 if config.segment == "extrema" else 1)
+    along = _route_steps(data, rec, mode, config, s, track.length)
     cache[key] = Prepared(data.relpath(rec), inp, replace(inp, step_vector=along), track.position, noise, float(stop),
                           drift, shift, onset)
     return cache[key]
@@ -484,6 +493,350 @@ def route_vectors(length, start, end, boundaries, time, psi, turn_deg, per_perio
     stretches = st.turn_stretches(bt, np.interp(bt, time, psi), np.radians(turn_deg), per_period)
     h = st.turn_heading(0.5 * (np.asarray(start, float) + np.asarray(end, float)), time, psi, stretches)
     return np.asarray(length, float)[:, None] * np.stack([np.cos(h), np.sin(h)], axis=1)
+
+
+def _route_steps(data, rec, mode, config, s, length) -> np.ndarray:
+    """:func:`route_vectors` of a recording's steps `s` (found under `config`) with the step lengths `length`."""
+    crec, _ = data.calibrated(rec, mode)
+    bt = s.peaks.grid_time[s.peaks.grid_index]
+    return route_vectors(length, s.start_time, s.end_time, bt, crec.time,
+                         data.heading(rec, mode, config.heading_source), config.turn_deg,
+                         2 if config.segment == "extrema" else 1)
+
+
+def route_sums(data, rec, mode, method, config) -> tuple[float, np.ndarray]:
+    """MoRPI alone's distance and end point per unit gain with the route's heading (:func:`route_vectors`).
+
+    The steps, their Weinberg weights and fractions are those of `config`
+    (:meth:`~morpi_filters.field.FieldData.steps`); only the heading is the
+    route's, the same the filter's ``"route"`` step direction reads. A run
+    dead-reckoned with gain ``G`` ends at ``G * u``.
+
+    Parameters
+    ----------
+    data : field.FieldData
+    rec : dataset.Recording
+    mode : {"RD", "GC", "GAC"}
+    method : {"MoRPI-A", "MoRPI-G"}
+    config : steps.StepConfig
+
+    Returns
+    -------
+    w : float
+        ``sum(weight * fraction)``: the distance per unit gain.
+    u : ndarray, shape (2,)
+        The end point per unit gain.
+
+    Raises
+    ------
+    MorpiError
+        When no steps are found (as :meth:`~morpi_filters.field.FieldData.steps`).
+    """
+    s = data.steps(rec, mode, method, config)
+    unit = np.asarray(s.weight, float) * np.asarray(s.fraction, float)
+    v = _route_steps(data, rec, mode, config, s, unit)
+    return float(unit.sum()), (v.sum(axis=0) if v.size else np.zeros(2))
+
+
+@dataclass(frozen=True)
+class ReadingChoice:
+    """MoRPI alone's heading reading chosen on the train runs for one method (:func:`choose_reading`).
+
+    Attributes
+    ----------
+    method : str
+    reading : str
+        ``"route"`` (:func:`route_sums`) or the step rule's own heading reading
+        (:attr:`steps.StepConfig.heading`).
+    rule_percent, route_percent : float
+        Leave-one-out mean end-point error of the train runs under the rule's reading and under the
+        route's heading [%] (infinite when a train run cannot be processed).
+    difference_se_pp : float
+        Standard error of the per-run difference (route minus rule) [pp].
+    runs : int
+        Train runs scored.
+    """
+
+    method: str
+    reading: str
+    rule_percent: float
+    route_percent: float
+    difference_se_pp: float
+    runs: int
+
+
+def route_reading_pays(rule_errors, route_errors, *, se_factor: float = READING_SE) -> bool:
+    """Whether the route's heading beats the rule's reading on the train runs, beyond the tie tolerance.
+
+    The per-run difference (route minus rule, the same runs in the same
+    order) must have a mean below ``-se_factor`` standard errors of itself
+    (:data:`READING_SE`): within that the rule's own reading is kept.
+
+    Parameters
+    ----------
+    rule_errors, route_errors : array_like, shape (n,)
+        Per train run, the leave-one-out end-point errors [%].
+    se_factor : float
+        Tie tolerance in standard errors of the paired difference.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> route_reading_pays([3.0, 4.0, 5.0, 4.0], [2.0, 3.1, 3.9, 3.0])     # 1 pp better on every run
+    True
+    >>> route_reading_pays([3.0, 4.0, 5.0, 4.0], [3.5, 3.0, 5.0, 3.9])     # better on average, within the spread
+    False
+    """
+    a = np.asarray(rule_errors, float)
+    b = np.asarray(route_errors, float)
+    if a.shape != b.shape or a.ndim != 1 or a.size < 2 or not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+        return False
+    d = b - a
+    return bool(d.mean() < -se_factor * (d.std(ddof=1) / np.sqrt(d.size)))
+
+
+def _route_loo(data, method, config, mode="GC"):
+    """Per short-route train run, the leave-one-out end-point errors [%] of the rule's reading and of the
+    route's heading, the same gains (:func:`morpi_filters.field._train_summary`); None when a run fails."""
+    from . import field as fd
+
+    rule, route = [], []
+    for (truth, _, _, g, u, loo, failed), (_, _, _, recs) in zip(fd._train_summary(data, method, config, mode),
+                                                                fd._train_sets(data)):
+        if failed:
+            return None
+        if loo is None:
+            continue
+        ur = np.empty_like(u)
+        for i, r in enumerate(recs):
+            try:
+                ur[i] = route_sums(data, r, mode, method, config)[1]
+            except MorpiError:
+                return None
+        rule.append(loo)
+        route.append(fd._loo_errors(truth, g, ur))
+    if not rule:
+        return None
+    return np.concatenate(rule), np.concatenate(route)
+
+
+def choose_reading(data, method, config) -> ReadingChoice:
+    """MoRPI alone's best heading reading on the train runs: the rule's own, or the route's heading.
+
+    The rule (:func:`morpi_filters.field.select_config`) already holds the
+    best of MoRPI alone's own readings; the route's heading
+    (:func:`route_sums`, the filter's ``"route"`` step direction) is offered
+    beside it and scored by the same criterion: the leave-one-out end-point
+    error of the short-route train runs under GC (each run dead-reckoned with
+    the mean gain of its set's other runs). It is chosen only when it beats
+    the rule beyond the tie tolerance (:func:`route_reading_pays`). Nothing of
+    a ``test`` folder is read.
+
+    Parameters
+    ----------
+    data : field.FieldData
+    method : {"MoRPI-A", "MoRPI-G"}
+    config : steps.StepConfig
+        The method's step rule.
+
+    Returns
+    -------
+    ReadingChoice
+    """
+    errs = _route_loo(data, method, config)
+    if errs is None:
+        return ReadingChoice(method, config.heading, float("inf"), float("inf"), float("nan"), 0)
+    rule, route = errs
+    d = route - rule
+    se = float(d.std(ddof=1) / np.sqrt(d.size)) if d.size > 1 else float("nan")
+    pick = "route" if route_reading_pays(rule, route) else config.heading
+    return ReadingChoice(method, pick, float(rule.sum()) / rule.size, float(route.sum()) / route.size, se,
+                         int(rule.size))
+
+
+#: The step lengths MoRPI alone may use: the Weinberg length of the trained gain, or the period count (each
+#: half period a fixed length learnt on the train runs: :func:`period_sums`).
+LENGTHS = ("weinberg", "period count")
+
+
+def period_sums(data, rec, mode, method, config, reading) -> tuple[float, np.ndarray]:
+    """MoRPI alone's half periods and end point per unit half-period length: the period count.
+
+    Each step of `config` counts its half periods (two between maxima, one
+    between extrema) times its counted fraction; every half period has the
+    same length. The step directions are those of `reading`: the route's
+    heading (:func:`route_vectors`) or the rule's own.
+
+    Parameters
+    ----------
+    data : field.FieldData
+    rec : dataset.Recording
+    mode : {"RD", "GC", "GAC"}
+    method : {"MoRPI-A", "MoRPI-G"}
+    config : steps.StepConfig
+    reading : str
+        ``"route"`` or the rule's heading reading (:attr:`ReadingChoice.reading`).
+
+    Returns
+    -------
+    n : float
+        Half periods counted.
+    u : ndarray, shape (2,)
+        The end point per unit half-period length [m / m].
+
+    Raises
+    ------
+    MorpiError
+        When no steps are found.
+    """
+    s = data.steps(rec, mode, method, config)
+    c = np.asarray(s.fraction, float) * (2.0 if config.segment == "maxima" else 1.0)
+    if reading == "route":
+        v = _route_steps(data, rec, mode, config, s, c)
+    else:
+        h = np.asarray(s.heading, float)
+        v = c[:, None] * np.stack([np.cos(h), np.sin(h)], axis=1)
+    return float(c.sum()), (v.sum(axis=0) if v.size else np.zeros(2))
+
+
+def _unit_sums(data, rec, mode, method, config, reading, length):
+    """Distance and end point per unit gain (Weinberg) or per unit half-period length (period count)."""
+    if length == "period count":
+        return period_sums(data, rec, mode, method, config, reading)
+    if reading == "route":
+        return route_sums(data, rec, mode, method, config)
+    w, ux, uy = data.step_sums(rec, mode, method, config)[:3]
+    return float(w), np.array([ux, uy])
+
+
+def _phone_sets(data, phone):
+    """The phone's short-route training sets: (truth, train recordings) of those holding train runs."""
+    from . import field as fd
+
+    return [(truth, recs) for (ph, _, _), (truth, _, _, recs) in zip(fd.SHORT_SETS, fd._train_sets(data))
+            if ph == phone and recs]
+
+
+def period_length(data, phone, mode, method, config, reading) -> float:
+    """The period count's half-period length [m]: total train distance over total train half periods.
+
+    Over every train run of the phone's short-route training sets
+    (:data:`morpi_filters.field.SHORT_SETS`), the method's steps under
+    `config` and `mode`. NaN when a train run has no steps or there are none.
+
+    Parameters
+    ----------
+    data : field.FieldData
+    phone : str
+    mode : {"RD", "GC", "GAC"}
+    method : {"MoRPI-A", "MoRPI-G"}
+    config : steps.StepConfig
+    reading : str
+        As for :func:`period_sums` (the count does not depend on it).
+
+    Returns
+    -------
+    float
+    """
+    dist = halves = 0.0
+    for truth, recs in _phone_sets(data, phone):
+        for r in recs:
+            try:
+                halves += period_sums(data, r, mode, method, config, reading)[0]
+            except MorpiError:
+                return float("nan")
+            dist += truth.distance_m
+    return dist / halves if halves > 0 else float("nan")
+
+
+@dataclass(frozen=True)
+class LengthChoice:
+    """MoRPI alone's step length chosen on one phone's train runs for one method (:func:`choose_length`).
+
+    Attributes
+    ----------
+    phone, method : str
+    length : str
+        One of :data:`LENGTHS`.
+    weinberg_percent, period_percent : float
+        Held-out mean end-point error of the train runs with each length [%] (infinite when a run
+        cannot be processed).
+    held_out : str
+        ``"training set"`` (each of several training sets held out in turn) or ``"run"`` (leave-one-out).
+    runs : int
+        Train runs scored.
+    """
+
+    phone: str
+    method: str
+    length: str
+    weinberg_percent: float
+    period_percent: float
+    held_out: str
+    runs: int
+
+
+def choose_length(data, phone, method, config, reading) -> LengthChoice:
+    """The Weinberg length or the period count for MoRPI alone, chosen on the phone's train runs.
+
+    Each length is learnt on held-out data: with several short-route
+    training sets for the phone, each set is held out in turn and scored with
+    the length learnt on the others (the Weinberg gain: the mean of the runs'
+    own gains; the period count: their total distance over their total half
+    periods); with one set, each run is held out. Scored under GC with the
+    method's `reading`; the period count is taken only when it beats the
+    Weinberg length beyond the tie tolerance (:func:`route_reading_pays`'s
+    one-standard-error rule). Nothing of a ``test`` folder is read.
+
+    Parameters
+    ----------
+    data : field.FieldData
+    phone : str
+    method : {"MoRPI-A", "MoRPI-G"}
+    config : steps.StepConfig
+    reading : str
+        As for :func:`period_sums`.
+
+    Returns
+    -------
+    LengthChoice
+    """
+    sets = []
+    for truth, recs in _phone_sets(data, phone):
+        rows = []
+        for r in recs:
+            try:
+                rows.append([_unit_sums(data, r, "GC", method, config, reading, k) for k in LENGTHS])
+            except MorpiError:
+                return LengthChoice(phone, method, "weinberg", float("inf"), float("inf"), "-", 0)
+        end = np.asarray(truth.end_point_m, float)
+        d = truth.distance_m
+        sets.append((d, end, np.array([[q[0] for q in row] for row in rows]),
+                     np.array([[q[1] for q in row] for row in rows])))
+    err = {k: [] for k in LENGTHS}
+    by_set = len(sets) > 1
+    for k, (d, end, n, u) in enumerate(sets):
+        for i in range(n.shape[0]):
+            if by_set:
+                other = [x for j, x in enumerate(sets) if j != k]
+            else:
+                keep = np.arange(n.shape[0]) != i
+                other = [(d, end, n[keep], u[keep])] if keep.sum() else []
+            if not other:
+                continue
+            gain = np.mean(np.concatenate([dd / nn[:, 0] for dd, _, nn, _ in other]))
+            half = sum(dd * nn.shape[0] for dd, _, nn, _ in other) / sum(nn[:, 1].sum() for _, _, nn, _ in other)
+            err["weinberg"].append(np.linalg.norm(gain * u[i, 0] - end) / d * 100)
+            err["period count"].append(np.linalg.norm(half * u[i, 1] - end) / d * 100)
+    a, b = np.array(err["weinberg"]), np.array(err["period count"])
+    if not a.size:
+        return LengthChoice(phone, method, "weinberg", float("inf"), float("inf"), "-", 0)
+    pick = "period count" if route_reading_pays(a, b) else "weinberg"
+    return LengthChoice(phone, method, pick, float(a.mean()), float(b.mean()), "training set" if by_set else "run",
+                        int(a.size))
 
 
 def _tuning(noise, info, gain_rel) -> aided.AidTuning:
@@ -1222,6 +1575,22 @@ class AidedCell:
         Every step vector of every run lies along the route's start-to-end line: the steps put no
         cross-track displacement, so the cross-track estimate is the INS's alone (near zero under a
         loose INS) and the ellipse tests the along-track axis.
+    morpi_best_percent : float
+        MoRPI alone (the same steps, Weinberg lengths, trained gain, method and calibration) under its best
+        train-chosen heading reading (:func:`choose_reading`: the rule's own or the route's heading) and
+        step length (:func:`choose_length`: the Weinberg length or the period count) [%];
+        per run ``morpi_best_m`` in :attr:`runs`.
+    morpi_reading : str
+        That reading (:attr:`ReadingChoice.reading`).
+    morpi_length : str
+        Its step length (:attr:`LengthChoice.length`, chosen for the training phone and method).
+    period_count_percent : float
+        MoRPI alone with the period count (:func:`period_sums`, the half-period length
+        :func:`period_length` of the training phone, method and calibration) and the chosen reading [%];
+        per run ``period_count_m``.
+    paired_best : PairedDifference or None
+        The smoothed filter minus :attr:`morpi_best_percent`'s MoRPI alone, run by run (Holm-adjusted over
+        the study's cells of its calibration).
     """
 
     spec: object
@@ -1246,6 +1615,11 @@ class AidedCell:
     coverage_95_forward: float = float("nan")
     coverage_axes: dict = field(default_factory=dict)
     cross_zero_by_construction: bool = False
+    morpi_best_percent: float = float("nan")
+    morpi_reading: str = ""
+    paired_best: PairedDifference | None = None
+    morpi_length: str = ""
+    period_count_percent: float = float("nan")
 
     @property
     def label(self) -> str:
@@ -1281,7 +1655,12 @@ class AidedStudy:
         The paired tests over the GC cells (``family``), Holm-corrected (``correction``): for the
         smoothed filter against MoRPI alone ``wins_uncorrected``, ``wins_corrected``,
         ``losses_uncorrected``, ``losses_corrected``, ``ties_corrected``; the same against its own steps
-        alone under ``vs_steps_alone``; ``alpha``, ``power`` (of the smallest detectable differences).
+        alone under ``vs_steps_alone``, against MoRPI alone under its best train-chosen reading under
+        ``vs_morpi_best``; ``alpha``, ``power`` (of the smallest detectable differences).
+    readings : tuple of ReadingChoice
+        MoRPI alone's train-chosen heading reading per method (:func:`choose_reading`).
+    lengths : tuple of LengthChoice
+        Its train-chosen step length per training phone and method (:func:`choose_length`).
     """
 
     cells: tuple
@@ -1292,6 +1671,8 @@ class AidedStudy:
     coverage_95_forward: float = float("nan")
     coverage: dict = field(default_factory=dict)
     significance: dict = field(default_factory=dict)
+    readings: tuple = ()
+    lengths: tuple = ()
 
 
 def _innovation_summary(parts) -> dict:
@@ -1390,6 +1771,14 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
     picks = choose_tunables_many(data, [(tr, m, cal, res.selections[m].config, gmap[(tr[0], tr[1], m, cal)])
                                         for tr, m, cal in keys], workers=workers)
     chosen = {k: v for k, v in zip(keys, picks) if not isinstance(v, MorpiError)}
+    # MoRPI alone's best train-chosen heading reading per method: the baseline the filter is also tested against
+    readings = {m: choose_reading(data, m, res.selections[m].config) for m in sorted({c.spec.method for c in wanted})}
+    # and its step length per training phone and method (the Weinberg length or the period count), the period
+    # count's half-period length per phone, method and calibration
+    lengths = {(ph, m): choose_length(data, ph, m, res.selections[m].config, readings[m].reading)
+               for ph, m in sorted({(c.spec.train[0], c.spec.method) for c in wanted})}
+    halves = {(ph, m, cal): period_length(data, ph, cal, m, res.selections[m].config, readings[m].reading)
+              for ph, m, cal in sorted({(c.spec.train[0], c.spec.method, c.spec.calibration) for c in wanted})}
     todo = []
     for cell in wanted:
         sp = cell.spec
@@ -1473,13 +1862,24 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
             _merge_nis(nis, r.nis)
             inp = p.input_for(info)
             alone = steps_alone(inp) if info["step_heading"] == "route" else np.full(2, np.nan)
+            morpi_m = float(by_file[p.rel].end_error_m)
+            reading, rule = readings[sp.method].reading, res.selections[sp.method].config
+            if reading == "route":
+                u = route_sums(data, rec, sp.calibration, sp.method, rule)[1]
+                best_m = float(np.linalg.norm(g.mean * u - end))
+            else:
+                best_m = morpi_m
+            u = period_sums(data, rec, sp.calibration, sp.method, rule, reading)[1]
+            period_m = float(np.linalg.norm(halves[(sp.train[0], sp.method, sp.calibration)] * u - end))
+            if lengths[(sp.train[0], sp.method)].length == "period count":
+                best_m = period_m
             alone_m = float(np.linalg.norm(alone - end))
             if cross_free:
                 v = np.asarray(inp.step_vector, float)[aided.applied_steps(inp)]
                 cross_free = bool(np.all(v @ np.array([-along[1], along[0]]) == 0.0))
             rows.append({"file": p.rel, "forward_m": float(np.linalg.norm(dxy)),
                          "smoothed_m": float(np.linalg.norm(dsm)),
-                         "morpi_m": float(by_file[p.rel].end_error_m), "ins_m": ins_m,
+                         "morpi_m": morpi_m, "morpi_best_m": best_m, "period_count_m": period_m, "ins_m": ins_m,
                          "mahalanobis2": m2, "inside_95": bool(m2 <= aided.CHI2_95_2DOF),
                          "mahalanobis2_smoothed": m2s, "inside_95_smoothed": bool(m2s <= aided.CHI2_95_2DOF),
                          "gain_error": r.gain_error, "gain_error_sigma": r.gain_sigma,
@@ -1505,7 +1905,10 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
             paired_steps=(paired_difference(col("smoothed_m"), col("steps_alone_m"), truth.distance_m)
                           if info["step_heading"] == "route" else None),
             coverage_95=cov_sm["inside_95"], coverage_95_forward=cov_fw["inside_95"],
-            coverage_axes={"smoothed": cov_sm, "forward": cov_fw}, cross_zero_by_construction=cross_free))
+            coverage_axes={"smoothed": cov_sm, "forward": cov_fw}, cross_zero_by_construction=cross_free,
+            morpi_best_percent=mean("morpi_best_m"), morpi_reading=readings[sp.method].reading,
+            morpi_length=lengths[(sp.train[0], sp.method)].length, period_count_percent=mean("period_count_m"),
+            paired_best=paired_difference(col("smoothed_m"), col("morpi_best_m"), truth.distance_m)))
         if ablation and sp.calibration == "GC":
             base = _tuning(noise, info, g.std / g.mean)
             full = (cells[-1].smoothed_percent, cells[-1].forward_percent)
@@ -1533,11 +1936,13 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
         fam = [cells[k] for k in idx]
         vs_morpi, s_morpi = _family(fam, "paired")
         vs_steps, s_steps = _family(fam, "paired_steps")
-        for k, a, b in zip(idx, vs_morpi, vs_steps):
-            cells[k] = replace(cells[k], paired=a, paired_steps=b)
+        vs_best, s_best = _family(fam, "paired_best")
+        for k, a, b, e in zip(idx, vs_morpi, vs_steps, vs_best):
+            cells[k] = replace(cells[k], paired=a, paired_steps=b, paired_best=e)
         if cal == "GC":
             significance = {"family": "GC cells", "correction": "holm", "test": "two-sided paired t-test",
-                            "alpha": ALPHA, "power": POWER, **s_morpi, "vs_steps_alone": s_steps}
+                            "alpha": ALPHA, "power": POWER, **s_morpi, "vs_steps_alone": s_steps,
+                            "vs_morpi_best": s_best}
     # coverage and NIS over the GC cells' runs, each (run, method) once
     seen, per_run, nis_all = set(), {"smoothed": [], "forward": []}, {}
     for i, c in enumerate(cells):
@@ -1561,4 +1966,5 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
                       coverage_95=coverage.get("smoothed", {}).get("inside_95", float("nan")),
                       nis=_nis_means(nis_all),
                       coverage_95_forward=coverage.get("forward", {}).get("inside_95", float("nan")),
-                      coverage=coverage, significance=significance)
+                      coverage=coverage, significance=significance, readings=tuple(readings.values()),
+                      lengths=tuple(lengths.values()))

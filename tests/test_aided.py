@@ -603,6 +603,19 @@ def test_field_cell_json_contract_and_consistency(field_root, monkeypatch):
         alone.append(np.linalg.norm(xy - end))
     assert c.tuning["step_heading"] == "route"
     assert cell["steps_alone_percent"] == pytest.approx(np.mean(alone) / truth.distance_m * 100, rel=1e-9)
+    # MoRPI alone under its best train-chosen reading: with the Weinberg length and the route's heading, the
+    # same step vectors summed (a second path to the same numbers); with the rule's own, MoRPI alone as the
+    # tables have it
+    best = [r["morpi_best_m"] for r in c.runs]
+    if cell["morpi_length"] == "period count":
+        assert best == [r["period_count_m"] for r in c.runs]
+    elif cell["morpi_reading"] == "route":
+        assert best == pytest.approx(alone, rel=1e-9)
+    else:
+        assert cell["morpi_reading"] == config.heading and best == [r["morpi_m"] for r in c.runs]
+    assert cell["smoothed_vs_morpi_best"]["mean_pp"] == pytest.approx(c.smoothed_percent - c.morpi_best_percent,
+                                                                      abs=1e-9)
+    assert payload["significance"]["vs_morpi_best"]["cells"] == 1
     t = c.tuning
     tun = field_aided._tuning((t["rest_accel_noise"], t["gyro_noise"] / t["vibration"], t["rest_gyro_noise"],
                                t["gyro_walk"], t["accel_jump"]), t, t["gain_sigma"])
@@ -1015,3 +1028,95 @@ def test_what_precedes_the_initial_rest_does_not_move_the_filter(field_root, tmp
     ra, rb = aided.run_batch([pa.input, replace(pb.input, **steps)],
                              aided.AidTuning(step_sigma=0.02, gain_sigma=0.0, step_heading="gyro"))
     assert np.linalg.norm(ra.end_point - rb.end_point) < 1e-6
+
+
+# ----------------------------------------------------------------------------- MoRPI alone's best reading
+
+def _drifting_root(root: Path, drift: float, *, test_gyro_scale: float = 1.0, amplitudes=None) -> Path:
+    """A short-route set (s6, 4 train and 2 test runs) whose z gyro gains `drift` [rad/s] while the robot
+    moves (after the rest window, so the GC calibration keeps it): the absolute heading turns away from the
+    straight route, the route's heading (no turn) does not. With `test_gyro_scale` the test gyros are scaled."""
+    from morpi_filters import dataset as ds
+
+    rng = np.random.default_rng(11)
+    for split, n in (("train", 4), ("test", 2)):
+        for i in range(n):
+            amp = None if amplitudes is None else amplitudes[i]
+            traj = simulate.route_trajectory("short_distance", speed=0.3 * (1.0 + 0.1 * rng.standard_normal()),
+                                             amplitude=amp)
+            imu = simulate.imu(traj, units.MPU6500, rng, sampling="s6", bias_scale=0.0)
+            omega = imu.omega.copy()
+            moving = (imu.time >= traj.start_time) & (imu.time <= traj.stop_time)
+            omega[moving, 2] += drift
+            if split == "test":
+                omega = omega * test_gyro_scale
+            rec = ds.Recording(time=imu.time, f=imu.f, omega=omega, source="synthetic")
+            ds.write_csv(root / "s6" / "short_distance" / split / f"{i + 1}.csv", rec)
+    return root
+
+
+def test_the_route_heading_is_chosen_where_the_rule_reading_drifts(tmp_path):
+    """Synthetic straight runs whose heading drifts while moving: MoRPI alone's absolute reading ends off
+    the route, the route's heading does not, and the train runs' leave-one-out choice takes it; the rule's
+    score is the rule search's own."""
+    from morpi_filters import field as fd
+    from morpi_filters.field_aided import choose_reading
+
+    data = fd.FieldData(_drifting_root(tmp_path / "drift", 0.03))
+    config = fd.select_config(data, "MoRPI-G").config.with_(heading="absolute")
+    pick = choose_reading(data, "MoRPI-G", config)
+    assert pick.runs == 4 and pick.reading == "route"
+    assert pick.rule_percent == fd._loo_score(data, "MoRPI-G", config)[0]
+    assert pick.route_percent < pick.rule_percent - pick.difference_se_pp
+
+
+def test_route_reading_within_the_tie_tolerance_keeps_the_rule_reading():
+    from morpi_filters.field_aided import READING_SE, route_reading_pays
+
+    rule = np.array([3.0, 4.0, 5.0, 4.5, 3.5])
+    d = np.array([-0.4, 0.2, -0.5, 0.3, -0.35])            # mean -0.15 pp, standard error 0.17 pp
+    se = d.std(ddof=1) / np.sqrt(d.size)
+    assert -d.mean() < READING_SE * se < 2 * -d.mean()
+    # better on average but within one standard error: the rule's own reading stays
+    assert not route_reading_pays(rule, rule + d)
+    # the same differences shifted beyond the tolerance: the route's heading is taken
+    assert route_reading_pays(rule, rule + d - 2 * se)
+    # a run the route's heading cannot read (not finite): no choice of it
+    assert not route_reading_pays(rule, np.append(rule[:-1] - 1.0, np.nan))
+
+
+def test_reading_choice_ignores_corrupted_test_recordings(tmp_path):
+    """Every test recording's gyro scaled by 1.5: the same rules, readings and step lengths, scores and all."""
+    from morpi_filters import field as fd
+    from morpi_filters.field_aided import choose_length, choose_reading, period_length
+
+    picks = []
+    for name, scale in (("clean", 1.0), ("corrupted", 1.5)):
+        data = fd.FieldData(_drifting_root(tmp_path / name, 0.03, test_gyro_scale=scale))
+        out = []
+        for m in ("MoRPI-A", "MoRPI-G"):
+            config = fd.select_config(data, m).config
+            pick = choose_reading(data, m, config)
+            out += [config, pick, choose_reading(data, m, config.with_(heading="absolute")),
+                    choose_length(data, "s6", m, config, pick.reading),
+                    period_length(data, "s6", "RD", m, config, pick.reading)]
+        picks.append(out)
+    assert picks[0] == picks[1]
+
+
+def test_the_period_count_is_chosen_where_the_amplitude_varies_and_counts_half_metres(tmp_path):
+    """Synthetic 1 m periods whose lateral amplitude varies from run to run (0.03 to 0.15 m): the Weinberg
+    weight follows the amplitude, the distance per period does not. The period count's half-period length
+    is the designed half metre up to the partial end steps (at most one period of the 12.6 half periods of
+    6.3 m left uncounted), and the held-out choice takes it."""
+    from morpi_filters import field as fd
+    from morpi_filters.field_aided import choose_length, period_length
+
+    data = fd.FieldData(_drifting_root(tmp_path / "amp", 0.0, amplitudes=(0.03, 0.15, 0.05, 0.1)))
+    for m in ("MoRPI-A", "MoRPI-G"):
+        config = fd.select_config(data, m).config
+        assert 0.5 * 0.99 <= period_length(data, "s6", "GC", m, config, config.heading) <= 6.3 / (12.6 - 2.0)
+    config = fd.select_config(data, "MoRPI-G").config
+    pick = choose_length(data, "s6", "MoRPI-G", config, config.heading)
+    assert pick.held_out == "run" and pick.runs == 4
+    assert pick.length == "period count" and pick.period_percent < pick.weinberg_percent

@@ -58,19 +58,26 @@ def study_json(study) -> dict:
         ``alpha``, ``verdict``, ``p_holm`` and ``verdict_holm`` (Holm over the cells of the same
         calibration), ``min_detectable_pp`` at ``power``), ``coverage_95`` (smoothed estimate and
         covariance), ``coverage_95_forward``, ``coverage_axes`` (:func:`field_aided.ellipse_coverage` of
-        each read-out), ``cross_zero_by_construction``, ``runs``, ``failed``), ``ablation`` (rows of
+        each read-out), ``cross_zero_by_construction``, ``morpi_best_percent`` and ``morpi_reading``
+        (MoRPI alone under its best train-chosen heading reading) and ``morpi_length`` (its step length)
+        with ``smoothed_vs_morpi_best`` (as ``smoothed_vs_morpi``), ``period_count_percent``, ``runs``,
+        ``failed``), ``ablation`` (rows of
         :attr:`field_aided.AidedStudy.ablation`: ``cell``, ``removed``, ``smoothed_percent``,
         ``forward_percent``, ``used``, ``full_percent``, ``full_forward_percent``, ``start``),
         ``coverage_95`` and ``coverage_95_forward`` (the GC cells, each run and method once),
         ``coverage`` (the same with the axes), ``significance`` (:attr:`field_aided.AidedStudy.significance`),
-        ``nis`` (as a cell's, over those runs), ``note`` and ``tunables`` (``grid``, ``fixed``, ``chosen``).
+        ``nis`` (as a cell's, over those runs), ``note``, ``morpi_readings`` (per method the
+        :class:`field_aided.ReadingChoice` fields), ``morpi_lengths`` (per training phone and method the
+        :class:`field_aided.LengthChoice` fields) and ``tunables`` (``grid``, ``fixed``, ``chosen``).
 
     Examples
     --------
     >>> from morpi_filters.field_aided import GRID, AidedStudy
     >>> js = study_json(AidedStudy(cells=(), ablation=(), coverage_95=float("nan"), nis={}, note="no cell"))
-    >>> sorted(js)
-    ['ablation', 'cells', 'coverage', 'coverage_95', 'coverage_95_forward', 'nis', 'note', 'significance', 'tunables']
+    >>> sorted(js)[:5]
+    ['ablation', 'cells', 'coverage', 'coverage_95', 'coverage_95_forward']
+    >>> sorted(js)[5:]
+    ['morpi_lengths', 'morpi_readings', 'nis', 'note', 'significance', 'tunables']
     >>> js["tunables"]["grid"] == {k: list(v) for k, v in GRID.items()}
     True
     """
@@ -90,6 +97,9 @@ def study_json(study) -> dict:
                       "smoothed_vs_morpi": _paired(c.paired),
                       "steps_alone_percent": c.steps_alone_percent,
                       "smoothed_vs_steps_alone": _paired(c.paired_steps),
+                      "morpi_best_percent": c.morpi_best_percent, "morpi_reading": c.morpi_reading,
+                      "morpi_length": c.morpi_length, "period_count_percent": c.period_count_percent,
+                      "smoothed_vs_morpi_best": _paired(c.paired_best),
                       "coverage_95": c.coverage_95, "coverage_95_forward": c.coverage_95_forward,
                       "coverage_axes": c.coverage_axes,
                       "cross_zero_by_construction": c.cross_zero_by_construction,
@@ -98,6 +108,8 @@ def study_json(study) -> dict:
             "coverage_95_forward": study.coverage_95_forward, "coverage": study.coverage,
             "significance": study.significance,
             "nis": _nis(study.nis), "note": study.note,
+            "morpi_readings": [dict(r.__dict__) for r in study.readings],
+            "morpi_lengths": [dict(r.__dict__) for r in study.lengths],
             "tunables": {"grid": {k: list(v) for k, v in field_aided.GRID.items()},
                          "fixed": {"accel_walk": field_aided.ACCEL_WALK, "nhc_sigma": field_aided.NHC_SIGMA,
                                    "turn_sigma": field_aided.TURN_SIGMA,
@@ -236,6 +248,35 @@ def _page(study, source, figures) -> str:
              fmt(c.train_percent), fmt(c.train_loo_percent), fmt(c.train_morpi_percent),
              ", ".join(f"{k} {('on' if v else 'off') if isinstance(v, bool) else v if isinstance(v, str) else f'{v:g}'}"
                        for k, v in c.tuning.items() if k in field_aided.GRID)] for c in cells]
+    best_sig = sig.get("vs_morpi_best", {})
+    best_rows = [[c.label, fmt(c.morpi_percent), c.morpi_reading or "-", c.morpi_length or "-",
+                  fmt(c.period_count_percent), fmt(c.morpi_best_percent),
+                  fmt(c.steps_alone_percent), fmt(c.smoothed_percent), _verdict_cell(c.paired_best, 3),
+                  fmt(c.paired_best.mdd_pp if c.paired_best is not None else None, 3)] for c in cells]
+    best_text = (
+        "\n\n## Against MoRPI alone under its best train-chosen reading\n\n"
+        "MoRPI alone (the cell's steps, Weinberg lengths and trained gain) with the heading reading its own "
+        "train runs prefer when the route's heading (the filter's `route` step direction) is offered beside the "
+        "rule's reading: the same leave-one-out criterion over the short-route train runs (GC), the route's "
+        "heading taken only when it is better by more than "
+        f"{field_aided.READING_SE:g} standard error of the paired difference (else the rule's reading stays). "
+        "Chosen: " + (", ".join(f"{r.method} {r.reading} (train LOO {fmt(r.rule_percent)} % with the rule's "
+                               f"reading, {fmt(r.route_percent)} % with the route's)" for r in study.readings)
+                      or "-")
+        + ". A second step length is offered beside the Weinberg length: the period count (every half period "
+        "the same length, the phone's train distance over its train half periods, per method and calibration), "
+        "scored with each phone's training sets held out in turn where it has several (else each run), and "
+        "taken with the same tolerance. Chosen: "
+        + (", ".join(f"{r.phone} {r.method} {r.length} (held-out error {fmt(r.weinberg_percent)} % Weinberg, "
+                     f"{fmt(r.period_percent)} % period count, per {r.held_out})" for r in study.lengths) or "-")
+        + f". Over the GC cells the smoothed filter is better run by run in "
+        f"{best_sig.get('wins_uncorrected', '-')} and worse in {best_sig.get('losses_uncorrected', '-')} at "
+        f"{fmt(alpha * 100, 0)} %; after Holm over the {best_sig.get('cells', '-')} GC cells better in "
+        f"{best_sig.get('wins_corrected', '-')}, worse in {best_sig.get('losses_corrected', '-')}, a tie in "
+        f"{best_sig.get('ties_corrected', '-')}.\n\n"
+        + md_table(["cell", "MoRPI alone %", "best reading", "best length", "period count %", "MoRPI best %",
+                    "its steps alone %", "smoothed %",
+                    "smoothed - MoRPI best [pp]", "smallest detectable [pp]"], best_rows))
     ins_rows = [[c.label, fmt(c.steps_alone_percent), fmt(c.smoothed_percent), _verdict_cell(c.paired_steps, 3),
                  fmt(c.paired_steps.mdd_pp if c.paired_steps is not None else None, 3), _ins_benefit(c)]
                 for c in cells]
@@ -417,6 +458,7 @@ def _page(study, source, figures) -> str:
         "with the same tests as above, and whether the filter beats its steps alone.\n\n"
         + md_table(["cell", "its steps alone %", "smoothed %", "smoothed - steps alone [pp]",
                     "smallest detectable [pp]", "INS benefit"], ins_rows)
+        + best_text
         + "\n\n## Ablation (GC cells, each aid removed in turn)\n\n"
         "The filter without the aid against the filter with it, both read the same way: smoothed, and forward. "
         "An aid the chosen filter does not use is not run (`used`: no): its row repeats the full filter, its "
