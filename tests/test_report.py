@@ -205,3 +205,20 @@ def test_aided_page_compares_the_filter_with_morpi_alone_under_its_best_reading(
     assert js["cells"][0]["smoothed_vs_morpi_best"]["mean_pp"] == -0.04
     assert js["morpi_readings"] == [{"method": "MoRPI-G", "reading": "route", "rule_percent": 4.2,
                                      "route_percent": 3.1, "difference_se_pp": 0.2, "runs": 12}]
+
+
+def test_the_ins_benefit_is_claimed_only_where_it_survives_holm():
+    # The `What the INS adds` column says "yes" only for a difference significant after the correction;
+    # a lower mean within the runs' spread, or significant before the correction only, is no claim.
+    from types import SimpleNamespace as NS
+
+    from morpi_filters.report.aided import _ins_benefit
+
+    def cell(mean, verdict, holm):
+        return NS(paired_steps=NS(runs=10, mean_pp=mean, verdict=verdict, verdict_holm=holm, alpha=0.05))
+
+    assert _ins_benefit(cell(-0.25, "better", "better")).startswith("yes, by 0.250 pp")
+    assert _ins_benefit(cell(-0.057, "better", "tie")).startswith("not shown: 0.057 pp lower")
+    assert "before the correction only" in _ins_benefit(cell(-0.057, "better", "tie"))
+    assert _ins_benefit(cell(-0.067, "tie", "tie")) == "not shown: 0.067 pp lower on average, within the runs' spread"
+    assert _ins_benefit(cell(0.019, "tie", "tie")).startswith("no: 0.019 pp behind")

@@ -183,10 +183,11 @@ def _ins_benefit(c) -> str:
         return "- (the step direction is the filter's own attitude)"
     if not d.mean_pp < 0:
         return f"no: {fmt(d.mean_pp, 3)} pp behind"
-    support = ("significant after Holm" if d.verdict_holm == "better" else
-               f"significant at {fmt(d.alpha * 100, 0)} % before the correction only" if d.verdict == "better" else
+    if d.verdict_holm == "better":
+        return f"yes, by {fmt(-d.mean_pp, 3)} pp (significant after Holm)"
+    support = (f"significant at {fmt(d.alpha * 100, 0)} % before the correction only" if d.verdict == "better" else
                "within the runs' spread")
-    return f"yes, by {fmt(-d.mean_pp, 3)} pp ({support})"
+    return f"not shown: {fmt(-d.mean_pp, 3)} pp lower on average, {support}"
 
 
 def _nis_reason(c) -> str:
