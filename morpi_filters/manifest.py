@@ -351,7 +351,8 @@ class Dataset:
             reading that does not show gravity up the z axis.
         DataError
             Arrays beyond the loader's limits (time not increasing, gaps,
-            full scales), or a truth track shorter than the recording.
+            full scales), a dead channel, or a truth track shorter than the
+            recording.
         """
         try:
             name = _text(name)
@@ -997,7 +998,8 @@ def load_dataset(path) -> Dataset:
         (gravity not up the z axis at about 1 g, implausible rates).
     DataError
         The first file that does not load (naming the manifest, the key,
-        the file and the line), or a truth track shorter than its recording.
+        the file and the line), a dead channel (naming ``imu.file``), or a
+        truth track shorter than its recording.
 
     Examples
     --------
