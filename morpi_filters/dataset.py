@@ -10,7 +10,9 @@ another layout and units (a :class:`ColumnLayout`: a logger's CSV or an
 a clean file says at rest (gravity's magnitude and direction, the gyro's offset
 and noise, channels that never move) and names what no phone IMU in SI units
 and the z-up frame would record; the catalogue's loader and :func:`check_tree`
-apply it (:func:`check_plausible`). :func:`catalogue` walks a dataset root
+apply it (:func:`check_plausible`). Its checks live in :func:`rest_problems`,
+structured and scaled by a sensor's error figures, which dataset manifests
+call too. :func:`catalogue` walks a dataset root
 laid out as the public MoRPI repository (``s8/short_distance/train/3.csv``)
 and attaches phone, route, split and the route's ground truth, which lives in
 ``data/routes.json`` (a file this project owns).
