@@ -36,11 +36,13 @@ disagreeing with it raise :class:`~morpi_filters.errors.ParameterError`
 :func:`~morpi_filters.dataset.read_columns` on the values converted to SI:
 time increasing, gaps, limits) or a truth track shorter than its recording
 raise :class:`~morpi_filters.errors.DataError` (exit 1). After conversion the
-specific force must show gravity about 1 g up the body z axis and the gyro
-plausible rates (see :data:`GRAVITY_BAND`, :data:`UP_COSINE`,
-:data:`REST_RATE_LIMIT_RADPS`, :data:`MOVING_RATE_LIMIT_RADPS`); otherwise a
-ParameterError names the key to fix (``axes``, ``accel_unit`` or
-``gyro_unit``).
+recording must pass :func:`~morpi_filters.dataset.rest_problems`, the checks
+the MoRPI catalogue applies, with the IMU's error figures (``imu.spec``, else
+:data:`~morpi_filters.dataset.MEMS_SPEC`) and the recording's ``rest``:
+gravity up the body z axis, gyro offsets and noise at rest, the turns'
+rates; otherwise a ParameterError names the key to fix (``accel_unit``,
+``axes``, ``gyro_unit`` or ``columns``), and a dead channel is a DataError
+naming ``imu.file``.
 """
 from __future__ import annotations
 
@@ -53,14 +55,14 @@ from pathlib import Path
 import numpy as np
 
 from .dataset import (
-    COLUMNS, MAX_GAP_S, MIN_SAMPLES, ColumnLayout, Recording, check_recording, read_columns,
+    COLUMNS, MAX_GAP_S, MEMS_SPEC, MIN_SAMPLES, ColumnLayout, Recording, check_recording, read_columns, rest_problems,
 )
 from .errors import DataError, MorpiError, ParameterError
-from .units import DEG, G0
+from .units import DEG, DEG_S, DEG_S_SQRT_HZ, G0, MG, UG_SQRT_HZ, SensorSpec
 
 __all__ = [
-    "FORMAT_VERSION", "TIME_UNITS", "ACCEL_UNITS", "GYRO_UNITS", "GRAVITY_BAND", "UP_COSINE",
-    "REST_RATE_LIMIT_RADPS", "MOVING_RATE_LIMIT_RADPS", "RATE_TOLERANCE", "RouteTruth", "TruthTrack",
+    "FORMAT_VERSION", "TIME_UNITS", "ACCEL_UNITS", "GYRO_UNITS", "SPEC_KEYS", "RATE_TOLERANCE", "RouteTruth",
+    "TruthTrack",
     "DatasetRecording", "Dataset", "load_dataset", "check_dataset",
 ]
 
@@ -72,21 +74,11 @@ TIME_UNITS = {"s": 1.0, "ms": 1e3, "us": 1e6, "ns": 1e9}
 ACCEL_UNITS = {"m/s^2": 1.0, "g": G0}
 #: Gyro units, as rad/s per unit.
 GYRO_UNITS = {"rad/s": 1.0, "deg/s": DEG}
-#: Accepted magnitude of the median specific force at rest (or over the recording without a rest
-#: window), as fractions of standard gravity: a ground robot's IMU reads gravity there, give or take
-#: its bias, scale factor and a slope's tilt (the 143 field recordings: 0.997 to 1.000 g). A file in
-#: g declared in m/s^2 reads 0.1 g, a file in m/s^2 declared in g reads 9.8 g.
-GRAVITY_BAND = (0.75, 1.25)
-#: Smallest cosine between that median specific force and the body z axis: gravity must point up the
-#: z axis within 60 deg (the field recordings: within 9 deg). A z-down file declared z up reads -1.
-UP_COSINE = 0.5
-#: Largest median angular rate at rest [rad/s] (29 deg/s): far beyond the turn-on bias of a MEMS gyro
-#: (the S6's MPU-6500 lists 6 deg/s at 1 sigma; the field rest periods read at most 0.04 rad/s). A
-#: file in deg/s declared in rad/s reads 57 times its bias.
-REST_RATE_LIMIT_RADPS = 0.5
-#: Largest 99th percentile of the angular rate's magnitude over a recording [rad/s] (573 deg/s): no
-#: ground robot turns that fast for 1 % of a run (the field recordings: at most 1.9 rad/s).
-MOVING_RATE_LIMIT_RADPS = 10.0
+#: Keys of the optional ``imu.spec`` table: the IMU's datasheet error figures, in the units a datasheet
+#: prints (those of :meth:`~morpi_filters.units.SensorSpec.from_datasheet`), each to SI; a key left out
+#: keeps the figure of :data:`~morpi_filters.dataset.MEMS_SPEC`.
+SPEC_KEYS = {"gyro_bias_deg_s": ("gyro_bias", DEG_S), "gyro_noise_deg_s_sqrt_hz": ("gyro_noise", DEG_S_SQRT_HZ),
+             "accel_bias_mg": ("accel_bias", MG), "accel_noise_ug_sqrt_hz": ("accel_noise", UG_SQRT_HZ)}
 #: Largest relative difference between a declared ``rate_hz`` and the median rate of a time column.
 RATE_TOLERANCE = 0.05
 
@@ -98,13 +90,11 @@ _FRAME_LETTERS = {"NED": ("n", "e", "d"), "ENU": ("e", "n", "u")}
 _TOP_KEYS = ("format_version", "name", "description", "defaults", "recording")
 _RECORDING_KEYS = ("id", "split", "group", "motion", "rest", "initial", "notes", "imu", "truth")
 _IMU_KEYS = ("file", "format", "columns", "skip_rows", "rate_hz", "time_unit", "time_origin", "accel_unit",
-             "gyro_unit", "axes")
+             "gyro_unit", "axes", "spec")
 _ROUTE_KEYS = ("kind", "distance_m", "end_point_m", "polyline_m")
 _TRACK_KEYS = ("kind", "file", "format", "columns", "skip_rows", "rate_hz", "time_unit", "frame", "offset_s")
 _TRUTH_KEYS = tuple(dict.fromkeys(_ROUTE_KEYS + _TRACK_KEYS))
 _DEFAULTS = {"split": "none", "group": "all", "motion": "periodic", "rest": "auto", "initial": "rest", "notes": ""}
-#: Seconds of the start of a recording whose angular rate is taken as the rest level with ``rest = "auto"``.
-_AUTO_REST_S = 1.0
 
 
 # --------------------------------------------------------------------------- truth
@@ -361,7 +351,8 @@ class Dataset:
             reading that does not show gravity up the z axis.
         DataError
             Arrays beyond the loader's limits (time not increasing, gaps,
-            full scales), or a truth track shorter than the recording.
+            full scales), a dead channel, or a truth track shorter than the
+            recording.
         """
         try:
             name = _text(name)
@@ -396,7 +387,8 @@ class Dataset:
             check_recording(rec)
             ctx = _Context(where, {})
             _check_labels(ctx, rec, truth, labels)
-            _check_physics(ctx, rec, labels["rest"], {"accel_unit": "m/s^2", "gyro_unit": "rad/s", "axes": "FLU"})
+            _check_physics(ctx, rec, labels["rest"], {"accel_unit": "m/s^2", "gyro_unit": "rad/s", "axes": "FLU"},
+                           MEMS_SPEC)
             out.append(DatasetRecording(id=rec_id, recording=rec, truth=truth, **labels))
         return cls(name=name, recordings=tuple(out), description=description)
 
@@ -530,6 +522,22 @@ def _axes(v):
     return perm, tuple(sign[v[perm[i]]] for i in range(3))
 
 
+def _spec(v) -> SensorSpec:
+    if not isinstance(v, dict):
+        raise _Bad(f"{_kind(v)} {v!r}, expected a table of the IMU's datasheet figures: {', '.join(SPEC_KEYS)}")
+    figures = {}
+    for key, x in v.items():
+        if key not in SPEC_KEYS:
+            raise _Bad(_unknown(key, SPEC_KEYS))
+        try:
+            field, unit = SPEC_KEYS[key]
+            figures[field] = _number(x, lowest=0.0) * unit
+        except _Bad as bad:
+            raise _Bad(f"{key}: {bad}") from None
+    base = {k: getattr(MEMS_SPEC, k) for k in ("gyro_bias", "gyro_noise", "accel_bias", "accel_noise")}
+    return SensorSpec("imu.spec", "", **{**base, **figures})
+
+
 def _columns_table(v):
     if not isinstance(v, dict):
         raise _Bad(f"{_kind(v)} {v!r}, expected a table of column names (CSV) or 0-based indices (npy)")
@@ -544,7 +552,7 @@ _LABEL_CHECKS = {"split": _choice(_SPLITS), "group": _text, "motion": _choice(_M
 _IMU_CHECKS = {"file": _text, "format": _choice(("csv", "npy")), "columns": _columns_table,
                "skip_rows": _integer(0), "rate_hz": _rate, "time_unit": _choice(tuple(TIME_UNITS)),
                "time_origin": _choice(("clock", "first")), "accel_unit": _choice(tuple(ACCEL_UNITS)),
-               "gyro_unit": _choice(tuple(GYRO_UNITS)), "axes": _axes}
+               "gyro_unit": _choice(tuple(GYRO_UNITS)), "axes": _axes, "spec": _spec}
 _TRUTH_CHECKS = {"kind": _choice(("route", "track")), "distance_m": lambda v: _number(v, above=0.0),
                  "end_point_m": _point, "polyline_m": _polyline, "file": _text, "format": _choice(("csv", "npy")),
                  "columns": _columns_table, "skip_rows": _integer(0), "rate_hz": _rate,
@@ -787,6 +795,7 @@ def _imu_layout(ctx: _Context, imu: dict) -> tuple[Path, ColumnLayout, dict]:
                 (("time_unit", "s"), ("time_origin", "clock"), ("accel_unit", "m/s^2"), ("gyro_unit", "rad/s"),
                  ("axes", "FLU"))}
     settings["axes_letters"] = imu.get("axes", "FLU")
+    settings["spec"] = _get(ctx, imu, "imu", "spec", _IMU_CHECKS) or MEMS_SPEC
     settings["rate_hz"] = rate
     layout = ColumnLayout(COLUMNS, tuple(cols.get(c) for c in COLUMNS), format=fmt,
                           skip_rows=_get(ctx, imu, "imu", "skip_rows", _IMU_CHECKS, default=0) if fmt == "csv" else 0,
@@ -835,8 +844,9 @@ def _load_entry(ctx: _Context, values: dict) -> DatasetRecording:
                     split=None if labels["split"] == "none" else labels["split"])
     truth = _truth(ctx, values["truth"], rec)
     _check_labels(ctx, rec, truth, labels)
-    _check_physics(ctx, rec, labels["rest"], {"accel_unit": settings["accel_unit"],
-                                              "gyro_unit": settings["gyro_unit"], "axes": settings["axes_letters"]})
+    _check_physics(ctx, rec, labels["rest"], {"accel_unit": settings["accel_unit"], "gyro_unit": settings["gyro_unit"],
+                                              "axes": settings["axes_letters"]},
+                   settings["spec"])
     return DatasetRecording(id=rec_id, recording=rec, truth=truth, **labels)
 
 
@@ -925,40 +935,43 @@ def _check_labels(ctx: _Context, rec: Recording, truth, labels: dict) -> None:
                                   "window of several samples")
 
 
-def _check_physics(ctx: _Context, rec: Recording, rest, declared: dict) -> None:
-    """Gravity up the body z axis at about 1 g, and plausible angular rates, after conversion."""
-    t = rec.time - rec.time[0]
-    if isinstance(rest, tuple):
-        window, where = (t >= rest[0]) & (t <= rest[1]), "in the rest window"
+#: The manifest key each kind of :class:`~morpi_filters.dataset.RestProblem` names.
+_PHYSICS_KEYS = {"accel_unit": "imu.accel_unit", "axes": "imu.axes", "gyro_unit": "imu.gyro_unit",
+                 "columns": "imu.columns", "dead_channel": "imu.file"}
+
+
+def _check_physics(ctx: _Context, rec: Recording, rest, declared: dict, spec: SensorSpec) -> None:
+    """The first problem of :func:`~morpi_filters.dataset.rest_problems` after conversion, naming its key."""
+    problems = rest_problems(rec, spec=spec, rest=rest)
+    if not problems:
+        return
+    p = problems[0]
+    key = _PHYSICS_KEYS[p.kind]
+    where = "in the rest window" if isinstance(rest, tuple) else "at rest" if rest == "auto" else "over the recording"
+    shown = "[" + ", ".join(f"{v:.3g}" for v in p.f_rest) + "] m/s^2"
+    if p.kind in declared:
+        check = f"check {p.kind} (declared {declared[p.kind]!r})"
     else:
-        window, where = np.ones(t.shape, dtype=bool), "over the recording"
-    f_med = np.median(rec.f[window], axis=0)
-    mag = float(np.linalg.norm(f_med))
-    shown = "[" + ", ".join(f"{v:.3g}" for v in f_med) + "] m/s^2"
-    if not GRAVITY_BAND[0] * G0 <= mag <= GRAVITY_BAND[1] * G0:
-        raise ctx.bad("imu.accel_unit", f"the median specific force {where} is {shown}, of magnitude {mag:.3g} "
-                                        f"m/s^2 after conversion, expected about {G0:g} (gravity): check accel_unit "
-                                        f"(declared {declared['accel_unit']!r})")
-    if f_med[2] < -UP_COSINE * mag:
-        raise ctx.bad("imu.axes", f"the median specific force {where} points down the body z axis ({shown} after "
-                                  f"conversion): looks like z down: check `axes` (declared {declared['axes']!r}; "
-                                  "'FRD' is x forward, y right, z down)")
-    if f_med[2] < UP_COSINE * mag:
-        raise ctx.bad("imu.axes", f"the median specific force {where} lies across the body z axis ({shown} after "
-                                  f"conversion), expected gravity up z: check `axes` (declared {declared['axes']!r})")
-    if rest != "none":
-        still = window if isinstance(rest, tuple) else t <= _AUTO_REST_S
-        level = float(np.linalg.norm(np.median(rec.omega[still], axis=0)))
-        if level > REST_RATE_LIMIT_RADPS:
-            raise ctx.bad("imu.gyro_unit", f"the median angular rate at rest is {level:.3g} rad/s after conversion "
-                                           f"({level / DEG:.3g} deg/s), beyond any MEMS gyro's bias "
-                                           f"({REST_RATE_LIMIT_RADPS:g} rad/s): check gyro_unit (declared "
-                                           f"{declared['gyro_unit']!r})")
-    p99 = float(np.percentile(np.linalg.norm(rec.omega, axis=1), 99))
-    if p99 > MOVING_RATE_LIMIT_RADPS:
-        raise ctx.bad("imu.gyro_unit", f"1 % of the angular rates exceed {p99:.3g} rad/s after conversion, beyond "
-                                       f"a ground robot's turns ({MOVING_RATE_LIMIT_RADPS:g} rad/s): check gyro_unit "
-                                       f"(declared {declared['gyro_unit']!r})")
+        check = {"columns": "check columns (the f_* and g_* names)"}.get(p.kind)
+    if p.cause in ("in_g", "no_gravity", "not_gravity"):
+        line = (f"the median specific force {where} is {shown}, of magnitude {p.value:.3g} m/s^2 after conversion, "
+                f"expected {G0:.2f} +- {p.bound:.2f} (gravity, three zero-g offsets of the IMU): {check}")
+    elif p.cause == "z_down":
+        line = (f"the median specific force {where} points down the body z axis ({shown} after conversion): looks "
+                f"like z down: check `axes` (declared {declared['axes']!r}; 'FRD' is x forward, y right, z down)")
+    elif p.cause == "across":
+        line = (f"the median specific force {where} lies across the body z axis ({shown} after conversion), expected "
+                f"gravity within 45 deg of up z: check `axes` (declared {declared['axes']!r})")
+    elif p.cause == "rest_bias":
+        line = (f"the median angular rate at rest is {p.value:.3g} rad/s on {p.column} after conversion "
+                f"({p.value / DEG:.3g} deg/s), beyond three zero-rate offsets of the IMU ({p.bound:.2g} rad/s): "
+                f"{check}")
+    elif p.cause == "percentile":
+        line = (f"1 % of the angular rates exceed {p.value:.3g} rad/s after conversion, beyond a ground robot's "
+                f"turns ({p.bound:g} rad/s): {check}")
+    else:        # the reading's own line (noise, swapped columns, a dead channel), with the file
+        line = p.message + (f": {check}" if check else "")
+    raise ctx.bad(key, line, DataError if p.kind == "dead_channel" else ParameterError)
 
 
 # --------------------------------------------------------------------------- entry points
@@ -985,7 +998,8 @@ def load_dataset(path) -> Dataset:
         (gravity not up the z axis at about 1 g, implausible rates).
     DataError
         The first file that does not load (naming the manifest, the key,
-        the file and the line), or a truth track shorter than its recording.
+        the file and the line), a dead channel (naming ``imu.file``), or a
+        truth track shorter than its recording.
 
     Examples
     --------

@@ -271,6 +271,126 @@ def test_a_gyro_in_deg_s_declared_rad_s_is_refused_while_moving(tmp_path):
     assert load_dataset(path)["a"].recording.omega[:, 2].max() < 0.35
 
 
+def _phone_then_turning(tilt_deg=3.0, seed=5, n=700):
+    """A noisy IMU built here from known truth: tilted `tilt_deg` about x and standing 3 s (gravity up z, small
+    offsets, white noise near the datasheet figures), then swinging about z at 1 Hz (0.5 rad/s)."""
+    rng = np.random.default_rng(seed)
+    t = 0.5 + 0.01 * np.arange(n)
+    tilt = math.radians(tilt_deg)
+    f = np.tile([0.05, units.G0 * math.sin(tilt), units.G0 * math.cos(tilt)], (n, 1))
+    w = np.tile([0.01, -0.02, 0.015], (n, 1))
+    moving = t > t[0] + 3.0
+    f[moving, 1] += 0.4 * np.sin(2 * np.pi * (t[moving] - t[0]))
+    w[moving, 2] += 0.5 * np.sin(2 * np.pi * (t[moving] - t[0]))
+    return t, f + 0.01 * rng.standard_normal((n, 3)), w + 0.0015 * rng.standard_normal((n, 3))
+
+
+def _same_arrays_case(kind):
+    t, f, w = _phone_then_turning(tilt_deg=50.0 if kind == "tilted 50 deg" else 3.0)
+    if kind == "z down":                        # turned 180 deg about x: a right-handed z-down frame
+        f[:, 1:] *= -1
+        w[:, 1:] *= -1
+    elif kind == "accelerometer in g":
+        f = f / units.G0
+    elif kind == "0.77 g":                      # 2.26 m/s^2 short of gravity: beyond 3 x 60 mg + 3 % + 0.05
+        f = 0.77 * f
+    elif kind == "gyro in deg/s":
+        w = np.degrees(w)
+    elif kind == "gyro in deg/s, offsets removed":      # only its noise tells at rest
+        w = np.degrees(w - np.median(w[:300], axis=0))
+    elif kind == "gyro offset 0.4 rad/s":       # beyond 3 x 6 deg/s on g_z
+        w[:, 2] += 0.4
+    elif kind == "dead g_y":
+        w[:, 1] = 0.0
+    return t, f, w
+
+
+#: The manifest key each kind of finding names (docs/manifest.md, "Checks").
+_KEY_OF_KIND = {"axes": "imu.axes", "accel_unit": "imu.accel_unit", "gyro_unit": "imu.gyro_unit",
+                "dead_channel": "imu.file"}
+
+
+@pytest.mark.parametrize("kind, expect", [
+    ("plausible", None), ("z down", "axes"), ("accelerometer in g", "accel_unit"), ("gyro in deg/s", "gyro_unit"),
+    # where the two checks once differed: 0.75-1.25 g, within 60 deg of up, 0.5 rad/s at rest, no noise bound
+    ("0.77 g", "accel_unit"), ("tilted 50 deg", "axes"), ("gyro offset 0.4 rad/s", "gyro_unit"),
+    ("gyro in deg/s, offsets removed", "gyro_unit"), ("dead g_y", "dead_channel"),
+])
+def test_the_catalogue_and_a_manifest_give_one_verdict_on_the_same_file(tmp_path, monkeypatch, kind, expect):
+    """One file read by the MoRPI catalogue and by a manifest: both judge it by dataset.rest_problems (each call
+    is seen), with the same verdict, the manifest naming the key of the finding's kind."""
+    from morpi_filters import dataset, manifest
+    from morpi_filters.dataset import Recording, catalogue, write_csv
+
+    seen = []
+    shared = dataset.rest_problems
+
+    def spy(rec, **kw):
+        found = shared(rec, **kw)
+        seen.append((rec, kw, found))
+        return found
+
+    monkeypatch.setattr(dataset, "rest_problems", spy)
+    monkeypatch.setattr(manifest, "rest_problems", spy)
+    t, f, w = _same_arrays_case(kind)
+    path = tmp_path / "s8" / "line_dataset" / "1.csv"
+    path.parent.mkdir(parents=True)
+    write_csv(path, Recording(time=t, f=f, omega=w))
+    (tmp_path / "dataset.toml").write_text(f'format_version = 1\nname = "same"\n[[recording]]\nid = "a"\n'
+                                           f'imu.file = "s8/line_dataset/1.csv"\n{_ROUTE}\n')
+    if expect is None:
+        catalogue(tmp_path)[0].load()
+        load_dataset(tmp_path / "dataset.toml")
+    else:
+        with pytest.raises(DataError):
+            catalogue(tmp_path)[0].load()
+        with pytest.raises(DataError if expect == "dead_channel" else ParameterError,
+                           match=f"'a'\\): {_KEY_OF_KIND[expect]}: ") as ei:
+            load_dataset(tmp_path / "dataset.toml")
+        assert "\n" not in str(ei.value)
+    assert len(seen) == 2, "each path calls dataset.rest_problems once"
+    (rec_c, kw_c, found_c), (rec_m, kw_m, found_m) = seen
+    np.testing.assert_array_equal(rec_c.f, rec_m.f)
+    np.testing.assert_array_equal(rec_c.omega, rec_m.omega)
+    assert kw_c.get("spec", dataset.MEMS_SPEC) == kw_m.get("spec", dataset.MEMS_SPEC) == dataset.MEMS_SPEC
+    assert [p.kind for p in found_c] == [p.kind for p in found_m]
+    assert (found_c[0].kind if found_c else None) == expect
+
+
+def test_imu_spec_scales_the_bounds(tmp_path):
+    """A gyro offset of 0.4 rad/s lies beyond three offsets of the default 6 deg/s (0.31 rad/s) and within three
+    of a declared 10 deg/s (0.52 rad/s); unknown spec keys are refused naming the key."""
+    from morpi_filters.dataset import Recording, write_csv
+
+    t, f, w = _same_arrays_case("gyro offset 0.4 rad/s")
+    write_csv(tmp_path / "a.csv", Recording(time=t, f=f, omega=w))
+    body = f'[[recording]]\nid = "a"\nimu = {{ file = "a.csv"SPEC }}\n{_ROUTE}'
+    with pytest.raises(ParameterError, match=r"imu.gyro_unit: the median angular rate at rest is 0.41\d rad/s on g_z"):
+        load_dataset(_manifest(tmp_path, body.replace("SPEC", "")))
+    assert load_dataset(_manifest(tmp_path, body.replace("SPEC", ", spec = { gyro_bias_deg_s = 10 }"))).recordings
+    with pytest.raises(ParameterError, match=r"imu.spec: unknown key 'gyro_bias', the nearest known one is "
+                                             r"'gyro_bias_deg_s'"):
+        load_dataset(_manifest(tmp_path, body.replace("SPEC", ", spec = { gyro_bias = 10 }")))
+    with pytest.raises(ParameterError, match=r"imu.spec: accel_bias_mg: -1.0, expected at least 0"):
+        load_dataset(_manifest(tmp_path, body.replace("SPEC", ", spec = { accel_bias_mg = -1 }")))
+
+
+def test_without_a_rest_a_dead_channel_is_named_in_a_noisy_recording_only(tmp_path):
+    """rest = "none": a column that never moves is a dead channel when the others carry white noise; in a
+    noise-free recording (a smooth turn sampled at 100 Hz) the still columns prove nothing."""
+    from morpi_filters.dataset import Recording, write_csv
+
+    t, f, w = _same_arrays_case("dead g_y")
+    write_csv(tmp_path / "a.csv", Recording(time=t, f=f, omega=w))
+    body = f'[[recording]]\nid = "a"\nrest = "none"\nimu.file = "a.csv"\n{_ROUTE}'
+    with pytest.raises(DataError, match=r"imu.file: .*a.csv: column g_y is all zero in all 700 samples: a dead"):
+        load_dataset(_manifest(tmp_path, body))
+    smooth = np.zeros_like(w)
+    smooth[:, 2] = 0.5 * np.sin(2 * np.pi * (t - t[0]))
+    write_csv(tmp_path / "a.csv", Recording(time=t, f=np.tile([0.0, 0.0, units.G0], (t.size, 1)), omega=smooth))
+    assert load_dataset(_manifest(tmp_path, body))["a"].rest == "none"
+
+
 def test_a_z_down_file_declared_flu_is_refused_by_check_with_the_axes_hint(written, tmp_path, capsys):
     folder = tmp_path / "frd"
     shutil.copytree(written["frd"].manifest.parent, folder)
