@@ -32,6 +32,20 @@ UG_SQRT_HZ = UG
 DEG_S_SQRT_HZ = DEG
 
 
+def _check_figures(owner: str, figures: dict) -> None:
+    """Refuse an error figure that is negative or not finite, or a ``rate_hz`` that is not positive, naming it."""
+    from .errors import ParameterError
+
+    for key, v in figures.items():
+        try:
+            ok = math.isfinite(float(v)) and float(v) >= 0 and (key != "rate_hz" or float(v) > 0)
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            what = "a positive rate [Hz]" if key == "rate_hz" else "a finite value >= 0"
+            raise ParameterError(f"{owner}: {key}={v!r}, expected {what}")
+
+
 @dataclass(frozen=True)
 class SensorSpec:
     """Error figures of one IMU, in SI.
@@ -68,17 +82,8 @@ class SensorSpec:
     rate_hz: float = 100.0
 
     def __post_init__(self):
-        from .errors import ParameterError
-
-        for key in ("gyro_bias", "gyro_noise", "accel_bias", "accel_noise", "rate_hz"):
-            v = getattr(self, key)
-            try:
-                ok = math.isfinite(float(v)) and float(v) >= 0 and (key != "rate_hz" or float(v) > 0)
-            except (TypeError, ValueError):
-                ok = False
-            if not ok:
-                what = "a positive rate [Hz]" if key == "rate_hz" else "a finite value >= 0 (SI)"
-                raise ParameterError(f"SensorSpec {self.name!r}: {key}={v!r}, expected {what}")
+        _check_figures(f"SensorSpec {self.name!r}", {k: getattr(self, k) for k in (
+            "gyro_bias", "gyro_noise", "accel_bias", "accel_noise", "rate_hz")})
 
     @classmethod
     def from_datasheet(cls, name: str, *, gyro_bias_deg_s: float, accel_bias_mg: float,
@@ -141,14 +146,7 @@ class SensorSpec:
         given = {"gyro_bias_deg_s": gyro_bias_deg_s, "gyro_noise_deg_s_sqrt_hz": gyro_noise_deg_s_sqrt_hz,
                  "accel_bias_mg": accel_bias_mg, "accel_noise_ug_sqrt_hz": accel_noise_ug_sqrt_hz,
                  "rate_hz": rate_hz}
-        for key, v in given.items():
-            try:
-                ok = math.isfinite(float(v)) and float(v) >= 0 and (key != "rate_hz" or float(v) > 0)
-            except (TypeError, ValueError):
-                ok = False
-            if not ok:
-                what = "a positive rate" if key == "rate_hz" else "a finite value >= 0"
-                raise ParameterError(f"SensorSpec.from_datasheet: {key}={v!r}, expected {what}")
+        _check_figures("SensorSpec.from_datasheet", given)
         return cls(name=str(name), phone="" if phone is None else str(phone),
                    gyro_bias=float(gyro_bias_deg_s) * DEG_S, gyro_noise=float(gyro_noise_deg_s_sqrt_hz) * DEG_S_SQRT_HZ,
                    accel_bias=float(accel_bias_mg) * MG, accel_noise=float(accel_noise_ug_sqrt_hz) * UG_SQRT_HZ,
