@@ -596,9 +596,9 @@ def check_recordings(root) -> tuple[list[str], int]:
     >>> ds.write_csv(root / "s8/line_dataset/2.csv", ds.Recording(time=t, f=f, omega=w))
     >>> problems, n_ok = check_recordings(root)
     >>> n_ok, [p.replace(str(root), "ROOT") for p in problems]    # doctest: +NORMALIZE_WHITESPACE
-    (1, ['ROOT/s8/line_dataset/2.csv: 400 samples (3.99 s) is too short: it ends 1.09 s into a movement that
-    starts at 2.90 s, which is told from a disturbance only once it lasts sustain_s=1.5 s: at least 4.40 s
-    (about 441 samples) needed'])
+    (1, ['ROOT/s8/line_dataset/2.csv: 400 samples (3.99 s) is too short: it ends 1.10 s into a movement that
+    starts at 2.89 s, which is told from a disturbance only once it lasts sustain_s=1.5 s: at least 4.39 s
+    (about 440 samples) needed'])
     """
     data = FieldData(root)
     return ds.check_tree(root, usable=data.problem)
