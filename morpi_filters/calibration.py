@@ -342,7 +342,9 @@ class NoRestError(DataError):
     """A recording without an initial rest: it moves from its first samples (exit status 1, as a DataError).
 
     Raised by :func:`detect_rest` (and by :func:`calibrate` for GC and GAC,
-    which need a rest window). Raw data (RD) needs no rest.
+    which need a rest window). Raw data (RD) needs no rest:
+    :class:`morpi_filters.field.FieldData` evaluates such a recording under RD
+    only and names it.
     """
 
 

@@ -908,6 +908,11 @@ class AidedStudy:
         Measurement name -> (mean NIS per update, dof) over all test runs.
     note : str
         Why the study is empty, when it is.
+    no_rest : tuple of str
+        One line per recording without an initial rest
+        (:meth:`~morpi_filters.field.FieldData.no_rest`): the filter starts
+        at the rest window and takes its noise there, so it does not run on
+        them (each cell names them among its failed runs).
     """
 
     cells: tuple
@@ -915,6 +920,7 @@ class AidedStudy:
     coverage_95: float
     nis: dict
     note: str = ""
+    no_rest: tuple = ()
 
 
 def _innovation_summary(parts) -> dict:
@@ -1007,8 +1013,10 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
                    if not any(rel in m for m in failed)]
         if runs:
             todo.append((cell, g, score, info, noise, runs, by_file, choice, tuple(failed)))
+    no_rest = tuple(data.no_rest_lines())
     if not todo:
-        return AidedStudy((), (), float("nan"), {}, note="No MoRPI table cell could be evaluated on these recordings.")
+        return AidedStudy((), (), float("nan"), {}, note="No MoRPI table cell could be evaluated on these recordings.",
+                          no_rest=no_rest)
     # one pass per route: every cell's test runs (smoothed) and, for the GC cells, each aid removed in turn
     results, abl_res = {}, {}
     for route in sorted({c.spec.route for c, *_ in todo}):
@@ -1095,4 +1103,5 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
                     val = float(np.mean(e) / d)
                 abl.append({"cell": sp.label, "removed": name, "smoothed_percent": val})
     return AidedStudy(cells=tuple(cells), ablation=tuple(abl), coverage_95=inside / total if total else float("nan"),
-                      nis={k: (v[0] / max(v[1], 1), v[2]) for k, v in nis_all.items()})
+                      nis={k: (v[0] / max(v[1], 1), v[2]) for k, v in nis_all.items()},
+                      no_rest=no_rest)

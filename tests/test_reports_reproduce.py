@@ -29,7 +29,7 @@ REL, ABS = 1e-9, 1e-12
 #: Keys that legitimately differ between machines: the dataset location.
 MACHINE_KEYS = {"data_root"}
 #: Keys a newer HEAD writes that an older committed report may not have yet.
-NEWER_KEYS = {"partial", "left_out"}
+NEWER_KEYS = {"partial", "left_out", "no_rest"}
 
 
 def _diff(a, b, where="$", out=None):

@@ -46,15 +46,16 @@ def study_json(study) -> dict:
         ``train_morpi_percent``, ``nis``, ``step_innovation``, ``smoothed_vs_morpi`` (the smoothed
         filter minus MoRPI alone, paired over the runs: ``mean_pp``, ``se_pp``, ``runs``, ``p_value``,
         ``alpha``, ``verdict``), ``runs``, ``failed``), ``ablation``,
-        ``coverage_95``, ``nis`` (measurement -> ``{mean, dof}``), ``note`` and
-        ``tunables`` (``grid``, ``fixed``, ``chosen``).
+        ``coverage_95``, ``nis`` (measurement -> ``{mean, dof}``), ``note``,
+        ``no_rest`` (one line per recording without an initial rest, on which
+        the filter does not run) and ``tunables`` (``grid``, ``fixed``, ``chosen``).
 
     Examples
     --------
     >>> from morpi_filters.field_aided import GRID, AidedStudy
     >>> js = study_json(AidedStudy(cells=(), ablation=(), coverage_95=float("nan"), nis={}, note="no cell"))
     >>> sorted(js), js["tunables"]["grid"] == {k: list(v) for k, v in GRID.items()}
-    (['ablation', 'cells', 'coverage_95', 'nis', 'note', 'tunables'], True)
+    (['ablation', 'cells', 'coverage_95', 'nis', 'no_rest', 'note', 'tunables'], True)
     """
     from .. import aided, field_aided
 
@@ -72,7 +73,7 @@ def study_json(study) -> dict:
                       "smoothed_vs_morpi": _paired(c.paired),
                       "runs": list(c.runs), "failed": list(c.failed)})
     return {"cells": cells, "ablation": list(study.ablation), "coverage_95": study.coverage_95,
-            "nis": _nis(study.nis), "note": study.note,
+            "nis": _nis(study.nis), "note": study.note, "no_rest": list(study.no_rest),
             "tunables": {"grid": {k: list(v) for k, v in field_aided.GRID.items()},
                          "fixed": {"accel_walk": field_aided.ACCEL_WALK, "nhc_sigma": field_aided.NHC_SIGMA,
                                    "turn_sigma": field_aided.TURN_SIGMA,
@@ -186,6 +187,11 @@ def _page(study, source, figures) -> str:
             + " ".join(f"{what} {text}" for text, what in groups if text)
             + "\n\n" + md_table(["cell", "updates", "along mean [m]", "along RMS [m]", "cross mean [m]",
                                   "cross RMS [m]", "expected sigma along [m]"], innov_rows))
+    no_rest = ""
+    if study.no_rest:
+        no_rest = ("**Recordings without an initial rest** (they move from their first samples): the filter starts "
+                   "at the rest window and takes its noise there, so it does not run on them (each cell names them "
+                   "among its failed runs):\n\n" + "".join(f"- {x}\n" for x in study.no_rest) + "\n")
     return (
         f"{banner(source)}# The MoRPI-aided inertial filter on the field recordings\n\n"
         "One closed-loop error-state Kalman filter pass per recording (`morpi_filters.aided`): the 3D strapdown "
@@ -237,7 +243,8 @@ def _page(study, source, figures) -> str:
         f"{verdicts['tie']} the difference lies within the spread of the cell's test runs"
         + (f"; within that spread the filter's mean is behind MoRPI alone's in {'; '.join(lost)}" if lost else "")
         + ". The ablation below shows what each aid contributes.\n\n"
-        "## Cells (test runs, mean end-point error in % of the route's distance)\n\n"
+        + no_rest
+        + "## Cells (test runs, mean end-point error in % of the route's distance)\n\n"
         + "`train` is the filter's mean end-point error on the training set's train runs with the chosen "
         "tunables, `train LOO` the same with the tunables chosen without the run scored (nested "
         "leave-one-out), `train MoRPI` MoRPI alone on those runs. `smoothed - MoRPI` is the mean of the "
