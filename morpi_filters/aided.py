@@ -673,6 +673,41 @@ class AidedInput:
                        step_length=np.asarray(self.step_length)[keep],
                        step_vector=None if self.step_vector is None else np.asarray(self.step_vector)[keep])
 
+    def since(self, t: float) -> "AidedInput":
+        """The recording from the last sample at or before `t` on, the filter started there.
+
+        The steps that start before that sample are dropped, the rest and
+        standing stretches are cut to start there (those that end before are
+        dropped); the initial attitude :attr:`C0` and the epoch grid's
+        sample interval are kept. The filter started on it knows nothing of
+        what came before.
+
+        Examples
+        --------
+        >>> t = np.arange(11) * 0.1
+        >>> inp = AidedInput(time=t, f=np.zeros((11, 3)), omega=np.zeros((11, 3)), C0=np.eye(3), g=9.8,
+        ...                  step_start=np.array([0.2, 0.5]), step_end=np.array([0.5, 0.9]),
+        ...                  step_length=np.array([1.0, 1.0]), rest=((0.0, 0.3), (0.9, 1.0)), standing=((0.3, 0.5),))
+        >>> late = inp.since(0.48)
+        >>> float(late.time[0].round(12)), late.step_start.tolist(), late.rest, late.standing
+        (0.4, [0.5], ((0.9, 1.0),), ((0.4, 0.5),))
+        """
+        from dataclasses import replace
+
+        time = np.asarray(self.time, float)
+        first = int(np.clip(np.searchsorted(time, t, side="right") - 1, 0, time.size - 2))
+        t0 = float(time[first])
+        keep = np.asarray(self.step_start, float) >= t0
+
+        def cut(spans):
+            return tuple((max(float(a), t0), float(b)) for a, b in spans if b >= t0)
+
+        return replace(self, sample_dt=self.nominal_dt, time=time[first:], f=np.asarray(self.f)[first:],
+                       omega=np.asarray(self.omega)[first:], step_start=np.asarray(self.step_start)[keep],
+                       step_end=np.asarray(self.step_end)[keep], step_length=np.asarray(self.step_length)[keep],
+                       step_vector=None if self.step_vector is None else np.asarray(self.step_vector)[keep],
+                       rest=cut(self.rest), standing=cut(self.standing))
+
 
 @dataclass(frozen=True)
 class Innovations:
@@ -799,6 +834,51 @@ class AidedResult:
 
 # --------------------------------------------------------------------------- the pass over many members
 
+def _step_samples(inp: AidedInput):
+    """The steps the filter updates with, in the order it runs them (by end sample, then by step), and the
+    samples nearest to every step's start and end (the earlier one on a tie)."""
+    t = np.asarray(inp.time, float)
+    n = t.size
+    k = np.shape(inp.step_length)[0]
+    x = np.concatenate([np.asarray(inp.step_start, float), np.asarray(inp.step_end, float)])
+    j = np.searchsorted(t, x)
+    np.clip(j, 1, n - 1, out=j)
+    near = j - (np.abs(t[j - 1] - x) <= np.abs(t[j] - x))
+    a, b = near[:k], near[k:]
+    end_j = np.flatnonzero((b > a) & np.isfinite(inp.step_length))
+    return end_j[np.argsort(b[end_j], kind="stable")], a, b
+
+
+def applied_steps(inp: AidedInput) -> np.ndarray:
+    """Indices of the steps the filter updates with, in the order it runs them.
+
+    A step whose start and end fall on the same sample, or whose length is
+    not finite, gives no update.
+
+    Parameters
+    ----------
+    inp : AidedInput
+        The recording and its steps.
+
+    Returns
+    -------
+    ndarray of int, shape (u,)
+        Step indices, by end sample (then by index).
+
+    Examples
+    --------
+    >>> t = np.arange(11) * 0.1
+    >>> inp = AidedInput(time=t, f=np.zeros((11, 3)), omega=np.zeros((11, 3)), C0=np.eye(3), g=9.8,
+    ...                  step_start=np.array([0.0, 0.5, 0.51, 0.6]), step_end=np.array([0.5, 0.9, 0.52, 0.8]),
+    ...                  step_length=np.array([1.0, 1.0, 0.1, np.nan]))
+    >>> applied_steps(inp).tolist()          # the third starts and ends on one sample, the fourth has no length
+    [0, 1]
+    """
+    if not np.shape(inp.step_length)[0]:
+        return np.zeros(0, np.int64)
+    return _step_samples(inp)[0].astype(np.int64)
+
+
 def _epochs(inp: AidedInput, tun: AidTuning, epoch_s: float):
     """A member's epoch samples, its step events and rest flags.
 
@@ -821,15 +901,7 @@ def _epochs(inp: AidedInput, tun: AidTuning, epoch_s: float):
     none = np.zeros(0, np.int64)
     end_k, end_a, end_j, starts = none, none, none, none
     if tun.steps and inp.step_length.size:
-        k = inp.step_length.size
-        # the sample nearest to each step boundary (the earlier one on a tie): starts, then ends
-        x = np.concatenate([np.asarray(inp.step_start, float), np.asarray(inp.step_end, float)])
-        j = np.searchsorted(t, x)
-        np.clip(j, 1, n - 1, out=j)
-        near = j - (np.abs(t[j - 1] - x) <= np.abs(t[j] - x))
-        a, b = near[:k], near[k:]
-        end_j = np.flatnonzero((b > a) & np.isfinite(inp.step_length))
-        end_j = end_j[np.argsort(b[end_j], kind="stable")]
+        end_j, a, b = _step_samples(inp)
         end_k, end_a = b[end_j].astype(np.int64), a[end_j].astype(np.int64)
         on[end_a] = True
         on[end_k] = True

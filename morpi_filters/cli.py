@@ -15,6 +15,8 @@ unless ``--partial``.
 from __future__ import annotations
 
 import argparse
+import math
+import re
 import signal
 import sys
 import threading
@@ -27,64 +29,115 @@ __all__ = ["main", "build_parser"]
 REPORT_SECTIONS = ("tables", "aided", "assessment", "curves", "montecarlo", "drift")
 
 
-def _int_at_least(name, lowest):
-    def parse(text):
-        try:
-            v = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name}: {text!r} is not a whole number") from None
-        if v < lowest:
-            raise argparse.ArgumentTypeError(f"{name}: {v} must be at least {lowest}")
-        return v
-    return parse
+class _Number:
+    """The type of a numeric option: a whole number or a finite real within ``[lo, hi]``.
+
+    Refuses, with one line that states the accepted range, whatever is not a
+    number of that kind, NaN, an infinity and a value outside the range (an
+    integer of any length is refused from its text, not converted). `above`,
+    when given, words the refusal of a value above `hi`, up to 1000 times `hi`
+    (an estimate of its cost); the range is stated after it.
+    """
+
+    def __init__(self, whole: bool, lo, hi, unit: str = "", above=None):
+        self.whole, self.lo, self.hi, self.unit, self.above = whole, lo, hi, unit, above
+
+    @property
+    def accepted(self) -> str:
+        """The accepted values, as the refusals state them."""
+        unit = f" {self.unit}" if self.unit else ""
+        if self.whole:
+            return f"a whole number, at least {self.lo:d} and at most {self.hi:d}{unit}"
+        return f"a number, at least {self.lo:g} and at most {self.hi:g}{unit}"
+
+    def __call__(self, text: str):
+        shown = _shown(text)
+        value = _whole(text) if self.whole else _real(text)
+        if value is None:
+            raise argparse.ArgumentTypeError(f"{shown} is not {'a whole number' if self.whole else 'a number'}; "
+                                             f"expected {self.accepted}")
+        if self.lo <= value <= self.hi:
+            return value
+        if self.above is not None and self.hi < value <= 1000 * self.hi:
+            raise argparse.ArgumentTypeError(f"{self.above(value, shown)}; expected {self.accepted}")
+        raise argparse.ArgumentTypeError(f"{shown} is outside the accepted range; expected {self.accepted}")
 
 
-def _positive_int(name):
-    return _int_at_least(name, 1)
+def _shown(text: str) -> str:
+    """An argument as a refusal quotes it: in full up to 24 characters, else its start and its length."""
+    text = " ".join(str(text).split())
+    return repr(text) if len(text) <= 24 else f"{text[:12]!r}... ({len(text)} characters)"
 
 
-def _nonneg_int(name):
-    return _int_at_least(name, 0)
+def _whole(text: str):
+    """The whole number `text` writes in decimal digits (an optional sign), else None.
+
+    A number of more than 30 digits is returned as an infinity of its sign: it is
+    beyond every bound here, and Python refuses to convert more than 4300 digits.
+    """
+    t = str(text).strip()
+    if not re.fullmatch(r"[+-]?[0-9]+", t):
+        return None
+    if len(t.lstrip("+-").lstrip("0")) > 30:
+        return -math.inf if t.startswith("-") else math.inf
+    return int(t)
 
 
-#: Largest ``--runs`` of a Monte Carlo page. Measured cost of one run of every
-#: study of ``morpi montecarlo`` (one pass over the draws, ``montecarlo.run_studies``;
-#: 1,000,000 runs on a 2-core machine shared with other work): 0.36 ms and 0.63 kB of
-#: peak memory (6.0 min and 0.83 GB for the million, a 0.19 GB base included).
+def _real(text: str):
+    """The number `text` writes (an infinity beyond the float range, NaN as NaN), else None."""
+    try:
+        return float(text)
+    except (ValueError, OverflowError):
+        return None
+
+
+#: Largest ``--runs`` of a Monte Carlo page: its per-run results take memory
+#: (``montecarlo.RUN_BYTES``, 0.63 kB a run: 0.63 GB for the million).
 MAX_RUNS = 1_000_000
-RUN_SECONDS, RUN_BYTES = 0.36e-3, 0.63e3
 
 #: Largest ``curves --times`` [s]. Measured cost of the curves section
 #: per second of the last evaluation time (T = 100 s and 400 s on a 2-core
 #: machine): 17 ms and 1.4 MB of peak memory over a 0.22 GB base; 1000 s need
-#: about 20 s and 1.6 GB. ``assess`` evaluates closed forms only and has no bound.
+#: about 20 s and 1.6 GB.
 MAX_CURVE_TIME = 1000.0
 CURVE_SECONDS, CURVE_BYTES, CURVE_BASE_BYTES = 17e-3, 1.4e6, 0.22e9
 
+#: Largest ``assess --times`` [s]. The closed forms cost nothing to evaluate, but they are
+#: small-angle expansions of the INS error, meaningful for seconds to minutes (the paper's
+#: figure shows 15 s); an hour is far beyond that and keeps every value finite and plottable.
+MAX_ASSESS_TIME = 3600.0
 
-#: Longest ``montecarlo --duration`` [s]: the cost of a run grows with its samples, and the
-#: ``--runs`` bound above is measured on the default 15 s.
+#: Longest ``montecarlo`` run [s] (``--duration``, or the time ``--speed`` alone gives the
+#: 6.3 m path): the memory of the study grows with the samples of a run.
 MAX_MC_SECONDS = 600.0
 
+#: Time budget of ``morpi montecarlo`` [s]: a longer estimate is refused unless ``--allow-long``;
+#: an estimate of more than :data:`MC_ANNOUNCE_SECONDS` is printed when the command starts.
+MC_BUDGET_SECONDS = 2 * 3600.0
+MC_ANNOUNCE_SECONDS = 60.0
+#: Memory bound of ``morpi montecarlo`` [bytes], not lifted by ``--allow-long``: twice the most its
+#: options take with the default chunk (1,000,000 runs of 600 s at 10 m/s, about 2 GB); only a large
+#: ``--chunk`` goes beyond it.
+MC_MEMORY_BYTES = 4e9
 
-def _bounded_float(name, lo, hi):
-    def parse(text):
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name}: {text!r} is not a number") from None
-        if not (lo <= v <= hi):
-            raise argparse.ArgumentTypeError(f"{name}: {text} is outside [{lo:g}, {hi:g}]")
-        return v
-    return parse
+#: Largest seed (``--seed``): the seeds of numpy's generators drawn from a Generator are below 2^63.
+MAX_SEED = 2**63 - 1
+
+#: Largest ``simulate --runs-per-folder``: four times the field dataset's largest folder (24 runs);
+#: 1100 recordings, about 2 min and 0.4 GB of CSV on a 2-core machine (110 took 13 s and 37 MB).
+MAX_RUNS_PER_FOLDER = 100
+
+#: Slowest ``montecarlo --speed`` and fastest [m/s]: the paper's robot cruises at about 0.45 m/s.
+MC_SPEED_RANGE = (0.01, 10.0)
+
+#: Shortest ``montecarlo --duration`` [s]: the path's two 1 s speed ramps.
+MIN_MC_SECONDS = 2.0
 
 
 def _duration(seconds):
-    if seconds < 120:
-        return f"{seconds:.0f} s"
-    if seconds < 7200:
-        return f"{seconds / 60:.0f} min"
-    return f"{seconds / 3600:.0f} h"
+    from .parallel import format_duration
+
+    return format_duration(seconds)
 
 
 #: Most threads a command takes (``--workers``): far above the cores of a workstation, and a bound on
@@ -92,49 +145,32 @@ def _duration(seconds):
 MAX_WORKERS = 256
 
 
-def _workers(text):
-    v = _int_at_least("--workers", 1)(text)
-    if v > MAX_WORKERS:
-        raise argparse.ArgumentTypeError(f"--workers: {v} threads; at most {MAX_WORKERS}")
-    return v
-
-
 def _workers_arg(sp):
-    sp.add_argument("--workers", metavar="N", type=_workers, default=None,
+    sp.add_argument("--workers", metavar="N", type=_Number(True, 1, MAX_WORKERS, "threads"), default=None,
                     help="threads that run the aided filter (default: the cores this process may use; "
                          "the results do not depend on it)")
 
 
-def _runs(name):
-    at_least_one = _int_at_least(name, 1)
+def _runs_estimate(v, shown):
+    from .montecarlo import page_cost
 
-    def parse(text):
-        v = at_least_one(text)
-        if v > MAX_RUNS:
-            raise argparse.ArgumentTypeError(
-                f"{name}: {v} runs would take about {_duration(v * RUN_SECONDS)} and {v * RUN_BYTES / 1e9:.1f} GB "
-                f"of memory ({RUN_SECONDS * 1e3:g} ms and {RUN_BYTES / 1e3:g} kB per run); at most {MAX_RUNS}")
-        return v
-    return parse
+    cost = page_cost(int(min(v, 2**62)))
+    return (f"{shown} runs would take about {_duration(cost.seconds)} and {cost.bytes / 1e9:.1f} GB of memory "
+            f"(the default 15 s path)")
 
 
-def _time(text, limit=None):
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--times: {text!r} is not a number of seconds") from None
-    if not (v >= 0 and v < float("inf")):
-        raise argparse.ArgumentTypeError(f"--times: {text} must be a finite time >= 0 s")
-    if limit is not None and v > limit:
-        gb = (CURVE_BASE_BYTES + v * CURVE_BYTES) / 1e9
-        raise argparse.ArgumentTypeError(
-            f"--times: {text} s would take about {_duration(v * CURVE_SECONDS)} and {gb:.3g} GB of memory "
-            f"({CURVE_BYTES / 1e6:g} MB per second of the last time); at most {limit:g} s")
-    return v
+def _runs():
+    return _Number(True, 1, MAX_RUNS, "runs", above=_runs_estimate)
 
 
-def _curve_time(text):
-    return _time(text, MAX_CURVE_TIME)
+def _curve_estimate(v, shown):
+    gb = (CURVE_BASE_BYTES + v * CURVE_BYTES) / 1e9
+    return (f"{shown} s would take about {_duration(v * CURVE_SECONDS)} and {gb:.3g} GB of memory "
+            f"({CURVE_BYTES / 1e6:g} MB per second of the last time)")
+
+
+def _seed():
+    return _Number(True, 0, MAX_SEED)
 
 
 def _path(option):
@@ -143,6 +179,23 @@ def _path(option):
             raise argparse.ArgumentTypeError(f"{option}: empty path")
         return Path(text)
     return parse
+
+
+class _Parser(argparse.ArgumentParser):
+    """``morpi``'s parsers: an error is one line, and ``-1e308``, ``-inf`` or ``-nan`` is a value.
+
+    argparse takes an argument that starts with ``-`` for an option unless it
+    reads as a plain negative number (``-1``, ``-.5``), so a negative value in
+    exponent notation, or a negative infinity, would not reach the option's
+    check; here it does, and is refused there with the option's range.
+    """
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = re.compile(r"^-(\d|\.\d|inf|nan)", re.IGNORECASE)
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {' '.join(message.split())} (see {self.prog} --help)\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -164,7 +217,7 @@ def build_parser() -> argparse.ArgumentParser:
     >>> args.command, args.runs, args.seed, args.speed, args.duration, args.out.as_posix()
     ('montecarlo', 100, 0, 0.5, None, 'reports/montecarlo')
     """
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="morpi",
         description="MoRPI error models side by side: symbolic closed form, error-state filter, "
                     "Monte Carlo simulation and the field recordings.")
@@ -188,8 +241,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help="also write the JSON result here (an existing file only if morpi wrote it)")
         sp.add_argument("--force", action="store_true", help="let --json overwrite a file morpi did not write")
 
-    s = sub.add_parser("check", help="validate every recording under a dataset folder")
+    s = sub.add_parser("check", help="validate every recording under a dataset folder, or of a dataset manifest")
     data_arg(s)
+    s.add_argument("--dataset", metavar="FILE", type=_path("--dataset"),
+                   help="a dataset manifest (TOML, docs/manifest.md): load and check every recording it describes")
 
     s = sub.add_parser("tables", help="every table of the paper on the recordings, ours beside the paper's")
     data_arg(s)
@@ -205,12 +260,14 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("assess", help="analytical assessment: closed-form 3D/2D INS vs MoRPI-A error")
     s.add_argument("--params", metavar="FILE", type=Path,
                    help="parameter file (JSON); default: data/assessment_params.json")
-    s.add_argument("--times", metavar="T", type=_time, nargs="+", help="evaluation times [s]")
+    s.add_argument("--times", metavar="T", type=_Number(False, 0.0, MAX_ASSESS_TIME, "s"), nargs="+",
+                   help=f"evaluation times [s], at most {MAX_ASSESS_TIME:g}")
     out_args(s, "assessment")
 
     s = sub.add_parser("curves", help="closed form, filter sigma, Monte Carlo and field errors on one axis")
     s.add_argument("--params", metavar="FILE", type=Path, help="parameter file (JSON, values read as 1 sigma)")
-    s.add_argument("--times", metavar="T", type=_curve_time, nargs="+",
+    s.add_argument("--times", metavar="T", type=_Number(False, 0.0, MAX_CURVE_TIME, "s", above=_curve_estimate),
+                   nargs="+",
                    help=f"evaluation times [s], at most {MAX_CURVE_TIME:g}")
     data_arg(s)
     partial_arg(s)
@@ -219,22 +276,30 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("simulate", help="write a synthetic dataset in the field dataset's layout and format")
     s.add_argument("--out", metavar="DIR", type=_path("--out"), required=True,
                    help="destination folder (new, empty, or an earlier synthetic dataset)")
-    s.add_argument("--seed", type=_nonneg_int("--seed"), default=0, help="random seed (default 0)")
-    s.add_argument("--runs-per-folder", metavar="N", type=_positive_int("--runs-per-folder"),
-                   help="runs in every folder (default: as many as the field dataset)")
+    s.add_argument("--seed", type=_seed(), default=0, help="random seed (default 0)")
+    s.add_argument("--runs-per-folder", metavar="N", type=_Number(True, 1, MAX_RUNS_PER_FOLDER, "runs"),
+                   help=f"runs in every folder (default: as many as the field dataset; at most "
+                        f"{MAX_RUNS_PER_FOLDER})")
+    s.add_argument("--layout", metavar="NAME",
+                   help="write instead a small simulated dataset in another robot's layout, with its manifest "
+                        "(dataset.toml): a name of morpi_filters.foreign.LAYOUTS, such as robot (npy at 120 Hz, "
+                        "FRD axes, g and deg/s, a NED truth track)")
 
     s = sub.add_parser("montecarlo", help="Monte Carlo gain-error study")
-    s.add_argument("--runs", metavar="N", type=_runs("--runs"), default=2000,
+    s.add_argument("--runs", metavar="N", type=_runs(), default=2000,
                    help=f"Monte Carlo runs (default 2000, at most {MAX_RUNS})")
-    s.add_argument("--seed", type=_nonneg_int("--seed"), default=0)
-    s.add_argument("--chunk", metavar="K", type=_positive_int("--chunk"), default=None,
+    s.add_argument("--seed", type=_seed(), default=0)
+    s.add_argument("--chunk", metavar="K", type=_Number(True, 1, MAX_RUNS, "runs"), default=None,
                    help="runs per batch (results do not depend on it)")
     s.add_argument("--scheduler", metavar="ADDRESS", help="run on a Dask cluster at this address")
-    s.add_argument("--duration", metavar="S", type=_bounded_float("--duration", 2.0, MAX_MC_SECONDS), default=None,
+    s.add_argument("--duration", metavar="S", type=_Number(False, MIN_MC_SECONDS, MAX_MC_SECONDS, "s"), default=None,
                    help=f"time of the sine path from start to stop [s] (default 15 s for 6.3 m; at most "
                         f"{MAX_MC_SECONDS:g} s)")
-    s.add_argument("--speed", metavar="V", type=_bounded_float("--speed", 0.01, 10.0), default=None,
+    s.add_argument("--speed", metavar="V", type=_Number(False, *MC_SPEED_RANGE, "m/s"), default=None,
                    help="cruise speed [m/s] (default the paper's for 1 m periods)")
+    s.add_argument("--allow-long", action="store_true",
+                   help=f"run even when the estimated time is over {_duration(MC_BUDGET_SECONDS)} (the estimate "
+                        f"is printed when it is over {_duration(MC_ANNOUNCE_SECONDS)})")
     data_arg(s)
     partial_arg(s)
     out_args(s, "montecarlo")
@@ -257,8 +322,8 @@ def build_parser() -> argparse.ArgumentParser:
     partial_arg(s)
     s.add_argument("--out", metavar="DIR", type=_path("--out"), default=None,
                    help="report folder (default: reports/ with field data, reports/synthetic/ without)")
-    s.add_argument("--seed", type=_nonneg_int("--seed"), default=0, help="seed of the synthetic dataset and studies")
-    s.add_argument("--runs", metavar="N", type=_runs("--runs"), default=2000,
+    s.add_argument("--seed", type=_seed(), default=0, help="seed of the synthetic dataset and studies")
+    s.add_argument("--runs", metavar="N", type=_runs(), default=2000,
                    help=f"Monte Carlo runs (default 2000, at most {MAX_RUNS})")
     _workers_arg(s)
     return p
@@ -402,10 +467,45 @@ def _run_section(name, args, source_of=None):
     return 0
 
 
+def _montecarlo_cost(args):
+    """Refuse (ParameterError) a Monte Carlo page estimated beyond the budget, unless --allow-long.
+
+    Checked before anything is computed; an estimate over a minute is printed when the command starts.
+    """
+    import os
+
+    from .errors import ParameterError
+    from .montecarlo import page_cost
+
+    try:
+        cost = page_cost(args.runs, duration=args.duration, speed_mps=args.speed, chunk=args.chunk,
+                         field=bool(args.data or os.environ.get("MORPI_DATA")))
+    except MorpiError as exc:           # a path the options cannot shape: name them
+        given = ", ".join(f"--{k} {v:g}" for k, v in (("duration", args.duration), ("speed", args.speed))
+                          if v is not None)
+        raise ParameterError(f"{given or 'the default path'}: {exc}") from None
+    if args.duration is None and cost.duration > MAX_MC_SECONDS:
+        raise ParameterError(f"--speed: {args.speed:g} m/s makes the 6.3 m path last {cost.duration:.0f} s; "
+                             f"at most {MAX_MC_SECONDS:g} s (give a --duration too, or a higher --speed)")
+    gb = cost.bytes / 1e9
+    what = (f"{cost.runs} runs of {cost.duration:g} s, estimated at about {_duration(cost.seconds)} and "
+            f"{gb:.3g} GB of memory (as measured on one core of a 2-core machine: montecarlo.page_cost)")
+    if cost.bytes > MC_MEMORY_BYTES:
+        raise ParameterError(f"montecarlo: {what}; at most {MC_MEMORY_BYTES / 1e9:g} GB: a smaller --chunk or "
+                             "fewer --runs")
+    if cost.seconds > MC_BUDGET_SECONDS and not args.allow_long:
+        raise ParameterError(f"montecarlo: {what}; over the budget of {_duration(MC_BUDGET_SECONDS)}: pass "
+                             "--allow-long to run it anyway, or ask for fewer --runs or a shorter --duration")
+    if cost.seconds > MC_ANNOUNCE_SECONDS:
+        print(f"morpi montecarlo: {what}", flush=True)
+
+
 def _cmd_check(args):
     from .dataset import resolve_data_root
     from .field import check_recordings
 
+    if args.dataset is not None:
+        return _check_manifest(args)
     root = resolve_data_root(args.data)
     problems, n_ok, no_rest = check_recordings(root)
     for line in problems:
@@ -417,9 +517,36 @@ def _cmd_check(args):
     return 1 if problems else 0
 
 
+def _check_manifest(args):
+    """``morpi check --dataset FILE``: one line per problem; exit 2 for a manifest problem, 1 for bad data."""
+    from .errors import ParameterError
+    from .manifest import check_dataset
+
+    if args.data is not None:
+        raise ParameterError("--data and --dataset: give one (a dataset folder in the MoRPI layout, or a manifest)")
+    problems, n_ok = check_dataset(args.dataset)
+    for exc in problems:
+        print(exc)
+    print(f"{n_ok} recording(s) OK, {len(problems)} problem(s) in {args.dataset}")
+    return max((exc.exit_code for exc in problems), default=0)
+
+
 def _cmd_simulate(args):
     from .synthetic import write_dataset
 
+    if args.layout is not None:
+        from .errors import ParameterError
+        from .foreign import LAYOUTS, write_foreign_dataset
+
+        if args.layout not in LAYOUTS:
+            raise ParameterError(f"--layout: {args.layout!r} is not a layout, expected one of "
+                                 f"{', '.join(sorted(LAYOUTS))}")
+        if args.runs_per_folder is not None:
+            raise ParameterError("--runs-per-folder: not used with --layout (its runs are fixed by the layout)")
+        _clean_stale(args.out.parent)
+        written = write_foreign_dataset(args.out, LAYOUTS[args.layout], seed=args.seed)
+        print(f"simulated dataset ({args.layout}): {written.manifest}")
+        return 0
     _clean_stale(args.out.parent)
     root = write_dataset(args.out, seed=args.seed, runs_per_folder=args.runs_per_folder)
     print(f"synthetic dataset: {root}")
@@ -620,6 +747,8 @@ def _dispatch(args) -> int:
         return _run_section("tables", args, _field_source)
     if args.command == "aided":
         return _run_section("aided", args, lambda a: _require_recordings(_field_source(a), a))
+    if args.command == "montecarlo":
+        _montecarlo_cost(args)
     if args.command in ("curves", "montecarlo"):
         return _run_section(args.command, args, lambda a: _require_recordings(_field_source(a, required=False), a))
     section = {"assess": "assessment", "drift": "drift"}[args.command]

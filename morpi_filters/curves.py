@@ -682,7 +682,7 @@ def _field_points(source, data=None):
     data = data if data is not None else FieldData(source.root)
     recs = data.recordings("s8", "line_dataset", None)
     if not recs:
-        return {}, f"{source.root}: no straight-line (s8/line_dataset) recordings"
+        return {}, "the dataset has no straight-line (s8/line_dataset) recordings"
     truth = ds.route("line_dataset")
     pts, skipped = {"INS-3D": [], "INS-2D": []}, 0
     for rec in recs:
@@ -695,7 +695,7 @@ def _field_points(source, data=None):
             end = np.asarray(res.position)[-1, :2]
             pts[key].append((float(res.time[-1] - res.time[0]), float(np.linalg.norm(end - truth.end_point_m))))
     if not pts["INS-3D"]:
-        return {}, f"{source.root}: no straight-line recording could be integrated"
+        return {}, "no straight-line (s8/line_dataset) recording of the dataset could be integrated"
     note = (f"{len(pts['INS-3D'])} straight-line recordings ({truth.distance_m:g} m, GAC calibration, INS over the "
             f"robot's motion as in the tables section); end-point error against duration"
             + (f"; {skipped} INS runs skipped (no rest or no motion found)" if skipped else "")

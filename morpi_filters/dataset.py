@@ -3,7 +3,14 @@
 A :class:`Recording` holds one IMU recording in SI units and phone axes (see
 the package docstring for frames). :func:`load_csv` reads one file and rejects
 anything that is not a clean recording with a :class:`MorpiError` naming the
-file, and the line where there is one. :func:`catalogue` walks a dataset root
+file, and the line where there is one; :func:`read_columns` reads a table in
+another layout and units (a :class:`ColumnLayout`: a logger's CSV or an
+``.npy`` array) with the same checks on the values converted to SI.
+:func:`plausibility_problems` reads what
+a clean file says at rest (gravity's magnitude and direction, the gyro's offset
+and noise, channels that never move) and names what no phone IMU in SI units
+and the z-up frame would record; the catalogue's loader and :func:`check_tree`
+apply it (:func:`check_plausible`). :func:`catalogue` walks a dataset root
 laid out as the public MoRPI repository (``s8/short_distance/train/3.csv``)
 and attaches phone, route, split and the route's ground truth, which lives in
 ``data/routes.json`` (a file this project owns).
@@ -30,13 +37,15 @@ import numpy as np
 
 from .errors import DataError, MorpiError
 from .resources import project_data
-from .units import G0
+from .units import DEG, G0, SENSORS
 
 __all__ = [
     "COLUMNS", "MIN_SAMPLES", "ACCEL_LIMIT_MPS2", "GYRO_LIMIT_RADPS", "MAX_GAP_S", "TIME_LIMIT_S", "DATA_ENV", "Route", "Recording", "CatalogueEntry",
-    "load_csv", "load_recording", "write_csv", "routes", "route", "catalogue", "load_catalogue",
+    "ColumnLayout", "load_csv", "read_columns", "check_recording", "load_recording", "write_csv", "routes", "route",
+    "catalogue", "load_catalogue",
     "resolve_data_root", "missing_data_message", "check_tree", "keep_parsed", "PROJECT_DATA",
-    "layout", "expected_layout", "layout_problems", "folder_key",
+    "layout", "expected_layout", "layout_problems", "folder_key", "GRAVITY_BAND_MPS2", "UP_FRACTION_MIN",
+    "GYRO_REST_LIMIT_RADPS", "GYRO_NOISE_FACTOR", "plausibility_problems", "check_plausible",
 ]
 
 #: The columns every recording must have (the header names them; any order is read).
@@ -60,6 +69,42 @@ MAX_GAP_S = 1.0
 #: the phone's boot; beyond this a float64 time stamp is no plausible clock reading (and its
 #: resolution, 1.5e-8 s at 1e8 s, would start to eat into the 10 ms sample interval).
 TIME_LIMIT_S = 1e8
+#: Plausibility at rest (:func:`plausibility_problems`): the magnitude of the specific force over the
+#: recording's first still stretch must lie within this band around standard gravity :data:`G0`
+#: [m/s^2]. It adds three times the larger zero-g offset of the two IMUs (60 mg for the MPU-6500,
+#: 40 mg for the LSM6DSL: the paper's table of manufacturer errors, 1 sigma per axis as
+#: :class:`~morpi_filters.units.SensorSpec` holds them), 1.77 m/s^2; an initial sensitivity tolerance
+#: of +-3 %, 0.29 m/s^2 at 1 g (the figure InvenSense's MPU-6000/6050 product specification, table 6.2,
+#: gives for its accelerometer, taken for the MPU-6500 of the same family; the LSM6DSL's is tighter);
+#: and 0.05 m/s^2 for the place on Earth
+#: (normal gravity runs from 9.780 m/s^2 at the equator to 9.832 at the poles, 0.003 less per km of
+#: height). Tilt changes the direction of the specific force at rest, not its magnitude, and the
+#: medians over the still stretch average vibration out, so neither takes a margin. About 2.11 m/s^2:
+#: an accelerometer written in g (reading about 1) or without gravity (about 0, linear acceleration) lies
+#: more than 6 m/s^2 outside it. The field recordings read 9.8066 to 9.8067 m/s^2.
+GRAVITY_BAND_MPS2 = 3 * max(s.accel_bias for s in SENSORS.values()) + 0.03 * G0 + 0.05
+#: Least share of the rest specific force the z axis must carry, positive: cos 45 deg. The phone
+#: frame is z up (a level phone at rest reads f_z = +g), and z is the axis nearest the vertical as
+#: long as the phone is tilted less than 45 deg about a horizontal axis; beyond that x or y is nearer
+#: the vertical (columns swapped under a kept header, or a phone standing on its edge), and a
+#: negative f_z is a z-down frame (a phone face down, or axes written north-east-down). Both break the
+#: paper's level start and its calibration, which puts gravity on +z. The field recordings carry at
+#: least 0.977 of it on z (12 deg of tilt).
+UP_FRACTION_MIN = math.cos(math.radians(45.0))
+#: Largest mean angular rate of one gyro axis at rest [rad/s]: three times the larger zero-rate
+#: offset of the two IMUs (6 deg/s for the MPU-6500, 3 deg/s for the LSM6DSL, 1 sigma per axis in
+#: the paper's table), 18 deg/s; the earth's rate (7.3e-5 rad/s) is negligible beside it. A gyro
+#: column holding gravity (9.8) or a tilted phone's horizontal specific force lies beyond it, and so
+#: do rates written in deg/s (57.3 times larger) from a gyro whose offset exceeds 0.31 deg/s on some
+#: axis. The field rest periods read at most 0.032 rad/s.
+GYRO_REST_LIMIT_RADPS = 3 * max(s.gyro_bias for s in SENSORS.values())
+#: Largest white noise of a gyro axis at rest, as a multiple of the noisier IMU's datasheet noise at
+#: the recording's sampling rate (the MPU-6500's 0.01 deg/s/sqrt(Hz) times sqrt(rate), the sample
+#: standard deviation :func:`morpi_filters.simulate.imu` draws): 10, or 1 deg/s rms at 100 Hz. Rates
+#: written in deg/s carry 57.3 times their noise, beyond the bound for any gyro whose noise exceeds
+#: 10 / 57.3 = 0.17 of that density (the LSM6DSL's datasheet density is 0.4 of it). The field rest
+#: periods read at most 1.8 times the density (a median change of two quantization steps on the S6).
+GYRO_NOISE_FACTOR = 10.0
 #: Environment variable naming the dataset root.
 DATA_ENV = "MORPI_DATA"
 #: Folder of the small files this project owns (ground truth, checksums).
@@ -253,12 +298,13 @@ class CatalogueEntry:
         Returns
         -------
         Recording
-            :func:`load_csv` of ``path`` with ``phone``, ``route`` and ``split`` set.
+            :func:`load_csv` of ``path`` with ``phone``, ``route`` and ``split``
+            set, checked by :func:`check_plausible`.
 
         Raises
         ------
         DataError
-            Every error of :func:`load_csv`.
+            Every error of :func:`load_csv` and :func:`check_plausible`.
 
         Examples
         --------
@@ -272,10 +318,136 @@ class CatalogueEntry:
         >>> rec.name, rec.n
         ('s6/L_line/1.csv', 100)
         """
-        return load_csv(self.path, phone=self.phone, route=self.route, split=self.split)
+        return check_plausible(load_csv(self.path, phone=self.phone, route=self.route, split=self.split))
 
 
 # --------------------------------------------------------------------------- loading
+
+@dataclass(frozen=True)
+class ColumnLayout:
+    """Where a file other than the dataset's own CSV holds the columns of a table, and in which units.
+
+    A table is a time column followed by groups of three columns: a
+    recording's :data:`COLUMNS`, or a truth track's ``("time", "x", "y",
+    "z")``. :func:`read_columns` reads a file through a layout with the
+    checks of :func:`load_csv`, on the values converted to SI: finite numbers,
+    time strictly increasing with no gap above :data:`MAX_GAP_S` and within
+    :data:`TIME_LIMIT_S`, specific force (columns ``f_*``) within
+    :data:`ACCEL_LIMIT_MPS2` and angular rate (columns ``g_*``) within
+    :data:`GYRO_LIMIT_RADPS`; other columns need only be finite.
+
+    A CSV read through a layout may be a logger's export: lines before the
+    header (`skip_rows`), columns besides those named (ignored, their cells
+    not read), blanks after a comma (also before a quoted field), and a comma
+    at the end of every line (an unnamed, empty last column).
+
+    Attributes
+    ----------
+    columns : tuple of str
+        The table's columns: ``"time"`` first, then groups of three.
+    names : tuple
+        For each of `columns`, its header name (``format="csv"``) or its
+        0-based column index (``format="npy"``); None for a time column the
+        file does not have (time is then ``k / rate_hz``, from 0).
+    format : str
+        ``"csv"`` or ``"npy"`` (a 2-D array of numbers, samples on axis 0).
+    skip_rows : int
+        Lines before the CSV header.
+    time_per_s : float
+        Units of the file's time per second (1000 for milliseconds): time
+        is divided by it.
+    factors : tuple of float
+        For each column after time, the SI value of one unit of the file
+        (standard gravity, :data:`~morpi_filters.units.G0`, for g): the
+        column is multiplied by it. Empty: all 1.
+    units : tuple of str
+        For each column after time, the file's unit, named in messages
+        when its factor is not 1. Empty: SI.
+    rate_hz : float or None
+        Sampling rate [Hz] when the file has no time column.
+    time_from_first : bool
+        Count time from the first row (its reading subtracted, in the
+        file's unit, before the division): for a clock beyond
+        :data:`TIME_LIMIT_S`, such as Unix time, whose origin does not matter.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "log.csv")
+    >>> with open(path, "w") as fh:
+    ...     _ = fh.write('logger v2\\nt_ms, ax, ay, az, gx, gy, gz, temp,\\n0, 0, 0, "1", 0, 0, 90, 21.5,\\n'
+    ...                  '10, 0, 0, "1", 0, 0, 90, 21.5,\\n')
+    >>> lay = ColumnLayout(COLUMNS, ("t_ms", "ax", "ay", "az", "gx", "gy", "gz"), skip_rows=1,
+    ...                    time_per_s=1e3, factors=(G0,) * 3 + (math.pi / 180,) * 3,
+    ...                    units=("g",) * 3 + ("deg/s",) * 3)
+    >>> time, f, omega = read_columns(path, lay)
+    >>> time.tolist(), f[0].tolist() == [0.0, 0.0, G0], round(float(omega[0, 2]), 12)
+    ([0.0, 0.01], True, 1.570796326795)
+    """
+
+    columns: tuple
+    names: tuple
+    format: str = "csv"
+    skip_rows: int = 0
+    time_per_s: float = 1.0
+    factors: tuple = ()
+    units: tuple = ()
+    rate_hz: float | None = None
+    time_from_first: bool = False
+
+    def __post_init__(self):
+        cols = tuple(self.columns)
+        problems = []
+        if not cols or cols[0] != "time" or (len(cols) - 1) % 3 or len(cols) < 4:
+            problems.append(f"columns {cols}: expected 'time' then groups of three")
+        if len(self.names) != len(cols):
+            problems.append(f"names: {len(self.names)} given for {len(cols)} columns")
+        elif any(n is None for n in self.names[1:]):
+            problems.append("names: only the time column may be absent (None)")
+        elif self.names[0] is None and not (isinstance(self.rate_hz, (int, float)) and self.rate_hz > 0):
+            problems.append("rate_hz: expected a rate > 0 for a file without a time column")
+        if self.format not in ("csv", "npy"):
+            problems.append(f"format {self.format!r}: expected 'csv' or 'npy'")
+        for label, seq in (("factors", self.factors), ("units", self.units)):
+            if seq and len(seq) != len(cols) - 1:
+                problems.append(f"{label}: {len(seq)} given, expected one per column after time ({len(cols) - 1})")
+        if problems:
+            raise MorpiError("ColumnLayout: " + "; ".join(problems))
+
+    @property
+    def has_time(self) -> bool:
+        """Whether the file has a time column."""
+        return self.names[0] is not None
+
+    def _present(self) -> list[int]:
+        """Indices (in `columns`) of the columns the file holds."""
+        return [j for j, n in enumerate(self.names) if n is not None]
+
+    def _factor(self, j: int) -> float:
+        return float(self.factors[j - 1]) if self.factors else 1.0
+
+    def _unit(self, j: int) -> str:
+        return self.units[j - 1] if self.units else ""
+
+
+#: The dataset's own CSV format: :data:`COLUMNS` by header name, SI units, nothing else on a line.
+_IMU = ColumnLayout(COLUMNS, COLUMNS)
+
+
+def _limit(column: str):
+    """(limit, what, unit, sensor) of a column by its name in the table, or None (finite only)."""
+    if column.startswith("f_"):
+        return ACCEL_LIMIT_MPS2, "specific force", "m/s^2", "accelerometer"
+    if column.startswith("g_"):
+        return GYRO_LIMIT_RADPS, "angular rate", "rad/s", "gyro"
+    return None
+
+
+def _header_text(lay: ColumnLayout) -> str:
+    if lay is _IMU:
+        return ",".join(COLUMNS)
+    return "naming the columns " + ", ".join(repr(str(n)) for n in lay.names if n is not None)
+
 
 def load_csv(path, *, phone=None, route=None, split=None, min_samples: int = MIN_SAMPLES) -> Recording:
     r"""Read one recording and validate it.
@@ -316,7 +488,8 @@ def load_csv(path, *, phone=None, route=None, split=None, min_samples: int = MIN
     first call), block by block into arrays allocated once: memory stays near
     the float64 result, 56 bytes per row. Anything the fast reader is not sure
     of (a bad row, a limit broken, an unusual but valid spelling) is decided
-    by a line-by-line reading, which names the first bad line.
+    by a line-by-line reading, which names the first bad line. Files in
+    other layouts and units are read by :func:`read_columns`.
 
     Examples
     --------
@@ -337,22 +510,132 @@ def load_csv(path, *, phone=None, route=None, split=None, min_samples: int = MIN
     morpi_filters.errors.DataError: ...: line 4: repeated time stamp 0.01 (line 3 has 0.01), expected strictly increasing time
     """
     path = Path(path)
-    key = _kept_key(path)
-    if key is not None and key in _KEPT:
-        time, f, omega = _KEPT[key]
-    else:
-        columns = _fast_parse(path) if path.is_file() else None
-        time, f, omega = columns if columns is not None else _parse(path)
-        if key is not None:
-            for a in (time, f, omega):
-                a.flags.writeable = False         # shared by every later reading of the file
-            _KEPT[key] = (time, f, omega)
+    time, f, omega = _read(path, _IMU)
     if time.shape[0] < min_samples:
         raise DataError(f"{path}: too few samples: {time.shape[0]} rows, expected at least {min_samples}")
     return Recording(time=time, f=f, omega=omega, source=str(path), phone=phone, route=route, split=split)
 
 
-#: Files parsed inside :func:`keep_parsed`: (path, size, modification time) -> (time, f, omega).
+def read_columns(path, layout: ColumnLayout, *, min_rows: int = 1) -> tuple:
+    r"""Read a table (a recording or a truth track) in another layout and units, converted to SI and validated.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV or ``.npy`` file (as ``layout.format`` says).
+    layout : ColumnLayout
+        Where the file holds each column and in which unit.
+    min_rows : int, optional
+        Fewest rows accepted (default 1).
+
+    Returns
+    -------
+    tuple of ndarray
+        ``(time, group, ...)``: time [s], shape (n,) (``k / rate_hz`` when
+        the file has none), and one array of shape (n, 3) per group of three
+        columns after it, in SI units; C-contiguous, each value the file's
+        number (``float(cell)`` for a CSV) times its factor (time divided by
+        ``time_per_s``).
+
+    Raises
+    ------
+    DataError
+        With one line naming the file and the line (a CSV) or the row index
+        (an ``.npy`` array): every check of :func:`load_csv`, on the converted
+        values; for an ``.npy`` file, one that is not a 2-D array of numbers
+        or lacks a column; fewer than `min_rows` rows.
+
+    Examples
+    --------
+    A truth track in an ``.npy`` array at 10 Hz without a time column:
+
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "truth.npy")
+    >>> np.save(path, np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.2, 0.05, 0.0]]))
+    >>> lay = ColumnLayout(("time", "n", "e", "d"), (None, 0, 1, 2), format="npy", rate_hz=10.0)
+    >>> time, ned = read_columns(path, lay)
+    >>> time.tolist(), ned[2].tolist()
+    ([0.0, 0.1, 0.2], [0.2, 0.05, 0.0])
+    >>> np.save(path, np.array([[0.0, 0.0, np.nan]]))
+    >>> read_columns(path, lay)
+    Traceback (most recent call last):
+    ...
+    morpi_filters.errors.DataError: ...truth.npy: row index 0: column 2: nan is not finite, expected a real number
+    """
+    path = Path(path)
+    cols = _read(path, layout)
+    if cols[0].shape[0] < min_rows:
+        raise DataError(f"{path}: too few rows: {cols[0].shape[0]}, expected at least {min_rows}")
+    return cols
+
+
+def check_recording(recording: Recording, *, min_samples: int = MIN_SAMPLES) -> None:
+    r"""Apply the checks of :func:`load_csv` to a recording built in memory.
+
+    Parameters
+    ----------
+    recording : Recording
+        The samples (SI units).
+    min_samples : int, optional
+        Fewest samples accepted (default :data:`MIN_SAMPLES`).
+
+    Returns
+    -------
+    None
+        When every check passes.
+
+    Raises
+    ------
+    DataError
+        One line naming the recording's ``source`` and the first bad row by
+        its index: a value that is not finite or beyond a limit, time not
+        strictly increasing or with a gap above :data:`MAX_GAP_S`; or fewer
+        than `min_samples` samples.
+
+    Examples
+    --------
+    >>> t = np.arange(200) * 0.01
+    >>> rec = Recording(time=t, f=np.tile([0.0, 0.0, 9.8], (200, 1)), omega=np.zeros((200, 3)), source="mine")
+    >>> check_recording(rec)
+    >>> rec.time[50] = rec.time[49]
+    >>> check_recording(rec)
+    Traceback (most recent call last):
+    ...
+    morpi_filters.errors.DataError: mine: row index 50: repeated time stamp 0.49 (row index 49 has 0.49), expected strictly increasing time
+    """
+    data = np.column_stack([recording.time, recording.f, recording.omega])
+    if data.shape[0] < min_samples:
+        raise DataError(f"{recording.source}: too few samples: {data.shape[0]} rows, expected at least {min_samples}")
+    if not (np.isfinite(data).all() and _within_limits(data)):
+        _name_bad_line(data, range(data.shape[0]), recording.source, word="row index")
+
+
+def _read(path: Path, lay: ColumnLayout) -> tuple:
+    """The columns ``(time, group, ...)`` of a file in layout `lay`, parsed once inside :func:`keep_parsed`."""
+    key = _kept_key(path)
+    if key is not None and lay is not _IMU:
+        key = key + (lay,)
+    if key is not None and key in _KEPT:
+        return _KEPT[key]
+    if lay.format == "npy":
+        cols = _read_npy(path, lay)
+    elif lay is _IMU:
+        cols = _fast_parse(path) if path.is_file() else None
+        cols = cols if cols is not None else _parse(path)
+    else:
+        cols = _fast_parse(path, lay) if path.is_file() else None
+        cols = cols if cols is not None else _parse(path, lay)
+    if cols[0] is None:
+        cols = (np.arange(cols[1].shape[0]) / float(lay.rate_hz),) + tuple(cols[1:])
+    if key is not None:
+        for a in cols:
+            a.flags.writeable = False         # shared by every later reading of the file
+        _KEPT[key] = cols
+    return cols
+
+
+#: Files parsed inside :func:`keep_parsed`: (path, size, modification time[, layout]) -> (time, f, omega) or
+#: the columns of :func:`read_columns`.
 _KEPT: dict | None = None
 
 
@@ -368,8 +651,8 @@ def _kept_key(path: Path):
 
 @contextmanager
 def keep_parsed():
-    r"""Within the block, :func:`load_csv` parses a file once: a later call on the
-    unchanged file (same size and modification time) returns its arrays
+    r"""Within the block, :func:`load_csv` and :func:`read_columns` parse a file once: a later call on the
+    unchanged file (same size and modification time, and layout) returns its arrays
     (read-only, shared). Files that fail are read again. For a command that
     checks every recording before its study reads them.
 
@@ -400,13 +683,24 @@ def keep_parsed():
             _KEPT = None
 
 
-def _csv_fields(line: str) -> list[str]:
-    """The fields of one CSV line (standard quoting), stripped of blanks."""
-    return [c.strip() for c in next(csv.reader([line]), [])]
+def _csv_fields(line: str, lenient: bool = False) -> list[str]:
+    """The fields of one CSV line (standard quoting), stripped of blanks; `lenient` also reads a quoted field
+    after blanks (a logger's ``1.5, "2.5"``)."""
+    return [c.strip() for c in next(csv.reader([line], skipinitialspace=lenient), [])]
 
 
-def _header_order(header: list[str], name: str) -> list[int] | None:
-    """Column index of each of :data:`COLUMNS` in the file; None when already in order."""
+def _header_order(header: list[str], name: str, lay: ColumnLayout = _IMU, line: int = 1) -> list[int] | None:
+    """Column index in the file of each column the layout reads, in its order; None when already in order."""
+    if lay is not _IMU:
+        wanted = [n for n in lay.names if n is not None]
+        missing = [n for n in wanted if n not in header]
+        repeated = [n for n in wanted if header.count(n) > 1]
+        if missing or repeated:
+            what = (["missing column(s) " + ", ".join(repr(n) for n in missing)] if missing else []) + \
+                   (["repeated column(s) " + ", ".join(repr(n) for n in repeated)] if repeated else [])
+            shown = ", ".join(repr(c) for c in header[:12]) + (", ..." if len(header) > 12 else "")
+            raise DataError(f"{name}: line {line}: {'; '.join(what)}; the header has {shown}")
+        return [header.index(n) for n in wanted]
     if header == list(COLUMNS):
         return None
     missing = [c for c in COLUMNS if c not in header]
@@ -420,13 +714,14 @@ def _header_order(header: list[str], name: str) -> list[int] | None:
     if repeated:
         what.append("repeated column(s) " + ", ".join(repeated))
     if what:
-        raise DataError(f"{name}: line 1: {'; '.join(what)}; expected the header {','.join(COLUMNS)} "
+        raise DataError(f"{name}: line {line}: {'; '.join(what)}; expected the header {','.join(COLUMNS)} "
                         "(in any order)")
     return [header.index(c) for c in COLUMNS]
 
 
-def _parse(path: Path):
-    """Read and validate a file line by line, naming the first bad line; the columns ``(time, f, omega)``.
+def _parse(path: Path, lay: ColumnLayout | None = None):
+    """Read and validate a file line by line, naming the first bad line; the columns ``(time, f, omega)``
+    (``(time or None, group, ...)`` for a layout `lay`).
 
     The precise path, which decides whatever :func:`_fast_parse` leaves (it is
     tried first). Its rules are the documented ones: UTF-8 text with an
@@ -437,6 +732,7 @@ def _parse(path: Path):
     come first, whatever line they are on), then the rows, kept as float64
     values with their line numbers (64 bytes per row).
     """
+    lay = _IMU if lay is None else lay
     name = str(path)
     binary = not_utf8 = False
     content = False
@@ -466,9 +762,9 @@ def _parse(path: Path):
     if not_utf8:
         raise DataError(f"{name}: not CSV text (not UTF-8)")
     if not content:
-        raise DataError(f"{name}: empty file, expected the header {','.join(COLUMNS)} and data rows")
+        raise DataError(f"{name}: empty file, expected the header {_header_text(lay)} and data rows")
     try:
-        return _parse_lines(_text_lines(path), name)
+        return _parse_lines(_text_lines(path), name, lay)
     except OSError as exc:
         raise DataError(f"{name}: cannot read ({exc.strerror})") from None
 
@@ -488,29 +784,104 @@ def _text_lines(path: Path):
         yield from (carry + decoder.decode(b"", final=True)).splitlines()
 
 
-def _parse_lines(lines, name: str):
-    """Validate the lines of a recording (an iterator), naming the first bad line; ``(time, f, omega)``."""
+def _parse_lines(lines, name: str, lay: ColumnLayout = _IMU):
+    """Validate the lines of a table (an iterator), naming the first bad line; ``(time, f, omega)`` (or the
+    columns of layout `lay`, time None when the file has none)."""
+    lenient = lay is not _IMU
+    for k in range(lay.skip_rows):
+        if next(lines, None) is None:
+            raise DataError(f"{name}: {k} line(s), expected {lay.skip_rows} line(s) before the header "
+                            f"(skip_rows) and the header {_header_text(lay)}")
+    h = lay.skip_rows + 1
     first = next(lines, "")
     if not first.strip():
-        raise DataError(f"{name}: line 1: blank line before the header {','.join(COLUMNS)}")
+        raise DataError(f"{name}: line {h}: blank line before the header {_header_text(lay)}")
     try:
-        header = _csv_fields(first)
+        header = _csv_fields(first, lenient)
     except csv.Error as exc:
-        raise DataError(f"{name}: line 1: not a CSV header ({exc})") from None
-    order = _header_order(header, name)
+        raise DataError(f"{name}: line {h}: not a CSV header ({exc})") from None
+    order = _header_order(header, name, lay, h)
+    read = list(range(len(COLUMNS))) if order is None else order
+    in_file = sorted(read)                      # the cells read, in the file's order
     values, line_of = array.array("d"), array.array("q")
-    for i, s in enumerate(lines, start=2):
+    for i, s in enumerate(lines, start=h + 1):
         if s.strip():
-            values.extend(_row_values(s, i, header, name))
+            values.extend(_row_values(s, i, header, name, in_file if lenient else None, lenient))
             line_of.append(i)
     if not line_of:
         raise DataError(f"{name}: header only, no data rows")
-    data = np.frombuffer(values, dtype=np.float64).reshape(-1, len(COLUMNS))
-    if order is not None:
-        data = data[:, order]
-    if not (np.isfinite(data).all() and _within_limits(data)):
-        _name_bad_line(data, line_of, name)
-    return np.ascontiguousarray(data[:, 0]), np.ascontiguousarray(data[:, 1:4]), np.ascontiguousarray(data[:, 4:7])
+    data = np.frombuffer(values, dtype=np.float64).reshape(-1, len(read))
+    back = [in_file.index(j) for j in read]
+    if back != list(range(len(read))):
+        data = data[:, back]
+    data = _convert(data, lay)
+    if not (np.isfinite(data).all() and _within_limits(data, lay)):
+        _name_bad_line(data, line_of, name, lay)
+    return _split_columns(data, lay)
+
+
+def _convert(data: np.ndarray, lay: ColumnLayout) -> np.ndarray:
+    """The columns read (in the layout's order, the absent time left out) in SI: time less its first reading
+    when ``time_from_first``, divided by ``time_per_s``, each other column times its factor. Unchanged (the
+    same array) when nothing is to be done."""
+    present = lay._present()
+    scale = [(k, j) for k, j in enumerate(present)
+             if (j == 0 and lay.time_per_s != 1.0) or (j > 0 and lay._factor(j) != 1.0)]
+    shift = lay.has_time and lay.time_from_first
+    if not scale and not shift:
+        return data
+    data = np.array(data, dtype=np.float64)
+    if shift and data.shape[0]:
+        data[:, 0] -= data[0, 0]
+    for k, j in scale:
+        if j == 0:
+            data[:, k] /= lay.time_per_s
+        else:
+            data[:, k] *= lay._factor(j)
+    return data
+
+
+def _split_columns(data: np.ndarray, lay: ColumnLayout) -> tuple:
+    """``(time or None, group, ...)`` of the converted columns, each C-contiguous."""
+    k = 1 if lay.has_time else 0
+    time = np.ascontiguousarray(data[:, 0]) if lay.has_time else None
+    groups = tuple(np.ascontiguousarray(data[:, p:p + 3]) for p in range(k, data.shape[1], 3))
+    return (time,) + groups
+
+
+def _read_npy(path: Path, lay: ColumnLayout) -> tuple:
+    """The columns ``(time or None, group, ...)`` of an ``.npy`` array, converted and validated."""
+    name = str(path)
+    try:
+        with open(path, "rb") as fh:
+            magic = fh.read(6)
+        if magic != b"\x93NUMPY":
+            raise DataError(f"{name}: not a .npy array file (it does not start with the NumPy format's "
+                            "header), expected one 2-D array written by numpy.save")
+        arr = np.load(path, mmap_mode="r", allow_pickle=False)
+    except FileNotFoundError:
+        raise DataError(f"{name}: no such file") from None
+    except IsADirectoryError:
+        raise DataError(f"{name}: is a directory, expected a .npy file") from None
+    except (ValueError, OSError, EOFError) as exc:
+        reason = (str(exc).splitlines() or [type(exc).__name__])[0]
+        raise DataError(f"{name}: not a .npy array file ({reason})") from None
+    if arr.ndim != 2:
+        raise DataError(f"{name}: array of shape {arr.shape}, expected 2-D (samples, columns)")
+    if arr.dtype.kind not in "fiu":
+        raise DataError(f"{name}: array of {arr.dtype}, expected numbers (float or integer)")
+    index = [lay.names[j] for j in lay._present()]
+    beyond = [f"{i} ({lay.columns[j]})" for j, i in zip(lay._present(), index) if i >= arr.shape[1]]
+    if beyond:
+        raise DataError(f"{name}: no column {', '.join(beyond)}: the array has {arr.shape[1]} column(s), "
+                        f"indices 0 to {arr.shape[1] - 1}")
+    if arr.shape[0] == 0:
+        raise DataError(f"{name}: no rows")
+    data = _convert(np.array(arr[:, index], dtype=np.float64), lay)
+    del arr
+    if not (np.isfinite(data).all() and _within_limits(data, lay)):
+        _name_bad_line(data, range(data.shape[0]), name, lay, word="row index")
+    return _split_columns(data, lay)
 
 
 #: The bytes a data line may hold for the C reader to take the file: digits, the characters of a
@@ -564,7 +935,7 @@ def _float_options(version: str) -> dict:
     return {} if (major, minor) >= (3, 1) else {"float_precision": "round_trip"}
 
 
-def _fast_parse(path: Path):
+def _fast_parse(path: Path, lay: ColumnLayout | None = None):
     """The columns ``(time, f, omega)`` of a well-formed file, read by pandas' C tokenizer, or None.
 
     None means "let the precise path decide" (:func:`_parse`, which names the
@@ -577,24 +948,39 @@ def _fast_parse(path: Path):
     :data:`MAX_GAP_S`. Floats are correctly rounded (:func:`_pandas_options`):
     bit-identical to ``float(cell)``.
 
+    Through a layout `lay` (``(time or None, group, ...)``): the `skip_rows`
+    lines before the header free of line breaks other than ``\\n`` (or
+    ``\\r\\n``), a header naming each column read once, and every data line
+    holding as many fields as the header (its commas outside quotes counted),
+    blank lines aside; the values read are converted before the limits.
+
     A file up to :data:`_KEEP_BYTES` is read at once. A longer one is read
     twice in blocks: once to count its lines, then block by block (each
     ending at a line end) into arrays allocated for that many rows, so memory
     stays near the float64 result (56 bytes per row) whatever its length.
     """
+    lay = _IMU if lay is None else lay
     try:
         with open(path, "rb") as fh:
             whole = os.fstat(fh.fileno()).st_size <= _KEEP_BYTES
             head = fh.read() if whole else fh.read(_HEAD_BYTES)
-            end = head.find(b"\n")
-            header = _fast_header(head[:end]) if end >= 0 else None
+            start = 0
+            for _ in range(lay.skip_rows):
+                start = head.find(b"\n", start) + 1
+                if not start:
+                    return None
+            if start and not _plain_preamble(head[:start]):
+                return None
+            end = head.find(b"\n", start)
+            header = _fast_header(head[start:end], lay, bom=start == 0) if end >= 0 else None
             if header is None:
                 return None
-            order = [header.index(c) for c in COLUMNS]
+            order = [header.index(c) for c in COLUMNS] if lay is _IMU else \
+                [header.index(n) for n in lay.names if n is not None]
             if whole:
                 rest = head[end + 1:]
                 del head
-                return _fast_columns([rest], None, order)
+                return _fast_columns([rest], None, order, lay, len(header))
             del head
             fh.seek(end + 1)
             n_lines = 1
@@ -602,9 +988,19 @@ def _fast_parse(path: Path):
                 n_lines += chunk.count(b"\n")
             del chunk
             fh.seek(end + 1)
-            return _fast_columns(_line_blocks(fh), n_lines, order)
+            return _fast_columns(_line_blocks(fh), n_lines, order, lay, len(header))
     except OSError:
         return None
+
+
+def _plain_preamble(block: bytes) -> bool:
+    """Whether the lines before a header (ending at a ``\\n``) are UTF-8 with no line break of
+    ``str.splitlines`` but their ``\\n`` (or ``\\r\\n``), so both readers count them alike."""
+    try:
+        text = block.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        return False
+    return not any(c in text.replace("\r\n", "\n") for c in _HEADER_BREAKS)
 
 
 def _plain_block(block: bytes) -> bool:
@@ -620,150 +1016,218 @@ def _plain_block(block: bytes) -> bool:
     return not parity[-1] and not parity[a == ord("\n")].any()
 
 
-def _fast_header(line: bytes) -> list[str] | None:
-    """The header's column names when the line is exactly a permutation of :data:`COLUMNS`, else None."""
+def _fields_per_line(block: bytes, width: int) -> bool:
+    """Whether every line of a plain block (:func:`_plain_block`) holds `width` fields (its commas outside
+    quotes counted) or is blank: the C reader would fill a short row's missing cells with NaN, which
+    a column left unread would not show."""
+    a = np.frombuffer(block, dtype=np.uint8)
+    ends = np.flatnonzero(a == ord("\n"))
+    if a.size and a[-1] != ord("\n"):
+        ends = np.append(ends, a.size)
+    if not ends.size:
+        return True
+    comma = a == ord(",")
+    if b'"' in block:
+        comma &= (np.cumsum(a == ord('"'), dtype=np.uint8) & 1) == 0
+    per_line = np.bincount(np.searchsorted(ends, np.flatnonzero(comma)), minlength=ends.size)
+    starts = np.concatenate([[0], ends[:-1] + 1])
+    return all(not block[starts[k]:ends[k]].strip() for k in np.flatnonzero(per_line != width - 1))
+
+
+def _fast_header(line: bytes, lay: ColumnLayout | None = None, *, bom: bool = True) -> list[str] | None:
+    """The header's column names when the line is exactly a permutation of :data:`COLUMNS` (or, for a
+    layout, names each column read once), else None. A byte-order mark is dropped when `bom` (the file's
+    first line)."""
+    lay = _IMU if lay is None else lay
     try:
         text = line.decode("utf-8")
     except UnicodeDecodeError:
         return None
-    text = text[1:] if text.startswith("\ufeff") else text
+    text = text[1:] if bom and text.startswith("\ufeff") else text
     text = text[:-1] if text.endswith("\r") else text
     if any(c in text for c in _HEADER_BREAKS) or text.count('"') % 2:
         return None
     try:
-        header = _csv_fields(text)
+        header = _csv_fields(text, lay is not _IMU)
     except csv.Error:
         return None
+    if lay is not _IMU:
+        return header if all(header.count(n) == 1 for n in lay.names if n is not None) else None
     return header if len(header) == len(COLUMNS) and sorted(header) == sorted(COLUMNS) else None
 
 
-def _fast_columns(blocks, capacity: int | None, order: list[int]):
-    """Parse blocks of data lines into C-ordered ``(time, f, omega)``; None at the first doubt.
+def _fast_columns(blocks, capacity: int | None, order: list[int], lay: ColumnLayout | None = None,
+                  width: int = len(COLUMNS)):
+    """Parse blocks of data lines into C-ordered ``(time, f, omega)`` (the groups of a layout); None at
+    the first doubt.
 
     `capacity` bounds the number of rows (the arrays are allocated once); None when `blocks`
-    holds one block, whose rows then set it.
+    holds one block, whose rows then set it. `order` holds the file's index of each column read,
+    `width` the number of fields of a line.
     """
-    it, i_f, i_w = order[0], order[1:4], order[4:7]
+    lay = _IMU if lay is None else lay
+    lenient = lay is not _IMU
+    present = lay._present()
+    pos_t = 0 if lay.has_time else None
+    first = 1 if lay.has_time else 0
+    group_idx = [order[p:p + 3] for p in range(first, len(order), 3)]
+    group_cols = [present[p:p + 3] for p in range(first, len(present), 3)]
+    limits = [_limit(lay.columns[cols[0]]) for cols in group_cols]
     if capacity is None:
         (block,) = blocks
-        rows = _read_rows(block)
+        rows = _read_rows(block, width, lenient)
         if rows is None:
             return None
         parsed, capacity = iter([rows]), rows.shape[0]
         del rows
     else:
-        parsed = (_read_rows(block) for block in blocks)
-    time, f, omega = np.empty(capacity), np.empty((capacity, 3)), np.empty((capacity, 3))
-    n, prev_t = 0, None
+        parsed = (_read_rows(block, width, lenient) for block in blocks)
+    time = np.empty(capacity) if pos_t is not None else None
+    groups = [np.empty((capacity, 3)) for _ in group_idx]
+    n, prev_t, t_first = 0, None, None
     for rows in parsed:
         if rows is None:
             return None
         m = rows.shape[0]
         if n + m > capacity:
             return None
-        t, tf, tw = time[n:n + m], f[n:n + m], omega[n:n + m]
-        t[:] = rows[:, it]
-        for j in range(3):      # column by column: pandas' rows are in Fortran order
-            tf[:, j], tw[:, j] = rows[:, i_f[j]], rows[:, i_w[j]]
-        if not _block_within_limits(t, tf, tw, prev_t):
+        t = None
+        if time is not None:
+            t = time[n:n + m]
+            t[:] = rows[:, order[pos_t]]
+            if lay.time_from_first and m:
+                t_first = t[0] if t_first is None else t_first
+                t -= t_first
+            if lay.time_per_s != 1.0:
+                t /= lay.time_per_s
+        parts = []
+        for g, idx, cols in zip(groups, group_idx, group_cols):
+            part = g[n:n + m]
+            for j in range(3):      # column by column: pandas' rows are in Fortran order
+                part[:, j] = rows[:, idx[j]]
+                if lay._factor(cols[j]) != 1.0:
+                    part[:, j] *= lay._factor(cols[j])
+            parts.append(part)
+        if not _block_within_limits(t, parts, limits, prev_t):
             return None
         n += m
-        prev_t = t[-1] if m else prev_t
+        prev_t = t[-1] if m and t is not None else prev_t
     if n == 0:
         return None
+    out = [time] + groups
     if n < capacity:       # blank lines and the final line end: a trimmed copy only when much is spare
-        time, f, omega = (a[:n] if n > capacity // 2 else a[:n].copy() for a in (time, f, omega))
-    return time, f, omega
+        out = [None if a is None else (a[:n] if n > capacity // 2 else a[:n].copy()) for a in out]
+    return tuple(out)
 
 
-def _read_rows(block: bytes) -> np.ndarray | None:
-    """The rows of a block of data lines as float64, shape (m, 7) (m = 0 for blank lines); None when the
+def _read_rows(block: bytes, width: int = len(COLUMNS), lenient: bool = False) -> np.ndarray | None:
+    """The rows of a block of data lines as float64, shape (m, width) (m = 0 for blank lines); None when the
     bytes are not plain (:func:`_plain_block`), pandas' C reader refuses them (a cell that is not a
-    number, a long row) or they are not seven columns."""
+    number, a long row) or they are not `width` columns (`lenient`: a line of another width)."""
     import warnings
 
     import pandas as pd
 
-    if not _plain_block(block):
+    if not _plain_block(block) or (lenient and not _fields_per_line(block, width)):
         return None
     if not block or block.isspace():
-        return np.empty((0, len(COLUMNS)))
+        return np.empty((0, width))
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             frame = pd.read_csv(io.BytesIO(block), header=None, index_col=False, dtype=np.float64,
-                                engine="c", low_memory=False, **_pandas_options())
+                                engine="c", low_memory=False, skipinitialspace=lenient, **_pandas_options())
     except (ValueError, pd.errors.ParserError, pd.errors.EmptyDataError):
         return None
     rows = frame.to_numpy(dtype=np.float64)
-    return rows if rows.ndim == 2 and rows.shape[1] == len(COLUMNS) else None
+    return rows if rows.ndim == 2 and rows.shape[1] == width else None
 
 
-def _block_within_limits(t: np.ndarray, f: np.ndarray, w: np.ndarray, prev_t) -> bool:
-    """Whether rows are finite and within every limit (NaN fails every comparison), time following `prev_t`."""
-    if not t.size:
-        return True
-    dt = np.diff(t) if prev_t is None else np.diff(t, prepend=prev_t)
-    return bool(t.max() <= TIME_LIMIT_S and -t.min() <= TIME_LIMIT_S and (dt > 0).all()
-                and (dt <= MAX_GAP_S).all() and f.max() <= ACCEL_LIMIT_MPS2 and -f.min() <= ACCEL_LIMIT_MPS2
-                and w.max() <= GYRO_LIMIT_RADPS and -w.min() <= GYRO_LIMIT_RADPS)
+def _block_within_limits(t, groups, limits, prev_t) -> bool:
+    """Whether rows are finite and within every limit (NaN fails every comparison), time following `prev_t`.
+    `t` is None for a table without time; `limits` holds one :func:`_limit` (or None: finite) per group."""
+    if t is not None and t.size:
+        dt = np.diff(t) if prev_t is None else np.diff(t, prepend=prev_t)
+        if not (t.max() <= TIME_LIMIT_S and -t.min() <= TIME_LIMIT_S and (dt > 0).all() and (dt <= MAX_GAP_S).all()):
+            return False
+    for g, lim in zip(groups, limits):
+        if not g.size:
+            continue
+        if lim is None:
+            if not np.isfinite(g).all():
+                return False
+        elif not (g.max() <= lim[0] and -g.min() <= lim[0]):
+            return False
+    return True
 
 
-def _within_limits(data: np.ndarray) -> bool:
-    t = data[:, 0]
-    dt = np.diff(t)
-    return bool(np.abs(t).max() <= TIME_LIMIT_S and (dt > 0).all() and (dt <= MAX_GAP_S).all()
-                and np.abs(data[:, 1:4]).max() <= ACCEL_LIMIT_MPS2
-                and np.abs(data[:, 4:7]).max() <= GYRO_LIMIT_RADPS)
+def _within_limits(data: np.ndarray, lay: ColumnLayout = _IMU) -> bool:
+    """Whether finite rows (columns in the layout's order, the absent time left out) are within every limit."""
+    present = lay._present()
+    ok = True
+    if lay.has_time:
+        t = data[:, 0]
+        dt = np.diff(t)
+        ok = bool(np.abs(t).max() <= TIME_LIMIT_S and (dt > 0).all() and (dt <= MAX_GAP_S).all())
+    for k, j in enumerate(present):
+        lim = _limit(lay.columns[j]) if j else None
+        if ok and lim is not None:
+            ok = bool(np.abs(data[:, k]).max() <= lim[0])
+    return ok
 
 
-def _name_bad_line(data: np.ndarray, line_of, name: str) -> None:
-    """Raise the error of the first row that breaks a limit (the data parsed as numbers, `line_of` the line
-    number of each row)."""
-    cols = COLUMNS
+def _name_bad_line(data: np.ndarray, line_of, name: str, lay: ColumnLayout = _IMU, word: str = "line") -> None:
+    """Raise the error of the first row that breaks a limit (the data parsed as numbers and converted, `line_of`
+    the line number of each row, or its index: `word`)."""
+    present = lay._present()
+    cols = [str(lay.names[j]) for j in present]
+    timed = lay.has_time
+    checked = [(k, j, _limit(lay.columns[j])) for k, j in enumerate(present) if j and _limit(lay.columns[j])]
     prev_t = -math.inf
     for k in range(data.shape[0]):
         row, i = data[k], line_of[k]
         for j, col in enumerate(cols):
             v = float(row[j])
             if not math.isfinite(v):
-                raise DataError(f"{name}: line {i}: column {col}: {v} is not finite, expected a real number")
-        t = float(row[0])
-        if abs(t) > TIME_LIMIT_S:
-            raise DataError(f"{name}: line {i}: column time: {t!r} s is beyond the limit of "
+                raise DataError(f"{name}: {word} {i}: column {col}: {v} is not finite, expected a real number")
+        t = float(row[0]) if timed else 0.0
+        if timed and abs(t) > TIME_LIMIT_S:
+            raise DataError(f"{name}: {word} {i}: column {cols[0]}: {t!r} s is beyond the limit of "
                             f"+-{TIME_LIMIT_S:g} s, expected a plausible clock reading")
-        for j in range(1, 7):
-            v, limit = float(row[j]), (ACCEL_LIMIT_MPS2 if j < 4 else GYRO_LIMIT_RADPS)
+        for c, j, (limit, what, unit, sensor) in checked:
+            v = float(row[c])
             if abs(v) > limit:
-                what = ("specific force", "m/s^2", "accelerometer") if j < 4 else ("angular rate", "rad/s", "gyro")
-                raise DataError(f"{name}: line {i}: column {cols[j]}: {what[0]} {v!r} {what[1]} is beyond "
-                                f"+-{limit:.4g} {what[1]}, the {what[2]} full scale of a phone IMU")
-        if k:
+                read = f" (converted from {lay._unit(j)})" if lay._factor(j) != 1.0 and lay._unit(j) else ""
+                raise DataError(f"{name}: {word} {i}: column {cols[c]}: {what} {v!r} {unit}{read} is beyond "
+                                f"+-{limit:.4g} {unit}, the {sensor} full scale of a phone IMU")
+        if timed and k:
             if t <= prev_t:
                 what = "repeated" if t == prev_t else "decreasing"
-                raise DataError(f"{name}: line {i}: {what} time stamp {t!r} (line {line_of[k - 1]} has "
+                raise DataError(f"{name}: {word} {i}: {what} time stamp {t!r} ({word} {line_of[k - 1]} has "
                                 f"{prev_t!r}), expected strictly increasing time")
             if t - prev_t > MAX_GAP_S:
-                raise DataError(f"{name}: line {i}: time gap of {t - prev_t:.6g} s after line {line_of[k - 1]}, "
-                                f"expected at most {MAX_GAP_S:g} s between samples")
+                raise DataError(f"{name}: {word} {i}: time gap of {t - prev_t:.6g} s after {word} "
+                                f"{line_of[k - 1]}, expected at most {MAX_GAP_S:g} s between samples")
         prev_t = t
     raise AssertionError("limits broken but no row found")  # pragma: no cover
 
 
-def _row_values(s: str, i: int, header: list[str], name: str) -> list[float]:
-    """The numbers of data line `i` (text `s`, cells in the file's column order), or the error naming it."""
+def _row_values(s: str, i: int, header: list[str], name: str, read=None, lenient: bool = False) -> list[float]:
+    """The numbers of data line `i` (text `s`, cells in the file's column order), or the error naming it.
+    `read`: the indices of the cells to read (ascending); None reads every cell."""
     if '"' in s:
         try:
-            cells = _csv_fields(s)
+            cells = _csv_fields(s, lenient)
         except csv.Error as exc:
             raise DataError(f"{name}: line {i}: not a CSV row ({exc})") from None
     else:       # without quotes the csv module splits at every comma
         cells = [c.strip() for c in s.split(",")]
-    if len(cells) != len(COLUMNS):
-        kind = "short" if len(cells) < len(COLUMNS) else "long"
-        raise DataError(f"{name}: line {i}: {kind} row, {len(cells)} fields, expected {len(COLUMNS)}")
+    if len(cells) != len(header):
+        kind = "short" if len(cells) < len(header) else "long"
+        raise DataError(f"{name}: line {i}: {kind} row, {len(cells)} fields, expected {len(header)}")
     vals = []
-    for j, c in enumerate(cells):
+    for j in (range(len(cells)) if read is None else read):
+        c = cells[j]
         try:
             if "_" in c:
                 raise ValueError(c)
@@ -774,6 +1238,245 @@ def _row_values(s: str, i: int, header: list[str], name: str) -> list[float]:
             raise DataError(f"{name}: line {i}: column {header[j]}: {c} is not finite, expected a real number")
         vals.append(v)
     return vals
+
+
+# --------------------------------------------------------------------------- plausibility at rest
+
+#: Still-stretch search of :func:`plausibility_problems`: blocks of this length [s] ...
+_STILL_BLOCK_S = 0.5
+#: ... each still when every gyro column's peak-to-peak stays within this multiple of its quietest
+#: block's (at least one quantization step): the peak-to-peak of white noise over a block of 50
+#: samples is about 4.5 sigma and rarely leaves 3 to 6.5 sigma, so rest blocks stay within about
+#: twice the quietest one, while a turn or a hand moves the gyro by hundreds of noise sigmas.
+_STILL_RATIO = 4.0
+#: Shortest and longest still stretch used [blocks]: 1 to 3 s (the paper calibrates on 3 s).
+_STILL_BLOCKS = (2, 6)
+#: Fewest samples a block needs to count (a block at a gap or at the end may hold a few).
+_STILL_MIN_SAMPLES = 5
+
+
+def _still_stretch(time: np.ndarray, omega: np.ndarray) -> tuple[int, int]:
+    """Sample slice ``(i0, i1)`` of the first still stretch of a recording.
+
+    The recording is cut into blocks of :data:`_STILL_BLOCK_S` from its first
+    sample; a block is still when the peak-to-peak of each gyro column is at
+    most :data:`_STILL_RATIO` times that column's quietest block (floored at
+    its smallest step, the quantization). The stretch is the first run of at
+    least ``_STILL_BLOCKS[0]`` still blocks, cut at ``_STILL_BLOCKS[1]``; when
+    there is none, the quietest block. Stillness is read from the gyro
+    columns alone, each against itself, so it does not depend on their units:
+    the phones' accelerometer channels are low-pass filtered and settle during
+    the first seconds (whole blocks of repeated values, then slow drifts, in
+    the field recordings), while a hand or a turn shows on the gyro.
+    """
+    n = time.shape[0]
+    block = np.floor((time - time[0]) / _STILL_BLOCK_S)
+    starts = np.concatenate(([0], np.flatnonzero(block[1:] != block[:-1]) + 1))
+    ends = np.concatenate((starts[1:], [n]))
+    ptp = np.maximum.reduceat(omega, starts, axis=0) - np.minimum.reduceat(omega, starts, axis=0)
+    counted = (ends - starts) >= _STILL_MIN_SAMPLES
+    if not counted.any():
+        return 0, n
+    ref = ptp[counted].min(axis=0)
+    for j in np.flatnonzero(ref == 0):              # a block without a change: its quantization step instead
+        steps = np.abs(np.diff(omega[:, j]))
+        ref[j] = steps[steps > 0].min() if (steps > 0).any() else 0.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(ptp > 0, ptp / ref, 0.0).max(axis=1)      # a column never moving: ratio 0
+    still = counted & (ratio <= _STILL_RATIO)
+    shortest, longest = _STILL_BLOCKS
+    b = 0
+    while b < still.size:
+        if still[b]:
+            e = b
+            while e + 1 < still.size and still[e + 1]:
+                e += 1
+            if e - b + 1 >= shortest:
+                return int(starts[b]), int(ends[min(e, b + longest - 1)])
+            b = e + 1
+        else:
+            b += 1
+    quiet = int(np.argmin(np.where(counted, ratio, np.inf)))
+    return int(starts[quiet]), int(ends[quiet])
+
+
+def _gyro_noise(omega: np.ndarray) -> np.ndarray:
+    """White-noise standard deviation per gyro axis, from the median absolute sample-to-sample change.
+
+    For white noise of standard deviation sigma the changes have standard deviation sqrt(2) sigma and
+    their median absolute value is 0.6745 of it; the median ignores a few outliers. Zeros with fewer
+    than three samples.
+    """
+    if omega.shape[0] < 3:
+        return np.zeros(omega.shape[1])
+    return np.median(np.abs(np.diff(omega, axis=0)), axis=0) / (0.6745 * math.sqrt(2.0))
+
+
+def _vec(v) -> str:
+    return "(" + ", ".join(f"{x:.3g}" for x in v) + ")"
+
+
+def plausibility_problems(rec: Recording) -> list[str]:
+    """One line per way a recording is implausible for a phone IMU in SI units and the z-up frame.
+
+    The checks read the recording's first still stretch (the MoRPI recordings
+    start at rest; a handling disturbance before the rest is skipped): the
+    medians of the specific force and of the angular rate over it, and the
+    gyro noise there. Each bound is a sensor or physics figure, given with its
+    source beside its constant:
+
+    - dead channel: a sensor column that reads the same value in every sample
+      (all zero, or stuck), when the recording carries sensor noise (some
+      column moves during the still stretch; a noise-free synthetic recording
+      is not judged on this);
+    - gravity: the magnitude of the rest specific force within
+      :data:`GRAVITY_BAND_MPS2` of :data:`G0` (an accelerometer in g, one
+      without gravity, or specific force on the gyro columns is named);
+    - up axis: ``f_z`` at least :data:`UP_FRACTION_MIN` of that magnitude,
+      positive (gravity on x or y, or a z-down frame, is named);
+    - gyro at rest: each axis's rest mean within :data:`GYRO_REST_LIMIT_RADPS`
+      and its white noise within :data:`GYRO_NOISE_FACTOR` times the
+      datasheet noise at the recording's rate (deg/s, or gravity on a gyro
+      column, is named).
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording, as loaded (SI units claimed, phone axes).
+
+    Returns
+    -------
+    list of str
+        The problems, each one line starting with ``rec.source``; empty when
+        the recording is plausible.
+
+    Examples
+    --------
+    A phone at rest, then the same recording with the accelerometer written in g:
+
+    >>> rng = np.random.default_rng(0)
+    >>> t = np.arange(400) * 0.01
+    >>> f = [0.1, -0.2, 9.8] + 0.02 * rng.standard_normal((400, 3))
+    >>> w = [0.01, 0.0, -0.02] + 0.002 * rng.standard_normal((400, 3))
+    >>> plausibility_problems(Recording(time=t, f=f, omega=w, source="a.csv"))
+    []
+    >>> import textwrap
+    >>> for line in plausibility_problems(Recording(time=t, f=f / G0, omega=w, source="a.csv")):
+    ...     print(textwrap.fill(line, 90))
+    a.csv: specific force at rest is 1.00 m/s^2 (f = (0.00994, -0.0204, 0.999)), expected |f|
+    = 9.81 +- 2.11 m/s^2: looks like the accelerometer is in g, not m/s^2
+    """
+    src = rec.source
+    out = []
+    if rec.n == 0:
+        return out
+    i0, i1 = _still_stretch(rec.time, rec.omega)
+    rest = np.concatenate((rec.f[i0:i1], rec.omega[i0:i1]), axis=1)
+    if (rest.max(axis=0) > rest.min(axis=0)).any():               # the recording carries sensor noise
+        dead = np.concatenate([np.maximum.reduceat(x, [0], axis=0)[0] == np.minimum.reduceat(x, [0], axis=0)[0]
+                               for x in (rec.f, rec.omega)])     # (reduceat: much faster than max(axis=0) here)
+        for j in np.flatnonzero(dead):
+            v, col = float(rest[0, j]), COLUMNS[1 + j]
+            what = "all zero" if v == 0 else f"stuck at {v!r}"
+            out.append(f"{src}: column {col} is {what} in all {rec.n} samples: a dead channel, expected a live "
+                       "sensor (white noise moves every MEMS axis, as the recording's other columns move at rest)")
+    f_mean, w_mean = np.split(np.median(rest, axis=0), 2)
+    mag, w_mag = float(np.linalg.norm(f_mean)), float(np.linalg.norm(w_mean))
+    band = GRAVITY_BAND_MPS2
+    gravity_ok = abs(mag - G0) <= band
+    in_g = abs(mag * G0 - G0) <= band
+    gravity_on_gyro = abs(w_mag - G0) <= band
+    expect_f = f"expected |f| = {G0:.2f} +- {band:.2f} m/s^2"
+    if not gravity_ok:
+        if in_g:
+            hint = "looks like the accelerometer is in g, not m/s^2"
+        elif gravity_on_gyro:
+            hint = (f"the gyro columns carry it instead (|w| = {w_mag:.3g} at rest, w = {_vec(w_mean)}): "
+                    "looks like specific-force and angular-rate columns swapped under their header")
+        elif mag < band:
+            hint = "no gravity: looks like linear acceleration (gravity removed) or a column that is not specific force"
+        else:
+            hint = "not the gravity a phone at rest reads: another unit or another quantity under the header"
+        out.append(f"{src}: specific force at rest is {mag:.2f} m/s^2 (f = {_vec(f_mean)}), {expect_f}: {hint}")
+    if gravity_ok or in_g:
+        share = f_mean[2] / mag
+        if share < UP_FRACTION_MIN:
+            if -share >= UP_FRACTION_MIN:
+                out.append(f"{src}: f_z at rest is {f_mean[2]:.3g} (f = {_vec(f_mean)}), expected +|f| on z (the "
+                           "phone frame is z up): a z-down frame (north-east-down axes) or a phone lying face down")
+            else:
+                j = int(np.argmax(np.abs(f_mean)))
+                other = COLUMNS[1 + j]
+                cause = (f"looks like {other} and f_z swapped under their header, or a phone standing on its edge"
+                         if j < 2 else "a phone tilted beyond 45 deg")
+                out.append(f"{src}: gravity at rest is on {other} (f = {_vec(f_mean)}), expected at least "
+                           f"{UP_FRACTION_MIN:.2f} of |f| on +f_z (the phone frame is z up): {cause}")
+    noise = _gyro_noise(rest[:, 3:])
+    dt = np.diff(rec.time[i0:i1] if i1 - i0 > 1 else rec.time)
+    rate = float(1.0 / np.median(dt)) if dt.size else 100.0      # the stretch's median sampling rate [Hz]
+    noise_limit = GYRO_NOISE_FACTOR * max(s.gyro_noise for s in SENSORS.values()) * math.sqrt(rate)
+    bias_bad = np.abs(w_mean) > GYRO_REST_LIMIT_RADPS
+    noise_bad = noise > noise_limit
+    if bias_bad.any() or noise_bad.any():
+        said = []
+        if bias_bad.any():
+            j = int(np.argmax(np.abs(w_mean)))
+            said.append(f"mean {w_mean[j]:.3g} rad/s on {COLUMNS[4 + j]} (expected within "
+                        f"+-{GYRO_REST_LIMIT_RADPS:.2f} rad/s, three zero-rate offsets)")
+        if noise_bad.any():
+            j = int(np.argmax(noise))
+            said.append(f"noise {noise[j]:.3g} rad/s on {COLUMNS[4 + j]} (expected at most {noise_limit:.3g} rad/s, "
+                        f"{GYRO_NOISE_FACTOR:g} times the datasheet noise at {rate:.0f} Hz)")
+        as_deg = (np.abs(w_mean) * DEG <= GYRO_REST_LIMIT_RADPS).all() and (noise * DEG <= noise_limit).all()
+        odd = np.flatnonzero(bias_bad | noise_bad)
+        if gravity_on_gyro:
+            # said with the specific force when the accelerometer lacks it
+            hint = "looks like gravity, specific force under a gyro header" if gravity_ok else None
+        elif as_deg and odd.size > 1:            # deg/s scales every axis, its noise too
+            hint = "looks like deg/s, not rad/s"
+        elif as_deg:
+            hint = f"looks like deg/s (not rad/s), or specific force under the {COLUMNS[4 + odd[0]]} header"
+        else:
+            hint = "the gyro columns do not read a gyro at rest: another unit or another quantity under the header"
+        if hint is not None:
+            out.append(f"{src}: angular rate at rest: {'; '.join(said)}: {hint}")
+    return out
+
+
+def check_plausible(rec: Recording) -> Recording:
+    """Return `rec` when it is plausible (:func:`plausibility_problems`), else raise.
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording to check.
+
+    Returns
+    -------
+    Recording
+        `rec` itself.
+
+    Raises
+    ------
+    DataError
+        One line: the source, then every problem of :func:`plausibility_problems`.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(1)
+    >>> t = np.arange(300) * 0.01
+    >>> w = 0.002 * rng.standard_normal((300, 3))
+    >>> f = np.column_stack([np.zeros(300), 0.02 * rng.standard_normal(300), 9.8 + 0.02 * rng.standard_normal(300)])
+    >>> check_plausible(Recording(time=t, f=f, omega=w, source="b.csv"))
+    Traceback (most recent call last):
+    ...
+    morpi_filters.errors.DataError: b.csv: column f_x is all zero in all 300 samples: a dead channel, ...
+    """
+    problems = plausibility_problems(rec)
+    if problems:
+        prefix = f"{rec.source}: "
+        raise DataError(prefix + "; ".join(p[len(prefix):] if p.startswith(prefix) else p for p in problems))
+    return rec
 
 
 def write_csv(path, recording: Recording) -> None:
@@ -1052,14 +1755,15 @@ def load_recording(path) -> tuple[Recording, "Route | None"]:
     Returns
     -------
     recording : Recording
-        The validated recording (:func:`load_csv`), labelled when in the layout.
+        The validated recording (:func:`load_csv`, :func:`check_plausible`),
+        labelled when in the layout.
     truth : Route or None
         The route's ground truth; None outside the layout.
 
     Raises
     ------
     DataError
-        Every error of :func:`load_csv`.
+        Every error of :func:`load_csv` and :func:`check_plausible`.
 
     Warns
     -----
@@ -1087,10 +1791,11 @@ def load_recording(path) -> tuple[Recording, "Route | None"]:
         labels = _split_parts(Path(*parts)) if len(parts) == depth else None
         if labels is not None and labels[1] in known:
             phone, route_name, split = labels
-            return load_csv(path, phone=phone, route=route_name, split=split), known[route_name]
+            rec = load_csv(path, phone=phone, route=route_name, split=split)
+            return check_plausible(rec), known[route_name]
     warnings.warn(f"{path}: not in the MoRPI layout (<phone>/<route>[/<split>]/<n>.csv): loaded without "
                   "phone, route, split or ground truth", stacklevel=2)
-    return load_csv(path), None
+    return check_plausible(load_csv(path)), None
 
 
 def load_catalogue(root, *, phone=None, route=None, split=None) -> list[Recording]:
@@ -1112,7 +1817,7 @@ def load_catalogue(root, *, phone=None, route=None, split=None) -> list[Recordin
     Raises
     ------
     DataError
-        For the first file that does not load (:func:`load_csv`).
+        For the first file that does not load (:func:`CatalogueEntry.load`).
 
     Examples
     --------
@@ -1289,11 +1994,13 @@ def check_tree(root, *, usable=None) -> tuple[list[str], int]:
     Returns
     -------
     problems : list of str
-        One line per bad file, and per difference from the expected layout
-        (:func:`layout_problems`: missing or unexpected folders, wrong counts,
-        no recordings at all).
+        One line per file that does not load (:func:`load_csv`), per
+        implausible reading of a file that does (:func:`plausibility_problems`:
+        a dead channel, wrong units, swapped columns, a z-down frame), and per
+        difference from the expected layout (:func:`layout_problems`: missing
+        or unexpected folders, wrong counts, no recordings at all).
     n_ok : int
-        Number of files that loaded cleanly (and passed `usable`).
+        Number of files that loaded cleanly and passed every plausibility check (and `usable`).
 
     Examples
     --------
@@ -1315,13 +2022,14 @@ def check_tree(root, *, usable=None) -> tuple[list[str], int]:
     problems, n_ok = [], 0
     for e in entries:
         try:
-            rec = e.load()
+            rec = load_csv(e.path, phone=e.phone, route=e.route, split=e.split)
         except MorpiError as exc:
             problems.append(str(exc))
             continue
-        line = None if usable is None else usable(rec)
-        if line is None:
-            n_ok += 1
-        else:
-            problems.append(line)
+        found = plausibility_problems(rec)           # every one, where a load names the first
+        if not found and usable is not None:
+            line = usable(rec)
+            found = [] if line is None else [line]
+        problems += found
+        n_ok += not found
     return problems + layout_problems(root, entries), n_ok

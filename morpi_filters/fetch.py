@@ -8,6 +8,15 @@ folder) into ``DIR/data``, and checks every file against the SHA-256 sums in
 ``data/dataset_checksums.txt``, a small file this project owns (paths and
 hashes only, made by :func:`compute_checksums` from a verified copy).
 
+What a dataset is
+-----------------
+:func:`dataset_identity` names a dataset by its content, not by where it
+lies, for the reports: its number of recordings, whether they are exactly the
+published ones (every file and hash of ``data/dataset_checksums.txt``), and a
+fingerprint of their bytes; a synthetic dataset is named as such, with its
+seed. Two copies of the same recordings at different paths, or on different
+machines, get the same identity.
+
 All or nothing
 --------------
 The archive is downloaded to a temporary file and unpacked into a staging
@@ -31,8 +40,11 @@ References
 from __future__ import annotations
 
 import contextlib
+import functools
 import hashlib
 import http.client
+import io
+import json
 import os
 import shutil
 import socket
@@ -42,6 +54,7 @@ import urllib.error
 import urllib.request
 import zipfile
 import zlib
+from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 from typing import Callable, Mapping
 
@@ -51,7 +64,7 @@ from .reporting import new_stage_dir, swap_in
 
 __all__ = [
     "DEFAULT_URL", "CHECKSUMS_FILE", "sha256_file", "compute_checksums", "write_checksums", "load_checksums",
-    "verify_tree", "fetch_dataset",
+    "verify_tree", "fetch_dataset", "DatasetIdentity", "dataset_identity",
 ]
 
 #: Zip archive of the default branch of the public repository.
@@ -293,6 +306,177 @@ def _compare(expected: Mapping[str, str], got: Mapping[str, str | None]) -> list
     if bad:
         problems.append(f"checksum mismatch in {len(bad)} file(s), e.g. {bad[0]}")
     return problems
+
+
+# ----------------------------------------------------------------------------- what a dataset is
+
+#: How the pages name the committed checksum list (the same file in a checkout and in the wheel).
+CHECKSUMS_SHOWN = f"data/{CHECKSUMS_FILE.name}"
+
+
+@dataclass(frozen=True)
+class DatasetIdentity:
+    """A dataset named by its content, the same wherever it lies (see :func:`dataset_identity`).
+
+    Attributes
+    ----------
+    kind : str
+        ``"field"`` (recordings given as they are) or ``"synthetic"``
+        (written by :func:`morpi_filters.synthetic.write_dataset`).
+    recordings : int
+        Number of CSV files under the root.
+    published : bool
+        True when the CSV files are exactly those of :data:`CHECKSUMS_FILE`
+        with their hashes (the public MoRPI recordings); False for any other
+        set and for synthetic data.
+    fingerprint : str or None
+        Field data: sha256 of the dataset's checksum list, one ``<sha256>
+        <relative path>`` line per CSV file sorted by path (the format of
+        :func:`write_checksums` without its comment lines), so the published
+        set's fingerprint is that of the body of :data:`CHECKSUMS_FILE`.
+        None for synthetic data, whose bytes follow the machine's arithmetic.
+    seed : int or None
+        Seed of a synthetic dataset, when known.
+    differences : tuple of str
+        Field data that is not the published set: how it differs from
+        :data:`CHECKSUMS_FILE` (missing, unexpected and changed files, each
+        with a count and an example).
+    """
+
+    kind: str
+    recordings: int
+    published: bool = False
+    fingerprint: str | None = None
+    seed: int | None = None
+    differences: tuple = ()
+
+    @property
+    def text(self) -> str:
+        """One line for the pages, without the dataset's location.
+
+        Returns
+        -------
+        str
+            For example ``MoRPI field dataset (143 recordings matching
+            data/dataset_checksums.txt, fingerprint 0123456789abcdef)`` or
+            ``seeded synthetic recordings (seed 0, 143 recordings)``.
+
+        Examples
+        --------
+        >>> DatasetIdentity("synthetic", 3, seed=7).text
+        'seeded synthetic recordings (seed 7, 3 recordings)'
+        >>> DatasetIdentity("field", 1, fingerprint="ab" * 32, differences=("2 file(s) missing, e.g. s6/L_line/1.csv",)).text
+        'field recordings (1 recording, not the published MoRPI set: 2 file(s) missing, e.g. s6/L_line/1.csv; fingerprint abababababababab)'
+        """
+        n = f"{self.recordings} recording{'' if self.recordings == 1 else 's'}"
+        if self.kind == "synthetic":
+            return f"seeded synthetic recordings (seed {self.seed}, {n})" if self.seed is not None \
+                else f"synthetic recordings ({n})"
+        fp = (self.fingerprint or "")[:16]
+        if self.published:
+            return f"MoRPI field dataset ({n} matching {CHECKSUMS_SHOWN}, fingerprint {fp})"
+        return (f"field recordings ({n}, not the published MoRPI set: "
+                f"{'; '.join(self.differences)}; fingerprint {fp})")
+
+    def as_json(self) -> dict:
+        """The identity as JSON values (what a report's ``result.json`` holds).
+
+        Returns
+        -------
+        dict
+            ``description`` (:attr:`text`), ``kind``, ``recordings``,
+            ``published``, ``fingerprint``, ``seed`` and ``differences``.
+
+        Examples
+        --------
+        >>> DatasetIdentity("synthetic", 3, seed=7).as_json()["description"]
+        'seeded synthetic recordings (seed 7, 3 recordings)'
+        """
+        return {"description": self.text, "kind": self.kind, "recordings": self.recordings,
+                "published": self.published, "fingerprint": self.fingerprint, "seed": self.seed,
+                "differences": list(self.differences)}
+
+
+def _synthetic_seed(root: Path):
+    """(True, seed) when `root` holds the manifest of a dataset written by ``morpi simulate``, else (False, None)."""
+    try:
+        m = json.loads((root / "manifest.json").read_text())
+    except (OSError, ValueError):
+        return False, None
+    if not isinstance(m, dict) or m.get("generator") != "morpi_filters.simulate":
+        return False, None
+    seed = m.get("seed")
+    return True, (seed if isinstance(seed, int) and not isinstance(seed, bool) else None)
+
+
+def dataset_identity(root, *, synthetic: bool = False, seed: int | None = None) -> DatasetIdentity:
+    """What the dataset under `root` is, independent of the path it is given by.
+
+    Field recordings are hashed (:func:`compute_checksums`) and compared with
+    :data:`CHECKSUMS_FILE`; a dataset flagged `synthetic`, or holding the
+    manifest of :func:`morpi_filters.synthetic.write_dataset`, is named as
+    synthetic with its seed. The answer is kept for the process while no CSV
+    file under `root` changes its size or modification time, so the pages of
+    one report hash the recordings once.
+
+    Parameters
+    ----------
+    root : str or Path
+        The dataset root.
+    synthetic : bool, optional
+        The caller knows the recordings are synthetic.
+    seed : int, optional
+        Their seed (default: the manifest's).
+
+    Returns
+    -------
+    DatasetIdentity
+
+    Raises
+    ------
+    MorpiError
+        When `root` is not a directory.
+
+    Examples
+    --------
+    >>> import pathlib, shutil, tempfile
+    >>> a = pathlib.Path(tempfile.mkdtemp()) / "here"
+    >>> (a / "s6" / "L_line").mkdir(parents=True)
+    >>> _ = (a / "s6" / "L_line" / "1.csv").write_bytes(b"abc")
+    >>> b = shutil.copytree(a, pathlib.Path(tempfile.mkdtemp()) / "there")
+    >>> dataset_identity(a) == dataset_identity(b), dataset_identity(a).published
+    (True, False)
+    >>> dataset_identity(a, synthetic=True, seed=3).text
+    'seeded synthetic recordings (seed 3, 1 recording)'
+    """
+    root = Path(root)
+    if not root.is_dir():
+        raise MorpiError(f"{root}: not a directory, expected a dataset root")
+    stamp = []
+    for p in root.rglob("*.csv"):
+        with contextlib.suppress(OSError):
+            st = p.stat()
+            stamp.append((p.relative_to(root).as_posix(), st.st_size, st.st_mtime_ns))
+    man = root / "manifest.json"
+    with contextlib.suppress(OSError):
+        st = man.stat()
+        stamp.append((man.name, st.st_size, st.st_mtime_ns))
+    return _identity(str(root.resolve()), bool(synthetic), seed, tuple(sorted(stamp)))
+
+
+@functools.lru_cache(maxsize=16)
+def _identity(root: str, synthetic: bool, seed, stamp) -> DatasetIdentity:
+    """:func:`dataset_identity` of a resolved root; `stamp` (the files' sizes and times) keys the cache."""
+    root = Path(root)
+    made, made_seed = _synthetic_seed(root)
+    if synthetic or made:
+        n = sum(1 for p in root.rglob("*.csv") if p.is_file())
+        return DatasetIdentity("synthetic", n, seed=seed if seed is not None else made_seed)
+    sums = compute_checksums(root)
+    body = "".join(f"{h}  {rel}\n" for rel, h in sums.items())
+    differences = tuple(_compare(load_checksums(CHECKSUMS_FILE), sums))
+    return DatasetIdentity("field", len(sums), published=not differences,
+                           fingerprint=_sha256_stream(io.BytesIO(body.encode()).read), differences=differences)
 
 
 # ----------------------------------------------------------------------------- archive members

@@ -637,7 +637,7 @@ def check_recordings(root) -> tuple[list[str], int, list[str]]:
     --------
     Three recordings of 4 s: at rest; at rest, then turning from 3 s on, so
     that it ends before the turn can be told from a disturbance; and
-    vibrating from its first sample (0.03 rad/s at 13 Hz), which has no rest.
+    vibrating from its first sample (0.015 rad/s at 13 Hz), which has no rest.
 
     >>> import json, pathlib, tempfile
     >>> root = pathlib.Path(tempfile.mkdtemp())
@@ -649,7 +649,7 @@ def check_recordings(root) -> tuple[list[str], int, list[str]]:
     >>> f = [0.0, 0.0, 9.8] + 0.01 * rng.standard_normal((400, 3))
     >>> w = 0.002 * rng.standard_normal((400, 3))
     >>> ds.write_csv(root / "s8/line_dataset/1.csv", ds.Recording(time=t, f=f, omega=w))
-    >>> shake = 0.03 * np.sin(2 * np.pi * 13.0 * t)[:, None]
+    >>> shake = 0.015 * np.sin(2 * np.pi * 13.0 * t)[:, None]
     >>> ds.write_csv(root / "s8/line_dataset/3.csv", ds.Recording(time=t, f=f, omega=w + shake))
     >>> w[300:, 2] += 0.5 * np.sin(2 * np.pi * t[300:])
     >>> ds.write_csv(root / "s8/line_dataset/2.csv", ds.Recording(time=t, f=f, omega=w))

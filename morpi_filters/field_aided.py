@@ -23,6 +23,22 @@ on that window and on every
 still stretch after the motion (:func:`still_spans`), zero velocity alone
 between that window and the motion onset; the filter is read where MoRPI's own
 track ends (:meth:`Prepared.end`).
+
+Each cell holds, beside MoRPI alone, the filter's own steps alone
+(:func:`steps_alone`: the step vectors it is fed, summed without the INS), the
+run-by-run tests against both with Holm's correction over the cells of a
+calibration (:func:`paired_difference`, :func:`holm`, with the smallest
+difference a tie could have shown: :func:`detectable_difference`), the same
+tests against MoRPI alone under its best train-chosen heading reading (the
+rule's own, or the route's heading where the train runs prefer it beyond the
+tie tolerance: :func:`choose_reading`; with the Weinberg length or the period
+count, :func:`choose_length`; the tables' cells are left as they are), the
+share of
+true end points inside the 95 % regions of the smoothed and the forward
+estimate, each under its own covariance (:func:`ellipse_coverage`), and the
+NIS of each measurement per degree of freedom with its chi-square band
+(:func:`nis_consistency`). The ablation removes each aid the chosen filter
+uses (:func:`aid_used`) and reads both filters the same two ways.
 """
 from __future__ import annotations
 
@@ -36,7 +52,10 @@ from .errors import MorpiError
 
 __all__ = ["GRID", "ABLATIONS", "AidedCell", "AidedStudy", "PairedDifference", "Prepared", "aided_study",
            "choose_tunables", "choose_tunables_many", "paired_difference", "prepare",
-           "still_spans", "rest_noise", "gyro_drift", "gain_estimate_pays", "route_vectors"]
+           "still_spans", "rest_noise", "gyro_drift", "gain_estimate_pays", "route_vectors", "steps_alone",
+           "holm", "detectable_difference", "READING_SE", "ReadingChoice", "route_sums",
+           "route_reading_pays", "choose_reading", "LENGTHS", "period_sums", "period_length", "LengthChoice",
+           "choose_length", "ellipse_coverage", "nis_consistency", "aid_used"]
 
 #: Train-only grid: factor on the rest-window noise densities (the moving robot vibrates far above
 #: them), step displacement noise [m], whether the gain error is estimated or only considered (the
@@ -70,9 +89,21 @@ MIN_TRAIN_COVERAGE = 0.85
 #: (0.06 m/s^2 over a 40 s run, against the 0.2-0.3 m/s^2 offset of f_x while cruising, which it
 #: does not try to follow).
 ACCEL_WALK = 1e-2
-#: Aids removed in turn in the ablation (AidTuning fields set to these values).
+#: Aids removed in turn in the ablation (AidTuning fields set to these values; smoothing: the forward
+#: filter read instead of the smoothed one). The rest updates are removed from a filter started at the
+#: motion onset, and compared with the filter started there with them (:meth:`Prepared.onset_input`).
 ABLATIONS = {"steps": {"steps": False}, "non-holonomic": {"nhc": False}, "rest updates": {"rest": False},
              "gain state": {"gain_sigma": 0.0}, "smoothing": {}}
+#: Level of the paired tests, and the power at which a tie states the smallest difference the runs
+#: could have detected (:func:`detectable_difference`).
+ALPHA, POWER = 0.05, 0.8
+#: Tie tolerance of MoRPI alone's reading choice (:func:`choose_reading`): the route's heading replaces the
+#: step rule's own reading only when its train leave-one-out error is lower by more than this many standard
+#: errors of the paired difference over the train runs (the one-standard-error rule of
+#: :data:`morpi_filters.field.SOURCE_SE`): the reading the rule search chose is kept within it.
+READING_SE = 1.0
+#: Two-sided 95 % point of the standard normal: the bound of one axis' 95 % interval [sigma].
+Z_95 = 1.959963984540054
 
 
 #: A stretch is still when the moving standard deviation of the gyro (summed over the axes, over
@@ -253,7 +284,8 @@ class Prepared:
     """A recording ready for the aided filter in one cell: input, MoRPI track, noise from rest.
 
     :attr:`input` carries MoRPI's own step vectors, :attr:`route_input` the
-    same steps along the route's heading (:func:`route_vectors`).
+    same steps along the route's heading (:func:`route_vectors`);
+    :attr:`onset_s` is the motion onset [s].
     """
 
     def input_for(self, info, forward_only: bool = False) -> aided.AidedInput:
@@ -271,6 +303,20 @@ class Prepared:
             return cut
         return inp
 
+    def onset_input(self, info) -> aided.AidedInput:
+        """The input of :meth:`input_for`, started at the motion onset (:attr:`onset_s`).
+
+        The initial rest window and the standing stretch before the onset are
+        left out (:meth:`aided.AidedInput.since`): a filter run on it holds
+        the robot still before the motion by nothing but its start.
+        """
+        inp = self.input_for(info)
+        key = (id(inp), "since")
+        cut = self._cut.get(key)
+        if cut is None:
+            cut = self._cut[key] = inp.since(self.onset_s)
+        return cut
+
     rel: str
     input: aided.AidedInput
     route_input: aided.AidedInput
@@ -279,6 +325,7 @@ class Prepared:
     stop_s: float
     gyro_drift: tuple
     motion_shift: np.ndarray
+    onset_s: float = float("nan")
     _cut: dict = field(default_factory=dict, repr=False)
 
     def end(self, r: aided.AidedResult):
@@ -336,8 +383,8 @@ def prepare(data, rec, mode, method, config, gain) -> Prepared:
         window on: the robot's path starts where it stands, whatever the phone
         did before; coarse-level attitude, steps, rest stretches), MoRPI's track, the rest noise
         (:func:`rest_noise`), the read-out time (the last step boundary),
-        the gyro drift (:func:`gyro_drift`) and the specific force's mean shift
-        between rest and motion [m/s^2].
+        the gyro drift (:func:`gyro_drift`), the specific force's mean shift
+        between rest and motion [m/s^2] and the motion onset [s].
 
     Raises
     ------
@@ -372,12 +419,9 @@ def prepare(data, rec, mode, method, config, gain) -> Prepared:
     # read where MoRPI's track ends: the gain is trained on MoRPI's step sum, which covers the motion up
     # to the last step boundary (the robot's creep after it is part of what the gain absorbs)
     stop = float(s.end_time[-1]) if s.end_time.size else data.activity(rec)[1]
-    bt = s.peaks.grid_time[s.peaks.grid_index]
-    along = route_vectors(track.length, s.start_time, s.end_time, bt, crec.time,
-                          data.heading(rec, mode, config.heading_source), config.turn_deg,
-                          2 if config.segment == "extrema" else 1)
+    along = _route_steps(data, rec, mode, config, s, track.length)
     cache[key] = Prepared(data.relpath(rec), inp, replace(inp, step_vector=along), track.position, noise, float(stop),
-                          drift, shift)
+                          drift, shift, onset)
     return cache[key]
 
 
@@ -449,6 +493,350 @@ def route_vectors(length, start, end, boundaries, time, psi, turn_deg, per_perio
     stretches = st.turn_stretches(bt, np.interp(bt, time, psi), np.radians(turn_deg), per_period)
     h = st.turn_heading(0.5 * (np.asarray(start, float) + np.asarray(end, float)), time, psi, stretches)
     return np.asarray(length, float)[:, None] * np.stack([np.cos(h), np.sin(h)], axis=1)
+
+
+def _route_steps(data, rec, mode, config, s, length) -> np.ndarray:
+    """:func:`route_vectors` of a recording's steps `s` (found under `config`) with the step lengths `length`."""
+    crec, _ = data.calibrated(rec, mode)
+    bt = s.peaks.grid_time[s.peaks.grid_index]
+    return route_vectors(length, s.start_time, s.end_time, bt, crec.time,
+                         data.heading(rec, mode, config.heading_source), config.turn_deg,
+                         2 if config.segment == "extrema" else 1)
+
+
+def route_sums(data, rec, mode, method, config) -> tuple[float, np.ndarray]:
+    """MoRPI alone's distance and end point per unit gain with the route's heading (:func:`route_vectors`).
+
+    The steps, their Weinberg weights and fractions are those of `config`
+    (:meth:`~morpi_filters.field.FieldData.steps`); only the heading is the
+    route's, the same the filter's ``"route"`` step direction reads. A run
+    dead-reckoned with gain ``G`` ends at ``G * u``.
+
+    Parameters
+    ----------
+    data : field.FieldData
+    rec : dataset.Recording
+    mode : {"RD", "GC", "GAC"}
+    method : {"MoRPI-A", "MoRPI-G"}
+    config : steps.StepConfig
+
+    Returns
+    -------
+    w : float
+        ``sum(weight * fraction)``: the distance per unit gain.
+    u : ndarray, shape (2,)
+        The end point per unit gain.
+
+    Raises
+    ------
+    MorpiError
+        When no steps are found (as :meth:`~morpi_filters.field.FieldData.steps`).
+    """
+    s = data.steps(rec, mode, method, config)
+    unit = np.asarray(s.weight, float) * np.asarray(s.fraction, float)
+    v = _route_steps(data, rec, mode, config, s, unit)
+    return float(unit.sum()), (v.sum(axis=0) if v.size else np.zeros(2))
+
+
+@dataclass(frozen=True)
+class ReadingChoice:
+    """MoRPI alone's heading reading chosen on the train runs for one method (:func:`choose_reading`).
+
+    Attributes
+    ----------
+    method : str
+    reading : str
+        ``"route"`` (:func:`route_sums`) or the step rule's own heading reading
+        (:attr:`steps.StepConfig.heading`).
+    rule_percent, route_percent : float
+        Leave-one-out mean end-point error of the train runs under the rule's reading and under the
+        route's heading [%] (infinite when a train run cannot be processed).
+    difference_se_pp : float
+        Standard error of the per-run difference (route minus rule) [pp].
+    runs : int
+        Train runs scored.
+    """
+
+    method: str
+    reading: str
+    rule_percent: float
+    route_percent: float
+    difference_se_pp: float
+    runs: int
+
+
+def route_reading_pays(rule_errors, route_errors, *, se_factor: float = READING_SE) -> bool:
+    """Whether the route's heading beats the rule's reading on the train runs, beyond the tie tolerance.
+
+    The per-run difference (route minus rule, the same runs in the same
+    order) must have a mean below ``-se_factor`` standard errors of itself
+    (:data:`READING_SE`): within that the rule's own reading is kept.
+
+    Parameters
+    ----------
+    rule_errors, route_errors : array_like, shape (n,)
+        Per train run, the leave-one-out end-point errors [%].
+    se_factor : float
+        Tie tolerance in standard errors of the paired difference.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> route_reading_pays([3.0, 4.0, 5.0, 4.0], [2.0, 3.1, 3.9, 3.0])     # 1 pp better on every run
+    True
+    >>> route_reading_pays([3.0, 4.0, 5.0, 4.0], [3.5, 3.0, 5.0, 3.9])     # better on average, within the spread
+    False
+    """
+    a = np.asarray(rule_errors, float)
+    b = np.asarray(route_errors, float)
+    if a.shape != b.shape or a.ndim != 1 or a.size < 2 or not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+        return False
+    d = b - a
+    return bool(d.mean() < -se_factor * (d.std(ddof=1) / np.sqrt(d.size)))
+
+
+def _route_loo(data, method, config, mode="GC"):
+    """Per short-route train run, the leave-one-out end-point errors [%] of the rule's reading and of the
+    route's heading, the same gains (:func:`morpi_filters.field._train_summary`); None when a run fails."""
+    from . import field as fd
+
+    rule, route = [], []
+    for (truth, _, _, g, u, loo, failed), (_, _, _, recs) in zip(fd._train_summary(data, method, config, mode),
+                                                                fd._train_sets(data)):
+        if failed:
+            return None
+        if loo is None:
+            continue
+        ur = np.empty_like(u)
+        for i, r in enumerate(recs):
+            try:
+                ur[i] = route_sums(data, r, mode, method, config)[1]
+            except MorpiError:
+                return None
+        rule.append(loo)
+        route.append(fd._loo_errors(truth, g, ur))
+    if not rule:
+        return None
+    return np.concatenate(rule), np.concatenate(route)
+
+
+def choose_reading(data, method, config) -> ReadingChoice:
+    """MoRPI alone's best heading reading on the train runs: the rule's own, or the route's heading.
+
+    The rule (:func:`morpi_filters.field.select_config`) already holds the
+    best of MoRPI alone's own readings; the route's heading
+    (:func:`route_sums`, the filter's ``"route"`` step direction) is offered
+    beside it and scored by the same criterion: the leave-one-out end-point
+    error of the short-route train runs under GC (each run dead-reckoned with
+    the mean gain of its set's other runs). It is chosen only when it beats
+    the rule beyond the tie tolerance (:func:`route_reading_pays`). Nothing of
+    a ``test`` folder is read.
+
+    Parameters
+    ----------
+    data : field.FieldData
+    method : {"MoRPI-A", "MoRPI-G"}
+    config : steps.StepConfig
+        The method's step rule.
+
+    Returns
+    -------
+    ReadingChoice
+    """
+    errs = _route_loo(data, method, config)
+    if errs is None:
+        return ReadingChoice(method, config.heading, float("inf"), float("inf"), float("nan"), 0)
+    rule, route = errs
+    d = route - rule
+    se = float(d.std(ddof=1) / np.sqrt(d.size)) if d.size > 1 else float("nan")
+    pick = "route" if route_reading_pays(rule, route) else config.heading
+    return ReadingChoice(method, pick, float(rule.sum()) / rule.size, float(route.sum()) / route.size, se,
+                         int(rule.size))
+
+
+#: The step lengths MoRPI alone may use: the Weinberg length of the trained gain, or the period count (each
+#: half period a fixed length learnt on the train runs: :func:`period_sums`).
+LENGTHS = ("weinberg", "period count")
+
+
+def period_sums(data, rec, mode, method, config, reading) -> tuple[float, np.ndarray]:
+    """MoRPI alone's half periods and end point per unit half-period length: the period count.
+
+    Each step of `config` counts its half periods (two between maxima, one
+    between extrema) times its counted fraction; every half period has the
+    same length. The step directions are those of `reading`: the route's
+    heading (:func:`route_vectors`) or the rule's own.
+
+    Parameters
+    ----------
+    data : field.FieldData
+    rec : dataset.Recording
+    mode : {"RD", "GC", "GAC"}
+    method : {"MoRPI-A", "MoRPI-G"}
+    config : steps.StepConfig
+    reading : str
+        ``"route"`` or the rule's heading reading (:attr:`ReadingChoice.reading`).
+
+    Returns
+    -------
+    n : float
+        Half periods counted.
+    u : ndarray, shape (2,)
+        The end point per unit half-period length [m / m].
+
+    Raises
+    ------
+    MorpiError
+        When no steps are found.
+    """
+    s = data.steps(rec, mode, method, config)
+    c = np.asarray(s.fraction, float) * (2.0 if config.segment == "maxima" else 1.0)
+    if reading == "route":
+        v = _route_steps(data, rec, mode, config, s, c)
+    else:
+        h = np.asarray(s.heading, float)
+        v = c[:, None] * np.stack([np.cos(h), np.sin(h)], axis=1)
+    return float(c.sum()), (v.sum(axis=0) if v.size else np.zeros(2))
+
+
+def _unit_sums(data, rec, mode, method, config, reading, length):
+    """Distance and end point per unit gain (Weinberg) or per unit half-period length (period count)."""
+    if length == "period count":
+        return period_sums(data, rec, mode, method, config, reading)
+    if reading == "route":
+        return route_sums(data, rec, mode, method, config)
+    w, ux, uy = data.step_sums(rec, mode, method, config)[:3]
+    return float(w), np.array([ux, uy])
+
+
+def _phone_sets(data, phone):
+    """The phone's short-route training sets: (truth, train recordings) of those holding train runs."""
+    from . import field as fd
+
+    return [(truth, recs) for (ph, _, _), (truth, _, _, recs) in zip(fd.SHORT_SETS, fd._train_sets(data))
+            if ph == phone and recs]
+
+
+def period_length(data, phone, mode, method, config, reading) -> float:
+    """The period count's half-period length [m]: total train distance over total train half periods.
+
+    Over every train run of the phone's short-route training sets
+    (:data:`morpi_filters.field.SHORT_SETS`), the method's steps under
+    `config` and `mode`. NaN when a train run has no steps or there are none.
+
+    Parameters
+    ----------
+    data : field.FieldData
+    phone : str
+    mode : {"RD", "GC", "GAC"}
+    method : {"MoRPI-A", "MoRPI-G"}
+    config : steps.StepConfig
+    reading : str
+        As for :func:`period_sums` (the count does not depend on it).
+
+    Returns
+    -------
+    float
+    """
+    dist = halves = 0.0
+    for truth, recs in _phone_sets(data, phone):
+        for r in recs:
+            try:
+                halves += period_sums(data, r, mode, method, config, reading)[0]
+            except MorpiError:
+                return float("nan")
+            dist += truth.distance_m
+    return dist / halves if halves > 0 else float("nan")
+
+
+@dataclass(frozen=True)
+class LengthChoice:
+    """MoRPI alone's step length chosen on one phone's train runs for one method (:func:`choose_length`).
+
+    Attributes
+    ----------
+    phone, method : str
+    length : str
+        One of :data:`LENGTHS`.
+    weinberg_percent, period_percent : float
+        Held-out mean end-point error of the train runs with each length [%] (infinite when a run
+        cannot be processed).
+    held_out : str
+        ``"training set"`` (each of several training sets held out in turn) or ``"run"`` (leave-one-out).
+    runs : int
+        Train runs scored.
+    """
+
+    phone: str
+    method: str
+    length: str
+    weinberg_percent: float
+    period_percent: float
+    held_out: str
+    runs: int
+
+
+def choose_length(data, phone, method, config, reading) -> LengthChoice:
+    """The Weinberg length or the period count for MoRPI alone, chosen on the phone's train runs.
+
+    Each length is learnt on held-out data: with several short-route
+    training sets for the phone, each set is held out in turn and scored with
+    the length learnt on the others (the Weinberg gain: the mean of the runs'
+    own gains; the period count: their total distance over their total half
+    periods); with one set, each run is held out. Scored under GC with the
+    method's `reading`; the period count is taken only when it beats the
+    Weinberg length beyond the tie tolerance (:func:`route_reading_pays`'s
+    one-standard-error rule). Nothing of a ``test`` folder is read.
+
+    Parameters
+    ----------
+    data : field.FieldData
+    phone : str
+    method : {"MoRPI-A", "MoRPI-G"}
+    config : steps.StepConfig
+    reading : str
+        As for :func:`period_sums`.
+
+    Returns
+    -------
+    LengthChoice
+    """
+    sets = []
+    for truth, recs in _phone_sets(data, phone):
+        rows = []
+        for r in recs:
+            try:
+                rows.append([_unit_sums(data, r, "GC", method, config, reading, k) for k in LENGTHS])
+            except MorpiError:
+                return LengthChoice(phone, method, "weinberg", float("inf"), float("inf"), "-", 0)
+        end = np.asarray(truth.end_point_m, float)
+        d = truth.distance_m
+        sets.append((d, end, np.array([[q[0] for q in row] for row in rows]),
+                     np.array([[q[1] for q in row] for row in rows])))
+    err = {k: [] for k in LENGTHS}
+    by_set = len(sets) > 1
+    for k, (d, end, n, u) in enumerate(sets):
+        for i in range(n.shape[0]):
+            if by_set:
+                other = [x for j, x in enumerate(sets) if j != k]
+            else:
+                keep = np.arange(n.shape[0]) != i
+                other = [(d, end, n[keep], u[keep])] if keep.sum() else []
+            if not other:
+                continue
+            gain = np.mean(np.concatenate([dd / nn[:, 0] for dd, _, nn, _ in other]))
+            half = sum(dd * nn.shape[0] for dd, _, nn, _ in other) / sum(nn[:, 1].sum() for _, _, nn, _ in other)
+            err["weinberg"].append(np.linalg.norm(gain * u[i, 0] - end) / d * 100)
+            err["period count"].append(np.linalg.norm(half * u[i, 1] - end) / d * 100)
+    a, b = np.array(err["weinberg"]), np.array(err["period count"])
+    if not a.size:
+        return LengthChoice(phone, method, "weinberg", float("inf"), float("inf"), "-", 0)
+    pick = "period count" if route_reading_pays(a, b) else "weinberg"
+    return LengthChoice(phone, method, pick, float(a.mean()), float(b.mean()), "training set" if by_set else "run",
+                        int(a.size))
 
 
 def _tuning(noise, info, gain_rel) -> aided.AidTuning:
@@ -729,13 +1117,24 @@ class PairedDifference:
         is zero).
     alpha : float
         Level of :attr:`verdict`.
+    p_holm : float
+        :attr:`p_value` adjusted by Holm's step-down over a family of cells (:func:`holm`; NaN outside
+        one).
+    mdd_pp : float
+        The smallest true mean difference the test detects with probability :attr:`power` at
+        :attr:`alpha`, with these runs and their spread (:func:`detectable_difference`) [pp].
+    power : float
+        The power of :attr:`mdd_pp`.
     """
 
     mean_pp: float
     se_pp: float
     runs: int
     p_value: float
-    alpha: float = 0.05
+    alpha: float = ALPHA
+    p_holm: float = float("nan")
+    mdd_pp: float = float("nan")
+    power: float = POWER
 
     @property
     def verdict(self) -> str:
@@ -744,13 +1143,21 @@ class PairedDifference:
             return "tie"
         return "better" if self.mean_pp < 0 else "worse"
 
+    @property
+    def verdict_holm(self) -> str:
+        """:attr:`verdict` with the Holm-adjusted p-value (:attr:`p_holm`); ``"tie"`` outside a family."""
+        if not self.p_holm < self.alpha:
+            return "tie"
+        return "better" if self.mean_pp < 0 else "worse"
 
-def paired_difference(errors_m, reference_m, distance_m: float, *, alpha: float = 0.05) -> PairedDifference:
+
+def paired_difference(errors_m, reference_m, distance_m: float, *, alpha: float = ALPHA) -> PairedDifference:
     """Compare two methods' end-point errors run by run (paired t-test).
 
     With ten or so test runs per cell, a mean difference of a few tenths of a
     per cent is often within the runs' own spread; the test says which
-    differences the runs support.
+    differences the runs support, and :attr:`PairedDifference.mdd_pp` how
+    large a difference they could have shown (a tie is no equivalence).
 
     Parameters
     ----------
@@ -765,6 +1172,7 @@ def paired_difference(errors_m, reference_m, distance_m: float, *, alpha: float 
     Returns
     -------
     PairedDifference
+        Outside a family of cells (:attr:`PairedDifference.p_holm` NaN).
 
     Raises
     ------
@@ -790,14 +1198,297 @@ def paired_difference(errors_m, reference_m, distance_m: float, *, alpha: float 
     n = int(d.size)
     if n < 2:
         return PairedDifference(float(d.mean()) if n else float("nan"), float("nan"), n, float("nan"), alpha)
-    mean, se = float(d.mean()), float(d.std(ddof=1) / np.sqrt(n))
+    mean, sd = float(d.mean()), float(d.std(ddof=1))
+    se = sd / np.sqrt(n)
     if se > 0:
         from scipy import stats
 
         p = float(2 * stats.t.sf(abs(mean) / se, n - 1))
     else:
         p = 1.0 if mean == 0 else 0.0
-    return PairedDifference(mean, se, n, p, alpha)
+    return PairedDifference(mean, se, n, p, alpha, mdd_pp=detectable_difference(sd, n, alpha=alpha))
+
+
+def holm(p_values, alpha: float = ALPHA):
+    """Holm's step-down correction of a family of tests.
+
+    The ``m`` finite p-values sorted ascending, the i-th (from 0) is
+    multiplied by ``m - i``; each adjusted value is the running maximum of
+    these products (capped at 1), so the order of the p-values is kept. A
+    test is rejected where its adjusted value is below `alpha`: the chance of
+    any false rejection in the family stays at most `alpha`.
+
+    Parameters
+    ----------
+    p_values : array_like, shape (m,)
+        The family's p-values; NaN (no test) is left out of the family.
+    alpha : float
+        Family-wise level, in (0, 1).
+
+    Returns
+    -------
+    adjusted : ndarray, shape (m,)
+        Adjusted p-values (NaN where the input is NaN).
+    reject : ndarray of bool, shape (m,)
+        ``adjusted < alpha``.
+
+    Raises
+    ------
+    MorpiError
+        For `alpha` outside (0, 1) or p-values outside [0, 1].
+
+    Examples
+    --------
+    Four tests: 0.005 x 4 = 0.02, 0.01 x 3 = 0.03, 0.03 x 2 = 0.06, and 0.04 x 1
+    raised to the 0.06 before it:
+
+    >>> adj, rej = holm([0.01, 0.04, 0.03, 0.005])
+    >>> adj.round(12).tolist(), rej.tolist()
+    ([0.03, 0.06, 0.06, 0.02], [True, False, False, True])
+    """
+    if not 0 < alpha < 1:
+        raise MorpiError(f"alpha={alpha!r}: expected a test level in (0, 1)")
+    p = np.asarray(p_values, dtype=float).ravel()
+    ok = np.flatnonzero(np.isfinite(p))
+    if np.any((p[ok] < 0) | (p[ok] > 1)):
+        raise MorpiError(f"holm: p-values {p.tolist()}: expected values in [0, 1] (or NaN)")
+    adj = np.full(p.shape, np.nan)
+    run = 0.0
+    for i, j in enumerate(ok[np.argsort(p[ok], kind="stable")]):
+        run = max(run, min(1.0, (ok.size - i) * p[j]))
+        adj[j] = run
+    with np.errstate(invalid="ignore"):
+        return adj, adj < alpha
+
+
+def detectable_difference(sd: float, runs: int, *, alpha: float = ALPHA, power: float = POWER) -> float:
+    """The smallest true mean difference a two-sided paired t-test detects with probability `power`.
+
+    With ``runs`` paired differences of standard deviation `sd`, the t
+    statistic of a true mean difference ``delta`` follows the noncentral t
+    distribution with ``runs - 1`` degrees of freedom and noncentrality
+    ``delta sqrt(runs) / sd`` (scipy.stats.nct); the returned ``delta`` is
+    the one whose rejection probability at `alpha` is `power`. Smaller true
+    differences may well end in a tie: a tie says no more than this.
+
+    Parameters
+    ----------
+    sd : float
+        Standard deviation of the paired differences (any unit; the result is in it).
+    runs : int
+        Number of pairs.
+    alpha : float
+        Two-sided level, in (0, 1).
+    power : float
+        Wanted probability of detection, in (alpha, 1).
+
+    Returns
+    -------
+    float
+        The difference, in the unit of `sd`; NaN below two runs, 0 for ``sd == 0``.
+
+    Raises
+    ------
+    MorpiError
+        For `alpha`, `power` or `sd` out of range.
+
+    Examples
+    --------
+    Ten pairs of unit spread (near the rule of thumb ``(t_0.975 + t_0.8) / sqrt(10) = 0.995``):
+
+    >>> round(detectable_difference(1.0, 10), 3)
+    0.996
+    """
+    from scipy import optimize, stats
+
+    if not 0 < alpha < 1:
+        raise MorpiError(f"alpha={alpha!r}: expected a test level in (0, 1)")
+    if not alpha < power < 1:
+        raise MorpiError(f"power={power!r}: expected a probability in (alpha, 1)")
+    if not (np.isfinite(sd) and sd >= 0):
+        raise MorpiError(f"sd={sd!r}: expected a finite standard deviation >= 0")
+    if runs < 2:
+        return float("nan")
+    if sd == 0:
+        return 0.0
+    df = runs - 1
+    se = sd / np.sqrt(runs)
+    tc = stats.t.ppf(1 - alpha / 2, df)
+
+    def gap(delta):
+        nc = delta / se
+        return stats.nct.sf(tc, df, nc) + stats.nct.cdf(-tc, df, nc) - power
+
+    hi = (tc + stats.norm.ppf(power)) * se
+    while gap(hi) <= 0:
+        hi *= 2
+    return float(optimize.brentq(gap, 0.0, hi, xtol=1e-12 * se, rtol=1e-12))
+
+
+def steps_alone(inp: aided.AidedInput) -> np.ndarray:
+    """Where the filter's own step vectors lead without the INS: their sum [m].
+
+    The steps the filter updates with (:func:`aided.applied_steps`: the same
+    lengths and directions), summed from the filter's start (the origin):
+    dead reckoning with the filter's step direction. What the INS adds is
+    the difference between the filter and this.
+
+    Parameters
+    ----------
+    inp : aided.AidedInput
+        The filter's input; its step directions are
+        :attr:`aided.AidedInput.step_vector`.
+
+    Returns
+    -------
+    ndarray, shape (2,)
+        The end point [m]; NaN without step vectors (the filter reads its own attitude).
+
+    Examples
+    --------
+    >>> t = np.arange(31) * 0.1
+    >>> inp = aided.AidedInput(time=t, f=np.zeros((31, 3)), omega=np.zeros((31, 3)), C0=np.eye(3), g=9.8,
+    ...                        step_start=np.array([0.0, 1.0, 2.0]), step_end=np.array([1.0, 2.0, 3.0]),
+    ...                        step_length=np.array([0.5, 0.5, np.nan]),
+    ...                        step_vector=np.array([[0.5, 0.0], [0.0, 0.5], [9.0, 9.0]]))
+    >>> steps_alone(inp).tolist()          # the third step has no length: the filter does not use it
+    [0.5, 0.5]
+    """
+    if inp.step_vector is None:
+        return np.full(2, np.nan)
+    v = np.asarray(inp.step_vector, float)[aided.applied_steps(inp)]
+    return v.sum(axis=0) if v.size else np.zeros(2)
+
+
+def ellipse_coverage(errors_xy, P_xy, along) -> dict:
+    """How often the true end points lie inside the filter's 95 % regions: the ellipse and each axis.
+
+    Parameters
+    ----------
+    errors_xy : array_like, shape (r, 2)
+        Estimated minus true end points [m].
+    P_xy : array_like, shape (r, 2, 2)
+        Their covariances [m^2].
+    along : array_like, shape (2,)
+        Direction of the along-track axis (the route's start to its end); the
+        cross-track axis is to its left.
+
+    Returns
+    -------
+    dict
+        ``runs``; ``inside_95``: share inside the 95 % ellipse (squared
+        Mahalanobis distance at most the 2-dof chi-square point
+        :data:`aided.CHI2_95_2DOF`); ``along_95``, ``cross_95``: share inside
+        each axis' 95 % interval (``|e| <= 1.96 sigma`` of that axis'
+        variance ``u^T P u``). NaN shares without runs.
+
+    Raises
+    ------
+    MorpiError
+        For mismatched shapes or a zero `along`.
+
+    Examples
+    --------
+    Two end points with a unit covariance: one 1 m ahead (inside), one 2.5 m
+    to the left (outside the ellipse, 2.5^2 > 5.99, and the cross-track interval):
+
+    >>> cov = ellipse_coverage([[1.0, 0.0], [0.0, 2.5]], [np.eye(2), np.eye(2)], [2.0, 0.0])
+    >>> cov["inside_95"], cov["along_95"], cov["cross_95"]
+    (0.5, 1.0, 0.5)
+    """
+    e = np.asarray(errors_xy, dtype=float).reshape(-1, 2)
+    P = np.asarray(P_xy, dtype=float).reshape(-1, 2, 2)
+    if e.shape[0] != P.shape[0]:
+        raise MorpiError(f"ellipse_coverage: {e.shape[0]} errors and {P.shape[0]} covariances; expected one each")
+    u = np.asarray(along, dtype=float)
+    if u.shape != (2,) or not np.linalg.norm(u) > 0:
+        raise MorpiError(f"ellipse_coverage: along={u.tolist()}: expected a non-zero 2-vector")
+    u = u / np.linalg.norm(u)
+    c = np.array([-u[1], u[0]])
+    if not e.shape[0]:
+        return {"runs": 0, "inside_95": float("nan"), "along_95": float("nan"), "cross_95": float("nan")}
+    m2 = np.einsum("ri,ri->r", e, np.linalg.solve(P, e[:, :, None])[:, :, 0])
+
+    def axis(w):
+        return float(np.mean(np.abs(e @ w) <= Z_95 * np.sqrt(np.einsum("i,rij,j->r", w, P, w))))
+
+    return {"runs": int(e.shape[0]), "inside_95": float(np.mean(m2 <= aided.CHI2_95_2DOF)),
+            "along_95": axis(u), "cross_95": axis(c)}
+
+
+def nis_consistency(total: float, updates: int, dof: int, confidence: float = 0.95) -> dict:
+    """The normalized innovation squared of some updates per degree of freedom, and the band it keeps.
+
+    For a consistent filter the sum of ``updates`` NIS values, each of
+    `dof` degrees of freedom, is chi-square with ``updates * dof`` degrees
+    of freedom (:func:`morpi_filters.eskf.chi2_band`, from scipy.stats.chi2);
+    divided by ``updates * dof``, its two-sided band at `confidence`.
+
+    Parameters
+    ----------
+    total : float
+        Sum of the NIS values.
+    updates : int
+        Number of updates.
+    dof : int
+        Degrees of freedom of one update (the measurement's size).
+    confidence : float
+        Probability inside the band.
+
+    Returns
+    -------
+    dict
+        ``per_dof`` (``total / (updates * dof)``; NaN without updates),
+        ``band`` (``[lo, hi]``, NaN without updates) and ``updates``.
+
+    Examples
+    --------
+    >>> out = nis_consistency(190.0, 100, 2)
+    >>> out["per_dof"], [round(float(v), 3) for v in out["band"]]
+    (0.95, [0.814, 1.205])
+    """
+    from .eskf import chi2_band
+
+    if updates < 1 or dof < 1:
+        return {"per_dof": float("nan"), "band": [float("nan"), float("nan")], "updates": int(updates)}
+    lo, hi = chi2_band(dof, updates, confidence)
+    return {"per_dof": float(total) / (updates * dof), "band": [float(lo) / dof, float(hi) / dof],
+            "updates": int(updates)}
+
+
+def aid_used(name: str, tuning: aided.AidTuning) -> bool:
+    """Whether a filter with `tuning` uses the aid of the ablation named `name` (:data:`ABLATIONS`).
+
+    The steps, the non-holonomic and the rest updates where they run; the gain
+    state where it is estimated (a considered gain changes the covariance,
+    not the estimate); the smoother always (the cells read it).
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`ABLATIONS`.
+    tuning : aided.AidTuning
+        The chosen filter's tunables.
+
+    Returns
+    -------
+    bool
+
+    Raises
+    ------
+    MorpiError
+        For a name that is not an ablation.
+
+    Examples
+    --------
+    >>> t = aided.AidTuning(nhc=False, gain_estimated=False)
+    >>> [n for n in ABLATIONS if aid_used(n, t)]
+    ['steps', 'rest updates', 'smoothing']
+    """
+    if name not in ABLATIONS:
+        raise MorpiError(f"aid_used: name={name!r}: expected one of {sorted(ABLATIONS)}")
+    return {"steps": tuning.steps, "non-holonomic": tuning.nhc, "rest updates": tuning.rest,
+            "gain state": tuning.gain_estimated and tuning.gain_sigma > 0, "smoothing": True}[name]
 
 
 @dataclass(frozen=True)
@@ -838,8 +1529,9 @@ class AidedCell:
         Mean end-point error over the runs [% of the route's distance].
     runs : tuple of dict
         Per run: ``file``, end-point errors [m] (``forward_m``, ``smoothed_m``, ``morpi_m``, ``ins_m``,
-        ``steps_m``),
-        ``mahalanobis2`` of the true end point, ``inside_95``, estimated gain error and its sigma.
+        ``steps_m`` and ``steps_alone_m``, the same: :func:`steps_alone`), ``mahalanobis2`` and
+        ``inside_95`` of the true end point under the forward covariance, ``mahalanobis2_smoothed`` and
+        ``inside_95_smoothed`` under the smoothed one, estimated gain error and its sigma.
     tuning : dict
         The grid point chosen on the train runs, and the noise densities used.
     train_percent : float
@@ -849,16 +1541,14 @@ class AidedCell:
     train_morpi_percent : float
         MoRPI alone on those train runs [%].
     nis : dict
-        Measurement name -> (mean NIS per update, dof).
+        Measurement name -> (mean NIS per update, dof, updates), over the whole forward pass of every run.
     paths : tuple
         Per run, up to the epoch where the end point is read (``Prepared.stop_s``): (epoch time,
         forward xy, smoothed xy, MoRPI xy, forward P_xy) for figures.
     failed : tuple of str
         Runs of the tables' cell the filter could not run, one line each.
     steps_percent : float
-        The filter's own step vectors summed, without the INS (dead reckoning with the chosen step
-        direction; NaN when the direction is the filter's attitude) [%]: what the INS adds is the
-        difference to the filter.
+        :attr:`steps_alone_percent` (the name of an earlier contract).
     step_innovation : dict
         The forward filter's step updates over the runs, up to the read-out
         (:func:`aided.step_innovation_components`): ``updates``, the measured
@@ -868,7 +1558,39 @@ class AidedCell:
         median spread the filter expected along the step
         (``predicted_along_sigma_m``) [m]; empty without step updates.
     paired : PairedDifference or None
-        The smoothed filter minus MoRPI alone, run by run (:func:`paired_difference`).
+        The smoothed filter minus MoRPI alone, run by run (:func:`paired_difference`; Holm-adjusted over
+        the study's cells of its calibration).
+    steps_alone_percent : float
+        The filter's own step vectors summed without the INS (:func:`steps_alone`: the same lengths and
+        directions the filter is fed; NaN when the direction is the filter's attitude) [%].
+    paired_steps : PairedDifference or None
+        The smoothed filter minus its steps alone, run by run: what the INS adds (negative: it helps).
+    coverage_95, coverage_95_forward : float
+        Share of the runs whose true end point lies inside the 95 % ellipse of the smoothed estimate
+        (smoothed covariance) and of the forward one (forward covariance).
+    coverage_axes : dict
+        ``{"smoothed": {...}, "forward": {...}}``, each :func:`ellipse_coverage` (the ellipse and the
+        along- and cross-track axes apart).
+    cross_zero_by_construction : bool
+        Every step vector of every run lies along the route's start-to-end line: the steps put no
+        cross-track displacement, so the cross-track estimate is the INS's alone (near zero under a
+        loose INS) and the ellipse tests the along-track axis.
+    morpi_best_percent : float
+        MoRPI alone (the same steps, Weinberg lengths, trained gain, method and calibration) under its best
+        train-chosen heading reading (:func:`choose_reading`: the rule's own or the route's heading) and
+        step length (:func:`choose_length`: the Weinberg length or the period count) [%];
+        per run ``morpi_best_m`` in :attr:`runs`.
+    morpi_reading : str
+        That reading (:attr:`ReadingChoice.reading`).
+    morpi_length : str
+        Its step length (:attr:`LengthChoice.length`, chosen for the training phone and method).
+    period_count_percent : float
+        MoRPI alone with the period count (:func:`period_sums`, the half-period length
+        :func:`period_length` of the training phone, method and calibration) and the chosen reading [%];
+        per run ``period_count_m``.
+    paired_best : PairedDifference or None
+        The smoothed filter minus :attr:`morpi_best_percent`'s MoRPI alone, run by run (Holm-adjusted over
+        the study's cells of its calibration).
     """
 
     spec: object
@@ -887,6 +1609,17 @@ class AidedCell:
     steps_percent: float = float("nan")
     step_innovation: dict = field(default_factory=dict)
     paired: PairedDifference | None = None
+    steps_alone_percent: float = float("nan")
+    paired_steps: PairedDifference | None = None
+    coverage_95: float = float("nan")
+    coverage_95_forward: float = float("nan")
+    coverage_axes: dict = field(default_factory=dict)
+    cross_zero_by_construction: bool = False
+    morpi_best_percent: float = float("nan")
+    morpi_reading: str = ""
+    paired_best: PairedDifference | None = None
+    morpi_length: str = ""
+    period_count_percent: float = float("nan")
 
     @property
     def label(self) -> str:
@@ -895,19 +1628,39 @@ class AidedCell:
 
 @dataclass(frozen=True)
 class AidedStudy:
-    """Every MoRPI cell, the ablation on the GC cells, the field coverage and NIS.
+    """Every MoRPI cell, the ablation on the GC cells, the field coverage, NIS and significance.
 
     Attributes
     ----------
     cells : tuple of AidedCell
     ablation : tuple of dict
-        ``{cell, removed, smoothed_percent}``: the full filter with one aid removed.
-    coverage_95 : float
-        Share of test runs whose true end point is inside the filter's 95 % ellipse.
+        Per GC cell and aid of :data:`ABLATIONS`: ``cell``, ``removed``, ``used`` (:func:`aid_used`),
+        the filter without the aid read smoothed (``smoothed_percent``) and forward
+        (``forward_percent``), the filter it is compared with read the same two ways
+        (``full_percent``, ``full_forward_percent``) and where both start (``start``: ``"rest window"``,
+        the cells' filter; ``"motion onset"`` for the rest updates). An aid not used is not run: its
+        values are the full filter's, its effect exactly zero. Without smoothing both read-outs are
+        the forward filter's.
+    coverage_95, coverage_95_forward : float
+        Share of the GC cells' test runs, each (run, method) once, whose true end point is inside the
+        smoothed (forward) filter's 95 % ellipse.
     nis : dict
-        Measurement name -> (mean NIS per update, dof) over all test runs.
+        Measurement name -> (mean NIS per update, dof, updates) over the same runs.
     note : str
         Why the study is empty, when it is.
+    coverage : dict
+        ``{"smoothed": ..., "forward": ...}``: ``runs`` and the shares of :func:`ellipse_coverage` over
+        the same runs (each run's axes those of its route).
+    significance : dict
+        The paired tests over the GC cells (``family``), Holm-corrected (``correction``): for the
+        smoothed filter against MoRPI alone ``wins_uncorrected``, ``wins_corrected``,
+        ``losses_uncorrected``, ``losses_corrected``, ``ties_corrected``; the same against its own steps
+        alone under ``vs_steps_alone``, against MoRPI alone under its best train-chosen reading under
+        ``vs_morpi_best``; ``alpha``, ``power`` (of the smallest detectable differences).
+    readings : tuple of ReadingChoice
+        MoRPI alone's train-chosen heading reading per method (:func:`choose_reading`).
+    lengths : tuple of LengthChoice
+        Its train-chosen step length per training phone and method (:func:`choose_length`).
     no_rest : tuple of str
         One line per recording without an initial rest
         (:meth:`~morpi_filters.field.FieldData.no_rest`): the filter starts
@@ -920,6 +1673,11 @@ class AidedStudy:
     coverage_95: float
     nis: dict
     note: str = ""
+    coverage_95_forward: float = float("nan")
+    coverage: dict = field(default_factory=dict)
+    significance: dict = field(default_factory=dict)
+    readings: tuple = ()
+    lengths: tuple = ()
     no_rest: tuple = ()
 
 
@@ -938,20 +1696,44 @@ def _innovation_summary(parts) -> dict:
             "predicted_along_sigma_m": float(np.median(sigma))}
 
 
-def _same_estimate(base, changed) -> bool:
-    """Whether two tunings give the same estimate: equal, or differing only in a gain error that is
-    considered, not estimated (its prior then changes the covariance alone)."""
-    if changed == base:
-        return True
-    return (not base.gain_estimated and not changed.gain_estimated
-            and changed.with_(gain_sigma=base.gain_sigma) == base)
-
-
 def _merge_nis(acc, nis):
     for name, (s, c, dof) in nis.items():
         a = acc.setdefault(name, [0.0, 0, dof])
         a[0] += s
         a[1] += c
+
+
+def _nis_means(acc) -> dict:
+    return {k: (v[0] / max(v[1], 1), v[2], v[1]) for k, v in acc.items()}
+
+
+def _family(cells, key) -> dict:
+    """Holm over the cells' paired differences `key` (``paired`` or ``paired_steps``): the cells with
+    the adjusted p-values, and the counts of wins, losses and ties before and after the correction."""
+    pairs = [getattr(c, key) for c in cells]
+    adj, _ = holm([np.nan if d is None else d.p_value for d in pairs])
+    pairs = [None if d is None else replace(d, p_holm=float(a)) for d, a in zip(pairs, adj)]
+    tested = [d for d in pairs if d is not None]
+    count = lambda attr, v: sum(getattr(d, attr) == v for d in tested)  # noqa: E731
+    summary = {"cells": len(tested), "wins_uncorrected": count("verdict", "better"),
+               "wins_corrected": count("verdict_holm", "better"),
+               "losses_uncorrected": count("verdict", "worse"), "losses_corrected": count("verdict_holm", "worse"),
+               "ties_corrected": count("verdict_holm", "tie")}
+    return pairs, summary
+
+
+def _ablation_row(label, name, used, full, without=None, start="rest window") -> dict:
+    """One ablation row: the filter without the aid against the full filter, both read smoothed and
+    forward. An aid not used takes the full filter's values (it is not run: the effect is zero)."""
+    sm, fw = full
+    if without is None:
+        if used and name != "smoothing":
+            raise MorpiError(f"ablation of {label!r}: {name!r} is used but was not run")
+        # not used: the same filter; without smoothing: the forward read-out for both columns
+        without = (fw, fw) if name == "smoothing" else (sm, fw)
+    return {"cell": label, "removed": name, "smoothed_percent": float(without[0]),
+            "forward_percent": float(without[1]), "used": bool(used), "full_percent": float(sm),
+            "full_forward_percent": float(fw), "start": start}
 
 
 def aided_study(root=None, result=None, labels=None, ablation: bool = True,
@@ -967,7 +1749,7 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
     labels : collection of str, optional
         Only these cells (``CellSpec.label``).
     ablation : bool
-        Also run the GC cells with each aid removed in turn.
+        Also run the GC cells with each aid they use removed in turn.
     workers : int, optional
         Threads that run the filter (:func:`morpi_filters.aided.run_batch`;
         default: the cores this process may use). The results do not depend on it.
@@ -976,8 +1758,9 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
     -------
     AidedStudy
         The cells in the tables' order, the ablation rows (GC cells only, when
-        `ablation`), the 95 % coverage over the test runs and the NIS per
-        measurement; empty with a ``note`` when no cell qualifies.
+        `ablation`), the 95 % coverage and the NIS per measurement over the GC
+        cells' test runs, the paired tests Holm-corrected over the GC cells;
+        empty with a ``note`` when no cell qualifies.
     """
     from . import dataset as ds
     from .evaluate import evaluate_tables
@@ -994,6 +1777,14 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
     picks = choose_tunables_many(data, [(tr, m, cal, res.selections[m].config, gmap[(tr[0], tr[1], m, cal)])
                                         for tr, m, cal in keys], workers=workers)
     chosen = {k: v for k, v in zip(keys, picks) if not isinstance(v, MorpiError)}
+    # MoRPI alone's best train-chosen heading reading per method: the baseline the filter is also tested against
+    readings = {m: choose_reading(data, m, res.selections[m].config) for m in sorted({c.spec.method for c in wanted})}
+    # and its step length per training phone and method (the Weinberg length or the period count), the period
+    # count's half-period length per phone, method and calibration
+    lengths = {(ph, m): choose_length(data, ph, m, res.selections[m].config, readings[m].reading)
+               for ph, m in sorted({(c.spec.train[0], c.spec.method) for c in wanted})}
+    halves = {(ph, m, cal): period_length(data, ph, cal, m, res.selections[m].config, readings[m].reading)
+              for ph, m, cal in sorted({(c.spec.train[0], c.spec.method, c.spec.calibration) for c in wanted})}
     todo = []
     for cell in wanted:
         sp = cell.spec
@@ -1017,67 +1808,97 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
     if not todo:
         return AidedStudy((), (), float("nan"), {}, note="No MoRPI table cell could be evaluated on these recordings.",
                           no_rest=no_rest)
-    # one pass per route: every cell's test runs (smoothed) and, for the GC cells, each aid removed in turn
+    # one pass per route: every cell's test runs (smoothed, with the smoothed covariance) and, for the GC
+    # cells, the filter with each aid it uses removed in turn (smoothed: both read-outs), the rest updates
+    # removed from a filter started at the motion onset, beside that filter with them
     results, abl_res = {}, {}
     for route in sorted({c.spec.route for c, *_ in todo}):
-        items = []
+        items, abl_items = [], []
         for i, (cell, g, score, info, noise, runs, by_file, _, _) in enumerate(todo):
             if cell.spec.route != route:
                 continue
             base = _tuning(noise, info, g.std / g.mean)
-            items += [(i, p, None, base) for p in runs]
+            items += [(i, p, None, base, p.input_for(info)) for p in runs]
             if ablation and cell.spec.calibration == "GC":
-                items += [(i, p, name, base.with_(**change)) for name, change in ABLATIONS.items() if change
-                          and not _same_estimate(base, base.with_(**change)) for p in runs]
-        # the ablation reads the forward filter only: cut at the read-out
-        out = aided.run_batch([p.input_for(todo[i][3], forward_only=name is not None) for i, p, name, _ in items],
-                              [t for *_, t in items],
-                              smooth=[name is None for _, _, name, _ in items], smoothed_covariance=False,
-                              innovations=[name is None for _, _, name, _ in items], workers=workers)
-        for (i, p, name, _), r in zip(items, out):
-            if name is None:
-                results[(i, p.rel)] = r
-            else:
-                abl_res[(i, p.rel, name)] = r
-    cells, abl, nis_all = [], [], {}
-    inside = total = 0
+                for name, change in ABLATIONS.items():
+                    if not change or not aid_used(name, base):
+                        continue
+                    if name == "rest updates":
+                        abl_items += [(i, p, (name, "with"), base, p.onset_input(info)) for p in runs]
+                        abl_items += [(i, p, (name, "without"), base.with_(**change), p.onset_input(info))
+                                      for p in runs]
+                    else:
+                        abl_items += [(i, p, (name, "without"), base.with_(**change), p.input_for(info))
+                                      for p in runs]
+        out = aided.run_batch([q[4] for q in items], [q[3] for q in items], smooth=True, smoothed_covariance=True,
+                              innovations=True, workers=workers)
+        for (i, p, *_), r in zip(items, out):
+            results[(i, p.rel)] = r
+        out = aided.run_batch([q[4] for q in abl_items], [q[3] for q in abl_items], smooth=True,
+                              smoothed_covariance=False, nis=False, workers=workers) if abl_items else []
+        for (i, p, name, *_), r in zip(abl_items, out):
+            abl_res[(i, p.rel, name)] = r
+    cells, abl = [], []
     for i, (cell, g, score, info, noise, runs, by_file, choice, failed) in enumerate(todo):
         sp = cell.spec
         truth = ds.route(sp.route)
         d = truth.distance_m / 100
+        end = np.asarray(truth.end_point_m, float)
+        along = end / np.linalg.norm(end)
         rows, paths, nis, innov = [], [], {}, []
+        err_sm, P_sm, err_fw, P_fw = [], [], [], []
+        cross_free = info["step_heading"] == "route"
         for p in runs:
             r = results[(i, p.rel)]
+            j = r.index_at(p.stop_s)
             if "step" in r.innovations:
-                # the step updates up to the read-out (after it the phone may be handled)
+                # the step updates up to the read-out epoch (after it the phone may be handled)
                 inn = r.innovations["step"]
-                k = int(np.searchsorted(inn.time, p.stop_s, side="right"))
+                k = int(np.searchsorted(inn.time, r.time[j], side="right"))
                 innov.append([c[:k] for c in aided.step_innovation_components(inn)])
             rec = next(x for x in data.recordings(sp.phone, sp.route, sp.split) if data.relpath(x) == p.rel)
             try:
                 ins = np.asarray(data.ins(rec, sp.calibration, "INS-3D").position)[-1, :2]
-                ins_m = float(np.linalg.norm(ins - truth.end_point_m))
+                ins_m = float(np.linalg.norm(ins - end))
             except MorpiError:
                 ins_m = float("nan")
-            end_xy, end_P, end_sm = p.end(r)
-            dxy = end_xy - truth.end_point_m
+            end_xy, end_P, end_sm, end_Ps = r.position[j, :2], r.P_xy[j], r.smoothed[j, :2], r.P_xy_smoothed[j]
+            dxy, dsm = end_xy - end, end_sm - end
             m2 = float(dxy @ np.linalg.solve(end_P, dxy))
-            inside += m2 <= aided.CHI2_95_2DOF
-            total += 1
+            m2s = float(dsm @ np.linalg.solve(end_Ps, dsm))
+            err_fw.append(dxy), P_fw.append(end_P), err_sm.append(dsm), P_sm.append(end_Ps)
             _merge_nis(nis, r.nis)
-            _merge_nis(nis_all, r.nis)
+            inp = p.input_for(info)
+            alone = steps_alone(inp) if info["step_heading"] == "route" else np.full(2, np.nan)
+            morpi_m = float(by_file[p.rel].end_error_m)
+            reading, rule = readings[sp.method].reading, res.selections[sp.method].config
+            if reading == "route":
+                u = route_sums(data, rec, sp.calibration, sp.method, rule)[1]
+                best_m = float(np.linalg.norm(g.mean * u - end))
+            else:
+                best_m = morpi_m
+            u = period_sums(data, rec, sp.calibration, sp.method, rule, reading)[1]
+            period_m = float(np.linalg.norm(halves[(sp.train[0], sp.method, sp.calibration)] * u - end))
+            if lengths[(sp.train[0], sp.method)].length == "period count":
+                best_m = period_m
+            alone_m = float(np.linalg.norm(alone - end))
+            if cross_free:
+                v = np.asarray(inp.step_vector, float)[aided.applied_steps(inp)]
+                cross_free = bool(np.all(v @ np.array([-along[1], along[0]]) == 0.0))
             rows.append({"file": p.rel, "forward_m": float(np.linalg.norm(dxy)),
-                         "smoothed_m": float(np.linalg.norm(end_sm - truth.end_point_m)),
-                         "morpi_m": float(by_file[p.rel].end_error_m), "ins_m": ins_m,
+                         "smoothed_m": float(np.linalg.norm(dsm)),
+                         "morpi_m": morpi_m, "morpi_best_m": best_m, "period_count_m": period_m, "ins_m": ins_m,
                          "mahalanobis2": m2, "inside_95": bool(m2 <= aided.CHI2_95_2DOF),
+                         "mahalanobis2_smoothed": m2s, "inside_95_smoothed": bool(m2s <= aided.CHI2_95_2DOF),
                          "gain_error": r.gain_error, "gain_error_sigma": r.gain_sigma,
-                         "steps_m": (float("nan") if info["step_heading"] == "attitude" else
-                                     float(np.linalg.norm(p.input_for(info).step_vector.sum(axis=0)
-                                                          - truth.end_point_m)))})
+                         "steps_m": alone_m, "steps_alone_m": alone_m})
             # up to the read-out, where the end point is taken (after it the phone may be handled)
-            cut = r.index_at(p.stop_s) + 1
-            paths.append((r.time[:cut], r.position[:cut, :2], r.smoothed[:cut, :2], p.morpi_xy, r.P_xy[:cut]))
+            paths.append((r.time[:j + 1], r.position[:j + 1, :2], r.smoothed[:j + 1, :2], p.morpi_xy,
+                          r.P_xy[:j + 1]))
         mean = lambda k: float(np.nanmean([q[k] for q in rows]) / d)  # noqa: E731
+        col = lambda k: [q[k] for q in rows]  # noqa: E731
+        cov_sm, cov_fw = ellipse_coverage(err_sm, P_sm, along), ellipse_coverage(err_fw, P_fw, along)
+        alone_pct = float(np.mean(col("steps_alone_m")) / d)
         cells.append(AidedCell(
             spec=sp, forward_percent=mean("forward_m"), smoothed_percent=mean("smoothed_m"),
             morpi_percent=mean("morpi_m"), ins_percent=mean("ins_m"), runs=tuple(rows),
@@ -1085,23 +1906,73 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
                     "rest_accel_noise": noise[0], "rest_gyro_noise": noise[2], "gyro_walk": noise[3], "accel_jump": noise[4],
                     "gain_sigma": g.std / g.mean},
             train_percent=score, train_loo_percent=choice.loo_percent, train_morpi_percent=choice.morpi_percent,
-            nis={k: (v[0] / max(v[1], 1), v[2]) for k, v in nis.items()}, paths=tuple(paths), failed=failed,
-            steps_percent=float(np.mean([q["steps_m"] for q in rows]) / d),
-            step_innovation=_innovation_summary(innov),
-            paired=paired_difference([q["smoothed_m"] for q in rows], [q["morpi_m"] for q in rows],
-                                     truth.distance_m)))
+            nis=_nis_means(nis), paths=tuple(paths), failed=failed,
+            steps_percent=alone_pct, step_innovation=_innovation_summary(innov),
+            paired=paired_difference(col("smoothed_m"), col("morpi_m"), truth.distance_m),
+            steps_alone_percent=alone_pct,
+            paired_steps=(paired_difference(col("smoothed_m"), col("steps_alone_m"), truth.distance_m)
+                          if info["step_heading"] == "route" else None),
+            coverage_95=cov_sm["inside_95"], coverage_95_forward=cov_fw["inside_95"],
+            coverage_axes={"smoothed": cov_sm, "forward": cov_fw}, cross_zero_by_construction=cross_free,
+            morpi_best_percent=mean("morpi_best_m"), morpi_reading=readings[sp.method].reading,
+            morpi_length=lengths[(sp.train[0], sp.method)].length, period_count_percent=mean("period_count_m"),
+            paired_best=paired_difference(col("smoothed_m"), col("morpi_best_m"), truth.distance_m)))
         if ablation and sp.calibration == "GC":
+            base = _tuning(noise, info, g.std / g.mean)
+            full = (cells[-1].smoothed_percent, cells[-1].forward_percent)
+
+            def read(name, which):
+                ends = [abl_res[(i, p.rel, (name, which))] for p in runs]
+                sm = [np.linalg.norm(r.smoothed[r.index_at(p.stop_s), :2] - end) for p, r in zip(runs, ends)]
+                fw = [np.linalg.norm(r.position[r.index_at(p.stop_s), :2] - end) for p, r in zip(runs, ends)]
+                return float(np.mean(sm) / d), float(np.mean(fw) / d)
+
             for name, change in ABLATIONS.items():
-                if not change:
-                    # without smoothing: the forward filter's end points
-                    val = mean("forward_m")
+                used = aid_used(name, base)
+                if name == "rest updates" and used:
+                    abl.append(_ablation_row(sp.label, name, used, read(name, "with"), read(name, "without"),
+                                             start="motion onset"))
                 else:
-                    # an aid the chosen filter does not use (or a gain it only considers) leaves the
-                    # forward estimate as it is
-                    e = [np.linalg.norm(p.end(abl_res.get((i, p.rel, name), results[(i, p.rel)]))[0]
-                                        - truth.end_point_m) for p in runs]
-                    val = float(np.mean(e) / d)
-                abl.append({"cell": sp.label, "removed": name, "smoothed_percent": val})
-    return AidedStudy(cells=tuple(cells), ablation=tuple(abl), coverage_95=inside / total if total else float("nan"),
-                      nis={k: (v[0] / max(v[1], 1), v[2]) for k, v in nis_all.items()},
-                      no_rest=no_rest)
+                    abl.append(_ablation_row(sp.label, name, used, full,
+                                             read(name, "without") if used and change else None))
+    # the paired tests, Holm-corrected over the GC cells (the RD cells: over theirs, apart)
+    significance = {}
+    for cal in ("GC", "RD", "GAC"):
+        idx = [k for k, c in enumerate(cells) if c.spec.calibration == cal]
+        if not idx:
+            continue
+        fam = [cells[k] for k in idx]
+        vs_morpi, s_morpi = _family(fam, "paired")
+        vs_steps, s_steps = _family(fam, "paired_steps")
+        vs_best, s_best = _family(fam, "paired_best")
+        for k, a, b, e in zip(idx, vs_morpi, vs_steps, vs_best):
+            cells[k] = replace(cells[k], paired=a, paired_steps=b, paired_best=e)
+        if cal == "GC":
+            significance = {"family": "GC cells", "correction": "holm", "test": "two-sided paired t-test",
+                            "alpha": ALPHA, "power": POWER, **s_morpi, "vs_steps_alone": s_steps,
+                            "vs_morpi_best": s_best}
+    # coverage and NIS over the GC cells' runs, each (run, method) once
+    seen, per_run, nis_all = set(), {"smoothed": [], "forward": []}, {}
+    for i, c in enumerate(cells):
+        if c.spec.calibration != "GC":
+            continue
+        end = np.asarray(ds.route(c.spec.route).end_point_m, float)
+        for p in todo[i][5]:
+            if (p.rel, c.spec.method) in seen:
+                continue
+            seen.add((p.rel, c.spec.method))
+            r = results[(i, p.rel)]
+            j = r.index_at(p.stop_s)
+            for which, xy, P in (("smoothed", r.smoothed[j, :2], r.P_xy_smoothed[j]),
+                                 ("forward", r.position[j, :2], r.P_xy[j])):
+                per_run[which].append(ellipse_coverage([xy - end], [P], end))
+            _merge_nis(nis_all, r.nis)
+    coverage = {which: {"runs": len(v), **{k: float(np.mean([q[k] for q in v]))
+                                           for k in ("inside_95", "along_95", "cross_95")}}
+                for which, v in per_run.items() if v}
+    return AidedStudy(cells=tuple(cells), ablation=tuple(abl),
+                      coverage_95=coverage.get("smoothed", {}).get("inside_95", float("nan")),
+                      nis=_nis_means(nis_all),
+                      coverage_95_forward=coverage.get("forward", {}).get("inside_95", float("nan")),
+                      coverage=coverage, significance=significance, readings=tuple(readings.values()),
+                      lengths=tuple(lengths.values()), no_rest=no_rest)

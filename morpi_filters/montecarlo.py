@@ -54,10 +54,23 @@ One pass, flat memory
     (:func:`_keep_freed_memory`; the caller's own process is left as it is).
 
 Digest
-    sha256 over the per-run final horizontal errors as a C-ordered
-    little-endian float64 array of shape ``(runs, columns)`` with the columns
-    of :attr:`StudyResult.columns` (INS-3D, INS-2D, then MoRPI-A and MoRPI-G
-    for each gain scenario in order).
+    sha256 over the per-run final horizontal errors rounded to
+    :data:`DIGEST_BITS` significant bits (a relative step of 2^-20, about
+    1e-6: six significant digits), as a C-ordered little-endian float64
+    array of shape ``(runs, columns)`` with the columns of
+    :attr:`StudyResult.columns` (INS-3D, INS-2D, then MoRPI-A and MoRPI-G for
+    each gain scenario in order). The rounding is exact bit arithmetic
+    (``frexp``/``ldexp``), so the same values give the same digest
+    everywhere, and it is coarse enough that the last-digit differences of
+    another machine's arithmetic leave it unchanged: moving every sample of
+    the simulated path by one unit in the last place changes the bits of
+    81,258 of the page's 88,000 per-run errors (2000 runs, every study), by
+    at most 3e-13 relative (median 4e-15); the expected number of them that
+    cross a rounding boundary (the sum of each change over its step) is
+    3e-4, and the page's nine digests stay as they are. A gain
+    scenario set from the field recordings uses their spread and mismatch
+    rounded to :data:`FIELD_GAIN_DIGITS` digits, so the field evaluation's own
+    machine differences (up to a few 1e-11) do not reach the runs either.
 
 Pieces from other modules
     Trajectories come from :mod:`morpi_filters.simulate` (``sine``,
@@ -93,6 +106,7 @@ import numpy as np
 from . import _batch_ins as bi
 from .errors import MorpiError
 from .parallel import Progress, chunk_ranges, execute
+from .reporting import round_significant
 from .steps import weinberg_length
 from .units import DEG_S, G0, MPU6500, SensorSpec
 
@@ -101,7 +115,7 @@ __all__ = [
     "digest", "child_seed", "reference_gains", "training_runs_study", "training_configs", "training_summary",
     "TrainingStudy", "band_quantiles", "BAND_PERCENTILES", "BAND_BINS_PER_DECADE",
     "DriftMap", "drift_map", "GainErrorPage", "gain_error_page", "DriftPage", "drift_page", "Z99",
-    "final_statistics", "distance_law_check", "INS_PATHS",
+    "final_statistics", "distance_law_check", "INS_PATHS", "PageCost", "page_cost",
 ]
 
 #: Error series columns of :attr:`StudyResult.errors` (the package's method names).
@@ -599,8 +613,21 @@ def child_seed(seed: int, i: int) -> np.random.SeedSequence:
     return np.random.SeedSequence(seed, spawn_key=(i,))
 
 
+#: Significant bits the per-run final errors keep in :func:`digest`: a relative step of 2^-20 (about
+#: 1e-6, six significant digits), far above the differences another machine's arithmetic makes (see the
+#: module docstring, Digest).
+DIGEST_BITS = 20
+
+
 def digest(final: np.ndarray) -> str:
-    """sha256 hex digest of per-run final errors, shape (runs, columns), float64 little-endian, C order.
+    """sha256 hex digest of per-run final errors rounded to :data:`DIGEST_BITS` significant bits.
+
+    Each value is rounded to the nearest multiple of ``2**(e - DIGEST_BITS)``
+    where ``2**(e - 1) <= |x| < 2**e`` (ties to even); NaN is written as one
+    NaN and -0 as +0, whatever bits a machine gave them. The digest is that of
+    the rounded values as float64 little-endian, shape (runs, columns), C
+    order; changes below the step (one part in about a million) leave it as
+    it is, unless they carry a value across a rounding boundary.
 
     Parameters
     ----------
@@ -618,9 +645,14 @@ def digest(final: np.ndarray) -> str:
     True
     >>> digest([[1.0]]) == hashlib.sha256(np.float64(1.0).tobytes()).hexdigest()
     True
+    >>> digest([[1.0 + 2.0 ** -30]]) == digest([[1.0]]), digest([[1.0 + 2.0 ** -19]]) == digest([[1.0]])
+    (True, False)
     """
-    a = np.ascontiguousarray(np.asarray(final, dtype="<f8"))
-    return hashlib.sha256(a.tobytes(order="C")).hexdigest()
+    a = np.asarray(final, dtype=np.float64)
+    m, e = np.frexp(a)
+    r = np.ldexp(np.rint(np.ldexp(m, DIGEST_BITS)), e - DIGEST_BITS) + 0.0   # exact; + 0.0 turns -0 into +0
+    r = np.where(np.isnan(r), np.nan, r)
+    return hashlib.sha256(np.ascontiguousarray(r, dtype="<f8").tobytes(order="C")).hexdigest()
 
 
 # ----------------------------------------------------------------------------- trajectories
@@ -1796,6 +1828,12 @@ Z99 = 2.5758293035489004
 ASSUMED_SPREAD = 0.05
 ASSUMED_MISMATCH = 0.02
 
+#: Significant digits of the field's per-run gain spread and mismatch when they set a gain scenario: the
+#: field evaluation differs from machine to machine by up to a few 1e-11 relative, which a study would
+#: otherwise carry into every per-run error (and its digest); a step of 1e-6 is crossed by such a
+#: difference with a chance of about 1e-5, and no page reads either figure to more than six digits.
+FIELD_GAIN_DIGITS = 6
+
 #: Training-run counts of the gain-training study.
 TRAINING_KS = (1, 2, 3, 5, 10, 20, 50)
 
@@ -1810,8 +1848,13 @@ def _field_gain_spread(source, tables=None):
     except (ImportError, AttributeError):
         return None, None, ("the per-run gain training of the field pipeline (steps.py / evaluate.py) "
                             "is not available in this build")
+    from .fetch import dataset_identity
+
     spread, mismatch = fn(source, tables)
-    return float(spread), float(mismatch), f"per-run training gains of {source.root}"
+    name = dataset_identity(source.root, synthetic=getattr(source, "synthetic", False),
+                            seed=getattr(source, "seed", None)).text
+    return (round_significant(spread, FIELD_GAIN_DIGITS), round_significant(mismatch, FIELD_GAIN_DIGITS),
+            f"per-run training gains of the {name}")
 
 
 def final_statistics(result: StudyResult) -> dict:
@@ -1898,6 +1941,119 @@ def _config_json(cfg: StudyConfig) -> dict:
             "accel_noise_sigma_mps2": cfg.spec.accel_noise * math.sqrt(cfg.rate_hz),
             "gyro_noise_sigma_radps": cfg.spec.gyro_noise * math.sqrt(cfg.rate_hz),
             "gains": [{"label": g.label, "mean": g.mean, "std": g.std} for g in cfg.gains]}
+
+
+# ----------------------------------------------------------------------------- what a page costs
+
+#: The cost model of :func:`gain_error_page` run by ``morpi montecarlo`` (whole command, one thread), from
+#: ``benchmarks/montecarlo_cost.py``: every shape of path run as the whole command at two run counts on a
+#: 2-core machine shared with other work, CPU seconds read from the child process. With n samples per run
+#: (duration x 100 Hz) and K steps per run:
+#:
+#: - per run, ``RUN_SECONDS . (n, n^2, K n)`` [s] (a chunk holds fewer runs the longer they are, and each
+#:   chunk reduces every kept epoch and loops over the steps);
+#: - once, ``FIXED_SECONDS . (1, n, n^2, K)`` [s]: the interpreter and imports, the path, the noisy
+#:   training runs of the reference gains, the page and its figures;
+#: - memory, ``FIXED_BYTES . (1, n, n^2, K)`` [bytes] plus ``RUN_BYTES`` a run (its per-run results,
+#:   measured at 1,000,000 runs of 15 s: 0.83 GB peak over a 0.19 GB base) and
+#:   ``CHUNK_SAMPLE_BYTES`` a sample of each run a ``chunk`` holds beyond the default one;
+#: - with a dataset, ``FIELD_SECONDS`` and ``FIELD_BYTES`` more (the gains trained on the recordings).
+#:
+#: Measured (CPU seconds, load average 6 on the 2 cores): 10,000 runs of 15 s took 6.5 s; 4000 of 60 s,
+#: 10.3 s; 400 of 300 s, 13.7 s; 240 of 600 s, 25.7 s (0.79 GB); 80 of 600 s at 10 m/s (5990 steps),
+#: 32.3 s (1.28 GB); the fit gives each of the 16 points within 8 % (the per-run slopes within 25 %).
+#: A chunk of 4000 runs of 15 s peaked at 0.81 GB against 0.24 GB in the default chunks of 465 runs, and
+#: one of 1000 runs of 60 s at 0.83 GB against 0.26 GB (chunks of 116): 107 bytes a sample of a run.
+RUN_SECONDS = (1.91e-7, 1.2e-11, 1.45e-10)
+FIXED_SECONDS = (3.16, 8.32e-5, 1.02e-9, 2.0e-3)
+FIXED_BYTES = (2.55e8, 815.0, 0.13, 8.43e4)
+RUN_BYTES = 0.63e3
+CHUNK_SAMPLE_BYTES = 107.0
+FIELD_SECONDS, FIELD_BYTES = 5.3, 0.17e9
+
+
+@dataclass(frozen=True)
+class PageCost:
+    """The estimated cost of a gain-error page (:func:`page_cost`).
+
+    Attributes
+    ----------
+    runs : int
+        Monte Carlo runs.
+    duration : float
+        Time of one run [s].
+    samples : int
+        Samples of one run.
+    steps : int
+        Steps of one run (about the path length over the period).
+    seconds : float
+        Estimated time of ``morpi montecarlo`` on one core of the measured machine [s].
+    bytes : float
+        Estimated peak memory [bytes].
+    """
+
+    runs: int
+    duration: float
+    samples: int
+    steps: int
+    seconds: float
+    bytes: float
+
+
+def page_cost(runs: int, *, duration: float | None = None, speed_mps: float | None = None, chunk: int | None = None,
+              field: bool = False) -> PageCost:
+    """Estimate the time and memory of ``morpi montecarlo`` before running it.
+
+    From the run count, the samples and steps of one run and the measured
+    constants above (:data:`RUN_SECONDS`, :data:`FIXED_SECONDS`,
+    :data:`FIXED_BYTES`, :data:`RUN_BYTES`, ...). The time is for one core
+    of the machine they were measured on, with no other work; a busy machine
+    takes longer.
+
+    Parameters
+    ----------
+    runs : int
+        Monte Carlo runs (>= 1).
+    duration, speed_mps : float, optional
+        The path's shape, as in :func:`gain_error_page`.
+    chunk : int, optional
+        Runs per batch (default: as many as fit a 32 MiB noise block); a larger one takes more memory.
+    field : bool
+        Whether a dataset is configured (the gains are then trained on its recordings).
+
+    Returns
+    -------
+    PageCost
+
+    Raises
+    ------
+    MorpiError
+        A bad run count, chunk or path shape (as :func:`gain_error_page` raises it).
+
+    Examples
+    --------
+    The cost grows with the runs and, faster than linearly, with their duration:
+
+    >>> short, long = page_cost(100_000), page_cost(100_000, duration=60.0)
+    >>> short.samples, long.samples, bool(long.seconds > 4 * short.seconds > 0)
+    (1501, 6001, True)
+    """
+    _check_runs(runs, 0, chunk)
+    cfg = StudyConfig(duration=duration, speed_mps=speed_mps)
+    cfg.validate()
+    length, _, T = cfg.motion()
+    n = _samples(T, cfg.rate_hz)
+    k = max(1, math.ceil(length / cfg.period_m) - 1)
+    terms = (1.0, float(n), float(n) * n, float(k))
+    seconds = runs * sum(c * t for c, t in zip(RUN_SECONDS, (float(n), float(n) * n, float(k) * n)))
+    seconds += sum(c * t for c, t in zip(FIXED_SECONDS, terms))
+    nbytes = sum(c * t for c, t in zip(FIXED_BYTES, terms)) + runs * RUN_BYTES
+    default = min(_default_chunk(n), runs)
+    if chunk is not None and min(chunk, runs) > default:
+        nbytes += (min(chunk, runs) - default) * n * CHUNK_SAMPLE_BYTES
+    if field:
+        seconds, nbytes = seconds + FIELD_SECONDS, nbytes + FIELD_BYTES
+    return PageCost(runs=int(runs), duration=T, samples=n, steps=k, seconds=seconds, bytes=nbytes)
 
 
 @dataclass(frozen=True)

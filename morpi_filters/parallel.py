@@ -15,15 +15,48 @@ import time as _time
 
 from .errors import MorpiError
 
-__all__ = ["Progress", "available_cores", "chunk_ranges", "execute", "heap_frozen"]
+__all__ = ["Progress", "available_cores", "chunk_ranges", "execute", "format_duration", "heap_frozen"]
+
+
+def format_duration(seconds: float) -> str:
+    """A duration as a person reads it: seconds up to 2 minutes, minutes up to 2 hours, then hours.
+
+    Parameters
+    ----------
+    seconds : float
+        The duration [s], >= 0.
+
+    Returns
+    -------
+    str
+        Rounded to whole seconds or minutes, hours to two significant digits; from
+        two days on, the days too, and from a thousand days on, days only.
+
+    Examples
+    --------
+    >>> format_duration(42.4), format_duration(600), format_duration(7200), format_duration(16.5 * 3600)
+    ('42 s', '10 min', '2 h', '16 h')
+    >>> format_duration(9 * 86400), format_duration(1e9)
+    ('216 h (9.0 days)', '1.2e+04 days')
+    """
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.0f} min"
+    hours, days = seconds / 3600, seconds / 86400
+    if hours < 48:
+        return f"{hours:.2g} h"
+    return f"{hours:.0f} h ({days:.1f} days)" if days < 1000 else f"{days:.2g} days"
 
 
 class Progress:
     """A one-line progress indicator on stderr (rewritten in place on a terminal).
 
-    On a terminal the line is rewritten after every update and ends with the
-    elapsed time; elsewhere (a log file, a pipe) one line is printed each time
-    another tenth of the runs is done.
+    On a terminal the line is rewritten after every update; elsewhere (a log
+    file, a pipe) one line is printed each time another tenth of the runs is
+    done. Until the end, the line ends with the time left, estimated from the
+    rate of the runs finished so far (``about 3 min left``); the last one with
+    the time taken (``in 12.3 s``).
 
     Parameters
     ----------
@@ -33,25 +66,37 @@ class Progress:
         Text at the start of the line (the study's name).
     enabled : bool
         When False, updates only count and nothing is written.
+    clock : callable, optional
+        Seconds from a fixed origin, read at the start and at each update
+        (default :func:`time.perf_counter`).
 
     Examples
     --------
-    >>> import contextlib, io
+    A clock that reads 0 s at the start and 2 s more at each update:
+
+    >>> import contextlib, io, itertools
     >>> err = io.StringIO()
     >>> with contextlib.redirect_stderr(err):
-    ...     p = Progress(200, "drift", enabled=True)
+    ...     p = Progress(200, "drift", enabled=True, clock=itertools.count(0.0, 2.0).__next__)
     ...     for _ in range(4):
     ...         p.update(50)
-    >>> p.done, err.getvalue().splitlines()
-    (200, ['drift: 50/200 runs (25 %)', 'drift: 100/200 runs (50 %)', 'drift: 150/200 runs (75 %)', 'drift: 200/200 runs (100 %)'])
+    >>> p.done
+    200
+    >>> print(err.getvalue(), end="")
+    drift: 50/200 runs (25 %), about 6 s left
+    drift: 100/200 runs (50 %), about 4 s left
+    drift: 150/200 runs (75 %), about 2 s left
+    drift: 200/200 runs (100 %) in 8.0 s
     """
 
-    def __init__(self, total: int, label: str, enabled: bool):
+    def __init__(self, total: int, label: str, enabled: bool, clock=None):
         self.total, self.label, self.enabled = total, label, enabled
+        self.clock = _time.perf_counter if clock is None else clock
         self.done = 0
-        self.t0 = _time.perf_counter()
+        self.t0 = self.clock()
         self.tty = enabled and hasattr(sys.stderr, "isatty") and sys.stderr.isatty()
         self.last_tenth = -1
+        self.width = 0
 
     def update(self, k: int) -> None:
         """Count `k` more runs done and refresh the line.
@@ -76,16 +121,24 @@ class Progress:
         if not self.enabled:
             return
         frac = self.done / self.total
+        if not self.tty:
+            tenth = int(10 * frac)
+            if tenth <= self.last_tenth:
+                return
+            self.last_tenth = tenth
+        line = f"{self.label}: {self.done}/{self.total} runs ({100 * frac:.0f} %)"
+        elapsed = self.clock() - self.t0
+        if self.done >= self.total:
+            line += f" in {elapsed:.1f} s"
+        elif self.done > 0:
+            line += f", about {format_duration(elapsed / self.done * (self.total - self.done))} left"
         if self.tty:
-            sys.stderr.write(f"\r{self.label}: {self.done}/{self.total} runs ({100 * frac:3.0f} %)")
-            if self.done >= self.total:
-                sys.stderr.write(f" in {_time.perf_counter() - self.t0:.1f} s\n")
+            # padded to the width of the longest line so far: a shorter line leaves nothing behind
+            self.width = max(self.width, len(line))
+            sys.stderr.write(f"\r{line:<{self.width}}" + ("\n" if self.done >= self.total else ""))
             sys.stderr.flush()
         else:
-            tenth = int(10 * frac)
-            if tenth > self.last_tenth:
-                self.last_tenth = tenth
-                print(f"{self.label}: {self.done}/{self.total} runs ({100 * frac:.0f} %)", file=sys.stderr)
+            print(line, file=sys.stderr)
 
 
 # ----------------------------------------------------------------------------- the collector

@@ -340,44 +340,337 @@ def test_paired_difference_is_scipys_paired_t_test():
             paired_difference(**{"distance_m": 40.0, **bad})
 
 
+def test_holm_step_down_matches_a_hand_worked_example():
+    from morpi_filters.field_aided import holm
+
+    # sorted: 0.005 x 4 = 0.02, 0.01 x 3 = 0.03, 0.03 x 2 = 0.06, 0.04 x 1 = 0.04 -> raised to 0.06 (monotone)
+    adj, rej = holm([0.01, 0.04, 0.03, 0.005])
+    np.testing.assert_allclose(adj, [0.03, 0.06, 0.06, 0.02], rtol=1e-12)
+    assert rej.tolist() == [True, False, False, True]
+    # a cell without a test (NaN) is no member of the family: m = 2; products above 1 are capped
+    adj, rej = holm([0.01, np.nan, 0.04])
+    np.testing.assert_allclose(adj, [0.02, np.nan, 0.04], rtol=1e-12)
+    assert rej.tolist() == [True, False, True]
+    adj, rej = holm([0.6, 0.7])
+    assert adj.tolist() == [1.0, 1.0] and not rej.any()
+    # the family-wise level decides the rejections, not the adjusted values
+    assert holm([0.01, 0.04, 0.03, 0.005], alpha=0.025)[1].tolist() == [False, False, False, True]
+    with pytest.raises(MorpiError, match="p-values"):
+        holm([0.5, 1.5])
+    # a family of cells: wins before and after the correction (0.003 x 3 = 0.009; 0.03 x 2 = 0.06; 0.2)
+    from types import SimpleNamespace
+
+    from morpi_filters.field_aided import PairedDifference, _family
+
+    cells = [SimpleNamespace(paired=PairedDifference(m, 0.1, 10, p)) for m, p in
+             ((-0.5, 0.03), (-0.9, 0.003), (0.2, 0.2))] + [SimpleNamespace(paired=None)]
+    pairs, summary = _family(cells, "paired")
+    assert [None if d is None else round(d.p_holm, 12) for d in pairs] == [0.06, 0.009, 0.2, None]
+    assert summary == {"cells": 3, "wins_uncorrected": 2, "wins_corrected": 1, "losses_uncorrected": 0,
+                       "losses_corrected": 0, "ties_corrected": 2}
+
+
+def test_detectable_difference_is_detected_at_the_stated_power():
+    """At the returned difference, the paired t-test of ``runs`` normal differences rejects 80 % of the time."""
+    from scipy import stats
+
+    from morpi_filters.field_aided import detectable_difference, paired_difference
+
+    rng = np.random.default_rng(21)
+    sd, runs, sims = 0.3, 10, 20000
+    delta = detectable_difference(sd, runs)
+    d = rng.normal(delta, sd, (sims, runs))
+    rate = np.mean(stats.ttest_1samp(d, 0.0, axis=1).pvalue < 0.05)
+    # binomial standard error sqrt(0.8 x 0.2 / 20000) = 0.0028: four of them
+    assert abs(rate - 0.8) < 0.0113, (delta, rate)
+    # the normal approximation (z_0.975 + z_0.8) sd / sqrt(n) detects less often at ten runs ...
+    z = (stats.norm.ppf(0.975) + stats.norm.ppf(0.8)) * sd / np.sqrt(runs)
+    assert np.mean(stats.ttest_1samp(rng.normal(z, sd, (sims, runs)), 0.0, axis=1).pvalue < 0.05) < 0.78
+    # ... and is its limit for many runs
+    assert detectable_difference(sd, 4000) == pytest.approx(z * np.sqrt(runs / 4000), rel=2e-3)
+    assert np.isnan(detectable_difference(sd, 1)) and detectable_difference(0.0, 5) == 0.0
+    # a paired difference states it for its own runs and spread [pp]
+    ref = rng.uniform(0.5, 1.5, 12)
+    err = ref - 0.1 + rng.normal(0.0, 0.2, 12)
+    pd = paired_difference(err, ref, 40.0)
+    sd_pp = np.std((err - ref) / 40.0 * 100, ddof=1)
+    assert pd.mdd_pp == pytest.approx(detectable_difference(sd_pp, 12), rel=1e-9)
+    # outside a family there is no Holm verdict
+    assert np.isnan(pd.p_holm) and pd.verdict_holm == "tie"
+
+
+def test_steps_alone_is_where_the_filter_goes_on_its_steps_alone():
+    """The filter's step vectors summed: what a filter that gives its INS no weight reaches.
+
+    A phone that reads no motion, a loose INS (the accelerometer noise of a shaken phone) and exact,
+    tight steps, one after the other from a rest that pins the start: each update hands the position to
+    the step. Two more steps the
+    filter does not use, their vectors far away: one without length, one that starts and ends on one
+    sample.
+    """
+    from morpi_filters.field_aided import steps_alone
+
+    t = np.arange(0.0, 6.0, 0.01)
+    vec = np.array([[0.5, 0.0], [0.4, 0.3], [7.0, 7.0], [0.0, 0.5], [-5.0, 3.0], [0.2, -0.1], [0.3, 0.3]])
+    length = np.linalg.norm(vec, axis=1)
+    length[2] = np.nan
+    start = np.array([0.5, 1.3, 1.5, 2.1, 2.9, 2.9, 3.7])
+    end = np.array([1.3, 2.1, 1.9, 2.9, 2.902, 3.7, 4.5])
+    inp = aided.AidedInput(time=t, f=np.tile([0.0, 0.0, units.G0], (t.size, 1)), omega=np.zeros((t.size, 3)),
+                           C0=np.eye(3), g=units.G0, step_start=start, step_end=end, step_length=length,
+                           step_vector=vec, rest=((0.0, 0.5),))
+    want = np.zeros(2)
+    for k in range(len(vec)):
+        if np.isfinite(length[k]) and end[k] - start[k] >= 0.01:         # at least one sample (100 Hz)
+            want = want + vec[k]
+    np.testing.assert_allclose(steps_alone(inp), want, rtol=0, atol=1e-15)
+    tun = aided.AidTuning(accel_noise=30.0, gyro_noise=1e-4, rest_accel_noise=1e-3, step_sigma=1e-4,
+                          gain_sigma=0.0, nhc=False, step_heading="gyro")
+    (r,) = aided.run_batch([inp], tun)
+    end = r.position[r.index_at(end[-1]), :2]
+    # within a millimetre of the step sum (measured: 1e-7 m; the dropped steps' vectors are metres away)
+    assert np.linalg.norm(end - want) < 1e-3, (end, want)
+    assert np.all(np.isnan(steps_alone(aided.AidedInput(time=t, f=inp.f, omega=inp.omega, C0=np.eye(3), g=9.8))))
+
+
+def test_ellipse_coverage_counts_the_end_points_inside_their_regions():
+    """End points drawn from their own covariances: the direct count of each region, near 95 % each."""
+    from scipy import stats
+
+    from morpi_filters.field_aided import ellipse_coverage
+
+    rng = np.random.default_rng(8)
+    n = 4000
+    A = rng.normal(size=(n, 2, 2))
+    P = A @ np.swapaxes(A, 1, 2) + 0.1 * np.eye(2)
+    e = np.einsum("nij,nj->ni", np.linalg.cholesky(P), rng.normal(size=(n, 2)))
+    along = np.array([3.0, 4.0])
+    cov = ellipse_coverage(e, P, along)
+    u = along / 5.0
+    c = np.array([-u[1], u[0]])
+    inside = axis_u = axis_c = 0
+    k2 = stats.chi2.ppf(0.95, 2)
+    z = stats.norm.ppf(0.975)
+    for ei, Pi in zip(e, P):
+        inside += ei @ np.linalg.inv(Pi) @ ei <= k2
+        axis_u += abs(ei @ u) <= z * np.sqrt(u @ Pi @ u)
+        axis_c += abs(ei @ c) <= z * np.sqrt(c @ Pi @ c)
+    assert cov["runs"] == n
+    assert (cov["inside_95"], cov["along_95"], cov["cross_95"]) == (inside / n, axis_u / n, axis_c / n)
+    # the right covariance holds 95 % (binomial standard error 0.0034: four of them); a wrong one does not
+    for share in (cov["inside_95"], cov["along_95"], cov["cross_95"]):
+        assert abs(share - 0.95) < 0.014, cov
+    assert ellipse_coverage(e, 0.5 * P, along)["inside_95"] < 0.85
+    with pytest.raises(MorpiError, match="along"):
+        ellipse_coverage(e, P, [0.0, 0.0])
+
+
+def test_nis_band_is_the_chi_square_of_the_cells_updates():
+    """The band per degree of freedom holds 95 % of the mean NIS of a consistent filter's updates."""
+    from scipy import stats
+
+    from morpi_filters.field_aided import nis_consistency
+
+    updates, dof = 150, 2
+    q = nis_consistency(300.0, updates, dof)
+    assert q["per_dof"] == 1.0 and q["updates"] == updates
+    lo, hi = (stats.chi2.ppf(p, updates * dof) / (updates * dof) for p in (0.025, 0.975))
+    np.testing.assert_allclose(q["band"], [lo, hi], rtol=1e-12)
+    # consistent innovations: y ~ N(0, S), NIS = y^T S^-1 y chi-square with dof each
+    rng = np.random.default_rng(4)
+    sums = (rng.normal(size=(20000, updates, dof)) ** 2).sum(axis=(1, 2))
+    per_dof = sums / (updates * dof)
+    assert abs(np.mean((per_dof >= q["band"][0]) & (per_dof <= q["band"][1])) - 0.95) < 0.006
+    assert np.isnan(nis_consistency(0.0, 0, 2)["per_dof"])
+
+
+def test_an_aid_the_filter_does_not_use_has_exactly_zero_effect():
+    """Not run: its row is the full filter's, in both read-outs; a used aid must have been run."""
+    from morpi_filters.field_aided import ABLATIONS, _ablation_row, aid_used
+
+    considered = aided.AidTuning(nhc=False, gain_estimated=False, gain_sigma=0.05)
+    assert [n for n in ABLATIONS if not aid_used(n, considered)] == ["non-holonomic", "gain state"]
+    assert aid_used("gain state", considered.with_(gain_estimated=True))
+    assert not aid_used("gain state", considered.with_(gain_estimated=True, gain_sigma=0.0))
+    full = (5.213, 5.198)                      # smoothed and forward differ: each column keeps its own
+    for name in ("non-holonomic", "gain state"):
+        row = _ablation_row("cell", name, aid_used(name, considered), full)
+        assert row["used"] is False
+        assert row["smoothed_percent"] - row["full_percent"] == 0.0
+        assert row["forward_percent"] - row["full_forward_percent"] == 0.0
+    # without smoothing both read-outs are the forward filter's
+    row = _ablation_row("cell", "smoothing", True, full)
+    assert (row["smoothed_percent"], row["forward_percent"]) == (full[1], full[1])
+    with pytest.raises(MorpiError, match="used but was not run"):
+        _ablation_row("cell", "steps", True, full)
+    with pytest.raises(MorpiError, match="expected one of"):
+        aid_used("compass", considered)
+
+
+def test_a_filter_started_later_knows_nothing_before():
+    """Started at the motion onset, a rest window before it does not hold the filter: the INS drifts freely."""
+    t = np.arange(0.0, 4.0, 0.01)
+    f = np.tile([0.05, 0.0, units.G0], (t.size, 1))       # an accelerometer offset the rest updates would see
+    inp = aided.AidedInput(time=t, f=f, omega=np.zeros((t.size, 3)), C0=np.eye(3), g=units.G0,
+                           rest=((0.0, 2.0),), standing=((2.0, 2.5),))
+    late = inp.since(2.5)
+    assert late.time[0] == pytest.approx(2.5) and late.rest == () and late.standing == ((t[250], 2.5),)
+    tun = aided.AidTuning(accel_noise=1e-3, nhc=False)
+    whole, started = aided.run_batch([inp, late], tun)
+    # started at 2.5 s it integrates 1.5 s of the offset: 0.05 x 1.5^2 / 2 m (up to the filter's own bias
+    # estimate on the standing sample, ~0); the whole run's rest updates have learnt the offset
+    assert started.end_point[0] == pytest.approx(0.05 * 1.5 ** 2 / 2, rel=0.05)
+    assert abs(whole.end_point[0]) < 0.2 * started.end_point[0]
+
+
 # --------------------------------------------------------------------------- field
 
 @pytest.mark.field
-def test_field_cell_json_contract_and_consistency(field_root):
-    from morpi_filters.field_aided import aided_study
+def test_field_cell_json_contract_and_consistency(field_root, monkeypatch):
+    from scipy import stats
+
+    from morpi_filters import field_aided
+    from morpi_filters.evaluate import evaluate_tables
+    from morpi_filters.field_aided import aided_study, prepare
     from morpi_filters.report.aided import study_json
 
     label = "short_route s8 1 m MoRPI-G GC"
-    study = aided_study(field_root, labels={label})
-    (c,) = study.cells
+    res = evaluate_tables(field_root, alternatives=False, ins=False)
+    # with the RD cell of the same runs and method beside it: the study's coverage and NIS count each
+    # (run, method) once, over the GC cells
+    batches = []
+    real = aided.run_batch
+
+    def counting(inputs, tunings, **kw):
+        batches.append((list(tunings), kw))
+        return real(inputs, tunings, **kw)
+
+    monkeypatch.setattr(aided, "run_batch", counting)
+    study = aided_study(result=res, labels={label, label.replace("GC", "RD")})
+    monkeypatch.setattr(aided, "run_batch", real)
+    c = next(c for c in study.cells if c.label == label)
+    assert len(study.cells) == 2
     assert c.label == label and len(c.runs) == 11  # s8/short_distance/test holds 11 runs
     # the steps tie the INS down: from hundreds of % (INS alone) to MoRPI's level (within x2)
     assert c.forward_percent < 0.05 * c.ins_percent
     assert c.forward_percent < 2 * c.morpi_percent
     payload = study_json(study)
-    assert {"cells", "ablation", "coverage_95", "tunables"} <= set(payload)
+    assert {"cells", "ablation", "coverage_95", "tunables", "coverage_95_forward", "significance"} <= set(payload)
+    cell = next(x for x in payload["cells"] if x["label"] == label)
     assert {"table", "phone", "p2p_m", "method", "calibration", "paper_percent", "morpi_percent",
-            "forward_percent", "smoothed_percent", "runs"} <= set(payload["cells"][0])
+            "forward_percent", "smoothed_percent", "runs", "steps_alone_percent", "nis", "coverage_95",
+            "coverage_95_forward"} <= set(cell)
     assert {a["removed"] for a in payload["ablation"]} == {"steps", "non-holonomic", "rest updates",
                                                           "gain state", "smoothing"}
-    assert all(set(a) == {"cell", "removed", "smoothed_percent"} for a in payload["ablation"])
+    assert all(set(a) == {"cell", "removed", "smoothed_percent", "forward_percent", "used", "full_percent",
+                          "full_forward_percent", "start"} for a in payload["ablation"])
     assert 0.0 <= payload["coverage_95"] <= 1.0
     # smoothed minus MoRPI alone, paired over the runs: its mean is the difference of the cell's means
-    pair = payload["cells"][0]["smoothed_vs_morpi"]
+    pair = cell["smoothed_vs_morpi"]
     assert pair["runs"] == len(c.runs) and pair["verdict"] in ("better", "worse", "tie")
     assert pair["mean_pp"] == pytest.approx(c.smoothed_percent - c.morpi_percent, abs=1e-9)
+    # a family of one cell: Holm leaves its p-value as it is
+    assert pair["p_holm"] == pytest.approx(pair["p_value"], rel=1e-12) and payload["significance"]["cells"] == 1
     # the step updates' innovations, up to the read-out: at least one step per run, an RMS that bounds the mean
-    inn = payload["cells"][0]["step_innovation"]
+    inn = cell["step_innovation"]
     assert inn["updates"] >= len(c.runs) and inn["predicted_along_sigma_m"] > 0
     assert inn["along_rms_m"] >= abs(inn["along_mean_m"]) and inn["cross_rms_m"] >= abs(inn["cross_mean_m"])
     # the figures' paths end where the end points are read: their last points are the rows' end points
     from morpi_filters.dataset import route
 
-    end = route(c.spec.route).end_point_m
+    truth = route(c.spec.route)
+    end = truth.end_point_m
     for (_, fwd, sm, _, P), row in zip(c.paths, c.runs):
         assert np.linalg.norm(fwd[-1] - end) == pytest.approx(row["forward_m"], abs=1e-9)
         assert np.linalg.norm(sm[-1] - end) == pytest.approx(row["smoothed_m"], abs=1e-9)
         assert len(P) == len(fwd)
+
+    # recomputed from the prepared recordings: the step vectors the filter is fed, summed by a plain loop;
+    # the filter rerun with the cell's tunables, its NIS from the kept innovations and its coverage by count
+    g = next(g for g in res.gains if (g.phone, g.route, g.method, g.calibration) == ("s8", "short_distance",
+                                                                                  "MoRPI-G", "GC"))
+    config = res.selections["MoRPI-G"].config
+    preps = [prepare(res.data, rec, "GC", "MoRPI-G", config, g.mean)
+             for rec in res.data.recordings("s8", "short_distance", "test")]
+    preps = sorted(preps, key=lambda p: [r["file"] for r in c.runs].index(p.rel))
+    alone = []
+    for p in preps:
+        inp = p.input_for(c.tuning)
+        v = np.asarray(inp.step_vector)
+        xy = np.zeros(2)
+        for k in range(v.shape[0]):
+            xy = xy + v[k]
+        alone.append(np.linalg.norm(xy - end))
+    assert c.tuning["step_heading"] == "route"
+    assert cell["steps_alone_percent"] == pytest.approx(np.mean(alone) / truth.distance_m * 100, rel=1e-9)
+    # MoRPI alone under its best train-chosen reading: with the Weinberg length and the route's heading, the
+    # same step vectors summed (a second path to the same numbers); with the rule's own, MoRPI alone as the
+    # tables have it
+    best = [r["morpi_best_m"] for r in c.runs]
+    if cell["morpi_length"] == "period count":
+        assert best == [r["period_count_m"] for r in c.runs]
+    elif cell["morpi_reading"] == "route":
+        assert best == pytest.approx(alone, rel=1e-9)
+    else:
+        assert cell["morpi_reading"] == config.heading and best == [r["morpi_m"] for r in c.runs]
+    assert cell["smoothed_vs_morpi_best"]["mean_pp"] == pytest.approx(c.smoothed_percent - c.morpi_best_percent,
+                                                                      abs=1e-9)
+    assert payload["significance"]["vs_morpi_best"]["cells"] == 1
+    t = c.tuning
+    tun = field_aided._tuning((t["rest_accel_noise"], t["gyro_noise"] / t["vibration"], t["rest_gyro_noise"],
+                               t["gyro_walk"], t["accel_jump"]), t, t["gain_sigma"])
+    out = aided.run_batch([p.input_for(t) for p in preps], tun, smooth=True, innovations=True)
+    inside = inside_fw = 0
+    for p, r, row in zip(preps, out, c.runs):
+        j = r.index_at(p.stop_s)
+        assert np.linalg.norm(r.smoothed[j, :2] - end) == pytest.approx(row["smoothed_m"], abs=1e-9)
+        e, ef = r.smoothed[j, :2] - end, r.position[j, :2] - end
+        m2, m2f = e @ np.linalg.inv(r.P_xy_smoothed[j]) @ e, ef @ np.linalg.inv(r.P_xy[j]) @ ef
+        # each estimate under its own covariance (close here: the read-out is at the last step update, where
+        # only the final rest's updates, when a run has them, reach the smoother)
+        assert row["mahalanobis2_smoothed"] == pytest.approx(m2, rel=1e-9)
+        assert row["mahalanobis2"] == pytest.approx(m2f, rel=1e-9)
+        inside += m2 <= stats.chi2.ppf(0.95, 2)
+        inside_fw += m2f <= stats.chi2.ppf(0.95, 2)
+    assert (cell["coverage_95"], cell["coverage_95_forward"]) == (inside / len(preps), inside_fw / len(preps))
+    assert payload["coverage"]["smoothed"]["runs"] == len(preps)
+    assert payload["coverage_95"] == cell["coverage_95"]
+    assert payload["coverage_95_forward"] == cell["coverage_95_forward"]
+    for kind, q in cell["nis"].items():
+        total = count = 0
+        for r in out:
+            y, S = r.innovations[kind].y, r.innovations[kind].S
+            total += np.einsum("ui,ui->", y, np.linalg.solve(S, y[:, :, None])[:, :, 0])
+            count += y.shape[0]
+        dof = y.shape[1]
+        assert q["updates"] == count and q["dof"] == dof
+        assert q["per_dof"] == pytest.approx(total / count / dof, rel=1e-9)
+        lo, hi = (stats.chi2.ppf(p, count * dof) / (count * dof) for p in (0.025, 0.975))
+        assert q["band"] == pytest.approx([lo, hi], rel=1e-12)
+    # the ablation: an aid not used is not run and changes nothing, in either read-out; both read-outs of the
+    # used ones are compared with the same read-outs
+    rows = {a["removed"]: a for a in payload["ablation"]}
+    for name, a in rows.items():
+        assert a["used"] == field_aided.aid_used(name, tun)
+        if not a["used"]:
+            assert (a["smoothed_percent"], a["forward_percent"]) == (a["full_percent"], a["full_forward_percent"])
+    assert rows["smoothing"]["smoothed_percent"] == rows["smoothing"]["forward_percent"] == c.forward_percent
+    assert rows["steps"]["full_percent"] == c.smoothed_percent and rows["steps"]["used"]
+    assert rows["rest updates"]["start"] == "motion onset"
+    # the rest updates' row: the filter started at the motion onset, with and without them
+    late = [p.input_for(t).since(p.onset_s) for p in preps]
+    assert all(li.time[0] <= p.onset_s < li.time[1] and all(a > p.onset_s for a, _ in li.rest)
+               for li, p in zip(late, preps))
+    for key, tuning in (("full", tun), ("smoothed", tun.with_(rest=False))):
+        got = aided.run_batch(late, tuning, smooth=True)
+        err = [np.linalg.norm(r.smoothed[r.index_at(p.stop_s), :2] - end) for p, r in zip(preps, got)]
+        assert rows["rest updates"][f"{key}_percent"] == pytest.approx(np.mean(err) / truth.distance_m * 100,
+                                                                       rel=1e-9)
+    # one ablation batch: per run the steps removed, and the rest updates with and without from the onset;
+    # the aids the filter does not use are not run
+    (ablated,) = [b for b, kw in batches if kw.get("smooth") is True and not kw.get("innovations")]
+    assert sorted(ablated, key=repr) == sorted([tun.with_(steps=False), tun, tun.with_(rest=False)] * len(c.runs),
+                                               key=repr)
 
 
 @pytest.mark.field
@@ -735,3 +1028,95 @@ def test_what_precedes_the_initial_rest_does_not_move_the_filter(field_root, tmp
     ra, rb = aided.run_batch([pa.input, replace(pb.input, **steps)],
                              aided.AidTuning(step_sigma=0.02, gain_sigma=0.0, step_heading="gyro"))
     assert np.linalg.norm(ra.end_point - rb.end_point) < 1e-6
+
+
+# ----------------------------------------------------------------------------- MoRPI alone's best reading
+
+def _drifting_root(root: Path, drift: float, *, test_gyro_scale: float = 1.0, amplitudes=None) -> Path:
+    """A short-route set (s6, 4 train and 2 test runs) whose z gyro gains `drift` [rad/s] while the robot
+    moves (after the rest window, so the GC calibration keeps it): the absolute heading turns away from the
+    straight route, the route's heading (no turn) does not. With `test_gyro_scale` the test gyros are scaled."""
+    from morpi_filters import dataset as ds
+
+    rng = np.random.default_rng(11)
+    for split, n in (("train", 4), ("test", 2)):
+        for i in range(n):
+            amp = None if amplitudes is None else amplitudes[i]
+            traj = simulate.route_trajectory("short_distance", speed=0.3 * (1.0 + 0.1 * rng.standard_normal()),
+                                             amplitude=amp)
+            imu = simulate.imu(traj, units.MPU6500, rng, sampling="s6", bias_scale=0.0)
+            omega = imu.omega.copy()
+            moving = (imu.time >= traj.start_time) & (imu.time <= traj.stop_time)
+            omega[moving, 2] += drift
+            if split == "test":
+                omega = omega * test_gyro_scale
+            rec = ds.Recording(time=imu.time, f=imu.f, omega=omega, source="synthetic")
+            ds.write_csv(root / "s6" / "short_distance" / split / f"{i + 1}.csv", rec)
+    return root
+
+
+def test_the_route_heading_is_chosen_where_the_rule_reading_drifts(tmp_path):
+    """Synthetic straight runs whose heading drifts while moving: MoRPI alone's absolute reading ends off
+    the route, the route's heading does not, and the train runs' leave-one-out choice takes it; the rule's
+    score is the rule search's own."""
+    from morpi_filters import field as fd
+    from morpi_filters.field_aided import choose_reading
+
+    data = fd.FieldData(_drifting_root(tmp_path / "drift", 0.03))
+    config = fd.select_config(data, "MoRPI-G").config.with_(heading="absolute")
+    pick = choose_reading(data, "MoRPI-G", config)
+    assert pick.runs == 4 and pick.reading == "route"
+    assert pick.rule_percent == fd._loo_score(data, "MoRPI-G", config)[0]
+    assert pick.route_percent < pick.rule_percent - pick.difference_se_pp
+
+
+def test_route_reading_within_the_tie_tolerance_keeps_the_rule_reading():
+    from morpi_filters.field_aided import READING_SE, route_reading_pays
+
+    rule = np.array([3.0, 4.0, 5.0, 4.5, 3.5])
+    d = np.array([-0.4, 0.2, -0.5, 0.3, -0.35])            # mean -0.15 pp, standard error 0.17 pp
+    se = d.std(ddof=1) / np.sqrt(d.size)
+    assert -d.mean() < READING_SE * se < 2 * -d.mean()
+    # better on average but within one standard error: the rule's own reading stays
+    assert not route_reading_pays(rule, rule + d)
+    # the same differences shifted beyond the tolerance: the route's heading is taken
+    assert route_reading_pays(rule, rule + d - 2 * se)
+    # a run the route's heading cannot read (not finite): no choice of it
+    assert not route_reading_pays(rule, np.append(rule[:-1] - 1.0, np.nan))
+
+
+def test_reading_choice_ignores_corrupted_test_recordings(tmp_path):
+    """Every test recording's gyro scaled by 1.5: the same rules, readings and step lengths, scores and all."""
+    from morpi_filters import field as fd
+    from morpi_filters.field_aided import choose_length, choose_reading, period_length
+
+    picks = []
+    for name, scale in (("clean", 1.0), ("corrupted", 1.5)):
+        data = fd.FieldData(_drifting_root(tmp_path / name, 0.03, test_gyro_scale=scale))
+        out = []
+        for m in ("MoRPI-A", "MoRPI-G"):
+            config = fd.select_config(data, m).config
+            pick = choose_reading(data, m, config)
+            out += [config, pick, choose_reading(data, m, config.with_(heading="absolute")),
+                    choose_length(data, "s6", m, config, pick.reading),
+                    period_length(data, "s6", "RD", m, config, pick.reading)]
+        picks.append(out)
+    assert picks[0] == picks[1]
+
+
+def test_the_period_count_is_chosen_where_the_amplitude_varies_and_counts_half_metres(tmp_path):
+    """Synthetic 1 m periods whose lateral amplitude varies from run to run (0.03 to 0.15 m): the Weinberg
+    weight follows the amplitude, the distance per period does not. The period count's half-period length
+    is the designed half metre up to the partial end steps (at most one period of the 12.6 half periods of
+    6.3 m left uncounted), and the held-out choice takes it."""
+    from morpi_filters import field as fd
+    from morpi_filters.field_aided import choose_length, period_length
+
+    data = fd.FieldData(_drifting_root(tmp_path / "amp", 0.0, amplitudes=(0.03, 0.15, 0.05, 0.1)))
+    for m in ("MoRPI-A", "MoRPI-G"):
+        config = fd.select_config(data, m).config
+        assert 0.5 * 0.99 <= period_length(data, "s6", "GC", m, config, config.heading) <= 6.3 / (12.6 - 2.0)
+    config = fd.select_config(data, "MoRPI-G").config
+    pick = choose_length(data, "s6", "MoRPI-G", config, config.heading)
+    assert pick.held_out == "run" and pick.runs == 4
+    assert pick.length == "period count" and pick.period_percent < pick.weinberg_percent

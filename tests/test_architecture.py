@@ -21,10 +21,10 @@ PKG = Path(__file__).resolve().parents[1] / "morpi_filters"
 #: module of ``report/`` is in the pages layer.
 LAYERS = (
     ("foundation", {"errors", "units", "resources", "reporting", "parallel"}),
-    ("inputs", {"params", "dataset", "fetch"}),
+    ("inputs", {"params", "dataset", "manifest", "fetch"}),
     ("calibration", {"calibration", "_signal_kernel"}),
     ("navigation", {"strapdown", "steps", "symbolic", "error_model", "eskf", "aided", "_aided_kernel", "_batch_ins"}),
-    ("synthetic recordings", {"simulate", "synthetic"}),
+    ("synthetic recordings", {"simulate", "synthetic", "foreign"}),
     ("field", {"field"}),
     ("evaluation", {"evaluate"}),
     ("studies", {"field_aided", "curves", "montecarlo", "assessment"}),

@@ -1,7 +1,9 @@
 """The `morpi` command: help, one-line errors, exit codes."""
 from __future__ import annotations
 
+import math
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -43,6 +45,36 @@ def test_check_reports_each_bad_file(tmp_path):
     # 2 bad files, then the layout: 3 of the 24 line_dataset runs, the other 10 folders absent
     assert lines[-1].startswith("1 recording(s) OK, 13 problem(s)")
     assert any("line_dataset: 3 recording(s), expected 24" in s for s in lines)
+
+
+def test_check_names_a_recording_in_g_and_one_in_deg_per_s(tmp_path):
+    """Within every limit, but no phone at rest in SI units: one line each, naming the file and the unit."""
+    import numpy as np
+
+    rng = np.random.default_rng(8)
+    d = tmp_path / "s8" / "line_dataset"
+    d.mkdir(parents=True)
+    rows = [[0.3 + 0.01 * k, 0.1, -0.1, 9.8, 0.01, -0.02, 0.03] for k in range(300)]
+    noisy = np.asarray(rows) + np.c_[np.zeros(300), 0.01 * rng.standard_normal((300, 3)),
+                                     0.001 * rng.standard_normal((300, 3))]
+    write_rows(d / "1.csv", noisy.tolist())
+    in_g, in_deg = noisy.copy(), noisy.copy()
+    in_g[:, 1:4] /= 9.80665
+    in_deg[:, 4:7] = np.degrees(in_deg[:, 4:7])
+    write_rows(d / "2.csv", in_g.tolist())
+    write_rows(d / "3.csv", in_deg.tolist())
+    r = run("check", "--data", str(tmp_path))
+    assert r.returncode == 1 and "Traceback" not in r.stderr
+    lines = r.stdout.strip().splitlines()
+    # (0.1, -0.1, 9.8) m/s^2 read in g is (0.0102, -0.0102, 0.9993); 0.03 rad/s read in deg/s is 1.72
+    (g,) = [s for s in lines if s.startswith(str(d / "2.csv"))]
+    assert re.fullmatch(re.escape(f"{d / '2.csv'}: specific force at rest is 1.00 m/s^2 (f = (") + r"0\.010\d, "
+                        r"-0\.010\d, 0\.999\)\), expected \|f\| = 9\.81 \+- 2\.11 m/s\^2: looks like the "
+                        r"accelerometer is in g, not m/s\^2", g), g
+    (deg,) = [s for s in lines if s.startswith(str(d / "3.csv"))]
+    assert deg.endswith("looks like deg/s, not rad/s") and re.search(r"mean 1\.7\d rad/s on g_z", deg), deg
+    assert not any(s.startswith(str(d / "1.csv")) for s in lines)
+    assert lines[-1].startswith("1 recording(s) OK")
 
 
 def test_check_names_missing_folders(tmp_path):
@@ -251,3 +283,150 @@ def test_a_report_section_runs_with_the_heap_frozen_and_leaves_it_as_it_was(monk
     assert gc.get_freeze_count() == 0
     assert cli._section("drift", tmp_path, None) == "study"
     assert len(seen) == 2 and min(seen) > 0 and gc.get_freeze_count() == 0
+
+
+# ----------------------------------------------------------------------------- every numeric option bounded
+
+def _value_options():
+    """(command words, option, type) of every option of every subcommand that takes a value."""
+    import argparse
+
+    from morpi_filters.cli import build_parser
+
+    found = []
+
+    def walk(parser, words):
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for name, sub in action.choices.items():
+                    walk(sub, words + [name])
+            elif action.option_strings and action.nargs != 0:
+                found.append((tuple(words), action.option_strings[-1], action.type))
+
+    walk(build_parser(), [])
+    return found
+
+
+def _is_numeric(kind):
+    """Whether an option's type refuses text that is not a number (a number option, bounded or not)."""
+    if kind is None or kind is str:
+        return False
+    try:
+        kind("not-a-number")
+    except Exception:
+        return True
+    return False
+
+
+NUMERIC = [(w, o, t) for w, o, t in _value_options() if _is_numeric(t)]
+#: What a user may type where a number is expected: zero, signs, NaN, infinities, the float range's ends and
+#: beyond, integers longer than any bound (and than Python converts), fractions, text.
+BAD_VALUES = ["0", "-1", "nan", "-nan", "inf", "-inf", "1e308", "-1e308", "1e309", "1" + "0" * 40,
+              "-" + "9" * 5000, "1.5", "abc", "", "0x10", "1,5"]
+#: Required options given so that the value under test is the only problem.
+REQUIRED = {("simulate",): ["--out", "unused"]}
+
+
+def test_the_number_options_are_found():
+    # the enumeration below reads the parser: every subcommand with a number option is in it
+    options = {(w, o) for w, o, _ in NUMERIC}
+    assert {(("montecarlo",), "--runs"), (("montecarlo",), "--duration"), (("assess",), "--times"),
+            (("curves",), "--times"), (("simulate",), "--seed"), (("aided",), "--workers"),
+            (("report",), "--runs")} <= options
+    # and the text options are not numbers
+    assert not {o for _, o, _ in NUMERIC} & {"--out", "--json", "--data", "--params", "--scheduler", "--url", "--dest"}
+
+
+@pytest.mark.parametrize("words, option, kind", NUMERIC, ids=[" ".join(w) + " " + o for w, o, _ in NUMERIC])
+def test_every_number_option_has_a_finite_range(words, option, kind):
+    from morpi_filters.cli import _Number
+
+    assert isinstance(kind, _Number), f"morpi {' '.join(words)} {option}: a number option without a stated range"
+    assert math.isfinite(kind.lo) and math.isfinite(kind.hi) and kind.lo <= kind.hi
+
+
+def _in_range(kind, text):
+    from morpi_filters.cli import _real, _whole
+
+    v = (_whole if kind.whole else _real)(text)
+    return v is not None and kind.lo <= v <= kind.hi
+
+
+@pytest.mark.parametrize("words, option, kind", NUMERIC, ids=[" ".join(w) + " " + o for w, o, _ in NUMERIC])
+def test_every_number_option_refuses_bad_values_in_one_line(words, option, kind, monkeypatch, capsys):
+    from morpi_filters import cli
+
+    def no_computation(args):
+        raise AssertionError(f"morpi {' '.join(words)} {option}: went on to compute")
+
+    monkeypatch.setattr(cli, "_dispatch", no_computation)
+    for text in BAD_VALUES:
+        argv = [*words, *REQUIRED.get(tuple(words), []), option, text]
+        if _in_range(kind, text):               # e.g. a seed of 0 or a time of 0 s: accepted when parsed
+            assert cli.build_parser().parse_args(argv) is not None
+            continue
+        with pytest.raises(SystemExit) as exc:
+            cli.main(argv)
+        err = capsys.readouterr().err
+        assert exc.value.code == 2, (argv[-1][:20], err)
+        assert err.count("\n") == 1 and err.endswith("\n"), err
+        assert option in err and kind.accepted in err and "Traceback" not in err, err
+        assert len(err) < 400, err
+
+
+# ----------------------------------------------------------------------------- the Monte Carlo time budget
+
+@pytest.fixture
+def no_sections(monkeypatch):
+    """Replace the section run of every command by a recorder (nothing is computed)."""
+    from morpi_filters import cli
+
+    calls = []
+    monkeypatch.setattr(cli, "_run_section", lambda name, args, source_of=None: calls.append(name) or 0)
+    monkeypatch.delenv("MORPI_DATA", raising=False)
+    return calls
+
+
+def test_a_montecarlo_run_beyond_the_budget_is_refused_with_its_estimate(no_sections, capsys):
+    from morpi_filters import cli
+    from morpi_filters.montecarlo import page_cost
+
+    # a million runs of the default 15 s fit the budget; of 600 s, they do not: the duration counts
+    assert page_cost(1_000_000).seconds < cli.MC_BUDGET_SECONDS < page_cost(1_000_000, duration=600.0).seconds
+    assert cli.main(["montecarlo", "--runs", "1000000", "--duration", "600"]) == 2
+    out, err = capsys.readouterr()
+    assert no_sections == [] and out == ""
+    assert err.count("\n") == 1 and "--allow-long" in err and "1000000 runs of 600 s" in err, err
+    hours = page_cost(1_000_000, duration=600.0).seconds / 3600
+    assert f"about {hours:.2g} h" in err and "GB" in err, err
+
+
+def test_allow_long_runs_it_and_states_the_estimate_first(no_sections, capsys):
+    from morpi_filters import cli
+
+    assert cli.main(["montecarlo", "--runs", "1000000", "--duration", "600", "--allow-long"]) == 0
+    out = capsys.readouterr().out
+    assert no_sections == ["montecarlo"] and "1000000 runs of 600 s, estimated at about" in out
+
+
+def test_a_long_run_within_the_budget_states_its_estimate_and_a_short_one_does_not(no_sections, capsys):
+    from morpi_filters import cli
+    from morpi_filters.montecarlo import page_cost
+
+    assert page_cost(1_000_000).seconds > cli.MC_ANNOUNCE_SECONDS > page_cost(2000).seconds
+    assert cli.main(["montecarlo", "--runs", "1000000"]) == 0
+    assert "1000000 runs of 15 s, estimated at about" in capsys.readouterr().out
+    assert cli.main(["montecarlo", "--runs", "2000"]) == 0
+    assert capsys.readouterr().out == "" and no_sections == ["montecarlo", "montecarlo"]
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["--speed", "0.01"], ("--speed", "631 s", "at most 600 s")),           # the 6.3 m path at 1 cm/s
+    (["--runs", "1000000", "--chunk", "1000000"], ("--chunk", "GB")),        # one chunk holding every run
+])
+def test_montecarlo_shapes_beyond_their_bounds_are_refused(argv, words, no_sections, capsys):
+    from morpi_filters import cli
+
+    assert cli.main(["montecarlo", *argv]) == 2
+    err = capsys.readouterr().err
+    assert no_sections == [] and err.count("\n") == 1 and all(w in err for w in words), err

@@ -143,6 +143,7 @@ def test_synthetic_source_banner_and_empty_field(tmp_path):
 
     out = tmp_path / "out"
     out.mkdir()
+    (tmp_path / "empty").mkdir()                     # a dataset folder without recordings
     src = DataSource(tmp_path / "empty", synthetic=True, seed=0)
     s = report_curves(out, curves_study(params_path=_write(tmp_path), times=[1.0], source=src), src)
     text = (out / "README.md").read_text()

@@ -1,6 +1,8 @@
 """The loader, its validation, and the catalogue of the MoRPI layout."""
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -469,3 +471,382 @@ def test_a_dataset_root_that_does_not_exist_is_an_error(tmp_path):
     with pytest.raises(DataError, match="not a directory"):
         catalogue(tmp_path / "nowhere")
     assert catalogue(tmp_path) == []                                  # an empty folder is a dataset of none
+
+
+# ----------------------------------------------------------------- plausibility at rest
+
+from morpi_filters import dataset as ds  # noqa: E402
+
+
+def _phone_at_rest_then_turning(seed=3, n=700, lead=None):
+    """A noisy recording built here from known truth: a phone tilted 3 deg about x standing for 3.5 s (gravity
+    on +z, datasheet-sized offsets, white noise), then swinging about z at 1 Hz (0.5 rad/s, 29 deg/s) while its y axis
+    accelerates. `lead` prepends that many samples of a hand turning the phone (1.5 rad/s about x and z)."""
+    rng = np.random.default_rng(seed)
+    t = 0.25 + np.cumsum(np.full(n, 0.01) + rng.uniform(-0.001, 0.001, n))
+    tilt = np.radians(3.0)
+    f = np.tile([0.05, units.G0 * np.sin(tilt) - 0.1, units.G0 * np.cos(tilt) + 0.2], (n, 1))
+    w = np.tile([0.012, -0.02, 0.031], (n, 1))
+    moving = t > t[0] + 3.5
+    f[moving, 1] += 0.5 * np.sin(2 * np.pi * (t[moving] - t[0]))
+    w[moving, 2] += 0.5 * np.sin(2 * np.pi * (t[moving] - t[0]))
+    f += 0.01 * rng.standard_normal((n, 3))
+    w += 0.0015 * rng.standard_normal((n, 3))
+    if lead:
+        tl = t[0] - 0.01 * np.arange(lead, 0, -1)
+        hand = np.sin(np.pi * (tl - tl[0]) / (tl[-1] - tl[0]))[:, None]
+        t = np.r_[tl, t]
+        f = np.vstack([f[:lead] + 2.0 * hand * [1.0, 1.0, 0.0], f])
+        w = np.vstack([w[:lead] + 1.5 * hand * [1.0, 0.0, 1.0], w])
+    return Recording(time=t, f=f, omega=w)
+
+
+def _written(tmp_path, rec, rel="s8/line_dataset/1.csv"):
+    path = tmp_path / rel
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_csv(path, rec)
+    return path
+
+
+def test_a_phone_at_rest_in_si_units_and_z_up_is_plausible(tmp_path):
+    rec = _phone_at_rest_then_turning()
+    path = _written(tmp_path, rec)
+    assert ds.plausibility_problems(load_csv(path)) == []
+    assert catalogue(tmp_path)[0].load().n == rec.n
+    problems, n_ok = check_tree(tmp_path)
+    assert n_ok == 1 and not any(str(path) in p for p in problems)
+
+
+def _swap(a, i, b, j):
+    a[:, i], b[:, j] = b[:, j].copy(), a[:, i].copy()
+
+
+def _mutant(kind):
+    rec = _phone_at_rest_then_turning()
+    f, w = rec.f.copy(), rec.omega.copy()
+    if kind == "dead gyro axis":
+        w[:, 1] = 0.0
+    elif kind == "stuck accelerometer axis":
+        f[:, 0] = f[7, 0]
+    elif kind == "accelerometer in g":
+        f /= units.G0
+    elif kind == "gravity removed":
+        f -= np.median(f[:300], axis=0)
+    elif kind == "gyro in deg/s":
+        w = np.degrees(w)
+    elif kind == "gyro in deg/s, no offset":          # only its noise tells: mean rates at rest near zero
+        w = np.degrees(w - np.median(w[:300], axis=0))
+    elif kind == "f_z and g_x swapped":
+        _swap(f, 2, w, 0)
+    elif kind == "f_x and g_y swapped on a tilted phone":   # the horizontal specific force read as a rate
+        f[:, 0] += units.G0 * np.sin(np.radians(5.0))
+        _swap(f, 0, w, 1)
+    elif kind == "f_x and f_z swapped":
+        f[:, [0, 2]] = f[:, [2, 0]]
+    elif kind == "f_y and f_z swapped":
+        f[:, [1, 2]] = f[:, [2, 1]]
+    elif kind == "z down":                            # turned 180 deg about x: a right-handed z-down frame
+        f[:, 1:] *= -1
+        w[:, 1:] *= -1
+    return Recording(time=rec.time, f=f, omega=w)
+
+
+@pytest.mark.parametrize("kind, expect", [
+    ("dead gyro axis", r"column g_y is all zero in all 700 samples: a dead channel"),
+    ("stuck accelerometer axis", r"column f_x is stuck at [-0-9.e]+ in all 700 samples: a dead channel"),
+    ("accelerometer in g", r"specific force at rest is 1\.0\d m/s\^2 \(f = .*\), expected \|f\| = 9\.81 \+- 2\.11 "
+                           r"m/s\^2: looks like the accelerometer is in g, not m/s\^2"),
+    ("gravity removed", r"specific force at rest is 0\.00 m/s\^2 .*: no gravity"),
+    ("gyro in deg/s", r"angular rate at rest: mean .* rad/s on g_z .*; noise .*: looks like deg/s, not rad/s"),
+    ("gyro in deg/s, no offset", r"angular rate at rest: noise .* rad/s on g_[xyz] \(expected at most 0\.017\d rad/s, "
+                                 r"10 times the datasheet noise at \d+ Hz\): looks like deg/s, not rad/s"),
+    ("f_z and g_x swapped", r"specific force at rest is 0\.4\d m/s\^2 .*: the gyro columns carry it instead "
+                            r"\(\|w\| = 9\.\d+ at rest"),
+    ("f_x and g_y swapped on a tilted phone", r"angular rate at rest: mean 0\.9\d+ rad/s on g_y \(expected within "
+                                              r"\+-0\.31 rad/s.*specific force under the g_y header"),
+    ("f_x and f_z swapped", r"gravity at rest is on f_x \(f = .*\), expected at least 0\.71 of \|f\| on \+f_z"),
+    ("f_y and f_z swapped", r"gravity at rest is on f_y .*looks like f_y and f_z swapped"),
+    ("z down", r"f_z at rest is -9\.\d+ .*expected \+\|f\| on z .*: a z-down frame"),
+])
+def test_implausible_recordings_are_named_by_the_loader_and_by_check(tmp_path, kind, expect):
+    """Each mutant keeps every documented limit (the plain reader takes it) and is refused by the catalogue's
+    loader and listed by check_tree, one line naming the file and what was expected."""
+    path = _written(tmp_path, _mutant(kind))
+    load_csv(path)                                          # within the limits: the parser alone accepts it
+    with pytest.raises(DataError, match=expect) as ei:
+        catalogue(tmp_path)[0].load()
+    assert str(ei.value).startswith(f"{path}: ") and "\n" not in str(ei.value)
+    with pytest.raises(DataError, match=expect):
+        ds.load_recording(path)
+    problems, n_ok = check_tree(tmp_path)
+    mine = [p for p in problems if p.startswith(f"{path}: ")]
+    assert n_ok == 0 and mine and any(re.search(expect, p) for p in mine)
+    assert all("\n" not in p for p in mine)
+
+
+def test_a_handling_before_the_rest_is_skipped(tmp_path):
+    """A hand turning the phone for the first second (1.5 rad/s) is no rest: the still stretch starts after it,
+    and the recording passes; read over the first second, its gyro would exceed the rest bound."""
+    rec = _phone_at_rest_then_turning(lead=100)
+    i0, i1 = ds._still_stretch(rec.time, rec.omega)
+    assert rec.time[i0] >= rec.time[100] - ds._STILL_BLOCK_S and rec.time[i1 - 1] < rec.time[100] + 3.5
+    assert np.abs(np.median(rec.omega[:100], axis=0)).max() > ds.GYRO_REST_LIMIT_RADPS
+    assert ds.plausibility_problems(rec) == []
+    _written(tmp_path, rec)
+    assert catalogue(tmp_path)[0].load().n == rec.n
+
+
+def test_a_noise_free_recording_is_not_judged_dead_but_a_noisy_one_is():
+    """Without noise on any column at rest (an ideal simulation) a column that never moves proves nothing;
+    with noise on the others it is a dead channel."""
+    t = np.arange(300) * 0.01
+    ideal = Recording(time=t, f=np.tile([0.0, 0.0, 9.8], (300, 1)), omega=np.zeros((300, 3)))
+    assert ds.plausibility_problems(ideal) == []
+    noisy = Recording(time=t, f=ideal.f + 0.01 * np.random.default_rng(0).standard_normal((300, 3)),
+                      omega=ideal.omega)
+    assert [p.split(": ")[1][:20] for p in ds.plausibility_problems(noisy)] == ["column g_x is all ze",
+                                                                                "column g_y is all ze",
+                                                                                "column g_z is all ze"]
+
+
+def test_the_rest_bounds_are_the_datasheet_figures():
+    # recomputed from the figures the constants' comments cite: 3 x 60 mg + 3 % of g + 0.05 m/s^2 for the
+    # place on Earth; 3 x 6 deg/s per gyro axis; cos 45 deg; 10 x 0.01 deg/s/sqrt(Hz) at the sampling rate
+    assert ds.GRAVITY_BAND_MPS2 == pytest.approx(3 * 0.060 * units.G0 + 0.03 * units.G0 + 0.05, rel=1e-12)
+    assert ds.GYRO_REST_LIMIT_RADPS == pytest.approx(np.radians(18.0), rel=1e-12)
+    assert ds.UP_FRACTION_MIN == pytest.approx(np.sqrt(0.5), rel=1e-12)
+    assert ds.GYRO_NOISE_FACTOR * units.MPU6500.gyro_noise * 10 == pytest.approx(np.radians(1.0), rel=1e-12)
+    # an accelerometer in g, or without gravity, is far outside the band; so is the smallest gravity on Earth
+    assert abs(1.0 - units.G0) > 3 * ds.GRAVITY_BAND_MPS2 and ds.GRAVITY_BAND_MPS2 < units.G0 / 4
+
+
+@pytest.mark.field
+def test_every_field_recording_reads_gravity_and_a_quiet_gyro_at_rest(field_root):
+    """The 143 recordings pass with room: at rest |f| - g, the gyro offsets and noise stay well inside the bounds."""
+    for e in catalogue(field_root):
+        rec = load_csv(e.path)
+        assert ds.plausibility_problems(rec) == [], e.relpath
+        i0, i1 = ds._still_stretch(rec.time, rec.omega)
+        f = np.median(rec.f[i0:i1], axis=0)
+        assert abs(np.linalg.norm(f) - units.G0) < 0.01 * ds.GRAVITY_BAND_MPS2, e.relpath
+        assert f[2] / np.linalg.norm(f) > 0.97, e.relpath
+        assert np.abs(np.median(rec.omega[i0:i1], axis=0)).max() < 0.2 * ds.GYRO_REST_LIMIT_RADPS, e.relpath
+
+
+# ----------------------------------------------------------------- other layouts and units (read_columns)
+
+import math
+
+from morpi_filters.dataset import ColumnLayout, read_columns
+
+#: A logger's names for the columns of a recording.
+_LOGGER = ("t", "ax", "ay", "az", "gx", "gy", "gz")
+
+
+def _logger_layout(**kw):
+    return ColumnLayout(COLUMNS, _LOGGER, **kw)
+
+
+def _logger_text(rows, *, preamble=(), extra=True, trailing=True, quote=False, space=", ", crlf=False):
+    """A logger's CSV of rows (time, f, omega cells as strings or numbers), written by hand."""
+    header = list(_LOGGER) + (["temp"] if extra else [])
+    lines = list(preamble) + [space.join(header) + ("," if trailing else "")]
+    for r in rows:
+        cells = [repr(float(v)) if not isinstance(v, str) else v for v in r] + (["21.5"] if extra else [])
+        if quote:
+            cells = [f'"{c}"' for c in cells]
+        lines.append(space.join(cells) + ("," if trailing else ""))
+    return ("\r\n" if crlf else "\n").join(lines) + "\n"
+
+
+def test_read_columns_converts_units_closed_form(tmp_path):
+    # milliseconds, g and deg/s: 1500 ms is 1.5 s, 1 g is 9.80665 m/s^2 (units.G0), 180 deg/s is pi rad/s
+    p = tmp_path / "u.csv"
+    rows = [[1500 + 10 * k, 0.0, -0.5, 1.0, 180.0, 0.0, -90.0] for k in range(5)]
+    p.write_text(_logger_text(rows, extra=False, trailing=False))
+    lay = _logger_layout(time_per_s=1e3, factors=(units.G0,) * 3 + (math.pi / 180,) * 3)
+    time, f, omega = read_columns(p, lay)
+    assert time[0] == 1.5 and time[1] == 1.51
+    assert f[0].tolist() == [0.0, -0.5 * 9.80665, 9.80665]
+    assert omega[0, 0] == pytest.approx(math.pi, rel=1e-15) and omega[0, 2] == pytest.approx(-math.pi / 2, rel=1e-15)
+    # no time column: time is k / rate_hz from 0
+    p.write_text(_logger_text([r[1:] for r in rows], extra=False, trailing=False).replace("t, ", "", 1))
+    time, f, _ = read_columns(p, ColumnLayout(COLUMNS, (None,) + _LOGGER[1:], rate_hz=120.0, factors=lay.factors))
+    assert time.tolist() == [k / 120.0 for k in range(5)] and f[0, 2] == 9.80665
+
+
+def test_a_loggers_export_reads_the_numbers_of_the_plain_file(tmp_path):
+    # a preamble, blanks after commas, a comma ending each line, quoted fields, a column not read, CRLF:
+    # the numbers of the same rows written plainly, bit for bit, and the C reader takes the unquoted forms
+    from morpi_filters import dataset as ds
+
+    rows = [[0.3 + 0.01 * k + 1e-4 * (k % 3), 0.1 * k, -0.2, 9.81, 0.01, -0.02 * k, 1 / 3] for k in range(150)]
+    plain = tmp_path / "plain.csv"
+    plain.write_text(_logger_text(rows, extra=False, trailing=False, space=","))
+    ref = read_columns(plain, _logger_layout())
+    variants = {
+        "preamble": (dict(preamble=["logger v2.1, unit 7", "started 2024-05-01"]), True),
+        "spaces, trailing comma, extra column": (dict(), True),
+        "crlf": (dict(crlf=True, preamble=["# exported"]), True),
+        "quoted": (dict(quote=True), True),
+        "quoted after blanks, no trailing comma": (dict(quote=True, trailing=False), True),
+    }
+    for label, (kw, fast) in variants.items():
+        p = tmp_path / "v.csv"
+        p.write_text(_logger_text(rows, **kw))
+        lay = _logger_layout(skip_rows=len(kw.get("preamble", ())))
+        got = read_columns(p, lay)
+        for a, b in zip(got, ref):
+            assert np.array_equal(a.view(np.int64), b.view(np.int64)), label
+        precise = ds._parse(p, lay)
+        for a, b in zip(precise, ref):
+            assert np.array_equal(a.view(np.int64), b.view(np.int64)), label
+        assert (ds._fast_parse(p, lay) is not None) == fast, label
+
+
+def test_read_columns_checks_the_converted_values(tmp_path):
+    lay = _logger_layout(time_per_s=1e3, factors=(1.0,) * 3 + (math.pi / 180,) * 3,
+                         units=("m/s^2",) * 3 + ("deg/s",) * 3)
+    rows = [[10.0 * k, 0.0, 0.0, 9.8, 0.0, 0.0, 100.0] for k in range(50)]   # 10 ms steps, 100 deg/s
+    p = tmp_path / "c.csv"
+    p.write_text(_logger_text(rows))
+    time, _, omega = read_columns(p, lay)            # 10 ms steps and 100 deg/s are within every limit
+    assert time[-1] == 0.49 and omega[0, 2] == pytest.approx(100 * math.pi / 180, rel=1e-15)
+    bad = [list(r) for r in rows]
+    bad[20][6] = 2200.0                              # above 2000 deg/s * 1.05
+    p.write_text(_logger_text(bad))
+    with pytest.raises(DataError, match=r"c.csv: line 22: column gz: angular rate 38.39\d* rad/s \(converted from "
+                                        r"deg/s\) is beyond \+-36.65 rad/s"):
+        read_columns(p, lay)
+    bad = [[v + (1500.0 if k >= 30 and j == 0 else 0.0) for j, v in enumerate(r)] for k, r in enumerate(rows)]
+    p.write_text(_logger_text(bad))
+    with pytest.raises(DataError, match=r"line 32: time gap of 1.51 s after line 31"):
+        read_columns(p, lay)
+
+
+@pytest.mark.parametrize("edit, expect", [
+    (lambda ls: ls.__setitem__(8, ls[8].replace(", 21.5,", "")), r"line 9: short row, 7 fields, expected 9"),
+    (lambda ls: ls.__setitem__(8, ls[8] + "1,"), r"line 9: long row, 10 fields, expected 9"),
+    (lambda ls: ls.__setitem__(8, ls[8].replace("9.8", "")), r"line 9: column az: '' is not a number"),
+    (lambda ls: ls.__setitem__(0, "t, ax, ay, accz, gx, gy, gz, temp,"),
+     r"line 1: missing column\(s\) 'az'; the header has 't'"),
+    (lambda ls: ls.__setitem__(0, "t, ax, ay, az, gx, gy, gz, gz,"), r"line 1: repeated column\(s\) 'gz'"),
+])
+def test_a_loggers_export_names_its_bad_line(tmp_path, edit, expect):
+    rows = [[0.01 * k, 0.0, 0.0, 9.8, 0.0, 0.0, 0.1] for k in range(50)]
+    lines = _logger_text(rows).splitlines()
+    edit(lines)
+    p = tmp_path / "b.csv"
+    p.write_text("\n".join(lines) + "\n")
+    with pytest.raises(DataError, match=expect):
+        read_columns(p, _logger_layout())
+
+
+def test_a_column_not_read_may_hold_anything(tmp_path):
+    rows = [[0.01 * k, 0.0, 0.0, 9.8, 0.0, 0.0, 0.1] for k in range(50)]
+    text = _logger_text(rows).replace("21.5", "ok", 3).replace("21.5", "", 3)
+    p = tmp_path / "x.csv"
+    p.write_text(text)
+    time, f, _ = read_columns(p, _logger_layout())
+    assert time.size == 50 and f[0, 2] == 9.8
+
+
+def test_logger_reader_takes_only_what_the_line_by_line_reading_reads_the_same(tmp_path):
+    """Seeded edits of a logger's export: whenever the C reader takes a file, the precise path reads the same
+    bits, and when the precise path refuses it, the C reader did not take it."""
+    from morpi_filters import dataset as ds
+    from morpi_filters.errors import DataError as DE
+
+    rng = np.random.default_rng(20260601)
+    rows = [[0.01 * k, 0.1, -0.2, 9.8, 0.01, -0.02, 0.3] for k in range(60)]
+    base = _logger_text(rows, preamble=["# log"]).splitlines()
+    lay = _logger_layout(skip_rows=1, factors=(units.G0,) * 3 + (1.0,) * 3)
+    edits = [
+        lambda c: c[:-2],                                  # a row without its last field (extra column)
+        lambda c: c[:3] + [""] + c[4:],                    # an empty cell read
+        lambda c: c[:-2] + [""] + c[-1:],                  # an empty cell not read
+        lambda c: c + [""],                                # a long row
+        lambda c: [f' "{x.strip()}"' if x else x for x in c],   # quoted after a blank
+        lambda c: c[:1] + [" 1e400"] + c[2:],              # infinite after conversion
+        lambda c: c[:-2] + ["1,5"] + c[-1:],               # a comma inside a field not read
+        lambda c: c[:-2] + ['"1,5"'] + c[-1:],             # the same, quoted
+        lambda c: c[:6] + ["40"] + c[7:],                  # beyond the gyro limit
+    ]
+    taken = 0
+    for case in range(250):
+        lines = list(base)
+        for _ in range(int(rng.integers(1, 3))):
+            k = int(rng.integers(2, len(lines)))
+            cells = lines[k].split(",")
+            kind = int(rng.integers(len(edits) + 2))
+            if kind == len(edits):
+                lines.insert(k, " " * int(rng.integers(0, 3)))     # a blank line
+            elif kind == len(edits) + 1:
+                lines[k] = lines[k].replace(", ", ",")
+            else:
+                lines[k] = ",".join(edits[kind](cells))
+        p = tmp_path / f"f{case}.csv"
+        p.write_text("\n".join(lines) + "\n")
+        fast = ds._fast_parse(p, lay)
+        try:
+            precise = ds._parse(p, lay)
+        except DE:
+            assert fast is None, case
+            continue
+        if fast is not None:
+            taken += 1
+            for a, b in zip(fast, precise):
+                assert a.shape == b.shape and np.array_equal(a.view(np.int64), b.view(np.int64)), case
+    assert taken >= 20, taken
+
+
+def test_read_columns_of_npy_arrays(tmp_path):
+    p = tmp_path / "a.npy"
+    data = np.column_stack([np.zeros(10), np.zeros(10), np.ones(10), np.full(10, 90.0), np.zeros(10), np.zeros(10)])
+    np.save(p, data.astype(np.float32))
+    lay = ColumnLayout(COLUMNS, (None, 0, 1, 2, 3, 4, 5), format="npy", rate_hz=120.0,
+                       factors=(units.G0,) * 3 + (math.pi / 180,) * 3)
+    time, f, omega = read_columns(p, lay)
+    assert time[1] == 1 / 120.0 and f[0, 2] == units.G0 and omega[0, 0] == pytest.approx(math.pi / 2, rel=1e-15)
+    data[7, 3] = 2200.0
+    np.save(p, data)
+    with pytest.raises(DataError, match=r"a.npy: row index 7: column 3: angular rate 38.39\d* rad/s"):
+        read_columns(p, lay)
+    for content, expect in ((np.zeros(5), r"shape \(5,\), expected 2-D"),
+                            (np.zeros((5, 4)), r"no column 4 \(g_y\), 5 \(g_z\)"),
+                            (np.zeros((5, 6), dtype=bool), "expected numbers"), (np.zeros((0, 6)), "no rows")):
+        np.save(p, content)
+        with pytest.raises(DataError, match=expect):
+            read_columns(p, lay)
+    p.write_text("0,0,9.8,0,0,0\n")
+    with pytest.raises(DataError, match="not a .npy array file"):
+        read_columns(p, lay)
+
+
+def test_keep_parsed_keeps_a_file_per_layout(tmp_path):
+    from morpi_filters import dataset as ds
+
+    rows = [[10.0 * k, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0] for k in range(20)]
+    p = tmp_path / "k.csv"
+    p.write_text(_logger_text(rows))
+    in_g = _logger_layout(time_per_s=1e3, factors=(units.G0,) * 3 + (1.0,) * 3)
+    in_si = _logger_layout(time_per_s=1e3)
+    with ds.keep_parsed():
+        a, b = read_columns(p, in_g), read_columns(p, in_si)
+        assert a[1][0, 2] == units.G0 and b[1][0, 2] == 1.0
+        assert read_columns(p, in_g)[1] is a[1]
+
+
+def test_time_from_first_counts_a_unix_clock_from_its_first_row(tmp_path):
+    from morpi_filters import dataset as ds
+
+    rows = [[1_700_000_000_000 + 10 * k, 0.0, 0.0, 9.8, 0.0, 0.0, 0.1] for k in range(50)]   # Unix time in ms
+    p = tmp_path / "u.csv"
+    p.write_text(_logger_text(rows))
+    with pytest.raises(DataError, match=r"line 2: column t: 1700000000.0 s is beyond the limit of \+-1e\+08 s"):
+        read_columns(p, _logger_layout(time_per_s=1e3))
+    lay = _logger_layout(time_per_s=1e3, time_from_first=True)
+    time, _, _ = read_columns(p, lay)
+    assert time[0] == 0.0 and time[1] == 0.01 and time[-1] == 0.49
+    for a, b in zip(ds._fast_parse(p, lay), ds._parse(p, lay)):
+        assert np.array_equal(a, b)

@@ -8,10 +8,17 @@ documented rules: UTF-8 with an optional byte-order mark, columns by header
 name) or in one :class:`DataError` line naming the file. Any other exception
 fails the test. Corruptions that keep the content (CRLF, BOM, quotes, column
 order, blank lines) must load and equal the original exactly.
+
+The plausible-but-wrong families (:data:`FAMILIES`: a dead or stuck channel,
+the accelerometer in g, the gyro in deg/s, swapped columns under a kept header,
+a z-down frame) rewrite the numbers of a clean recording of a synthetic dataset
+instead of its bytes; the commands' loader must refuse every one, naming the
+file.
 """
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
 import shutil
@@ -22,7 +29,7 @@ import pytest
 
 from morpi_filters import dataset as ds
 from morpi_filters import evaluate as ev
-from morpi_filters import synthetic
+from morpi_filters import synthetic, units
 from morpi_filters.errors import DataError, MorpiError
 from morpi_filters.report.tables import report_tables
 from morpi_filters.reporting import DataSource
@@ -242,9 +249,105 @@ EITHER = (truncate, byte_flips, delete_lines, duplicate_line, swap_lines, digit_
 KINDS = HARMLESS + HARMFUL + EITHER
 
 
-def corrupt(text: str, rng, n_ops: int):
-    """Apply `n_ops` corruptions drawn from :data:`KINDS`; return the bytes and their names."""
+# ------------------------------------------------------------------ plausible but wrong: numbers -> numbers
+#
+# Each family rewrites a clean recording (the header kept, every value written back exactly) into one that
+# keeps every documented limit of the loader, or breaks one only where the family itself says so, but that no
+# phone IMU at rest in SI units and the z-up frame records. The commands' loader must refuse each one, naming
+# the file (dataset.plausibility_problems); none may be evaluated as if it were valid.
+
+def _table(b):
+    """The header's names and the rows of a clean recording's bytes."""
+    head, _, rows = b.partition(b"\n")
+    return head.decode().split(","), np.loadtxt(io.BytesIO(rows), delimiter=",", ndmin=2)
+
+
+def _untable(header, data):
+    """Bytes of a recording (17 significant digits: every value read back exactly)."""
+    out = io.BytesIO()
+    np.savetxt(out, data, delimiter=",", fmt="%.17g")
+    return ",".join(header).encode() + b"\n" + out.getvalue()
+
+
+def _col(header, name):
+    return header.index(name)
+
+
+def dead_channel(b, rng):
+    """One sensor column (any of the six) reads 0 in every sample: a dead axis. Always told from a live one:
+    every other column carries the sensor's white noise."""
+    header, data = _table(b)
+    data[:, _col(header, str(rng.choice(COLS[1:])))] = 0.0
+    return _untable(header, data)
+
+
+def constant_channel(b, rng):
+    """One sensor column holds one of its own values in every sample (a stuck axis; its value is plausible,
+    only its lack of noise tells)."""
+    header, data = _table(b)
+    j = _col(header, str(rng.choice(COLS[1:])))
+    data[:, j] = data[_ri(rng, 0, data.shape[0]), j]
+    return _untable(header, data)
+
+
+def accel_in_g(b, rng):
+    """The accelerometer written in g: every specific-force column divided by g."""
+    header, data = _table(b)
+    for c in ("f_x", "f_y", "f_z"):
+        data[:, _col(header, c)] /= units.G0
+    return _untable(header, data)
+
+
+def gyro_in_deg_s(b, rng):
+    """The gyro written in deg/s: every angular-rate column times 180 / pi. On a recording that turns faster
+    than 36.65 deg/s the rates break the gyro's full scale and the parser refuses the file (still named)."""
+    header, data = _table(b)
+    for c in ("g_x", "g_y", "g_z"):
+        data[:, _col(header, c)] = np.degrees(data[:, _col(header, c)])
+    return _untable(header, data)
+
+
+def swap_accel_gyro(b, rng):
+    """f_z swapped with a gyro column under the kept header: gravity on a gyro column, none on the
+    accelerometer. Swaps of f_x or f_y with a gyro column are left out by construction: at rest a nearly level
+    phone's f_x and f_y read its tilt times g (0.26 m/s^2 for the synthetic mounting's 1.5 deg), within a
+    gyro's zero-rate offsets (0.31 rad/s), and the gyro's few mrad/s barely change |f|: such a swap reads like
+    a valid phone with a larger gyro offset, and no check at rest can tell it (only the motion could)."""
+    header, data = _table(b)
+    i, j = _col(header, "f_z"), _col(header, str(rng.choice(["g_x", "g_y", "g_z"])))
+    data[:, [i, j]] = data[:, [j, i]]
+    return _untable(header, data)
+
+
+def swap_accel_axes(b, rng):
+    """f_z swapped with f_x or f_y under the kept header: gravity on x or y while the frame says z up."""
+    header, data = _table(b)
+    i, j = _col(header, "f_z"), _col(header, str(rng.choice(["f_x", "f_y"])))
+    data[:, [i, j]] = data[:, [j, i]]
+    return _untable(header, data)
+
+
+def z_down(b, rng):
+    """The frame turned 180 deg about x or y: z and one other axis negated on both sensors (a right-handed
+    z-down frame, as a phone lying face down or north-east-down axes write it)."""
+    header, data = _table(b)
+    other = str(rng.choice(["x", "y"]))
+    for c in (f"f_{other}", "f_z", f"g_{other}", "g_z"):
+        data[:, _col(header, c)] *= -1.0
+    return _untable(header, data)
+
+
+#: The plausible-but-wrong families: dead channel, wrong unit, swapped columns, z-down frame.
+FAMILIES = (dead_channel, constant_channel, accel_in_g, gyro_in_deg_s, swap_accel_gyro, swap_accel_axes, z_down)
+
+
+def corrupt(text: str, rng, n_ops: int, family=None):
+    """Apply `family` (one of :data:`FAMILIES`, when given) to the clean text, then `n_ops` corruptions drawn
+    from :data:`KINDS`; return the bytes and their names."""
     b, names = text.encode(), []
+    if family is not None:
+        b = family(b, rng)
+        names.append(family.__name__)
     for _ in range(n_ops):
         kind = KINDS[_ri(rng, 0, len(KINDS))]
         try:
@@ -425,6 +528,66 @@ def test_fuzz_through_the_tables(tiny_dataset, tmp_path):
                     assert math.isfinite(c.ours_percent) and abs(c.ours_percent) <= ev.CELL_SANITY_PERCENT
             full[kind] += 1
     assert full["rejected"] == 3 and full["loaded"] >= 1
+
+
+#: Recordings the families are applied to: a periodic route, a straight line, an L route and a long straight
+#: run, both phones. The periodic and long runs turn faster than 36.65 deg/s, the line and the L do not.
+FAMILY_TARGETS = ("s8/short_distance/test/1.csv", "s8/line_dataset/1.csv", "s6/L_line/1.csv",
+                  "s6/long_distance/test/1.csv")
+
+
+def _parser_takes(family, rel) -> bool:
+    """Whether the mutant keeps every limit of the parser (all but deg/s rates of a fast-turning run)."""
+    return family is not gyro_in_deg_s or rel in ("s8/line_dataset/1.csv", "s6/L_line/1.csv")
+
+
+@pytest.mark.parametrize("family", FAMILIES)
+def test_each_plausible_but_wrong_family_is_refused_and_named(tiny_dataset, tmp_path, family):
+    """Each family on each target: within the parser's limits (where the family says so), refused by the
+    commands' loader with one line naming the file, and listed by the tables' gate."""
+    root = tmp_path / "ds"
+    shutil.copytree(tiny_dataset, root)
+    rng = np.random.default_rng(31)
+    entries = {e.relpath: e for e in ds.catalogue(root)}
+    for rel in FAMILY_TARGETS:
+        clean = (tiny_dataset / rel).read_bytes()
+        (root / rel).write_bytes(family(clean, rng))
+        try:
+            ds.load_csv(root / rel)
+            parsed = True
+        except DataError:
+            parsed = False
+        assert parsed == _parser_takes(family, rel), rel
+        with pytest.raises(DataError) as ei:
+            entries[rel].load()
+        msg = str(ei.value)
+        assert msg.startswith(f"{root / rel}: ") and "\n" not in msg, msg
+        if parsed:
+            assert ds.plausibility_problems(ds.load_csv(root / rel)), rel
+    problems = ev.dataset_problems(ev.FieldData(root))      # the last target's mutant, at the tables' gate
+    assert any(p.startswith(f"{root / FAMILY_TARGETS[-1]}: ") for p in problems)
+
+
+def test_families_under_further_corruption_are_never_accepted(tiny_dataset, tmp_path):
+    """30 seeded cases: a family on a target, then 0 to 2 corruptions of KINDS. None loads through the
+    commands' loader, each refusal names the file, and nothing but DataError is raised."""
+    root = tmp_path / "ds"
+    shutil.copytree(tiny_dataset, root)
+    rng = np.random.default_rng(77)
+    entries = {e.relpath: e for e in ds.catalogue(root)}
+    drawn = set()
+    for i in range(30):
+        family = FAMILIES[i % len(FAMILIES)]
+        rel = FAMILY_TARGETS[_ri(rng, 0, len(FAMILY_TARGETS))]
+        clean = (tiny_dataset / rel).read_text()
+        raw, names = corrupt(clean, rng, n_ops=_ri(rng, 0, 3), family=family)
+        (root / rel).write_bytes(raw)
+        with pytest.raises(DataError) as ei:
+            entries[rel].load()
+        assert str(root / rel) in str(ei.value) and "\n" not in str(ei.value), names
+        (root / rel).write_text(clean)
+        drawn.update(names)
+    assert {f.__name__ for f in FAMILIES} <= drawn
 
 
 def test_absurd_cell_is_an_error_not_a_number(tiny_dataset):

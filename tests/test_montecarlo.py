@@ -25,12 +25,59 @@ def test_child_seed_is_the_spawned_child():
         assert np.array_equal(mc.child_seed(1234, i).generate_state(8), kids[i].generate_state(8))
 
 
-def test_digest_depends_on_every_byte():
-    a = np.arange(12.0).reshape(6, 2)
-    b = a.copy()
-    b[5, 1] = np.nextafter(b[5, 1], np.inf)
+def _mid_step(x):
+    """`x` moved to the middle of its rounding interval in the digest (a multiple of the step: half a step
+    from either boundary)."""
+    m, e = np.frexp(np.asarray(x, dtype=float))
+    return np.ldexp(np.rint(np.ldexp(m, mc.DIGEST_BITS)), e - mc.DIGEST_BITS)
+
+
+def test_digest_depends_on_every_value_at_its_precision():
+    # a change of one value by two rounding steps (2^-19 relative) changes the digest, wherever it is
+    a = _mid_step(np.random.default_rng(3).uniform(0.01, 500.0, (6, 2)))
     assert mc.digest(a) == mc.digest(a.copy())
-    assert mc.digest(a) != mc.digest(b)
+    for i, j in ((0, 0), (5, 1), (2, 0)):
+        b = a.copy()
+        b[i, j] *= 1 + 2.0 ** -(mc.DIGEST_BITS - 1)
+        assert mc.digest(a) != mc.digest(b)
+
+
+def test_digest_is_the_same_under_another_machines_last_digits():
+    # values perturbed at 1e-12 relative (far above the differences of another libm or CPU), each value in
+    # the middle of its rounding step: the digest does not move; the bits it hashed before did
+    rng = np.random.default_rng(4)
+    a = _mid_step(rng.uniform(0.01, 500.0, (300, 8)))
+    b = a * (1 + 1e-12 * rng.choice([-1.0, 1.0], a.shape))
+    assert not np.array_equal(a, b)
+    assert mc.digest(b) == mc.digest(a)
+    # NaN bits (sign, payload) and the sign of zero differ between machines too: not part of the digest
+    odd_nan = np.frombuffer(np.uint64(0xFFF8000000000001).tobytes(), dtype=np.float64)[0]
+    c, d = a.copy(), a.copy()
+    c[0, 0], d[0, 0] = np.nan, odd_nan
+    c[1, 1], d[1, 1] = 0.0, -0.0
+    assert mc.digest(c) == mc.digest(d)
+
+
+def test_field_gain_figures_below_their_precision_leave_the_study_unchanged(tmp_path, monkeypatch):
+    # the field evaluation of another machine gives the spread and mismatch a few 1e-11 apart: the gain
+    # scenario, every per-run error and the digests are the same
+    from morpi_filters import evaluate
+    from morpi_filters.reporting import DataSource
+
+    root = tmp_path / "recordings"
+    root.mkdir()
+    (root / "1.csv").write_text("time,f_x\n")
+    figures = (0.0502360, 0.00251238)            # six digits: the middle of their rounding intervals
+    pages = []
+    for scale in (1.0, 1 + 3e-11):
+        monkeypatch.setattr(evaluate, "training_gain_spread",
+                            lambda source, tables=None, k=scale: (figures[0] * k, figures[1] * k))
+        pages.append(mc.gain_error_page(runs=12, seed=5, source=DataSource(root)))
+    a, b = pages
+    assert (a.spread, a.mismatch) == (b.spread, b.mismatch) == figures
+    assert np.array_equal(a.calibrated.final, b.calibrated.final, equal_nan=True)
+    assert a.calibrated.digest == b.calibrated.digest and a.training.digests == b.training.digests
+    assert not a.assumed and str(root) not in a.spread_note and "1 recording" in a.spread_note
 
 
 @pytest.fixture(scope="module")
@@ -481,3 +528,57 @@ def test_heading_error_by_blocks_is_the_trapezoid_integral():
     np.testing.assert_allclose(out[64], ref, rtol=0, atol=1e-12)
     for b in (1, 7, 500):
         assert np.array_equal(out[b], out[64])
+
+
+# ----------------------------------------------------------------------------- the cost estimate
+
+@pytest.mark.parametrize("duration, speed", [(None, None), (60.0, None), (30.0, 2.0), (None, 0.2), (40.0, 0.1)])
+def test_the_estimate_counts_the_samples_and_steps_of_the_path_the_study_drives(duration, speed):
+    cfg = mc.StudyConfig(duration=duration, speed_mps=speed).resolved()
+    _, sine, _ = mc._paths(cfg)                         # the path the study builds
+    cost = mc.page_cost(10, duration=duration, speed_mps=speed)
+    assert cost.duration == cfg.duration and cost.samples == sine.time.size
+    assert abs(cost.steps - (sine.peaks.size - 1)) <= 1
+
+
+def test_the_estimate_is_affine_in_the_runs_and_grows_faster_than_the_duration():
+    c = [mc.page_cost(r, duration=60.0) for r in (1000, 2000, 3000)]
+    assert c[1].seconds - c[0].seconds == pytest.approx(c[2].seconds - c[1].seconds, rel=1e-12)
+    assert c[1].bytes - c[0].bytes == pytest.approx(1000 * mc.RUN_BYTES, rel=1e-12)
+    per_run = {d: mc.page_cost(2, duration=d).seconds - mc.page_cost(1, duration=d).seconds
+               for d in (15.0, 60.0, 240.0, 600.0)}
+    for short, long in ((15.0, 60.0), (60.0, 240.0), (240.0, 600.0)):
+        assert per_run[long] > long / short * per_run[short] > 0
+    # more steps in the same time cost more (the fast path of the same duration)
+    assert mc.page_cost(1000, duration=600.0, speed_mps=10.0).seconds > mc.page_cost(1000, duration=600.0).seconds
+    # a configured dataset adds the field gain training
+    assert mc.page_cost(10, field=True).seconds > mc.page_cost(10).seconds
+
+
+def test_a_larger_chunk_costs_at_least_its_scratch_planes(monkeypatch):
+    # the chunk kernel's scratch arrays, left in place after a study, against the estimate's bytes per sample
+    monkeypatch.setattr(mc, "_release_scratch", lambda: None)
+    mc._SCRATCH.arrays = {}
+    cfg = mc.StudyConfig(training_runs=20, duration=8.0)
+    mc.run_study(24, 0, cfg, chunk=24)
+    n = mc._samples(cfg.resolved().duration, cfg.rate_hz)
+    planes = sum(a.nbytes for a in mc._SCRATCH.arrays.values())
+    mc._SCRATCH.arrays = {}
+    assert planes / (24 * n) >= 13 * 8                   # draws (6 n + 7), noise (6 n), heading (n) per run
+    assert mc.CHUNK_SAMPLE_BYTES >= planes / (24 * n) * (1 - 1e-3)
+    big, plain = mc.page_cost(100_000, chunk=20_000), mc.page_cost(100_000)
+    default = mc._default_chunk(plain.samples)
+    assert big.bytes - plain.bytes >= planes / (24 * n) * plain.samples * (20_000 - default) * (1 - 1e-3)
+    assert big.seconds == plain.seconds
+
+
+@pytest.mark.parametrize("kwargs", [{"runs": 0}, {"runs": 10, "duration": 2.0}, {"runs": 10, "chunk": 0},
+                                    {"runs": 10, "speed_mps": -1.0}])
+def test_the_estimate_refuses_what_the_study_refuses(kwargs):
+    runs = kwargs.pop("runs")
+    with pytest.raises(MorpiError):
+        mc.page_cost(runs, **kwargs)
+
+
+def test_a_speed_alone_sets_the_duration_of_the_paper_length():
+    assert mc.page_cost(1, speed_mps=0.01).duration == pytest.approx(mc.DEFAULT_LENGTH_M / 0.01 + mc.RAMP_S)

@@ -130,6 +130,100 @@ def test_aided_page_reads_the_step_innovations_by_their_numbers():
     assert _innovation_sentence([]) == ""
 
 
+def test_aided_page_states_the_corrected_wins_and_names_the_cells_with_odd_step_nis():
+    """The page's verdict reads the Holm-corrected counts, and lists each GC cell whose step NIS per degree
+    of freedom lies outside the wording range, with the innovations that explain it."""
+    from types import SimpleNamespace
+
+    from morpi_filters.field_aided import AidedCell, AidedStudy, PairedDifference
+    from morpi_filters.report.aided import NIS_WORDING_RANGE, _page
+
+    def cell(name, step_nis, pair, along_rms, sigma):
+        spec = SimpleNamespace(label=name, calibration="GC", method="MoRPI-G", table="short_route",
+                               train=("s8", "short_distance"), paper_percent=4.0)
+        tuning = {"vibration": 300.0, "step_sigma": 0.02, "gain_state": "considered", "step_heading": "route",
+                  "nhc": False}
+        inn = {"updates": 100, "along_mean_m": 0.0, "along_rms_m": along_rms, "cross_mean_m": 0.0,
+               "cross_rms_m": 0.05, "predicted_along_sigma_m": sigma}
+        return AidedCell(spec=spec, forward_percent=3.0, smoothed_percent=3.0, morpi_percent=3.2, ins_percent=500.0,
+                         runs=({},) * 10, tuning=tuning, train_percent=3.1, train_loo_percent=3.1,
+                         train_morpi_percent=3.3, nis={"step": (2 * step_nis, 2, 100)}, paths=(),
+                         step_innovation=inn, paired=pair, steps_alone_percent=3.05,
+                         paired_steps=PairedDifference(-0.05, 0.1, 10, 0.6, p_holm=1.0, mdd_pp=0.3),
+                         coverage_95=0.9, coverage_95_forward=0.9,
+                         coverage_axes={"smoothed": {"along_95": 0.9, "cross_95": 1.0}},
+                         cross_zero_by_construction=True)
+
+    odd = cell("odd cell", 0.01, PairedDifference(-0.2, 0.05, 10, 0.003, p_holm=0.006, mdd_pp=0.2), 0.2, 1.0)
+    fine = cell("fine cell", 1.0, PairedDifference(-0.2, 0.08, 10, 0.03, p_holm=0.06, mdd_pp=0.3), 0.3, 0.3)
+    sig = {"cells": 2, "wins_uncorrected": 2, "wins_corrected": 1, "losses_uncorrected": 0, "losses_corrected": 0,
+           "ties_corrected": 1, "alpha": 0.05, "power": 0.8, "vs_steps_alone": {"wins_uncorrected": 0,
+                                                                                "wins_corrected": 0}}
+    study = AidedStudy(cells=(odd, fine), ablation=(), coverage_95=0.9, nis={}, significance=sig)
+    page = _page(study, None, [])
+    assert "better in 2 and worse in 0 before any correction" in page
+    assert "over the 2 GC cells (the family-wise level 5 %), better in 1, worse in 0, and a tie in 1" in page
+    # the tie states what the runs could have detected, not an equivalence
+    assert "A tie is no equivalence" in page and "is 0.30 to 0.30 pp" in page
+    listed = page.split(f"lies outside [{NIS_WORDING_RANGE[0]:.1f}, {NIS_WORDING_RANGE[1]:.1f}]:")[1].split("\n\n")[1]
+    assert listed.startswith("- odd cell: step NIS per dof 0.010") and "fine cell" not in listed
+    assert "0.200 m RMS along the step against the 1.000 m the filter expects" in listed
+
+
+def test_aided_page_compares_the_filter_with_morpi_alone_under_its_best_reading():
+    """The page's best-reading section names the chosen readings and states the counts against that baseline."""
+    from types import SimpleNamespace
+
+    from morpi_filters.field_aided import AidedCell, AidedStudy, PairedDifference, ReadingChoice
+    from morpi_filters.report.aided import _page, study_json
+
+    spec = SimpleNamespace(label="a cell", calibration="GC", method="MoRPI-G", table="short_route",
+                           train=("s8", "short_distance"), paper_percent=4.0, phone="s8", p2p_m=1.0,
+                           route="short_distance")
+    tuning = {"vibration": 300.0, "step_sigma": 0.02, "gain_state": "considered", "step_heading": "route", "nhc": False}
+    best = PairedDifference(-0.04, 0.1, 10, 0.7, p_holm=0.7, mdd_pp=0.3)
+    cell = AidedCell(spec=spec, forward_percent=3.0, smoothed_percent=3.0, morpi_percent=3.5, ins_percent=500.0,
+                     runs=({},) * 10, tuning=tuning, train_percent=3.1, train_loo_percent=3.1,
+                     train_morpi_percent=3.3, nis={}, paths=(), steps_alone_percent=3.05,
+                     paired=PairedDifference(-0.5, 0.1, 10, 0.001, p_holm=0.001, mdd_pp=0.3),
+                     morpi_best_percent=3.04, morpi_reading="route", paired_best=best, morpi_length="weinberg",
+                     period_count_percent=3.6)
+    sig = {"cells": 1, "wins_uncorrected": 1, "wins_corrected": 1, "losses_uncorrected": 0, "losses_corrected": 0,
+           "ties_corrected": 0, "alpha": 0.05, "power": 0.8,
+           "vs_morpi_best": {"cells": 1, "wins_uncorrected": 0, "wins_corrected": 0, "losses_uncorrected": 0,
+                             "losses_corrected": 0, "ties_corrected": 1}}
+    study = AidedStudy(cells=(cell,), ablation=(), coverage_95=0.9, nis={}, significance=sig,
+                       readings=(ReadingChoice("MoRPI-G", "route", 4.2, 3.1, 0.2, 12),))
+    page = _page(study, None, [])
+    section = page.split("## Against MoRPI alone under its best train-chosen reading")[1].split("\n## ")[0]
+    assert "MoRPI-G route (train LOO 4.20 % with the rule's reading, 3.10 % with the route's)" in section
+    assert "better run by run in 0 and worse in 0 at 5 %" in section
+    assert "after Holm over the 1 GC cells better in 0, worse in 0, a tie in 1" in section
+    assert "| a cell | 3.50 | route | weinberg | 3.60 | 3.04 | 3.05 | 3.00 |" in section
+    js = study_json(study)
+    assert js["cells"][0]["morpi_best_percent"] == 3.04 and js["cells"][0]["morpi_reading"] == "route"
+    assert js["cells"][0]["smoothed_vs_morpi_best"]["mean_pp"] == -0.04
+    assert js["morpi_readings"] == [{"method": "MoRPI-G", "reading": "route", "rule_percent": 4.2,
+                                     "route_percent": 3.1, "difference_se_pp": 0.2, "runs": 12}]
+
+
+def test_the_ins_benefit_is_claimed_only_where_it_survives_holm():
+    # The `What the INS adds` column says "yes" only for a difference significant after the correction;
+    # a lower mean within the runs' spread, or significant before the correction only, is no claim.
+    from types import SimpleNamespace as NS
+
+    from morpi_filters.report.aided import _ins_benefit
+
+    def cell(mean, verdict, holm):
+        return NS(paired_steps=NS(runs=10, mean_pp=mean, verdict=verdict, verdict_holm=holm, alpha=0.05))
+
+    assert _ins_benefit(cell(-0.25, "better", "better")).startswith("yes, by 0.250 pp")
+    assert _ins_benefit(cell(-0.057, "better", "tie")).startswith("not shown: 0.057 pp lower")
+    assert "before the correction only" in _ins_benefit(cell(-0.057, "better", "tie"))
+    assert _ins_benefit(cell(-0.067, "tie", "tie")) == "not shown: 0.067 pp lower on average, within the runs' spread"
+    assert _ins_benefit(cell(0.019, "tie", "tie")).startswith("no: 0.019 pp behind")
+
+
 def test_aided_page_and_json_list_the_recordings_without_a_rest(tmp_path):
     # the filter starts at the rest window: the recordings without one are named, with why, on the page and in
     # the JSON (here an otherwise empty study)

@@ -124,3 +124,87 @@ def test_a_marker_never_reaches_outside_its_folder(tmp_path):
     keep = swap_in(stage, final)
     assert (outside / "secret.txt").read_bytes() == b"keep" and (tmp_path / "top.txt").read_bytes() == b"keep too"
     assert keep is not None and (keep / "sec" / "link").is_symlink()
+
+
+# ----------------------------------------------------------------------------- stated precision, same result
+
+def test_write_json_states_floats_at_json_digits(tmp_path):
+    # against decimal's own rounding of the exact binary value (half to even, JSON_DIGITS digits)
+    import decimal
+
+    from morpi_filters.reporting import JSON_DIGITS
+
+    ctx = decimal.Context(prec=JSON_DIGITS, rounding=decimal.ROUND_HALF_EVEN)
+    xs = [1.0 / 3.0, -2.0 / 3.0 * 1e-7, 123456.78901234567, 9.87654321098765e5, 0.1 + 0.2, 5e-324, 1.0]
+    got = json.loads(write_json(tmp_path / "r.json", {"x": np.array(xs), "n": 7}).read_text())
+    assert got["x"] == [float(ctx.plus(decimal.Decimal(x))) for x in xs] and got["n"] == 7
+    assert got["x"][0] == float("0." + "3" * JSON_DIGITS) and got["x"][4] == 0.3
+
+
+def _write_section(out, number, word="runs", digest="2a8affc79930"):
+    from morpi_filters.reporting import Outputs
+
+    with Outputs("morpi test") as outputs:
+        outputs.root(out)
+        stage = outputs.folder(out / "sec")
+        write_json(stage / "result.json", {"rms_m": number, "what": word, "digest": digest})
+        write_text(stage / "README.md", f"RMS {number!r} m over 40 {word}; digest `{digest}`.\n")
+        outputs.file(out / "index.md").write_text(f"# report\n\nRMS {number!r} m.\n")
+
+
+def test_outputs_keep_a_file_that_states_the_same_result(tmp_path):
+    import os
+
+    out = tmp_path / "reports"
+    x = 0.123456789012345
+    _write_section(out, x)
+    files = [out / "sec" / "result.json", out / "sec" / "README.md", out / "index.md"]
+    past = 1_000_000_000
+    for f in files:
+        os.utime(f, ns=(past, past))
+    before = [f.read_bytes() for f in files]
+    # another machine's last digits: 1e-10 relative moves the written digits, within the 1e-9 margin
+    _write_section(out, x * (1 + 1e-10))
+    assert [f.read_bytes() for f in files] == before
+    assert [f.stat().st_mtime_ns for f in files] == [past] * 3
+    # a number beyond the margin, a word, a digest: written anew (the index holds only the number)
+    for kw, rewritten in (({"number": x * (1 + 1e-6)}, files), ({"word": "walks"}, files[:2]),
+                          ({"digest": "2a8affc79931"}, files[:2])):
+        _write_section(out, x)
+        for f in files:
+            os.utime(f, ns=(past, past))
+        _write_section(out, **{"number": x, **kw})
+        assert [f.stat().st_mtime_ns != past for f in files] == [f in rewritten for f in files], kw
+        assert str(next(iter(kw.values()))) in (out / "sec" / "README.md").read_text()
+    assert sorted(p.name for p in out.iterdir()) == [".morpi-output", "index.md", "sec"]
+
+
+def test_outputs_replace_a_json_file_of_another_precision(tmp_path):
+    # a result.json written with every float's 17 digits (an older writer) is replaced by the 13-digit one,
+    # though its numbers agree within the margin
+    out = tmp_path / "reports"
+    x = 0.123456789012345
+    _write_section(out, x)
+    old = '{"rms_m": 0.12345678901234512, "what": "runs", "digest": "2a8affc79930"}\n'
+    (out / "sec" / "result.json").write_text(old)
+    _write_section(out, x)
+    assert json.loads((out / "sec" / "result.json").read_text())["rms_m"] == 0.1234567890123
+
+
+@pytest.mark.parametrize("old, new, same", [
+    ("digest `2a8affc79930ffd4`", "digest `2a8affc79930ffd5`", False),
+    ("digest `1234567890123456`", "digest `1234567890123457`", False),   # integers: written the same
+    ("seed 20230901, 2000 runs", "seed 20230901, 2001 runs", False),
+    ("from s6/L_line/10.csv", "from s6/L_line/11.csv", False),
+    ("spread 5.0236 %, 40 runs.", "spread 5.02360000001 %, 40 runs.", True),
+    ("spread 5.0236 %, 40 runs.", "spread 5.0237 %, 40 runs.", False),
+    ("mean -0.25 m", "mean -0.2500000000001 m", True),
+    ("mean -0.25 m", "mean 0.25 m", False),
+    ("zero 0.0", "zero 1e-13", True),
+])
+def test_same_output_reads_the_numbers_of_a_page(tmp_path, old, new, same):
+    from morpi_filters.reporting import same_output
+
+    (tmp_path / "old.md").write_text(old)
+    (tmp_path / "new.md").write_text(new)
+    assert same_output(tmp_path / "old.md", tmp_path / "new.md") is same

@@ -1,6 +1,7 @@
 """The report's front page (``index.md``): every section's title, summary and figures."""
 from __future__ import annotations
 
+from ..fetch import dataset_identity
 from .common import SYNTHETIC_BANNER
 
 __all__ = ["index_page"]
@@ -19,19 +20,23 @@ def index_page(summaries, source) -> str:
     Returns
     -------
     str
-        The title, the synthetic-data banner or the field dataset's root,
+        The title, the synthetic-data banner or what the field dataset is
+        (:class:`morpi_filters.fetch.DatasetIdentity`, never its path),
         then per section a linked heading, a synthetic note, its summary and
         its figures as images, each block followed by a blank line.
 
     Examples
     --------
+    >>> import tempfile
     >>> from pathlib import Path
     >>> from morpi_filters.reporting import DataSource, SectionSummary
+    >>> root = Path(tempfile.mkdtemp())
+    >>> _ = (root / "1.csv").write_bytes(b"abc")
     >>> s = SectionSummary("curves", "Covariance curves", summary="INS-3D grows fastest.", figures=("sigma.png",))
-    >>> print(index_page([s], DataSource(Path("data"))))
+    >>> print(index_page([s], DataSource(root)))  # doctest: +ELLIPSIS
     # morpi_filters report
     <BLANKLINE>
-    Field dataset: `data`.
+    Dataset: field recordings (1 recording, not the published MoRPI set: 143 file(s) missing, ...).
     <BLANKLINE>
     ## [Covariance curves](curves/README.md)
     <BLANKLINE>
@@ -43,8 +48,8 @@ def index_page(summaries, source) -> str:
     lines = ["# morpi_filters report", ""]
     if source is not None and source.synthetic:
         lines += [SYNTHETIC_BANNER, ""]
-    elif source is not None:
-        lines += [f"Field dataset: `{source.root}`.", ""]
+    elif source is not None and source.root is not None:
+        lines += [f"Dataset: {dataset_identity(source.root, seed=source.seed).text}.", ""]
     for s in summaries:
         lines += [f"## [{s.title}]({s.name}/{s.page})", ""]
         if s.synthetic:

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..montecarlo import Z99, DriftPage, GainErrorPage, _config_json, final_statistics, summarize
+from ..montecarlo import DIGEST_BITS, Z99, DriftPage, GainErrorPage, _config_json, final_statistics, summarize
 from ..reporting import SectionSummary, write_json, write_text
 from ..units import DEG_S, MG
 from . import plots
@@ -97,7 +97,9 @@ def report_montecarlo(out, study: GainErrorPage, source=None) -> SectionSummary:
         f"noise over that window ({ca:.3g} m/s^2, {cg:.3g} rad/s). The MoRPI position starts at the first f_y "
         "peak (known there) and moves at each later peak; its heading is the true heading plus the integrated "
         "gyro-z error.\n")
-    lines.append(f"Digest (sha256 of the per-run final errors): `{r.digest}`; with raw biases: `{rr.digest}`.\n")
+    lines.append(f"Digest (sha256 of the per-run final errors rounded to {DIGEST_BITS} significant bits, about six "
+                 f"digits, so that another machine's last-digit differences leave it unchanged: "
+                 f"`montecarlo.digest`): `{r.digest}`; with raw biases: `{rr.digest}`.\n")
     lines.append("## Final horizontal position error [m]\n")
     rows = []
     for label, res in (("GAC-calibrated (3 s rest)", r), ("raw datasheet biases", rr)):

@@ -8,6 +8,7 @@ import numpy as np
 from ..evaluate import (
     _INS_METHODS, DEVIATION_PP, TABLES, Cell, TablesStudy, _config_json,
 )
+from ..fetch import dataset_identity
 from ..field import _MORPI_METHODS, SHORT_SETS
 from ..reporting import SectionSummary, write_json, write_text
 from . import plots
@@ -206,7 +207,7 @@ def _page(study: TablesStudy, payload, source, figures) -> str:
     res = study.result
     L = [banner(source)]
     L += ["# The paper's tables on the recordings", ""]
-    L += [f"Dataset: `{source.root}`." if not source.synthetic else "Dataset: seeded synthetic recordings.", ""]
+    L += [f"Dataset: {payload['dataset']['description']}.", ""]
     if res.missing:
         L += [f"**Missing folders** (their cells are empty): {', '.join('`' + m + '`' for m in res.missing)}.", ""]
     if payload.get("left_out"):
@@ -479,7 +480,9 @@ def result_json(study: TablesStudy, source=None) -> dict:
     Returns
     -------
     dict
-        ``data_root``, ``synthetic``, ``missing_folders``, ``cells``,
+        ``dataset`` (what the recordings are, never where they lie:
+        :meth:`morpi_filters.fetch.DatasetIdentity.as_json`; None without a
+        source), ``synthetic``, ``missing_folders``, ``cells``,
         ``gains`` (per training set: ``train_set``, ``phone``, ``route``,
         ``method``, ``calibration``, ``mean``, ``std``, ``per_run``, ``files``,
         ``skipped``, ``unit``), ``step_rule``, ``comparison``, ``readings``,
@@ -489,7 +492,8 @@ def result_json(study: TablesStudy, source=None) -> dict:
     """
     result = study.result
     return {
-        "data_root": None if source is None else str(source.root),
+        "dataset": None if source is None or source.root is None else dataset_identity(
+            source.root, synthetic=source.synthetic, seed=source.seed).as_json(),
         "synthetic": bool(source.synthetic) if source is not None else False,
         "missing_folders": list(result.missing),
         "cells": [_cell_json(c) for c in result.cells],
