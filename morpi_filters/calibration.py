@@ -25,7 +25,14 @@ The detector works on the real, non-uniform time stamps:
    ``k_std`` noise sigmas, or its moving mean departs from the rest level (the
    median of the quietest block of step 1) by more than ``k_dev`` sigmas, or
    an accelerometer axis's moving standard deviation exceeds ``k_std`` sigmas
-   and ``accel_floor``. The floor exists
+   and ``accel_floor``. The noise sigmas are measured on the recording
+   itself, so a recording that never stands still measures its motion's
+   vibration as its noise; the spread thresholds are therefore also bounded
+   absolutely, by what a still IMU shows (:func:`still_bound`:
+   :data:`STILL_NOISE_FACTOR` times the IMU's white noise over the Nyquist
+   band, from its noise densities: the phone's, a given
+   :class:`~morpi_filters.units.SensorSpec`, or :data:`DEFAULT_IMU`), the
+   accelerometer's never below ``accel_floor``. The floor exists
    because the phones' accelerometer channels are low-pass filtered and
    settle during the first seconds (slow drifts of up to ~2 m/s^2 on an S6,
    ~0.2 m/s^2 on an S8, with moving standard deviations up to ~0.05 m/s^2
@@ -44,8 +51,18 @@ The detector works on the real, non-uniform time stamps:
    long it would have to be).
 5. The onset is refined from the start of the motion run (up to half a window
    early) to the first sample whose gyro reading departs from the rest mean by
-   more than ``k_dev`` sigmas. The rest window ends ``guard_s`` before the
-   onset and lasts at most ``max_window_s`` (the paper's 3 s).
+   more than ``k_dev`` sigmas (a run flagged from the first sample on has no
+   rest before it: the motion is under way from there). The rest window ends
+   ``guard_s`` before the onset and lasts at most ``max_window_s`` (the
+   paper's 3 s).
+
+No rest
+-------
+A recording whose motion leaves fewer than ``min_samples`` samples of rest
+before it (one that moves from its first sample) has no initial rest:
+:func:`detect_rest` raises :class:`NoRestError` (a ``DataError``) saying how
+far the sensors spread against the still bound, and :func:`calibrate`
+computes GC and GAC only over a rest window. Raw data (RD) needs none.
 
 Gravity
 -------
@@ -71,13 +88,13 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 
 from .dataset import Recording
-from .errors import DataError, MorpiError
-from .units import SENSORS
+from .errors import DataError, MorpiError, ParameterError
+from .units import MPU6500, SENSORS, SensorSpec
 
 __all__ = [
     "MODES", "SITE_LATITUDE_DEG", "LOCAL_GRAVITY", "normal_gravity", "RestWindow", "Calibration",
     "RestMeasures", "rest_measures", "detect_rest", "calibrate", "calibrated", "rest_windows_summary", "RestRow",
-    "RestSummary", "noise_sigma",
+    "RestSummary", "noise_sigma", "NoRestError", "StillBound", "still_bound", "STILL_NOISE_FACTOR", "DEFAULT_IMU",
 ]
 
 #: Calibration modes: raw data, gyro calibration, gyro and accelerometer calibration.
@@ -153,6 +170,127 @@ def normal_gravity(latitude_deg: float, height_m: float = 0.0) -> float:
 LOCAL_GRAVITY = normal_gravity(SITE_LATITUDE_DEG)
 
 
+#: How far above its IMU's white noise a still robot's readings may spread, per axis: the bound of
+#: :func:`still_bound` is this factor times the noise density over the Nyquist band. It covers the
+#: vibration of a robot standing with its motors on, the quantization of the phones' gyros and a noise
+#: above the datasheet's. Set on the ``train`` rests of the MoRPI recordings (40 runs): inside each run's
+#: detected rest window the largest moving standard deviation (over the detector's 0.25 s window, every
+#: window lying inside the rest) is at most 4.9 times the datasheet noise on a gyro axis
+#: (s8/short_distance_1.5p2p/train/34) and 4.2 times on an accelerometer axis
+#: (s8/short_distance/train/21), so 10 leaves a margin of two; and the noise the detector measures on
+#: those runs is at most 1.9 times the datasheet's, so its relative threshold (``k_std`` = 4 times that,
+#: 7.6) stays below the bound there and the bound moves none of their windows. While the robot drives,
+#: the gyro's moving standard deviation (largest axis) is at its median over 70 times the datasheet
+#: noise in every train run.
+STILL_NOISE_FACTOR = 10.0
+
+#: Noise figures used for an IMU that is not known (a recording whose ``phone`` is not a dataset phone,
+#: and no spec given): the InvenSense MPU-6500's, as its product specification PS-MPU-6500A-01 gives them
+#: (gyro rate noise spectral density 0.01 deg/s/sqrt(Hz), accelerometer noise power spectral density
+#: 300 ug/sqrt(Hz)): a common consumer MEMS IMU (the MPU-9250 carries the same sensor), and the noisier
+#: of the two IMUs of the MoRPI recordings (:data:`morpi_filters.units.MPU6500`).
+DEFAULT_IMU = MPU6500
+
+
+def _nyquist_sigma(density: float, rate_hz: float) -> float:
+    """Standard deviation of white noise of `density` [unit/sqrt(Hz)] sampled at `rate_hz`, over the Nyquist band."""
+    return density * math.sqrt(rate_hz / 2.0)
+
+
+@dataclass(frozen=True)
+class StillBound:
+    """How far the readings of a still IMU may spread (:func:`still_bound`).
+
+    Attributes
+    ----------
+    gyro : float
+        Largest standard deviation of a gyro axis over the rest detection's
+        moving window while the robot stands [rad/s].
+    accel : float
+        The same for an accelerometer axis [m/s^2].
+    source : str
+        Where the bound comes from, for messages (an IMU and a factor, or
+        ``"given"``).
+
+    Raises
+    ------
+    ParameterError
+        A bound that is not a positive number (``inf``: no bound on that sensor).
+    """
+
+    gyro: float
+    accel: float
+    source: str = "given"
+
+    def __post_init__(self):
+        for key in ("gyro", "accel"):
+            v = getattr(self, key)
+            try:
+                ok = float(v) > 0 and not math.isnan(float(v))
+            except (TypeError, ValueError):
+                ok = False
+            if not ok:
+                unit = "rad/s" if key == "gyro" else "m/s^2"
+                raise ParameterError(f"StillBound: {key}={v!r}, expected a positive standard deviation [{unit}]")
+
+
+def still_bound(rec: Recording, bound: SensorSpec | StillBound | None = None, *,
+                factor: float = STILL_NOISE_FACTOR) -> StillBound:
+    """The spread a still IMU's readings stay within, from the IMU's noise densities.
+
+    Per axis, ``factor`` times the white-noise standard deviation over the
+    Nyquist band of the recording's sampling rate, ``density * sqrt(rate / 2)``
+    (a noise-free spec still gets the detector's smallest sigmas).
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording (its median sampling rate, and its phone when `bound`
+        is None).
+    bound : SensorSpec or StillBound, optional
+        A StillBound is returned as it is; a SensorSpec gives its noise
+        densities. Default: the recording's phone's IMU
+        (:data:`morpi_filters.units.SENSORS`), else :data:`DEFAULT_IMU`.
+    factor : float, optional
+        Multiple of the white noise a still robot may show (default
+        :data:`STILL_NOISE_FACTOR`).
+
+    Returns
+    -------
+    StillBound
+        Gyro [rad/s] and accelerometer [m/s^2] bounds, and their source.
+
+    Raises
+    ------
+    ParameterError
+        A `bound` of another type, or a `factor` that is not a positive number.
+    DataError
+        A recording of fewer than two samples (no sampling rate).
+
+    Examples
+    --------
+    The S8's LSM6DSL (0.004 deg/s/sqrt(Hz), 130 ug/sqrt(Hz)) sampled at 100 Hz:
+
+    >>> rec = Recording(time=np.arange(300) * 0.01, f=np.zeros((300, 3)), omega=np.zeros((300, 3)), phone="s8")
+    >>> b = still_bound(rec)
+    >>> round(b.gyro, 5), round(b.accel, 4), b.source
+    (0.00494, 0.0901, 'LSM6DSL noise x 10')
+    """
+    if isinstance(bound, StillBound):
+        return bound
+    if not (isinstance(factor, (int, float)) and math.isfinite(factor) and factor > 0):
+        raise ParameterError(f"factor={factor!r}: expected a positive multiple of the white noise")
+    spec = bound if bound is not None else SENSORS.get(rec.phone, DEFAULT_IMU)
+    if not isinstance(spec, SensorSpec):
+        raise ParameterError(f"bound={bound!r}: expected a SensorSpec, a StillBound or None")
+    if rec.n < 2:
+        raise DataError(f"{rec.source}: {rec.n} sample(s): no sampling rate to bound the noise of")
+    rate = rec.rate_hz
+    return StillBound(gyro=factor * max(_nyquist_sigma(spec.gyro_noise, rate), _GYRO_SIGMA_MIN),
+                      accel=factor * max(_nyquist_sigma(spec.accel_noise, rate), _ACCEL_SIGMA_MIN),
+                      source=f"{spec.name} noise x {factor:g}")
+
+
 # ----------------------------------------------------------------------------- results
 
 @dataclass(frozen=True)
@@ -198,6 +336,16 @@ class RestWindow:
     def n(self) -> int:
         """Number of samples in the window."""
         return self.i1 - self.i0
+
+
+class NoRestError(DataError):
+    """A recording without an initial rest: it moves from its first samples (exit status 1, as a DataError).
+
+    Raised by :func:`detect_rest` (and by :func:`calibrate` for GC and GAC,
+    which need a rest window). Raw data (RD) needs no rest:
+    :class:`morpi_filters.field.FieldData` evaluates such a recording under RD
+    only and names it.
+    """
 
 
 @dataclass(frozen=True)
@@ -461,9 +609,8 @@ def rest_measures(rec: Recording, *, max_window_s: float = 3.0, window_s: float 
     if rec.phone in SENSORS:
         # Never below the datasheet white noise over the Nyquist band.
         spec = SENSORS[rec.phone]
-        band = math.sqrt(rec.rate_hz / 2.0)
-        sig_g = np.maximum(sig_g, spec.gyro_noise * band)
-        sig_a = np.maximum(sig_a, spec.accel_noise * band)
+        sig_g = np.maximum(sig_g, _nyquist_sigma(spec.gyro_noise, rec.rate_hz))
+        sig_a = np.maximum(sig_a, _nyquist_sigma(spec.accel_noise, rec.rate_hz))
     half = window_s / 2.0
     m_g, s_g = _moving_stats(t, rec.omega, half)
     _, s_a = _moving_stats(t, rec.f, half)
@@ -474,7 +621,8 @@ def rest_measures(rec: Recording, *, max_window_s: float = 3.0, window_s: float 
 def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: float = 1.0,
                 window_s: float = 0.25, noise_s: float | None = None, k_std: float = 4.0, k_dev: float = 6.0,
                 accel_floor: float = 0.1, sustain_s: float = 1.5, guard_s: float = 0.05,
-                min_samples: int = 10, measures: RestMeasures | None = None) -> RestWindow:
+                min_samples: int = 10, measures: RestMeasures | None = None,
+                bound: SensorSpec | StillBound | None = None) -> RestWindow:
     """Find the initial rest period of a recording.
 
     Parameters
@@ -521,6 +669,13 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
         The recording's :func:`rest_measures` with the same `max_window_s`,
         `window_s` and `noise_s`; measured here when None. Passing them saves
         measuring again when only thresholds change.
+    bound : SensorSpec or StillBound, optional
+        What a still IMU's readings may spread (:func:`still_bound`): a
+        StillBound as it is, or :data:`STILL_NOISE_FACTOR` times a
+        SensorSpec's white noise; default: the phone's IMU when ``rec.phone``
+        is known, else :data:`DEFAULT_IMU`. The spread thresholds never
+        exceed it (the accelerometer's never go below `accel_floor`). An
+        explicit rest window needs none of this: pass it to :func:`calibrate`.
 
     Returns
     -------
@@ -531,12 +686,15 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
 
     Raises
     ------
-    DataError
+    NoRestError
         Naming the recording, when it moves from its first samples (fewer than
-        `min_samples` samples at rest), or when it is too short to tell: it
-        ends inside a movement that has not yet lasted `sustain_s` (with no
-        motion before), or fewer than `min_samples` samples after the last
-        disturbance. The message says how long the recording would have to be.
+        `min_samples` samples at rest before its motion); the message gives
+        the sensors' spread there against the still bound.
+    DataError
+        Naming the recording, when it is too short to tell: it ends inside a
+        movement that has not yet lasted `sustain_s` (with no motion before),
+        or fewer than `min_samples` samples after the last disturbance. The
+        message says how long the recording would have to be.
     MorpiError
         For a bad parameter.
 
@@ -554,6 +712,16 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
     >>> win = detect_rest(Recording(time=t, f=f, omega=w))
     >>> win.method, win.i0, win.i1, round(win.motion_s - 100.0, 2), round(win.duration_s, 2)
     ('detected', 0, 197, 2.01, 1.96)
+
+    A robot that vibrates from its first sample (0.03 rad/s and 0.1 m/s^2 at
+    13 Hz) has no rest, however steady the vibration; this IMU is not known,
+    so the bound is :data:`DEFAULT_IMU`'s:
+
+    >>> shake = np.sin(2 * np.pi * 13.0 * (t - 100.0))[:, None]
+    >>> detect_rest(Recording(time=t, f=f + 0.1 * shake, omega=w + 0.03 * shake, source="moving.csv"))
+    Traceback (most recent call last):
+    ...
+    morpi_filters.calibration.NoRestError: moving.csv: no initial rest found: motion starts 0.000 s after the first sample (0 samples at rest, expected at least 10); over its first 0.25 s the gyro spreads up to 0.0219 rad/s and ... where a still IMU stays within 0.0123 rad/s and 0.208 m/s^2 (MPU-6500 noise x 10); cannot calibrate moving.csv
     """
     for name, v in (("max_window_s", max_window_s), ("min_window_s", min_window_s), ("window_s", window_s),
                     ("noise_s", 1.0 if noise_s is None else noise_s), ("k_std", k_std), ("k_dev", k_dev),
@@ -579,13 +747,18 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
     n = rec.n
     sig_g, sig_a, med_g = measures.sig_g, measures.sig_a, measures.med_g
     m_g, s_g, s_a = measures.m_g, measures.s_g, measures.s_a
-    thr_sa = np.maximum(k_std * sig_a, accel_floor)
+    # The spread thresholds: `k_std` sigmas of the noise measured on the recording, never above what a still
+    # IMU shows (an absolute bound: a recording that never stands still measures its motion as its noise),
+    # and for the accelerometer never below the floor.
+    still = still_bound(rec, bound)
+    thr_sg = np.minimum(k_std * sig_g, still.gyro)
+    thr_sa = np.maximum(np.minimum(k_std * sig_a, still.accel), accel_floor)
     # a sample moves when, on any axis, the gyro's spread or its deviation from the quiet level, or the
     # accelerometer's spread, exceeds its threshold (a compiled loop over the samples)
     from ._signal_kernel import compiled
 
     moving = np.empty(n, dtype=bool)
-    compiled()["motion_flags"](s_g, m_g, s_a, np.array(k_std * sig_g), np.array(med_g, dtype=float),
+    compiled()["motion_flags"](s_g, m_g, s_a, np.array(thr_sg, dtype=float), np.array(med_g, dtype=float),
                                np.array(k_dev * sig_g), np.array(thr_sa, dtype=float), moving)
     # Runs of flagged samples, merged across gaps shorter than `window_s`
     # (a window's worth of quiet inside motion is not rest).
@@ -601,12 +774,15 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
         coarse = main[0]
         # Refine: the first sample, from the coarse onset to one window
         # later, whose gyro reading leaves the rest band around the mean of
-        # the quiet samples before it.
+        # the quiet samples before it. Without any (flagged from the first
+        # sample on) there is no rest to leave: the motion is under way.
         quiet = ~moving[:coarse]
-        rest_mean = rec.omega[:coarse][quiet].mean(axis=0) if quiet.any() else rec.omega[0]
-        stop = int(np.searchsorted(t, t[coarse] + window_s, side="right"))
-        out = np.flatnonzero((np.abs(rec.omega[coarse:stop] - rest_mean) > k_dev * sig_g).any(axis=1))
-        onset = coarse + int(out[0]) if out.size else coarse
+        onset = coarse
+        if quiet.any():
+            rest_mean = rec.omega[:coarse][quiet].mean(axis=0)
+            stop = int(np.searchsorted(t, t[coarse] + window_s, side="right"))
+            out = np.flatnonzero((np.abs(rec.omega[coarse:stop] - rest_mean) > k_dev * sig_g).any(axis=1))
+            onset = coarse + int(out[0]) if out.size else coarse
         end_idx = int(np.searchsorted(t, t[onset] - guard_s, side="left"))
     if main is None and runs and runs[-1][1] == n:
         # The recording ends inside a movement shorter than `sustain_s`: whether it is the motion or a
@@ -627,9 +803,14 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
     i1 = min(end_idx, int(np.searchsorted(t, t[i0] + max_window_s, side="right"))) if i0 < n else n
     if i1 - i0 < min_samples:
         if onset is not None:
-            raise DataError(f"{rec.source}: no initial rest found: motion starts {t[onset]:.3f} s after the first "
-                            f"sample ({max(i1 - i0, 0)} samples at rest, expected at least {min_samples}); "
-                            f"cannot calibrate {name}")
+            # what the sensors show up to one window after the onset, against a still IMU
+            j = max(int(np.searchsorted(t, t[onset] + window_s, side="right")), 1)
+            raise NoRestError(f"{rec.source}: no initial rest found: motion starts {t[onset]:.3f} s after the first "
+                              f"sample ({max(i1 - i0, 0)} samples at rest, expected at least {min_samples}); over "
+                              f"its first {t[j - 1]:.2f} s the gyro spreads up to {s_g[:j].max():.3g} rad/s and the "
+                              f"accelerometer up to {s_a[:j].max():.3g} m/s^2, where a still IMU stays within "
+                              f"{still.gyro:.3g} rad/s and {still.accel:.3g} m/s^2 ({still.source}); "
+                              f"cannot calibrate {name}")
         # no motion: the recording ends too soon after its first samples or after a disturbance
         after = f" after a movement at {t[before[-1][0]]:.2f}-{t[before[-1][1] - 1]:.2f} s" if before else ""
         raise DataError(f"{rec.source}: {n} samples ({t[-1]:.2f} s) is too short: {max(i1 - i0, 0)} samples at "
@@ -696,9 +877,12 @@ def calibrate(rec: Recording, mode: str, *, window: RestWindow | None = None,
 
     Raises
     ------
+    NoRestError
+        GC or GAC without a `window` on a recording that has no initial rest
+        (:func:`detect_rest`).
     MorpiError
         For an unknown `mode`, a bad `g_local`, a window outside the
-        recording, or a recording without initial rest.
+        recording, or a recording too short to tell its rest.
 
     Examples
     --------

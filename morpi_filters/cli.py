@@ -507,10 +507,13 @@ def _cmd_check(args):
     if args.dataset is not None:
         return _check_manifest(args)
     root = resolve_data_root(args.data)
-    problems, n_ok = check_recordings(root)
+    problems, n_ok, no_rest = check_recordings(root)
     for line in problems:
         print(line)
-    print(f"{n_ok} recording(s) OK, {len(problems)} problem(s) under {root}")
+    for line in no_rest:                        # evaluated under RD only: a warning, not a problem
+        print(f"warning: {line}; evaluated under RD only, without GC and GAC")
+    print(f"{n_ok} recording(s) OK, {len(problems)} problem(s) under {root}"
+          + (f"; {len(no_rest)} OK recording(s) without an initial rest (RD only)" if no_rest else ""))
     return 1 if problems else 0
 
 

@@ -211,8 +211,9 @@ class RunResult:
     n_steps : int or None
         Steps used (MoRPI), partial end steps included.
     rest_window_s, motion_window_s : tuple of float or None
-        The detected initial rest window and the motion window the run used,
-        each (start, end) in seconds of the recording's own time.
+        The detected initial rest window (None when the recording has none:
+        :meth:`FieldData.no_rest`) and the motion window the run used, each
+        (start, end) in seconds of the recording's own time.
     """
 
     file: str
@@ -390,10 +391,11 @@ def _run_result(rel, end, truth, distance, n_steps=None, data=None, rec=None, fu
         key = ("run windows", rec.source, full_span)            # the same for every cell of the recording
         windows = data.study_cache.get(key)
         if windows is None:
-            w = data.rest_window(rec)
+            # no rest window for a recording that moves from its first samples (evaluated under RD only)
+            w = None if data.no_rest(rec) else data.rest_window(rec)
             motion = ((float(rec.time[0]), float(rec.time[-1])) if full_span
                       else tuple(float(v) for v in data.activity(rec)))
-            windows = data.study_cache[key] = ((float(w.start_s), float(w.end_s)), motion)
+            windows = data.study_cache[key] = (None if w is None else (float(w.start_s), float(w.end_s)), motion)
         rest, motion = windows
     return RunResult(file=rel, end_point=(float(end[0]), float(end[1])), end_error_m=e,
                      end_error_percent=e / truth.distance_m * 100, distance_m=float(distance),
@@ -911,13 +913,15 @@ def _heading_stats(c: Cell, res: TablesResult) -> tuple[float, float]:
     data = res.data
     drift, final = [], []
     for r in data.recordings(c.spec.phone, c.spec.route, c.spec.split):
+        if data.no_rest(r):                                     # no gyro calibration without a rest
+            continue
         crec, cal = data.calibrated(r, "GC")
         a, b = data.activity(r)
         drift.append(abs(np.degrees(cal.gyro_bias[2] * (b - a))))
         truth = ds.route(c.spec.route)
         turn = truth.turn_deg if len(truth.segments_m) > 1 else 0.0
         final.append(abs(np.degrees(st.integrate_heading(crec.time, crec.omega[:, 2])[-1]) - turn))
-    return float(np.mean(drift)), float(np.mean(final))
+    return (float(np.mean(drift)), float(np.mean(final))) if drift else (float("nan"), float("nan"))
 
 
 #: Largest value a table cell (or one of its runs) may show [% of the route distance]. A
@@ -1011,8 +1015,8 @@ class RecordingView:
         The recording's path relative to the dataset root.
     time : ndarray, shape (n,)
     f, omega : ndarray, shape (n, 3)
-    rest : tuple of float
-        Rest window (start, end) [s].
+    rest : tuple of float or None
+        Rest window (start, end) [s] (None: the recording has none).
     motion : tuple of float or None
         Motion span (start, end) [s] (straight-line recording).
     peaks : ndarray or None
@@ -1061,6 +1065,10 @@ class TablesStudy:
         Whether recordings with problems were left out instead of stopping.
     left_out : tuple of str
         One line per recording problem (:func:`dataset_problems`).
+    no_rest : tuple of str
+        One line per recording without an initial rest
+        (:meth:`FieldData.no_rest`): evaluated under RD only, its GC and GAC
+        runs are not computed (each cell names it among its failed runs).
     comparison : dict
         :func:`comparison`.
     ins_full_span : list of dict
@@ -1110,6 +1118,7 @@ class TablesStudy:
     claims: tuple = ()
     heading_readings: dict = field(default_factory=dict)
     turn_reading: dict = field(default_factory=dict)
+    no_rest: tuple = ()
 
 
 @_frozen_heap
@@ -1157,7 +1166,8 @@ def tables_study(root, *, partial: bool = False, result: TablesResult | None = N
                        ins_full_span=full, other_rule=other, nested=nested, rule_sensitivity=sens,
                        ins_leveled=leveled, recordings=recordings, tracks=tracks, path_panels=panels,
                        cell_notes=_cell_notes(res), claims=tuple(paper_claims(res)),
-                       heading_readings=heading_readings(res), turn_reading=turn_reading(res))
+                       heading_readings=heading_readings(res), turn_reading=turn_reading(res),
+                       no_rest=tuple(res.data.no_rest_lines()))
 
 
 #: Agreement bands of :func:`paper_claims` (each with its reason).
@@ -1276,8 +1286,8 @@ def _figure_data(res: TablesResult):
         if not recs:
             continue
         r = recs[0]
-        w = data.rest_window(r)
-        rest = (float(w.start_s), float(w.end_s))
+        w = None if data.no_rest(r) else data.rest_window(r)
+        rest = None if w is None else (float(w.start_s), float(w.end_s))
         peaks = None
         if method:
             try:
@@ -1338,7 +1348,7 @@ def _cell_notes(res: TablesResult) -> dict:
         s = c.spec
         if s.method in _INS_METHODS:
             if s.method == "INS-2D" and s.calibration == "GAC" and res.data is not None:
-                recs = res.data.recordings(s.phone, s.route, s.split)
+                recs = [r for r in res.data.recordings(s.phone, s.route, s.split) if not res.data.no_rest(r)]
                 if recs:
                     tl = np.array([res.data.tilt_leak(r, s.calibration) for r in recs])
                     along = np.mean([r.end_point[0] for r in c.runs]) - ds.route(s.route).end_point_m[0]

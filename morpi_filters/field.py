@@ -19,6 +19,7 @@ import numpy as np
 from . import _signal_kernel
 from . import dataset as ds
 from . import steps as st
+from .calibration import NoRestError
 from .errors import MorpiError
 
 __all__ = ["SHORT_SETS", "RULES", "INS_SPANS", "LEVELED", "HEADING_ORIGINS", "HEADING_SOURCES", "Gain",
@@ -265,21 +266,50 @@ class FieldData:
         """Why a recording that loads cannot be evaluated (one line naming its file), or None when it can.
 
         Every calibration, motion window and method starts from the
-        recording's initial rest window (:meth:`rest_window`: the rest
-        detection of :func:`morpi_filters.calibration.detect_rest` with this
-        root's accelerometer floor). A recording in which it finds none, one
-        that moves from its first samples or one too short to tell its motion
-        from a disturbance, is named here (the detection's DataError), listed
-        by :meth:`load_errors` and left out of :meth:`recordings`.
+        recording's initial rest (:meth:`rest_window`: the rest detection of
+        :func:`morpi_filters.calibration.detect_rest` with this root's
+        accelerometer floor). A recording too short to tell its motion from a
+        disturbance is named here (the detection's DataError), listed by
+        :meth:`load_errors` and left out of :meth:`recordings`. One that moves
+        from its first samples has no rest (:meth:`no_rest`) but is no
+        problem: it is evaluated under RD only.
         """
         key = (rec.source, "problem")
         if key not in self._cal:
             try:
                 self.rest_window(rec)
                 self._cal[key] = None
+            except NoRestError:
+                self._cal[key] = None
             except MorpiError as exc:
                 self._cal[key] = str(exc)
         return self._cal[key]
+
+    def no_rest(self, rec) -> str | None:
+        """Why a recording has no initial rest (one line naming its file), or None when it has one.
+
+        Such a recording moves from its first samples
+        (:class:`morpi_filters.calibration.NoRestError`): what needs a rest
+        window is not computed for it (the GC and GAC calibrations, the
+        leveled INS start, the attitude heading, the aided filter, which starts
+        at the rest), while raw data (RD) is, over a motion window found
+        against the still bound (:meth:`activity`).
+        """
+        try:
+            self.rest_window(rec)
+        except NoRestError as exc:
+            return str(exc)
+        except MorpiError:
+            return None
+        return None
+
+    def no_rest_lines(self) -> list[str]:
+        """One line per recording of the root that loads, is no :meth:`problem` and has no rest (:meth:`no_rest`),
+        in the folders' order."""
+        out = []
+        for phone, route, split in sorted(self.folders(), key=lambda k: (k[0], k[1], k[2] or "")):
+            out += [line for line in map(self.no_rest, self.recordings(phone, route, split)) if line is not None]
+        return out
 
     def load_errors(self, phone, route, split) -> list[str]:
         """One line per file of the folder that could not be loaded or cannot be evaluated (:meth:`problem`)."""
@@ -320,11 +350,11 @@ class FieldData:
         return [e for e in self._entries if e.split == "train"]
 
     def rest_window(self, rec):
-        """The initial rest window (calibration.detect_rest), found once per recording."""
-        key = (rec.source, "rest")
-        if key not in self._cal:
-            self._cal[key] = self.rest_window_at(rec, self.accel_floor())
-        return self._cal[key]
+        """The initial rest window (calibration.detect_rest), found once per recording.
+
+        Raises :class:`~morpi_filters.calibration.NoRestError` for a recording without one (:meth:`no_rest`).
+        """
+        return self.rest_window_at(rec, self.accel_floor())
 
     def rest_measures(self, rec):
         """What the rest detection measures on the recording (calibration.rest_measures), once per recording."""
@@ -336,13 +366,22 @@ class FieldData:
         return self._cal[key]
 
     def rest_window_at(self, rec, accel_floor: float):
-        """The initial rest window with another accelerometer floor [m/s^2], found once per floor."""
+        """The initial rest window with another accelerometer floor [m/s^2], found once per floor.
+
+        Raises the detection's MorpiError (the same one each time) when there is none.
+        """
         from .calibration import detect_rest
 
         key = (rec.source, "rest", accel_floor)
         if key not in self._cal:
-            self._cal[key] = detect_rest(rec, accel_floor=accel_floor, measures=self.rest_measures(rec))
-        return self._cal[key]
+            try:
+                self._cal[key] = detect_rest(rec, accel_floor=accel_floor, measures=self.rest_measures(rec))
+            except MorpiError as exc:
+                self._cal[key] = exc.with_traceback(None)
+        out = self._cal[key]
+        if isinstance(out, MorpiError):
+            raise out.with_traceback(None)
+        return out
 
     def rest_specific_force(self, rec) -> np.ndarray:
         """Mean specific force over the initial rest window, body axes [m/s^2], shape (3,)."""
@@ -484,11 +523,24 @@ class FieldData:
         The gyro's vibration (:func:`morpi_filters.steps.activity_span`)
         against its level in the detected initial rest window
         (:meth:`rest_window`); the window starts after the rest ends and ends
-        when the robot stops, before the final rest.
+        when the robot stops, before the final rest. Without a rest
+        (:meth:`no_rest`) the threshold is what a still IMU's gyro stays
+        within (:func:`morpi_filters.calibration.still_bound`, summed over
+        the axes), and the window starts at the first sample when the robot
+        moves there.
         """
         if rec.source not in self._activity:
-            w = self.rest_window(rec)
-            self._activity[rec.source] = st.activity_span(rec.time, rec.omega, rest=(w.start_s, w.end_s))
+            try:
+                w = self.rest_window(rec)
+            except NoRestError:
+                # no rest to take the gyro's level in: the motion is what exceeds a still IMU's spread (summed
+                # over the axes, as the motion window sums it), from the first sample when it moves there
+                from .calibration import still_bound
+
+                span = st.activity_span(rec.time, rec.omega, threshold=3.0 * still_bound(rec).gyro)
+            else:
+                span = st.activity_span(rec.time, rec.omega, rest=(w.start_s, w.end_s))
+            self._activity[rec.source] = span
         return self._activity[rec.source]
 
     def ins(self, rec, mode: str, method: str, span: str | None = None):
@@ -556,14 +608,15 @@ class FieldData:
         v = np.concatenate([[0.0], np.cumsum(0.5 * (a[1:] + a[:-1]) * dt)])
         return float(np.degrees(np.mean(np.arcsin(s)))), float(np.sum(0.5 * (v[1:] + v[:-1]) * dt))
 
-def check_recordings(root) -> tuple[list[str], int]:
+def check_recordings(root) -> tuple[list[str], int, list[str]]:
     """Validate every recording under a dataset root as the evaluation reads it (``morpi check``).
 
     :func:`morpi_filters.dataset.check_tree` (each file, the layout), and for
-    each file that loads, :meth:`FieldData.problem`: a recording without an
-    initial rest window (one that moves from its first samples, or one too
-    short to tell its motion from a disturbance) is a problem too, so what
-    passes is what the commands evaluate.
+    each file that loads, :meth:`FieldData.problem`: a recording too short to
+    tell its motion from a disturbance is a problem too, so what passes is
+    what the commands evaluate. A recording that moves from its first samples
+    has no initial rest (:meth:`FieldData.no_rest`): it is evaluated under RD
+    only, and named apart from the problems.
 
     Parameters
     ----------
@@ -575,16 +628,20 @@ def check_recordings(root) -> tuple[list[str], int]:
     problems : list of str
         One line per bad file and per difference from the expected layout.
     n_ok : int
-        Number of files that load and have an initial rest window.
+        Number of files that load and can be evaluated (with or without a
+        rest).
+    no_rest : list of str
+        One line per recording among them without an initial rest: why.
 
     Examples
     --------
-    Two recordings of 4 s at rest, the second turning from 3 s on: it ends before the turn can be told
-    from a disturbance.
+    Three recordings of 4 s: at rest; at rest, then turning from 3 s on, so
+    that it ends before the turn can be told from a disturbance; and
+    vibrating from its first sample (0.015 rad/s at 13 Hz), which has no rest.
 
     >>> import json, pathlib, tempfile
     >>> root = pathlib.Path(tempfile.mkdtemp())
-    >>> files = {"s8/line_dataset/1.csv": "", "s8/line_dataset/2.csv": ""}
+    >>> files = {f"s8/line_dataset/{i}.csv": "" for i in (1, 2, 3)}
     >>> _ = (root / "manifest.json").write_text(json.dumps({"generator": "morpi_filters.simulate", "files": files}))
     >>> (root / "s8" / "line_dataset").mkdir(parents=True)
     >>> rng = np.random.default_rng(0)
@@ -592,16 +649,30 @@ def check_recordings(root) -> tuple[list[str], int]:
     >>> f = [0.0, 0.0, 9.8] + 0.01 * rng.standard_normal((400, 3))
     >>> w = 0.002 * rng.standard_normal((400, 3))
     >>> ds.write_csv(root / "s8/line_dataset/1.csv", ds.Recording(time=t, f=f, omega=w))
+    >>> shake = 0.015 * np.sin(2 * np.pi * 13.0 * t)[:, None]
+    >>> ds.write_csv(root / "s8/line_dataset/3.csv", ds.Recording(time=t, f=f, omega=w + shake))
     >>> w[300:, 2] += 0.5 * np.sin(2 * np.pi * t[300:])
     >>> ds.write_csv(root / "s8/line_dataset/2.csv", ds.Recording(time=t, f=f, omega=w))
-    >>> problems, n_ok = check_recordings(root)
+    >>> problems, n_ok, no_rest = check_recordings(root)
     >>> n_ok, [p.replace(str(root), "ROOT") for p in problems]    # doctest: +NORMALIZE_WHITESPACE
-    (1, ['ROOT/s8/line_dataset/2.csv: 400 samples (3.99 s) is too short: it ends 1.09 s into a movement that
-    starts at 2.90 s, which is told from a disturbance only once it lasts sustain_s=1.5 s: at least 4.40 s
-    (about 441 samples) needed'])
+    (2, ['ROOT/s8/line_dataset/2.csv: 400 samples (3.99 s) is too short: it ends 1.10 s into a movement that
+    starts at 2.89 s, which is told from a disturbance only once it lasts sustain_s=1.5 s: at least 4.39 s
+    (about 440 samples) needed'])
+    >>> [p.replace(str(root), "ROOT").split(";")[0] for p in no_rest]    # doctest: +NORMALIZE_WHITESPACE
+    ['ROOT/s8/line_dataset/3.csv: no initial rest found: motion starts 0.000 s after the first sample
+    (0 samples at rest, expected at least 10)']
     """
     data = FieldData(root)
-    return ds.check_tree(root, usable=data.problem)
+    usable = []
+
+    def problem(rec):
+        line = data.problem(rec)
+        if line is None:
+            usable.append(rec)
+        return line
+
+    problems, n_ok = ds.check_tree(root, usable=problem)
+    return problems, n_ok, [line for line in map(data.no_rest, usable) if line is not None]
 
 
 # --------------------------------------------------------------------------- thresholds from the train runs
@@ -758,13 +829,21 @@ def fold_thresholds(data: FieldData, held_out: str) -> tuple[Thresholds, bool]:
                 continue
             r = data._entry_recording(e)
             if r is not None and data.problem(r) is None:
-                try:
-                    w, w0 = data.rest_window_at(r, floor), data.rest_window(r)
-                except MorpiError:                          # no rest window under the fold's floor
-                    same = False
+                w, w0 = (_window_or_error(data, r, f) for f in (floor, data.accel_floor()))
+                if isinstance(w, MorpiError) or isinstance(w0, MorpiError):
+                    # without a rest window under either floor: the same only when neither has a rest
+                    same = same and isinstance(w, NoRestError) and isinstance(w0, NoRestError)
                     continue
                 same = same and (w.i0, w.i1) == (w0.i0, w0.i1)
     return fold, same
+
+
+def _window_or_error(data: FieldData, rec, floor: float):
+    """The recording's rest window under an accelerometer floor, or the detection's MorpiError."""
+    try:
+        return data.rest_window_at(rec, floor)
+    except MorpiError as exc:
+        return exc
 
 
 def _train_period_changes(data: FieldData) -> tuple[list, list]:

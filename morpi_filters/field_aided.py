@@ -1661,6 +1661,11 @@ class AidedStudy:
         MoRPI alone's train-chosen heading reading per method (:func:`choose_reading`).
     lengths : tuple of LengthChoice
         Its train-chosen step length per training phone and method (:func:`choose_length`).
+    no_rest : tuple of str
+        One line per recording without an initial rest
+        (:meth:`~morpi_filters.field.FieldData.no_rest`): the filter starts
+        at the rest window and takes its noise there, so it does not run on
+        them (each cell names them among its failed runs).
     """
 
     cells: tuple
@@ -1673,6 +1678,7 @@ class AidedStudy:
     significance: dict = field(default_factory=dict)
     readings: tuple = ()
     lengths: tuple = ()
+    no_rest: tuple = ()
 
 
 def _innovation_summary(parts) -> dict:
@@ -1798,8 +1804,10 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
                    if not any(rel in m for m in failed)]
         if runs:
             todo.append((cell, g, score, info, noise, runs, by_file, choice, tuple(failed)))
+    no_rest = tuple(data.no_rest_lines())
     if not todo:
-        return AidedStudy((), (), float("nan"), {}, note="No MoRPI table cell could be evaluated on these recordings.")
+        return AidedStudy((), (), float("nan"), {}, note="No MoRPI table cell could be evaluated on these recordings.",
+                          no_rest=no_rest)
     # one pass per route: every cell's test runs (smoothed, with the smoothed covariance) and, for the GC
     # cells, the filter with each aid it uses removed in turn (smoothed: both read-outs), the rest updates
     # removed from a filter started at the motion onset, beside that filter with them
@@ -1967,4 +1975,4 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
                       nis=_nis_means(nis_all),
                       coverage_95_forward=coverage.get("forward", {}).get("inside_95", float("nan")),
                       coverage=coverage, significance=significance, readings=tuple(readings.values()),
-                      lengths=tuple(lengths.values()))
+                      lengths=tuple(lengths.values()), no_rest=no_rest)

@@ -756,7 +756,7 @@ def _percentiles(x, qs) -> tuple:
 
 
 def activity_span(time, omega, *, window_s: float = ACTIVITY_WINDOW_S, factor: float = 10.0, floor: float = 0.02,
-                  rest_s: float = 2.0, min_pause_s: float = 1.5, rest=None):
+                  rest_s: float = 2.0, min_pause_s: float = 1.5, rest=None, threshold: float | None = None):
     """Start and end time of the main motion from the gyro's vibration [s].
 
     The moving standard deviation (over `window_s`, on the uniform grid) of the
@@ -790,6 +790,11 @@ def activity_span(time, omega, *, window_s: float = ACTIVITY_WINDOW_S, factor: f
         is shorter than `window_s`), and only windows ending after the rest's
         end can open the motion, so the motion starts after the rest ends.
         Without it the rest level is taken over the first `rest_s` seconds.
+    threshold : float, optional
+        The activity threshold itself [rad/s] (at least `floor`), for a
+        recording that has no rest to take the level in (it moves from its
+        first sample; `rest` and `factor` are then not used): a motion whose
+        first window is already active starts at the first sample.
 
     Returns
     -------
@@ -805,6 +810,8 @@ def activity_span(time, omega, *, window_s: float = ACTIVITY_WINDOW_S, factor: f
     >>> bool(4.0 < a < 4.6 and 6.4 < b < 7.0)
     True
     """
+    if threshold is not None and not threshold >= 0:
+        raise MorpiError(f"threshold={threshold!r}: expected a non-negative spread [rad/s]")
     time = np.asarray(time, float)
     grid, w = resample_uniform(time, omega)
     k = max(2, int(round(window_s * GRID_HZ)))
@@ -812,7 +819,9 @@ def activity_span(time, omega, *, window_s: float = ACTIVITY_WINDOW_S, factor: f
         return float(time[0]), float(time[-1])
     sd = window_spread(w, k)[0]
     first = 0
-    if rest is None:
+    if threshold is not None:
+        base = None
+    elif rest is None:
         n_rest = max(1, int(rest_s * GRID_HZ) - k)
         base = sd[:n_rest]
     else:
@@ -825,7 +834,7 @@ def activity_span(time, omega, *, window_s: float = ACTIVITY_WINDOW_S, factor: f
         j1 = int(np.searchsorted(grid, r1, side="right")) - k
         base = sd[j0:j1 + 1] if j1 >= j0 else (sd[:j1 + 1] if j1 >= 0 else sd[:1])
         first = int(np.searchsorted(grid, r1, side="right"))
-    thr = max(factor * float(np.median(base)), floor)
+    thr = max(factor * float(np.median(base)), floor) if base is not None else max(float(threshold), floor)
     on = np.flatnonzero(sd > thr)
     on = on[on + k - 1 >= first]    # an active window marks the motion from its last sample on
     if on.size == 0:
@@ -836,6 +845,9 @@ def activity_span(time, omega, *, window_s: float = ACTIVITY_WINDOW_S, factor: f
     starts = np.r_[on[0], on[breaks + 1]] + k - 1
     ends = np.r_[on[breaks], on[-1]]
     j = int(np.argmax(ends - starts))
+    if base is None and on[0] == 0 and j == 0:
+        # without a rest the first window active is the motion under way: it starts with the recording
+        return float(time[0]), float(grid[max(ends[j], starts[j])])
     return float(grid[min(starts[j], grid.shape[0] - 1)]), float(grid[max(ends[j], starts[j])])
 
 

@@ -8,10 +8,13 @@ import re
 import numpy as np
 import pytest
 
-from morpi_filters.calibration import (LOCAL_GRAVITY, Calibration, RestWindow, calibrate, detect_rest,
-                                       normal_gravity, rest_measures, rest_windows_summary)
+from morpi_filters import simulate, units
+from morpi_filters.calibration import (DEFAULT_IMU, LOCAL_GRAVITY, STILL_NOISE_FACTOR, Calibration, NoRestError,
+                                       RestWindow, StillBound, calibrate, detect_rest, normal_gravity,
+                                       rest_measures, rest_windows_summary, still_bound)
 from morpi_filters.dataset import Recording, load_catalogue
 from morpi_filters.errors import DataError, MorpiError
+from morpi_filters.synthetic import DATASET_OPTIONS
 from morpi_filters.report.calibration import rest_windows_table
 from conftest import plain_kernels
 
@@ -288,6 +291,128 @@ def test_noise_free_recording():
     win = detect_rest(rec)
     assert win.method == "full" and win.motion_s == t[400]
     np.testing.assert_allclose(calibrate(rec, "GC").gyro_bias, GYRO_BIAS, rtol=0, atol=1e-15)  # mean of a constant bias: float rounding
+
+
+# ----------------------------------------------------------------------------- stillness against the IMU's noise
+
+def _driven(phone, *, speed, seed, rest_s=None, seconds=8.0):
+    """A robot driven along a straight line (exact kinematics) seen by an IMU with the synthetic dataset's
+    mounting and motion vibration: from `rest_s` seconds of rest, or (None) from its first sample on, at its
+    cruise speed. `phone` "" is an IMU the library does not know (the MPU-6500's figures, uniform 100 Hz).
+    The recording, its IMU data (biases, truth) and the trajectory."""
+    o = DATASET_OPTIONS
+    spec = units.sensor_for_phone(phone) if phone else DEFAULT_IMU
+    traj = simulate.straight(40.0, speed=speed, ramp=1.0, rest=(rest_s or 0.0, 2.0))
+    t_a = traj.start_time + 1.0 if rest_s is None else traj.time[0]      # after the 1 s ramp: at cruise speed
+    data = simulate.imu(traj, spec, np.random.default_rng(seed), sampling=phone or "uniform", bias_scale=0.3,
+                        misalignment=o["misalignment"], vibration=o["vibration"], time_span=(t_a, t_a + seconds))
+    return data.recording(source="driven.csv", phone=phone), data, traj
+
+
+@pytest.mark.parametrize("phone", ["s8", "s6", ""])
+def test_a_robot_driving_from_its_first_sample_has_no_rest(phone):
+    # Driving at 0.5-1 m/s from the first sample, with the vibration of a driving robot: the noise the
+    # detector measures on the recording is the vibration, so only the IMU's own noise tells it from rest.
+    # No window is invented: detect_rest raises NoRestError naming the file, GC and GAC are refused, RD is not.
+    for speed, seed in ((0.5, 1), (0.87, 2), (1.0, 3)):
+        rec, data, _ = _driven(phone, speed=speed, seed=seed)
+        v0 = float(np.linalg.norm(data.truth.velocity[0]))
+        assert v0 == pytest.approx(speed, rel=1e-9)                   # under way at the first sample (truth)
+        with pytest.raises(NoRestError) as ei:
+            detect_rest(rec)
+        msg = str(ei.value)
+        assert "\n" not in msg and msg.startswith("driven.csv: no initial rest found: motion starts 0.000 s"), msg
+        assert isinstance(ei.value, DataError) and ei.value.exit_code == 1
+        b = still_bound(rec)
+        assert f"{b.gyro:.3g} rad/s" in msg and b.source in msg
+        for mode in ("GC", "GAC"):
+            with pytest.raises(NoRestError):
+                calibrate(rec, mode)
+        rd = calibrate(rec, "RD")
+        assert rd.window is None and not rd.gyro_bias.any() and not rd.accel_bias.any()
+        row, = rest_windows_summary([rec]).rows
+        assert row.method == "none" and row.error == msg
+
+
+@pytest.mark.parametrize("phone", ["s8", "s6", ""])
+def test_the_same_robot_starting_at_rest_keeps_its_rest(phone):
+    # The same robot, IMU and vibration, standing 2.5 s before it drives off: the window starts with the
+    # recording and ends as the robot sets off (the vibration grows with the speed over the 1 s ramp: by a
+    # quarter of it at most, the robot having moved under 2 mm), and its mean recovers the drawn gyro bias to
+    # its noise.
+    for speed, seed in ((0.5, 4), (1.0, 5)):
+        rec, data, traj = _driven(phone, speed=speed, seed=seed, rest_s=2.5)
+        w = detect_rest(rec)
+        assert w.i0 == 0 and w.duration_s > 2.0 and w.end_s < traj.start_time + 0.25, w
+        assert np.linalg.norm(data.truth.position[w.i1 - 1]) < 0.002, w
+        assert w.end_s < w.motion_s <= traj.start_time + 1.0, w                 # within the ramp
+        sigma = data.spec.gyro_noise / math.sqrt(float(np.median(np.diff(rec.time))))   # white noise per sample
+        bias = calibrate(rec, "GC", window=w).gyro_bias
+        # the window's samples are at rest: the mean is the bias up to 4 sigma / sqrt(N) of white noise
+        assert np.all(np.abs(bias - data.gyro_bias) < 4 * sigma / math.sqrt(w.n)), (bias, data.gyro_bias)
+
+
+def test_the_still_bound_follows_the_sensor_spec():
+    # The bound is STILL_NOISE_FACTOR times the noise density over the Nyquist band (closed form), from the
+    # phone's IMU, a given spec, or the default. A rest whose white gyro noise is 2 sigma of a noisy IMU's
+    # spec is a rest for that spec and motion for a spec 25 times quieter; a StillBound is used as given.
+    n, rate = 600, 100.0
+    t = np.arange(n) / rate
+    quiet = units.SensorSpec.from_datasheet("quiet", gyro_bias_deg_s=1, gyro_noise_deg_s_sqrt_hz=0.004,
+                                            accel_bias_mg=40, accel_noise_ug_sqrt_hz=130)
+    noisy = units.SensorSpec.from_datasheet("noisy", gyro_bias_deg_s=1, gyro_noise_deg_s_sqrt_hz=0.1,
+                                            accel_bias_mg=40, accel_noise_ug_sqrt_hz=130)
+    sig_noisy = noisy.gyro_noise * math.sqrt(rate / 2)
+    rng = np.random.default_rng(30)
+    rec = Recording(time=t, f=[0.0, 0.0, 9.8] + 0.005 * rng.standard_normal((n, 3)),
+                    omega=[0.01, -0.02, 0.005] + 2 * sig_noisy * rng.standard_normal((n, 3)), source="still.csv")
+    for spec in (quiet, noisy):
+        b = still_bound(rec, spec)
+        assert b.gyro == pytest.approx(STILL_NOISE_FACTOR * spec.gyro_noise * math.sqrt(rate / 2), rel=1e-12)
+        assert b.accel == pytest.approx(STILL_NOISE_FACTOR * spec.accel_noise * math.sqrt(rate / 2), rel=1e-12)
+    assert still_bound(rec) == still_bound(rec, DEFAULT_IMU)                   # an unknown IMU
+    assert still_bound(Recording(time=t, f=rec.f, omega=rec.omega, phone="s8")) == still_bound(rec, units.LSM6DSL)
+    w = detect_rest(rec, bound=noisy)
+    assert w.method == "full" and w.motion_s is None
+    with pytest.raises(NoRestError, match="still.csv: no initial rest"):
+        detect_rest(rec, bound=quiet)
+    assert detect_rest(rec, bound=StillBound(gyro=10 * sig_noisy, accel=0.1)) == w
+    with pytest.raises(NoRestError):
+        detect_rest(rec, bound=StillBound(gyro=sig_noisy, accel=0.1))
+    with pytest.raises(MorpiError, match="StillBound: gyro=-1.0"):
+        StillBound(gyro=-1.0, accel=0.1)
+
+
+@pytest.mark.field
+def test_the_train_rests_stay_within_half_the_still_bound(field_root):
+    # STILL_NOISE_FACTOR is set on the train runs: inside each train run's rest window, every moving standard
+    # deviation (windows lying inside the rest) stays within half the bound (a margin of two) on every gyro and
+    # accelerometer axis; the noise the detector measures there, times k_std, stays below the bound (so the
+    # bound moves none of their windows); and the drive's median gyro spread is far beyond it.
+    import inspect
+
+    from morpi_filters.field import FieldData
+
+    data = FieldData(field_root)
+    k_std = inspect.signature(detect_rest).parameters["k_std"].default
+    worst = {"gyro": 0.0, "accel": 0.0, "noise": 0.0}
+    n = 0
+    for e in data.train_entries():
+        rec = data._entry_recording(e)
+        w, m, b = data.rest_window(rec), data.rest_measures(rec), still_bound(rec)
+        half = m.window_s / 2
+        inside = (rec.time - half >= w.start_s) & (rec.time + half <= w.end_s)
+        assert inside.sum() > 10, e.relpath
+        worst["gyro"] = max(worst["gyro"], m.s_g[inside].max() / b.gyro)
+        worst["accel"] = max(worst["accel"], m.s_a[inside].max() / b.accel)
+        worst["noise"] = max(worst["noise"], k_std * m.sig_g.max() / b.gyro, k_std * m.sig_a.max() / b.accel)
+        a, z = data.activity(rec)
+        drive = (rec.time >= a) & (rec.time <= z)
+        assert np.median(m.s_g[drive].max(axis=1)) > 5 * b.gyro, e.relpath
+        n += 1
+    assert n == 40
+    print(f"\ntrain rests against the still bound: {worst}")
+    assert worst["gyro"] <= 0.5 and worst["accel"] <= 0.5 and worst["noise"] < 1.0, worst
 
 
 def test_blockwise_noise_sigma_is_the_per_block_one():

@@ -203,6 +203,52 @@ def test_check_names_a_recording_too_short_for_its_motion_and_tables_leave_it_ou
     assert str(short) in (out / "README.md").read_text()
 
 
+def test_recordings_moving_from_their_first_sample_are_a_warning_for_check_and_rd_only_for_tables(tmp_path):
+    # Two synthetic runs, a straight line and a periodic test run, whose first second of motion is cut off (the
+    # robot under way at the first sample, with its vibration): check warns on one line each and exits 0;
+    # tables evaluates them under RD and lists them, with why, in the JSON's no_rest and on the page, their
+    # GAC and GC cells naming them among their failed runs.
+    import json
+
+    from morpi_filters.synthetic import write_dataset
+
+    root = write_dataset(tmp_path / "ds", seed=2, runs_per_folder=1)
+    runs = json.loads((root / "manifest.json").read_text())["runs"]
+    cut = {"s8/line_dataset/1.csv": ("ins_straight", None), "s8/short_distance/test/1.csv": ("short_route", 1.0)}
+    for rel in cut:
+        lines = (root / rel).read_text().splitlines(keepends=True)
+        start = runs[rel]["start_time"] + 1.0
+        (root / rel).write_text("".join([lines[0]] + [x for x in lines[1:] if float(x.split(",")[0]) >= start]))
+    r = run("check", "--data", str(root))
+    assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
+    *warnings, summary = r.stdout.strip().splitlines()
+    tail = "; evaluated under RD only, without GC and GAC"
+    assert len(warnings) == 2 and all(w.endswith(tail) for w in warnings), warnings
+    why = {rel: w[len("warning: "):-len(tail)] for rel, w in zip(sorted(cut), sorted(warnings))}
+    for rel, line in why.items():
+        assert line.startswith(f"{root / rel}: no initial rest found: motion starts 0.000 s"), line
+    assert summary.startswith("11 recording(s) OK, 0 problem(s)") and summary.endswith(
+        "; 2 OK recording(s) without an initial rest (RD only)"), summary
+    out, js = tmp_path / "out", tmp_path / "tables.json"
+    r = run("tables", "--data", str(root), "--out", str(out), "--json", str(js))
+    assert r.returncode == 0, r.stderr
+    payload = json.loads(js.read_text())
+    assert payload["left_out"] == [] and payload["no_rest"] == [why[rel] for rel in sorted(cut)]
+    page = (out / "README.md").read_text()
+    assert "Recordings without an initial rest" in page
+    for rel, (table, p2p) in cut.items():
+        assert f"- {why[rel]}" in page
+        cells = [c for c in payload["cells"] if (c["table"], c["phone"], c["p2p_m"]) == (table, "s8", p2p)]
+        assert len(cells) == 4
+        for c in cells:
+            if c["calibration"] == "RD":
+                assert [x["file"] for x in c["runs"]] == [rel] and c["failed"] == [], c
+                assert c["runs"][0]["rest_window_s"] is None
+                assert c["runs"][0]["motion_window_s"][0] >= runs[rel]["start_time"] + 1.0
+            else:
+                assert c["n_runs"] == 0 and c["failed"] == [why[rel]], c
+
+
 def test_the_command_skips_the_collectors_shutdown_sweeps_and_a_call_does_not(tmp_path):
     # as the process's command (argv from sys.argv), main leaves an exit handler that freezes the garbage
     # collector, so the interpreter's shutdown does not sweep every object; an exit handler registered before

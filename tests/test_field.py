@@ -15,7 +15,7 @@ import pytest
 from morpi_filters import aided, field_aided, simulate, synthetic, units
 from morpi_filters import dataset as ds
 from morpi_filters import steps as st
-from morpi_filters.calibration import detect_rest
+from morpi_filters.calibration import NoRestError, detect_rest
 from morpi_filters.errors import DataError, MorpiError
 from morpi_filters.field import INS_SPANS, LEVELED, FieldData, Thresholds
 
@@ -181,3 +181,40 @@ def test_field_recordings_cut_to_any_length_in_their_first_seconds(field_root, t
             assert not [s for s in failed if not s.startswith(("step", "aided"))], (rel, n, failed)
             kinds.add("evaluated")
     assert kinds == {"refused", "evaluated"}
+
+
+@pytest.mark.parametrize("route, speed", [("line_dataset", 0.87), ("long_distance", 0.6)])
+def test_a_recording_moving_from_its_first_sample_is_evaluated_under_rd_only(tmp_path, route, speed):
+    # A robot on a straight line, or on the long route's sine path, recorded from 1 s after it set off (at its
+    # cruise speed, with the synthetic dataset's motion vibration) until it has stood 3 s at the end: no rest
+    # is invented. The recording is no problem; every stage that needs a rest window (GC, GAC, the leveled
+    # INS, the tilt, the attitude heading, the aided filter, which starts at the rest) names the recording on
+    # one line, and every raw-data stage gives its result (the steps where the path is periodic), over a
+    # motion window from the first sample to the stop.
+    rng = np.random.default_rng(8)
+    o = synthetic.DATASET_OPTIONS
+    traj = simulate.route_trajectory(route, speed=speed, rest=(0.0, 3.0), **({"amplitude": 0.05}
+                                                                            if route == "long_distance" else {}))
+    imu = simulate.imu(traj, units.LSM6DSL, rng, sampling="s8", bias_scale=synthetic.REALISTIC_BIAS_FRACTION["s8"],
+                       misalignment=o["misalignment"], vibration=o["vibration"],
+                       time_span=(traj.start_time + 1.0, traj.end_time))
+    assert 0.5 < float(np.linalg.norm(imu.truth.velocity[0])) < 1.0          # under way at the first sample
+    folder = tmp_path / "s8" / route / ("test" if route == "long_distance" else "")
+    rec = imu.recording(source=str(folder / "1.csv"), route=route, split="test" if route == "long_distance" else None)
+    data = FieldData(tmp_path, thresholds=THRESHOLDS)
+    assert data.problem(rec) is None
+    why = data.no_rest(rec)
+    _one_line(why, rec)
+    assert "no initial rest" in why and "motion starts 0.000 s" in why, why
+    start, end = data.activity(rec)
+    # it closes as the robot's vibration fades over the 1 s stop ramp (the vibration scales with the speed)
+    assert start == rec.time[0] and traj.stop_time - 1.0 < end <= traj.stop_time + 0.5, (start, end, traj.stop_time)
+    done, failed = _evaluate(data, rec)
+    needs_rest = [s for s in done + failed if set(s.split()) & {"GC", "GAC", LEVELED, "tilt", "attitude", "aided"}]
+    assert set(needs_rest) <= set(failed), done
+    assert {"calibration RD", "motion window", "INS RD INS-3D motion", "INS RD INS-2D full"} <= set(done), done
+    if route == "long_distance":
+        assert failed == needs_rest and {"step sums MoRPI-A RD gyro", "steps MoRPI-G RD gyro"} <= set(done), failed
+    with pytest.raises(NoRestError) as ei:
+        data.calibrated(rec, "GC")
+    assert str(ei.value) == why

@@ -222,3 +222,23 @@ def test_the_ins_benefit_is_claimed_only_where_it_survives_holm():
     assert "before the correction only" in _ins_benefit(cell(-0.057, "better", "tie"))
     assert _ins_benefit(cell(-0.067, "tie", "tie")) == "not shown: 0.067 pp lower on average, within the runs' spread"
     assert _ins_benefit(cell(0.019, "tie", "tie")).startswith("no: 0.019 pp behind")
+
+
+def test_aided_page_and_json_list_the_recordings_without_a_rest(tmp_path):
+    # the filter starts at the rest window: the recordings without one are named, with why, on the page and in
+    # the JSON (here an otherwise empty study)
+    import json
+
+    from morpi_filters.field_aided import AidedStudy
+    from morpi_filters.report.aided import report_aided
+
+    why = ("ds/s8/line_dataset/1.csv: no initial rest found: motion starts 0.000 s after the first sample",
+           "ds/s6/L_line/2.csv: no initial rest found: motion starts 0.000 s after the first sample")
+    for no_rest in ((), why):
+        out = tmp_path / f"aided{len(no_rest)}"
+        report_aided(out, AidedStudy(cells=(), ablation=(), coverage_95=float("nan"), nis={}, note="no cell",
+                                     no_rest=no_rest))
+        assert json.loads((out / "result.json").read_text())["no_rest"] == list(no_rest)
+        page = (out / "README.md").read_text()
+        assert ("Recordings without an initial rest" in page) == bool(no_rest)
+        assert all(f"- {x}\n" in page for x in no_rest)

@@ -66,7 +66,8 @@ def study_json(study) -> dict:
         ``forward_percent``, ``used``, ``full_percent``, ``full_forward_percent``, ``start``),
         ``coverage_95`` and ``coverage_95_forward`` (the GC cells, each run and method once),
         ``coverage`` (the same with the axes), ``significance`` (:attr:`field_aided.AidedStudy.significance`),
-        ``nis`` (as a cell's, over those runs), ``note``, ``morpi_readings`` (per method the
+        ``nis`` (as a cell's, over those runs), ``note``, ``no_rest`` (one line per recording without an
+        initial rest, on which the filter does not run), ``morpi_readings`` (per method the
         :class:`field_aided.ReadingChoice` fields), ``morpi_lengths`` (per training phone and method the
         :class:`field_aided.LengthChoice` fields) and ``tunables`` (``grid``, ``fixed``, ``chosen``).
 
@@ -77,7 +78,7 @@ def study_json(study) -> dict:
     >>> sorted(js)[:5]
     ['ablation', 'cells', 'coverage', 'coverage_95', 'coverage_95_forward']
     >>> sorted(js)[5:]
-    ['morpi_lengths', 'morpi_readings', 'nis', 'note', 'significance', 'tunables']
+    ['morpi_lengths', 'morpi_readings', 'nis', 'no_rest', 'note', 'significance', 'tunables']
     >>> js["tunables"]["grid"] == {k: list(v) for k, v in GRID.items()}
     True
     """
@@ -107,7 +108,7 @@ def study_json(study) -> dict:
     return {"cells": cells, "ablation": list(study.ablation), "coverage_95": study.coverage_95,
             "coverage_95_forward": study.coverage_95_forward, "coverage": study.coverage,
             "significance": study.significance,
-            "nis": _nis(study.nis), "note": study.note,
+            "nis": _nis(study.nis), "note": study.note, "no_rest": list(study.no_rest),
             "morpi_readings": [dict(r.__dict__) for r in study.readings],
             "morpi_lengths": [dict(r.__dict__) for r in study.lengths],
             "tunables": {"grid": {k: list(v) for k, v in field_aided.GRID.items()},
@@ -357,6 +358,11 @@ def _page(study, source, figures) -> str:
             + " ".join(f"{what} {text}" for text, what in groups if text)
             + "\n\n" + md_table(["cell", "updates", "along mean [m]", "along RMS [m]", "cross mean [m]",
                                   "cross RMS [m]", "expected sigma along [m]"], innov_rows))
+    no_rest = ""
+    if study.no_rest:
+        no_rest = ("**Recordings without an initial rest** (they move from their first samples): the filter starts "
+                   "at the rest window and takes its noise there, so it does not run on them (each cell names them "
+                   "among its failed runs):\n\n" + "".join(f"- {x}\n" for x in study.no_rest) + "\n")
     rd_text = ""
     if rd:
         rd_better = sum(c.smoothed_percent < c.morpi_percent for c in rd)
@@ -441,7 +447,8 @@ def _page(study, source, figures) -> str:
         f"`{dict(field_aided.GRID)}`; the noise densities are the rest windows' own (median over the train runs) "
         "times the vibration factor; the gain error's prior is the trained gain's spread.\n\n"
         "**Verdict.** " + gc_text + rd_text + margin_text + "\n\n"
-        "## Cells (test runs, mean end-point error in % of the route's distance)\n\n"
+        + no_rest
+        + "## Cells (test runs, mean end-point error in % of the route's distance)\n\n"
         "`train` is the filter's mean end-point error on the training set's train runs with the chosen "
         "tunables, `train LOO` the same with the tunables chosen without the run scored (nested "
         "leave-one-out), `train MoRPI` MoRPI alone on those runs, `its steps alone` the filter's own step "

@@ -41,6 +41,7 @@ def report_tables(out, study: TablesStudy, source) -> SectionSummary:
     payload = result_json(study, source)
     payload["partial"] = study.partial
     payload["left_out"] = left_out
+    payload["no_rest"] = list(study.no_rest)
     figures = _figures(study, out)
     write_json(out / "result.json", payload)
     page = _page(study, payload, source, figures)
@@ -55,6 +56,8 @@ def report_tables(out, study: TablesStudy, source) -> SectionSummary:
         summary += f" Missing folders: {', '.join(res.missing)}."
     if left_out:
         summary += f" Partial evaluation: {len(left_out)} recording problem(s) left out (see the page)."
+    if study.no_rest:
+        summary += f" {len(study.no_rest)} recording(s) without an initial rest: RD only (see the page)."
     return SectionSummary(name="tables", title="The paper's tables on the recordings", page="README.md",
                           figures=tuple(figures), summary=summary, synthetic=bool(source.synthetic))
 
@@ -210,6 +213,13 @@ def _page(study: TablesStudy, payload, source, figures) -> str:
     if payload.get("left_out"):
         L += ["**Partial evaluation (`--partial`)**: these recordings were left out; the cells below are "
               "computed without them.", ""] + [f"- {x}" for x in payload["left_out"]] + [""]
+    if payload.get("no_rest"):
+        L += ["**Recordings without an initial rest**: they move from their first samples (no stretch before the "
+              "motion stays within what a still IMU shows, `calibration.still_bound`), so they are evaluated under "
+              "RD only: their GC and GAC runs are not computed (each cell lists them among its failed runs), and "
+              "their motion window runs from the first sample to where the gyro's spread falls within a still "
+              "IMU's.", ""
+              ] + [f"- {x}" for x in payload["no_rest"]] + [""]
     L += ["Errors are end-point errors in % of the travelled distance, mean over the runs (the paper's measure); "
           "`dist %` is `|estimated travelled distance - true distance|` in % of the distance. "
           "MoRPI cells are the `test` runs; INS cells all runs of the folder. `Δ` is ours minus paper in "
