@@ -476,7 +476,7 @@ def evaluate_dataset(dataset: Dataset, *, course_m: float = COURSE_M, workers: i
     >>> t = np.arange(401) / 100.0
     >>> f = np.tile([0.0, 0.0, G0], (401, 1)); f[t > 2.0, 0] = 1.0
     >>> ds = Dataset.from_arrays("bench", [{"id": "a", "time": t, "f": f, "omega": np.zeros((401, 3)),
-    ...     "motion": "straight", "rest": (0.0, 1.5),
+    ...     "motion": "straight", "rest": [0.0, 1.5],
     ...     "truth": RouteTruth(distance_m=2.0, end_point_m=np.array([2.0, 0.0]))}])
     >>> r = evaluate_dataset(ds)
     >>> [(p.method, p.calibration) for p in r.paths][:3], round(r.paths[0].metrics["end_error_m"], 2)
