@@ -567,11 +567,11 @@ def _cmd_evaluate(args):
             else:
                 write_json(target, result.to_json())
                 stamp_json(target, "morpi evaluate", "evaluate")
-    over = "test recordings" if result.groups_over == "test" else "all recordings"
+    over = "test recording(s)" if result.groups_over == "test" else "recording(s); no test split"
     for g in result.groups:
         end = g["end_error_percent"]
         print(f"{g['group']}: {g['method']} {g['calibration']}: end error "
-              f"{'-' if end is None else f'{end:.3g}'} % (mean over {g['n']} of the {over})")
+              f"{'-' if end is None else f'{end:.3g}'} % (mean over {g['n']} {over})")
     for x in result.left_out:
         print(f"left out: {x['id']}: {x['what']}: {x['why']}")
     if out is not None:

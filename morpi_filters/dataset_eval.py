@@ -351,7 +351,8 @@ def _distance(dr) -> float:
 
 def _train_gains(dataset, prepared) -> tuple[dict, list]:
     """Gains per (group, method, calibration) from the train recordings only; their JSON entries."""
-    train = [dr for dr in dataset.recordings if dr.split == "train" and dr.motion == "periodic"]
+    train = [dr for dr in dataset.recordings
+             if dr.split == "train" and dr.motion == "periodic" and "error" not in prepared[dr.id]]
     groups = list(dict.fromkeys(dr.group for dr in dataset.recordings))
     weights = {}
     for dr in train:
@@ -465,8 +466,9 @@ def evaluate_dataset(dataset: Dataset, *, course_m: float = COURSE_M, workers: i
     Raises
     ------
     ParameterError
-        A bad `course_m` or `workers`, or a truth track that never moves
-        `course_m` from the start of a recording starting at rest.
+        A bad `course_m` or `workers`. (A recording whose truth track never
+        moves `course_m` from its start, with ``initial = "rest"``, is listed
+        in ``left_out`` and not evaluated.)
 
     Examples
     --------
@@ -491,20 +493,23 @@ def evaluate_dataset(dataset: Dataset, *, course_m: float = COURSE_M, workers: i
     def prepare(dr):
         try:
             return _prepare(dr, course_m)
-        except MorpiError as exc:
-            raise ParameterError(f"{where}: recording {dr.id!r}: {exc}") from None
+        except MorpiError as exc:           # no start to align with: the recording is listed, not evaluated
+            return {"error": f"{where}: recording {dr.id!r}: {exc}"}
 
     with ThreadPoolExecutor(max_workers=workers or 1) as pool:
         prepared = dict(zip((dr.id for dr in dataset.recordings), pool.map(prepare, dataset.recordings)))
         gains, entries = _train_gains(dataset, prepared)
 
         def one(dr):
-            out = _evaluate_one(dr, prepared[dr.id], gains)
+            prep = prepared[dr.id]
+            return (([], [{"id": dr.id, "what": "every method", "why": prep["error"]}]) if "error" in prep
+                    else _evaluate_one(dr, prep, gains))
+
+        results = []
+        for out in pool.map(one, dataset.recordings):      # in order; the progress line from this thread
+            results.append(out)
             if progress is not None:
                 progress.update(1)
-            return out
-
-        results = list(pool.map(one, dataset.recordings))
     paths = tuple(p for ps, _ in results for p in ps)
     left = tuple(x for _, lo in results for x in lo)
     over = "test" if any(dr.split == "test" for dr in dataset.recordings) else "all"
@@ -514,6 +519,8 @@ def evaluate_dataset(dataset: Dataset, *, course_m: float = COURSE_M, workers: i
     starts = []
     for dr in dataset.recordings:
         prep = prepared[dr.id]
+        if "error" in prep:
+            continue
         w = prep["window"]
         t0 = float(dr.recording.time[0])
         starts.append({"id": dr.id, "initial": dr.initial,

@@ -34,6 +34,16 @@ def test_noise_free_ins_paths_lie_within_a_centimetre_of_the_truth_track(tmp_pat
     assert all(p.metrics["end_error_m"] < 0.02 for p in ins)
 
 
+def test_noise_free_runs_that_start_moving_take_their_velocity_from_the_truth_track(tmp_path):
+    ds = write_foreign_dataset(tmp_path / "nf", LAYOUTS["moving-start"], noise_free=True)
+    data = load_dataset(ds.manifest)
+    assert {dr.initial for dr in data.recordings} == {"truth"}
+    result = evaluate_dataset(data)
+    assert len(result.paths) == 2 * 2 and all(s["speed_mps"] > 0.3 for s in result.starts)
+    worst = max(p.metrics["path_rmse_m"] for p in result.paths)
+    assert worst < 0.01, worst
+
+
 def _segment_distance(p, a, b) -> float:
     d = b - a
     u = 0.0 if not d.any() else min(1.0, max(0.0, float((p - a) @ d) / float(d @ d)))
@@ -126,3 +136,16 @@ def test_evaluate_on_a_malformed_manifest_exits_2_with_one_line(tmp_path, capsys
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and "speed" in err
     assert not (tmp_path / "out").exists()
+
+
+def test_a_truth_track_that_never_moves_leaves_its_recording_out_with_the_reason():
+    from morpi_filters.manifest import TruthTrack
+
+    t = np.arange(400) / 100.0
+    still = {"time": t, "f": np.tile([0.0, 0.0, 9.81], (400, 1)), "omega": np.zeros((400, 3)),
+             "motion": "straight", "rest": [0.0, 1.0],
+             "truth": TruthTrack(time=t[::10], position=np.zeros((40, 3)))}
+    result = evaluate_dataset(Dataset.from_arrays("bench", [dict(still, id="a")]))
+    assert result.paths == ()
+    assert [(x["id"], x["what"]) for x in result.left_out] == [("a", "every method")]
+    assert "never moves" in result.left_out[0]["why"]
