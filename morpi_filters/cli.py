@@ -246,6 +246,18 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--dataset", metavar="FILE", type=_path("--dataset"),
                    help="a dataset manifest (TOML, docs/manifest.md): load and check every recording it describes")
 
+    s = sub.add_parser("evaluate", help="the methods on every recording of a dataset manifest, against its truth")
+    s.add_argument("--dataset", metavar="FILE", type=_path("--dataset"), required=True,
+                   help="a dataset manifest (TOML, docs/manifest.md)")
+    s.add_argument("--out", metavar="DIR", type=_path("--out"), default=None,
+                   help="write README.md, result.json and every estimated path (tracks/<id>/<method>_<calibration>"
+                        ".csv) here; replaced only if new, empty or an earlier evaluation")
+    s.add_argument("--json", metavar="FILE", type=_path("--json"),
+                   help="also write the JSON result here (an existing file only if morpi wrote it)")
+    s.add_argument("--force", action="store_true", help="let --json overwrite a file morpi did not write")
+    s.add_argument("--workers", metavar="N", type=_Number(True, 1, MAX_WORKERS, "threads"), default=None,
+                   help="threads that evaluate the recordings (default 1; the results do not depend on it)")
+
     s = sub.add_parser("tables", help="every table of the paper on the recordings, ours beside the paper's")
     data_arg(s)
     partial_arg(s)
@@ -531,6 +543,46 @@ def _check_manifest(args):
     return max((exc.exit_code for exc in problems), default=0)
 
 
+def _cmd_evaluate(args):
+    """``morpi evaluate --dataset FILE``: outputs checked, the manifest loaded, the study run, its page written."""
+    from .dataset_eval import evaluate_dataset
+    from .manifest import load_dataset
+    from .parallel import Progress
+    from .report.dataset_eval import report_dataset_evaluation
+    from .reporting import Outputs, check_output_dir, check_output_file, stamp_json, write_json
+
+    out = check_output_dir(args.out, kind="evaluate") if args.out is not None else None
+    if args.json is not None:
+        check_output_file(args.json, force=args.force, folder=out)
+    _clean_stale(*([out.parent] if out is not None else []), *([args.json.parent] if args.json is not None else []))
+    dataset = load_dataset(args.dataset)
+    progress = Progress(len(dataset), "evaluate", enabled=True)
+    result = evaluate_dataset(dataset, workers=args.workers, progress=progress)
+    with Outputs("morpi evaluate") as outputs:
+        if out is not None:
+            stage = outputs.folder(out, "evaluate")
+            report_dataset_evaluation(stage, result)
+            stamp_json(stage / "result.json", "morpi evaluate", "evaluate")
+            text = (stage / "result.json").read_text()
+        if args.json is not None:
+            target = outputs.file(args.json, force=args.force)
+            if out is not None:
+                target.write_text(text)
+            else:
+                write_json(target, result.to_json())
+                stamp_json(target, "morpi evaluate", "evaluate")
+    over = "test recording(s)" if result.groups_over == "test" else "recording(s); no test split"
+    for g in result.groups:
+        end = g["end_error_percent"]
+        print(f"{g['group']}: {g['method']} {g['calibration']}: end error "
+              f"{'-' if end is None else f'{end:.3g}'} % (mean over {g['n']} {over})")
+    for x in result.left_out:
+        print(f"left out: {x['id']}: {x['what']}: {x['why']}")
+    if out is not None:
+        print(f"Evaluation of {result.name}: {out / 'README.md'}")
+    return 0
+
+
 def _cmd_simulate(args):
     from .synthetic import write_dataset
 
@@ -739,6 +791,8 @@ def _dispatch(args) -> int:
         return _cmd_check(args)
     if args.command == "simulate":
         return _cmd_simulate(args)
+    if args.command == "evaluate":
+        return _cmd_evaluate(args)
     if args.command == "data":
         return _cmd_data(args)
     if args.command == "report":

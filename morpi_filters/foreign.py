@@ -260,7 +260,7 @@ def _runs_plan(layout: ForeignLayout):
             ("straight-1", "none", "all", "straight", {})]
 
 
-def _simulate(layout: ForeignLayout, motion: str, kw: dict, rng) -> tuple:
+def _simulate(layout: ForeignLayout, motion: str, kw: dict, rng, noise_free: bool = False) -> tuple:
     """A run's readings on the loader's times, the file's clock readings, the trajectory and the
     trajectory's time at the first sample."""
     rest = (2.0, 1.5)
@@ -272,7 +272,8 @@ def _simulate(layout: ForeignLayout, motion: str, kw: dict, rng) -> tuple:
     n = int(math.floor((traj.end_time - begin) * layout.rate_hz)) + 1
     raw, loaded = _clock(layout, n)
     times = begin + (loaded - loaded[0])
-    data = imu(traj, units.LSM6DSL, rng, sampling=times, bias_scale=(0.25, 0.3))
+    scales = dict(bias_scale=0.0, noise_scale=0.0) if noise_free else dict(bias_scale=(0.25, 0.3))
+    data = imu(traj, units.LSM6DSL, rng, sampling=times, **scales)
     # the readings on the loader's clock (the trajectory was sampled at `times`, on its own clock)
     return replace(data, time=loaded), raw, traj, begin
 
@@ -360,7 +361,7 @@ def _write_truth(path: Path, layout: ForeignLayout, raw, enu: np.ndarray) -> dic
     return cols
 
 
-def write_foreign_dataset(out, layout: ForeignLayout, *, seed: int = 0) -> ForeignDataset:
+def write_foreign_dataset(out, layout: ForeignLayout, *, seed: int = 0, noise_free: bool = False) -> ForeignDataset:
     """Simulate a dataset and write it in a foreign layout with its manifest.
 
     Parameters
@@ -372,6 +373,9 @@ def write_foreign_dataset(out, layout: ForeignLayout, *, seed: int = 0) -> Forei
         How the files are written (:data:`LAYOUTS` names one per option).
     seed : int
         Seed of the sensor errors (each run draws from a child seed).
+    noise_free : bool
+        Readings without sensor errors (no bias, no noise): the files hold the
+        true specific force and angular rate, for tests with exact answers.
 
     Returns
     -------
@@ -417,7 +421,7 @@ def write_foreign_dataset(out, layout: ForeignLayout, *, seed: int = 0) -> Forei
             (stage / "truth").mkdir()
         truth_cols = None
         for k, ((rec_id, split, group, motion, kw), child) in enumerate(zip(plan, seeds)):
-            data, raw, traj, begin = _simulate(layout, motion, kw, np.random.default_rng(child))
+            data, raw, traj, begin = _simulate(layout, motion, kw, np.random.default_rng(child), noise_free)
             f_file = _file_axes(data.f, layout.axes) / _ACCEL[layout.accel_unit]
             w_file = _file_axes(data.omega, layout.axes) / _GYRO[layout.gyro_unit]
             imu_file = stage / "imu" / f"{rec_id}.{layout.format}"

@@ -1,0 +1,532 @@
+"""The methods on a manifest dataset, each estimate held against the recording's truth.
+
+:func:`evaluate_dataset` runs, on every recording of a
+:class:`~morpi_filters.manifest.Dataset` (``morpi evaluate --dataset FILE``):
+
+Methods
+    ``"INS-3D"`` and ``"INS-2D"`` (:func:`~morpi_filters.strapdown.ins3d`,
+    :func:`~morpi_filters.strapdown.ins2d`) from the recording's first sample
+    to its last, on its own time steps, level start (identity attitude),
+    gravity :data:`morpi_filters.units.G0`; ``"MoRPI-A"`` and ``"MoRPI-G"``
+    (:func:`~morpi_filters.steps.extract_steps` with the step rule
+    :data:`morpi_filters.steps.DEFAULT_CONFIGS`, the rule
+    :func:`morpi_filters.field.select_config` chose on the MoRPI train runs;
+    it is not searched again here) only on ``motion = "periodic"``.
+Calibrations
+    ``"RD"`` always; ``"GC"`` and ``"GAC"`` (:func:`~morpi_filters.calibration.calibrate`,
+    gravity ``G0``) when the recording has a rest window: ``rest = [t0, t1]``
+    as given, ``"auto"`` as :func:`~morpi_filters.calibration.detect_rest`
+    finds it; ``"none"`` (or no rest found) gives RD only, listed in
+    :attr:`DatasetEvaluation.left_out` with the reason.
+Gains (train only)
+    The Weinberg gain of each group, method and calibration is
+    :func:`~morpi_filters.steps.train_gain` (the function the MoRPI tables
+    train with) over the group's ``train`` recordings with periodic motion;
+    a group without any takes every ``train`` recording of the dataset.
+    Each train run's distance is its route's ``distance_m`` or its truth
+    track's horizontal path length over the recording. No ``test``
+    recording is read for any choice.
+Initial state
+    ``initial = "rest"``: velocity zero, heading zero (the navigation x axis
+    is the body's heading at the first sample, as in the tables).
+    ``initial = "truth"``: the velocity is the truth track's over the first
+    moments (the difference of the truth positions one truth interval on
+    each side of the recording's first sample, or after it where the track
+    starts there), its direction the initial heading.
+Alignment (the truth's frame)
+    A route's frame is the navigation frame itself (origin at the start, x
+    along the body's heading at the start). A truth track is in a local ENU
+    frame: each estimate is turned by the truth's course and put, at its
+    first time, on the truth's position at that time. The course is, for
+    ``initial = "truth"``, the direction of the initial velocity above; for
+    ``initial = "rest"``, the direction from the truth at the first sample to
+    the first truth position ``course_m`` (default :data:`COURSE_M`) away
+    horizontally.
+
+Metrics, per recording, method and calibration (horizontal, in metres)
+    ``end_error_m`` (estimate's last point against the route's end point or
+    the truth at the estimate's last time); ``end_error_percent`` (of the
+    route's distance, or of the truth track's horizontal path length over the
+    estimate's time span); ``path_rmse_m`` (the error at the truth samples
+    inside the estimate's time span, the estimate interpolated linearly in
+    time; None for route truth); ``cross_track_rmse_m`` (distance of the
+    estimate's points, at the truth samples for a track, to the truth's
+    polyline: the route's, its start to end point without one); and
+    ``distance_error_percent`` (the estimate's horizontal path length minus
+    the truth's, in percent of the truth's; for a track both sampled at the
+    truth samples inside the span and the span's ends).
+"""
+from __future__ import annotations
+
+import math
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import steps as st
+from .calibration import RestWindow, calibrate, detect_rest
+from .errors import MorpiError, ParameterError
+from .manifest import Dataset, RouteTruth, TruthTrack
+from .strapdown import ins2d, ins3d
+from .units import G0
+
+__all__ = ["COURSE_M", "METHODS", "CALIBRATIONS", "METRICS", "EstimatedPath", "DatasetEvaluation",
+           "evaluate_dataset", "path_metrics"]
+
+#: Horizontal distance over which the truth's course gives the heading of a start at rest [m].
+COURSE_M = 0.3
+#: The methods, in the page's order.
+METHODS = ("INS-3D", "INS-2D", "MoRPI-A", "MoRPI-G")
+#: The calibrations, in the page's order.
+CALIBRATIONS = ("RD", "GC", "GAC")
+#: The metrics of each estimate.
+METRICS = ("end_error_m", "end_error_percent", "path_rmse_m", "cross_track_rmse_m", "distance_error_percent")
+
+
+@dataclass(frozen=True, eq=False)
+class EstimatedPath:
+    """One method's estimate of one recording, in the truth's frame, with its metrics.
+
+    Attributes
+    ----------
+    id, split, group : str
+        The recording's labels.
+    method, calibration : str
+        ``"INS-3D"`` ... ``"MoRPI-G"``; ``"RD"``, ``"GC"`` or ``"GAC"``.
+    time : ndarray, shape (k,)
+        Times of the estimate's points on the IMU clock [s].
+    xy : ndarray, shape (k, 2)
+        Horizontal positions in the truth frame's first two axes [m].
+    metrics : dict
+        :data:`METRICS` -> float or None.
+    """
+
+    id: str
+    split: str
+    group: str
+    method: str
+    calibration: str
+    time: np.ndarray
+    xy: np.ndarray
+    metrics: dict
+
+
+@dataclass(frozen=True, eq=False)
+class DatasetEvaluation:
+    """What :func:`evaluate_dataset` found on a dataset.
+
+    Attributes
+    ----------
+    name, source : str
+        The dataset's name and manifest file.
+    count : int
+        Recordings in the dataset.
+    paths : tuple of EstimatedPath
+        In the manifest's order, then :data:`METHODS`, then :data:`CALIBRATIONS`.
+    choices : dict
+        Every train-only choice: ``rule`` (per MoRPI method, the step rule and
+        where it comes from) and ``gains`` (one entry per group, method and
+        calibration: mean, std, per run, the train recordings and those left
+        out).
+    groups : tuple of dict
+        Per group, method and calibration, the mean of each metric over
+        :attr:`groups_over` recordings, and their count.
+    groups_over : str
+        ``"test"`` (the dataset has test recordings) or ``"all"``.
+    left_out : tuple of dict
+        ``id``, ``what`` (methods or calibrations) and ``why``.
+    course_m : float
+        The course distance of a start at rest [m].
+    starts : tuple of dict
+        Per recording: ``id``, ``initial``, ``rest`` window [s from the first
+        sample] or None, ``course_deg`` (the truth's course, counter-clockwise
+        from the truth frame's x axis; None for a route), ``speed_mps``
+        (initial speed) and how they were found (``how``).
+    """
+
+    name: str
+    source: str
+    count: int
+    paths: tuple
+    choices: dict
+    groups: tuple
+    groups_over: str
+    left_out: tuple
+    course_m: float
+    starts: tuple
+
+    def to_json(self, track_files: dict | None = None) -> dict:
+        """The result as JSON values.
+
+        Parameters
+        ----------
+        track_files : dict, optional
+            ``(id, method, calibration)`` -> the track file's path relative to
+            the output folder; without it every ``track_file`` is None.
+
+        Returns
+        -------
+        dict
+            ``dataset`` (``name``, ``manifest``, ``count``), ``choices``,
+            ``recordings`` (one row per estimate: ``id``, ``split``, ``group``,
+            ``method``, ``calibration``, ``estimate`` (None), the metrics,
+            ``track_file``), ``groups`` (with ``over``), ``left_out``, ``starts``
+            and ``course_m``.
+        """
+        from pathlib import Path
+
+        files = track_files or {}
+        rows = [{"id": p.id, "split": p.split, "group": p.group, "method": p.method, "calibration": p.calibration,
+                 "estimate": None, **p.metrics, "track_file": files.get((p.id, p.method, p.calibration))}
+                for p in self.paths]
+        return {"dataset": {"name": self.name, "manifest": Path(self.source).name, "count": self.count},
+                "choices": self.choices, "recordings": rows,
+                "groups": {"over": self.groups_over, "rows": list(self.groups)},
+                "left_out": list(self.left_out), "starts": list(self.starts), "course_m": self.course_m}
+
+
+# --------------------------------------------------------------------------- geometry
+
+def _rot(psi: float) -> np.ndarray:
+    c, s = math.cos(psi), math.sin(psi)
+    return np.array([[c, -s], [s, c]])
+
+
+def _length(xy: np.ndarray) -> float:
+    return float(np.sum(np.hypot(*np.diff(xy, axis=0).T))) if xy.shape[0] > 1 else 0.0
+
+
+def _to_polyline(points: np.ndarray, line: np.ndarray) -> np.ndarray:
+    """Horizontal distance of each point (m, 2) to the polyline (k, 2) [m]."""
+    if line.shape[0] == 1:
+        return np.hypot(*(points - line[0]).T)
+    a, b = line[:-1], line[1:]
+    d = b - a
+    dd = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
+    out = np.empty(points.shape[0])
+    for i0 in range(0, points.shape[0], 512):
+        p = points[i0:i0 + 512, None, :]
+        u = np.clip(np.einsum("mkj,kj->mk", p - a, d) / dd, 0.0, 1.0)
+        near = a + u[..., None] * d
+        out[i0:i0 + 512] = np.sqrt(np.min(np.sum((p - near) ** 2, axis=-1), axis=1))
+    return out
+
+
+def path_metrics(time, xy, truth) -> dict:
+    """The metrics of an estimate in the truth's frame against its truth.
+
+    Parameters
+    ----------
+    time : array_like, shape (k,)
+        Increasing times of the estimate's points on the IMU clock [s].
+    xy : array_like, shape (k, 2)
+        Horizontal positions in the truth frame's first two axes [m].
+    truth : RouteTruth or TruthTrack
+        The recording's truth.
+
+    Returns
+    -------
+    dict
+        :data:`METRICS` -> float (``path_rmse_m`` None for a route), as the
+        module docstring defines them.
+
+    Examples
+    --------
+    An estimate running 1 m to the left of a straight 10 m route, ending 1 m short:
+
+    >>> route = RouteTruth(distance_m=10.0, end_point_m=np.array([10.0, 0.0]))
+    >>> m = path_metrics([0.0, 1.0], [[0.0, 1.0], [9.0, 1.0]], route)
+    >>> round(m["end_error_m"], 6), m["path_rmse_m"], round(m["distance_error_percent"], 6)
+    (1.414214, None, -10.0)
+    """
+    t = np.asarray(time, dtype=float)
+    xy = np.asarray(xy, dtype=float)
+    if isinstance(truth, RouteTruth):
+        line = truth.polyline_m if truth.polyline_m is not None else np.array([[0.0, 0.0], truth.end_point_m])
+        dist = float(truth.distance_m)
+        end = float(np.hypot(*(xy[-1] - truth.end_point_m)))
+        cross = _to_polyline(xy, np.asarray(line, float))
+        return {"end_error_m": end, "end_error_percent": 100.0 * end / dist, "path_rmse_m": None,
+                "cross_track_rmse_m": float(np.sqrt(np.mean(cross ** 2))),
+                "distance_error_percent": 100.0 * (_length(xy) - dist) / dist}
+    inside = (truth.time >= t[0]) & (truth.time <= t[-1])
+    tt = truth.time[inside]
+    ref = truth.position[inside, :2]
+    est = np.column_stack([np.interp(tt, t, xy[:, 0]), np.interp(tt, t, xy[:, 1])])
+    err = np.hypot(*(est - ref).T)
+    # both paths over the span: the truth samples inside it and the span's ends
+    ts = np.r_[t[0], tt, t[-1]]
+    ref_full = truth.at(ts)[:, :2]
+    est_full = np.column_stack([np.interp(ts, t, xy[:, 0]), np.interp(ts, t, xy[:, 1])])
+    dist = _length(ref_full)
+    end = float(np.hypot(*(xy[-1] - ref_full[-1])))
+    cross = _to_polyline(est_full, ref_full)
+    pct = (lambda v: 100.0 * v / dist) if dist > 0 else (lambda v: float("nan"))
+    return {"end_error_m": end, "end_error_percent": pct(end),
+            "path_rmse_m": float(np.sqrt(np.mean(err ** 2))) if err.size else None,
+            "cross_track_rmse_m": float(np.sqrt(np.mean(cross ** 2))),
+            "distance_error_percent": pct(_length(est_full) - dist)}
+
+
+# --------------------------------------------------------------------------- per recording
+
+def _rest_window(dr):
+    """(RestWindow or None, why not)."""
+    rec = dr.recording
+    if dr.rest == "none":
+        return None, "rest = \"none\": no rest window"
+    if isinstance(dr.rest, tuple):
+        t = rec.time - rec.time[0]
+        i0 = int(np.searchsorted(t, dr.rest[0]))
+        i1 = int(np.searchsorted(t, dr.rest[1], side="right"))
+        return RestWindow(float(rec.time[i0]), float(rec.time[i1 - 1]), i0, i1, "given"), ""
+    try:
+        return detect_rest(rec), ""
+    except MorpiError as exc:
+        return None, f"rest = \"auto\": no rest window found ({exc})"
+
+
+def _start(dr, course_m: float) -> dict:
+    """Initial velocity (navigation frame), the truth frame's turn and origin, and what was used."""
+    rec, truth = dr.recording, dr.truth
+    t0 = float(rec.time[0])
+    if isinstance(truth, RouteTruth):
+        return {"v0": np.zeros(3), "psi": 0.0, "how": "route frame (x along the heading at the start)",
+                "course_deg": None, "speed_mps": 0.0}
+    if dr.initial == "truth":
+        h = truth.interval
+        a = max(t0 - h, float(truth.time[0]))
+        b = a + 2 * h if a < t0 - 0.5 * h else t0 + h
+        pa, pb = truth.at([a, b])
+        v = (pb - pa) / (b - a)
+        psi = math.atan2(v[1], v[0])
+        c, s = math.cos(psi), math.sin(psi)
+        v0 = np.array([c * v[0] + s * v[1], -s * v[0] + c * v[1], v[2]])
+        return {"v0": v0, "psi": psi, "course_deg": math.degrees(psi), "speed_mps": float(np.hypot(v[0], v[1])),
+                "how": f"truth velocity over [{a - t0:.4g}, {b - t0:.4g}] s from the first sample"}
+    p0 = truth.at([t0])[0, :2]
+    later = truth.time > t0
+    away = np.hypot(*(truth.position[later, :2] - p0).T) >= course_m
+    if not away.any():
+        raise MorpiError(f"the truth track never moves {course_m:g} m from its position at the first sample")
+    k = int(np.argmax(away))
+    q = truth.position[later][k, :2]
+    psi = math.atan2(q[1] - p0[1], q[0] - p0[0])
+    return {"v0": np.zeros(3), "psi": psi, "course_deg": math.degrees(psi), "speed_mps": 0.0,
+            "how": f"truth course over its first {course_m:g} m (reached {float(truth.time[later][k]) - t0:.4g} s "
+                   "after the first sample)"}
+
+
+def _place(start: dict, truth, t_first: float, xy: np.ndarray) -> np.ndarray:
+    """Navigation-frame positions (origin at the estimate's first point) in the truth's frame."""
+    out = xy @ _rot(start["psi"]).T
+    if isinstance(truth, TruthTrack):
+        out = out + truth.at([t_first])[0, :2]
+    return out
+
+
+def _steps(crec, method, window):
+    return st.extract_steps(crec, method, st.DEFAULT_CONFIGS[method],
+                            rest_end_time=None if window is None else window.end_s)
+
+
+def _prepare(dr, course_m):
+    """Per recording: rest window, calibrated recordings, start; or the reason it cannot be evaluated."""
+    window, why = _rest_window(dr)
+    cals = {"RD": dr.recording}
+    if window is not None:
+        for mode in ("GC", "GAC"):
+            cals[mode] = calibrate(dr.recording, mode, window=window, g_local=G0).apply(dr.recording)
+    return {"window": window, "why": why, "cals": cals, "start": _start(dr, course_m)}
+
+
+def _distance(dr) -> float:
+    if isinstance(dr.truth, RouteTruth):
+        return float(dr.truth.distance_m)
+    t = dr.recording.time
+    inside = (dr.truth.time > t[0]) & (dr.truth.time < t[-1])
+    return _length(dr.truth.at(np.r_[t[0], dr.truth.time[inside], t[-1]])[:, :2])
+
+
+def _train_gains(dataset, prepared) -> tuple[dict, list]:
+    """Gains per (group, method, calibration) from the train recordings only; their JSON entries."""
+    train = [dr for dr in dataset.recordings
+             if dr.split == "train" and dr.motion == "periodic" and "error" not in prepared[dr.id]]
+    groups = list(dict.fromkeys(dr.group for dr in dataset.recordings))
+    weights = {}
+    for dr in train:
+        for mode, crec in prepared[dr.id]["cals"].items():
+            for method in ("MoRPI-A", "MoRPI-G"):
+                try:
+                    weights[dr.id, method, mode] = _steps(crec, method, prepared[dr.id]["window"]).effective_weight
+                except MorpiError as exc:
+                    weights[dr.id, method, mode] = str(exc)
+    gains, entries = {}, []
+    for group in groups:
+        members = [dr for dr in train if dr.group == group]
+        scope = "group"
+        if not members:
+            members, scope = train, "dataset (no train recording in the group)"
+        for method in ("MoRPI-A", "MoRPI-G"):
+            for mode in CALIBRATIONS:
+                used = [dr for dr in members if isinstance(weights.get((dr.id, method, mode)), float)]
+                skipped = [{"id": dr.id, "why": weights.get((dr.id, method, mode)) or f"no {mode} (no rest window)"}
+                           for dr in members if dr not in used]
+                entry = {"group": group, "method": method, "calibration": mode, "from": scope,
+                         "train": [dr.id for dr in used], "skipped": skipped, "mean": None, "std": None,
+                         "per_run": []}
+                if used:
+                    mean, std, per = st.train_gain([weights[dr.id, method, mode] for dr in used],
+                                                   [_distance(dr) for dr in used])
+                    gains[group, method, mode] = mean
+                    entry.update(mean=mean, std=std, per_run=[float(g) for g in per])
+                entries.append(entry)
+    return gains, entries
+
+
+def _evaluate_one(dr, prep, gains) -> tuple[list, list]:
+    rec, truth, start = dr.recording, dr.truth, prep["start"]
+    paths, left = [], []
+    label = dict(id=dr.id, split=dr.split, group=dr.group)
+    for mode, crec in prep["cals"].items():
+        t = crec.time
+        for method in ("INS-3D", "INS-2D"):
+            run = (ins3d(t, crec.f, crec.omega, v0=start["v0"], g=G0) if method == "INS-3D"
+                   else ins2d(t, crec.f, crec.omega, v0=start["v0"]))
+            xy = _place(start, truth, float(t[0]), np.asarray(run.position)[:, :2])
+            paths.append(EstimatedPath(**label, method=method, calibration=mode, time=t, xy=xy,
+                                       metrics=path_metrics(t, xy, truth)))
+        if dr.motion != "periodic":
+            continue
+        for method in ("MoRPI-A", "MoRPI-G"):
+            gain = gains.get((dr.group, method, mode))
+            if gain is None:
+                left.append({"id": dr.id, "what": f"{method} {mode}", "why": "no gain: no train recording gave one"})
+                continue
+            try:
+                s = _steps(crec, method, prep["window"])
+            except MorpiError as exc:
+                left.append({"id": dr.id, "what": f"{method} {mode}", "why": str(exc)})
+                continue
+            track = st.morpi_track(s, gain)
+            tm = np.r_[s.start_time[:1], s.end_time]
+            xy = _place(start, truth, float(tm[0]), track.position)
+            paths.append(EstimatedPath(**label, method=method, calibration=mode, time=tm, xy=xy,
+                                       metrics=path_metrics(tm, xy, truth)))
+    order = {(m, c): i for i, (m, c) in enumerate((m, c) for m in METHODS for c in CALIBRATIONS)}
+    paths.sort(key=lambda p: order[p.method, p.calibration])
+    if prep["window"] is None:
+        left.insert(0, {"id": dr.id, "what": "GC, GAC", "why": prep["why"]})
+    if dr.motion != "periodic":
+        left.append({"id": dr.id, "what": "MoRPI-A, MoRPI-G", "why": f"motion = {dr.motion!r}: no periodic motion"})
+    return paths, left
+
+
+def _group_means(paths, over: str) -> tuple:
+    out = {}
+    for p in paths:
+        if over == "test" and p.split != "test":
+            continue
+        out.setdefault((p.group, p.method, p.calibration), []).append(p)
+    rows = []
+    for (group, method, mode), ps in out.items():
+        row = {"group": group, "method": method, "calibration": mode, "n": len(ps)}
+        for key in METRICS:
+            vals = [p.metrics[key] for p in ps if p.metrics[key] is not None and math.isfinite(p.metrics[key])]
+            row[key] = float(np.mean(vals)) if vals else None
+        rows.append(row)
+    return tuple(rows)
+
+
+def evaluate_dataset(dataset: Dataset, *, course_m: float = COURSE_M, workers: int | None = None,
+                     progress=None) -> DatasetEvaluation:
+    """Every method and calibration on every recording of a manifest dataset, against its truth.
+
+    Parameters
+    ----------
+    dataset : Dataset
+        From :func:`morpi_filters.manifest.load_dataset` or
+        :meth:`~morpi_filters.manifest.Dataset.from_arrays`.
+    course_m : float
+        Horizontal distance over which the truth's course gives the heading
+        of a track recording that starts at rest [m].
+    workers : int, optional
+        Threads that evaluate the recordings (default 1); the result does
+        not depend on it.
+    progress : morpi_filters.parallel.Progress, optional
+        Counts one run per recording.
+
+    Returns
+    -------
+    DatasetEvaluation
+        The estimates with their metrics, the train-only choices, the group
+        means and what was left out (module docstring).
+
+    Raises
+    ------
+    ParameterError
+        A bad `course_m` or `workers`. (A recording whose truth track never
+        moves `course_m` from its start, with ``initial = "rest"``, is listed
+        in ``left_out`` and not evaluated.)
+
+    Examples
+    --------
+    A level robot at rest for 2 s, then 1 m/s^2 forward for 2 s (2 m), with
+    its route:
+
+    >>> t = np.arange(401) / 100.0
+    >>> f = np.tile([0.0, 0.0, G0], (401, 1)); f[t > 2.0, 0] = 1.0
+    >>> ds = Dataset.from_arrays("bench", [{"id": "a", "time": t, "f": f, "omega": np.zeros((401, 3)),
+    ...     "motion": "straight", "rest": [0.0, 1.5],
+    ...     "truth": RouteTruth(distance_m=2.0, end_point_m=np.array([2.0, 0.0]))}])
+    >>> r = evaluate_dataset(ds)
+    >>> [(p.method, p.calibration) for p in r.paths][:3], round(r.paths[0].metrics["end_error_m"], 2)
+    ([('INS-3D', 'RD'), ('INS-3D', 'GC'), ('INS-3D', 'GAC')], 0.01)
+    """
+    if not (isinstance(course_m, (int, float)) and math.isfinite(course_m) and course_m > 0):
+        raise ParameterError(f"course_m: {course_m!r}, expected a positive distance in metres")
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
+        raise ParameterError(f"workers: {workers!r}, expected a positive whole number")
+    where = dataset.source
+
+    def prepare(dr):
+        try:
+            return _prepare(dr, course_m)
+        except MorpiError as exc:           # no start to align with: the recording is listed, not evaluated
+            return {"error": f"{where}: recording {dr.id!r}: {exc}"}
+
+    with ThreadPoolExecutor(max_workers=workers or 1) as pool:
+        prepared = dict(zip((dr.id for dr in dataset.recordings), pool.map(prepare, dataset.recordings)))
+        gains, entries = _train_gains(dataset, prepared)
+
+        def one(dr):
+            prep = prepared[dr.id]
+            return (([], [{"id": dr.id, "what": "every method", "why": prep["error"]}]) if "error" in prep
+                    else _evaluate_one(dr, prep, gains))
+
+        results = []
+        for out in pool.map(one, dataset.recordings):      # in order; the progress line from this thread
+            results.append(out)
+            if progress is not None:
+                progress.update(1)
+    paths = tuple(p for ps, _ in results for p in ps)
+    left = tuple(x for _, lo in results for x in lo)
+    over = "test" if any(dr.split == "test" for dr in dataset.recordings) else "all"
+    rule = {m: {"config": {k: v for k, v in vars(st.DEFAULT_CONFIGS[m]).items()},
+                "from": "steps.DEFAULT_CONFIGS: the rule field.select_config chose on the MoRPI field train runs; "
+                        "not searched on this dataset"} for m in ("MoRPI-A", "MoRPI-G")}
+    starts = []
+    for dr in dataset.recordings:
+        prep = prepared[dr.id]
+        if "error" in prep:
+            continue
+        w = prep["window"]
+        t0 = float(dr.recording.time[0])
+        starts.append({"id": dr.id, "initial": dr.initial,
+                       "rest": None if w is None else [w.start_s - t0, w.end_s - t0],
+                       "course_deg": prep["start"]["course_deg"], "speed_mps": prep["start"]["speed_mps"],
+                       "how": prep["start"]["how"]})
+    return DatasetEvaluation(name=dataset.name, source=dataset.source, count=len(dataset), paths=paths,
+                             choices={"rule": rule, "gains": entries}, groups=_group_means(paths, over),
+                             groups_over=over, left_out=left, course_m=float(course_m), starts=tuple(starts))

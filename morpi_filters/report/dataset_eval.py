@@ -1,0 +1,113 @@
+"""The page of ``morpi evaluate --dataset``: README.md, result.json and every estimated path as CSV."""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from ..dataset_eval import CALIBRATIONS, METHODS, METRICS, DatasetEvaluation
+from ..reporting import SectionSummary, write_json, write_text
+from .common import fmt, md_table
+
+__all__ = ["report_dataset_evaluation", "track_file_name"]
+
+
+def track_file_name(rec_id: str, method: str, calibration: str) -> str:
+    """Where an estimated path is written, relative to the output folder.
+
+    Parameters
+    ----------
+    rec_id, method, calibration : str
+        The recording's id (characters other than letters, digits, ``.``,
+        ``_`` and ``-`` become ``_``), the method and the calibration.
+
+    Returns
+    -------
+    str
+        ``tracks/<id>/<method>_<calibration>.csv``.
+
+    Examples
+    --------
+    >>> track_file_name("run 1", "INS-3D", "GC")
+    'tracks/run_1/INS-3D_GC.csv'
+    """
+    safe = re.sub(r"[^A-Za-z0-9._-]", "_", rec_id).lstrip(".") or "_"
+    return f"tracks/{safe}/{method}_{calibration}.csv"
+
+
+def _metric(v) -> str:
+    return "-" if v is None else fmt(v, 3)
+
+
+def report_dataset_evaluation(out, result: DatasetEvaluation) -> SectionSummary:
+    """Write the evaluation of a manifest dataset into folder `out`.
+
+    Files: ``README.md`` (per group, every method and calibration side by
+    side; the starts, the train-only choices and what was left out),
+    ``result.json`` (:meth:`DatasetEvaluation.to_json` with the track files)
+    and ``tracks/<id>/<method>_<calibration>.csv`` (columns ``time,x,y``:
+    seconds on the IMU clock, metres in the truth frame's first two axes).
+
+    Parameters
+    ----------
+    out : path-like
+        Staging folder.
+    result : DatasetEvaluation
+        What :func:`morpi_filters.dataset_eval.evaluate_dataset` found.
+
+    Returns
+    -------
+    reporting.SectionSummary
+        Name ``"evaluate"``, page ``README.md``.
+    """
+    out = Path(out)
+    files = {}
+    for p in result.paths:
+        rel = track_file_name(p.id, p.method, p.calibration)
+        files[p.id, p.method, p.calibration] = rel
+        path = out / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        lines = ["time,x,y"] + [f"{t!r},{x!r},{y!r}" for t, (x, y) in
+                                zip(p.time.tolist(), p.xy.tolist())]
+        write_text(path, "\n".join(lines) + "\n")
+    write_json(out / "result.json", result.to_json(files))
+
+    over = ("the test recordings" if result.groups_over == "test"
+            else "all recordings (the dataset has no test split)")
+    L = [f"# Evaluation of the dataset {result.name!r}", "",
+         f"Manifest `{Path(result.source).name}`, {result.count} recording(s). Every estimate is compared in the "
+         "truth's frame: a route's frame, or the truth track's local ENU frame with the estimate turned by the "
+         "truth's course and put on the truth's position at its first time. The course: for a start at rest, "
+         f"over the truth's first {result.course_m:g} m from its position at the first sample; for "
+         "`initial = \"truth\"`, the direction of the truth velocity over the first moments (one truth interval "
+         "on each side of the first sample).", "",
+         f"Group means over {over}. Errors in metres and in percent of the route's distance or the truth "
+         "track's horizontal path length; `path RMSE` only for truth tracks.", ""]
+    groups = list(dict.fromkeys(g["group"] for g in result.groups))
+    heads = ["method", "calibration", "n", "end error [m]", "end error [%]", "path RMSE [m]",
+             "cross-track RMSE [m]", "distance error [%]"]
+    order = {(m, c): i for i, (m, c) in enumerate((m, c) for m in METHODS for c in CALIBRATIONS)}
+    for group in groups:
+        rows = sorted((g for g in result.groups if g["group"] == group),
+                      key=lambda g: order[g["method"], g["calibration"]])
+        L += [f"## Group {group}", "",
+              md_table(heads, [[g["method"], g["calibration"], g["n"], *(_metric(g[k]) for k in METRICS)]
+                               for g in rows])]
+    L += ["## Every recording", "",
+          md_table(["id", "split", "group", "method", "calibration", *heads[3:], "track"],
+                   [[p.id, p.split, p.group, p.method, p.calibration, *(_metric(p.metrics[k]) for k in METRICS),
+                     f"[csv]({files[p.id, p.method, p.calibration]})"] for p in result.paths]),
+          "## Starts", "",
+          md_table(["id", "initial", "rest window [s]", "course [deg]", "speed [m/s]", "how"],
+                   [[s["id"], s["initial"], "-" if s["rest"] is None else f"{s['rest'][0]:.3g} to {s['rest'][1]:.3g}",
+                     _metric(s["course_deg"]), fmt(s["speed_mps"], 3), s["how"]] for s in result.starts]),
+          "## Train-only choices", "",
+          "Step rules: " + "; ".join(f"{m}: {c['from']}" for m, c in result.choices["rule"].items()) + ".", "",
+          md_table(["group", "method", "calibration", "gain", "std", "from", "train recordings"],
+                   [[e["group"], e["method"], e["calibration"], _metric(e["mean"]), _metric(e["std"]), e["from"],
+                     ", ".join(e["train"]) or "none"] for e in result.choices["gains"]]),
+          "## Left out", ""]
+    L += ([md_table(["id", "what", "why"], [[x["id"], x["what"], x["why"]] for x in result.left_out])]
+          if result.left_out else ["Nothing.", ""])
+    write_text(out / "README.md", "\n".join(L))
+    return SectionSummary(name="evaluate", title=f"Evaluation of {result.name}", page="README.md",
+                          summary=f"{len(result.paths)} estimates on {result.count} recording(s).")

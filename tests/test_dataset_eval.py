@@ -1,0 +1,151 @@
+"""``morpi evaluate --dataset``: the methods on simulated manifest datasets against the simulator's truth, the
+reported metrics against an independent computation from the written files, and the train-only choices."""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from morpi_filters.cli import main
+from morpi_filters.dataset_eval import evaluate_dataset
+from morpi_filters.foreign import LAYOUTS, write_foreign_dataset
+from morpi_filters.manifest import Dataset, load_dataset
+
+
+def _given_rest(manifest: Path) -> None:
+    """Give every recording the rest window [0.1, 1.8] s (the simulator rests for 2 s): on noiseless readings
+    the automatic detection has no noise to scale its thresholds by and runs into the start of the motion."""
+    text = manifest.read_text().replace('\nrest = [0.1, 1.8]', '')
+    manifest.write_text(text.replace('motion = "', 'rest = [0.1, 1.8]\nmotion = "'))
+
+
+def test_noise_free_ins_paths_lie_within_a_centimetre_of_the_truth_track(tmp_path):
+    ds = write_foreign_dataset(tmp_path / "nf", LAYOUTS["truth-ned"], noise_free=True)
+    _given_rest(ds.manifest)
+    result = evaluate_dataset(load_dataset(ds.manifest), course_m=0.05)
+    ins = [p for p in result.paths if p.method.startswith("INS")]
+    assert len(ins) == 2 * 2 * 3                  # two recordings, two INS, three calibrations
+    worst = max(p.metrics["path_rmse_m"] for p in ins)
+    assert worst < 0.01, worst
+    assert all(p.metrics["end_error_m"] < 0.02 for p in ins)
+
+
+def test_noise_free_runs_that_start_moving_take_their_velocity_from_the_truth_track(tmp_path):
+    ds = write_foreign_dataset(tmp_path / "nf", LAYOUTS["moving-start"], noise_free=True)
+    data = load_dataset(ds.manifest)
+    assert {dr.initial for dr in data.recordings} == {"truth"}
+    result = evaluate_dataset(data)
+    assert len(result.paths) == 2 * 2 and all(s["speed_mps"] > 0.3 for s in result.starts)
+    worst = max(p.metrics["path_rmse_m"] for p in result.paths)
+    assert worst < 0.01, worst
+
+
+def _segment_distance(p, a, b) -> float:
+    d = b - a
+    u = 0.0 if not d.any() else min(1.0, max(0.0, float((p - a) @ d) / float(d @ d)))
+    return float(np.linalg.norm(p - (a + u * d)))
+
+
+def _polyline_distance(p, line) -> float:
+    return min(_segment_distance(p, line[i], line[i + 1]) for i in range(len(line) - 1))
+
+
+def test_reported_metrics_equal_a_computation_from_the_track_files_and_the_truth_file(tmp_path, capsys):
+    ds = write_foreign_dataset(tmp_path / "data", LAYOUTS["truth-ned"], seed=3)
+    out = tmp_path / "eval"
+    assert main(["evaluate", "--dataset", str(ds.manifest), "--out", str(out), "--json",
+                 str(tmp_path / "r.json")]) == 0
+    result = json.loads((out / "result.json").read_text())
+    assert json.loads((tmp_path / "r.json").read_text()) == result
+    assert (out / "README.md").is_file()
+    rows = result["recordings"]
+    assert {r["method"] for r in rows} == {"INS-3D", "INS-2D"} and len(rows) == 12
+    for run in ds.runs:
+        imu_t0 = float(np.loadtxt(run.imu_file, delimiter=",", skiprows=1, max_rows=1)[0])
+        raw = np.loadtxt(run.truth_file, delimiter=",", skiprows=1)            # t, pos_n, pos_e, pos_d
+        tt = imu_t0 + LAYOUTS["truth-ned"].truth_offset_s + (raw[:, 0] - raw[0, 0])
+        east, north = raw[:, 2], raw[:, 1]
+        for row in (r for r in rows if r["id"] == run.id):
+            est = np.loadtxt(out / row["track_file"], delimiter=",", skiprows=1)
+            t, x, y = est[:, 0], est[:, 1], est[:, 2]
+            inside = (tt >= t[0]) & (tt <= t[-1])
+            ex, ey = np.interp(tt[inside], t, x), np.interp(tt[inside], t, y)
+            rmse = math.sqrt(np.mean((ex - east[inside]) ** 2 + (ey - north[inside]) ** 2))
+            # the truth over the estimate's span: its samples inside and the span's ends
+            ts = np.r_[t[0], tt[inside], t[-1]]
+            te, tn = np.interp(ts, tt, east), np.interp(ts, tt, north)
+            length = np.sum(np.hypot(np.diff(te), np.diff(tn)))
+            end = math.hypot(x[-1] - te[-1], y[-1] - tn[-1])
+            sx, sy = np.interp(ts, t, x), np.interp(ts, t, y)
+            est_length = np.sum(np.hypot(np.diff(sx), np.diff(sy)))
+            line = np.column_stack([te, tn])
+            cross = math.sqrt(np.mean([_polyline_distance(np.array([a, b]), line) ** 2 for a, b in zip(sx, sy)]))
+            assert row["path_rmse_m"] == pytest.approx(rmse, rel=1e-9, abs=1e-12)
+            assert row["end_error_m"] == pytest.approx(end, rel=1e-9, abs=1e-12)
+            assert row["end_error_percent"] == pytest.approx(100 * end / length, rel=1e-9, abs=1e-12)
+            assert row["distance_error_percent"] == pytest.approx(100 * (est_length - length) / length, rel=1e-9,
+                                                                  abs=1e-12)
+            assert row["cross_track_rmse_m"] == pytest.approx(cross, rel=1e-9, abs=1e-12)
+            assert row["estimate"] is None and row["track_file"] == f"tracks/{run.id}/{row['method']}_" \
+                                                                    f"{row['calibration']}.csv"
+
+
+def test_a_recording_without_rest_gets_raw_data_only_and_is_listed(tmp_path):
+    ds = write_foreign_dataset(tmp_path / "moving", LAYOUTS["moving-start"], seed=1)
+    data = load_dataset(ds.manifest)
+    assert {dr.rest for dr in data.recordings} == {"none"}
+    result = evaluate_dataset(data)
+    assert result.paths and {p.calibration for p in result.paths} == {"RD"}
+    listed = {x["id"]: x for x in result.left_out if x["what"] == "GC, GAC"}
+    assert set(listed) == {dr.id for dr in data.recordings}
+    assert all("none" in x["why"] for x in listed.values())
+
+
+def _corrupted(dr):
+    rec = dr.recording
+    bad = replace(rec, f=rec.f * np.array([1.3, -0.7, 1.0]) + 0.2, omega=rec.omega * 2.0 + 0.05)
+    return replace(dr, recording=bad)
+
+
+def test_corrupting_every_test_recording_leaves_the_choices_unchanged(tmp_path):
+    ds = write_foreign_dataset(tmp_path / "groups", LAYOUTS["groups"], seed=2)
+    data = load_dataset(ds.manifest)
+    assert {dr.split for dr in data.recordings} == {"train", "test"}
+    clean = evaluate_dataset(data)
+    dirty = evaluate_dataset(Dataset(name=data.name, source=data.source,
+                                     recordings=[_corrupted(dr) if dr.split == "test" else dr
+                                                 for dr in data.recordings]))
+    assert any(g["mean"] is not None for g in clean.choices["gains"])
+    assert json.dumps(dirty.choices, sort_keys=True) == json.dumps(clean.choices, sort_keys=True)
+    assert clean.groups_over == "test"
+    # the corruption is seen where it may be: on the test rows
+    before = {(p.id, p.method, p.calibration): p.metrics["end_error_m"] for p in clean.paths if p.split == "test"}
+    after = {(p.id, p.method, p.calibration): p.metrics["end_error_m"] for p in dirty.paths if p.split == "test"}
+    assert any(before[k] != after.get(k) for k in before)
+
+
+def test_evaluate_on_a_malformed_manifest_exits_2_with_one_line(tmp_path, capsys):
+    bad = tmp_path / "dataset.toml"
+    bad.write_text('format_version = 1\nname = "x"\n[[recording]]\nid = "a"\nimu = { file = "a.csv" }\n'
+                   'truth = { kind = "route", distance_m = 1.0, end_point_m = [1.0, 0.0] }\nspeed = 3\n')
+    assert main(["evaluate", "--dataset", str(bad), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "speed" in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_truth_track_that_never_moves_leaves_its_recording_out_with_the_reason():
+    from morpi_filters.manifest import TruthTrack
+
+    t = np.arange(400) / 100.0
+    still = {"time": t, "f": np.tile([0.0, 0.0, 9.81], (400, 1)), "omega": np.zeros((400, 3)),
+             "motion": "straight", "rest": [0.0, 1.0],
+             "truth": TruthTrack(time=t[::10], position=np.zeros((40, 3)))}
+    result = evaluate_dataset(Dataset.from_arrays("bench", [dict(still, id="a")]))
+    assert result.paths == ()
+    assert [(x["id"], x["what"]) for x in result.left_out] == [("a", "every method")]
+    assert "never moves" in result.left_out[0]["why"]
