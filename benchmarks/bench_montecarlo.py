@@ -44,7 +44,7 @@ TARGET = 4.0
 
 DRAWS = """
 import numpy as np
-runs, seed, n, chunk, head, training, training_seed = {runs}, {seed}, {n}, {chunk}, {head}, {training}, {tseed}
+runs, seed, n, chunk, head, training, training_key = {runs}, {seed}, {n}, {chunk}, {head}, {training}, {tkey}
 total = 0.0
 for a in range(0, runs, chunk):
     b = min(a + chunk, runs)
@@ -52,7 +52,7 @@ for a in range(0, runs, chunk):
     for r in range(a, b):
         np.random.Generator(np.random.PCG64(np.random.SeedSequence(seed, spawn_key=(r,)))).standard_normal(out=z[r - a])
     total += float(z[:, -1].sum())
-rng = np.random.Generator(np.random.PCG64(np.random.SeedSequence(training_seed)))
+rng = np.random.Generator(np.random.PCG64(np.random.SeedSequence(seed, spawn_key=(training_key,))))
 for a in range(0, training, 500):
     total += float(rng.standard_normal((min(500, training - a), 2, n))[:, 0, -1].sum())
 print(total)
@@ -105,7 +105,7 @@ def measure(pairs: int = 5, quick: bool = False, runs: int = 10_000, seed: int =
     n = mc._samples(duration, cfg.rate_hz)  # samples of a run, as the study draws them
     chunk = min(mc._default_chunk(n), runs)
     code = DRAWS.format(runs=runs, seed=seed, n=n, chunk=chunk, head=mc._N_HEAD,
-                        training=cfg.training_runs, tseed=mc._TRAINING_SEED)
+                        training=cfg.training_runs, tkey=mc.TRAINING_KEY)
     env_root = str(Path(__file__).resolve().parents[1])
     import os
 
@@ -126,7 +126,7 @@ def measure(pairs: int = 5, quick: bool = False, runs: int = 10_000, seed: int =
             mc._draw(seed, a, min(a + chunk, runs), n)
 
     cfgs = page_configs()
-    mc.reference_gains(cfgs[0])          # the training is cached per process: not part of either side here
+    mc.reference_gains(cfgs[0], seed)    # the training is cached per process: not part of either side here
     curves = (True,) + (False,) * (len(cfgs) - 1)           # as the page runs them
     inproc = paired(f"run_studies (the page's {len(cfgs)} studies, one pass) / per-run draws (in process)",
                     lambda: mc.run_studies(runs, seed, cfgs, progress=False, curves=curves), draws, pairs=pairs)

@@ -50,8 +50,10 @@ Matrices
     ``F, G, Q`` (continuous), ``Phi, Qd`` (discrete), ``H, R, P, x, z``
     (filter), as in filterpy and the INS literature.
 Randomness
-    Every random function takes ``rng`` (a :class:`numpy.random.Generator`);
-    nothing touches NumPy's global random state.
+    Every random function takes ``rng`` (a :class:`numpy.random.Generator`),
+    or a ``seed`` where a study spawns independent streams from one
+    :class:`numpy.random.SeedSequence`; nothing touches NumPy's global random
+    state, and a default seed is a named value in the signature.
 Errors
     Problems a user can cause (a bad file, a bad parameter) raise
     :class:`morpi_filters.errors.MorpiError` with a message that names the

@@ -281,6 +281,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--times", metavar="T", type=_Number(False, 0.0, MAX_CURVE_TIME, "s", above=_curve_estimate),
                    nargs="+",
                    help=f"evaluation times [s], at most {MAX_CURVE_TIME:g}")
+    s.add_argument("--seed", type=_seed(), default=None,
+                   help="seed of the Monte Carlo draws (default morpi_filters.curves.MC_SEED)")
     data_arg(s)
     partial_arg(s)
     out_args(s, "curves")
@@ -317,6 +319,8 @@ def build_parser() -> argparse.ArgumentParser:
     out_args(s, "montecarlo")
 
     s = sub.add_parser("drift", help="closed-form vs nonlinear strapdown drift")
+    s.add_argument("--seed", type=_seed(), default=None,
+                   help="seed of the bias draws (default morpi_filters.montecarlo.DRIFT_SEED)")
     s.add_argument("--scheduler", metavar="ADDRESS", help="run on a Dask cluster at this address")
     out_args(s, "drift")
 
@@ -334,7 +338,9 @@ def build_parser() -> argparse.ArgumentParser:
     partial_arg(s)
     s.add_argument("--out", metavar="DIR", type=_path("--out"), default=None,
                    help="report folder (default: reports/ with field data, reports/synthetic/ without)")
-    s.add_argument("--seed", type=_seed(), default=0, help="seed of the synthetic dataset and studies")
+    s.add_argument("--seed", type=_seed(), default=0,
+                   help="seed of the synthetic dataset and the Monte Carlo study (default 0; the curves and drift "
+                        "sections draw with their commands' default seeds)")
     s.add_argument("--runs", metavar="N", type=_runs(), default=2000,
                    help=f"Monte Carlo runs (default 2000, at most {MAX_RUNS})")
     _workers_arg(s)
@@ -342,6 +348,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 # ----------------------------------------------------------------------------- sections
+
+def _own_seed(name, args, default: int) -> int:
+    """The seed of section `name`: its own command's ``--seed`` when given, else `default` (the study's)."""
+    seed = getattr(args, "seed", None) if getattr(args, "command", None) == name else None
+    return default if seed is None else seed
+
 
 def _study(name, args, source=None, tables=None):
     """Run the study of one report section and return its frozen result.
@@ -364,16 +376,17 @@ def _study(name, args, source=None, tables=None):
         return assessment_study(params_path=getattr(args, "params", None), times=getattr(args, "times", None))
     if name == "curves":
         from .curves import curves_study
+        from .curves import MC_SEED
         return curves_study(params_path=getattr(args, "params", None), times=getattr(args, "times", None),
-                            source=source, tables=tables)
+                            source=source, tables=tables, seed=_own_seed(name, args, MC_SEED))
     if name == "montecarlo":
         from .montecarlo import gain_error_page
         return gain_error_page(runs=args.runs, seed=args.seed, chunk=getattr(args, "chunk", None),
                                scheduler=getattr(args, "scheduler", None), source=source, tables=tables,
                                duration=getattr(args, "duration", None), speed_mps=getattr(args, "speed", None))
     if name == "drift":
-        from .montecarlo import drift_page
-        return drift_page(scheduler=getattr(args, "scheduler", None))
+        from .montecarlo import DRIFT_SEED, drift_page
+        return drift_page(seed=_own_seed(name, args, DRIFT_SEED), scheduler=getattr(args, "scheduler", None))
     raise ValueError(name)
 
 

@@ -46,7 +46,7 @@ from .error_model import (
     DP, discretize, noise_coupling, noise_density, paper_trajectory, planar_noise_coupling,
     planar_noise_density, planar_system_matrix, simulate_linear, system_matrix,
 )
-from .errors import MorpiError
+from .errors import MorpiError, ParameterError
 from .eskf import (
     StepModel, augment, augment_covariance, initial_covariance, run_filter, simulate_steps, step_update,
 )
@@ -68,7 +68,8 @@ DEFAULT_TIMES = tuple(float(t) for t in range(16))
 FILTER_DT = 0.01
 #: Step of the Monte Carlo runs [s].
 MC_DT = 0.05
-#: Monte Carlo runs per case and seed of the curves.
+#: Monte Carlo runs per case, and the default seed of the curves study (``morpi curves --seed``,
+#: :func:`curves_study`).
 MC_RUNS, MC_SEED = 1000, 20230901
 #: Runs per chunk of the linear Monte Carlo and most epochs of its grid (memory bound).
 MC_CHUNK, MC_MAX_EPOCHS = 250, 600
@@ -598,7 +599,8 @@ def compute_curves(case: CurveCase, times=DEFAULT_TIMES, runs=MC_RUNS, rng=None,
     runs : int, optional
         Linear Monte Carlo runs (default :data:`MC_RUNS`; 0 skips the Monte Carlo).
     rng : numpy.random.Generator, optional
-        Generator of the Monte Carlo draws (default one seeded with :data:`MC_SEED`).
+        Generator of the Monte Carlo draws; required when a Monte Carlo runs
+        (`runs` > 0, or the nonlinear one), unused otherwise.
     nonlinear_runs : int, optional
         Runs of the nonlinear (strapdown) Monte Carlo of an IMU case (default
         :data:`NL_RUNS`; 0 skips it). It runs only when ``case.spec`` is set and
@@ -615,6 +617,8 @@ def compute_curves(case: CurveCase, times=DEFAULT_TIMES, runs=MC_RUNS, rng=None,
     ------
     MorpiError
         For empty, non-finite or negative times, or a last time of 0.
+    ParameterError
+        For a Monte Carlo without a Generator `rng`.
 
     Examples
     --------
@@ -636,7 +640,10 @@ def compute_curves(case: CurveCase, times=DEFAULT_TIMES, runs=MC_RUNS, rng=None,
     times = np.unique(np.asarray(times, dtype=float))
     if times.size == 0 or not np.all(np.isfinite(times)) or times.min() < 0 or times.max() <= 0:
         raise MorpiError(f"times: expected finite times >= 0 s with the last > 0, got {times.tolist()}")
-    rng = np.random.default_rng(MC_SEED) if rng is None else rng
+    nonlinear = bool(nonlinear_runs and case.spec is not None and times.max() <= NL_MAX_T)
+    if (runs or nonlinear) and not isinstance(rng, np.random.Generator):
+        raise ParameterError(f"rng: {type(rng).__name__}, expected a numpy.random.Generator for the Monte Carlo "
+                             f"draws (runs={runs}, nonlinear_runs={nonlinear_runs})")
     model = StepModel(gain_sigma=case.gain_sigma)
     period = STEP_LENGTH_M / case.speed
     grid, steps, at = time_grid(times, FILTER_DT, period)
@@ -649,11 +656,11 @@ def compute_curves(case: CurveCase, times=DEFAULT_TIMES, runs=MC_RUNS, rng=None,
         real = {k: error_realisation(dv0, ba, bg, dG, case.g, case.speed, grid, k)
                 for k in CURVE_METHODS}
     mc_t, mc, mc_at = np.zeros(0), {}, np.zeros(0, int)
-    r_lin, r_nl = rng.spawn(2)
+    r_lin, r_nl = rng.spawn(2) if rng is not None else (None, None)
     if runs:
         mc_t, mc, mc_at = _monte_carlo(case, times, model, runs, r_lin)
     nl_t, nl, nl_at = np.zeros(0), {}, np.zeros(0, int)
-    if nonlinear_runs and case.spec is not None and times.max() <= NL_MAX_T:
+    if nonlinear:
         nl_t, nl, nl_at = _nonlinear_monte_carlo(case, times, nonlinear_runs, r_nl)
     return CaseCurves(case=case, times=grid, sigma=sigma, rms_closed_form=rms, realisation=real,
                       mc_times=mc_t, mc_rms=mc, mc_runs=runs, eval_times=times, eval_index=at,
@@ -720,6 +727,9 @@ class CurvesStudy:
         straight-line runs (:func:`_field_points`).
     field_note : str
         Where the field points come from, or why there are none.
+    seed : int
+        Seed of the Monte Carlo draws (each case draws from
+        ``numpy.random.default_rng(seed)``).
     synthetic : bool
         Whether the recordings are synthetic.
     """
@@ -729,10 +739,11 @@ class CurvesStudy:
     cases: tuple
     field_points: dict
     field_note: str
+    seed: int
     synthetic: bool = False
 
 
-def curves_study(*, params_path=None, times=None, source=None, tables=None) -> CurvesStudy:
+def curves_study(*, params_path=None, times=None, source=None, tables=None, seed: int = MC_SEED) -> CurvesStudy:
     """Compute the ``curves`` section (``morpi curves``, ``morpi report``).
 
     Runs :func:`compute_curves` with its default Monte Carlo sizes on three
@@ -750,6 +761,10 @@ def curves_study(*, params_path=None, times=None, source=None, tables=None) -> C
     tables : evaluate.TablesResult, optional
         The field evaluation of ``source.root`` when already computed (its
         cached recordings are reused).
+    seed : int, optional
+        Seed of the Monte Carlo draws, >= 0 (default :data:`MC_SEED`, the seed
+        of ``morpi curves``): every case draws from its own
+        ``numpy.random.default_rng(seed)`` (the same numbers for each case).
 
     Returns
     -------
@@ -759,10 +774,13 @@ def curves_study(*, params_path=None, times=None, source=None, tables=None) -> C
     """
     from .params import load_params
 
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ParameterError(f"seed: {seed!r}, expected a whole number >= 0")
     params = load_params(params_path)
     times = np.unique(np.asarray(DEFAULT_TIMES if not times else times, dtype=float))
     cases = [case_from_params(params), case_from_sensor(units.MPU6500, params), case_from_sensor(units.LSM6DSL, params)]
     field_pts, field_note = _field_points(source, tables.data if tables is not None else None)
-    curves = tuple(replace(compute_curves(case, times), field=field_pts) for case in cases)
+    curves = tuple(replace(compute_curves(case, times, rng=np.random.default_rng(int(seed))), field=field_pts)
+                   for case in cases)
     return CurvesStudy(params=params, times=times, cases=curves, field_points=field_pts, field_note=field_note,
-                       synthetic=bool(source is not None and source.synthetic))
+                       synthetic=bool(source is not None and source.synthetic), seed=int(seed))

@@ -332,7 +332,7 @@ def test_the_number_options_are_found():
     options = {(w, o) for w, o, _ in NUMERIC}
     assert {(("montecarlo",), "--runs"), (("montecarlo",), "--duration"), (("assess",), "--times"),
             (("curves",), "--times"), (("simulate",), "--seed"), (("aided",), "--workers"),
-            (("report",), "--runs")} <= options
+            (("report",), "--runs"), (("curves",), "--seed"), (("drift",), "--seed")} <= options
     # and the text options are not numbers
     assert not {o for _, o, _ in NUMERIC} & {"--out", "--json", "--data", "--params", "--scheduler", "--url", "--dest"}
 

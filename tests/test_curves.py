@@ -9,10 +9,10 @@ import pytest
 from morpi_filters import units
 from morpi_filters.cli import main
 from morpi_filters.curves import (
-    DEFAULT_TIMES, case_from_params, case_from_sensor, case_mean_square, error_realisation,
+    DEFAULT_TIMES, MC_SEED, case_from_params, case_from_sensor, case_mean_square, error_realisation,
     compute_curves, curves_study, horizontal_sigma, time_grid,
 )
-from morpi_filters.errors import MorpiError
+from morpi_filters.errors import MorpiError, ParameterError
 from morpi_filters.params import params_from_dict
 from morpi_filters.report.curves import report_curves
 
@@ -108,6 +108,35 @@ def test_default_times_and_cli(tmp_path, monkeypatch):
     r = json.loads(js.read_text())
     assert r["times"] == list(DEFAULT_TIMES) and r["process_noise"] is False
     assert r["sigma_m"]["INS-3D"][0] == 0.0
+
+
+def test_the_monte_carlo_draws_only_from_the_callers_generator():
+    case = case_from_sensor(units.LSM6DSL, params_from_dict(PARAMS))
+    for kw in (dict(runs=5, nonlinear_runs=0), dict(runs=0, nonlinear_runs=3)):
+        with pytest.raises(ParameterError, match="rng"):
+            compute_curves(case, times=[1.0], **kw)
+    # without a Monte Carlo there is nothing to draw and no generator is needed
+    assert compute_curves(case, times=[1.0], runs=0, nonlinear_runs=0).mc_runs == 0
+    a, b = (compute_curves(case, times=[1.0], runs=5, nonlinear_runs=3, rng=np.random.default_rng(4))
+            for _ in range(2))
+    c = compute_curves(case, times=[1.0], runs=5, nonlinear_runs=3, rng=np.random.default_rng(5))
+    for k in ("INS-3D", "INS-2D"):
+        assert np.array_equal(a.mc_rms[k], b.mc_rms[k]) and np.array_equal(a.nl_rms[k], b.nl_rms[k])
+        assert not np.array_equal(a.mc_rms[k], c.mc_rms[k]) and not np.array_equal(a.nl_rms[k], c.nl_rms[k])
+
+
+def test_cli_seed_sets_the_monte_carlo(tmp_path, monkeypatch):
+    monkeypatch.delenv("MORPI_DATA", raising=False)
+    params = str(_write(tmp_path))
+    got = []
+    for k, seed in enumerate((None, "5", "5", "6")):
+        js = tmp_path / f"r{k}.json"
+        argv = ["curves", "--params", params, "--times", "1", "--out", str(tmp_path / f"c{k}"), "--json", str(js)]
+        assert main(argv + (["--seed", seed] if seed else [])) == 0
+        got.append(json.loads(js.read_text()))
+    assert [r["mc_seed"] for r in got] == [MC_SEED, 5, 5, 6]
+    mc = [r["cases"]["mpu6500"]["mc_rms_m"] for r in got]
+    assert mc[1] == mc[2] and mc[3] != mc[1] and mc[0] != mc[1]
 
 
 def test_bad_parameter_file_is_one_clear_error(tmp_path, capsys, monkeypatch):

@@ -180,6 +180,53 @@ def test_other_seed_other_digest(reference_study):
     assert r.digest != reference_study.digest
 
 
+def test_the_training_draws_follow_the_study_seed(reference_study):
+    # the reference gains are trained on draws of the study seed's training child: the same seed gives the
+    # same gains, another seed other gains, and the training child is the stream the gains are drawn from
+    again = mc.run_study(3, 7, FAST)
+    assert again.gain_ref == reference_study.gain_ref and again.gain_ref_cv == reference_study.gain_ref_cv
+    other = mc.run_study(3, 8, FAST)
+    assert other.gain_ref[0] != reference_study.gain_ref[0] and other.gain_ref[1] != reference_study.gain_ref[1]
+    assert mc.reference_gains(FAST, 8) == (other.gain_ref, other.gain_ref_cv)
+    a = mc.training_seed(7).generate_state(4)
+    assert np.array_equal(a, np.random.SeedSequence(7, spawn_key=(2**32 - 1,)).generate_state(4))
+    # no run of a study draws from it: a study's runs are fewer than the training key
+    assert not any(np.array_equal(a, mc.child_seed(7, i).generate_state(4)) for i in range(64))
+
+
+def test_the_gain_error_page_is_reproducible_and_its_seed_reaches_the_training(monkeypatch):
+    monkeypatch.setattr(mc, "TRAINING_KS", (1,))
+    a, b, c = (mc.gain_error_page(runs=6, seed=s) for s in (11, 11, 12))
+    for x, y in ((a.calibrated, b.calibrated), (a.raw, b.raw)):
+        assert x.digest == y.digest and np.array_equal(x.final, y.final) and x.gain_ref == y.gain_ref
+    assert a.training.digests == b.training.digests
+    assert c.calibrated.gain_ref != a.calibrated.gain_ref and c.calibrated.digest != a.calibrated.digest
+
+
+def test_the_drift_page_takes_its_seed(monkeypatch):
+    real = mc.drift_map
+    monkeypatch.setattr(mc, "drift_map", lambda levels, **kw: real(levels[::12], **{**kw, "draws": 3, "duration": 2.0}))
+    a, b, c = mc.drift_page(), mc.drift_page(seed=mc.DRIFT_SEED), mc.drift_page(seed=5)
+    assert a.drift.seed == mc.DRIFT_SEED and c.drift.seed == 5
+    assert np.array_equal(a.drift.final_3d, b.drift.final_3d)
+    assert not np.array_equal(a.drift.final_3d, c.drift.final_3d)
+
+
+def test_cli_seed_reaches_the_training_gains(tmp_path, monkeypatch):
+    from morpi_filters import cli
+
+    monkeypatch.setattr(mc, "TRAINING_KS", (1,))
+    got = []
+    for k, seed in enumerate(("3", "3", "4")):
+        js = tmp_path / f"mc{k}.json"
+        assert cli.main(["montecarlo", "--runs", "4", "--seed", seed, "--out", str(tmp_path / f"mc{k}"),
+                         "--json", str(js)]) == 0
+        got.append(json.loads(js.read_text()))
+    assert got[0]["gain_ref"] == got[1]["gain_ref"] and got[0]["digest"] == got[1]["digest"]
+    assert got[2]["gain_ref"]["MoRPI-A"] != got[0]["gain_ref"]["MoRPI-A"]
+    assert got[2]["gain_ref"]["MoRPI-G"] != got[0]["gain_ref"]["MoRPI-G"]
+
+
 def test_run_i_depends_only_on_its_own_seed(reference_study):
     # the first 5 runs of a 13-run study are the 5 runs of a 5-run study with the same seed
     r = mc.run_study(5, 7, FAST)
@@ -329,6 +376,7 @@ def test_drift_onset_is_monotone_in_the_bias():
     (dict(runs=0, seed=1), "runs"),
     (dict(runs=3, seed=-1), "seed"),
     (dict(runs=3, seed=1, chunk=0), "chunk"),
+    (dict(runs=mc.TRAINING_KEY + 1, seed=1), "runs"),     # run indices stay below the training key
 ])
 def test_bad_arguments_raise_one_line(kw, word):
     with pytest.raises(MorpiError, match=word):

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..curves import CURVE_METHODS, MC_RUNS, MC_SEED, NL_MAX_T, NL_RUNS, STEP_LENGTH_M, CurvesStudy
+from ..curves import CURVE_METHODS, MC_RUNS, NL_MAX_T, NL_RUNS, STEP_LENGTH_M, CurvesStudy
 from ..reporting import SectionSummary, write_json, write_text
 from . import plots
 from .common import banner, fmt, md_table, save_figure
@@ -68,7 +68,7 @@ def report_curves(out, study: CurvesStudy, source=None) -> SectionSummary:
         "params_file": params.label,
         "step_length_m": STEP_LENGTH_M,
         "mc_runs": MC_RUNS,
-        "mc_seed": MC_SEED,
+        "mc_seed": study.seed,
         "nonlinear_mc_runs": NL_RUNS,
         "cases": per_case,
         "field": {"note": field_note, "points_duration_s_error_m": field_pts},
@@ -86,7 +86,7 @@ def report_curves(out, study: CurvesStudy, source=None) -> SectionSummary:
         f"`{params.label}`. Process noise: {'on' if params.process_noise else 'off'}. The gyro z bias is left "
         f"out, as in the paper (common heading error). MoRPI steps of {STEP_LENGTH_M} m every "
         f"{STEP_LENGTH_M / params.morpi_speed_mps:g} s, gain error 1 sigma {abs(params.dG[0]):g} as a constant "
-        f"augmented state. Monte Carlo: {MC_RUNS} seeded runs of the linear model (seed {MC_SEED}); for "
+        f"augmented state. Monte Carlo: {MC_RUNS} seeded runs of the linear model (seed {study.seed}); for "
         f"MoRPI-aided, the RMS of the filter's own estimation error. For the two IMU cases a second Monte "
         f"Carlo ({NL_RUNS} runs, for evaluation times up to {NL_MAX_T:g} s) synthesizes the IMU at rest (`simulate.imu`, datasheet biases on all axes) and "
         f"runs the nonlinear 3D/2D strapdown; where it departs from the filter sigma the linear error model "
