@@ -553,6 +553,24 @@ def _listing(folder: Path):
     return files, folders
 
 
+def _settle_marker(folder: Path) -> None:
+    """Drop the staging proof (``"staged_as"``) from the marker of a folder swapped into place.
+
+    The proof is needed only while the folder carries its staging name; the
+    placed marker then lists just what the output is, so the same output
+    gives the same marker bytes on every run. A run killed before this step
+    leaves the proof in a folder whose name no longer matches a staging name,
+    where it proves nothing, and the next run's marker replaces it.
+    """
+    marker = folder / MARKER
+    try:
+        content = json.loads(marker.read_text())
+    except (OSError, ValueError):
+        return
+    if isinstance(content, dict) and content.pop("staged_as", None) is not None:
+        write_text(marker, json.dumps(content, indent=1) + "\n")
+
+
 def _proven_stage(entry: Path):
     """The name match of `entry` when it is a staging folder a morpi run created, else None.
 
@@ -1456,6 +1474,8 @@ class Outputs:
         except OSError as exc:
             self._discard()
             raise MorpiError(f"{final}: cannot put the new output in place ({exc.strerror or exc})") from None
+        for _, final, _, _ in self._folders:
+            _settle_marker(final)
         for left in kept:
             print(f"morpi: kept {left}: the output it replaced held entries morpi did not write", file=sys.stderr)
         return False

@@ -152,6 +152,19 @@ def _write_section(out, number, word="runs", digest="2a8affc79930"):
         outputs.file(out / "index.md").write_text(f"# report\n\nRMS {number!r} m.\n")
 
 
+def test_the_same_output_gives_the_same_marker_bytes(tmp_path):
+    # The staging proof (pid and token) leaves the marker once the folder is in place: two runs that write the
+    # same output leave every marker byte for byte as it was, so a regenerated report leaves git status clean.
+    out = tmp_path / "reports"
+    _write_section(out, 0.5)
+    markers = [out / ".morpi-output", out / "sec" / ".morpi-output"]
+    first = [m.read_bytes() for m in markers]
+    assert all(b"staged_as" not in b for b in first)
+    _write_section(out, 0.5)
+    assert [m.read_bytes() for m in markers] == first
+    assert json.loads(first[1])["files"] == ["README.md", "result.json"]
+
+
 def test_outputs_keep_a_file_that_states_the_same_result(tmp_path):
     import os
 
