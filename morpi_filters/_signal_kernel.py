@@ -54,6 +54,8 @@ import threading
 
 import numpy as np
 
+from .choice import TIE_ABS, TIE_REL
+
 
 def moving_stats(t, x, half, mean, std):
     """Centred moving mean and standard deviation of each column of `x` (n, k) into `mean` and `std` (n, k).
@@ -868,8 +870,9 @@ def block_noise(x, edges, bounds, sig, spread):
 def block_pick(x, bounds, nb, sig, spread, q, med):
     """The quietest of the `nb` blocks of :func:`block_noise`, the lower quartile of their sigmas and its median.
 
-    The quietest block is the first ``argmin`` over the blocks of ``sum_j spread[b, j] /
-    max(min_b sig[b, j], 1e-300)`` (summed in column order from 0.0). Writes per column ``q`` (k,)
+    The quietest block is the first block within the tie tolerance (``choice.choose``) of the least
+    score ``sum_j spread[b, j] / max(min_b sig[b, j], 1e-300)`` (summed in column order from 0.0).
+    Writes per column ``q`` (k,)
     ``np.quantile(sig[:nb], 0.25, axis=0)`` (linear interpolation between the sorted values at
     ``floor((nb - 1) / 4)`` and the next, with numpy's rule of ``b - (b - a)(1 - g)`` for a weight
     ``g >= 0.5``) and ``med`` (k,) ``np.median`` of the block's rows (``(0.0 + a) / 1`` or
@@ -884,15 +887,18 @@ def block_pick(x, bounds, nb, sig, spread, q, med):
             if sig[i, j] < lo:
                 lo = sig[i, j]
         den[j] = lo if lo >= 1e-300 else 1e-300
-    best = 0
-    best_score = 0.0
+    score = np.empty(nb)
+    least = 0.0
     for i in range(nb):
         s = 0.0
         for j in range(k):
             s += spread[i, j] / den[j]
-        if i == 0 or s < best_score:                       # the first of equal scores, as np.argmin
-            best = i
-            best_score = s
+        score[i] = s
+        if i == 0 or s < least:
+            least = s
+    best = 0                                               # the first within the tie band, as choice.choose
+    while score[best] > least + (TIE_REL * abs(least) + TIE_ABS):
+        best += 1
     # lower quartile over the blocks
     col = np.empty(max(nb, bounds[best, 1] - bounds[best, 0]))
     vi = (nb - 1) * 0.25

@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .choice import choose
 from .errors import DataError, MorpiError
 from .resources import project_data
 from .units import DEG, G0, SENSORS
@@ -1296,7 +1297,7 @@ def _still_stretch(time: np.ndarray, omega: np.ndarray) -> tuple[int, int]:
             b = e + 1
         else:
             b += 1
-    quiet = int(np.argmin(np.where(counted, ratio, np.inf)))
+    quiet = choose(np.where(counted, ratio, np.inf))                # the first of ties (choice.choose)
     return int(starts[quiet]), int(ends[quiet])
 
 
