@@ -893,7 +893,7 @@ def _loo_errors(truth, g, u, keep=None) -> np.ndarray:
     """End-point errors [%] of each run (each flagged in `keep`) with the mean gain of the others (leave-one-out).
 
     ``gi = (sum(g) - g) / (n - 1)``, ``|gi u - end| / distance * 100``: a compiled loop
-    (``_signal_kernel.loo_errors``) with numpy's arithmetic and its order of the sum.
+    (``_signal_kernel.loo_errors``), the gains summed in order (the numpy form within rounding).
     """
     out = np.empty(g.shape[0])
     end = truth.end_point_m
