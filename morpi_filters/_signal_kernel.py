@@ -38,8 +38,8 @@
   between the boundaries under each end and heading reading, summed in step order (the rule searches
   read thousands of rules per run);
 - :func:`loo_errors`, the leave-one-out end-point errors the rule searches score
-  (``field._loo_errors``), with :func:`pairwise_sum`, numpy's order of a sum (in order below 8 terms,
-  8 accumulators up to 128, halves above).
+  (``field._loo_errors``), the gains summed in order (the search's choices are tie-tolerant,
+  ``choice.choose``, so the numpy form is met within rounding, not bit for bit).
 
 numba is imported on the first call (:func:`compiled`, through :func:`jit_functions`, which also
 compiles the loops of ``_aided_kernel``), not with the package, and its machine code is cached on disk
@@ -53,6 +53,8 @@ import math
 import threading
 
 import numpy as np
+
+from .choice import TIE_ABS, TIE_REL
 
 
 def moving_stats(t, x, half, mean, std):
@@ -428,80 +430,18 @@ def _add_turn(bt, a, b, per_period, last, x, t, psi, integral, out):
         out[i] += turn * done
 
 
-def _pairwise_block(a, lo, n):
-    """numpy's sum of ``a[lo:lo + n]`` for ``n <= 128``: in order below 8 terms, else with 8 accumulators."""
-    if n < 8:
-        res = 0.0
-        for i in range(n):
-            res += a[lo + i]
-        return res
-    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
-    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
-    i = 8
-    while i < n - n % 8:
-        r0 += a[lo + i]
-        r1 += a[lo + i + 1]
-        r2 += a[lo + i + 2]
-        r3 += a[lo + i + 3]
-        r4 += a[lo + i + 4]
-        r5 += a[lo + i + 5]
-        r6 += a[lo + i + 6]
-        r7 += a[lo + i + 7]
-        i += 8
-    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-    while i < n:
-        res += a[lo + i]
-        i += 1
-    return res
-
-
-def pairwise_sum(a, lo, n):
-    """``a[lo:lo + n].sum()`` as numpy adds a contiguous float64 run (``np.sum(a)`` is ``0.0`` plus it):
-    blocks of at most 128 (:func:`_pairwise_block`), above that the two halves (split at a multiple of
-    8) added, left + right. numpy recurses; here explicit stacks walk the same tree (numba's cache
-    does not hold recursive functions)."""
-    if n <= 128:
-        return _pairwise_block(a, lo, n)
-    los = np.empty(128, np.int64)
-    ns = np.empty(128, np.int64)
-    split = np.zeros(128, np.bool_)
-    vals = np.empty(128)
-    los[0] = lo
-    ns[0] = n
-    top = 1
-    nv = 0
-    while top > 0:
-        i = top - 1
-        if ns[i] <= 128:
-            vals[nv] = _pairwise_block(a, los[i], ns[i])
-            nv += 1
-            top -= 1
-        elif not split[i]:
-            split[i] = True
-            n2 = ns[i] // 2
-            n2 -= n2 % 8
-            los[top], ns[top], split[top] = los[i] + n2, ns[i] - n2, False     # the right half, done second
-            los[top + 1], ns[top + 1], split[top + 1] = los[i], n2, False        # the left half, done first
-            top += 2
-        else:
-            vals[nv - 2] = vals[nv - 2] + vals[nv - 1]
-            nv -= 1
-            top -= 1
-    return vals[0]
-
-
 def loo_errors(g, u, keep, ex, ey, dist, out):
     """End-point errors [%] of the runs flagged in `keep` with the mean gain of the other flagged runs:
     ``field._loo_errors`` of ``g[keep]``, ``u[keep]`` (g (n,), u (n, 2)) against the end (ex, ey) of a
-    route of length `dist`, with numpy's arithmetic (``np.sum``'s pairwise order), so its bits; the
-    m errors in ``out[:m]``, returns m."""
+    route of length `dist` (the gains summed in order: a score, chosen among within the tie tolerance
+    of ``choice.choose``, so another order's rounding does not matter); the m errors in ``out[:m]``,
+    returns m."""
     m = 0
-    gk = np.empty(g.shape[0])
+    total = 0.0
     for i in range(g.shape[0]):
         if keep[i]:
-            gk[m] = g[i]
+            total += g[i]
             m += 1
-    total = 0.0 + pairwise_sum(gk, 0, m)
     j = 0
     for i in range(g.shape[0]):
         if keep[i]:
@@ -868,8 +808,9 @@ def block_noise(x, edges, bounds, sig, spread):
 def block_pick(x, bounds, nb, sig, spread, q, med):
     """The quietest of the `nb` blocks of :func:`block_noise`, the lower quartile of their sigmas and its median.
 
-    The quietest block is the first ``argmin`` over the blocks of ``sum_j spread[b, j] /
-    max(min_b sig[b, j], 1e-300)`` (summed in column order from 0.0). Writes per column ``q`` (k,)
+    The quietest block is the first block within the tie tolerance (``choice.choose``) of the least
+    score ``sum_j spread[b, j] / max(min_b sig[b, j], 1e-300)`` (summed in column order from 0.0).
+    Writes per column ``q`` (k,)
     ``np.quantile(sig[:nb], 0.25, axis=0)`` (linear interpolation between the sorted values at
     ``floor((nb - 1) / 4)`` and the next, with numpy's rule of ``b - (b - a)(1 - g)`` for a weight
     ``g >= 0.5``) and ``med`` (k,) ``np.median`` of the block's rows (``(0.0 + a) / 1`` or
@@ -884,15 +825,18 @@ def block_pick(x, bounds, nb, sig, spread, q, med):
             if sig[i, j] < lo:
                 lo = sig[i, j]
         den[j] = lo if lo >= 1e-300 else 1e-300
-    best = 0
-    best_score = 0.0
+    score = np.empty(nb)
+    least = 0.0
     for i in range(nb):
         s = 0.0
         for j in range(k):
             s += spread[i, j] / den[j]
-        if i == 0 or s < best_score:                       # the first of equal scores, as np.argmin
-            best = i
-            best_score = s
+        score[i] = s
+        if i == 0 or s < least:
+            least = s
+    best = 0                                               # the first within the tie band, as choice.choose
+    while score[best] > least + (TIE_REL * abs(least) + TIE_ABS):
+        best += 1
     # lower quartile over the blocks
     col = np.empty(max(nb, bounds[best, 1] - bounds[best, 0]))
     vi = (nb - 1) * 0.25
@@ -953,7 +897,7 @@ _FUNCTIONS = (
     "sort_head", "block_edges", "block_noise", "block_pick", "block_sigma_loops",
     "increments", "coning", "translation", "time_order", "running_integral",
     "_sections", "filtfilt",
-    "_pairwise_block", "pairwise_sum", "loo_errors",
+    "loo_errors",
     "interp", "swing_median", "_interp1", "_window_mean", "_add_turn", "turn_values", "reading_sums",
     "local_maxima", "select_by_distance", "compress", "_side_minima", "maxima_prominences", "drop_below",
 )

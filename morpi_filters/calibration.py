@@ -87,6 +87,7 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
+from .choice import choose
 from .dataset import Recording
 from .errors import DataError, MorpiError, ParameterError
 from .units import MPU6500, SENSORS, SensorSpec
@@ -508,7 +509,7 @@ def _block_sigma_numpy(t: np.ndarray, x: np.ndarray, span: float, block: float):
         return noise_sigma(x[:stop]), np.median(x[:stop], axis=0)
     sig = _noise_sigma_blocks(x, blocks)
     spread = np.array([x[a:b].std(axis=0) for a, b in blocks])
-    a, b = blocks[int(np.argmin((spread / np.maximum(sig.min(axis=0), 1e-300)).sum(axis=1)))]
+    a, b = blocks[choose((spread / np.maximum(sig.min(axis=0), 1e-300)).sum(axis=1))]   # tie-tolerant argmin
     return np.quantile(sig, 0.25, axis=0), np.median(x[a:b], axis=0)
 
 

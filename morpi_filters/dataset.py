@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .choice import choose
 from .errors import DataError, MorpiError, ParameterError
 from .resources import project_data
 from .units import DEG, G0, SENSORS, SensorSpec
@@ -1329,7 +1330,7 @@ def _still_stretch(time: np.ndarray, omega: np.ndarray) -> tuple[int, int]:
             b = e + 1
         else:
             b += 1
-    quiet = int(np.argmin(np.where(counted, ratio, np.inf)))
+    quiet = choose(np.where(counted, ratio, np.inf))                # the first of ties (choice.choose)
     return int(starts[quiet]), int(ends[quiet])
 
 

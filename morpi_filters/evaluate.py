@@ -69,6 +69,7 @@ import numpy as np
 
 from . import dataset as ds
 from . import steps as st
+from .choice import choose
 from .errors import DataError, MorpiError
 from .field import (
     _MORPI_METHODS, LEVELED, RULES, SHORT_SETS, FieldData, Gain, Selection, _loo_vector, trained_gain,
@@ -616,7 +617,7 @@ def comparison(result: TablesResult) -> dict:
         cs = [c for c in result.cells if c.spec.table == "short_route" and c.spec.method == m
               and c.spec.calibration == "GC" and c.runs]
         if cs:
-            best[m] = min(cs, key=lambda c: c.ours_percent)
+            best[m] = cs[choose([c.ours_percent for c in cs])]        # the first of ties (choice.choose)
     rows = []
     order = list(_INS_METHODS) + list(_MORPI_METHODS)
     for m in order:
@@ -1225,7 +1226,7 @@ def paper_claims(res: TablesResult) -> list[dict]:
             f"Mean duration of the robot's motion (gyro vibration) over {len(d)} recordings, agreeing within 15 %.")
     ins = {(m, c): pct("ins_straight", "s8", None, m, c) for m in ("INS-3D", "INS-2D") for c in ("RD", "GAC")}
     known = {k: v for k, v in ins.items() if v is not None}
-    best = min(known, key=known.get) if known else None
+    best = list(known)[choose(list(known.values()))] if known else None
     add("2D INS with GAC is the best baseline, 28.6 % of the distance (1.8 m over 6.3 m)", 28.6,
         None if best is None else round(known[best], 2), None if best is None else best == ("INS-2D", "GAC"),
         "The straight-line INS cells; the best is "
@@ -1242,8 +1243,8 @@ def paper_claims(res: TablesResult) -> list[dict]:
         "Mean of the s8 and s6 1 m short-route MoRPI-G GC cells, agreeing within 1 pp.")
     short = {(p, m, c): pct("short_route", p, 1.0, m, c) for p in ("s8", "s6") for m in ("MoRPI-A", "MoRPI-G")
              for c in ("RD", "GC")}
-    best_g = [min((v, k) for k, v in short.items() if k[0] == p and v is not None)[1] for p in ("s8", "s6")
-              if any(v is not None for k, v in short.items() if k[0] == p)]
+    of_phone = {p: [(k, v) for k, v in short.items() if k[0] == p and v is not None] for p in ("s8", "s6")}
+    best_g = [kv[choose([v for _, v in kv])][0] for kv in of_phone.values() if kv]
     add("MoRPI-G with GC is the best approach for both phones (4.60-4.76 %)", [4.60, 4.76],
         [None if v is None else round(v, 2) for v in g],
         len(best_g) == 2 and all(k[1:] == ("MoRPI-G", "GC") for k in best_g),

@@ -20,6 +20,7 @@ from . import _signal_kernel
 from . import dataset as ds
 from . import steps as st
 from .calibration import NoRestError
+from .choice import choose
 from .errors import MorpiError
 
 __all__ = ["SHORT_SETS", "RULES", "INS_SPANS", "LEVELED", "HEADING_ORIGINS", "HEADING_SOURCES", "Gain",
@@ -971,7 +972,7 @@ def _loo_errors(truth, g, u, keep=None) -> np.ndarray:
     """End-point errors [%] of each run (each flagged in `keep`) with the mean gain of the others (leave-one-out).
 
     ``gi = (sum(g) - g) / (n - 1)``, ``|gi u - end| / distance * 100``: a compiled loop
-    (``_signal_kernel.loo_errors``) with numpy's arithmetic and its order of the sum.
+    (``_signal_kernel.loo_errors``), the gains summed in order (the numpy form within rounding).
     """
     out = np.empty(g.shape[0])
     end = truth.end_point_m
@@ -1044,8 +1045,9 @@ def select_config(data: FieldData, methods=_MORPI_METHODS, *, exclude=(), thresh
     paper extracts both "in the same manner". The heading reading "change" is
     not a candidate: it cannot represent a turn (the L route), so it is
     reported as an alternative only; ``"turns"`` is its turn-following form,
-    with the turn threshold of :func:`train_thresholds`. Ties keep the earlier
-    config.
+    with the turn threshold of :func:`train_thresholds`. Scores within the
+    tie tolerance of the least (:func:`morpi_filters.choice.choose`) keep the
+    earlier config.
 
     The search runs once per heading source (the z gyro, and the 3D attitude
     of the paper's heading equation). The attitude's rule is chosen when its
@@ -1117,27 +1119,32 @@ def _search(data: FieldData, methods, exclude, start) -> tuple:
         vals = [_loo_score(data, m, cfg, exclude=exclude) for m in methods]
         return sum(v for v, _ in vals) / len(vals), int(sum(n for _, n in vals))       # np.mean's bits
 
-    trials = []
-    best, best_score, n = start, float("inf"), 0
-    keys = list(READING_GRID)
-    for combo in itertools.product(*(READING_GRID[k] for k in keys)):
-        cfg = start.with_(**dict(zip(keys, combo)))
+    trials, counts = [], []
+
+    def add(cfg):
         sc, n_ = score(cfg)
         trials.append((cfg, sc))
-        if sc < best_score:
-            best, best_score, n = cfg, sc, n_
+        counts.append(n_)
+
+    def leader():
+        # the earliest config tried within the tie tolerance of the least score (choice.choose); `start`
+        # while no config scores
+        i = choose([sc for _, sc in trials])
+        return (trials[i][0], trials[i][1], counts[i]) if np.isfinite(trials[i][1]) else (start, float("inf"), 0)
+
+    keys = list(READING_GRID)
+    for combo in itertools.product(*(READING_GRID[k] for k in keys)):
+        add(start.with_(**dict(zip(keys, combo))))
     tried = {c for c, _ in trials}
     for k, values in TUNABLE_GRID.items():
-        base = best
+        base = leader()[0]
         for v in values:
             cfg = base.with_(**{k: v})
             if cfg in tried:
                 continue
             tried.add(cfg)
-            sc, n_ = score(cfg)
-            trials.append((cfg, sc))
-            if sc < best_score:
-                best, best_score, n = cfg, sc, n_
+            add(cfg)
+    best, best_score, n = leader()
     return best, best_score, n, trials
 
 
@@ -1168,7 +1175,8 @@ def nested_rule_comparison(data: FieldData) -> dict:
         ``difference_se_pp``: joint minus per-method, paired over the held-out
         runs, and its standard error; ``n_folds``; ``same_as_full``: rule ->
         method -> fraction of folds whose chosen rule equals the one chosen
-        on all train runs; ``preferred``: the rule with the lower mean;
+        on all train runs; ``preferred``: the rule with the lower mean (the
+        earlier in :data:`RULES` within the tie tolerance of :func:`morpi_filters.choice.choose`);
         ``folds``: one dict per held-out run, with its ``file`` (path relative
         to the root), the fold's ``accel_floor`` [m/s^2], ``min_swing_deg`` and
         ``turn_deg`` [deg], ``same_rest_windows`` and rule -> method -> its
@@ -1229,7 +1237,8 @@ def nested_rule_comparison(data: FieldData) -> dict:
         "difference_se_pp": float(d.std(ddof=1) / np.sqrt(d.size)) if d.size > 1 else None,
         "n_folds": n,
         "same_as_full": {rule: {m: same[rule][m] / n if n else None for m in _MORPI_METHODS} for rule in RULES},
-        "preferred": min(RULES, key=lambda r: mean[r]) if all(v is not None for v in mean.values()) else None,
+        "preferred": (RULES[choose([mean[r] for r in RULES])] if all(v is not None for v in mean.values())
+                      else None),
         "folds": [{**own[i], **{rule: {m: errs[rule][m][i] for m in _MORPI_METHODS} for rule in RULES}}
                   for i in range(n)],
         "folds_with_other_thresholds": sum((f["accel_floor"], f["min_swing_deg"], f["turn_deg"])

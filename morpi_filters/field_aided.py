@@ -48,6 +48,7 @@ from itertools import product
 import numpy as np
 
 from . import aided
+from .choice import choose
 from .errors import MorpiError
 
 __all__ = ["GRID", "ABLATIONS", "AidedCell", "AidedStudy", "PairedDifference", "Prepared", "aided_study",
@@ -1065,7 +1066,8 @@ def _best(err, inside) -> int:
     """The grid point of least mean error among those whose ellipse holds enough train end points."""
     score = err.mean(axis=1)
     eligible = inside.mean(axis=1) >= MIN_TRAIN_COVERAGE
-    return int(np.argmin(np.where(eligible, score, np.inf))) if eligible.any() else int(np.argmin(score))
+    # the earliest grid point within the tie tolerance of the least (choice.choose)
+    return choose(np.where(eligible, score, np.inf)) if eligible.any() else choose(score)
 
 
 def _aid_pays(err_with, inside_with, err_without, inside_without) -> bool:

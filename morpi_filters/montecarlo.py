@@ -108,6 +108,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from . import _batch_ins as bi
+from .choice import choose
 from .errors import MorpiError
 from .parallel import Progress, chunk_ranges, execute
 from .reporting import round_significant
@@ -2275,7 +2276,7 @@ def drift_page(*, seed: int = DRIFT_SEED, scheduler=None, spec: SensorSpec = MPU
     for kind, rel in (("INS-3D", d.rel_3d), ("INS-2D", d.rel_2d)):
         end = rel[:, -1]
         sel = (end > 1e-4) & (end < 0.05)
-        i_mid = int(np.argmin(np.abs(np.log(np.where(end > 0, end, 1e-30)) - np.log(0.01))))
+        i_mid = choose(np.abs(np.log(np.where(end > 0, end, 1e-30)) - np.log(0.01)))   # the first of ties
         row = rel[i_mid]
         tsel = (d.time >= 2.0) & (row > 1e-5) & (row < 0.05)
         growth[kind] = {"slope_in_bias_at_end": _loglog_slope(d.gyro_bias[sel], end[sel]),

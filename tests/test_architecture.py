@@ -20,7 +20,7 @@ PKG = Path(__file__).resolve().parents[1] / "morpi_filters"
 #: modules of its own layer or of lower layers, never of a higher one. Every
 #: module of ``report/`` is in the pages layer.
 LAYERS = (
-    ("foundation", {"errors", "units", "resources", "reporting", "parallel"}),
+    ("foundation", {"errors", "units", "choice", "resources", "reporting", "parallel"}),
     ("inputs", {"params", "dataset", "manifest", "fetch"}),
     ("calibration", {"calibration", "_signal_kernel"}),
     ("navigation", {"strapdown", "steps", "symbolic", "error_model", "eskf", "aided", "_aided_kernel", "_batch_ins"}),

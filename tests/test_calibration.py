@@ -12,6 +12,7 @@ from morpi_filters import simulate, units
 from morpi_filters.calibration import (DEFAULT_IMU, LOCAL_GRAVITY, STILL_NOISE_FACTOR, Calibration, NoRestError,
                                        RestWindow, StillBound, calibrate, detect_rest, normal_gravity,
                                        rest_measures, rest_windows_summary, still_bound)
+from morpi_filters.choice import choose
 from morpi_filters.dataset import Recording, load_catalogue
 from morpi_filters.errors import DataError, MorpiError
 from morpi_filters.synthetic import DATASET_OPTIONS
@@ -523,7 +524,7 @@ def _check_block_sigma(t, x, span, block, compiled):
         return
     sig = _noise_sigma_blocks(x, blocks)
     spread = np.array([x[a:b].std(axis=0) for a, b in blocks])
-    best = int(np.argmin((spread / np.maximum(sig.min(axis=0), 1e-300)).sum(axis=1)))
+    best = choose((spread / np.maximum(sig.min(axis=0), 1e-300)).sum(axis=1))     # the tie-tolerant argmin
     k = x.shape[1]
     nc = len(edges) - 1
     bounds, s, sp = np.empty((nc, 2), np.int64), np.empty((nc, k)), np.empty((nc, k))
@@ -534,6 +535,29 @@ def _check_block_sigma(t, x, span, block, compiled):
     q, med = np.empty(k), np.empty(k)
     assert fns["block_pick"](x, bounds, nb, s, sp, q, med) == best
     _same_bits(ref, (q, med))
+
+
+def test_the_quietest_block_is_the_earlier_of_two_tied_within_rounding():
+    # block 1 is block 0 scaled by (1 - 1e-13): quieter by rounding only, so block 0 is kept (an argmin takes
+    # block 1), in the numpy form, the compiled loops and the loops run plain; its median is block 0's
+    from morpi_filters.calibration import _block_sigma, _block_sigma_numpy
+
+    rng = np.random.default_rng(5)
+    m = 25
+    t = np.arange(4 * m) / (4 * m)                           # four blocks of 0.25 s, 25 samples each
+    quiet = 0.01 * rng.standard_normal((m, 3)) + [0.1, -0.2, 0.3]
+    x = np.concatenate([quiet, quiet * (1 - 1e-13), 0.5 * rng.standard_normal((2 * m, 3))])
+    span, block = 1.0, 0.25
+    spread = np.array([x[a:a + m].std(axis=0) for a in (0, m)])
+    assert (spread[1] < spread[0]).all()                     # the argmin would take block 1
+    want = np.median(quiet, axis=0)
+    assert (want != np.median(x[m:2 * m], axis=0)).any()
+    for compiled in (True, False):
+        q, med = np.empty(3), np.empty(3)
+        assert _block_kernels(compiled)["block_sigma_loops"](t, x, span, block, q, med) == 4
+        assert med.tobytes() == want.tobytes()
+    _same_bits(_block_sigma_numpy(t, x, span, block), _block_sigma(t, x, span, block))
+    assert _block_sigma_numpy(t, x, span, block)[1].tobytes() == want.tobytes()
 
 
 def test_block_noise_kernel_is_the_numpy_form_bit_for_bit_on_the_field_recordings(field_root):

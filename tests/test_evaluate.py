@@ -675,29 +675,25 @@ def test_a_study_freezes_the_heap_only_while_it_runs_and_only_when_nobody_else_d
     assert ev.tables_study.__doc__.startswith("Compute everything the tables section shows")
 
 
-def test_leave_one_out_errors_kernel_is_the_numpy_form_bit_for_bit():
-    from morpi_filters import _signal_kernel
+def test_leave_one_out_errors_kernel_is_the_numpy_form_within_the_rounding_of_the_sum():
+    # the kernel sums the gains in order, numpy pairwise: the errors agree within the bound of another order
+    # of the sum (oracles.loo.order_bound: about n eps relative), and the kernel run plain gives its bits
+    from oracles import loo as oracle
 
     plain = plain_kernels()
     rng = np.random.default_rng(29)
-    for n in list(range(0, 140)) + [255, 256, 257, 300, 1029, 5000]:              # numpy's sum, bit for bit
-        a = rng.normal(size=n) * 10.0 ** rng.uniform(-3, 3, n)
-        assert 0.0 + _signal_kernel.compiled()["pairwise_sum"](a, 0, n) == np.sum(a)
-        if n < 300:
-            assert 0.0 + plain.pairwise_sum(a, 0, n) == np.sum(a)
     truth = ds.route("L_shape")
-    # numpy's sum: in order below 8 terms, 8 accumulators up to 128, halves above
-    for n in (2, 3, 7, 8, 9, 15, 16, 17, 127, 128, 129, 300):
+    for n in (2, 3, 7, 8, 9, 15, 16, 17, 127, 128, 129, 300, 1029):
         g = rng.uniform(0.5, 2.0, n) * 10.0 ** rng.uniform(-3, 3, n)
         u = rng.normal(size=(n, 2)) * 30.0
         for keep in (np.ones(n, dtype=bool), rng.random(n) < 0.7):
             if keep.sum() < 2:
                 continue
-            gk, uk = g[keep], u[keep]
-            gi = (gk.sum() - gk) / (gk.size - 1)
-            d = gi[:, None] * uk - truth.end_point_m
-            want = np.linalg.norm(d, axis=1) / truth.distance_m * 100
-            np.testing.assert_array_equal(fd._loo_errors(truth, g, u, None if keep.all() else keep), want)
-            out = np.empty(n)
-            m = plain.loo_errors(g, u, keep, *map(float, truth.end_point_m), float(truth.distance_m), out)
-            np.testing.assert_array_equal(out[:m], want)
+            want = oracle.loo_errors(truth, g, u, keep)
+            got = fd._loo_errors(truth, g, u, None if keep.all() else keep)
+            assert got.shape == want.shape
+            assert np.all(np.abs(got - want) <= oracle.order_bound(truth, g, u, keep))
+            if n <= 300:
+                out = np.empty(n)
+                m = plain.loo_errors(g, u, keep, *map(float, truth.end_point_m), float(truth.distance_m), out)
+                np.testing.assert_array_equal(out[:m], got)
