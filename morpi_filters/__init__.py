@@ -55,9 +55,10 @@ Randomness
     :class:`numpy.random.SeedSequence`; nothing touches NumPy's global random
     state, and a default seed is a named value in the signature.
 Errors
-    Problems a user can cause (a bad file, a bad parameter) raise
-    :class:`morpi_filters.errors.MorpiError` with a message that names the
-    file, line or parameter and what was expected.
+    Problems a user can cause (a bad file, a bad parameter) raise a kind of
+    :class:`morpi_filters.errors.MorpiError`, one per cause (a bad recording
+    ``DataError``, a bad parameter ``ParameterError``), with a message that
+    names the file, line or parameter and what was expected.
 
 Dataset schema
 --------------

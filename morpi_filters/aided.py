@@ -63,7 +63,7 @@ import numpy as np
 
 from . import _aided_kernel
 from .error_model import BA, BG, DP, DV, EPS, N_STATES
-from .errors import MorpiError, ParameterError
+from .errors import ParameterError
 from .parallel import available_cores, chunk_ranges, execute
 from .strapdown import rotvec_to_C
 
@@ -630,15 +630,15 @@ class AidedInput:
         t = np.asarray(self.time, float)
         n = t.shape[0] if t.ndim == 1 else -1
         if n < 2 or np.asarray(self.f).shape != (n, 3) or np.asarray(self.omega).shape != (n, 3):
-            raise MorpiError(f"AidedInput: expected time (n,) with n >= 2 and f, omega (n, 3); got "
-                             f"{t.shape}, {np.shape(self.f)}, {np.shape(self.omega)}")
+            raise ParameterError(f"AidedInput: expected time (n,) with n >= 2 and f, omega (n, 3); got "
+                                 f"{t.shape}, {np.shape(self.f)}, {np.shape(self.omega)}")
         if not np.all(np.diff(t) > 0):
-            raise MorpiError("AidedInput: time must increase strictly")
+            raise ParameterError("AidedInput: time must increase strictly")
         k = np.shape(self.step_length)
         if np.shape(self.step_start) != k or np.shape(self.step_end) != k:
-            raise MorpiError("AidedInput: step_start, step_end and step_length must have one shape")
+            raise ParameterError("AidedInput: step_start, step_end and step_length must have one shape")
         if self.step_vector is not None and np.shape(self.step_vector) != k + (2,):
-            raise MorpiError(f"AidedInput: step_vector must have shape {k + (2,)}")
+            raise ParameterError(f"AidedInput: step_vector must have shape {k + (2,)}")
 
     @property
     def nominal_dt(self) -> float:

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import MorpiError
+from .errors import ParameterError
 from .params import DEFAULT_PARAMS_FILE, ErrorParams, load_params
 from .reporting import write_json
 
@@ -360,7 +360,7 @@ def _check_times(times):
         return DEFAULT_TIMES
     t = np.asarray(list(times), dtype=float)
     if t.ndim != 1 or t.size == 0 or not np.all(np.isfinite(t)) or np.any(t < 0):
-        raise MorpiError("--times: expected one or more finite times >= 0 s")
+        raise ParameterError("--times: expected one or more finite times >= 0 s")
     return t
 
 
@@ -421,7 +421,7 @@ def assessment_study(params_path=None, times=None) -> AssessmentStudy:
 
     Raises
     ------
-    MorpiError
+    ParameterError
         For an empty, non-finite or negative time grid, and every error of
         :func:`~morpi_filters.params.load_params`.
 

@@ -146,7 +146,7 @@ def normal_gravity(latitude_deg: float, height_m: float = 0.0) -> float:
 
     Raises
     ------
-    MorpiError
+    ParameterError
         For a latitude outside [-90, 90] degrees or not finite.
 
     Examples
@@ -155,7 +155,7 @@ def normal_gravity(latitude_deg: float, height_m: float = 0.0) -> float:
     (9.7803, 9.8322)
     """
     if not (-90.0 <= latitude_deg <= 90.0) or not math.isfinite(latitude_deg):
-        raise MorpiError(f"latitude_deg={latitude_deg!r}: expected a latitude in [-90, 90] degrees")
+        raise ParameterError(f"latitude_deg={latitude_deg!r}: expected a latitude in [-90, 90] degrees")
     s2 = math.sin(math.radians(latitude_deg)) ** 2
     gamma = _WGS84_GAMMA_E * (1.0 + _WGS84_K * s2) / math.sqrt(1.0 - _WGS84_E2 * s2)
     if height_m == 0.0:
@@ -583,7 +583,7 @@ def rest_measures(rec: Recording, *, max_window_s: float = 3.0, window_s: float 
 
     Raises
     ------
-    MorpiError
+    ParameterError
         For a parameter that is not a positive number.
 
     Examples
@@ -599,7 +599,7 @@ def rest_measures(rec: Recording, *, max_window_s: float = 3.0, window_s: float 
     for name, v in (("max_window_s", max_window_s), ("window_s", window_s),
                     ("noise_s", 1.0 if noise_s is None else noise_s)):
         if not (math.isfinite(v) and v > 0):
-            raise MorpiError(f"{name}={v!r}: expected a positive number")
+            raise ParameterError(f"{name}={v!r}: expected a positive number")
     t = rec.time - rec.time[0]
     span = max_window_s if noise_s is None else noise_s
     sig_g, med_g = _block_sigma(t, rec.omega, span, window_s)
@@ -696,7 +696,7 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
         movement that has not yet lasted `sustain_s` (with no motion before),
         or fewer than `min_samples` samples after the last disturbance. The
         message says how long the recording would have to be.
-    MorpiError
+    ParameterError
         For a bad parameter.
 
     Examples
@@ -728,11 +728,11 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
                     ("noise_s", 1.0 if noise_s is None else noise_s), ("k_std", k_std), ("k_dev", k_dev),
                     ("sustain_s", sustain_s)):
         if not (math.isfinite(v) and v > 0):
-            raise MorpiError(f"{name}={v!r}: expected a positive number")
+            raise ParameterError(f"{name}={v!r}: expected a positive number")
     if min_window_s > max_window_s:
-        raise MorpiError(f"min_window_s={min_window_s!r}: expected at most max_window_s={max_window_s!r}")
+        raise ParameterError(f"min_window_s={min_window_s!r}: expected at most max_window_s={max_window_s!r}")
     if not (math.isfinite(guard_s) and guard_s >= 0) or not (math.isfinite(accel_floor) and accel_floor >= 0):
-        raise MorpiError(f"guard_s={guard_s!r}, accel_floor={accel_floor!r}: expected non-negative numbers")
+        raise ParameterError(f"guard_s={guard_s!r}, accel_floor={accel_floor!r}: expected non-negative numbers")
     if rec.n < min_samples:
         raise DataError(f"{rec.source}: {rec.n} samples is too short for a rest window: at least "
                         f"min_samples={min_samples} samples needed")
@@ -740,10 +740,10 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
         measures = rest_measures(rec, max_window_s=max_window_s, window_s=window_s, noise_s=noise_s)
     elif (measures.max_window_s, measures.window_s, measures.noise_s, measures.n) != (
             max_window_s, window_s, noise_s, rec.n):
-        raise MorpiError(f"measures: taken with max_window_s={measures.max_window_s!r}, "
-                         f"window_s={measures.window_s!r}, noise_s={measures.noise_s!r} on {measures.n} samples; "
-                         f"expected max_window_s={max_window_s!r}, window_s={window_s!r}, noise_s={noise_s!r} "
-                         f"on the {rec.n} samples of {rec.source}")
+        raise ParameterError(f"measures: taken with max_window_s={measures.max_window_s!r}, "
+                             f"window_s={measures.window_s!r}, noise_s={measures.noise_s!r} on {measures.n} samples; "
+                             f"expected max_window_s={max_window_s!r}, window_s={window_s!r}, noise_s={noise_s!r} "
+                             f"on the {rec.n} samples of {rec.source}")
     t = rec.time - rec.time[0]
     n = rec.n
     sig_g, sig_a, med_g = measures.sig_g, measures.sig_a, measures.med_g
@@ -881,9 +881,11 @@ def calibrate(rec: Recording, mode: str, *, window: RestWindow | None = None,
     NoRestError
         GC or GAC without a `window` on a recording that has no initial rest
         (:func:`detect_rest`).
-    MorpiError
-        For an unknown `mode`, a bad `g_local`, a window outside the
-        recording, or a recording too short to tell its rest.
+    ParameterError
+        For an unknown `mode`, a bad `g_local` or a window outside the
+        recording.
+    DataError
+        For a recording too short to tell its rest (:func:`detect_rest`).
 
     Examples
     --------
@@ -898,16 +900,16 @@ def calibrate(rec: Recording, mode: str, *, window: RestWindow | None = None,
     ([0.0, 0.0, 0.0], True)
     """
     if mode not in MODES:
-        raise MorpiError(f"mode={mode!r}: unknown calibration mode, expected one of {', '.join(MODES)}")
+        raise ParameterError(f"mode={mode!r}: unknown calibration mode, expected one of {', '.join(MODES)}")
     if not (math.isfinite(g_local) and g_local > 0):
-        raise MorpiError(f"g_local={g_local!r}: expected a positive gravity magnitude in m/s^2")
+        raise ParameterError(f"g_local={g_local!r}: expected a positive gravity magnitude in m/s^2")
     zero = np.zeros(3)
     if mode == "RD":
         return Calibration(mode="RD", gyro_bias=zero, accel_bias=zero.copy(), window=None)
     if window is None:
         window = detect_rest(rec)
     if not (0 <= window.i0 < window.i1 <= rec.n):
-        raise MorpiError(f"window [{window.i0}, {window.i1}): outside {rec.source} ({rec.n} samples)")
+        raise ParameterError(f"window [{window.i0}, {window.i1}): outside {rec.source} ({rec.n} samples)")
     sl = slice(window.i0, window.i1)
     gyro_bias = rec.omega[sl].mean(axis=0)
     accel_bias = zero.copy()

@@ -22,7 +22,7 @@ import sys
 import threading
 from pathlib import Path
 
-from .errors import MorpiError
+from .errors import MissingDataError, MorpiError, OutputError
 
 __all__ = ["main", "build_parser"]
 
@@ -369,7 +369,7 @@ def _study(name, args, source=None, tables=None):
         from .dataset import missing_data_message
         from .field_aided import aided_study
         if source is None or source.root is None:
-            raise MorpiError(f"aided: no dataset configured; {missing_data_message()}")
+            raise MissingDataError(f"aided: no dataset configured; {missing_data_message()}")
         return aided_study(source.root, result=tables, workers=getattr(args, "workers", None))
     if name == "assessment":
         from .assessment import assessment_study
@@ -485,7 +485,7 @@ def _run_section(name, args, source_of=None):
             stamp_json(result, f"morpi {args.command}", name)
         if args.json is not None:
             if not result.is_file():
-                raise MorpiError(f"--json: section {name} wrote no result.json")
+                raise OutputError(f"--json: section {name} wrote no result.json")
             outputs.file(args.json, force=args.force).write_text(result.read_text())
     page = out / summary.page
     print(f"{summary.title}: {page}")

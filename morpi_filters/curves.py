@@ -232,7 +232,7 @@ def case_mean_square(case: CurveCase, t, kind):
 
     Raises
     ------
-    MorpiError
+    ParameterError
         For a `kind` not in :data:`CURVE_METHODS`.
 
     Examples
@@ -253,7 +253,7 @@ def case_mean_square(case: CurveCase, t, kind):
     if kind == "MoRPI-aided INS":
         return (case.gain_sigma * case.speed * t) ** 2
     if kind not in ("INS-3D", "INS-2D"):
-        raise MorpiError(f"kind {kind!r}: expected one of {', '.join(CURVE_METHODS)}")
+        raise ParameterError(f"kind {kind!r}: expected one of {', '.join(CURVE_METHODS)}")
     return symbolic.closed_form_mean_square(_keys(case.dv0, case.ba, case.bg, case.g), t, kind, "z_up",
                                             linearized=True, keep_bgz=False)
 
@@ -291,7 +291,7 @@ def error_realisation(dv0, ba, bg, dG, g, speed, t, kind):
 
     Raises
     ------
-    MorpiError
+    ParameterError
         For a `kind` not in :data:`CURVE_METHODS`.
 
     Examples
@@ -307,7 +307,7 @@ def error_realisation(dv0, ba, bg, dG, g, speed, t, kind):
     if kind == "MoRPI-aided INS":
         return np.abs(dG) * speed * t
     if kind not in ("INS-3D", "INS-2D"):
-        raise MorpiError(f"kind {kind!r}: expected one of {', '.join(CURVE_METHODS)}")
+        raise ParameterError(f"kind {kind!r}: expected one of {', '.join(CURVE_METHODS)}")
     return symbolic.closed_form_errors(_keys(dv0, ba, bg, g), t, kind, "z_up", keep_bgz=False)
 
 
@@ -568,7 +568,7 @@ def horizontal_sigma(errors, times, method: str = "INS-3D") -> np.ndarray:
     from .params import ErrorParams, load_params
 
     if method not in CURVE_METHODS:
-        raise MorpiError(f"method {method!r}: expected one of {', '.join(CURVE_METHODS)}")
+        raise ParameterError(f"method {method!r}: expected one of {', '.join(CURVE_METHODS)}")
     if isinstance(errors, units.SensorSpec):
         case = case_from_sensor(errors, load_params())
     elif isinstance(errors, ErrorParams):
@@ -576,11 +576,11 @@ def horizontal_sigma(errors, times, method: str = "INS-3D") -> np.ndarray:
     elif isinstance(errors, CurveCase):
         case = errors
     else:
-        raise MorpiError(f"errors: {type(errors).__name__}, expected params.ErrorParams, curves.CurveCase or "
-                         "units.SensorSpec")
+        raise ParameterError(f"errors: {type(errors).__name__}, expected params.ErrorParams, curves.CurveCase or "
+                             "units.SensorSpec")
     times = np.unique(np.asarray(times, dtype=float))
     if times.size == 0 or not np.all(np.isfinite(times)) or times.min() < 0 or times.max() <= 0:
-        raise MorpiError(f"times: expected finite times >= 0 s with the last > 0, got {times.tolist()}")
+        raise ParameterError(f"times: expected finite times >= 0 s with the last > 0, got {times.tolist()}")
     grid, steps, at = time_grid(times, FILTER_DT, STEP_LENGTH_M / case.speed)
     res = _run_methods(case, grid, steps, StepModel(gain_sigma=case.gain_sigma), only=method)
     return res[method].horizontal_sigma[at]
@@ -615,10 +615,9 @@ def compute_curves(case: CurveCase, times=DEFAULT_TIMES, runs=MC_RUNS, rng=None,
 
     Raises
     ------
-    MorpiError
-        For empty, non-finite or negative times, or a last time of 0.
     ParameterError
-        For a Monte Carlo without a Generator `rng`.
+        For empty, non-finite or negative times, a last time of 0, or a Monte
+        Carlo without a Generator `rng`.
 
     Examples
     --------
@@ -639,7 +638,7 @@ def compute_curves(case: CurveCase, times=DEFAULT_TIMES, runs=MC_RUNS, rng=None,
     """
     times = np.unique(np.asarray(times, dtype=float))
     if times.size == 0 or not np.all(np.isfinite(times)) or times.min() < 0 or times.max() <= 0:
-        raise MorpiError(f"times: expected finite times >= 0 s with the last > 0, got {times.tolist()}")
+        raise ParameterError(f"times: expected finite times >= 0 s with the last > 0, got {times.tolist()}")
     nonlinear = bool(nonlinear_runs and case.spec is not None and times.max() <= NL_MAX_T)
     if (runs or nonlinear) and not isinstance(rng, np.random.Generator):
         raise ParameterError(f"rng: {type(rng).__name__}, expected a numpy.random.Generator for the Monte Carlo "

@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from .choice import choose
-from .errors import DataError, MorpiError, ParameterError
+from .errors import DataError, MissingDataError, MorpiError, ParameterError
 from .resources import project_data
 from .units import DEG, G0, SENSORS, SensorSpec
 
@@ -232,7 +232,7 @@ class Recording:
 
     Raises
     ------
-    MorpiError
+    ParameterError
         Arrays of the wrong shapes.
     DataError
         A value that is not finite, or times that do not strictly increase (naming the sample).
@@ -257,7 +257,7 @@ class Recording:
     def __post_init__(self):
         n = self.time.shape[0]
         if self.time.ndim != 1 or self.f.shape != (n, 3) or self.omega.shape != (n, 3):
-            raise MorpiError(
+            raise ParameterError(
                 f"{self.source}: expected time (n,), f (n, 3), omega (n, 3); got "
                 f"{self.time.shape}, {self.f.shape}, {self.omega.shape}")
         for label, values in (("time", self.time), ("f", self.f), ("omega", self.omega)):
@@ -446,7 +446,7 @@ class ColumnLayout:
             if seq and len(seq) != len(cols) - 1:
                 problems.append(f"{label}: {len(seq)} given, expected one per column after time ({len(cols) - 1})")
         if problems:
-            raise MorpiError("ColumnLayout: " + "; ".join(problems))
+            raise ParameterError("ColumnLayout: " + "; ".join(problems))
 
     @property
     def has_time(self) -> bool:
@@ -1780,7 +1780,7 @@ def route(name: str) -> Route:
 
     Raises
     ------
-    MorpiError
+    ParameterError
         For an unknown route name.
 
     Examples
@@ -1791,7 +1791,7 @@ def route(name: str) -> Route:
     """
     r = routes()
     if name not in r:
-        raise MorpiError(f"route {name!r}: unknown, expected one of {sorted(r)}")
+        raise ParameterError(f"route {name!r}: unknown, expected one of {sorted(r)}")
     return r[name]
 
 
@@ -1834,7 +1834,7 @@ def resolve_data_root(data=None, *, required: bool = True) -> Path | None:
 
     Raises
     ------
-    MorpiError
+    MissingDataError
         When `required` and neither is set, or the folder does not exist.
 
     Examples
@@ -1847,7 +1847,7 @@ def resolve_data_root(data=None, *, required: bool = True) -> Path | None:
     >>> resolve_data_root(clone / "nowhere")
     Traceback (most recent call last):
     ...
-    morpi_filters.errors.MorpiError: --data=...nowhere: not a directory; get the field recordings ...
+    morpi_filters.errors.MissingDataError: --data=...nowhere: not a directory; get the field recordings ...
     """
     source = "--data"
     if data is None:
@@ -1855,11 +1855,11 @@ def resolve_data_root(data=None, *, required: bool = True) -> Path | None:
         source = DATA_ENV
     if data is None:
         if required:
-            raise MorpiError(f"no dataset configured: {_HOW_TO_GET}")
+            raise MissingDataError(f"no dataset configured: {_HOW_TO_GET}")
         return None
     root = Path(data).expanduser()
     if not root.is_dir():
-        raise MorpiError(f"{source}={data}: not a directory; {_HOW_TO_GET}")
+        raise MissingDataError(f"{source}={data}: not a directory; {_HOW_TO_GET}")
     if not any((root / p).is_dir() for p in ("s6", "s8")) and any((root / "data" / p).is_dir() for p in ("s6", "s8")):
         root = root / "data"   # the root of an ansfl/MoRPI clone: its recordings are under data/
     return root

@@ -66,7 +66,7 @@ import numpy as np
 
 from . import steps as st
 from .calibration import RestWindow, calibrate, detect_rest
-from .errors import MorpiError, ParameterError
+from .errors import DataError, MorpiError, ParameterError
 from .manifest import Dataset, RouteTruth, TruthTrack
 from .strapdown import ins2d, ins3d
 from .units import G0
@@ -309,7 +309,7 @@ def _start(dr, course_m: float) -> dict:
     later = truth.time > t0
     away = np.hypot(*(truth.position[later, :2] - p0).T) >= course_m
     if not away.any():
-        raise MorpiError(f"the truth track never moves {course_m:g} m from its position at the first sample")
+        raise DataError(f"the truth track never moves {course_m:g} m from its position at the first sample")
     k = int(np.argmax(away))
     q = truth.position[later][k, :2]
     psi = math.atan2(q[1] - p0[1], q[0] - p0[0])

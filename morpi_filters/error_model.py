@@ -71,7 +71,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import expm
 
-from .errors import MorpiError
+from .errors import ParameterError
 
 __all__ = [
     "DP", "DV", "EPS", "BA", "BG", "N_STATES", "STATE_NAMES", "N_NOISE",
@@ -136,7 +136,7 @@ def skew(v):
 
     Raises
     ------
-    MorpiError
+    ParameterError
         When the last axis is not of length 3.
 
     Examples
@@ -146,7 +146,7 @@ def skew(v):
     """
     v = np.asarray(v, dtype=float)
     if v.shape[-1] != 3:
-        raise MorpiError(f"skew: expected vectors of length 3, got shape {v.shape}")
+        raise ParameterError(f"skew: expected vectors of length 3, got shape {v.shape}")
     S = np.zeros(v.shape[:-1] + (3, 3))
     S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
     S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
@@ -158,11 +158,11 @@ def _check_traj(C, f):
     C = np.asarray(C, dtype=float)
     f = np.asarray(f, dtype=float)
     if C.shape[-2:] != (3, 3) or C.ndim not in (2, 3):
-        raise MorpiError(f"C_b^n: expected shape (3, 3) or (n, 3, 3), got {C.shape}")
+        raise ParameterError(f"C_b^n: expected shape (3, 3) or (n, 3, 3), got {C.shape}")
     if f.shape[-1:] != (3,) or f.ndim not in (1, 2):
-        raise MorpiError(f"f^n: expected shape (3,) or (n, 3), got {f.shape}")
+        raise ParameterError(f"f^n: expected shape (3,) or (n, 3), got {f.shape}")
     if (C.ndim == 3) != (f.ndim == 2) or (C.ndim == 3 and C.shape[0] != f.shape[0]):
-        raise MorpiError(f"C_b^n {C.shape} and f^n {f.shape}: expected one epoch each or stacks of equal length")
+        raise ParameterError(f"C_b^n {C.shape} and f^n {f.shape}: expected one epoch each or stacks of equal length")
     return C, f
 
 
@@ -216,7 +216,7 @@ def noise_coupling(C):
 
     Raises
     ------
-    MorpiError
+    ParameterError
         For a `C` of another shape.
 
     Examples
@@ -229,7 +229,7 @@ def noise_coupling(C):
     """
     C = np.asarray(C, dtype=float)
     if C.shape[-2:] != (3, 3) or C.ndim not in (2, 3):
-        raise MorpiError(f"C_b^n: expected shape (3, 3) or (n, 3, 3), got {C.shape}")
+        raise ParameterError(f"C_b^n: expected shape (3, 3) or (n, 3, 3), got {C.shape}")
     G = np.zeros(C.shape[:-2] + (N_STATES, N_NOISE))
     G[..., DV, 0:3] = C
     G[..., EPS, 3:6] = C
@@ -241,7 +241,7 @@ def noise_coupling(C):
 def _nonneg(name, v):
     v = float(v)
     if not np.isfinite(v) or v < 0:
-        raise MorpiError(f"{name}: {v!r} must be a finite number >= 0")
+        raise ParameterError(f"{name}: {v!r} must be a finite number >= 0")
     return v
 
 
@@ -301,7 +301,7 @@ def planar_system_matrix(psi, f_xy):
 
     Raises
     ------
-    MorpiError
+    ParameterError
         For an `f_xy` whose shape does not match `psi`.
 
     Examples
@@ -318,7 +318,7 @@ def planar_system_matrix(psi, f_xy):
     C = _rot2(psi)
     f_xy = np.asarray(f_xy, dtype=float)
     if f_xy.shape[-1:] != (2,) or f_xy.shape[:-1] != C.shape[:-2]:
-        raise MorpiError(f"f_xy: expected shape {C.shape[:-2] + (2,)}, got {f_xy.shape}")
+        raise ParameterError(f"f_xy: expected shape {C.shape[:-2] + (2,)}, got {f_xy.shape}")
     F = np.zeros(C.shape[:-2] + (N_PLANAR, N_PLANAR))
     F[..., P2_DP, P2_DV] = np.eye(2)
     F[..., P2_DV, P2_PSI] = (f_xy @ _J.T)[..., :, None]
@@ -378,7 +378,7 @@ def planar_noise_density(spec, accel_bias_walk=0.0, gyro_bias_walk=0.0):
 
     Raises
     ------
-    MorpiError
+    ParameterError
         For a negative or non-finite value.
 
     Examples
@@ -492,7 +492,7 @@ def discretize(F, G, Q, dt):
 
     Raises
     ------
-    MorpiError
+    ParameterError
         For inconsistent shapes, a negative or non-finite step, or stacks of
         different leading axes.
 
@@ -518,18 +518,18 @@ def discretize(F, G, Q, dt):
     Q = np.asarray(Q, dtype=float)
     dt = np.asarray(dt, dtype=float)
     if F.ndim not in (2, 3) or F.shape[-1] != F.shape[-2]:
-        raise MorpiError(f"F: expected shape (k, k) or (n, k, k), got {F.shape}")
+        raise ParameterError(f"F: expected shape (k, k) or (n, k, k), got {F.shape}")
     k = F.shape[-1]
     if G.ndim not in (2, 3) or G.shape[-2] != k:
-        raise MorpiError(f"G: expected shape ({k}, m) or (n, {k}, m), got {G.shape}")
+        raise ParameterError(f"G: expected shape ({k}, m) or (n, {k}, m), got {G.shape}")
     m = G.shape[-1]
     if Q.ndim not in (2, 3) or Q.shape[-2:] != (m, m):
-        raise MorpiError(f"Q: expected shape ({m}, {m}) or (n, {m}, {m}), got {Q.shape}")
+        raise ParameterError(f"Q: expected shape ({m}, {m}) or (n, {m}, {m}), got {Q.shape}")
     if dt.ndim > 1 or not np.all(np.isfinite(dt)) or np.any(dt < 0):
-        raise MorpiError("dt: expected a finite step >= 0 [s] or a 1-D array of them")
+        raise ParameterError("dt: expected a finite step >= 0 [s] or a 1-D array of them")
     lead = np.broadcast_shapes(F.shape[:-2], G.shape[:-2], Q.shape[:-2], dt.shape)
     if len(lead) > 1:
-        raise MorpiError("discretize: stacks must share one leading (time) axis")
+        raise ParameterError("discretize: stacks must share one leading (time) axis")
     if F.ndim == 2 and G.ndim == 2 and Q.ndim == 2 and dt.ndim == 1:
         # one model, many steps: exponentiate each distinct step once
         u, inv = np.unique(dt, return_inverse=True)
@@ -588,7 +588,7 @@ def simulate_linear(F, G, Q, P0, dt, n_steps, runs, rng, keep=None):
 
     Raises
     ------
-    MorpiError
+    ParameterError
         For a step that is not finite and > 0, or a step array of another
         length than `n_steps`.
 
@@ -608,7 +608,7 @@ def simulate_linear(F, G, Q, P0, dt, n_steps, runs, rng, keep=None):
     k, m = G.shape[-2], G.shape[-1]
     dt = np.asarray(dt, dtype=float)
     if not np.all(np.isfinite(dt)) or np.any(dt <= 0) or dt.ndim > 1 or (dt.ndim == 1 and dt.size != n_steps):
-        raise MorpiError(f"dt: expected a step > 0 [s] or {n_steps} of them")
+        raise ParameterError(f"dt: expected a step > 0 [s] or {n_steps} of them")
     dts, inv = (np.unique(dt, return_inverse=True) if F.ndim == 2 and G.ndim == 2 and dt.ndim == 1
                 else (dt, None))
     M = np.zeros(np.broadcast_shapes(F.shape[:-2], G.shape[:-2], dts.shape) + (k + m, k + m))

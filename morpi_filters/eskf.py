@@ -77,7 +77,7 @@ from numpy import dot
 from scipy.stats import chi2
 
 from .error_model import DP, EPS, N_STATES, STATE_NAMES
-from .errors import MorpiError
+from .errors import ParameterError
 
 __all__ = [
     "C_DP", "C_EPS", "GAIN", "AUG_STATE_NAMES", "Measurement", "FilterResult", "StepModel",
@@ -205,7 +205,7 @@ class StepModel:
         for name in ("gain_sigma", "jitter_s", "step_sigma", "cross_sigma_m"):
             v = getattr(self, name)
             if not np.isfinite(v) or v < 0:
-                raise MorpiError(f"StepModel.{name}: {v!r} must be a finite number >= 0")
+                raise ParameterError(f"StepModel.{name}: {v!r} must be a finite number >= 0")
 
     @property
     def n_states(self) -> int:
@@ -241,7 +241,7 @@ def initial_covariance(dv0=0.0, ba=0.0, bg=0.0, dp0=0.0, eps0=0.0):
     for sl, name, v in ((DP, "dp0", dp0), (DV, "dv0", dv0), (EPS, "eps0", eps0), (BA, "ba", ba), (BG, "bg", bg)):
         v = np.broadcast_to(np.asarray(v, dtype=float), (3,))
         if not np.all(np.isfinite(v)):
-            raise MorpiError(f"initial_covariance: {name} must be finite, got {v}")
+            raise ParameterError(f"initial_covariance: {name} must be finite, got {v}")
         d[sl] = v ** 2
     return np.diag(d)
 
@@ -500,13 +500,13 @@ def run_filter(Phi, Qd, P0, times, measurements=(), x0=None, keep_P=False):
     n = times.size - 1
     k = Phi.shape[-1]
     if Phi.ndim == 3 and Phi.shape[0] != n or Qd.ndim == 3 and Qd.shape[0] != n:
-        raise MorpiError(f"Phi {Phi.shape} / Qd {Qd.shape}: expected one matrix per step ({n} steps)")
+        raise ParameterError(f"Phi {Phi.shape} / Qd {Qd.shape}: expected one matrix per step ({n} steps)")
     P0 = np.asarray(P0, dtype=float)
     if P0.shape != (k, k):
-        raise MorpiError(f"P0: expected shape ({k}, {k}), got {P0.shape}")
+        raise ParameterError(f"P0: expected shape ({k}, {k}), got {P0.shape}")
     meas = sorted(measurements, key=lambda m: m.index)
     if meas and not (1 <= meas[0].index and meas[-1].index <= n):
-        raise MorpiError(f"measurement index out of range 1..{n}")
+        raise ParameterError(f"measurement index out of range 1..{n}")
     runs = None
     for m in meas:
         if m.H is not None and np.ndim(m.z) == 2:
@@ -522,8 +522,8 @@ def run_filter(Phi, Qd, P0, times, measurements=(), x0=None, keep_P=False):
     dim_z = upd[0].H.shape[0] if upd else 1
     for m in upd:
         if m.H.shape != (dim_z, k) or m.R.shape != (dim_z, dim_z) or np.shape(m.z)[-1] != dim_z:
-            raise MorpiError(f"measurement at epoch {m.index}: expected H ({dim_z}, {k}), R ({dim_z}, {dim_z}) "
-                             f"and z of length {dim_z}, got {m.H.shape}, {m.R.shape}, {np.shape(m.z)}")
+            raise ParameterError(f"measurement at epoch {m.index}: expected H ({dim_z}, {k}), R ({dim_z}, {dim_z}) "
+                                 f"and z of length {dim_z}, got {m.H.shape}, {m.R.shape}, {np.shape(m.z)}")
     kf = KalmanFilter(dim_x=k, dim_z=dim_z)
     kf.x = (X if runs is None else X[0]).copy()
     kf.P = P0.copy()
@@ -534,12 +534,12 @@ def run_filter(Phi, Qd, P0, times, measurements=(), x0=None, keep_P=False):
         P_index = np.zeros(0, int)
     elif isinstance(keep_P, (int, np.integer)):
         if keep_P < 1:
-            raise MorpiError(f"keep_P: a stride must be a whole number >= 1, got {keep_P}")
+            raise ParameterError(f"keep_P: a stride must be a whole number >= 1, got {keep_P}")
         P_index = np.arange(0, n + 1, int(keep_P))
     else:
         P_index = np.unique(np.asarray(keep_P, dtype=int))
         if P_index.size and (P_index[0] < 0 or P_index[-1] > n):
-            raise MorpiError(f"keep_P: epochs must lie in 0..{n}")
+            raise ParameterError(f"keep_P: epochs must lie in 0..{n}")
     keep = np.zeros(n + 1, bool)
     keep[P_index] = True
     P_store = np.empty((P_index.size, k, k)) if P_index.size else None
@@ -671,7 +671,7 @@ def propagate_covariance(Phi, Qd, P0, n, stride=1):
     Qd = np.asarray(Qd, dtype=float)
     P0 = np.asarray(P0, dtype=float)
     if isinstance(stride, bool) or not isinstance(stride, (int, np.integer)) or stride < 1:
-        raise MorpiError(f"stride: expected a whole number >= 1, got {stride!r}")
+        raise ParameterError(f"stride: expected a whole number >= 1, got {stride!r}")
     stride = int(stride)
     if stride > 1:
         A_s, Q_s = _powers_and_noise(Phi, Qd, stride)

@@ -70,7 +70,7 @@ import numpy as np
 from . import dataset as ds
 from . import steps as st
 from .choice import choose
-from .errors import DataError, MorpiError
+from .errors import DataError, MissingDataError, MorpiError, ParameterError
 from .field import (
     _MORPI_METHODS, LEVELED, RULES, SHORT_SETS, FieldData, Gain, Selection, _loo_vector, trained_gain,
     nested_rule_comparison, select_config,
@@ -496,7 +496,7 @@ def evaluate_tables(root, *, include_test: bool = True, configs: dict | None = N
         if key not in present and (include_test or key[2] != "test"):
             missing.append(folder)
     if rule not in RULES:
-        raise MorpiError(f"rule={rule!r}: expected one of {RULES}")
+        raise ParameterError(f"rule={rule!r}: expected one of {RULES}")
     selections = {}
     joint = select_config(data) if rule == "joint" and not configs else None
     for m in _MORPI_METHODS:
@@ -551,7 +551,7 @@ def training_gain_spread(source, result: TablesResult | None = None) -> tuple[fl
     rel = [g.mean / np.asarray(g.per_run, dtype=float) - 1.0
            for g in res.gains if g.calibration == "GC" and len(g.per_run) > 1]
     if not rel:
-        raise MorpiError(f"{source.root}: no short-route training runs, expected folders like s8/short_distance/train")
+        raise DataError(f"{source.root}: no short-route training runs, expected folders like s8/short_distance/train")
     rel = np.concatenate(rel)
     return float(np.sqrt(np.mean(rel ** 2))), float(np.mean(rel))
 
@@ -1149,7 +1149,7 @@ def tables_study(root, *, partial: bool = False, result: TablesResult | None = N
         (:func:`check_cells`).
     """
     if root is None:
-        raise MorpiError(f"tables: no dataset configured; {ds.missing_data_message()}")
+        raise MissingDataError(f"tables: no dataset configured; {ds.missing_data_message()}")
     data = result.data if result is not None else FieldData(root)
     left_out = dataset_problems(data)
     if not partial:

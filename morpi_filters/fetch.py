@@ -25,7 +25,8 @@ extra and every hash matches is the staging folder renamed into place. Any
 failure (HTTP error, refused connection, time-out, truncated or corrupt
 archive, checksum mismatch, missing or extra file, a member that would land
 outside the destination: absolute path, ``..``, link) raises one
-:class:`MorpiError` line and removes everything it wrote. A destination that
+:class:`FetchError` line (an :class:`OutputError` for a destination in the
+way) and removes everything it wrote. A destination that
 already holds a verified dataset is left untouched.
 
 Archives are ``.zip`` or ``.tar.gz`` (recognised by their first bytes, not
@@ -59,7 +60,7 @@ from pathlib import Path, PurePosixPath
 from typing import Callable, Mapping
 
 from .dataset import PROJECT_DATA
-from .errors import MorpiError
+from .errors import FetchError, MorpiError, OutputError, ParameterError
 from .reporting import new_stage_dir, swap_in
 
 __all__ = [
@@ -140,7 +141,7 @@ def compute_checksums(root) -> dict[str, str]:
 
     Raises
     ------
-    MorpiError
+    ParameterError
         When `root` is not a directory.
 
     Examples
@@ -155,7 +156,7 @@ def compute_checksums(root) -> dict[str, str]:
     """
     root = Path(root)
     if not root.is_dir():
-        raise MorpiError(f"{root}: not a directory, expected a dataset root")
+        raise ParameterError(f"{root}: not a directory, expected a dataset root")
     out = {p.relative_to(root).as_posix(): sha256_file(p) for p in root.rglob("*.csv") if p.is_file()}
     return dict(sorted(out.items()))
 
@@ -209,7 +210,7 @@ def load_checksums(path=None) -> dict[str, str]:
 
     Raises
     ------
-    MorpiError
+    ParameterError
         Naming the file and line of a malformed entry, an unsafe path or a
         repeated path, or when the file is missing or empty.
 
@@ -225,7 +226,7 @@ def load_checksums(path=None) -> dict[str, str]:
     try:
         lines = path.read_text().splitlines()
     except OSError as exc:
-        raise MorpiError(f"{path}: cannot read checksum file ({exc.strerror})") from None
+        raise ParameterError(f"{path}: cannot read checksum file ({exc.strerror})") from None
     out: dict[str, str] = {}
     for i, line in enumerate(lines, start=1):
         if not line.strip() or line.startswith("#"):
@@ -234,14 +235,14 @@ def load_checksums(path=None) -> dict[str, str]:
         digest = parts[0].lower() if parts else ""
         rel = parts[1].strip() if len(parts) == 2 else ""
         if len(digest) != 64 or any(c not in "0123456789abcdef" for c in digest) or not rel:
-            raise MorpiError(f"{path}: line {i}: expected '<64 hex digits>  <relative path>'")
+            raise ParameterError(f"{path}: line {i}: expected '<64 hex digits>  <relative path>'")
         if _unsafe(rel):
-            raise MorpiError(f"{path}: line {i}: path {rel!r} is not a plain relative path")
+            raise ParameterError(f"{path}: line {i}: path {rel!r} is not a plain relative path")
         if rel in out:
-            raise MorpiError(f"{path}: line {i}: {rel} listed twice")
+            raise ParameterError(f"{path}: line {i}: {rel} listed twice")
         out[rel] = digest
     if not out:
-        raise MorpiError(f"{path}: no checksums, expected one '<sha256>  <path>' line per recording")
+        raise ParameterError(f"{path}: no checksums, expected one '<sha256>  <path>' line per recording")
     return out
 
 
@@ -434,7 +435,7 @@ def dataset_identity(root, *, synthetic: bool = False, seed: int | None = None) 
 
     Raises
     ------
-    MorpiError
+    ParameterError
         When `root` is not a directory.
 
     Examples
@@ -451,7 +452,7 @@ def dataset_identity(root, *, synthetic: bool = False, seed: int | None = None) 
     """
     root = Path(root)
     if not root.is_dir():
-        raise MorpiError(f"{root}: not a directory, expected a dataset root")
+        raise ParameterError(f"{root}: not a directory, expected a dataset root")
     stamp = []
     for p in root.rglob("*.csv"):
         with contextlib.suppress(OSError):
@@ -508,7 +509,7 @@ class _Archive:
         elif magic[:4] in (b"PK\x03\x04", b"PK\x05\x06"):
             self.kind = "zip"
         else:
-            raise MorpiError(f"{url}: not a .zip or .tar.gz archive (first bytes {magic!r})")
+            raise FetchError(f"{url}: not a .zip or .tar.gz archive (first bytes {magic!r})")
 
     def members(self):
         if self.kind == "zip":
@@ -562,10 +563,14 @@ def fetch_dataset(dest, *, url: str | None = None, checksums=None, timeout: floa
 
     Raises
     ------
-    MorpiError
-        One line naming the URL or the destination, for any failure listed
-        in the module docstring. Nothing is left behind: `dest` is either
-        untouched or absent, and no staging or temporary file remains.
+    FetchError
+        One line naming the URL, for a failed download or an archive that is
+        unsafe, corrupt or does not match the checksums. Nothing is left
+        behind: `dest` is either untouched or absent, and no staging or
+        temporary file remains.
+    OutputError
+        One line naming the destination, when it is in the way or cannot be
+        written; nothing is left behind either.
 
     Examples
     --------
@@ -587,7 +592,7 @@ def fetch_dataset(dest, *, url: str | None = None, checksums=None, timeout: floa
     ...               progress=lambda msg: None)
     Traceback (most recent call last):
     ...
-    morpi_filters.errors.MorpiError: file://...: archive does not match the dataset checksums: checksum mismatch in 1 file(s), e.g. s6/L_line/1.csv
+    morpi_filters.errors.FetchError: file://...: archive does not match the dataset checksums: checksum mismatch in 1 file(s), e.g. s6/L_line/1.csv
     >>> (work / "other").exists()
     False
     """
@@ -598,17 +603,17 @@ def fetch_dataset(dest, *, url: str | None = None, checksums=None, timeout: floa
     root = dest / ARCHIVE_DATA_DIR
     if dest.exists() or dest.is_symlink():
         if not dest.is_dir() or dest.is_symlink():
-            raise MorpiError(f"{dest}: exists and is not a folder, expected a new or empty destination folder")
+            raise OutputError(f"{dest}: exists and is not a folder, expected a new or empty destination folder")
         if root.is_dir() and not verify_tree(root, expected):
             say(f"{root}: already holds the verified dataset ({len(expected)} files); nothing to do")
             return root
         if any(dest.iterdir()):
-            raise MorpiError(f"{dest}: not empty and not a verified dataset; remove it or choose another --dest")
+            raise OutputError(f"{dest}: not empty and not a verified dataset; remove it or choose another --dest")
     try:
         dest.parent.mkdir(parents=True, exist_ok=True)
         stage = new_stage_dir(dest)
     except OSError as exc:
-        raise MorpiError(f"{dest}: cannot create a staging folder beside it ({exc.strerror or exc})") from None
+        raise OutputError(f"{dest}: cannot create a staging folder beside it ({exc.strerror or exc})") from None
     try:
         archive = stage / "download"
         say(f"downloading {url}")
@@ -618,7 +623,7 @@ def fetch_dataset(dest, *, url: str | None = None, checksums=None, timeout: floa
         archive.unlink()
         problems = _compare(expected, got)
         if problems:
-            raise MorpiError(f"{url}: archive does not match the dataset checksums: {'; '.join(problems)}")
+            raise FetchError(f"{url}: archive does not match the dataset checksums: {'; '.join(problems)}")
         if dest.is_dir():
             dest.rmdir()   # empty (checked above); fails loudly if something appeared meanwhile
         swap_in(tree, dest)
@@ -627,7 +632,7 @@ def fetch_dataset(dest, *, url: str | None = None, checksums=None, timeout: floa
         raise
     except OSError as exc:
         shutil.rmtree(stage, ignore_errors=True)
-        raise MorpiError(f"{dest}: cannot write the dataset ({exc.strerror or exc})") from None
+        raise OutputError(f"{dest}: cannot write the dataset ({exc.strerror or exc})") from None
     except BaseException:
         shutil.rmtree(stage, ignore_errors=True)
         raise
@@ -649,7 +654,7 @@ def _download(url: str, path: Path, timeout: float) -> None:
     try:
         _stream(url, path, timeout)
     except MorpiError as exc:
-        raise MorpiError(f"{exc}; {OFFLINE_ALTERNATIVES}") from None
+        raise FetchError(f"{exc}; {OFFLINE_ALTERNATIVES}") from None
 
 
 def _stream(url: str, path: Path, timeout: float) -> None:
@@ -662,23 +667,23 @@ def _stream(url: str, path: Path, timeout: float) -> None:
                 out.write(block)
                 n += len(block)
             if length is not None and length.isdigit() and n != int(length):
-                raise MorpiError(f"{url}: download truncated: {n} of {length} bytes")
+                raise FetchError(f"{url}: download truncated: {n} of {length} bytes")
     except urllib.error.HTTPError as exc:
-        raise MorpiError(f"{url}: download failed: HTTP {exc.code} {exc.reason}") from None
+        raise FetchError(f"{url}: download failed: HTTP {exc.code} {exc.reason}") from None
     except urllib.error.URLError as exc:
         reason = exc.reason
         if isinstance(reason, (socket.timeout, TimeoutError)):
-            raise MorpiError(f"{url}: download failed: no answer within {timeout:g} s") from None
+            raise FetchError(f"{url}: download failed: no answer within {timeout:g} s") from None
         text = getattr(reason, "strerror", None) or str(reason)
-        raise MorpiError(f"{url}: download failed: {text}") from None
+        raise FetchError(f"{url}: download failed: {text}") from None
     except (socket.timeout, TimeoutError):
-        raise MorpiError(f"{url}: download failed: no answer within {timeout:g} s") from None
+        raise FetchError(f"{url}: download failed: no answer within {timeout:g} s") from None
     except http.client.IncompleteRead as exc:
-        raise MorpiError(f"{url}: download truncated after {len(exc.partial)} bytes") from None
+        raise FetchError(f"{url}: download truncated after {len(exc.partial)} bytes") from None
     except (http.client.HTTPException, ConnectionError) as exc:
-        raise MorpiError(f"{url}: download failed: {exc.__class__.__name__} {exc}") from None
+        raise FetchError(f"{url}: download failed: {exc.__class__.__name__} {exc}") from None
     except ValueError as exc:
-        raise MorpiError(f"{url}: not a usable URL ({exc})") from None
+        raise FetchError(f"{url}: not a usable URL ({exc})") from None
 
 
 def _unpack(archive: Path, out: Path, url: str) -> dict[str, str]:
@@ -689,29 +694,29 @@ def _unpack(archive: Path, out: Path, url: str) -> dict[str, str]:
     try:
         for name, kind, opener in arc.members():
             if _unsafe(name.rstrip("/")):
-                raise MorpiError(f"{url}: member {name!r} would escape the destination; refusing the archive")
+                raise FetchError(f"{url}: member {name!r} would escape the destination; refusing the archive")
             head = name.split("/", 1)[0]
             if top is None:
                 top = head
             elif head != top:
-                raise MorpiError(f"{url}: members under both {top!r} and {head!r}; expected one top folder")
+                raise FetchError(f"{url}: members under both {top!r} and {head!r}; expected one top folder")
             rel = _data_relpath(name.rstrip("/"))
             if rel is None or kind == "dir":
                 continue
             if kind != "file":
-                raise MorpiError(f"{url}: member {name!r} is a {kind}, not a regular file; refusing the archive")
+                raise FetchError(f"{url}: member {name!r} is a {kind}, not a regular file; refusing the archive")
             if not rel.endswith(".csv"):
                 continue
             if rel in got:
-                raise MorpiError(f"{url}: member {name!r} appears twice")
+                raise FetchError(f"{url}: member {name!r} appears twice")
             target = out / rel
             target.parent.mkdir(parents=True, exist_ok=True)
             src = opener()
             with src, open(target, "xb") as fh:
                 got[rel] = _sha256_stream(src.read, fh.write)
     except (zipfile.BadZipFile, zipfile.LargeZipFile, tarfile.TarError, zlib.error, EOFError) as exc:
-        raise MorpiError(f"{url}: truncated or corrupt {arc.kind} archive ({exc or exc.__class__.__name__})") \
+        raise FetchError(f"{url}: truncated or corrupt {arc.kind} archive ({exc or exc.__class__.__name__})") \
             from None
     if top is None:
-        raise MorpiError(f"{url}: empty {arc.kind} archive")
+        raise FetchError(f"{url}: empty {arc.kind} archive")
     return got

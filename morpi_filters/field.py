@@ -21,7 +21,7 @@ from . import dataset as ds
 from . import steps as st
 from .calibration import NoRestError
 from .choice import choose
-from .errors import MorpiError
+from .errors import DataError, MorpiError, ParameterError
 
 __all__ = ["SHORT_SETS", "RULES", "INS_SPANS", "LEVELED", "HEADING_ORIGINS", "HEADING_SOURCES", "Gain",
            "Selection", "Thresholds", "FieldData", "train_thresholds", "fold_thresholds", "select_config", "nested_rule_comparison",
@@ -176,7 +176,7 @@ class FieldData:
                  thresholds: Thresholds | None = None):
         for name, v, allowed in (("ins_span", ins_span, INS_SPANS), ("heading_from", heading_from, HEADING_ORIGINS)):
             if v not in allowed:
-                raise MorpiError(f"{name}={v!r}: expected one of {allowed}")
+                raise ParameterError(f"{name}={v!r}: expected one of {allowed}")
         self.ins_span = ins_span
         self.heading_from = heading_from
         self._thresholds = thresholds
@@ -225,7 +225,7 @@ class FieldData:
         new.__dict__.update(other.__dict__)
         for name, v, allowed in (("ins_span", ins_span, INS_SPANS), ("heading_from", heading_from, HEADING_ORIGINS)):
             if v is not None and v not in allowed:
-                raise MorpiError(f"{name}={v!r}: expected one of {allowed}")
+                raise ParameterError(f"{name}={v!r}: expected one of {allowed}")
         new.ins_span = ins_span or other.ins_span
         new.heading_from = heading_from or other.heading_from
         new._thresholds = other.thresholds
@@ -446,7 +446,7 @@ class FieldData:
         after the window's end it holds its last value.
         """
         if source not in HEADING_SOURCES:
-            raise MorpiError(f"heading source {source!r}: expected one of {HEADING_SOURCES}")
+            raise ParameterError(f"heading source {source!r}: expected one of {HEADING_SOURCES}")
         key = (rec.source, mode, "heading", source)
         if key not in self._prep:
             crec, _ = self.calibrated(rec, mode)
@@ -455,7 +455,7 @@ class FieldData:
             i0 = int(np.searchsorted(t, a))
             i1 = int(np.searchsorted(t, b, side="right"))
             if i1 - i0 < 2:
-                raise MorpiError(f"{rec.source}: no motion found for the heading")
+                raise DataError(f"{rec.source}: no motion found for the heading")
             psi = np.zeros(t.shape[0])
             if source == "gyro":
                 part = st.integrate_heading(t[i0:i1], crec.omega[i0:i1, 2])
@@ -575,11 +575,11 @@ class FieldData:
                 sl = slice(None)
             t, f, w = crec.time[sl], crec.f[sl], crec.omega[sl]
             if t.shape[0] < 2:
-                raise MorpiError(f"{rec.source}: no motion found for the INS")
+                raise DataError(f"{rec.source}: no motion found for the INS")
             if method == "INS-3D":
                 self._ins[key] = ins3d(t, f, w, C0=C0, g=g)
             elif mode == LEVELED:
-                raise MorpiError(f"{rec.source}: the planar INS has no tilt to level; {LEVELED} is for INS-3D")
+                raise ParameterError(f"{rec.source}: the planar INS has no tilt to level; {LEVELED} is for INS-3D")
             else:
                 self._ins[key] = ins2d(t, f, w)
         return self._ins[key]

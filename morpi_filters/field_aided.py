@@ -49,7 +49,7 @@ import numpy as np
 
 from . import aided
 from .choice import choose
-from .errors import MorpiError
+from .errors import DataError, MorpiError, ParameterError
 
 __all__ = ["GRID", "ABLATIONS", "AidedCell", "AidedStudy", "PairedDifference", "Prepared", "aided_study",
            "choose_tunables", "choose_tunables_many", "paired_difference", "prepare",
@@ -389,7 +389,7 @@ def prepare(data, rec, mode, method, config, gain) -> Prepared:
 
     Raises
     ------
-    MorpiError
+    DataError
         When no steps are found.
     """
     from . import steps as st
@@ -530,7 +530,7 @@ def route_sums(data, rec, mode, method, config) -> tuple[float, np.ndarray]:
 
     Raises
     ------
-    MorpiError
+    DataError
         When no steps are found (as :meth:`~morpi_filters.field.FieldData.steps`).
     """
     s = data.steps(rec, mode, method, config)
@@ -690,7 +690,7 @@ def period_sums(data, rec, mode, method, config, reading) -> tuple[float, np.nda
 
     Raises
     ------
-    MorpiError
+    DataError
         When no steps are found.
     """
     s = data.steps(rec, mode, method, config)
@@ -905,7 +905,7 @@ def choose_tunables(data, train, method, mode, config, gain):
 
     Raises
     ------
-    MorpiError
+    DataError
         The training set has no train run with steps (:func:`choose_tunables_many`
         returns that error in its list; this single-request form raises it).
     """
@@ -946,7 +946,7 @@ def choose_tunables_many(data, requests, *, workers: int | None = None) -> list:
     for train, method, mode, config, gain in requests:
         runs = _prepared_runs(data, train[0], train[1], "train", mode, method, config, gain.mean)
         if not runs:
-            plans.append(MorpiError(f"{train[0]}/{train[1]}/train: no train run with steps for the aided filter"))
+            plans.append(DataError(f"{train[0]}/{train[1]}/train: no train run with steps for the aided filter"))
             continue
         noise = tuple(float(np.median([r.noise[j] for r in runs])) for j in range(3))
         # the gyro bias walk that the train runs' rest stretches show: E[dm^2] = q dt per axis
@@ -1178,7 +1178,7 @@ def paired_difference(errors_m, reference_m, distance_m: float, *, alpha: float 
 
     Raises
     ------
-    MorpiError
+    ParameterError
         For arrays of different shapes, a distance that is not positive or `alpha` outside (0, 1).
 
     Examples
@@ -1190,11 +1190,11 @@ def paired_difference(errors_m, reference_m, distance_m: float, *, alpha: float 
     a = np.asarray(errors_m, dtype=float)
     b = np.asarray(reference_m, dtype=float)
     if a.ndim != 1 or a.shape != b.shape:
-        raise MorpiError(f"paired_difference: errors of shapes {a.shape} and {b.shape}, expected two (n,) arrays")
+        raise ParameterError(f"paired_difference: errors of shapes {a.shape} and {b.shape}, expected two (n,) arrays")
     if not (np.isfinite(distance_m) and distance_m > 0):
-        raise MorpiError(f"distance_m={distance_m!r}: expected a positive route distance [m]")
+        raise ParameterError(f"distance_m={distance_m!r}: expected a positive route distance [m]")
     if not 0 < alpha < 1:
-        raise MorpiError(f"alpha={alpha!r}: expected a test level in (0, 1)")
+        raise ParameterError(f"alpha={alpha!r}: expected a test level in (0, 1)")
     ok = np.isfinite(a) & np.isfinite(b)
     d = (a[ok] - b[ok]) / distance_m * 100
     n = int(d.size)
@@ -1236,7 +1236,7 @@ def holm(p_values, alpha: float = ALPHA):
 
     Raises
     ------
-    MorpiError
+    ParameterError
         For `alpha` outside (0, 1) or p-values outside [0, 1].
 
     Examples
@@ -1249,11 +1249,11 @@ def holm(p_values, alpha: float = ALPHA):
     ([0.03, 0.06, 0.06, 0.02], [True, False, False, True])
     """
     if not 0 < alpha < 1:
-        raise MorpiError(f"alpha={alpha!r}: expected a test level in (0, 1)")
+        raise ParameterError(f"alpha={alpha!r}: expected a test level in (0, 1)")
     p = np.asarray(p_values, dtype=float).ravel()
     ok = np.flatnonzero(np.isfinite(p))
     if np.any((p[ok] < 0) | (p[ok] > 1)):
-        raise MorpiError(f"holm: p-values {p.tolist()}: expected values in [0, 1] (or NaN)")
+        raise ParameterError(f"holm: p-values {p.tolist()}: expected values in [0, 1] (or NaN)")
     adj = np.full(p.shape, np.nan)
     run = 0.0
     for i, j in enumerate(ok[np.argsort(p[ok], kind="stable")]):
@@ -1291,7 +1291,7 @@ def detectable_difference(sd: float, runs: int, *, alpha: float = ALPHA, power: 
 
     Raises
     ------
-    MorpiError
+    ParameterError
         For `alpha`, `power` or `sd` out of range.
 
     Examples
@@ -1304,11 +1304,11 @@ def detectable_difference(sd: float, runs: int, *, alpha: float = ALPHA, power: 
     from scipy import optimize, stats
 
     if not 0 < alpha < 1:
-        raise MorpiError(f"alpha={alpha!r}: expected a test level in (0, 1)")
+        raise ParameterError(f"alpha={alpha!r}: expected a test level in (0, 1)")
     if not alpha < power < 1:
-        raise MorpiError(f"power={power!r}: expected a probability in (alpha, 1)")
+        raise ParameterError(f"power={power!r}: expected a probability in (alpha, 1)")
     if not (np.isfinite(sd) and sd >= 0):
-        raise MorpiError(f"sd={sd!r}: expected a finite standard deviation >= 0")
+        raise ParameterError(f"sd={sd!r}: expected a finite standard deviation >= 0")
     if runs < 2:
         return float("nan")
     if sd == 0:
@@ -1386,7 +1386,7 @@ def ellipse_coverage(errors_xy, P_xy, along) -> dict:
 
     Raises
     ------
-    MorpiError
+    ParameterError
         For mismatched shapes or a zero `along`.
 
     Examples
@@ -1401,10 +1401,10 @@ def ellipse_coverage(errors_xy, P_xy, along) -> dict:
     e = np.asarray(errors_xy, dtype=float).reshape(-1, 2)
     P = np.asarray(P_xy, dtype=float).reshape(-1, 2, 2)
     if e.shape[0] != P.shape[0]:
-        raise MorpiError(f"ellipse_coverage: {e.shape[0]} errors and {P.shape[0]} covariances; expected one each")
+        raise ParameterError(f"ellipse_coverage: {e.shape[0]} errors and {P.shape[0]} covariances; expected one each")
     u = np.asarray(along, dtype=float)
     if u.shape != (2,) or not np.linalg.norm(u) > 0:
-        raise MorpiError(f"ellipse_coverage: along={u.tolist()}: expected a non-zero 2-vector")
+        raise ParameterError(f"ellipse_coverage: along={u.tolist()}: expected a non-zero 2-vector")
     u = u / np.linalg.norm(u)
     c = np.array([-u[1], u[0]])
     if not e.shape[0]:
@@ -1478,7 +1478,7 @@ def aid_used(name: str, tuning: aided.AidTuning) -> bool:
 
     Raises
     ------
-    MorpiError
+    ParameterError
         For a name that is not an ablation.
 
     Examples
@@ -1488,7 +1488,7 @@ def aid_used(name: str, tuning: aided.AidTuning) -> bool:
     ['steps', 'rest updates', 'smoothing']
     """
     if name not in ABLATIONS:
-        raise MorpiError(f"aid_used: name={name!r}: expected one of {sorted(ABLATIONS)}")
+        raise ParameterError(f"aid_used: name={name!r}: expected one of {sorted(ABLATIONS)}")
     return {"steps": tuning.steps, "non-holonomic": tuning.nhc, "rest updates": tuning.rest,
             "gain state": tuning.gain_estimated and tuning.gain_sigma > 0, "smoothing": True}[name]
 
@@ -1730,7 +1730,7 @@ def _ablation_row(label, name, used, full, without=None, start="rest window") ->
     sm, fw = full
     if without is None:
         if used and name != "smoothing":
-            raise MorpiError(f"ablation of {label!r}: {name!r} is used but was not run")
+            raise ParameterError(f"ablation of {label!r}: {name!r} is used but was not run")
         # not used: the same filter; without smoothing: the forward read-out for both columns
         without = (fw, fw) if name == "smoothing" else (sm, fw)
     return {"cell": label, "removed": name, "smoothed_percent": float(without[0]),

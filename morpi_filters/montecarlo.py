@@ -109,7 +109,7 @@ import numpy as np
 
 from . import _batch_ins as bi
 from .choice import choose
-from .errors import MorpiError
+from .errors import ParameterError
 from .parallel import Progress, chunk_ranges, execute
 from .reporting import round_significant
 from .steps import weinberg_length
@@ -280,7 +280,7 @@ class StudyConfig:
 
         Raises
         ------
-        MorpiError
+        ParameterError
             When all three are given and disagree, or the motion is impossible
             (shorter than its two ramps).
         """
@@ -288,7 +288,7 @@ class StudyConfig:
         for k, v in given.items():
             if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) \
                     or not (math.isfinite(v) and v > 0):
-                raise MorpiError(f"StudyConfig.{k}: {v!r}, expected a finite number > 0")
+                raise ParameterError(f"StudyConfig.{k}: {v!r}, expected a finite number > 0")
         T, L, v = (None if given.get(k) is None else float(given[k]) for k in ("duration", "length_m", "speed_mps"))
         if T is None and L is None:
             L = DEFAULT_LENGTH_M
@@ -305,11 +305,12 @@ class StudyConfig:
         elif v is None:
             v = L / (T - RAMP_S) if T > RAMP_S else math.inf
         elif abs(L / v + RAMP_S - T) > 1e-9 * T:
-            raise MorpiError(f"StudyConfig: duration {T:g} s, length_m {L:g} m and speed_mps {v:g} m/s disagree "
-                             f"(duration = length_m / speed_mps + {RAMP_S:g} s ramps); expected at most two of them")
+            raise ParameterError(f"StudyConfig: duration {T:g} s, length_m {L:g} m and speed_mps {v:g} m/s "
+                                 f"disagree (duration = length_m / speed_mps + {RAMP_S:g} s ramps); "
+                                 "expected at most two of them")
         if not (T >= 2 * RAMP_S and L / v >= RAMP_S):
-            raise MorpiError(f"StudyConfig.duration: {T:g} s for {L:g} m; expected at least {2 * RAMP_S:g} s "
-                             f"(the path starts and stops with {RAMP_S:g} s ramps)")
+            raise ParameterError(f"StudyConfig.duration: {T:g} s for {L:g} m; expected at least {2 * RAMP_S:g} s "
+                                 f"(the path starts and stops with {RAMP_S:g} s ramps)")
         return L, v, T
 
     def resolved(self) -> "StudyConfig":
@@ -351,7 +352,7 @@ class StudyConfig:
                 {"RD": self.spec.gyro_bias, "GC": rg, "GAC": rg}[self.calibration])
 
     def validate(self) -> None:
-        """Raise MorpiError naming the first bad parameter.
+        """Raise ParameterError naming the first bad parameter.
 
         Returns
         -------
@@ -359,7 +360,7 @@ class StudyConfig:
 
         Raises
         ------
-        MorpiError
+        ParameterError
             A bad sensor, rate, path, motion, gain scenario, calibration or
             run count, or a path shorter than 3 periods.
 
@@ -368,38 +369,38 @@ class StudyConfig:
         >>> StudyConfig(length_m=2.0).validate()
         Traceback (most recent call last):
         ...
-        morpi_filters.errors.MorpiError: StudyConfig.length_m: 2 m holds fewer than 3 periods of 1.0 m (one tapered period at each end plus one step)
+        morpi_filters.errors.ParameterError: StudyConfig.length_m: 2 m holds fewer than 3 periods of 1.0 m (one tapered period at each end plus one step)
         """
         if not isinstance(self.spec, SensorSpec):
-            raise MorpiError(f"StudyConfig.spec: {self.spec!r}, expected a SensorSpec")
+            raise ParameterError(f"StudyConfig.spec: {self.spec!r}, expected a SensorSpec")
         for name in ("rate_hz", "period_m", "amplitude_m"):
             v = getattr(self, name)
             if isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise MorpiError(f"StudyConfig.{name}: {v!r}, expected a finite number > 0")
+                raise ParameterError(f"StudyConfig.{name}: {v!r}, expected a finite number > 0")
         length, _, duration = self.motion()
         if duration * self.rate_hz < 2:
-            raise MorpiError(f"StudyConfig.duration: {duration} s at {self.rate_hz} Hz gives fewer than 2 samples")
+            raise ParameterError(f"StudyConfig.duration: {duration} s at {self.rate_hz} Hz gives fewer than 2 samples")
         if 3 * self.period_m > length:
-            raise MorpiError(f"StudyConfig.length_m: {length:g} m holds fewer than 3 periods of "
-                             f"{self.period_m} m (one tapered period at each end plus one step)")
+            raise ParameterError(f"StudyConfig.length_m: {length:g} m holds fewer than 3 periods of "
+                                 f"{self.period_m} m (one tapered period at each end plus one step)")
         if self.ins_path not in INS_PATHS:
-            raise MorpiError(f"StudyConfig.ins_path: {self.ins_path!r}, expected one of {INS_PATHS}")
+            raise ParameterError(f"StudyConfig.ins_path: {self.ins_path!r}, expected one of {INS_PATHS}")
         if not self.gains or not all(isinstance(g, GainError) for g in self.gains):
-            raise MorpiError("StudyConfig.gains: expected a non-empty tuple of GainError")
+            raise ParameterError("StudyConfig.gains: expected a non-empty tuple of GainError")
         for g in self.gains:
             if not (math.isfinite(g.mean) and math.isfinite(g.std) and g.std >= 0 and g.mean > -1):
-                raise MorpiError(f"StudyConfig.gains: {g.label!r}: mean {g.mean}, std {g.std}; expected finite, "
-                                 "std >= 0, mean > -1")
+                raise ParameterError(f"StudyConfig.gains: {g.label!r}: mean {g.mean}, std {g.std}; expected finite, "
+                                     "std >= 0, mean > -1")
         if len({g.label for g in self.gains}) != len(self.gains):
-            raise MorpiError("StudyConfig.gains: two scenarios share a label; expected distinct labels")
+            raise ParameterError("StudyConfig.gains: two scenarios share a label; expected distinct labels")
         if not (isinstance(self.keep_every, int) and self.keep_every >= 1):
-            raise MorpiError(f"StudyConfig.keep_every: {self.keep_every!r}, expected a whole number >= 1")
+            raise ParameterError(f"StudyConfig.keep_every: {self.keep_every!r}, expected a whole number >= 1")
         if self.calibration not in CALIBRATIONS:
-            raise MorpiError(f"StudyConfig.calibration: {self.calibration!r}, expected one of {CALIBRATIONS}")
+            raise ParameterError(f"StudyConfig.calibration: {self.calibration!r}, expected one of {CALIBRATIONS}")
         if not (math.isfinite(self.cal_seconds) and self.cal_seconds > 0):
-            raise MorpiError(f"StudyConfig.cal_seconds: {self.cal_seconds!r}, expected a finite number > 0")
+            raise ParameterError(f"StudyConfig.cal_seconds: {self.cal_seconds!r}, expected a finite number > 0")
         if not (isinstance(self.training_runs, int) and self.training_runs >= 2):
-            raise MorpiError(f"StudyConfig.training_runs: {self.training_runs!r}, expected a whole number >= 2")
+            raise ParameterError(f"StudyConfig.training_runs: {self.training_runs!r}, expected a whole number >= 2")
 
 
 @dataclass(frozen=True)
@@ -499,11 +500,11 @@ class StudyResult:
 
         Raises
         ------
-        MorpiError
+        ParameterError
             For a name not in `columns`.
         """
         if name not in self.columns:
-            raise MorpiError(f"column {name!r}: expected one of {', '.join(self.columns)}")
+            raise ParameterError(f"column {name!r}: expected one of {', '.join(self.columns)}")
         return self.final[:, self.columns.index(name)]
 
     def _gain_index(self, gain) -> int:
@@ -511,7 +512,7 @@ class StudyResult:
         if gain is None:
             return 0
         if gain not in labels:
-            raise MorpiError(f"gain {gain!r}: expected one of {', '.join(map(repr, labels))}")
+            raise ParameterError(f"gain {gain!r}: expected one of {', '.join(map(repr, labels))}")
         return labels.index(gain)
 
     def final_error(self, method: str, gain: str | None = None) -> np.ndarray:
@@ -531,13 +532,13 @@ class StudyResult:
 
         Raises
         ------
-        MorpiError
+        ParameterError
             An unknown method or gain label.
         """
         if method in METHODS[:2]:
             return self.column(method)
         if method not in METHODS:
-            raise MorpiError(f"method {method!r}: expected one of {', '.join(METHODS)}")
+            raise ParameterError(f"method {method!r}: expected one of {', '.join(METHODS)}")
         return self.column(f"{method}[{self.config.gains[self._gain_index(gain)].label}]")
 
     def distance_error_of(self, method: str, gain: str | None = None) -> np.ndarray:
@@ -556,11 +557,11 @@ class StudyResult:
 
         Raises
         ------
-        MorpiError
+        ParameterError
             A method other than the two MoRPI ones, or an unknown gain label.
         """
         if method not in METHODS[2:]:
-            raise MorpiError(f"method {method!r}: expected 'MoRPI-A' or 'MoRPI-G'")
+            raise ParameterError(f"method {method!r}: expected 'MoRPI-A' or 'MoRPI-G'")
         return self.distance_error[:, self._gain_index(gain), METHODS.index(method) - 2]
 
     def curve(self, method: str, statistic: str = "rms") -> np.ndarray:
@@ -579,19 +580,19 @@ class StudyResult:
 
         Raises
         ------
-        MorpiError
+        ParameterError
             An unknown method or statistic, or a study run without curves.
         """
         if method not in METHODS:
-            raise MorpiError(f"method {method!r}: expected one of {', '.join(METHODS)}")
+            raise ParameterError(f"method {method!r}: expected one of {', '.join(METHODS)}")
         if self.rms is None:
-            raise MorpiError("curve: this study was run without curves (run_studies(..., curves=...))")
+            raise ParameterError("curve: this study was run without curves (run_studies(..., curves=...))")
         j = METHODS.index(method)
         if statistic == "rms":
             return self.rms[:, j]
         names = tuple(f"p{p:g}" for p in BAND_PERCENTILES)
         if statistic not in names:
-            raise MorpiError(f"statistic {statistic!r}: expected 'rms' or one of {', '.join(names)}")
+            raise ParameterError(f"statistic {statistic!r}: expected 'rms' or one of {', '.join(names)}")
         return self.bands[:, j, names.index(statistic)]
 
 
@@ -725,10 +726,11 @@ def _paths_cached(length, speed, period, amplitude, duration, rate_hz, ins_path)
     t = np.arange(_samples(duration, rate_hz)) / rate_hz
     sn = simulate.sine(length, period=period, amplitude=amplitude, speed=speed, rest=0.0, rate_hz=rate_hz)
     if abs(sn.end_time - duration) > 1e-9 * duration:
-        raise MorpiError(f"StudyConfig: the sine path lasts {sn.end_time:.6g} s, expected {duration:.6g} s")
+        raise ParameterError(f"StudyConfig: the sine path lasts {sn.end_time:.6g} s, expected {duration:.6g} s")
     sine = sn.at(t)
     if np.abs(sine.heading[0]) > 1e-12 or np.abs(sine.pitch).max() > 0:
-        raise MorpiError("simulate.sine: expected a level path starting along x (the INS kernel starts at C_bn = I)")
+        raise ParameterError("simulate.sine: expected a level path starting along x "
+                             "(the INS kernel starts at C_bn = I)")
     # f_y maxima: the right-hand lateral extremes (centripetal acceleration to the left)
     pt = sn.peak_times[sn.peak_side < 0]
     peaks = np.unique(np.rint(pt * rate_hz).astype(int))
@@ -808,7 +810,7 @@ def reference_gains(cfg: StudyConfig, seed: int):
     False
     """
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise MorpiError(f"seed: {seed!r}, expected a whole number >= 0")
+        raise ParameterError(f"seed: {seed!r}, expected a whole number >= 0")
     L, v, _ = cfg.motion()
     return _reference_gains(cfg.spec, L, v, cfg.period_m, cfg.amplitude_m, cfg.rate_hz, cfg.training_runs, int(seed))
 
@@ -1252,17 +1254,17 @@ def _study_seed(seed) -> int:
     if isinstance(seed, np.random.Generator):
         return int(seed.integers(0, 2**63))
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise MorpiError(f"seed: {seed!r}, expected a whole number >= 0 or a numpy.random.Generator")
+        raise ParameterError(f"seed: {seed!r}, expected a whole number >= 0 or a numpy.random.Generator")
     return int(seed)
 
 
 def _check_runs(runs, seed, chunk):
     if isinstance(runs, bool) or not isinstance(runs, (int, np.integer)) or not 1 <= runs <= TRAINING_KEY:
-        raise MorpiError(f"runs: {runs!r}, expected a whole number from 1 to {TRAINING_KEY}")
+        raise ParameterError(f"runs: {runs!r}, expected a whole number from 1 to {TRAINING_KEY}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise MorpiError(f"seed: {seed!r}, expected a whole number >= 0")
+        raise ParameterError(f"seed: {seed!r}, expected a whole number >= 0")
     if chunk is not None and (isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1):
-        raise MorpiError(f"chunk: {chunk!r}, expected a whole number >= 1")
+        raise ParameterError(f"chunk: {chunk!r}, expected a whole number >= 1")
 
 
 #: StudyConfig fields that fix the draws and the paths: the studies of one
@@ -1306,7 +1308,7 @@ def run_study(runs: int, seed: int, config: StudyConfig | None = None, *, chunk:
 
     Raises
     ------
-    MorpiError
+    ParameterError
         A bad run count, seed, chunk or config.
 
     Examples
@@ -1366,7 +1368,7 @@ def run_studies(runs: int, seed: int, configs, *, chunk: int | None = None, work
 
     Raises
     ------
-    MorpiError
+    ParameterError
         An empty or invalid config list, configs that differ in a shared
         field, or a bad run count, seed or chunk.
 
@@ -1381,25 +1383,25 @@ def run_studies(runs: int, seed: int, configs, *, chunk: int | None = None, work
     t0 = _time.perf_counter()
     configs = tuple(configs)
     if not configs or not all(isinstance(c, StudyConfig) for c in configs):
-        raise MorpiError("configs: expected a non-empty sequence of StudyConfig")
+        raise ParameterError("configs: expected a non-empty sequence of StudyConfig")
     for c in configs:
         c.validate()
     configs = tuple(c.resolved() for c in configs)
     for c in configs:
         for name in _SHARED_FIELDS:
             if getattr(c, name) != getattr(configs[0], name):
-                raise MorpiError(f"configs: StudyConfig.{name} differs between studies of one pass "
-                                 f"({getattr(configs[0], name)!r} and {getattr(c, name)!r}); run them separately")
+                raise ParameterError(f"configs: StudyConfig.{name} differs between studies of one pass "
+                                     f"({getattr(configs[0], name)!r} and {getattr(c, name)!r}); run them separately")
     seed = _study_seed(seed)
     _check_runs(runs, seed, chunk)
     runs = int(runs)
     curves = (True,) * len(configs) if curves is None or series else tuple(bool(c) for c in curves)
     if len(curves) != len(configs):
-        raise MorpiError(f"curves: {len(curves)} values for {len(configs)} studies; expected one per study")
+        raise ParameterError(f"curves: {len(curves)} values for {len(configs)} studies; expected one per study")
     cfg = configs[0]
     ins_path, sine, traj_backend = _paths(cfg)
     if sine.peaks.size < 2:
-        raise MorpiError("StudyConfig: the sine path has fewer than two period boundaries")
+        raise ParameterError("StudyConfig: the sine path has fewer than two period boundaries")
     n = sine.time.size
     keep = np.unique(np.r_[np.arange(0, n, cfg.keep_every), n - 1])
     gain_ref, cv = reference_gains(cfg, seed)
@@ -1598,7 +1600,7 @@ def training_configs(ks, *, mismatch: float, spread: float, config: StudyConfig 
 
     Raises
     ------
-    MorpiError
+    ParameterError
         An empty `ks` or one below 1, a negative spread or a non-finite value.
 
     Examples
@@ -1609,9 +1611,9 @@ def training_configs(ks, *, mismatch: float, spread: float, config: StudyConfig 
     """
     ks = np.asarray(ks, int)
     if ks.ndim != 1 or ks.size == 0 or (ks < 1).any():
-        raise MorpiError(f"ks: {ks.tolist()!r}, expected whole numbers >= 1")
+        raise ParameterError(f"ks: {ks.tolist()!r}, expected whole numbers >= 1")
     if not (math.isfinite(spread) and spread >= 0 and math.isfinite(mismatch)):
-        raise MorpiError(f"spread/mismatch: {spread!r}/{mismatch!r}, expected finite, spread >= 0")
+        raise ParameterError(f"spread/mismatch: {spread!r}/{mismatch!r}, expected finite, spread >= 0")
     base = StudyConfig() if config is None else config
     return tuple(replace(base, ins=False, gains=(GainError(f"k = {k}", mismatch, spread / math.sqrt(k)),))
                  for k in ks)
@@ -1818,7 +1820,7 @@ def drift_map(gyro_bias=None, *, spec: SensorSpec = MPU6500, duration: float = 1
 
     Raises
     ------
-    MorpiError
+    ParameterError
         Bad levels, duration, rate, draw count, seed or chunk.
 
     Examples
@@ -1833,9 +1835,9 @@ def drift_map(gyro_bias=None, *, spec: SensorSpec = MPU6500, duration: float = 1
     """
     levels = np.logspace(-2, 1, 25) * DEG_S if gyro_bias is None else np.asarray(gyro_bias, float)
     if levels.ndim != 1 or levels.size == 0 or not np.all(np.isfinite(levels)) or (levels <= 0).any():
-        raise MorpiError("gyro_bias: expected a 1-D list of finite levels > 0 [rad/s]")
+        raise ParameterError("gyro_bias: expected a 1-D list of finite levels > 0 [rad/s]")
     if not (math.isfinite(duration) and duration > 0 and math.isfinite(rate_hz) and duration * rate_hz >= 2):
-        raise MorpiError(f"duration/rate_hz: {duration!r} s at {rate_hz!r} Hz, expected at least 2 samples")
+        raise ParameterError(f"duration/rate_hz: {duration!r} s at {rate_hz!r} Hz, expected at least 2 samples")
     seed = _study_seed(seed)
     _check_runs(draws, seed, chunk)
     n = int(round(duration * rate_hz)) + 1
@@ -2072,7 +2074,7 @@ def page_cost(runs: int, *, duration: float | None = None, speed_mps: float | No
 
     Raises
     ------
-    MorpiError
+    ParameterError
         A bad run count, chunk or path shape (as :func:`gain_error_page` raises it).
 
     Examples
@@ -2178,7 +2180,7 @@ def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, source=
 
     Raises
     ------
-    MorpiError
+    ParameterError
         A bad run count, seed, chunk or path shape.
 
     Examples

@@ -13,7 +13,7 @@ import gc
 import sys
 import time as _time
 
-from .errors import MorpiError
+from .errors import ParameterError
 
 __all__ = ["Progress", "available_cores", "chunk_ranges", "execute", "format_duration", "heap_frozen"]
 
@@ -271,7 +271,7 @@ def execute(fn, payload, ranges, *, workers=1, scheduler=None, progress=None, re
 
     Raises
     ------
-    MorpiError
+    ParameterError
         When `scheduler` is given and Dask is not installed or the scheduler
         cannot be reached.
 
@@ -321,13 +321,13 @@ def _execute_dask(fn, payload, ranges, scheduler, progress, sink):
     try:
         from distributed import Client, as_completed
     except ImportError:  # pragma: no cover - depends on the installation
-        raise MorpiError("--scheduler: the Dask path needs dask[distributed] "
-                         "(pip install 'morpi_filters[dask]')") from None
+        raise ParameterError("--scheduler: the Dask path needs dask[distributed] "
+                             "(pip install 'morpi_filters[dask]')") from None
     own = not isinstance(scheduler, Client)
     try:
         client = Client(scheduler, timeout="10s") if own else scheduler
     except OSError as exc:
-        raise MorpiError(f"--scheduler: cannot reach a Dask scheduler at {scheduler!r} ({exc})") from None
+        raise ParameterError(f"--scheduler: cannot reach a Dask scheduler at {scheduler!r} ({exc})") from None
     try:
         [remote] = client.scatter([payload], broadcast=True)
         futs = client.map(fn, [remote] * len(ranges), [a for a, _ in ranges], [b for _, b in ranges],

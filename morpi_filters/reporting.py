@@ -75,7 +75,7 @@ from pathlib import Path, PurePosixPath
 
 import numpy as np
 
-from .errors import MorpiError, ParameterError
+from .errors import OutputError
 
 __all__ = [
     "SectionSummary", "DataSource", "atomic_path", "write_text", "write_json", "staged_dir",
@@ -416,7 +416,7 @@ def staged_dir(final, tool: str = "morpi"):
     exception the staging folder is removed and `final` is left exactly as
     it was. `final` must be absent, empty or an earlier output of the same
     kind holding only what its marker lists (see :func:`check_output_dir`;
-    the kind is the folder's name), otherwise a :class:`ParameterError` is
+    the kind is the folder's name), otherwise a :class:`OutputError` is
     raised before anything is written.
 
     Parameters
@@ -964,14 +964,14 @@ def _check_replaceable(folder: Path, option: str) -> None:
     with contextlib.suppress(OSError):
         cwd = os.path.realpath(os.getcwd())
         if cwd == real:
-            raise ParameterError(f"{option} {folder}: is the current directory, which cannot be replaced; {advice}")
+            raise OutputError(f"{option} {folder}: is the current directory, which cannot be replaced; {advice}")
         if cwd.startswith(real.rstrip(os.sep) + os.sep):
-            raise ParameterError(f"{option} {folder}: holds the current directory, which cannot be replaced; "
+            raise OutputError(f"{option} {folder}: holds the current directory, which cannot be replaced; "
                                  f"{advice}")
     if os.path.ismount(real):
-        raise ParameterError(f"{option} {folder}: is a mount point, which cannot be replaced; {advice}")
+        raise OutputError(f"{option} {folder}: is a mount point, which cannot be replaced; {advice}")
     if folder.name in ("", ".", ".."):
-        raise ParameterError(f"{option} {folder}: ends in {folder.name!r}; name the output folder itself")
+        raise OutputError(f"{option} {folder}: ends in {folder.name!r}; name the output folder itself")
 
 
 def check_output_dir(folder, option: str = "--out", kind: str | None = None, claimed=(), replace: bool = True,
@@ -1008,7 +1008,7 @@ def check_output_dir(folder, option: str = "--out", kind: str | None = None, cla
 
     Raises
     ------
-    ParameterError
+    OutputError
         When `folder` is an empty name, a symbolic link or not a folder,
         holds entries without the marker or entries its marker does not
         list, holds another kind of output, cannot be renamed away, or cannot
@@ -1025,22 +1025,22 @@ def check_output_dir(folder, option: str = "--out", kind: str | None = None, cla
     >>> check_output_dir(d, "--out")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    morpi_filters.errors.ParameterError: --out ...: holds thesis.tex, which morpi did not write (no .morpi-output marker); refusing to replace it, choose a new or empty folder
+    morpi_filters.errors.OutputError: --out ...: holds thesis.tex, which morpi did not write (no .morpi-output marker); refusing to replace it, choose a new or empty folder
     >>> with staged_dir(d / "drift") as stage:
     ...     _ = (stage / "README.md").write_text("page")
     >>> check_output_dir(d / "drift", kind="assessment")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    morpi_filters.errors.ParameterError: --out .../drift: holds the drift output of morpi; refusing to put assessment output there (morpi never mixes or replaces another command's output), choose a new or empty folder
+    morpi_filters.errors.OutputError: --out .../drift: holds the drift output of morpi; refusing to put assessment output there (morpi never mixes or replaces another command's output), choose a new or empty folder
     """
     if str(folder) == "":
-        raise ParameterError(f"{option}: empty path, expected a folder name")
+        raise OutputError(f"{option}: empty path, expected a folder name")
     folder = Path(folder)
     if folder.is_symlink():
-        raise ParameterError(f"{option} {folder}: is a symbolic link (no {MARKER} marker); refusing to replace it, "
+        raise OutputError(f"{option} {folder}: is a symbolic link (no {MARKER} marker); refusing to replace it, "
                              "choose a new or empty folder")
     if folder.exists() and not folder.is_dir():
-        raise ParameterError(f"{option} {folder}: exists and is not a folder, expected an output folder")
+        raise OutputError(f"{option} {folder}: exists and is not a folder, expected an output folder")
     if folder.is_dir():
         if replace:
             _check_replaceable(folder, option)
@@ -1051,11 +1051,11 @@ def check_output_dir(folder, option: str = "--out", kind: str | None = None, cla
             bad = _unclaimed(folder, None)
             if bad:
                 what = "is unreadable" if bad[0] == "" else f"holds {_names(bad)}, which morpi did not write"
-                raise ParameterError(f"{option} {folder}: {what} (no {MARKER} marker); refusing to replace it, "
+                raise OutputError(f"{option} {folder}: {what} (no {MARKER} marker); refusing to replace it, "
                                      "choose a new or empty folder")
         else:
             if kind is not None and claim.kind is not None and claim.kind != kind:
-                raise ParameterError(
+                raise OutputError(
                     f"{option} {folder}: holds the {claim.kind} output of {claim.command}; refusing to put {kind} "
                     "output there (morpi never mixes or replaces another command's output), choose a new or "
                     "empty folder")
@@ -1072,7 +1072,7 @@ def check_output_dir(folder, option: str = "--out", kind: str | None = None, cla
                 else:
                     what = f"holds {_names(bad)}, which morpi did not write (not listed in its {MARKER} marker)"
                 verb = "replace it" if replace else "write into it"
-                raise ParameterError(f"{option} {folder}: {what}; refusing to {verb}, move them out of it or "
+                raise OutputError(f"{option} {folder}: {what}; refusing to {verb}, move them out of it or "
                                      "choose another folder")
     _check_creatable(folder.parent, option, folder)
     return folder
@@ -1142,7 +1142,7 @@ def stamp_json(path, command: str, section: str) -> Path:
 
     Raises
     ------
-    MorpiError
+    OutputError
         The file does not hold a JSON object.
 
     Examples
@@ -1160,9 +1160,9 @@ def stamp_json(path, command: str, section: str) -> Path:
     try:
         obj = json.loads(text)
     except ValueError as exc:
-        raise MorpiError(f"{path}: not JSON ({exc})") from None
+        raise OutputError(f"{path}: not JSON ({exc})") from None
     if not isinstance(obj, dict):
-        raise MorpiError(f"{path}: holds a JSON {type(obj).__name__}, expected an object")
+        raise OutputError(f"{path}: holds a JSON {type(obj).__name__}, expected an object")
     header = {"format": OUTPUT_FORMAT, "command": command, "section": section}
     if JSON_KEY in obj:
         obj.pop(JSON_KEY)
@@ -1199,7 +1199,7 @@ def check_output_file(path, option: str = "--json", force: bool = False, folder=
 
     Raises
     ------
-    ParameterError
+    OutputError
         An empty name, a folder, an existing non-regular file, an existing
         file morpi did not write (without `force`), the output folder itself,
         a path the output folder would lie in, or a place where no file can be
@@ -1214,36 +1214,36 @@ def check_output_file(path, option: str = "--json", force: bool = False, folder=
     >>> check_output_file(d)  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    morpi_filters.errors.ParameterError: --json ...: is a folder, expected a file name
+    morpi_filters.errors.OutputError: --json ...: is a folder, expected a file name
     >>> _ = (d / "mine.json").write_text('{"a": 1}')
     >>> check_output_file(d / "mine.json")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    morpi_filters.errors.ParameterError: --json .../mine.json: exists and morpi did not write it (...); refusing to overwrite it, choose another file name or pass --force
+    morpi_filters.errors.OutputError: --json .../mine.json: exists and morpi did not write it (...); refusing to overwrite it, choose another file name or pass --force
     >>> check_output_file(d / "mine.json", force=True).name
     'mine.json'
     """
     if str(path) == "":
-        raise ParameterError(f"{option}: empty path, expected a file name")
+        raise OutputError(f"{option}: empty path, expected a file name")
     path = Path(path)
     if folder is not None:
         rel = _inside(path, folder)
         if rel == ".":
-            raise ParameterError(f"{option} {path}: is the output folder {folder}, expected a file name")
+            raise OutputError(f"{option} {path}: is the output folder {folder}, expected a file name")
         if rel is not None:
             if PurePosixPath(rel).name == MARKER:
-                raise ParameterError(f"{option} {path}: {MARKER} is the name of morpi's folder marker, "
+                raise OutputError(f"{option} {path}: {MARKER} is the name of morpi's folder marker, "
                                      "expected another file name")
             return path                       # goes into the new output folder, checked with it
         if _inside(folder, path) is not None:
-            raise ParameterError(f"{option} {path}: the output folder {folder} would lie inside it, "
+            raise OutputError(f"{option} {path}: the output folder {folder} would lie inside it, "
                                  "expected a file name")
     if path.is_dir():
-        raise ParameterError(f"{option} {path}: is a folder, expected a file name")
+        raise OutputError(f"{option} {path}: is a folder, expected a file name")
     if path.exists() and not path.is_file():
-        raise ParameterError(f"{option} {path}: exists and is not a regular file")
+        raise OutputError(f"{option} {path}: exists and is not a regular file")
     if path.is_file() and not force and not is_morpi_json(path):
-        raise ParameterError(f"{option} {path}: exists and morpi did not write it (a morpi JSON begins with the "
+        raise OutputError(f"{option} {path}: exists and morpi did not write it (a morpi JSON begins with the "
                              f"key \"{JSON_KEY}\"); refusing to overwrite it, choose another file name or pass --force")
     _check_creatable(path.parent, option, path)
     return path
@@ -1269,12 +1269,12 @@ def _check_creatable(parent: Path, option: str, target: Path) -> None:
             break
         probe = probe.parent
     if not probe.is_dir():
-        raise ParameterError(f"{option} {target}: {probe} is not a folder")
+        raise OutputError(f"{option} {target}: {probe} is not a folder")
     try:
         with tempfile.TemporaryFile(dir=probe, prefix=".morpi-probe-"):
             pass
     except OSError as exc:
-        raise ParameterError(f"{option} {target}: cannot write in {probe} ({exc.strerror or exc})") from None
+        raise OutputError(f"{option} {target}: cannot write in {probe} ({exc.strerror or exc})") from None
 
 
 def _same(a, b) -> bool:
@@ -1473,7 +1473,7 @@ class Outputs:
                 _drop_stage(tmp.parent)
         except OSError as exc:
             self._discard()
-            raise MorpiError(f"{final}: cannot put the new output in place ({exc.strerror or exc})") from None
+            raise OutputError(f"{final}: cannot put the new output in place ({exc.strerror or exc})") from None
         for _, final, _, _ in self._folders:
             _settle_marker(final)
         for left in kept:

@@ -57,7 +57,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from . import dataset, units
-from .errors import MorpiError
+from .errors import ParameterError
 from .strapdown import rotvec_to_C
 
 __all__ = [
@@ -91,7 +91,7 @@ def paper_speed(period: float | None = None) -> float:
 
     Raises
     ------
-    MorpiError
+    ParameterError
         A period that is not a positive finite number.
 
     Examples
@@ -132,10 +132,10 @@ def _positive(name, v, *, allow_zero=False):
     try:
         v = float(v)
     except (TypeError, ValueError):
-        raise MorpiError(f"{name}: expected a number, got {v!r}") from None
+        raise ParameterError(f"{name}: expected a number, got {v!r}") from None
     if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
         want = "a finite number >= 0" if allow_zero else "a finite number > 0"
-        raise MorpiError(f"{name}: expected {want}, got {v!r}")
+        raise ParameterError(f"{name}: expected {want}, got {v!r}")
     return v
 
 
@@ -272,8 +272,8 @@ class _SpeedLaw:
         self.L, self.V, self.Tr, self.t0 = length, speed, ramp, t0
         self.Tc = length / speed - ramp
         if self.Tc < 0:
-            raise MorpiError(f"speed: {speed!r} m/s is too fast to cover {length:.3g} m with {ramp:g} s ramps; "
-                             f"expected at most {length / ramp:.3g} m/s")
+            raise ParameterError(f"speed: {speed!r} m/s is too fast to cover {length:.3g} m with {ramp:g} s ramps; "
+                                 f"expected at most {length / ramp:.3g} m/s")
         self.start = t0 + rest0
         self.stop = self.start + 2 * ramp + self.Tc
         self.end = self.stop + rest1
@@ -392,7 +392,7 @@ class Trajectory:
         """
         time = np.asarray(time, dtype=float)
         if time.ndim != 1 or not np.isfinite(time).all():
-            raise MorpiError("time: expected a 1-D array of finite sample times")
+            raise ParameterError("time: expected a 1-D array of finite sample times")
         return replace(self, **_kinematics(*self._model, time))
 
 
@@ -432,7 +432,7 @@ def _build(kind, path: _Path, *, speed, ramp, rest, rate_hz, t0, g, period=None,
     rest0, rest1 = _positive("rest", rest0, allow_zero=True), _positive("rest", rest1, allow_zero=True)
     t0 = float(t0)
     if not math.isfinite(t0):
-        raise MorpiError(f"t0: expected a finite start time, got {t0!r}")
+        raise ParameterError(f"t0: expected a finite start time, got {t0!r}")
     law = _SpeedLaw(path.length, speed, ramp, rest0, rest1, t0)
     n = int(math.floor((law.end - t0) * rate_hz + 1e-9)) + 1
     time = t0 + np.arange(n) / rate_hz
@@ -492,7 +492,7 @@ def straight(length: float = 6.3, *, speed: float = _SPEED["straight"], ramp: fl
 
     Raises
     ------
-    MorpiError
+    ParameterError
         A non-positive or non-finite length, speed, ramp or rest.
 
     Examples
@@ -512,12 +512,12 @@ def _check_sine(period, amplitude, taper, length):
     period = _positive("period", period)
     amplitude = _positive("amplitude", amplitude)
     if amplitude * 2 * math.pi / period > 1.5:
-        raise MorpiError(f"amplitude: {amplitude!r} m is too large for {period!r} m periods; expected at most "
-                         f"{1.5 * period / (2 * math.pi):.3g} m (path slope 2 pi A / P <= 1.5)")
+        raise ParameterError(f"amplitude: {amplitude!r} m is too large for {period!r} m periods; expected at most "
+                             f"{1.5 * period / (2 * math.pi):.3g} m (path slope 2 pi A / P <= 1.5)")
     taper = period if taper is None else _positive("taper", taper)
     if 2 * taper > length:
-        raise MorpiError(f"taper: {taper!r} m at both ends does not fit in {length:.3g} m; expected a shorter taper "
-                         "or period")
+        raise ParameterError(f"taper: {taper!r} m at both ends does not fit in {length:.3g} m; "
+                             "expected a shorter taper or period")
     return period, amplitude, taper
 
 
@@ -553,7 +553,7 @@ def sine(length: float = 6.3, *, period: float = 1.0, amplitude: float = 0.1, sp
 
     Raises
     ------
-    MorpiError
+    ParameterError
         A bad length, period or amplitude, an amplitude too large for the
         period (path slope ``2 pi A / P`` above 1.5) or a taper that does not fit.
 
@@ -609,7 +609,7 @@ def l_route(legs=(18.0, 10.0), *, turn_deg: float = 90.0, turn_radius: float = 1
 
     Raises
     ------
-    MorpiError
+    ParameterError
         A bad leg, turn, radius or slope, only one of `period` and
         `amplitude`, or a geometry that does not fit (turn radius or slope
         too long for the legs, amplitude above half the radius).
@@ -625,23 +625,24 @@ def l_route(legs=(18.0, 10.0), *, turn_deg: float = 90.0, turn_radius: float = 1
     try:
         legs = tuple(float(v) for v in legs)
     except (TypeError, ValueError):
-        raise MorpiError(f"legs: expected two lengths in m, got {legs!r}") from None
+        raise ParameterError(f"legs: expected two lengths in m, got {legs!r}") from None
     if len(legs) != 2:
-        raise MorpiError(f"legs: expected two lengths in m, got {legs!r}")
+        raise ParameterError(f"legs: expected two lengths in m, got {legs!r}")
     for v in legs:
         _positive("legs", v)
     turn_deg = float(turn_deg)
     if not (0 < abs(turn_deg) < 180):
-        raise MorpiError(f"turn_deg: expected 0 < |turn_deg| < 180, got {turn_deg!r}")
+        raise ParameterError(f"turn_deg: expected 0 < |turn_deg| < 180, got {turn_deg!r}")
     turn_radius = _positive("turn_radius", turn_radius)
     slope_deg = float(slope_deg)
     if not (0 <= abs(slope_deg) < 45):
-        raise MorpiError(f"slope_deg: expected a downhill slope of 0 to 45 deg, got {slope_deg!r}")
+        raise ParameterError(f"slope_deg: expected a downhill slope of 0 to 45 deg, got {slope_deg!r}")
     slope_length = _positive("slope_length", slope_length, allow_zero=slope_deg == 0)
     if slope_deg and slope_length < 0.5:
-        raise MorpiError(f"slope_length: expected at least 0.5 m (the slope eases out over 1 m), got {slope_length!r}")
+        raise ParameterError(f"slope_length: expected at least 0.5 m (the slope eases out over 1 m), "
+                             f"got {slope_length!r}")
     if (period is None) != (amplitude is None):
-        raise MorpiError("period, amplitude: give both for periodic motion, or neither")
+        raise ParameterError("period, amplitude: give both for periodic motion, or neither")
     turn = turn_deg * units.DEG
     probe = _Path((0.0, 0.0), turn, turn_radius, 0.0, 0.0, None, None, None)
     d = probe.centre_xy(np.array([probe.turn_len]))[0]
@@ -650,14 +651,14 @@ def l_route(legs=(18.0, 10.0), *, turn_deg: float = 90.0, turn_radius: float = 1
     M = np.array([[1.0, math.cos(turn)], [0.0, math.sin(turn)]])
     a1, a2 = np.linalg.solve(M, target - d)
     if a1 <= 0 or a2 <= 0:
-        raise MorpiError(f"turn_radius: {turn_radius!r} m does not fit legs {legs!r}; expected a smaller radius")
+        raise ParameterError(f"turn_radius: {turn_radius!r} m does not fit legs {legs!r}; expected a smaller radius")
     if slope_deg and slope_length + 0.5 > a1:
-        raise MorpiError(f"slope_length: {slope_length!r} m does not fit in the first leg ({a1:.3g} m straight)")
+        raise ParameterError(f"slope_length: {slope_length!r} m does not fit in the first leg ({a1:.3g} m straight)")
     if period is not None:
         period, amplitude, taper = _check_sine(period, amplitude, taper, legs[0] + legs[1])
         if amplitude >= 0.5 * turn_radius:
-            raise MorpiError(f"amplitude: {amplitude!r} m is too large for a {turn_radius!r} m turn radius; "
-                             "expected less than half the radius")
+            raise ParameterError(f"amplitude: {amplitude!r} m is too large for a {turn_radius!r} m turn radius; "
+                                 "expected less than half the radius")
     path = _Path((float(a1), float(a2)), turn, turn_radius, abs(slope_deg) * units.DEG, slope_length,
                  period, amplitude, taper)
     return _build("l_route", path, speed=speed, ramp=ramp, rest=rest, rate_hz=rate_hz, t0=t0, g=g,
@@ -686,7 +687,7 @@ def route_trajectory(name: str, *, speed: float | None = None, period: float | N
 
     Raises
     ------
-    MorpiError
+    ParameterError
         An unknown route name, or a bad override.
 
     Examples
@@ -741,7 +742,7 @@ def sample_times(t_start: float, t_end: float, rng, *, pattern: str = "uniform",
 
     Raises
     ------
-    MorpiError
+    ParameterError
         An unknown pattern, or a non-positive `rate_hz` for ``"uniform"``.
 
     Examples
@@ -772,7 +773,7 @@ def sample_times(t_start: float, t_end: float, rng, *, pattern: str = "uniform",
         gap = rng.random(n_max) < 0.003
         dt = np.where(gap, rng.uniform(0.011, 0.019, n_max), dt)
     else:
-        raise MorpiError(f"sampling: {pattern!r}: expected 'uniform', 's6', 's8' or an array of times")
+        raise ParameterError(f"sampling: {pattern!r}: expected 'uniform', 's6', 's8' or an array of times")
     t = t_start + np.concatenate([[0.0], np.cumsum(dt)])
     return t[t <= t_end]
 
@@ -860,7 +861,7 @@ def _rngs(rng, runs):
         return rng, None
     rngs = list(rng)
     if runs is None or len(rngs) != runs or not all(isinstance(r, np.random.Generator) for r in rngs):
-        raise MorpiError("rng: expected a numpy Generator, or a list of one Generator per run")
+        raise ParameterError("rng: expected a numpy Generator, or a list of one Generator per run")
     return None, rngs
 
 
@@ -947,7 +948,7 @@ def imu(traj: Trajectory, spec: units.SensorSpec, rng, *, runs: int | None = Non
 
     Raises
     ------
-    MorpiError
+    ParameterError
         For a bad parameter (named in the message).
 
     Examples
@@ -967,7 +968,7 @@ def imu(traj: Trajectory, spec: units.SensorSpec, rng, *, runs: int | None = Non
     """
     if runs is not None:
         if isinstance(runs, bool) or not isinstance(runs, (int, np.integer)) or runs < 1:
-            raise MorpiError(f"runs: expected a positive integer or None, got {runs!r}")
+            raise ParameterError(f"runs: expected a positive integer or None, got {runs!r}")
         runs = int(runs)
     rng1, rngs = _rngs(rng, runs)
     sa, sg = (bias_scale, bias_scale) if np.ndim(bias_scale) == 0 else tuple(bias_scale)
@@ -983,14 +984,14 @@ def imu(traj: Trajectory, spec: units.SensorSpec, rng, *, runs: int | None = Non
 
     if isinstance(sampling, str):
         if rngs is not None and sampling != "uniform":
-            raise MorpiError(f"sampling: {sampling!r} time stamps are shared by the runs and need one Generator; "
-                             "with one Generator per run pass explicit times (e.g. from sample_times)")
+            raise ParameterError(f"sampling: {sampling!r} time stamps are shared by the runs and need one Generator; "
+                                 "with one Generator per run pass explicit times (e.g. from sample_times)")
         t_a, t_b = (traj.time[0], traj.end_time) if time_span is None else time_span
         time = sample_times(t_a, t_b, rng1, pattern=sampling, rate_hz=spec.rate_hz)
     else:
         time = np.asarray(sampling, dtype=float)
         if time.ndim != 1 or time.size < 2 or not np.isfinite(time).all() or not (np.diff(time) > 0).all():
-            raise MorpiError("sampling: expected strictly increasing finite sample times")
+            raise ParameterError("sampling: expected strictly increasing finite sample times")
     truth = traj.at(time)
     n = time.size
     R = 1 if runs is None else runs

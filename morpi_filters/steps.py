@@ -56,7 +56,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .errors import MorpiError
+from .errors import DataError, ParameterError
 
 
 def _signal():
@@ -149,15 +149,16 @@ class StepConfig:
         for name, allowed in (("heading", HEADINGS), ("segment", SEGMENTS), ("ends", ENDS),
                               ("amplitude_from", ("filtered", "raw")), ("heading_source", HEADING_SOURCES)):
             if getattr(self, name) not in allowed:
-                raise MorpiError(f"StepConfig.{name}={getattr(self, name)!r}: expected one of {allowed}")
+                raise ParameterError(f"StepConfig.{name}={getattr(self, name)!r}: expected one of {allowed}")
         if not self.min_period_s > 0:
-            raise MorpiError(f"StepConfig.min_period_s={self.min_period_s}: expected a positive time [s]")
+            raise ParameterError(f"StepConfig.min_period_s={self.min_period_s}: expected a positive time [s]")
         if not self.prominence >= 0:
-            raise MorpiError(f"StepConfig.prominence={self.prominence}: expected a fraction >= 0")
+            raise ParameterError(f"StepConfig.prominence={self.prominence}: expected a fraction >= 0")
         if self.cutoff_hz is not None and not 0 < self.cutoff_hz < GRID_HZ / 2:
-            raise MorpiError(f"StepConfig.cutoff_hz={self.cutoff_hz}: expected None or 0 < f < {GRID_HZ / 2} Hz")
+            raise ParameterError(f"StepConfig.cutoff_hz={self.cutoff_hz}: expected None or 0 < f < {GRID_HZ / 2} Hz")
         if not 0 < self.turn_deg < 360:
-            raise MorpiError(f"StepConfig.turn_deg={self.turn_deg}: expected a heading change 0 < turn_deg < 360 [deg]")
+            raise ParameterError(f"StepConfig.turn_deg={self.turn_deg}: expected a heading change "
+                                 "0 < turn_deg < 360 [deg]")
         # a rule keys every cache of its steps and scores: its fields are hashed once
         object.__setattr__(self, "_hash", hash(tuple(getattr(self, f.name) for f in fields(self))))
 
@@ -480,11 +481,11 @@ def detect_peaks(signal, time, *, min_period_s: float, min_prominence: float = 0
 def _detect(x, t, *, min_period_s, min_prominence, min_width_s=None, cutoff_hz=None, height=None,
             rate_hz=GRID_HZ, source="<signal>") -> Peaks:
     if x.ndim != 1 or t.shape != x.shape:
-        raise MorpiError(f"{source}: expected signal and time of the same shape (n,), got {x.shape}, {t.shape}")
+        raise ParameterError(f"{source}: expected signal and time of the same shape (n,), got {x.shape}, {t.shape}")
     if x.shape[0] < 3 or not np.all(np.diff(t) > 0):
-        raise MorpiError(f"{source}: expected at least 3 samples with strictly increasing time")
+        raise ParameterError(f"{source}: expected at least 3 samples with strictly increasing time")
     if not min_period_s > 0:
-        raise MorpiError(f"min_period_s={min_period_s}: expected a positive time [s]")
+        raise ParameterError(f"min_period_s={min_period_s}: expected a positive time [s]")
     grid, g = resample_uniform(t, x, rate_hz)
     if cutoff_hz is not None:
         g = lowpass(g, cutoff_hz, rate_hz)
@@ -522,7 +523,7 @@ def weinberg_length(vmax, vmin, gain):
     """
     d = np.asarray(vmax, dtype=float) - np.asarray(vmin, dtype=float)
     if np.any(d < 0):
-        raise MorpiError("weinberg_length: expected vmax >= vmin in every step")
+        raise ParameterError("weinberg_length: expected vmax >= vmin in every step")
     return np.asarray(gain, dtype=float) * d ** 0.25
 
 
@@ -679,7 +680,7 @@ def _attitude_heading(rec, rest_end_time=None) -> np.ndarray:
     end = t[0] + 2.0 if rest_end_time is None else rest_end_time
     rest = t <= end
     if rest.sum() < 2:
-        raise MorpiError(f"{rec.source}: no rest before {end:g} s to level the attitude heading")
+        raise DataError(f"{rec.source}: no rest before {end:g} s to level the attitude heading")
     return attitude_heading(t, rec.f, rec.omega, np.asarray(rec.f)[rest].mean(axis=0))
 
 
@@ -719,7 +720,7 @@ def prepare_signal(rec, method: str, cutoff_hz: float | None, *, rest_end_time: 
     (True, True)
     """
     if method not in METHODS:
-        raise MorpiError(f"method={method!r}: expected one of {tuple(METHODS)}")
+        raise ParameterError(f"method={method!r}: expected one of {tuple(METHODS)}")
     attr, col = METHODS[method]
     x = getattr(rec, attr)[:, col]
     t = rec.time
@@ -811,7 +812,7 @@ def activity_span(time, omega, *, window_s: float = ACTIVITY_WINDOW_S, factor: f
     True
     """
     if threshold is not None and not threshold >= 0:
-        raise MorpiError(f"threshold={threshold!r}: expected a non-negative spread [rad/s]")
+        raise ParameterError(f"threshold={threshold!r}: expected a non-negative spread [rad/s]")
     time = np.asarray(time, float)
     grid, w = resample_uniform(time, omega)
     k = max(2, int(round(window_s * GRID_HZ)))
@@ -827,7 +828,7 @@ def activity_span(time, omega, *, window_s: float = ACTIVITY_WINDOW_S, factor: f
     else:
         r0, r1 = float(rest[0]), float(rest[1])
         if not r1 >= r0:
-            raise MorpiError(f"rest={rest!r}: expected a window (start, end) with end >= start [s]")
+            raise ParameterError(f"rest={rest!r}: expected a window (start, end) with end >= start [s]")
         # window j covers the grid samples [j, j + k): the windows inside the rest; for a rest shorter
         # than a window, every window ending by the rest's end (the median passes over a brief tap)
         j0 = min(int(np.searchsorted(grid, r0)), sd.shape[0] - 1)
@@ -901,7 +902,7 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
 
     Raises
     ------
-    MorpiError
+    DataError
         Naming the recording when fewer than two peaks are found (no periodic
         motion).
 
@@ -916,7 +917,7 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
     """
     if config is None:
         if method not in DEFAULT_CONFIGS:
-            raise MorpiError(f"method={method!r}: expected one of {tuple(DEFAULT_CONFIGS)}")
+            raise ParameterError(f"method={method!r}: expected one of {tuple(DEFAULT_CONFIGS)}")
         config = DEFAULT_CONFIGS[method]
     if prepared is None:
         if heading is None and config.heading_source == "attitude":
@@ -976,7 +977,7 @@ def step_sums(prepared: PreparedSignal, method: str, config: StepConfig, *, peak
 
     Raises
     ------
-    MorpiError
+    DataError
         As :func:`extract_steps`.
 
     Examples
@@ -1021,8 +1022,8 @@ _NO_EDGES = np.zeros(0)
 
 def _check_prepared(prepared, method, config):
     if prepared.cutoff_hz != config.cutoff_hz or prepared.method != method:
-        raise MorpiError(f"{prepared.source}: prepared signal ({prepared.method}, cutoff {prepared.cutoff_hz}) "
-                         f"does not match ({method}, cutoff {config.cutoff_hz})")
+        raise ParameterError(f"{prepared.source}: prepared signal ({prepared.method}, cutoff {prepared.cutoff_hz}) "
+                             f"does not match ({method}, cutoff {config.cutoff_hz})")
 
 
 def _boundaries(p, method, config, peak_cache):
@@ -1040,10 +1041,10 @@ def _boundaries(p, method, config, peak_cache):
     m0, m1 = p.motion
     i0, i1 = p.motion_index
     if i1 - i0 < 3:
-        raise MorpiError(f"{p.source}: no periodic motion found in the {method} signal")
+        raise DataError(f"{p.source}: no periodic motion found in the {method} signal")
     lo, hi = p.span
     if not hi - lo > 0:
-        raise MorpiError(f"{p.source}: no periodic motion found in the {method} signal (flat signal)")
+        raise DataError(f"{p.source}: no periodic motion found in the {method} signal (flat signal)")
     prom = config.prominence * (hi - lo)
     # the peaks, the boundaries and the weights do not depend on the heading: kept in `peak_cache` (shared by
     # the prepared signals of the same recording, method and cut-off); the headings on the prepared signal
@@ -1065,8 +1066,8 @@ def _boundaries(p, method, config, peak_cache):
         found = cache[pkey] = (imax, bounds, bt, _median(bt[1:] - bt[:-1]) if bt.size >= 2 else float("nan"))
     imax, bounds, bt, per = found
     if bounds.size < 2:
-        raise MorpiError(f"{p.source}: no periodic motion found in the {method} signal "
-                         f"({bounds.size} peak(s) between {m0 - t[0]:.1f} s and {m1 - t[0]:.1f} s)")
+        raise DataError(f"{p.source}: no periodic motion found in the {method} signal "
+                        f"({bounds.size} peak(s) between {m0 - t[0]:.1f} s and {m1 - t[0]:.1f} s)")
     wkey = pkey + (config.amplitude_from,)
     found = cache.get(wkey)
     if found is None:
@@ -1229,7 +1230,7 @@ def require_swing(source, method: str, swing_deg: float, min_swing_deg: float) -
 
     Raises
     ------
-    MorpiError
+    DataError
         Naming the recording, its swing and the least swing expected.
 
     Examples
@@ -1238,12 +1239,12 @@ def require_swing(source, method: str, swing_deg: float, min_swing_deg: float) -
     >>> require_swing("run.csv", "MoRPI-G", 6.0, 15.0)
     Traceback (most recent call last):
     ...
-    morpi_filters.errors.MorpiError: run.csv: no periodic motion found in the MoRPI-G signal (median heading swing 6.0 deg per period, expected at least 15 deg for a sine path)
+    morpi_filters.errors.DataError: run.csv: no periodic motion found in the MoRPI-G signal (median heading swing 6.0 deg per period, expected at least 15 deg for a sine path)
     """
     if swing_deg < min_swing_deg:
-        raise MorpiError(f"{source}: no periodic motion found in the {method} signal (median heading "
-                         f"swing {swing_deg:.1f} deg per period, expected at least "
-                         f"{min_swing_deg:g} deg for a sine path)")
+        raise DataError(f"{source}: no periodic motion found in the {method} signal (median heading "
+                        f"swing {swing_deg:.1f} deg per period, expected at least "
+                        f"{min_swing_deg:g} deg for a sine path)")
 
 
 def period_changes(boundary_heading, per_period: int) -> np.ndarray:
@@ -1273,7 +1274,7 @@ def period_changes(boundary_heading, per_period: int) -> np.ndarray:
     """
     h = np.asarray(boundary_heading, float)
     if per_period not in (1, 2):
-        raise MorpiError(f"per_period={per_period!r}: expected 1 (steps between maxima) or 2 (between extrema)")
+        raise ParameterError(f"per_period={per_period!r}: expected 1 (steps between maxima) or 2 (between extrema)")
     if h.shape[0] <= per_period:
         return np.empty(0)
     return h[per_period:] - h[:-per_period]
@@ -1381,7 +1382,7 @@ def turn_heading(time, t, psi, stretches, *, integral=None) -> np.ndarray:
     else:
         cpsi = np.asarray(integral, float)
         if cpsi.shape != t.shape:
-            raise MorpiError(f"turn_heading: integral of shape {cpsi.shape}, expected {t.shape} (one per sample)")
+            raise ParameterError(f"turn_heading: integral of shape {cpsi.shape}, expected {t.shape} (one per sample)")
 
     def mean(a, b):
         if b - a <= 1e-9:
@@ -1429,12 +1430,12 @@ def train_gain(steps_list, distances):
     """
     steps_list = list(steps_list)
     if not steps_list:
-        raise MorpiError("train_gain: no training runs")
+        raise ParameterError("train_gain: no training runs")
     d = np.broadcast_to(np.asarray(distances, float), (len(steps_list),))
     w = np.array([s if isinstance(s, (float, int, np.floating)) else s.effective_weight for s in steps_list],
                  dtype=float)
     if np.any(w <= 0):
-        raise MorpiError("train_gain: a training run has no step amplitude")
+        raise DataError("train_gain: a training run has no step amplitude")
     g = d / w
     return float(g.mean()), float(g.std()), g
 

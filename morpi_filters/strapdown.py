@@ -61,7 +61,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import units
-from .errors import MorpiError
+from .errors import ParameterError
 
 __all__ = ["InsResult", "ins3d", "ins2d", "integrate_rate", "heading_from_C", "rotvec_to_C", "yaw_to_C", "coarse_level",
            "attitude_heading"]
@@ -230,7 +230,7 @@ def coarse_level(f_rest) -> np.ndarray:
 
     Raises
     ------
-    MorpiError
+    ParameterError
         If ``f_rest`` is not a finite, non-zero vector of shape (3,).
 
     Examples
@@ -243,7 +243,7 @@ def coarse_level(f_rest) -> np.ndarray:
     """
     f = np.asarray(f_rest, dtype=float)
     if f.shape != (3,) or not np.all(np.isfinite(f)) or not np.linalg.norm(f) > 0:
-        raise MorpiError(f"f_rest={f_rest!r}: expected a finite, non-zero specific force (3,) [m/s^2]")
+        raise ParameterError(f"f_rest={f_rest!r}: expected a finite, non-zero specific force (3,) [m/s^2]")
     phi = np.arctan2(f[1], f[2])
     theta = np.arctan2(-f[0], np.hypot(f[1], f[2]))
     cp, sp, ct, st = np.cos(phi), np.sin(phi), np.cos(theta), np.sin(theta)
@@ -256,22 +256,22 @@ def _check_time(time) -> np.ndarray:
 
     time = np.asarray(time, dtype=float)
     if time.ndim != 1 or time.shape[0] < 2:
-        raise MorpiError(f"time: expected a 1-D array of at least 2 samples, got shape {time.shape}")
+        raise ParameterError(f"time: expected a 1-D array of at least 2 samples, got shape {time.shape}")
     time = np.require(time, float, ["C"])
     order = compiled()["time_order"](time)                      # one pass: finite, strictly increasing
     if order == 1:
-        raise MorpiError("time: contains NaN or inf, expected finite sample times")
+        raise ParameterError("time: contains NaN or inf, expected finite sample times")
     if order == 2:
-        raise MorpiError("time: not strictly increasing, expected strictly increasing sample times")
+        raise ParameterError("time: not strictly increasing, expected strictly increasing sample times")
     return time
 
 
 def _check_signal(name: str, x, n: int) -> np.ndarray:
     x = np.asarray(x, dtype=float)
     if x.ndim < 2 or x.shape[-2:] != (n, 3):
-        raise MorpiError(f"{name}: expected shape (n, 3) or (runs, n, 3) with n = {n}, got {x.shape}")
+        raise ParameterError(f"{name}: expected shape (n, 3) or (runs, n, 3) with n = {n}, got {x.shape}")
     if not np.isfinite(x).all():
-        raise MorpiError(f"{name}: contains NaN or inf, expected finite readings")
+        raise ParameterError(f"{name}: contains NaN or inf, expected finite readings")
     return x
 
 
@@ -281,9 +281,9 @@ def _check_init(name: str, x, tail: tuple, default) -> np.ndarray:
     x = np.asarray(x, dtype=float)
     if x.shape[x.ndim - len(tail):] != tail or x.ndim < len(tail):
         want = " or ".join(str(s) for s in (tail, ("runs",) + tail))
-        raise MorpiError(f"{name}: expected shape {want}, got {x.shape}")
+        raise ParameterError(f"{name}: expected shape {want}, got {x.shape}")
     if not np.isfinite(x).all():
-        raise MorpiError(f"{name}: contains NaN or inf")
+        raise ParameterError(f"{name}: contains NaN or inf")
     return x
 
 
@@ -292,7 +292,7 @@ def _batch_shape(name_shapes) -> tuple:
         return np.broadcast_shapes(*(s for _, s in name_shapes))
     except ValueError:
         desc = ", ".join(f"{n} {s}" for n, s in name_shapes)
-        raise MorpiError(f"batch shapes do not match: {desc}; expected the same leading runs axis") from None
+        raise ParameterError(f"batch shapes do not match: {desc}; expected the same leading runs axis") from None
 
 
 def _increments(time, x):
@@ -344,7 +344,7 @@ def integrate_rate(time, rate, x0=0.0) -> np.ndarray:
     time = _check_time(time)
     r = np.asarray(rate, dtype=float)
     if r.shape[-1:] != time.shape:
-        raise MorpiError(f"rate: expected the last axis to have {time.shape[0]} samples, got shape {r.shape}")
+        raise ParameterError(f"rate: expected the last axis to have {time.shape[0]} samples, got shape {r.shape}")
     batch = r.shape[:-1]
     rb = r.reshape(-1, time.shape[0])
     x0b = np.broadcast_to(np.asarray(x0, dtype=float), batch).reshape(-1)
@@ -422,7 +422,7 @@ def ins3d(time, f, omega, *, C0=None, v0=None, p0=None, g: float = units.G0) -> 
 
     Raises
     ------
-    MorpiError
+    ParameterError
         For a bad shape, a non-finite value or non-increasing time.
 
     Notes
@@ -466,7 +466,7 @@ def ins3d(time, f, omega, *, C0=None, v0=None, p0=None, g: float = units.G0) -> 
     v0 = _check_init("v0", v0, (3,), np.zeros(3))
     p0 = _check_init("p0", p0, (3,), np.zeros(3))
     if C0.shape[-2:] == (3, 3) and not np.allclose(C0 @ np.swapaxes(C0, -1, -2), np.eye(3), atol=1e-9):
-        raise MorpiError("C0: not a rotation matrix (C0 C0^T != I)")
+        raise ParameterError("C0: not a rotation matrix (C0 C0^T != I)")
     batch = _batch_shape([("f", f.shape[:-2]), ("omega", omega.shape[:-2]), ("C0", C0.shape[:-2]),
                           ("v0", v0.shape[:-1]), ("p0", p0.shape[:-1])])
     B = int(np.prod(batch, dtype=int))
@@ -510,7 +510,7 @@ def ins2d(time, f, omega, *, psi0=0.0, v0=None, p0=None) -> InsResult:
 
     Raises
     ------
-    MorpiError
+    ParameterError
         For a bad shape, a non-finite value or non-increasing time.
 
     Notes
@@ -541,7 +541,7 @@ def ins2d(time, f, omega, *, psi0=0.0, v0=None, p0=None) -> InsResult:
     omega = _check_signal("omega", omega, n)
     psi0 = np.asarray(psi0, dtype=float)
     if not np.isfinite(psi0).all():
-        raise MorpiError("psi0: contains NaN or inf")
+        raise ParameterError("psi0: contains NaN or inf")
     v0 = _check_init("v0", v0, (3,), np.zeros(3))
     p0 = _check_init("p0", p0, (3,), np.zeros(3))
     batch = _batch_shape([("f", f.shape[:-2]), ("omega", omega.shape[:-2]), ("psi0", psi0.shape),
@@ -603,7 +603,7 @@ def attitude_heading(time, f, omega, f_rest) -> np.ndarray:
     _check_signal("f", f, n)
     omega = _check_signal("omega", omega, n)
     if omega.ndim != 2:
-        raise MorpiError(f"omega: shape {omega.shape}, expected ({n}, 3) (one recording)")
+        raise ParameterError(f"omega: shape {omega.shape}, expected ({n}, 3) (one recording)")
     C = _attitude_matrices(time, omega[None], coarse_level(f_rest)[None])[0]
     psi = np.unwrap(heading_from_C(C))
     return psi - psi[0]

@@ -67,7 +67,7 @@ from typing import TYPE_CHECKING
 
 import sympy as sp
 
-from .errors import MorpiError
+from .errors import ParameterError
 
 if TYPE_CHECKING:  # numpy is loaded by the numeric bridge only: the derivation does not need it
     import numpy as np
@@ -110,10 +110,10 @@ class Convention:
 
     def __post_init__(self):
         if self.gravity not in CONVENTIONS:
-            raise MorpiError(f"convention: gravity {self.gravity!r} is not one of {CONVENTIONS}")
+            raise ParameterError(f"convention: gravity {self.gravity!r} is not one of {CONVENTIONS}")
         for name in ("misalignment_sign", "gyro_sign"):
             if getattr(self, name) not in (-1, 1):
-                raise MorpiError(f"convention: {name} must be -1 or +1, got {getattr(self, name)!r}")
+                raise ParameterError(f"convention: {name} must be -1 or +1, got {getattr(self, name)!r}")
 
     @property
     def k(self) -> int:
@@ -159,7 +159,7 @@ def convention(spec="z_up") -> Convention:
     if isinstance(spec, Convention):
         return spec
     if not isinstance(spec, str):
-        raise MorpiError(f"convention: expected a name such as 'z_up' or 'z_down', got {spec!r}")
+        raise ParameterError(f"convention: expected a name such as 'z_up' or 'z_down', got {spec!r}")
     parts = spec.split(",")
     kw = {"gravity": parts[0]}
     try:
@@ -171,7 +171,7 @@ def convention(spec="z_up") -> Convention:
             else:
                 raise ValueError(p)
     except ValueError:
-        raise MorpiError(f"convention: cannot read {spec!r}; expected e.g. 'z_up' or 'z_up,mis+1,gyro-1'") from None
+        raise ParameterError(f"convention: cannot read {spec!r}; expected e.g. 'z_up' or 'z_up,mis+1,gyro-1'") from None
     return Convention(**kw)
 
 
@@ -567,7 +567,7 @@ def position_error(conv="z_up", ins: str = "INS-3D", keep_bgz: bool = True) -> s
     if ins == "INS-2D":
         bg = sp.Matrix([0, 0, bg[2]])
     elif ins != "INS-3D":
-        raise MorpiError(f"position_error: ins must be 'INS-3D' or 'INS-2D', got {ins!r}")
+        raise ParameterError(f"position_error: ins must be 'INS-3D' or 'INS-2D', got {ins!r}")
     Phi = _phi_at_rest(c)
     x0 = sp.Matrix([0, 0, 0, *dv, 0, 0, 0, *ba, *bg])
     dp = sp.expand(Phi[0:3, :] * x0)
@@ -620,7 +620,7 @@ def lambdified(kind: str = "INS-3D", conv="z_up", keep_bgz: bool = False):
     elif kind == "INS-2D position":
         expr = list(position_error(conv, "INS-2D", keep_bgz))
     else:
-        raise MorpiError(f"kind: expected one of {KINDS}, got {kind!r}")
+        raise ParameterError(f"kind: expected one of {KINDS}, got {kind!r}")
     return sp.lambdify(args, expr, modules="numpy", cse=True)
 
 
@@ -631,7 +631,8 @@ def _as_params(params):
         return params
     if isinstance(params, dict):
         return params_from_dict(params)
-    raise MorpiError(f"params: expected an ErrorParams or a dict of the parameter file keys, got {type(params).__name__}")
+    raise ParameterError(f"params: expected an ErrorParams or a dict of the parameter file keys, "
+                         f"got {type(params).__name__}")
 
 
 def _times(times):
@@ -639,7 +640,7 @@ def _times(times):
 
     t = np.atleast_1d(np.asarray(times, dtype=float))
     if t.ndim != 1 or not np.all(np.isfinite(t)):
-        raise MorpiError("times: expected a 1-D sequence of finite times [s]")
+        raise ParameterError("times: expected a 1-D sequence of finite times [s]")
     return t
 
 
@@ -697,7 +698,7 @@ def _mean_square_poly(kind: str, conv_name: str, linearized: bool, keep_bgz: boo
     """e^2 as a Poly in the random variables (coefficients in g, t)."""
     s = symbols()
     if kind not in ("INS-3D", "INS-2D"):
-        raise MorpiError(f"kind: expected 'INS-3D' or 'INS-2D' for a mean square, got {kind!r}")
+        raise ParameterError(f"kind: expected 'INS-3D' or 'INS-2D' for a mean square, got {kind!r}")
     e2 = distance_error_squared(conv_name, kind, keep_bgz)
     rv = (*s.dv, *s.ba, *s.bg)
     poly = sp.Poly(e2, *rv)

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from . import dataset, units
-from .errors import MorpiError, ParameterError
+from .errors import ParameterError
 from .fetch import sha256_file
 from .simulate import _L_SPEED, _SPEED, imu, route_trajectory
 
@@ -161,7 +161,7 @@ def write_dataset(out, *, seed: int = 0, runs_per_folder: int | None = None) -> 
 
     Raises
     ------
-    MorpiError
+    ParameterError
         A negative or non-integer `seed`, or a `runs_per_folder` below 1.
     ParameterError
         `out` exists and holds files morpi did not write, or another kind of morpi output.
@@ -180,10 +180,10 @@ def write_dataset(out, *, seed: int = 0, runs_per_folder: int | None = None) -> 
     """
     out = Path(out)
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise MorpiError(f"seed: expected a non-negative integer, got {seed!r}")
+        raise ParameterError(f"seed: expected a non-negative integer, got {seed!r}")
     if runs_per_folder is not None and (isinstance(runs_per_folder, bool) or
                                         not isinstance(runs_per_folder, (int, np.integer)) or runs_per_folder < 1):
-        raise MorpiError(f"runs_per_folder: expected a positive integer, got {runs_per_folder!r}")
+        raise ParameterError(f"runs_per_folder: expected a positive integer, got {runs_per_folder!r}")
     from .reporting import MARKER, Outputs, check_output_dir, foreign_entry, remove_stale, write_json
     if not (out / MARKER).is_file() and not (out / _MANIFEST).is_file():
         bad = foreign_entry(out)

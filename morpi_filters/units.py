@@ -178,7 +178,7 @@ def sensor_for_phone(phone: str) -> SensorSpec:
 
     Raises
     ------
-    MorpiError
+    ParameterError
         Any other phone name; the message lists the known ones.
 
     Examples
@@ -188,9 +188,9 @@ def sensor_for_phone(phone: str) -> SensorSpec:
     >>> round(sensor_for_phone("s6").accel_bias / G0 * 1000, 6)    # 60 mg back in mg
     60.0
     """
-    from .errors import MorpiError
+    from .errors import ParameterError
 
     try:
         return SENSORS[phone]
     except KeyError:
-        raise MorpiError(f"phone {phone!r}: expected one of {sorted(SENSORS)}") from None
+        raise ParameterError(f"phone {phone!r}: expected one of {sorted(SENSORS)}") from None
