@@ -16,8 +16,8 @@ The detector works on the real, non-uniform time stamps:
    seconds (a trimmed standard deviation, :func:`noise_sigma`; differences
    remove the bias and slow trends), taking the lower quartile of the blocks
    so that early motion or a disturbance does not inflate it, and never below
-   the datasheet white noise of the phone's IMU over the Nyquist band when
-   the phone is known (:mod:`morpi_filters.units`).
+   the datasheet white noise of the recording's IMU over the Nyquist band
+   when the recording carries its figures (``Recording.imu``).
 2. A centred moving window of ``window_s`` seconds (time based, so the number
    of samples per window follows the real sampling) gives a moving standard
    deviation and a moving mean per axis.
@@ -90,7 +90,7 @@ import numpy as np
 from .choice import choose
 from .dataset import Recording
 from .errors import DataError, MorpiError, ParameterError
-from .units import MPU6500, SENSORS, SensorSpec
+from .units import MPU6500, SensorSpec
 
 __all__ = [
     "MODES", "SITE_LATITUDE_DEG", "LOCAL_GRAVITY", "normal_gravity", "RestWindow", "Calibration",
@@ -185,8 +185,8 @@ LOCAL_GRAVITY = normal_gravity(SITE_LATITUDE_DEG)
 #: noise in every train run.
 STILL_NOISE_FACTOR = 10.0
 
-#: Noise figures used for an IMU that is not known (a recording whose ``phone`` is not a dataset phone,
-#: and no spec given): the InvenSense MPU-6500's, as its product specification PS-MPU-6500A-01 gives them
+#: Noise figures used for an IMU that is not known (a recording without ``imu`` figures, and no spec
+#: given): the InvenSense MPU-6500's, as its product specification PS-MPU-6500A-01 gives them
 #: (gyro rate noise spectral density 0.01 deg/s/sqrt(Hz), accelerometer noise power spectral density
 #: 300 ug/sqrt(Hz)): a common consumer MEMS IMU (the MPU-9250 carries the same sensor), and the noisier
 #: of the two IMUs of the MoRPI recordings (:data:`morpi_filters.units.MPU6500`).
@@ -246,12 +246,12 @@ def still_bound(rec: Recording, bound: SensorSpec | StillBound | None = None, *,
     Parameters
     ----------
     rec : Recording
-        The recording (its median sampling rate, and its phone when `bound`
-        is None).
+        The recording (its median sampling rate, and its ``imu`` figures
+        when `bound` is None).
     bound : SensorSpec or StillBound, optional
         A StillBound is returned as it is; a SensorSpec gives its noise
-        densities. Default: the recording's phone's IMU
-        (:data:`morpi_filters.units.SENSORS`), else :data:`DEFAULT_IMU`.
+        densities. Default: the recording's IMU (``rec.imu``), else
+        :data:`DEFAULT_IMU`.
     factor : float, optional
         Multiple of the white noise a still robot may show (default
         :data:`STILL_NOISE_FACTOR`).
@@ -272,7 +272,8 @@ def still_bound(rec: Recording, bound: SensorSpec | StillBound | None = None, *,
     --------
     The S8's LSM6DSL (0.004 deg/s/sqrt(Hz), 130 ug/sqrt(Hz)) sampled at 100 Hz:
 
-    >>> rec = Recording(time=np.arange(300) * 0.01, f=np.zeros((300, 3)), omega=np.zeros((300, 3)), phone="s8")
+    >>> from morpi_filters.units import LSM6DSL
+    >>> rec = Recording(time=np.arange(300) * 0.01, f=np.zeros((300, 3)), omega=np.zeros((300, 3)), imu=LSM6DSL)
     >>> b = still_bound(rec)
     >>> round(b.gyro, 5), round(b.accel, 4), b.source
     (0.00494, 0.0901, 'LSM6DSL noise x 10')
@@ -281,7 +282,7 @@ def still_bound(rec: Recording, bound: SensorSpec | StillBound | None = None, *,
         return bound
     if not (isinstance(factor, (int, float)) and math.isfinite(factor) and factor > 0):
         raise ParameterError(f"factor={factor!r}: expected a positive multiple of the white noise")
-    spec = bound if bound is not None else SENSORS.get(rec.phone, DEFAULT_IMU)
+    spec = bound if bound is not None else (rec.imu or DEFAULT_IMU)
     if not isinstance(spec, SensorSpec):
         raise ParameterError(f"bound={bound!r}: expected a SensorSpec, a StillBound or None")
     if rec.n < 2:
@@ -543,7 +544,7 @@ class RestMeasures:
         Samples of the recording measured.
     sig_g, sig_a : ndarray, shape (3,)
         Gyro [rad/s] and accelerometer [m/s^2] noise sigmas (at least the
-        datasheet's white noise for a known phone).
+        datasheet's white noise of ``rec.imu`` when it is known).
     med_g : ndarray, shape (3,)
         Median gyro reading of the quietest noise block [rad/s].
     m_g, s_g : ndarray, shape (n, 3)
@@ -607,9 +608,9 @@ def rest_measures(rec: Recording, *, max_window_s: float = 3.0, window_s: float 
     # Noise-free (simulated) rests: stay above floating-point rounding.
     sig_g = np.maximum(sig_g, _GYRO_SIGMA_MIN)
     sig_a = np.maximum(sig_a, _ACCEL_SIGMA_MIN)
-    if rec.phone in SENSORS:
+    if rec.imu is not None:
         # Never below the datasheet white noise over the Nyquist band.
-        spec = SENSORS[rec.phone]
+        spec = rec.imu
         sig_g = np.maximum(sig_g, _nyquist_sigma(spec.gyro_noise, rec.rate_hz))
         sig_a = np.maximum(sig_a, _nyquist_sigma(spec.accel_noise, rec.rate_hz))
     half = window_s / 2.0
@@ -629,9 +630,9 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
     Parameters
     ----------
     rec : Recording
-        The recording (real, non-uniform time stamps). When ``rec.phone``
-        names a known IMU (:data:`morpi_filters.units.SENSORS`) its datasheet
-        noise bounds the noise sigmas from below.
+        The recording (real, non-uniform time stamps). When it carries its
+        IMU's figures (``rec.imu``) their white noise bounds the noise sigmas
+        from below.
     max_window_s : float
         Longest window returned [s] (the paper calibrates on the first 3 s).
     min_window_s : float
@@ -673,8 +674,8 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
     bound : SensorSpec or StillBound, optional
         What a still IMU's readings may spread (:func:`still_bound`): a
         StillBound as it is, or :data:`STILL_NOISE_FACTOR` times a
-        SensorSpec's white noise; default: the phone's IMU when ``rec.phone``
-        is known, else :data:`DEFAULT_IMU`. The spread thresholds never
+        SensorSpec's white noise; default: the recording's IMU (``rec.imu``)
+        when it is known, else :data:`DEFAULT_IMU`. The spread thresholds never
         exceed it (the accelerometer's never go below `accel_floor`). An
         explicit rest window needs none of this: pass it to :func:`calibrate`.
 

@@ -229,6 +229,11 @@ class Recording:
         Route folder name, key of :func:`routes`.
     split : str or None
         ``"train"``, ``"test"`` or None for folders without a split.
+    imu : SensorSpec or None
+        The error figures of the IMU that recorded it, when the dataset names
+        them (the MoRPI catalogue: the phone's IMU; a manifest: ``imu.spec``;
+        a simulation: its spec). What reads a recording's noise floor (rest
+        detection) reads it here, never from the phone's name.
 
     Raises
     ------
@@ -253,6 +258,7 @@ class Recording:
     phone: str | None = None
     route: str | None = None
     split: str | None = None
+    imu: SensorSpec | None = None
 
     def __post_init__(self):
         n = self.time.shape[0]
@@ -547,7 +553,8 @@ def load_csv(path, *, phone=None, route=None, split=None, min_samples: int = MIN
     time, f, omega = _read(path, _IMU)
     if time.shape[0] < min_samples:
         raise DataError(f"{path}: too few samples: {time.shape[0]} rows, expected at least {min_samples}")
-    return Recording(time=time, f=f, omega=omega, source=str(path), phone=phone, route=route, split=split)
+    return Recording(time=time, f=f, omega=omega, source=str(path), phone=phone, route=route, split=split,
+                     imu=SENSORS.get(phone))      # the MoRPI catalogue's phones and their IMUs
 
 
 def read_columns(path, layout: ColumnLayout, *, min_rows: int = 1) -> tuple:

@@ -795,7 +795,8 @@ def _imu_layout(ctx: _Context, imu: dict) -> tuple[Path, ColumnLayout, dict]:
                 (("time_unit", "s"), ("time_origin", "clock"), ("accel_unit", "m/s^2"), ("gyro_unit", "rad/s"),
                  ("axes", "FLU"))}
     settings["axes_letters"] = imu.get("axes", "FLU")
-    settings["spec"] = _get(ctx, imu, "imu", "spec", _IMU_CHECKS) or MEMS_SPEC
+    settings["imu"] = _get(ctx, imu, "imu", "spec", _IMU_CHECKS)          # the recording's IMU, when given
+    settings["spec"] = settings["imu"] or MEMS_SPEC
     settings["rate_hz"] = rate
     layout = ColumnLayout(COLUMNS, tuple(cols.get(c) for c in COLUMNS), format=fmt,
                           skip_rows=_get(ctx, imu, "imu", "skip_rows", _IMU_CHECKS, default=0) if fmt == "csv" else 0,
@@ -841,7 +842,7 @@ def _load_entry(ctx: _Context, values: dict) -> DatasetRecording:
         f = np.ascontiguousarray(np.stack([sign[i] * f_file[:, perm[i]] for i in range(3)], axis=-1))
         omega = np.ascontiguousarray(np.stack([sign[i] * w_file[:, perm[i]] for i in range(3)], axis=-1))
     rec = Recording(time=time, f=f, omega=omega, source=str(path),
-                    split=None if labels["split"] == "none" else labels["split"])
+                    split=None if labels["split"] == "none" else labels["split"], imu=settings["imu"])
     truth = _truth(ctx, values["truth"], rec)
     _check_labels(ctx, rec, truth, labels)
     _check_physics(ctx, rec, labels["rest"], {"accel_unit": settings["accel_unit"], "gyro_unit": settings["gyro_unit"],

@@ -852,7 +852,7 @@ class ImuData:
         w = self.omega if self.omega.ndim == 2 else self.omega[run]
         return dataset.Recording(time=self.time.copy(), f=np.ascontiguousarray(f), omega=np.ascontiguousarray(w),
                                  source=source, phone=self.spec.phone if phone is None else phone,
-                                 route=route, split=split)
+                                 route=route, split=split, imu=self.spec)
 
 
 def _rngs(rng, runs):

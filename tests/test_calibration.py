@@ -372,7 +372,9 @@ def test_the_still_bound_follows_the_sensor_spec():
         assert b.gyro == pytest.approx(STILL_NOISE_FACTOR * spec.gyro_noise * math.sqrt(rate / 2), rel=1e-12)
         assert b.accel == pytest.approx(STILL_NOISE_FACTOR * spec.accel_noise * math.sqrt(rate / 2), rel=1e-12)
     assert still_bound(rec) == still_bound(rec, DEFAULT_IMU)                   # an unknown IMU
-    assert still_bound(Recording(time=t, f=rec.f, omega=rec.omega, phone="s8")) == still_bound(rec, units.LSM6DSL)
+    # the recording's own IMU figures, never its phone's name
+    assert still_bound(Recording(time=t, f=rec.f, omega=rec.omega, imu=units.LSM6DSL)) == still_bound(rec, units.LSM6DSL)
+    assert still_bound(Recording(time=t, f=rec.f, omega=rec.omega, phone="s8")) == still_bound(rec, DEFAULT_IMU)
     w = detect_rest(rec, bound=noisy)
     assert w.method == "full" and w.motion_s is None
     with pytest.raises(NoRestError, match="still.csv: no initial rest"):

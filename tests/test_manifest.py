@@ -367,7 +367,12 @@ def test_imu_spec_scales_the_bounds(tmp_path):
     body = f'[[recording]]\nid = "a"\nimu = {{ file = "a.csv"SPEC }}\n{_ROUTE}'
     with pytest.raises(ParameterError, match=r"imu.gyro_unit: the median angular rate at rest is 0.41\d rad/s on g_z"):
         load_dataset(_manifest(tmp_path, body.replace("SPEC", "")))
-    assert load_dataset(_manifest(tmp_path, body.replace("SPEC", ", spec = { gyro_bias_deg_s = 10 }"))).recordings
+    loaded = load_dataset(_manifest(tmp_path, body.replace("SPEC", ", spec = { gyro_bias_deg_s = 10 }"))).recordings
+    # the declared figures travel with the recording (what rest detection reads), unspecified ones the default's
+    from morpi_filters.dataset import MEMS_SPEC
+
+    imu = loaded[0].recording.imu
+    assert imu.gyro_bias == pytest.approx(10 * units.DEG) and imu.gyro_noise == MEMS_SPEC.gyro_noise
     with pytest.raises(ParameterError, match=r"imu.spec: unknown key 'gyro_bias', the nearest known one is "
                                              r"'gyro_bias_deg_s'"):
         load_dataset(_manifest(tmp_path, body.replace("SPEC", ", spec = { gyro_bias = 10 }")))
