@@ -81,7 +81,7 @@ __all__ = [
     "TABLES", "PAPER_CELLS", "PAPER_COMPARISON", "CellSpec", "RunResult", "Cell",
     "TablesResult", "evaluate_tables", "TablesStudy", "RecordingView", "TrackView", "tables_study",
     "training_gain_spread", "rule_sensitivity", "comparison", "ins_full_span", "ins_leveled", "other_rule",
-    "DEVIATION_PP", "check_cells", "dataset_problems", "heading_readings", "turn_reading",
+    "DEVIATION_PP", "check_cells", "dataset_problems", "heading_readings", "turn_reading", "rule_json",
 ]
 
 # --------------------------------------------------------------------------- the paper's numbers
@@ -355,7 +355,7 @@ def rule_sensitivity(result: TablesResult) -> list[dict]:
         for cfg, vec, score in sorted(own, key=lambda t: t[2]):
             ok = base is not None and vec is not None and vec.size == base.size > 1
             d = vec - base if ok else np.full(1, np.nan)
-            row = {"method": m, "config": _config_json(cfg), "selected": cfg == sel.config,
+            row = {"method": m, "config": rule_json(cfg), "selected": cfg == sel.config,
                    "train_loo_percent": score,
                    "train_difference_pp": float(np.mean(d)) if np.all(np.isfinite(d)) else None,
                    "train_difference_se_pp": (float(np.std(d, ddof=1) / np.sqrt(d.size))
@@ -736,7 +736,7 @@ def other_rule(result: TablesResult, rule: str | None = None) -> dict:
         rule = next(r for r in RULES if r != result.rule)
     alt = evaluate_tables(result.data.root, data=result.data, rule=rule, alternatives=False)
     return {"rule": rule,
-            "step_rule": {m: {"config": _config_json(s.config), "train_loo_percent": s.score}
+            "step_rule": {m: {"config": rule_json(s.config), "train_loo_percent": s.score}
                           for m, s in alt.selections.items()},
             "cells": [{"table": c.spec.table, "phone": c.spec.phone, "p2p_m": c.spec.p2p_m, "method": c.spec.method,
                        "calibration": c.spec.calibration, "paper_percent": c.spec.paper_percent,
@@ -904,7 +904,25 @@ def turn_reading(result: TablesResult) -> dict:
 DEVIATION_PP = 2.5
 
 
-def _config_json(cfg: st.StepConfig) -> dict:
+def rule_json(cfg: st.StepConfig) -> dict:
+    """A step rule as the JSON of the tables shows it: its readings and tunables by name.
+
+    Parameters
+    ----------
+    cfg : StepConfig
+        The rule.
+
+    Returns
+    -------
+    dict
+        Field name -> value, for the fields the tables' JSON lists.
+
+    Examples
+    --------
+    >>> from morpi_filters.steps import StepConfig
+    >>> rule_json(StepConfig())["heading"]
+    'mean'
+    """
     return {k: getattr(cfg, k) for k in ("heading", "segment", "ends", "min_period_s", "prominence",
                                           "cutoff_hz", "amplitude_from", "turn_deg", "heading_source")}
 

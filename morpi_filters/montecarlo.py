@@ -121,7 +121,7 @@ __all__ = [
     "training_configs", "training_summary",
     "TrainingStudy", "band_quantiles", "BAND_PERCENTILES", "BAND_BINS_PER_DECADE",
     "DriftMap", "drift_map", "GainErrorPage", "gain_error_page", "DriftPage", "drift_page", "Z99",
-    "final_statistics", "distance_law_check", "INS_PATHS", "PageCost", "page_cost",
+    "final_statistics", "distance_law_check", "INS_PATHS", "PageCost", "page_cost", "study_config_json",
 ]
 
 #: Error series columns of :attr:`StudyResult.errors` (the package's method names).
@@ -1049,7 +1049,7 @@ def _ins_errors(payload, err, psi, h, keep):
     bi.horizontal_accel_2d(f, psi, err[2], err[5], heading=payload.ins_heading)
     del f, w
     # columns: 2D x, 3D x, 3D y, 2D y
-    pos = bi._double_integral_at(err[2:].transpose(1, 0, 2), h, keep)
+    pos = bi.double_integral_at(err[2:].transpose(1, 0, 2), h, keep)
     (x3, y3), (x2, y2) = payload.ins_truth
     return [np.hypot(pos[:, 1] - x3, pos[:, 2] - y3).T, np.hypot(pos[:, 0] - x2, pos[:, 3] - y2).T]
 
@@ -1979,7 +1979,19 @@ def distance_law_check(result: StudyResult) -> list:
     return rows
 
 
-def _config_json(cfg: StudyConfig) -> dict:
+def study_config_json(cfg: StudyConfig) -> dict:
+    """A study's configuration as its JSON shows it: sensor, motion, calibration, bias and noise sigmas, gains.
+
+    Parameters
+    ----------
+    cfg : StudyConfig
+        The study's configuration.
+
+    Returns
+    -------
+    dict
+        JSON values; sigmas in SI units (noise as the per-sample sigma at the study's rate).
+    """
     sa, sg = cfg.bias_sigmas()
     length, speed, duration = cfg.motion()
     return {"sensor": cfg.spec.name, "duration_s": duration, "rate_hz": cfg.rate_hz, "length_m": length,

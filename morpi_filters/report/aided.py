@@ -8,7 +8,7 @@ import numpy as np
 
 from ..reporting import SectionSummary, write_json, write_text
 from . import plots
-from .common import _collector_paused, banner, fmt, md_table, save_figure
+from .common import collector_paused, banner, fmt, md_table, save_figure
 
 
 def _nis(d: dict) -> dict:
@@ -127,7 +127,7 @@ def _figures(study, out: Path) -> list[str]:
     if not study.cells:
         return []
     # the figures come with their margins fitted to their labels (no layout pass): each is saved in one draw
-    with _collector_paused():
+    with collector_paused():
         names = ["aided_cells.png"]
         save_figure(plots.plot_aided_cells(study.cells), out / names[0])
         for c in study.cells:

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from ..reporting import atomic_path
 
-__all__ = ["SYNTHETIC_BANNER", "banner", "fmt", "md_table", "save_figure"]
+__all__ = ["SYNTHETIC_BANNER", "banner", "fmt", "md_table", "save_figure", "collector_paused"]
 
 #: Shown at the top of every page computed on synthetic data.
 SYNTHETIC_BANNER = (
@@ -159,13 +159,18 @@ def save_figure(fig, path, dpi: int = 120, crop: bool = False) -> Path:
 
 
 @contextlib.contextmanager
-def _collector_paused():
+def collector_paused():
     """Pause Python's cyclic garbage collector while figures are drawn.
 
     matplotlib allocates a few hundred thousand objects per figure, none of
     them garbage before the figure is dropped; the collector would scan them
     over and over (about a tenth of the drawing time). Cycles left meanwhile
     are collected once it runs again.
+
+    Yields
+    ------
+    None
+        The block runs with the collector paused; its state is restored after.
     """
     enabled = gc.isenabled()
     gc.disable()

@@ -5,11 +5,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..montecarlo import DIGEST_BITS, Z99, DriftPage, GainErrorPage, _config_json, final_statistics, summarize
+from ..montecarlo import DIGEST_BITS, Z99, DriftPage, GainErrorPage, study_config_json, final_statistics, summarize
 from ..reporting import SectionSummary, write_json, write_text
 from ..units import DEG_S, MG
 from . import plots
-from .common import _collector_paused, banner, fmt, md_table, save_figure
+from .common import collector_paused, banner, fmt, md_table, save_figure
 
 __all__ = ["report_montecarlo", "report_drift"]
 
@@ -40,7 +40,7 @@ def report_montecarlo(out, study: GainErrorPage, source=None) -> SectionSummary:
 
     # the figures come with their margins fitted to their labels (no layout pass): each is saved in one draw
     figs = []
-    with _collector_paused():
+    with collector_paused():
         figs.append(save_figure(plots.montecarlo_final_errors(
             r.columns, r.final, title=f"{cal.spec.name}, {cal.duration:g} s, {runs} runs, GAC-calibrated biases"),
             out / "final_errors.png").name)
@@ -60,13 +60,13 @@ def report_montecarlo(out, study: GainErrorPage, source=None) -> SectionSummary:
     result = {
         "runs": runs, "seed": seed, "digest": r.digest, **final_statistics(r),
         "unit": "m, final horizontal position error",
-        "config": _config_json(cal), "columns": list(r.columns), "distance_m": r.distance,
+        "config": study_config_json(cal), "columns": list(r.columns), "distance_m": r.distance,
         "gain_ref": {"MoRPI-A": r.gain_ref[0], "MoRPI-G": r.gain_ref[1],
                      "training_cv": {"MoRPI-A": r.gain_ref_cv[0], "MoRPI-G": r.gain_ref_cv[1]}},
         "scenarios": [{**c, "final": {m: summarize(r.final_error(m, c["label"])) for m in ("MoRPI-A", "MoRPI-G")}}
                       for c in checks],
         "confidence": {"z": Z99, "bound": "mean +/- z * std / sqrt(runs)"},
-        "raw_biases": {"digest": rr.digest, "config": _config_json(raw), **final_statistics(rr)},
+        "raw_biases": {"digest": rr.digest, "config": study_config_json(raw), **final_statistics(rr)},
         "training_runs": {"k": tr.k, "mismatch": tr.mismatch, "spread": tr.spread, "assumed": assumed,
                           "source": spread_note if not assumed else f"assumed ({spread_note})",
                           "rms_distance": {"MoRPI-A": tr.rms_distance[:, 0], "MoRPI-G": tr.rms_distance[:, 1]},

@@ -6,13 +6,13 @@ from pathlib import Path
 import numpy as np
 
 from ..evaluate import (
-    _INS_METHODS, DEVIATION_PP, TABLES, Cell, TablesStudy, _config_json,
+    _INS_METHODS, DEVIATION_PP, TABLES, Cell, TablesStudy, rule_json,
 )
 from ..fetch import dataset_identity
 from ..field import _MORPI_METHODS, SHORT_SETS
 from ..reporting import SectionSummary, write_json, write_text
 from . import plots
-from .common import _collector_paused, banner, fmt, md_table, save_figure
+from .common import collector_paused, banner, fmt, md_table, save_figure
 
 __all__ = ["report_tables", "result_json", "TRAIN_SE_BAND"]
 
@@ -66,7 +66,7 @@ def _figures(study: TablesStudy, out: Path) -> list[str]:
     """Draw the page's figures from the study and save them in `out`; their file names."""
     figs = []
     # the figures come with their margins fitted to their labels (no layout pass): each is saved in one draw
-    with _collector_paused():
+    with collector_paused():
         for v in study.recordings:
             save_figure(plots.plot_recording(v.time, v.f, v.omega, title=v.title, rest=v.rest, motion=v.motion,
                                              peaks=v.peaks), out / v.name)
@@ -502,8 +502,8 @@ def result_json(study: TablesStudy, source=None) -> dict:
                    "per_run": list(g.per_run), "files": list(g.files), "skipped": list(g.skipped),
                    "unit": "m/(m/s^2)^(1/4)" if g.method == "MoRPI-A" else "m/(rad/s)^(1/4)"}
                   for g in result.gains],
-        "step_rule": {m: {"config": _config_json(s.config), "train_loo_percent": s.score, "n_train_runs": s.n_train,
-                          "trials": [{"config": _config_json(c), "train_loo_percent": v} for c, v in s.trials]}
+        "step_rule": {m: {"config": rule_json(s.config), "train_loo_percent": s.score, "n_train_runs": s.n_train,
+                          "trials": [{"config": rule_json(c), "train_loo_percent": v} for c, v in s.trials]}
                       for m, s in result.selections.items()},
         "comparison": study.comparison,
         "readings": list(result.readings),
