@@ -39,6 +39,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from pairs import paired, paired_commands, python_command  # noqa: E402
 
 from morpi_filters import montecarlo as mc  # noqa: E402
+from morpi_filters.montecarlo import config as mcc, engine as mce  # noqa: E402
 
 TARGET = 4.0
 
@@ -102,9 +103,9 @@ def measure(pairs: int = 5, quick: bool = False, runs: int = 10_000, seed: int =
         runs = min(runs, 2000)
     cfg = mc.StudyConfig()
     _, _, duration = cfg.motion()
-    n = mc._samples(duration, cfg.rate_hz)  # samples of a run, as the study draws them
-    chunk = min(mc._default_chunk(n), runs)
-    code = DRAWS.format(runs=runs, seed=seed, n=n, chunk=chunk, head=mc._N_HEAD,
+    n = mce.sample_count(duration, cfg.rate_hz)  # samples of a run, as the study draws them
+    chunk = min(mce.default_chunk(n), runs)
+    code = DRAWS.format(runs=runs, seed=seed, n=n, chunk=chunk, head=mcc.N_HEAD,
                         training=cfg.training_runs, tkey=mc.TRAINING_KEY)
     env_root = str(Path(__file__).resolve().parents[1])
     import os
@@ -123,7 +124,7 @@ def measure(pairs: int = 5, quick: bool = False, runs: int = 10_000, seed: int =
 
     def draws():
         for a in range(0, runs, chunk):
-            mc._draw(seed, a, min(a + chunk, runs), n)
+            mce._draw(seed, a, min(a + chunk, runs), n)
 
     cfgs = page_configs()
     mc.reference_gains(cfgs[0], seed)    # the training is cached per process: not part of either side here

@@ -317,6 +317,16 @@ def test_files_are_renamed_into_place_only_by_the_atomic_writer_and_the_staged_s
 
 
 def test_sha256_is_computed_by_the_checksum_and_the_monte_carlo_digest_only():
-    # the file checksum (fetch) and the fingerprint of a study's per-run results (montecarlo.digest),
+    # the file checksum (fetch) and the fingerprint of a study's per-run results (montecarlo.config.digest),
     # two different things; nothing else hashes
-    assert _functions_calling("hashlib.sha256") == {"fetch._sha256_stream", "montecarlo.digest"}
+    assert _functions_calling("hashlib.sha256") == {"fetch._sha256_stream", "montecarlo.config.digest"}
+
+
+def test_every_package_folder_is_shipped():
+    """pyproject's explicit package list names every folder of the package that holds an ``__init__.py``,
+    so a wheel carries every module the checkout has."""
+    import tomllib
+
+    listed = set(tomllib.loads((PKG.parent / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    folders = {".".join(("morpi_filters",) + p.parent.relative_to(PKG).parts) for p in PKG.rglob("__init__.py")}
+    assert folders <= listed, sorted(folders - listed)

@@ -6,6 +6,7 @@ import pytest
 
 from morpi_filters import _batch_ins as bi
 from morpi_filters import montecarlo as mc
+from morpi_filters.montecarlo import engine as mce
 
 
 def _planes(a):
@@ -29,7 +30,7 @@ def test_path_kernels_match_strapdown(path, noise, tol):
     from morpi_filters import strapdown
 
     cfg = mc.StudyConfig(ins_path=path)
-    ins_path = mc._paths(cfg)[0]
+    ins_path = mce._paths(cfg)[0]
     assert (np.abs(ins_path.omega_b[:, 2]).max() > 0.1) == (path == "sine")
     n, R, h = ins_path.time.size, 4, 1.0 / cfg.rate_hz
     keep = np.array([0, 500, n - 1])
@@ -37,7 +38,7 @@ def test_path_kernels_match_strapdown(path, noise, tol):
     f0, w0 = ins_path.f_b, ins_path.omega_b
     f = f0 + 0.5 * rng.standard_normal((R, 1, 3)) + noise * 0.03 * rng.standard_normal((R, n, 3))
     w = w0 + 0.05 * rng.standard_normal((R, 1, 3)) + noise * 0.002 * rng.standard_normal((R, n, 3))
-    heading, ((tx3, ty3), (tx2, ty2)) = mc._ins_truth(ins_path, h, keep)
+    heading, ((tx3, ty3), (tx2, ty2)) = mce._ins_truth(ins_path, h, keep)
     x, y = bi.horizontal_3d(h, _planes(f), _planes(w), keep)
     t = ins_path.time
     p, p0 = strapdown.ins3d(t, f, w).position, strapdown.ins3d(t, f0, w0).position
@@ -58,9 +59,9 @@ def test_truth_through_the_kernels_follows_the_path():
     # the kernels on the error-free signals retrace the simulated path: what the study
     # subtracts is the path itself up to the integration rule (trapezoid, O(dt^2))
     cfg = mc.StudyConfig(duration=20.0)
-    sine = mc._paths(cfg)[1]
+    sine = mce._paths(cfg)[1]
     keep = np.arange(0, sine.time.size, 100)
-    _, ((x3, y3), (x2, y2)) = mc._ins_truth(sine, 1.0 / cfg.rate_hz, keep)
+    _, ((x3, y3), (x2, y2)) = mce._ins_truth(sine, 1.0 / cfg.rate_hz, keep)
     for x, y in ((x3, y3), (x2, y2)):
         # measured 2e-5 m over 8.9 m; bar 1 mm
         np.testing.assert_allclose(x[:, 0], sine.position[keep, 0], atol=1e-3)

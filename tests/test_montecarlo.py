@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from morpi_filters import montecarlo as mc
+from morpi_filters.montecarlo import config as mcc, drift as mcd, engine as mce, pages as mcp
 from morpi_filters.errors import MorpiError
 from morpi_filters.units import DEG_S, G0
 
@@ -195,7 +196,7 @@ def test_the_training_draws_follow_the_study_seed(reference_study):
 
 
 def test_the_gain_error_page_is_reproducible_and_its_seed_reaches_the_training(monkeypatch):
-    monkeypatch.setattr(mc, "TRAINING_KS", (1,))
+    monkeypatch.setattr(mcp, "TRAINING_KS", (1,))
     a, b, c = (mc.gain_error_page(runs=6, seed=s) for s in (11, 11, 12))
     for x, y in ((a.calibrated, b.calibrated), (a.raw, b.raw)):
         assert x.digest == y.digest and np.array_equal(x.final, y.final) and x.gain_ref == y.gain_ref
@@ -205,7 +206,7 @@ def test_the_gain_error_page_is_reproducible_and_its_seed_reaches_the_training(m
 
 def test_the_drift_page_takes_its_seed(monkeypatch):
     real = mc.drift_map
-    monkeypatch.setattr(mc, "drift_map", lambda levels, **kw: real(levels[::12], **{**kw, "draws": 3, "duration": 2.0}))
+    monkeypatch.setattr(mcp, "drift_map", lambda levels, **kw: real(levels[::12], **{**kw, "draws": 3, "duration": 2.0}))
     a, b, c = mc.drift_page(), mc.drift_page(seed=mc.DRIFT_SEED), mc.drift_page(seed=5)
     assert a.drift.seed == mc.DRIFT_SEED and c.drift.seed == 5
     assert np.array_equal(a.drift.final_3d, b.drift.final_3d)
@@ -215,7 +216,7 @@ def test_the_drift_page_takes_its_seed(monkeypatch):
 def test_cli_seed_reaches_the_training_gains(tmp_path, monkeypatch):
     from morpi_filters import cli
 
-    monkeypatch.setattr(mc, "TRAINING_KS", (1,))
+    monkeypatch.setattr(mcp, "TRAINING_KS", (1,))
     got = []
     for k, seed in enumerate(("3", "3", "4")):
         js = tmp_path / f"mc{k}.json"
@@ -339,7 +340,7 @@ def test_strapdown_drift_matches_exact_single_axis_solution():
     exact = -G0 * (t / b - np.sin(b * t) / b ** 2)
     # trapezoid integration of a smooth signal at 100 Hz: relative error O(dt^2) ~ 1e-5, bar 1e-4
     np.testing.assert_allclose(p[1:, 1], exact[1:], rtol=1e-4)
-    cf = mc._closed_form()[0](np.zeros((1, 3)), np.array([[b, 0, 0]]), t, G0, "INS-3D")[0, :, 1]
+    cf = mcd._closed_form()[0](np.zeros((1, 3)), np.array([[b, 0, 0]]), t, G0, "INS-3D")[0, :, 1]
     x = b * t[-1]
     # the small-angle cubic overshoots by x^3 / (6 (x - sin x)) - 1 (13 % at x = 90 degrees)
     expected = x ** 3 / (6 * (x - math.sin(x))) - 1
@@ -356,7 +357,7 @@ def test_drift_closed_form_over_runs_is_each_runs_own_evaluation():
     ba, bg = rng.normal(size=(4, 3)) * 0.05, rng.normal(size=(4, 3)) * 0.02
     t = np.linspace(0.1, 15.0, 40)
     for kind in ("INS-3D", "INS-2D"):
-        many = mc._closed_form()[0](ba, bg, t, G0, kind)
+        many = mcd._closed_form()[0](ba, bg, t, G0, kind)
         for r in range(4):
             p = {"dv0_mps": [0.0] * 3, "ba_mps2": ba[r].tolist(), "bg_radps": bg[r].tolist(), "g_mps2": G0}
             one = symbolic.closed_form_errors(p, t, kind + " position", "z_up", True)[:, :2]
@@ -407,7 +408,7 @@ def test_drift_bad_levels():
 # ----------------------------------------------------------------------------- report sections
 
 def test_report_montecarlo_contract(tmp_path, monkeypatch):
-    monkeypatch.setattr(mc, "TRAINING_KS", (1, 4))
+    monkeypatch.setattr(mcp, "TRAINING_KS", (1, 4))
     from morpi_filters.report.montecarlo import report_montecarlo
 
     s = report_montecarlo(tmp_path, mc.gain_error_page(runs=30, seed=2, chunk=16))
@@ -428,7 +429,7 @@ def test_report_montecarlo_contract(tmp_path, monkeypatch):
 
 def test_report_drift_contract(tmp_path, monkeypatch):
     real = mc.drift_map
-    monkeypatch.setattr(mc, "drift_map", lambda levels, **kw: real(levels[::6], **{**kw, "draws": 4}))
+    monkeypatch.setattr(mcp, "drift_map", lambda levels, **kw: real(levels[::6], **{**kw, "draws": 4}))
     from morpi_filters.report.montecarlo import report_drift
 
     s = report_drift(tmp_path, mc.drift_page())
@@ -440,7 +441,7 @@ def test_report_drift_contract(tmp_path, monkeypatch):
 def test_cli_montecarlo_json(tmp_path, monkeypatch):
     from morpi_filters import cli
 
-    monkeypatch.setattr(mc, "TRAINING_KS", (1,))
+    monkeypatch.setattr(mcp, "TRAINING_KS", (1,))
     out, js = tmp_path / "mc", tmp_path / "mc.json"
     assert cli.main(["montecarlo", "--runs", "8", "--seed", "3", "--chunk", "3", "--out", str(out),
                      "--json", str(js)]) == 0
@@ -478,10 +479,10 @@ def test_field_training_gain_spread(field_root):
 def test_band_binning_equals_a_search_over_the_edges():
     # the log-based bin index against numpy's searchsorted over the edges, values on the edges included
     rng = np.random.default_rng(1)
-    x = np.concatenate([10 ** rng.uniform(-8, 5, 20000), mc._BAND_EDGES, [0.0, np.nan, 1e6]])
-    cells, counts = mc._band_counts(x.reshape(-1, 1, 1))
-    nb = mc._BAND_EDGES.size - 1
-    ref = np.bincount(np.clip(np.searchsorted(mc._BAND_EDGES, x[np.isfinite(x)], side="right") - 1, 0, nb - 1),
+    x = np.concatenate([10 ** rng.uniform(-8, 5, 20000), mcc.BAND_EDGES, [0.0, np.nan, 1e6]])
+    cells, counts = mce._band_counts(x.reshape(-1, 1, 1))
+    nb = mcc.BAND_EDGES.size - 1
+    ref = np.bincount(np.clip(np.searchsorted(mcc.BAND_EDGES, x[np.isfinite(x)], side="right") - 1, 0, nb - 1),
                       minlength=nb)
     assert np.array_equal(cells, np.flatnonzero(ref)) and np.array_equal(counts, ref[ref > 0])
 
@@ -495,7 +496,7 @@ def test_a_longer_duration_drives_a_longer_path(duration):
     cfg = mc.StudyConfig(duration=duration, period_m=1.0, training_runs=50)
     length, speed, T = cfg.motion()
     assert T == duration and speed == pytest.approx(6.3 / 13.5) and length == pytest.approx(speed * (duration - 1))
-    ins_path, sine, _ = mc._paths(cfg)
+    ins_path, sine, _ = mce._paths(cfg)
     assert ins_path is sine                               # INS and MoRPI drive the same path
     t, v = sine.time, np.linalg.norm(sine.velocity, axis=1)
     assert t[-1] == pytest.approx(duration)
@@ -572,7 +573,7 @@ def test_heading_error_by_blocks_is_the_trapezoid_integral():
     n, R, h = 300, 3, 0.01
     w = rng.normal(0.0, 0.01, (n, R))
     ref = np.vstack([np.zeros((1, R)), np.cumsum(0.5 * h * (w[1:] + w[:-1]), axis=0)])
-    out = {b: mc._heading_error(w, h, np.empty((n, R)), block=b) for b in (1, 7, 64, 500)}
+    out = {b: mce._heading_error(w, h, np.empty((n, R)), block=b) for b in (1, 7, 64, 500)}
     np.testing.assert_allclose(out[64], ref, rtol=0, atol=1e-12)
     for b in (1, 7, 500):
         assert np.array_equal(out[b], out[64])
@@ -583,7 +584,7 @@ def test_heading_error_by_blocks_is_the_trapezoid_integral():
 @pytest.mark.parametrize("duration, speed", [(None, None), (60.0, None), (30.0, 2.0), (None, 0.2), (40.0, 0.1)])
 def test_the_estimate_counts_the_samples_and_steps_of_the_path_the_study_drives(duration, speed):
     cfg = mc.StudyConfig(duration=duration, speed_mps=speed).resolved()
-    _, sine, _ = mc._paths(cfg)                         # the path the study builds
+    _, sine, _ = mce._paths(cfg)                         # the path the study builds
     cost = mc.page_cost(10, duration=duration, speed_mps=speed)
     assert cost.duration == cfg.duration and cost.samples == sine.time.size
     assert abs(cost.steps - (sine.peaks.size - 1)) <= 1
@@ -605,17 +606,17 @@ def test_the_estimate_is_affine_in_the_runs_and_grows_faster_than_the_duration()
 
 def test_a_larger_chunk_costs_at_least_its_scratch_planes(monkeypatch):
     # the chunk kernel's scratch arrays, left in place after a study, against the estimate's bytes per sample
-    monkeypatch.setattr(mc, "_release_scratch", lambda: None)
-    mc._SCRATCH.arrays = {}
+    monkeypatch.setattr(mce, "_release_scratch", lambda: None)
+    mce._SCRATCH.arrays = {}
     cfg = mc.StudyConfig(training_runs=20, duration=8.0)
     mc.run_study(24, 0, cfg, chunk=24)
-    n = mc._samples(cfg.resolved().duration, cfg.rate_hz)
-    planes = sum(a.nbytes for a in mc._SCRATCH.arrays.values())
-    mc._SCRATCH.arrays = {}
+    n = mce.sample_count(cfg.resolved().duration, cfg.rate_hz)
+    planes = sum(a.nbytes for a in mce._SCRATCH.arrays.values())
+    mce._SCRATCH.arrays = {}
     assert planes / (24 * n) >= 13 * 8                   # draws (6 n + 7), noise (6 n), heading (n) per run
     assert mc.CHUNK_SAMPLE_BYTES >= planes / (24 * n) * (1 - 1e-3)
     big, plain = mc.page_cost(100_000, chunk=20_000), mc.page_cost(100_000)
-    default = mc._default_chunk(plain.samples)
+    default = mce.default_chunk(plain.samples)
     assert big.bytes - plain.bytes >= planes / (24 * n) * plain.samples * (20_000 - default) * (1 - 1e-3)
     assert big.seconds == plain.seconds
 
