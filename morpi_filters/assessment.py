@@ -35,7 +35,7 @@ import numpy as np
 
 from .errors import ParameterError
 from .params import DEFAULT_PARAMS_FILE, ErrorParams, load_params
-from .reporting import write_json
+from .outputs import write_json
 
 __all__ = [
     "PAPER_IMPROVEMENTS", "PaperNumber", "AssessmentCurves", "assessment_curves", "improvements",

@@ -427,7 +427,7 @@ def _section(name, out: Path, args, source=None, tables=None):
 
 def _field_source(args, required=True):
     from .dataset import resolve_data_root
-    from .reporting import DataSource
+    from .results import DataSource
 
     root = resolve_data_root(getattr(args, "data", None), required=required)
     return DataSource(root) if root is not None else None
@@ -455,7 +455,7 @@ def _stop_on_problems(root, problems):
 
 def _clean_stale(*folders) -> None:
     """Remove what killed runs left in these folders; name on one line what cannot be removed."""
-    from .reporting import remove_stale
+    from .outputs import remove_stale
 
     failed, seen = [], set()
     for folder in folders:
@@ -470,7 +470,7 @@ def _clean_stale(*folders) -> None:
 
 def _run_section(name, args, source_of=None):
     """One report section into ``--out`` (and ``--json``): outputs checked first, swapped in together."""
-    from .reporting import Outputs, check_output_dir, check_output_file, stamp_json
+    from .outputs import Outputs, check_output_dir, check_output_file, stamp_json
 
     out = check_output_dir(args.out, kind=name)
     if args.json is not None:
@@ -562,7 +562,7 @@ def _cmd_evaluate(args):
     from .manifest import load_dataset
     from .parallel import Progress
     from .report.dataset_eval import report_dataset_evaluation
-    from .reporting import Outputs, check_output_dir, check_output_file, stamp_json, write_json
+    from .outputs import Outputs, check_output_dir, check_output_file, stamp_json, write_json
 
     out = check_output_dir(args.out, kind="evaluate") if args.out is not None else None
     if args.json is not None:
@@ -635,7 +635,7 @@ CACHE_DIR = Path(".morpi-cache")
 
 def _report_source(args):
     """The field dataset if configured, else the seeded synthetic one."""
-    from .reporting import DataSource
+    from .results import DataSource
 
     src = _field_source(args, required=False)
     if src is not None:
@@ -648,7 +648,7 @@ def _report_source(args):
 
 def _cmd_report(args):
     from .dataset import resolve_data_root
-    from .reporting import Outputs, check_output_dir, stamp_json
+    from .outputs import Outputs, check_output_dir, stamp_json
 
     field_root = resolve_data_root(args.data, required=False)
     out = args.out if args.out is not None else (REPORT_DIR if field_root is not None else SYNTHETIC_REPORT_DIR)

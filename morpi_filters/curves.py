@@ -755,7 +755,7 @@ def curves_study(*, params_path=None, times=None, source=None, tables=None, seed
         Parameter file (values read as 1 sigma); default the committed one.
     times : sequence of float, optional
         Evaluation times [s] (default :data:`DEFAULT_TIMES`, 0 to 15 s).
-    source : reporting.DataSource or None, optional
+    source : results.DataSource or None, optional
         Recordings for the field end points (none when None).
     tables : evaluate.TablesResult, optional
         The field evaluation of ``source.root`` when already computed (its

@@ -1722,7 +1722,7 @@ def write_csv(path, recording: Recording) -> None:
     >>> open(path).readline().strip()
     'time,f_x,f_y,f_z,g_x,g_y,g_z'
     """
-    from .reporting import atomic_path
+    from .outputs import atomic_path
 
     data = np.column_stack([recording.time, recording.f, recording.omega])
     with atomic_path(path) as tmp:

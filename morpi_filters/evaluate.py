@@ -535,7 +535,7 @@ def training_gain_spread(source, result: TablesResult | None = None) -> tuple[fl
 
     Parameters
     ----------
-    source : reporting.DataSource
+    source : results.DataSource
         A dataset in the MoRPI layout.
     result : TablesResult, optional
         An evaluation of the same root to take the gains from (they are

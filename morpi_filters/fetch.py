@@ -61,7 +61,7 @@ from typing import Callable, Mapping
 
 from .dataset import PROJECT_DATA
 from .errors import FetchError, MorpiError, OutputError, ParameterError
-from .reporting import new_stage_dir, swap_in
+from .outputs import new_stage_dir, swap_in
 
 __all__ = [
     "DEFAULT_URL", "CHECKSUMS_FILE", "sha256_file", "compute_checksums", "write_checksums", "load_checksums",
@@ -186,7 +186,7 @@ def write_checksums(path, checksums: Mapping[str, str]) -> Path:
     >>> [line[:8] + " ... " + line[66:].strip() for line in open(path) if not line.startswith("#")]
     ['aaaaaaaa ... s6/L_line/1.csv', 'bbbbbbbb ... s6/L_line/2.csv']
     """
-    from .reporting import write_text
+    from .outputs import write_text
 
     body = "".join(f"{h}  {rel}\n" for rel, h in sorted(checksums.items()))
     return write_text(path, _HEADER + body)

@@ -396,7 +396,7 @@ def write_foreign_dataset(out, layout: ForeignLayout, *, seed: int = 0, noise_fr
     >>> ds.manifest.name, [r.id for r in ds.runs], sorted(p.name for p in (ds.manifest.parent / "imu").iterdir())
     ('dataset.toml', ['periodic-1', 'straight-1'], ['periodic-1.csv', 'straight-1.csv'])
     """
-    from .reporting import staged_dir
+    from .outputs import staged_dir
 
     _check(layout)
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:

@@ -184,7 +184,7 @@ def write_dataset(out, *, seed: int = 0, runs_per_folder: int | None = None) -> 
     if runs_per_folder is not None and (isinstance(runs_per_folder, bool) or
                                         not isinstance(runs_per_folder, (int, np.integer)) or runs_per_folder < 1):
         raise ParameterError(f"runs_per_folder: expected a positive integer, got {runs_per_folder!r}")
-    from .reporting import MARKER, Outputs, check_output_dir, foreign_entry, remove_stale, write_json
+    from .outputs import MARKER, Outputs, check_output_dir, foreign_entry, remove_stale, write_json
     if not (out / MARKER).is_file() and not (out / _MANIFEST).is_file():
         bad = foreign_entry(out)
         if bad is not None:

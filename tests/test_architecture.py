@@ -20,7 +20,7 @@ PKG = Path(__file__).resolve().parents[1] / "morpi_filters"
 #: modules of its own layer or of lower layers, never of a higher one. Every
 #: module of ``report/`` is in the pages layer.
 LAYERS = (
-    ("foundation", {"errors", "units", "choice", "resources", "reporting", "parallel"}),
+    ("foundation", {"errors", "units", "choice", "resources", "results", "outputs", "parallel"}),
     ("inputs", {"params", "dataset", "manifest", "fetch"}),
     ("calibration", {"calibration", "_signal_kernel"}),
     ("navigation", {"strapdown", "steps", "symbolic", "error_model", "eskf", "aided", "_aided_kernel", "_batch_ins"}),
@@ -227,12 +227,14 @@ def _strings(tree: ast.AST):
 #: README.md of a synthetic dataset, a file of the dataset beside its CSVs and manifest (as the
 #: field dataset has its own), not a report page.
 NOT_MARKDOWN = {("fetch", "# SHA-256 of each recording"), ("fetch", "# relative to that folder"),
-                ("fetch", "# morpi_filters.fetch.write_checksums"), ("synthetic", "# Synthetic MoRPI dataset\n")}
+                ("fetch", "# morpi_filters.fetch.write_checksums"), ("synthetic", "# Synthetic MoRPI dataset\n"),
+                # the same-result rule reads the numbers of a page, it writes none
+                ("results", "(?<![\\w.])[-+]?")}
 
 
 def test_no_module_outside_report_writes_markdown():
     found = [f"{name}:{line}: {text[:60]!r}" for name, tree in _modules_cache().items()
-             if not name.startswith("report") for line, text in _strings(tree) if MARKDOWN.search(text)
+             if name.split(".")[0] != "report" for line, text in _strings(tree) if MARKDOWN.search(text)
              and not any(name == m and text.startswith(start) for m, start in NOT_MARKDOWN)]
     assert found == []
 
@@ -283,7 +285,7 @@ def _functions_calling(attr_chain: str) -> set:
     ("the gravity constant", r"\b9\.80665\b", {"units"}),
     ("the gravity model (WGS84 normal gravity)", r"def normal_gravity\b|\b9\.78032", {"calibration"}),
     ("the rotation-vector conversion (Rodrigues)", r"def rotvec_to_C\b|1(\.0)?\s*-\s*np\.cos\(", {"strapdown"}),
-    ("the atomic writer", r"def atomic_path\b", {"reporting"}),
+    ("the atomic writer", r"def atomic_path\b", {"outputs"}),
     ("the file checksum", r"def sha256_file\b|def _sha256_stream\b", {"fetch"}),
 ])
 def test_one_definition(concept, pattern, home):
@@ -313,7 +315,7 @@ def test_the_heading_wrapper_uses_the_rate_integrator():
 
 def test_files_are_renamed_into_place_only_by_the_atomic_writer_and_the_staged_swaps():
     renames = _functions_calling("os.replace") | _functions_calling("os.rename")
-    assert renames == {"reporting.atomic_path", "reporting.swap_in", "reporting.__exit__"}
+    assert renames == {"outputs.atomic_path", "outputs.swap_in", "outputs.__exit__"}
 
 
 def test_sha256_is_computed_by_the_checksum_and_the_monte_carlo_digest_only():

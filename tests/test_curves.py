@@ -168,7 +168,7 @@ def test_nonlinear_strapdown_monte_carlo_agrees_where_the_model_is_linear():
 
 def test_synthetic_source_banner_and_empty_field(tmp_path):
     from morpi_filters.report.common import SYNTHETIC_BANNER
-    from morpi_filters.reporting import DataSource
+    from morpi_filters.results import DataSource
 
     out = tmp_path / "out"
     out.mkdir()
@@ -184,7 +184,7 @@ def test_synthetic_source_banner_and_empty_field(tmp_path):
 @pytest.mark.field
 def test_field_straight_line_end_points(field_root):
     from morpi_filters.curves import _field_points
-    from morpi_filters.reporting import DataSource
+    from morpi_filters.results import DataSource
 
     pts, note = _field_points(DataSource(field_root))
     assert len(pts["INS-3D"]) == len(pts["INS-2D"]) >= 20  # 24 recordings in s8/line_dataset

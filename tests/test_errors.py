@@ -77,7 +77,7 @@ def test_the_command_line_exits_with_each_kinds_status(kind, tmp_path, monkeypat
 def test_each_cause_raises_its_kind(tmp_path):
     from morpi_filters import steps, units
     from morpi_filters.dataset import resolve_data_root
-    from morpi_filters.reporting import check_output_dir
+    from morpi_filters.outputs import check_output_dir
 
     with pytest.raises(MissingDataError, match="not a directory"):
         resolve_data_root(tmp_path / "nowhere")

@@ -16,7 +16,7 @@ from morpi_filters import field as fd
 from morpi_filters import simulate, units
 from morpi_filters import steps as st
 from morpi_filters.report.tables import report_tables
-from morpi_filters.reporting import DataSource
+from morpi_filters.results import DataSource
 from conftest import plain_kernels
 
 

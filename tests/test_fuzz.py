@@ -32,7 +32,7 @@ from morpi_filters import evaluate as ev
 from morpi_filters import synthetic, units
 from morpi_filters.errors import DataError, MorpiError
 from morpi_filters.report.tables import report_tables
-from morpi_filters.reporting import DataSource
+from morpi_filters.results import DataSource
 
 COLS = list(ds.COLUMNS)
 

@@ -63,7 +63,7 @@ def test_field_gain_figures_below_their_precision_leave_the_study_unchanged(tmp_
     # the field evaluation of another machine gives the spread and mismatch a few 1e-11 apart: the gain
     # scenario, every per-run error and the digests are the same
     from morpi_filters import evaluate
-    from morpi_filters.reporting import DataSource
+    from morpi_filters.results import DataSource
 
     root = tmp_path / "recordings"
     root.mkdir()
@@ -467,7 +467,7 @@ def test_field_training_gain_spread(field_root):
     and its mean is second order, so smaller than the spread.
     """
     from morpi_filters.evaluate import evaluate_tables, training_gain_spread
-    from morpi_filters.reporting import DataSource
+    from morpi_filters.results import DataSource
 
     spread, mismatch = training_gain_spread(DataSource(field_root))
     res = evaluate_tables(field_root, include_test=False, alternatives=False)

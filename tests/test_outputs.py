@@ -22,7 +22,8 @@ import pytest
 from morpi_filters import cli
 from morpi_filters.dataset import resolve_data_root
 from morpi_filters.errors import MorpiError
-from morpi_filters.reporting import MARKER, DataSource, SectionSummary
+from morpi_filters.outputs import MARKER
+from morpi_filters.results import DataSource, SectionSummary
 
 ROOT = Path(__file__).resolve().parents[1]
 WRITERS = {  # command line without --out, and the section it writes
@@ -160,7 +161,7 @@ def test_report_replaces_only_its_sections_and_index(tmp_path, fake_sections, mo
 
 
 def test_committed_report_folders_carry_the_marker():
-    from morpi_filters.reporting import check_output_dir, foreign_entry
+    from morpi_filters.outputs import check_output_dir, foreign_entry
 
     reports = ROOT / "reports"
     assert (reports / MARKER).is_file()
@@ -296,7 +297,7 @@ def _dead_pid():
 _KILLED_RUN = """
 import os, signal, sys
 from pathlib import Path
-from morpi_filters import reporting
+from morpi_filters import outputs as out_mod
 
 folder, point = Path(sys.argv[1]), sys.argv[2]
 
@@ -305,7 +306,7 @@ def die(*args, **kwargs):
     os.kill(os.getpid(), signal.SIGKILL)
 
 
-outputs = reporting.Outputs("morpi drift")
+outputs = out_mod.Outputs("morpi drift")
 stage = outputs.folder(folder / "sec", "drift")
 (stage / "README.md").write_text("new page")
 outputs.file(folder / "r.json").write_text("{")
@@ -315,7 +316,7 @@ if point == "between the renames":
     replace = os.replace
     os.replace = lambda src, dst: die() if Path(src) == stage else replace(src, dst)
 if point == "after the renames":
-    reporting._remove_owned = die
+    out_mod._remove_owned = die
 outputs.__exit__(None, None, None)
 """
 
@@ -328,7 +329,7 @@ def _killed_run(folder: Path, point: str) -> None:
 
 @pytest.mark.parametrize("point", ["while computing", "between the renames", "after the renames"])
 def test_a_killed_run_leaves_only_what_the_next_run_removes(point, tmp_path, fake_sections):
-    from morpi_filters.reporting import remove_stale
+    from morpi_filters.outputs import remove_stale
 
     _earlier_output(tmp_path / "sec", "drift", {"README.md": b"old page"}, "morpi drift")
     _killed_run(tmp_path, point)
@@ -347,7 +348,7 @@ def test_a_killed_run_leaves_only_what_the_next_run_removes(point, tmp_path, fak
 
 
 def test_stale_staging_of_dead_runs_removed_live_ones_kept(tmp_path, fake_sections):
-    live_code = ("import sys, time\nfrom morpi_filters.reporting import new_stage_dir\n"
+    live_code = ("import sys, time\nfrom morpi_filters.outputs import new_stage_dir\n"
                  "print(new_stage_dir(sys.argv[1]).name, flush=True)\ntime.sleep(60)\n")
     live = subprocess.Popen([sys.executable, "-c", live_code, str(tmp_path / "other")], env=_env(),
                             stdout=subprocess.PIPE, text=True)
@@ -389,7 +390,7 @@ def test_cleanup_touches_only_what_it_can_prove_a_killed_run_left(tmp_path, fake
 
 
 def test_stale_staging_that_cannot_be_removed_is_named(tmp_path, fake_sections, monkeypatch, capsys):
-    import morpi_filters.reporting as reporting
+    import morpi_filters.outputs as out_mod
 
     _killed_run(tmp_path, "while computing")
     stale = next(tmp_path.glob(".staging-sec-*"))
@@ -397,7 +398,7 @@ def test_stale_staging_that_cannot_be_removed_is_named(tmp_path, fake_sections, 
     def refuse(path, *a, **k):
         raise PermissionError(13, "Permission denied", str(path))
 
-    monkeypatch.setattr(reporting.shutil, "rmtree", refuse)
+    monkeypatch.setattr(out_mod.shutil, "rmtree", refuse)
     assert cli.main(["drift", "--out", str(tmp_path / "sec")]) == 0
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and stale.name in err[0] and "interrupted run" in err[0]

@@ -68,7 +68,7 @@ def test_interrupted_report_keeps_previous(tmp_path, monkeypatch):
         (stage / "README.md").write_text(name)
         if name == "curves":
             raise KeyboardInterrupt
-        from morpi_filters.reporting import SectionSummary
+        from morpi_filters.results import SectionSummary
         return SectionSummary(name=name, title=name)
 
     monkeypatch.setattr(cli, "_section", fake_section)
@@ -81,7 +81,7 @@ def test_interrupted_report_keeps_previous(tmp_path, monkeypatch):
 
     # A complete run replaces the report and keeps outputs it does not own (analysis figures).
     monkeypatch.setattr(cli, "_section", lambda name, stage, args, source=None, tables=None: (
-        stage.mkdir(parents=True, exist_ok=True), __import__("morpi_filters.reporting").reporting.SectionSummary(
+        stage.mkdir(parents=True, exist_ok=True), __import__("morpi_filters.results").results.SectionSummary(
             name=name, title=name))[1])
     assert cli.main(["report", "--out", str(out)]) == 0
     assert (out / "index.md").read_text() != "previous complete report"
@@ -91,7 +91,7 @@ def test_interrupted_report_keeps_previous(tmp_path, monkeypatch):
 def test_report_evaluates_the_field_data_once(tmp_path, monkeypatch):
     """`morpi report` evaluates the recordings once and hands the same result to every section."""
     from morpi_filters import cli, evaluate, synthetic
-    from morpi_filters.reporting import SectionSummary
+    from morpi_filters.results import SectionSummary
 
     root = synthetic.write_dataset(tmp_path / "ds", seed=2, runs_per_folder=1)
     calls, seen = [], {}

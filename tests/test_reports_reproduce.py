@@ -27,11 +27,12 @@ from morpi_filters.fetch import CHECKSUMS_FILE
 from morpi_filters.report.assessment import report_assessment
 from morpi_filters.report.index import index_page
 from morpi_filters.report.tables import report_tables
-from morpi_filters.reporting import SAME_ABS, SAME_REL, DataSource, stamp_json
+from morpi_filters.outputs import stamp_json
+from morpi_filters.results import SAME_ABS, SAME_REL, DataSource
 
 REPORTS = Path(__file__).resolve().parent.parent / "reports"
 #: Relative and absolute tolerance of the numbers: the margin within which `morpi report` keeps a committed
-#: file (reporting.SAME_REL, SAME_ABS). Machine arithmetic moves these numbers by a few 1e-11 relative at
+#: file (results.SAME_REL, SAME_ABS). Machine arithmetic moves these numbers by a few 1e-11 relative at
 #: most (3.3e-11 seen between two machines) and the JSON's 13 digits by at most 5e-13 more, 29 times below
 #: 1e-9; near zero the absolute 1e-12 decides.
 REL, ABS = SAME_REL, SAME_ABS

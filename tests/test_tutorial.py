@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from morpi_filters.cli import main
-from morpi_filters.reporting import JSON_DIGITS, to_jsonable
+from morpi_filters.results import JSON_DIGITS, to_jsonable
 
 ROOT = Path(__file__).resolve().parents[1]
 TUTORIAL = ROOT / "docs" / "tutorial.py"

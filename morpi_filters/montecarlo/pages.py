@@ -7,7 +7,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..choice import choose
-from ..reporting import round_significant
+from ..results import round_significant
 from ..units import DEG_S, MPU6500, SensorSpec
 from .config import DRIFT_SEED, METHODS, GainError, StudyConfig, StudyResult
 from .drift import DriftMap, drift_map
@@ -329,7 +329,7 @@ def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, source=
         Study seed, as in :func:`run_study`.
     chunk, scheduler
         As in :func:`run_study`.
-    source : reporting.DataSource, optional
+    source : results.DataSource, optional
         The dataset whose per-run training gains give the spread scenario
         (None: the assumed spread and mismatch).
     tables : evaluate.TablesResult, optional

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..reporting import SectionSummary, write_json, write_text
+from ..outputs import write_json, write_text
+from ..results import SectionSummary
 from . import plots
 from .common import collector_paused, banner, fmt, md_table, save_figure
 
@@ -519,12 +520,12 @@ def report_aided(out, study, source=None) -> SectionSummary:
         Section folder.
     study : field_aided.AidedStudy
         What :func:`morpi_filters.field_aided.aided_study` computed.
-    source : reporting.DataSource, optional
+    source : results.DataSource, optional
         The recordings of the study (for the synthetic-data banner).
 
     Returns
     -------
-    reporting.SectionSummary
+    results.SectionSummary
         Name ``"aided"``, the page, the figures written and a one-line
         summary (cells where the smoothed filter beats MoRPI alone, coverage).
 

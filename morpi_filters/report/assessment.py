@@ -6,7 +6,8 @@ from pathlib import Path
 import numpy as np
 
 from ..assessment import PAPER_IMPROVEMENTS, AssessmentStudy
-from ..reporting import SectionSummary, write_json, write_text
+from ..outputs import write_json, write_text
+from ..results import SectionSummary
 from . import plots
 from .common import fmt, md_table, save_figure
 
@@ -35,7 +36,7 @@ def report_assessment(out, study: AssessmentStudy) -> SectionSummary:
 
     Returns
     -------
-    reporting.SectionSummary
+    results.SectionSummary
         Name ``"assessment"``, page ``README.md``, figure ``assessment.png``
         and a summary of the improvements against the paper's.
     """

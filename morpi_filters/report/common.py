@@ -7,7 +7,7 @@ import gc
 import math
 from pathlib import Path
 
-from ..reporting import atomic_path
+from ..outputs import atomic_path
 
 __all__ = ["SYNTHETIC_BANNER", "banner", "fmt", "md_table", "save_figure", "collector_paused"]
 
@@ -21,11 +21,11 @@ SYNTHETIC_BANNER = (
 
 
 def banner(source) -> str:
-    """The synthetic-data notice for a page on `source` (a ``reporting.DataSource`` or None), else ``""``.
+    """The synthetic-data notice for a page on `source` (a ``results.DataSource`` or None), else ``""``.
 
     Parameters
     ----------
-    source : reporting.DataSource or None
+    source : results.DataSource or None
         Where the page's recordings come from.
 
     Returns
@@ -36,7 +36,7 @@ def banner(source) -> str:
 
     Examples
     --------
-    >>> from morpi_filters.reporting import DataSource
+    >>> from morpi_filters.results import DataSource
     >>> banner(None), banner(DataSource(root=None))
     ('', '')
     >>> text = banner(DataSource(root=None, synthetic=True, seed=0))

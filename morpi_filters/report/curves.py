@@ -6,7 +6,8 @@ from pathlib import Path
 import numpy as np
 
 from ..curves import CURVE_METHODS, MC_RUNS, NL_MAX_T, NL_RUNS, STEP_LENGTH_M, CurvesStudy
-from ..reporting import SectionSummary, write_json, write_text
+from ..outputs import write_json, write_text
+from ..results import SectionSummary
 from . import plots
 from .common import banner, fmt, md_table, save_figure
 
@@ -27,12 +28,12 @@ def report_curves(out, study: CurvesStudy, source=None) -> SectionSummary:
         Staging folder to write into.
     study : curves.CurvesStudy
         What :func:`morpi_filters.curves.curves_study` computed.
-    source : reporting.DataSource or None
+    source : results.DataSource or None
         The recordings of the study (for the synthetic-data banner).
 
     Returns
     -------
-    reporting.SectionSummary
+    results.SectionSummary
         Name ``"curves"``, its page, one figure per case and a summary
         (no example: a curves study takes seconds).
     """

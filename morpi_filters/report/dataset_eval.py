@@ -5,7 +5,8 @@ import re
 from pathlib import Path
 
 from ..dataset_eval import CALIBRATIONS, METHODS, METRICS, DatasetEvaluation
-from ..reporting import SectionSummary, write_json, write_text
+from ..outputs import write_json, write_text
+from ..results import SectionSummary
 from .common import fmt, md_table
 
 __all__ = ["report_dataset_evaluation", "track_file_name"]
@@ -56,7 +57,7 @@ def report_dataset_evaluation(out, result: DatasetEvaluation) -> SectionSummary:
 
     Returns
     -------
-    reporting.SectionSummary
+    results.SectionSummary
         Name ``"evaluate"``, page ``README.md``.
     """
     out = Path(out)

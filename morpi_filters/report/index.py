@@ -12,9 +12,9 @@ def index_page(summaries, source) -> str:
 
     Parameters
     ----------
-    summaries : sequence of reporting.SectionSummary
+    summaries : sequence of results.SectionSummary
         One per section, in the report's order.
-    source : reporting.DataSource or None
+    source : results.DataSource or None
         The dataset the report was computed on.
 
     Returns
@@ -29,7 +29,7 @@ def index_page(summaries, source) -> str:
     --------
     >>> import tempfile
     >>> from pathlib import Path
-    >>> from morpi_filters.reporting import DataSource, SectionSummary
+    >>> from morpi_filters.results import DataSource, SectionSummary
     >>> root = Path(tempfile.mkdtemp())
     >>> _ = (root / "1.csv").write_bytes(b"abc")
     >>> s = SectionSummary("curves", "Covariance curves", summary="INS-3D grows fastest.", figures=("sigma.png",))

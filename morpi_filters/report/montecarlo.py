@@ -6,7 +6,8 @@ from pathlib import Path
 import numpy as np
 
 from ..montecarlo import DIGEST_BITS, Z99, DriftPage, GainErrorPage, study_config_json, final_statistics, summarize
-from ..reporting import SectionSummary, write_json, write_text
+from ..outputs import write_json, write_text
+from ..results import SectionSummary
 from ..units import DEG_S, MG
 from . import plots
 from .common import collector_paused, banner, fmt, md_table, save_figure
@@ -23,12 +24,12 @@ def report_montecarlo(out, study: GainErrorPage, source=None) -> SectionSummary:
         Staging folder of the section.
     study : montecarlo.GainErrorPage
         What :func:`morpi_filters.montecarlo.gain_error_page` computed.
-    source : reporting.DataSource or None
+    source : results.DataSource or None
         The dataset of the trained gains (for the synthetic-data banner).
 
     Returns
     -------
-    reporting.SectionSummary
+    results.SectionSummary
         The section's name, page, figures and summary (no example: the
         study and its figures take seconds).
     """
@@ -160,7 +161,7 @@ def report_drift(out, study: DriftPage) -> SectionSummary:
 
     Returns
     -------
-    reporting.SectionSummary
+    results.SectionSummary
         The section's name, page, figures and summary (no example: the
         study and its figures take seconds).
     """

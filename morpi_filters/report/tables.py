@@ -10,7 +10,8 @@ from ..evaluate import (
 )
 from ..fetch import dataset_identity
 from ..field import _MORPI_METHODS, SHORT_SETS
-from ..reporting import SectionSummary, write_json, write_text
+from ..outputs import write_json, write_text
+from ..results import SectionSummary
 from . import plots
 from .common import collector_paused, banner, fmt, md_table, save_figure
 
@@ -26,12 +27,12 @@ def report_tables(out, study: TablesStudy, source) -> SectionSummary:
         Section folder (a staging folder from the CLI).
     study : evaluate.TablesStudy
         What :func:`morpi_filters.evaluate.tables_study` computed on ``source.root``.
-    source : reporting.DataSource
+    source : results.DataSource
         The dataset root; when synthetic, every page starts with its banner.
 
     Returns
     -------
-    reporting.SectionSummary
+    results.SectionSummary
         Name ``"tables"``, its page, figures and summary (no example: the
         study needs a dataset).
     """
@@ -474,7 +475,7 @@ def result_json(study: TablesStudy, source=None) -> dict:
     ----------
     study : evaluate.TablesStudy
         What :func:`morpi_filters.evaluate.tables_study` computed.
-    source : reporting.DataSource, optional
+    source : results.DataSource, optional
         The dataset (its root and whether it is synthetic).
 
     Returns

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from morpi_filters.report.common import md_table
-from morpi_filters.reporting import atomic_path, staged_dir, write_json, write_text
+from morpi_filters.outputs import atomic_path, staged_dir, write_json, write_text
 
 
 def test_write_json_converts_numpy_and_nonfinite(tmp_path):
@@ -58,7 +58,7 @@ def test_md_table():
 @pytest.mark.parametrize("obj, indent", [({"x": [1, 2], "y": {"z": None}}, 2), ({}, 2), ({"a": "b"}, None),
                                          ({"morpi_output": {"format": 0}, "a": 1}, 2)])
 def test_stamp_json_puts_the_header_first_and_keeps_the_rest(obj, indent, tmp_path):
-    from morpi_filters.reporting import is_morpi_json, stamp_json
+    from morpi_filters.outputs import is_morpi_json, stamp_json
 
     p = tmp_path / "r.json"
     p.write_text(json.dumps(obj, indent=indent))
@@ -85,13 +85,13 @@ def _marked(folder, files: dict, folders=()):
 def test_swap_in_removes_only_what_the_old_marker_lists(tmp_path):
     # a file added to the old folder after it was checked (while the new one was computed) is not deleted:
     # the folder holding it stays aside, and a later run's cleanup leaves it too, naming it
-    from morpi_filters.reporting import remove_stale
+    from morpi_filters.outputs import remove_stale
 
     final = tmp_path / "sec"
     _marked(final, {"README.md": b"old page", "fig/a.png": b"old figure"})
     (final / "added.txt").write_bytes(b"written during the run")
     (final / "fig" / "mine.png").write_bytes(b"the user's figure")
-    code = ("import sys\nfrom pathlib import Path\nfrom morpi_filters.reporting import new_stage_dir, swap_in\n"
+    code = ("import sys\nfrom pathlib import Path\nfrom morpi_filters.outputs import new_stage_dir, swap_in\n"
             "final = Path(sys.argv[1])\nstage = new_stage_dir(final)\n(stage / 'README.md').write_text('new page')\n"
             "print(swap_in(stage, final).name)\n")
     env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]))   # this checkout's package
@@ -107,7 +107,7 @@ def test_swap_in_removes_only_what_the_old_marker_lists(tmp_path):
 
 
 def test_a_marker_never_reaches_outside_its_folder(tmp_path):
-    from morpi_filters.reporting import new_stage_dir, swap_in
+    from morpi_filters.outputs import new_stage_dir, swap_in
 
     outside = tmp_path / "home"
     outside.mkdir()
@@ -132,7 +132,7 @@ def test_write_json_states_floats_at_json_digits(tmp_path):
     # against decimal's own rounding of the exact binary value (half to even, JSON_DIGITS digits)
     import decimal
 
-    from morpi_filters.reporting import JSON_DIGITS
+    from morpi_filters.results import JSON_DIGITS
 
     ctx = decimal.Context(prec=JSON_DIGITS, rounding=decimal.ROUND_HALF_EVEN)
     xs = [1.0 / 3.0, -2.0 / 3.0 * 1e-7, 123456.78901234567, 9.87654321098765e5, 0.1 + 0.2, 5e-324, 1.0]
@@ -142,7 +142,7 @@ def test_write_json_states_floats_at_json_digits(tmp_path):
 
 
 def _write_section(out, number, word="runs", digest="2a8affc79930"):
-    from morpi_filters.reporting import Outputs
+    from morpi_filters.outputs import Outputs
 
     with Outputs("morpi test") as outputs:
         outputs.root(out)
@@ -216,7 +216,7 @@ def test_outputs_replace_a_json_file_of_another_precision(tmp_path):
     ("zero 0.0", "zero 1e-13", True),
 ])
 def test_same_output_reads_the_numbers_of_a_page(tmp_path, old, new, same):
-    from morpi_filters.reporting import same_output
+    from morpi_filters.results import same_output
 
     (tmp_path / "old.md").write_text(old)
     (tmp_path / "new.md").write_text(new)
