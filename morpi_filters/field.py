@@ -231,6 +231,30 @@ def track_course(truth, t: float, *, moving: bool = False, course_m: float = COU
     `course_m` away horizontally. The same course aligns a method's estimate
     to the track in :mod:`morpi_filters.dataset_eval`.
 
+    Parameters
+    ----------
+    truth : TruthTrack
+        The track (:class:`morpi_filters.manifest.TruthTrack`).
+    t : float
+        Time on the track's clock [s].
+    moving : bool
+        The velocity's direction (a start in motion) instead of the first
+        `course_m`.
+    course_m : float
+        Horizontal distance of the course of a start at rest [m].
+
+    Returns
+    -------
+    float
+        The course [rad].
+
+    Examples
+    --------
+    >>> from morpi_filters.manifest import TruthTrack
+    >>> track = TruthTrack(time=np.arange(5.0), position=[[0, 0, 0], [0, 0, 0], [0.1, 0.1, 0], [1, 1, 0], [2, 2, 0]])
+    >>> round(float(np.degrees(track_course(track, 1.0))), 6), round(float(np.degrees(track_course(track, 3.0, moving=True))), 6)
+    (45.0, 45.0)
+
     Raises
     ------
     DataError
