@@ -430,12 +430,12 @@ def _add_turn(bt, a, b, per_period, last, x, t, psi, integral, out):
         out[i] += turn * done
 
 
-def loo_errors(g, u, keep, ex, ey, dist, out):
+def loo_errors(g, u, keep, end, dist, out):
     """End-point errors [%] of the runs flagged in `keep` with the mean gain of the other flagged runs:
-    ``field._loo_errors`` of ``g[keep]``, ``u[keep]`` (g (n,), u (n, 2)) against the end (ex, ey) of a
-    route of length `dist` (the gains summed in order: a score, chosen among within the tie tolerance
-    of ``choice.choose``, so another order's rounding does not matter); the m errors in ``out[:m]``,
-    returns m."""
+    ``field._loo_errors`` of ``g[keep]``, ``u[keep]`` (g (n,), u (n, 2)), each run against its own true
+    end point ``end[i]`` (n, 2) and distance ``dist[i]`` (n,) (the gains summed in order: a score, chosen
+    among within the tie tolerance of ``choice.choose``, so another order's rounding does not matter);
+    the m errors in ``out[:m]``, returns m."""
     m = 0
     total = 0.0
     for i in range(g.shape[0]):
@@ -446,9 +446,9 @@ def loo_errors(g, u, keep, ex, ey, dist, out):
     for i in range(g.shape[0]):
         if keep[i]:
             gi = (total - g[i]) / (m - 1)
-            dx = gi * u[i, 0] - ex
-            dy = gi * u[i, 1] - ey
-            out[j] = math.sqrt(dx * dx + dy * dy) / dist * 100
+            dx = gi * u[i, 0] - end[i, 0]
+            dy = gi * u[i, 1] - end[i, 1]
+            out[j] = math.sqrt(dx * dx + dy * dy) / dist[i] * 100
             j += 1
     return m
 

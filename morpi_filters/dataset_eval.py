@@ -8,24 +8,44 @@ Methods
     :func:`~morpi_filters.strapdown.ins2d`) from the recording's first sample
     to its last, on its own time steps, level start (identity attitude),
     gravity :data:`morpi_filters.units.G0`; ``"MoRPI-A"`` and ``"MoRPI-G"``
-    (:func:`~morpi_filters.steps.extract_steps` with the step rule
-    :data:`morpi_filters.steps.DEFAULT_CONFIGS`, the rule
-    :func:`morpi_filters.field.select_config` chose on the MoRPI train runs;
-    it is not searched again here) only on ``motion = "periodic"``.
+    (the steps of :meth:`morpi_filters.field.FieldData.steps` over the
+    dataset: motion window and heading as for the MoRPI recordings, the step
+    rule chosen on this dataset's train recordings) only on
+    ``motion = "periodic"``.
 Calibrations
     ``"RD"`` always; ``"GC"`` and ``"GAC"`` (:func:`~morpi_filters.calibration.calibrate`,
     gravity ``G0``) when the recording has a rest window: ``rest = [t0, t1]``
     as given, ``"auto"`` as :func:`~morpi_filters.calibration.detect_rest`
-    finds it; ``"none"`` (or no rest found) gives RD only, listed in
-    :attr:`DatasetEvaluation.left_out` with the reason.
+    finds it with the trained accelerometer floor; ``"none"`` (or no rest
+    found) gives RD only, listed in :attr:`DatasetEvaluation.left_out` with
+    the reason.
+Choices (train only)
+    Every choice reads the ``train`` recordings only, through the functions
+    of the MoRPI tables on a :class:`~morpi_filters.field.FieldData` over the
+    dataset; no ``test`` recording is read for any. The train sets are the
+    groups' train recordings with periodic motion (:meth:`~morpi_filters.field.FieldData.train_sets`),
+    each run with its truth in the MoRPI estimate's frame: a route's end point
+    and distance, or a truth track's displacement and path length over the
+    run's motion window, turned by the track's course at the motion start.
+    The detection thresholds are :func:`~morpi_filters.field.train_thresholds`.
+    The step rule of each MoRPI method is :func:`~morpi_filters.field.select_config`
+    for that method alone (as the tables' per-method rule), scored by the
+    held-out end-point error of the train runs under GC, two ways:
+    leave-one-recording-out (each run dead-reckoned with the mean gain of its
+    group's other train runs) and leave-one-group-out (each run dead-reckoned
+    with the mean gain of the train runs of the other groups). With two
+    train groups or more the search scores by leave-one-group-out: the rule
+    must serve runs whose gain none of their own group's runs set, as it does
+    for a test run of a group without train recordings, and the score exists
+    even when every group has a single train run; with one group, by
+    leave-one-recording-out. Both scores of the chosen rule are reported. A
+    dataset whose train recordings give no score (none, or one run) falls
+    back to :data:`morpi_filters.steps.DEFAULT_CONFIGS`, as ``choices`` says.
 Gains (train only)
     The Weinberg gain of each group, method and calibration is
-    :func:`~morpi_filters.steps.train_gain` (the function the MoRPI tables
-    train with) over the group's ``train`` recordings with periodic motion;
-    a group without any takes every ``train`` recording of the dataset.
-    Each train run's distance is its route's ``distance_m`` or its truth
-    track's horizontal path length over the recording. No ``test``
-    recording is read for any choice.
+    :func:`~morpi_filters.field.set_gain` (:func:`~morpi_filters.steps.train_gain`,
+    the function the MoRPI tables train with) over the group's train set
+    under the chosen rule; a group without one takes every train set's runs.
 Initial state
     ``initial = "rest"``: velocity zero, heading zero (the navigation x axis
     is the body's heading at the first sample, as in the tables).
@@ -60,12 +80,12 @@ from __future__ import annotations
 
 import math
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
+from . import field as fd
 from . import steps as st
-from .calibration import RestWindow, calibrate, detect_rest
 from .errors import DataError, MorpiError, ParameterError
 from .manifest import Dataset, RouteTruth, TruthTrack
 from .strapdown import ins2d, ins3d
@@ -125,10 +145,12 @@ class DatasetEvaluation:
     paths : tuple of EstimatedPath
         In the manifest's order, then :data:`METHODS`, then :data:`CALIBRATIONS`.
     choices : dict
-        Every train-only choice: ``rule`` (per MoRPI method, the step rule and
-        where it comes from) and ``gains`` (one entry per group, method and
-        calibration: mean, std, per run, the train recordings and those left
-        out).
+        Every train-only choice: ``rule`` (per MoRPI method, the step rule's
+        fields, where it comes from and its train scores), ``held_out`` (the
+        score the search used and why), ``train_sets``, ``thresholds`` (each
+        value and where it came from) and ``gains`` (one entry per group,
+        method and calibration: mean, std, per run, the train recordings and
+        those left out); ``docs/manifest.md`` lists the keys.
     groups : tuple of dict
         Per group, method and calibration, the mean of each metric over
         :attr:`groups_over` recordings, and their count.
@@ -271,19 +293,13 @@ def path_metrics(time, xy, truth) -> dict:
 
 # --------------------------------------------------------------------------- per recording
 
-def _rest_window(dr):
-    """(RestWindow or None, why not)."""
-    rec = dr.recording
-    if dr.rest == "none":
-        return None, "rest = \"none\": no rest window"
-    if isinstance(dr.rest, tuple):
-        t = rec.time - rec.time[0]
-        i0 = int(np.searchsorted(t, dr.rest[0]))
-        i1 = int(np.searchsorted(t, dr.rest[1], side="right"))
-        return RestWindow(float(rec.time[i0]), float(rec.time[i1 - 1]), i0, i1, "given"), ""
+def _rest_window(data, dr):
+    """(RestWindow or None, why not): the manifest's ``rest`` as :class:`~morpi_filters.field.FieldData` reads it."""
     try:
-        return detect_rest(rec), ""
+        return data.rest_window(data.recording_at(dr.id)), ""
     except MorpiError as exc:
+        if dr.rest == "none":
+            return None, "rest = \"none\": no rest window"
         return None, f"rest = \"auto\": no rest window found ({exc})"
 
 
@@ -326,66 +342,96 @@ def _place(start: dict, truth, t_first: float, xy: np.ndarray) -> np.ndarray:
     return out
 
 
-def _steps(crec, method, window):
-    return st.extract_steps(crec, method, st.DEFAULT_CONFIGS[method],
-                            rest_end_time=None if window is None else window.end_s)
-
-
-def _prepare(dr, course_m):
+def _prepare(data, dr, course_m):
     """Per recording: rest window, calibrated recordings, start; or the reason it cannot be evaluated."""
-    window, why = _rest_window(dr)
-    cals = {"RD": dr.recording}
+    window, why = _rest_window(data, dr)
+    rec = data.recording_at(dr.id)
+    cals = {"RD": rec}
     if window is not None:
         for mode in ("GC", "GAC"):
-            cals[mode] = calibrate(dr.recording, mode, window=window, g_local=G0).apply(dr.recording)
-    return {"window": window, "why": why, "cals": cals, "start": _start(dr, course_m)}
+            cals[mode] = data.calibrated(rec, mode)[0]
+    return {"window": window, "why": why, "cals": cals, "start": _start(dr, course_m), "rec": rec}
 
 
-def _distance(dr) -> float:
-    if isinstance(dr.truth, RouteTruth):
-        return float(dr.truth.distance_m)
-    t = dr.recording.time
-    inside = (dr.truth.time > t[0]) & (dr.truth.time < t[-1])
-    return _length(dr.truth.at(np.r_[t[0], dr.truth.time[inside], t[-1]])[:, :2])
+_MORPI = ("MoRPI-A", "MoRPI-G")
 
 
-def _train_gains(dataset, prepared) -> tuple[dict, list]:
-    """Gains per (group, method, calibration) from the train recordings only; their JSON entries."""
-    train = [dr for dr in dataset.recordings
-             if dr.split == "train" and dr.motion == "periodic" and "error" not in prepared[dr.id]]
-    groups = list(dict.fromkeys(dr.group for dr in dataset.recordings))
-    weights = {}
-    for dr in train:
-        for mode, crec in prepared[dr.id]["cals"].items():
-            for method in ("MoRPI-A", "MoRPI-G"):
-                try:
-                    weights[dr.id, method, mode] = _steps(crec, method, prepared[dr.id]["window"]).effective_weight
-                except MorpiError as exc:
-                    weights[dr.id, method, mode] = str(exc)
+def _why_not(data, rec, mode, method, config) -> str:
+    try:
+        data.step_sums(rec, mode, method, config)
+    except MorpiError as exc:
+        return str(exc)
+    return f"{data.relpath(rec)}: no gain"
+
+
+def _choose(data, dataset) -> tuple[dict, dict, dict]:
+    """The train-only choices on `data`: the step rule per MoRPI method, the gains per (group, method,
+    calibration), and their JSON entries (``choices``)."""
+    th = data.thresholds
+    sets = [s for s in fd._train_sets(data) if s.runs]
+    held_out = "group" if len(sets) >= 2 else "recording"
+    why = ("two train groups or more: each group's runs are scored with a gain none of its runs set, as a "
+           "test run of a group without train recordings is" if held_out == "group"
+           else "one train group: each run is scored with the mean gain of its group's other train runs")
+    configs, rule = {}, {}
+    for m in _MORPI:
+        sel = fd.select_config(data, m, held_out=held_out)
+        if math.isfinite(sel.score):
+            cfg = sel.config
+            src = (f"field.select_config on the train recordings ({m} alone, GC), scored by "
+                   f"leave-one-{held_out}-out end-point error")
+        else:
+            cfg = st.DEFAULT_CONFIGS[m]
+            src = ("steps.DEFAULT_CONFIGS: the rule chosen on the MoRPI field train runs, since "
+                   + ("the dataset has no train recording with periodic motion" if not sets
+                      else "its train recordings give no held-out score"))
+        configs[m] = cfg
+        scores = {h: fd._loo_score(data, m, cfg, held_out=h) for h in fd.HELD_OUT}
+        rule[m] = {"config": {f.name: getattr(cfg, f.name) for f in fields(cfg)}, "from": src,
+                   "score_percent": {h: (v if math.isfinite(v) else None) for h, (v, _) in scores.items()},
+                   "runs_scored": {h: n for h, (_, n) in scores.items()}}
+    pooled = fd.TrainSet("every train group", tuple(f for s in sets for f in s.files),
+                         tuple(r for s in sets for r in s.runs),
+                         np.concatenate([s.end_point_m for s in sets]) if sets else np.empty((0, 2)),
+                         np.concatenate([s.distance_m for s in sets]) if sets else np.empty(0))
+    by_group = {s.name: s for s in sets}
     gains, entries = {}, []
-    for group in groups:
-        members = [dr for dr in train if dr.group == group]
-        scope = "group"
-        if not members:
-            members, scope = train, "dataset (no train recording in the group)"
-        for method in ("MoRPI-A", "MoRPI-G"):
+    for group in dict.fromkeys(dr.group for dr in dataset.recordings):
+        tset, scope = by_group.get(group), "group"
+        if tset is None:
+            tset, scope = pooled, "dataset (no train recording in the group)"
+        for m in _MORPI:
             for mode in CALIBRATIONS:
-                used = [dr for dr in members if isinstance(weights.get((dr.id, method, mode)), float)]
-                skipped = [{"id": dr.id, "why": weights.get((dr.id, method, mode)) or f"no {mode} (no rest window)"}
-                           for dr in members if dr not in used]
-                entry = {"group": group, "method": method, "calibration": mode, "from": scope,
-                         "train": [dr.id for dr in used], "skipped": skipped, "mean": None, "std": None,
-                         "per_run": []}
-                if used:
-                    mean, std, per = st.train_gain([weights[dr.id, method, mode] for dr in used],
-                                                   [_distance(dr) for dr in used])
-                    gains[group, method, mode] = mean
-                    entry.update(mean=mean, std=std, per_run=[float(g) for g in per])
+                g = fd.set_gain(data, tset, mode, m, configs[m], phone=dataset.name, route=group)
+                entry = {"group": group, "method": m, "calibration": mode, "from": scope,
+                         "train": list(g.files) if g else [],
+                         "skipped": list(g.skipped) if g else [], "mean": None, "std": None, "per_run": []}
+                if g is not None:
+                    gains[group, m, mode] = g.mean
+                    entry.update(mean=g.mean, std=g.std, per_run=list(g.per_run))
+                else:
+                    entry["skipped"] = [_why_not(data, r, mode, m, configs[m]) for r in tset.runs]
                 entries.append(entry)
-    return gains, entries
+    def where(values, files, what):
+        return (f"{what} of the train recordings {', '.join(dict.fromkeys(files))}" if len(values)
+                else "the library's default (no train recording measured it)")
+    thresholds = {
+        "accel_floor_mps2": {"value": th.accel_floor, "from": where(th.rest_std, th.rest_files,
+                             "k_std of calibration.detect_rest times the median rest accelerometer spread")},
+        "min_swing_deg": {"value": th.min_swing_deg, "from": where(th.swings_deg, th.swing_files,
+                          f"{fd.SWING_MARGIN:g} times the least median heading swing")},
+        "turn_deg": {"value": th.turn_deg, "from": where(th.period_changes_deg, th.change_files,
+                     f"{fd.TURN_MARGIN:g} times the largest full-period heading change")},
+    }
+    choices = {"rule": rule, "held_out": {"used": held_out, "why": why},
+               "train_sets": [{"group": s.name, "train": list(s.files),
+                               "end_point_m": s.end_point_m.tolist(), "distance_m": s.distance_m.tolist()}
+                              for s in sets],
+               "thresholds": thresholds, "gains": entries}
+    return configs, gains, choices
 
 
-def _evaluate_one(dr, prep, gains) -> tuple[list, list]:
+def _evaluate_one(data, dr, prep, gains, configs) -> tuple[list, list]:
     rec, truth, start = dr.recording, dr.truth, prep["start"]
     paths, left = [], []
     label = dict(id=dr.id, split=dr.split, group=dr.group)
@@ -405,7 +451,7 @@ def _evaluate_one(dr, prep, gains) -> tuple[list, list]:
                 left.append({"id": dr.id, "what": f"{method} {mode}", "why": "no gain: no train recording gave one"})
                 continue
             try:
-                s = _steps(crec, method, prep["window"])
+                s = data.steps(prep["rec"], mode, method, configs[method])
             except MorpiError as exc:
                 left.append({"id": dr.id, "what": f"{method} {mode}", "why": str(exc)})
                 continue
@@ -489,21 +535,22 @@ def evaluate_dataset(dataset: Dataset, *, course_m: float = COURSE_M, workers: i
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
         raise ParameterError(f"workers: {workers!r}, expected a positive whole number")
     where = dataset.source
+    data = fd.FieldData(dataset, course_m=float(course_m))
+    configs, gains, choices = _choose(data, dataset)
 
     def prepare(dr):
         try:
-            return _prepare(dr, course_m)
+            return _prepare(data, dr, course_m)
         except MorpiError as exc:           # no start to align with: the recording is listed, not evaluated
             return {"error": f"{where}: recording {dr.id!r}: {exc}"}
 
     with ThreadPoolExecutor(max_workers=workers or 1) as pool:
         prepared = dict(zip((dr.id for dr in dataset.recordings), pool.map(prepare, dataset.recordings)))
-        gains, entries = _train_gains(dataset, prepared)
 
         def one(dr):
             prep = prepared[dr.id]
             return (([], [{"id": dr.id, "what": "every method", "why": prep["error"]}]) if "error" in prep
-                    else _evaluate_one(dr, prep, gains))
+                    else _evaluate_one(data, dr, prep, gains, configs))
 
         results = []
         for out in pool.map(one, dataset.recordings):      # in order; the progress line from this thread
@@ -513,9 +560,6 @@ def evaluate_dataset(dataset: Dataset, *, course_m: float = COURSE_M, workers: i
     paths = tuple(p for ps, _ in results for p in ps)
     left = tuple(x for _, lo in results for x in lo)
     over = "test" if any(dr.split == "test" for dr in dataset.recordings) else "all"
-    rule = {m: {"config": {k: v for k, v in vars(st.DEFAULT_CONFIGS[m]).items()},
-                "from": "steps.DEFAULT_CONFIGS: the rule field.select_config chose on the MoRPI field train runs; "
-                        "not searched on this dataset"} for m in ("MoRPI-A", "MoRPI-G")}
     starts = []
     for dr in dataset.recordings:
         prep = prepared[dr.id]
@@ -528,5 +572,5 @@ def evaluate_dataset(dataset: Dataset, *, course_m: float = COURSE_M, workers: i
                        "course_deg": prep["start"]["course_deg"], "speed_mps": prep["start"]["speed_mps"],
                        "how": prep["start"]["how"]})
     return DatasetEvaluation(name=dataset.name, source=dataset.source, count=len(dataset), paths=paths,
-                             choices={"rule": rule, "gains": entries}, groups=_group_means(paths, over),
+                             choices=choices, groups=_group_means(paths, over),
                              groups_over=over, left_out=left, course_m=float(course_m), starts=tuple(starts))

@@ -23,13 +23,20 @@ from .calibration import NoRestError
 from .choice import choose
 from .errors import DataError, MorpiError, ParameterError
 
-__all__ = ["SHORT_SETS", "RULES", "INS_SPANS", "LEVELED", "HEADING_ORIGINS", "HEADING_SOURCES", "Gain",
+__all__ = ["SHORT_SETS", "HELD_OUT", "COURSE_M", "TrainSet", "RULES", "INS_SPANS", "LEVELED", "HEADING_ORIGINS", "HEADING_SOURCES", "Gain",
            "Selection", "Thresholds", "FieldData", "train_thresholds", "fold_thresholds", "select_config", "nested_rule_comparison",
            "READING_GRID", "TUNABLE_GRID", "SWING_MARGIN", "TURN_MARGIN", "SOURCE_SE", "trained_gain",
-           "check_recordings"]
+           "set_gain", "track_course", "check_recordings"]
 
 #: Short-route training/test sets: (phone, route, p2p).
 SHORT_SETS = (("s8", "short_distance", 1.0), ("s8", "short_distance_1.5p2p", 1.5), ("s6", "short_distance", 1.0))
+
+#: How a train run is held out of the gain that scores it (:func:`select_config`): with the mean gain of its
+#: set's other runs (leave-one-recording-out), or of the other sets' runs (leave-one-group-out).
+HELD_OUT = ("recording", "group")
+#: Horizontal distance over which a truth track's course gives the heading of a start at rest [m]
+#: (:func:`track_course`; :data:`morpi_filters.dataset_eval.COURSE_M` aligns the estimates alike).
+COURSE_M = 0.3
 
 #: How the step rule is chosen (see :func:`morpi_filters.evaluate.evaluate_tables`).
 RULES = ("per_method", "joint")
@@ -142,21 +149,153 @@ class Thresholds:
     change_files: tuple = ()
 
 
+@dataclass(frozen=True, eq=False)
+class TrainSet:
+    """One train set of the rule search: runs that share a gain, each with its own truth.
+
+    For a MoRPI root, one short-route set of :data:`SHORT_SETS` (the runs share
+    the route's end point and distance); for a manifest dataset, the train
+    recordings with periodic motion of one group.
+
+    Attributes
+    ----------
+    name : str
+        ``"<phone>/<route>"`` or the group.
+    files : tuple of str
+        The runs (paths relative to the root, or recording ids), in order.
+    runs : tuple of Recording
+    end_point_m : ndarray, shape (n, 2)
+        Each run's true end point in the navigation frame of the MoRPI
+        estimate (origin at the motion's start, x along the heading there) [m].
+    distance_m : ndarray, shape (n,)
+        Each run's true travelled distance [m].
+    """
+
+    name: str
+    files: tuple
+    runs: tuple
+    end_point_m: np.ndarray
+    distance_m: np.ndarray
+
+
 #: Used when a root has no train runs (no gains either, so no MoRPI cell): the library's defaults.
 _DEFAULT_THRESHOLDS = Thresholds(accel_floor=0.1, min_swing_deg=st.StepConfig().min_swing_deg,
                                  turn_deg=st.StepConfig().turn_deg)
 
 
-class FieldData:
-    """Lazy, cached access to a dataset root: recordings, calibrations, INS runs, step signals.
+@dataclass(frozen=True, eq=False)
+class _DatasetEntry:
+    """A manifest recording in the place of a catalogue entry: its dataset's name as the phone, its group as
+    the route, its split, its id as the relative path."""
 
-    Every per-recording computation is done once and reused by all cells,
-    the gain training and the config search.
+    phone: str
+    route: str
+    split: str
+    relpath: str
+    item: object
+
+    def load(self):
+        return self.item.recording
+
+
+def _dataset_entries(dataset) -> list:
+    """The catalogue entries of a manifest dataset, in its order (a recording whose file another recording
+    reads too is told apart by its id in its source)."""
+    from dataclasses import replace
+
+    sources = [dr.recording.source for dr in dataset.recordings]
+    out = []
+    for dr in dataset.recordings:
+        if sources.count(dr.recording.source) > 1:
+            dr = replace(dr, recording=replace(dr.recording, source=f"{dr.recording.source}#{dr.id}"))
+        out.append(_DatasetEntry(dataset.name, dr.group, dr.split, dr.id, dr))
+    return out
+
+
+def given_rest_window(rec, rest):
+    """The rest window ``[t0, t1]`` given in seconds from the first sample, as a RestWindow on `rec`."""
+    from .calibration import RestWindow
+
+    t = rec.time - rec.time[0]
+    i0 = int(np.searchsorted(t, rest[0]))
+    i1 = int(np.searchsorted(t, rest[1], side="right"))
+    return RestWindow(float(rec.time[i0]), float(rec.time[i1 - 1]), i0, i1, "given")
+
+
+def track_course(truth, t: float, *, moving: bool = False, course_m: float = COURSE_M) -> float:
+    """The course of a truth track at time `t` [rad], counter-clockwise from the track's x axis.
+
+    ``moving``: the direction of the truth's velocity over one truth interval
+    on each side of `t` (after it where the track starts there); otherwise
+    the direction from the truth at `t` to its first later position
+    `course_m` away horizontally. The same course aligns a method's estimate
+    to the track in :mod:`morpi_filters.dataset_eval`.
 
     Parameters
     ----------
-    root : path
-        Dataset root in the MoRPI layout.
+    truth : TruthTrack
+        The track (:class:`morpi_filters.manifest.TruthTrack`).
+    t : float
+        Time on the track's clock [s].
+    moving : bool
+        The velocity's direction (a start in motion) instead of the first
+        `course_m`.
+    course_m : float
+        Horizontal distance of the course of a start at rest [m].
+
+    Returns
+    -------
+    float
+        The course [rad].
+
+    Examples
+    --------
+    >>> from morpi_filters.manifest import TruthTrack
+    >>> track = TruthTrack(time=np.arange(5.0), position=[[0, 0, 0], [0, 0, 0], [0.1, 0.1, 0], [1, 1, 0], [2, 2, 0]])
+    >>> round(float(np.degrees(track_course(track, 1.0))), 6), round(float(np.degrees(track_course(track, 3.0, moving=True))), 6)
+    (45.0, 45.0)
+
+    Raises
+    ------
+    DataError
+        The track never moves `course_m` from its position at `t`.
+    """
+    import math
+
+    if moving:
+        h = truth.interval
+        a = max(t - h, float(truth.time[0]))
+        b = a + 2 * h if a < t - 0.5 * h else t + h
+        pa, pb = truth.at([a, b])
+        return math.atan2(pb[1] - pa[1], pb[0] - pa[0])
+    p0 = truth.at([t])[0, :2]
+    later = truth.time > t
+    away = np.hypot(*(truth.position[later, :2] - p0).T) >= course_m
+    if not away.any():
+        raise DataError(f"{truth.source}: the truth track never moves {course_m:g} m from its position at "
+                        f"{t:.6g} s")
+    q = truth.position[later][int(np.argmax(away)), :2]
+    return math.atan2(q[1] - p0[1], q[0] - p0[0])
+
+
+class FieldData:
+    """Lazy, cached access to a dataset: recordings, calibrations, INS runs, step signals.
+
+    Every per-recording computation is done once and reused by all cells,
+    the gain training and the config search. The dataset is a root in the
+    MoRPI layout or a manifest :class:`~morpi_filters.manifest.Dataset`; the
+    same functions read both (:func:`train_thresholds`, :func:`select_config`,
+    :func:`set_gain`). A manifest recording's entry has the dataset's name as
+    its phone, its group as its route and its id as its relative path; its
+    rest window is the manifest's ``rest`` (``[t0, t1]`` as given, ``"none"``
+    none: :class:`~morpi_filters.calibration.NoRestError`, ``"auto"``
+    detected), its calibrations assume gravity :data:`morpi_filters.units.G0`
+    and its train sets are its groups (:meth:`train_sets`).
+
+    Parameters
+    ----------
+    root : path or Dataset
+        Dataset root in the MoRPI layout, or a manifest dataset.
     include_test : bool
         False hides every ``test`` folder (as if absent).
     ins_span : str
@@ -170,10 +309,15 @@ class FieldData:
     thresholds : Thresholds, optional
         Detection thresholds to use instead of :func:`train_thresholds` of
         this root's train runs.
+    course_m : float
+        A manifest dataset's truth tracks: the distance of the course of a
+        start at rest (:func:`track_course`) [m].
     """
 
     def __init__(self, root, *, include_test: bool = True, ins_span: str = "motion", heading_from: str = "motion",
-                 thresholds: Thresholds | None = None):
+                 thresholds: Thresholds | None = None, course_m: float = COURSE_M):
+        from .manifest import Dataset
+
         for name, v, allowed in (("ins_span", ins_span, INS_SPANS), ("heading_from", heading_from, HEADING_ORIGINS)):
             if v not in allowed:
                 raise ParameterError(f"{name}={v!r}: expected one of {allowed}")
@@ -181,8 +325,18 @@ class FieldData:
         self.heading_from = heading_from
         self._thresholds = thresholds
         self._accel_floor = None if thresholds is None else thresholds.accel_floor
-        self.root = Path(root)
-        self._entries = [e for e in ds.catalogue(self.root) if include_test or e.split != "test"]
+        self.course_m = float(course_m)
+        if isinstance(root, Dataset):
+            from .units import G0
+
+            self.root, self._g_local = root, G0
+            entries = _dataset_entries(root)
+            #: per recording source, its manifest labels and truth (DatasetRecording)
+            self._labels = {e.item.recording.source: e.item for e in entries}
+        else:
+            self.root, self._g_local, self._labels = Path(root), None, {}
+            entries = ds.catalogue(self.root)
+        self._entries = [e for e in entries if include_test or e.split != "test"]
         self._by_folder: dict = {}
         for e in self._entries:
             self._by_folder.setdefault((e.phone, e.route, e.split), []).append(e)
@@ -323,9 +477,19 @@ class FieldData:
                 out.append(line)
         return out
 
+    def recording_at(self, relpath: str):
+        """The recording at a path relative to the root (a manifest recording's id), or None when it does not
+        load."""
+        for e in self._entries:
+            if e.relpath == relpath:
+                return self._entry_recording(e)
+        raise KeyError(relpath)
+
     def relpath(self, rec) -> str:
         """The recording's path relative to the root (its source when outside)."""
         key = (rec.source, "relpath")
+        if rec.source in self._labels:
+            return self._labels[rec.source].id
         if key not in self._rec:
             try:
                 self._rec[key] = Path(rec.source).relative_to(self.root).as_posix()
@@ -346,9 +510,74 @@ class FieldData:
             self._accel_floor = _train_accel_floor(self)[0]
         return self._accel_floor
 
-    def train_entries(self) -> list:
-        """The catalogue entries of every ``train`` folder."""
-        return [e for e in self._entries if e.split == "train"]
+    def train_entries(self, periodic: bool = False) -> list:
+        """The catalogue entries of every ``train`` folder (with `periodic`, only those of periodic motion: a
+        manifest's ``motion = "periodic"``; every MoRPI recording)."""
+        return [e for e in self._entries if e.split == "train"
+                and not (periodic and isinstance(e, _DatasetEntry) and e.item.motion != "periodic")]
+
+    def train_sets(self) -> list:
+        """The train sets of the rule search and the gains (:class:`TrainSet`), each run with its truth.
+
+        A MoRPI root: the short-route sets :data:`SHORT_SETS`, in that order
+        (a set without train runs is empty). A manifest dataset: per group, in
+        the order groups first appear, its train recordings with periodic
+        motion that can be evaluated (:meth:`recordings`), each with its truth
+        (:meth:`run_truth`); a run whose truth track gives no course is left
+        out; a group without such runs has no set.
+        """
+        if not self._labels:
+            return [self._route_set(phone, route) for phone, route, _ in SHORT_SETS]
+        out = []
+        for group in dict.fromkeys(e.route for e in self.train_entries(periodic=True)):
+            runs, ends, dists = [], [], []
+            for r in self.recordings(self.root.name, group, "train"):
+                if self._labels[r.source].motion != "periodic":
+                    continue
+                try:
+                    end, dist = self.run_truth(r)
+                except MorpiError:
+                    continue
+                runs.append(r)
+                ends.append(end)
+                dists.append(dist)
+            if runs:
+                out.append(TrainSet(group, tuple(self.relpath(r) for r in runs), tuple(runs),
+                                    np.array(ends, dtype=float).reshape(-1, 2), np.array(dists, dtype=float)))
+        return out
+
+    def _route_set(self, phone, route) -> TrainSet:
+        """The train runs of a MoRPI folder, sharing the route's truth."""
+        recs = tuple(self.recordings(phone, route, "train"))
+        truth = ds.route(route)
+        return TrainSet(f"{phone}/{route}", tuple(self.relpath(r) for r in recs), recs,
+                        np.tile(np.asarray(truth.end_point_m, dtype=float), (len(recs), 1)),
+                        np.full(len(recs), float(truth.distance_m)))
+
+    def run_truth(self, rec) -> tuple[np.ndarray, float]:
+        """A manifest recording's true end point in the MoRPI estimate's navigation frame [m], shape (2,), and
+        its true distance [m].
+
+        A route: its ``end_point_m`` and ``distance_m``. A truth track: over
+        the recording's motion window (:meth:`activity`), the track's
+        displacement turned by its course at the motion's start
+        (:func:`track_course`: the velocity for ``initial = "truth"``, else the
+        first `course_m`), and its horizontal path length (the truth samples
+        inside the window and its ends).
+        """
+        from .manifest import RouteTruth
+
+        item = self._labels[rec.source]
+        truth = item.truth
+        if isinstance(truth, RouteTruth):
+            return np.asarray(truth.end_point_m, dtype=float), float(truth.distance_m)
+        a, b = self.activity(rec)
+        psi = track_course(truth, a, moving=item.initial == "truth", course_m=self.course_m)
+        ts = np.r_[a, truth.time[(truth.time > a) & (truth.time < b)], b]
+        p = truth.at(ts)[:, :2]
+        c, s = np.cos(psi), np.sin(psi)
+        d = p[-1] - p[0]
+        return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]]), float(np.sum(np.hypot(*np.diff(p, axis=0).T)))
 
     def rest_window(self, rec):
         """The initial rest window (calibration.detect_rest), found once per recording.
@@ -375,8 +604,12 @@ class FieldData:
 
         key = (rec.source, "rest", accel_floor)
         if key not in self._cal:
+            rest = self._labels[rec.source].rest if rec.source in self._labels else "auto"
             try:
-                self._cal[key] = detect_rest(rec, accel_floor=accel_floor, measures=self.rest_measures(rec))
+                if rest == "none":
+                    raise NoRestError(f'{rec.source}: rest = "none": no rest window')
+                self._cal[key] = (detect_rest(rec, accel_floor=accel_floor, measures=self.rest_measures(rec))
+                                  if rest == "auto" else given_rest_window(rec, rest))
             except MorpiError as exc:
                 self._cal[key] = exc.with_traceback(None)
         out = self._cal[key]
@@ -399,7 +632,8 @@ class FieldData:
                 cal = calibrate(rec, mode)
                 self._cal[key] = (rec, cal)
             else:
-                cal = calibrate(rec, mode, window=self.rest_window(rec))
+                kw = {} if self._g_local is None else {"g_local": self._g_local}
+                cal = calibrate(rec, mode, window=self.rest_window(rec), **kw)
                 self._cal[key] = (cal.apply(rec), cal)
         return self._cal[key]
 
@@ -762,7 +996,7 @@ def train_thresholds(data: FieldData) -> Thresholds:
     data._accel_floor = floor if data._accel_floor is None else data._accel_floor
     swings, sfiles = [], []
     cfg = _START.with_(min_swing_deg=0.0)
-    for e in data.train_entries():
+    for e in data.train_entries(periodic=True):
         for r in data.recordings(e.phone, e.route, e.split):
             if data.relpath(r) != e.relpath:
                 continue
@@ -852,7 +1086,7 @@ def _train_period_changes(data: FieldData) -> tuple[list, list]:
     cfg = _START.with_(segment="extrema", min_swing_deg=0.0)
     changes, files = [], []
     for m in _MORPI_METHODS:
-        for e in data.train_entries():
+        for e in data.train_entries(periodic=True):
             for r in data.recordings(e.phone, e.route, e.split):
                 if data.relpath(r) != e.relpath:
                     continue
@@ -892,20 +1126,46 @@ def trained_gain(data: FieldData, phone, route, calibration, method, config) -> 
         None when the folder has no train recordings or none with periodic motion;
         the recordings left out are named in :attr:`Gain.skipped`.
     """
-    recs = data.recordings(phone, route, "train")
-    if not recs:
+    if not data.recordings(phone, route, "train"):
         return None
-    truth = ds.route(route)
-    weights, files, skipped = [], [], list(data.load_errors(phone, route, "train"))
-    for r in recs:
+    return set_gain(data, data._route_set(phone, route), calibration, method, config, phone=phone, route=route,
+                    skipped=data.load_errors(phone, route, "train"))
+
+
+def set_gain(data: FieldData, train_set: TrainSet, calibration, method, config, *, phone: str = "", route: str = "",
+             skipped=()) -> Gain | None:
+    """The Weinberg gain of a train set's runs (:func:`morpi_filters.steps.train_gain`), each with its distance.
+
+    Parameters
+    ----------
+    data : FieldData
+        The dataset the runs are read from.
+    train_set : TrainSet
+        The runs and their true distances (:meth:`FieldData.train_sets`).
+    calibration, method, config
+        As for :func:`trained_gain`.
+    phone, route : str
+        The labels of the :class:`Gain`.
+    skipped : iterable of str
+        Lines naming runs left out before (they open :attr:`Gain.skipped`).
+
+    Returns
+    -------
+    Gain or None
+        None when no run has periodic motion under `config`; the runs left
+        out are named in :attr:`Gain.skipped`.
+    """
+    weights, dists, files, skipped = [], [], [], list(skipped)
+    for r, d in zip(train_set.runs, train_set.distance_m):
         try:
             weights.append(data.step_sums(r, calibration, method, config)[0])
+            dists.append(d)
             files.append(data.relpath(r))
         except MorpiError as exc:
             skipped.append(str(exc))
     if not weights:
         return None
-    mean, std, per = st.train_gain(weights, truth.distance_m)
+    mean, std, per = st.train_gain(weights, np.array(dists, dtype=float))
     return Gain(phone, route, method, calibration, mean, std, tuple(float(g) for g in per), tuple(files),
                 tuple(skipped))
 
@@ -923,14 +1183,14 @@ _START = st.StepConfig(heading="absolute", segment="maxima", ends="drop", cutoff
 
 
 def _train_summary(data: FieldData, method, config, mode="GC"):
-    """Per short-route set, the train runs reduced to what a gain and an end point need.
+    """Per train set (:meth:`FieldData.train_sets`), the train runs reduced to what a gain and an end point need.
 
-    A tuple of ``(truth, members, relpaths, g, u, loo, failed)`` per set: ``g``
-    each run's own gain (distance / effective weight), ``u`` the end point per
-    unit gain (``sum(weight * fraction * [cos, sin](heading))``, shape
-    ``(n, 2)``), so that a run dead-reckoned with gain ``G`` ends at ``G u``,
-    ``loo`` the runs' leave-one-out errors (:func:`_loo_errors`; None below
-    two runs or when a run fails) and ``failed`` the runs the rule cannot
+    A tuple of ``(train_set, members, relpaths, g, u, loo, failed)`` per set:
+    ``g`` each run's own gain (its distance / effective weight), ``u`` the end
+    point per unit gain (``sum(weight * fraction * [cos, sin](heading))``,
+    shape ``(n, 2)``), so that a run dead-reckoned with gain ``G`` ends at
+    ``G u``, ``loo`` the runs' leave-one-out errors (:func:`_loo_errors`; None
+    below two runs or when a run fails) and ``failed`` the runs the rule cannot
     process (no periodic motion found; NaN in ``g`` and ``u``). Cached on
     `data`.
     """
@@ -938,7 +1198,8 @@ def _train_summary(data: FieldData, method, config, mode="GC"):
     out = data._train_summaries.get(key)
     if out is None:
         out = []
-        for truth, members, rels, recs in _train_sets(data):
+        for tset in _train_sets(data):
+            recs, rels = tset.runs, tset.files
             g, u, failed = np.full(len(recs), np.nan), np.full((len(recs), 2), np.nan), set()
             for i, r in enumerate(recs):
                 try:
@@ -946,58 +1207,93 @@ def _train_summary(data: FieldData, method, config, mode="GC"):
                 except MorpiError:
                     failed.add(rels[i])
                     continue
-                g[i] = truth.distance_m / w
+                g[i] = tset.distance_m[i] / w
                 u[i] = ux, uy
-            loo = _loo_errors(truth, g, u) if g.size >= 2 and not failed else None
-            out.append((truth, members, rels, g, u, loo, frozenset(failed)))
+            loo = _loo_errors(tset, g, u) if g.size >= 2 and not failed else None
+            out.append((tset, frozenset(rels), rels, g, u, loo, frozenset(failed)))
         out = data._train_summaries[key] = tuple(out)
     return out
 
 
-def _train_sets(data: FieldData):
-    """Per short-route set: its truth, its train runs' relative paths (as a set and in catalogue order) and
-    the runs (cached on `data`: every rule's train summary reads them)."""
+def _train_sets(data: FieldData) -> tuple:
+    """The train sets of the rule search (:meth:`FieldData.train_sets`), cached on `data`: every rule's train
+    summary reads them."""
     out = data._train_summaries.get("train sets")
     if out is None:
-        out = []
-        for phone, route, _ in SHORT_SETS:
-            recs = tuple(data.recordings(phone, route, "train"))
-            rels = tuple(data.relpath(r) for r in recs)
-            out.append((ds.route(route), frozenset(rels), rels, recs))
-        out = data._train_summaries["train sets"] = tuple(out)
+        out = data._train_summaries["train sets"] = tuple(data.train_sets())
     return out
 
 
 def _loo_errors(truth, g, u, keep=None) -> np.ndarray:
     """End-point errors [%] of each run (each flagged in `keep`) with the mean gain of the others (leave-one-out).
 
-    ``gi = (sum(g) - g) / (n - 1)``, ``|gi u - end| / distance * 100``: a compiled loop
-    (``_signal_kernel.loo_errors``), the gains summed in order (the numpy form within rounding).
+    ``gi = (sum(g) - g) / (n - 1)``, ``|gi u - end| / distance * 100``, each run
+    against its own end point and distance: `truth` holds ``end_point_m``
+    (shape (2,), shared by the runs, or (n, 2)) and ``distance_m`` (a number or
+    shape (n,)), as a :class:`TrainSet` or a route does. A compiled loop
+    (``_signal_kernel.loo_errors``), the gains summed in order (the numpy form
+    within rounding).
     """
-    out = np.empty(g.shape[0])
-    end = truth.end_point_m
-    keep = np.ones(g.shape[0], dtype=bool) if keep is None else keep
-    m = _signal_kernel.compiled()["loo_errors"](g, u, keep, float(end[0]), float(end[1]), float(truth.distance_m), out)
+    n = g.shape[0]
+    out = np.empty(n)
+    end = np.ascontiguousarray(np.broadcast_to(np.asarray(truth.end_point_m, dtype=float), (n, 2)))
+    dist = np.ascontiguousarray(np.broadcast_to(np.asarray(truth.distance_m, dtype=float), (n,)))
+    keep = np.ones(n, dtype=bool) if keep is None else keep
+    m = _signal_kernel.compiled()["loo_errors"](g, u, keep, end, dist, out)
     return out[:m]
 
 
-def _loo_vector(data: FieldData, method, config, mode="GC", exclude=frozenset()) -> np.ndarray | None:
-    """Per-run leave-one-out end-point errors [%] of the short-route train runs not in `exclude`.
+def _logo_errors(summary, keep_of) -> list:
+    """Per set, the end-point errors [%] of its kept runs with the mean gain of the other sets' kept runs.
 
-    In catalogue order; sets with fewer than two runs left give none. None if
-    a run not in `exclude` fails (the rule cannot process it).
+    `summary`: :func:`_train_summary`'s tuples; `keep_of(k)`: the kept runs
+    of set k (bool, shape (n_k,)). A set is scored when the other sets keep a
+    run; the errors are ``|G u - end| / distance * 100`` with ``G`` the mean
+    of the other sets' runs' own gains (leave-one-group-out).
     """
+    keeps = [keep_of(k) for k in range(len(summary))]
+    out = []
+    for k, (tset, _, _, g, u, _, _) in enumerate(summary):
+        if not keeps[k].any():
+            continue
+        others = [s[3][keeps[j]] for j, s in enumerate(summary) if j != k and keeps[j].any()]
+        if not others:
+            continue
+        gain = float(np.mean(np.concatenate(others)))
+        end = np.broadcast_to(np.asarray(tset.end_point_m, float), (g.size, 2))[keeps[k]]
+        dist = np.broadcast_to(np.asarray(tset.distance_m, float), (g.size,))[keeps[k]]
+        out.append(np.hypot(*(gain * u[keeps[k]] - end).T) / dist * 100)
+    return out
+
+
+def _loo_vector(data: FieldData, method, config, mode="GC", exclude=frozenset(), held_out: str = "recording"
+                ) -> np.ndarray | None:
+    """Per-run held-out end-point errors [%] of the train runs not in `exclude`.
+
+    ``held_out="recording"``: each run with the mean gain of its set's other
+    runs (sets with fewer than two runs left give none); ``"group"``: each
+    run with the mean gain of the other sets' runs (:func:`_logo_errors`;
+    none below two sets). In the train sets' order; None if a run not in
+    `exclude` fails (the rule cannot process it).
+    """
+    if held_out not in HELD_OUT:
+        raise ParameterError(f"held_out={held_out!r}: expected one of {HELD_OUT}")
+    summary = _train_summary(data, method, config, mode)
     errs = []
-    for truth, members, rels, g, u, loo, failed in _train_summary(data, method, config, mode):
+    for tset, members, rels, g, u, loo, failed in summary:
         if failed - exclude:
             return None
+    if held_out == "group":
+        errs = _logo_errors(summary, lambda k: np.array([r not in exclude for r in summary[k][2]], dtype=bool))
+        return np.concatenate(errs) if errs else np.empty(0)
+    for tset, members, rels, g, u, loo, failed in summary:
         if members.isdisjoint(exclude):
             if loo is not None:
                 errs.append(loo)
             continue
         keep = np.array([r not in exclude for r in rels], dtype=bool)
         if keep.sum() >= 2:
-            errs.append(_loo_errors(truth, g, u, keep))
+            errs.append(_loo_errors(tset, g, u, keep))
     return np.concatenate(errs) if errs else np.empty(0)
 
 
@@ -1014,25 +1310,26 @@ def _held_out_error(data: FieldData, method, config, k: int, rel: str) -> float:
     return float(_loo_errors(truth, g, u, keep)[ok.index(rel)])
 
 
-def _loo_score(data: FieldData, method, config, mode="GC", exclude=frozenset()) -> tuple[float, int]:
-    """Leave-one-out mean end-point error [%] over the short-route train runs not in `exclude`.
+def _loo_score(data: FieldData, method, config, mode="GC", exclude=frozenset(), held_out: str = "recording"
+               ) -> tuple[float, int]:
+    """Held-out mean end-point error [%] over the train runs not in `exclude` (:func:`_loo_vector`).
 
     Cached on `data` with the train summaries: the searches of one method, of the other and of both
     (:func:`select_config`) score many of the same rules.
     """
-    key = ("loo score", method, config, mode, exclude)
+    key = ("loo score", method, config, mode, exclude, held_out)
     out = data._train_summaries.get(key)
     if out is None:
-        errs = _loo_vector(data, method, config, mode, exclude)
+        errs = _loo_vector(data, method, config, mode, exclude, held_out)
         # np.mean's bits: numpy's sum, divided by the count
         out = (float("inf"), 0) if errs is None or not errs.size else (float(errs.sum()) / errs.size, int(errs.size))
         data._train_summaries[key] = out
     return out
 
 
-def select_config(data: FieldData, methods=_MORPI_METHODS, *, exclude=(), thresholds: Thresholds | None = None
-                  ) -> Selection:
-    """Choose the step rule from the short-route train runs only.
+def select_config(data: FieldData, methods=_MORPI_METHODS, *, exclude=(), thresholds: Thresholds | None = None,
+                  held_out: str = "recording") -> Selection:
+    """Choose the step rule from the train runs only (the train sets of :meth:`FieldData.train_sets`).
 
     A coordinate search: the paper's readings (heading absolute, mean over
     the step, or the step's own change plus the turns so far, ``"turns"``;
@@ -1068,6 +1365,12 @@ def select_config(data: FieldData, methods=_MORPI_METHODS, *, exclude=(), thresh
     thresholds : Thresholds, optional
         The least swing and least turn of the rules; default:
         ``data.thresholds`` (:func:`fold_thresholds` gives those of a fold).
+    held_out : {"recording", "group"}
+        How a train run is held out (:data:`HELD_OUT`): ``"recording"``
+        (default, the MoRPI tables' score) dead-reckons it with the mean gain
+        of its set's other runs; ``"group"`` with the mean gain of the runs
+        of the other sets (leave-one-group-out: the rule is scored on sets
+        none of whose runs set the gain).
 
     Returns
     -------
@@ -1083,12 +1386,13 @@ def select_config(data: FieldData, methods=_MORPI_METHODS, *, exclude=(), thresh
     exclude = frozenset(exclude)
     th = thresholds or data.thresholds
     start = _START.with_(min_swing_deg=th.min_swing_deg, turn_deg=th.turn_deg)
-    found = {h: _search(data, methods, exclude, start.with_(heading_source=h)) for h in st.HEADING_SOURCES}
+    found = {h: _search(data, methods, exclude, start.with_(heading_source=h), held_out)
+             for h in st.HEADING_SOURCES}
     trials = tuple(t for h in st.HEADING_SOURCES for t in found[h][3])
     best, best_score, n, _ = found["gyro"]
     att = found["attitude"]
     if np.isfinite(att[1]):
-        d = _source_difference(data, methods, exclude, best, att[0])
+        d = _source_difference(data, methods, exclude, best, att[0], held_out)
         if d is not None and d.mean() < -SOURCE_SE * _se(d):
             best, best_score, n = att[:3]
     if not np.isfinite(best_score):
@@ -1100,23 +1404,23 @@ def _se(d) -> float:
     return float(d.std(ddof=1) / np.sqrt(d.size)) if d.size > 1 else float("inf")
 
 
-def _source_difference(data, methods, exclude, gyro_cfg, attitude_cfg) -> np.ndarray | None:
+def _source_difference(data, methods, exclude, gyro_cfg, attitude_cfg, held_out="recording") -> np.ndarray | None:
     """Per train run, the leave-one-out error of `attitude_cfg` minus `gyro_cfg` [pp], averaged over `methods`."""
     diffs = []
     for m in methods:
-        g = _loo_vector(data, m, gyro_cfg, exclude=exclude)
-        a = _loo_vector(data, m, attitude_cfg, exclude=exclude)
+        g = _loo_vector(data, m, gyro_cfg, exclude=exclude, held_out=held_out)
+        a = _loo_vector(data, m, attitude_cfg, exclude=exclude, held_out=held_out)
         if g is None or a is None or g.size != a.size or not g.size:
             return None
         diffs.append(a - g)
     return np.mean(diffs, axis=0)
 
 
-def _search(data: FieldData, methods, exclude, start) -> tuple:
+def _search(data: FieldData, methods, exclude, start, held_out="recording") -> tuple:
     """The coordinate search of :func:`select_config` from `start`: (best, score, n_train, trials)."""
 
     def score(cfg):
-        vals = [_loo_score(data, m, cfg, exclude=exclude) for m in methods]
+        vals = [_loo_score(data, m, cfg, exclude=exclude, held_out=held_out) for m in methods]
         return sum(v for v, _ in vals) / len(vals), int(sum(n for _, n in vals))       # np.mean's bits
 
     trials, counts = [], []
@@ -1199,7 +1503,7 @@ def nested_rule_comparison(data: FieldData) -> dict:
         if not same_windows:
             # the fold's floor moves a rest window: the fold gets its own windows, calibrations and steps
             d = FieldData(data.root, include_test=False, ins_span=data.ins_span, heading_from=data.heading_from,
-                          thresholds=th)
+                          thresholds=th, course_m=data.course_m)
             d._rec = data._rec
         own.append({"file": rel, "accel_floor": th.accel_floor, "min_swing_deg": th.min_swing_deg,
                     "turn_deg": th.turn_deg, "same_rest_windows": same_windows})

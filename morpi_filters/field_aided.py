@@ -605,8 +605,8 @@ def _route_loo(data, method, config, mode="GC"):
     from . import field as fd
 
     rule, route = [], []
-    for (truth, _, _, g, u, loo, failed), (_, _, _, recs) in zip(fd._train_summary(data, method, config, mode),
-                                                                fd._train_sets(data)):
+    for truth, _, _, g, u, loo, failed in fd._train_summary(data, method, config, mode):
+        recs = truth.runs
         if failed:
             return None
         if loo is None:
@@ -715,10 +715,11 @@ def _unit_sums(data, rec, mode, method, config, reading, length):
 
 def _phone_sets(data, phone):
     """The phone's short-route training sets: (truth, train recordings) of those holding train runs."""
+    from . import dataset as ds
     from . import field as fd
 
-    return [(truth, recs) for (ph, _, _), (truth, _, _, recs) in zip(fd.SHORT_SETS, fd._train_sets(data))
-            if ph == phone and recs]
+    return [(ds.route(route), tset.runs) for (ph, route, _), tset in zip(fd.SHORT_SETS, fd._train_sets(data))
+            if ph == phone and tset.runs]
 
 
 def period_length(data, phone, mode, method, config, reading) -> float:

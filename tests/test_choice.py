@@ -71,7 +71,7 @@ def test_the_rule_search_keeps_the_earlier_of_two_rules_tied_within_rounding(mon
     for _ in range(60):
         noise = {}
 
-        def score(data, method, cfg, mode="GC", exclude=frozenset()):
+        def score(data, method, cfg, mode="GC", exclude=frozenset(), held_out="recording"):
             if cfg not in noise:
                 noise[cfg] = 1.0 + 1e-12 * rng.standard_normal()
             return exact(cfg) * noise[cfg], 10

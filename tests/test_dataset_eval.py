@@ -149,3 +149,84 @@ def test_a_truth_track_that_never_moves_leaves_its_recording_out_with_the_reason
     assert result.paths == ()
     assert [(x["id"], x["what"]) for x in result.left_out] == [("a", "every method")]
     assert "never moves" in result.left_out[0]["why"]
+
+
+def _sine_recording(seed, split, group, **kw):
+    from morpi_filters import simulate, units
+    from morpi_filters.manifest import RouteTruth
+
+    traj = simulate.sine(4.0, rest=(2.0, 1.5), **kw)
+    d = simulate.imu(traj, units.LSM6DSL, np.random.default_rng(seed), bias_scale=(0.25, 0.3))
+    return {"id": f"{group}-{split}-{seed}", "time": d.time, "f": d.f, "omega": d.omega, "split": split,
+            "group": group, "motion": "periodic", "rest": [0.1, 1.8],
+            "truth": RouteTruth(distance_m=float(traj.distance), end_point_m=np.asarray(traj.end_point[:2], float))}
+
+
+def _test_end_errors(result, method):
+    return [p.metrics["end_error_percent"] for p in result.paths
+            if p.split == "test" and p.method == method and p.calibration == "GC"]
+
+
+def test_the_rule_searched_on_the_train_runs_beats_the_phones_rule_on_the_test_runs(monkeypatch):
+    # a fast, narrow sway (0.8 m periods at 1.6 m/s, 6 cm to each side): the phones' MoRPI-A rule miscounts a
+    # test run, the rule searched on the dataset's own train runs does not
+    from morpi_filters import field as fd
+    from morpi_filters import steps as st
+
+    data = Dataset.from_arrays("sway", [_sine_recording(i, "train" if i % 3 else "test", "g", period=0.8,
+                                                        amplitude=0.06, speed=1.6) for i in range(1, 7)])
+    searched = evaluate_dataset(data)
+    rule = searched.choices["rule"]["MoRPI-A"]
+    assert searched.choices["held_out"]["used"] == "recording"
+    assert rule["from"].startswith("field.select_config") and rule["runs_scored"]["recording"] == 4
+    assert rule["score_percent"]["group"] is None                      # one group: no leave-one-group-out
+    # the same evaluation with the phones' rule (the fallback when nothing scores)
+    monkeypatch.setattr(fd, "select_config",
+                        lambda *a, **k: fd.Selection("x", st.StepConfig(), float("inf"), (), 0))
+    phones = evaluate_dataset(data)
+    assert phones.choices["rule"]["MoRPI-A"]["from"].startswith("steps.DEFAULT_CONFIGS")
+    assert phones.choices["rule"]["MoRPI-A"]["config"]["ends"] == st.DEFAULT_CONFIGS["MoRPI-A"].ends
+    got, base = _test_end_errors(searched, "MoRPI-A"), _test_end_errors(phones, "MoRPI-A")
+    assert len(got) == len(base) == 2
+    assert np.mean(got) < 0.5 * np.mean(base)
+
+
+def test_a_dataset_without_train_recordings_falls_back_to_the_phones_rule():
+    from morpi_filters import steps as st
+
+    data = Dataset.from_arrays("bench", [_sine_recording(i, "none", "g") for i in (1, 2)])
+    result = evaluate_dataset(data)
+    for m in ("MoRPI-A", "MoRPI-G"):
+        c = result.choices["rule"][m]
+        assert c["from"].startswith("steps.DEFAULT_CONFIGS") and "no train recording" in c["from"]
+        assert c["config"] == {k: getattr(st.DEFAULT_CONFIGS[m], k) for k in c["config"]}
+    assert result.choices["train_sets"] == []
+    assert all("default" in t["from"] for t in result.choices["thresholds"].values())
+
+
+def test_the_leave_one_group_out_score_is_the_numpy_computation_from_the_steps(tmp_path):
+    # two groups with periodic train runs (one run each): each run is dead-reckoned with the gain of the other
+    # group's run; the score is the mean of the two end-point errors [%]
+    from morpi_filters import field as fd
+    from morpi_filters.steps import StepConfig
+
+    ds = write_foreign_dataset(tmp_path / "groups", LAYOUTS["groups"], seed=2)
+    data = load_dataset(ds.manifest)
+    result = evaluate_dataset(data)
+    assert result.choices["held_out"]["used"] == "group"
+    assert [s["group"] for s in result.choices["train_sets"]] == ["sine-1.0m", "sine-1.5m"]
+    fdata = fd.FieldData(data)
+    train = [dr for dr in data.recordings if dr.split == "train" and dr.motion == "periodic"]
+    for m in ("MoRPI-A", "MoRPI-G"):
+        cfg = StepConfig(**result.choices["rule"][m]["config"])
+        own, unit = [], []
+        for dr in train:
+            s = fdata.steps(dr.recording, "GC", m, cfg)
+            w = np.asarray(s.weight) * np.asarray(s.fraction)
+            own.append(dr.truth.distance_m / w.sum())
+            unit.append([np.sum(w * np.cos(s.heading)), np.sum(w * np.sin(s.heading))])
+        errs = [np.linalg.norm(own[1 - i] * np.array(unit[i]) - train[i].truth.end_point_m)
+                / train[i].truth.distance_m * 100 for i in range(2)]
+        assert result.choices["rule"][m]["score_percent"]["group"] == pytest.approx(np.mean(errs), rel=1e-9)
+        assert result.choices["rule"][m]["runs_scored"]["group"] == 2
+        assert result.choices["rule"][m]["score_percent"]["recording"] is None   # one train run per group

@@ -196,6 +196,7 @@ _NO_EXAMPLE = {
     "field.nested_rule_comparison": "repeats select_config once per held-out train run of the field dataset",
     "field.fold_thresholds": "needs the thresholds of a dataset's train runs (field recordings)",
     "field.trained_gain": "needs a folder of train recordings of the field dataset",
+    "field.set_gain": "needs the step sums of a dataset's train runs (a FieldData)",
     "evaluate.evaluate_tables": "computes every table cell from the field dataset (minutes)",
     "evaluate.tables_study": "runs the whole tables section on the field dataset (minutes)",
     "evaluate.training_gain_spread": "trains the gains on the field dataset's train runs",

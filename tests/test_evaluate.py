@@ -695,5 +695,5 @@ def test_leave_one_out_errors_kernel_is_the_numpy_form_within_the_rounding_of_th
             assert np.all(np.abs(got - want) <= oracle.order_bound(truth, g, u, keep))
             if n <= 300:
                 out = np.empty(n)
-                m = plain.loo_errors(g, u, keep, *map(float, truth.end_point_m), float(truth.distance_m), out)
+                m = plain.loo_errors(g, u, keep, np.tile(truth.end_point_m, (n, 1)), np.full(n, truth.distance_m), out)
                 np.testing.assert_array_equal(out[:m], got)

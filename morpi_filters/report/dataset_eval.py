@@ -103,6 +103,9 @@ def report_dataset_evaluation(out, result: DatasetEvaluation) -> SectionSummary:
                      _metric(s["course_deg"]), fmt(s["speed_mps"], 3), s["how"]] for s in result.starts]),
           "## Train-only choices", "",
           "Step rules: " + "; ".join(f"{m}: {c['from']}" for m, c in result.choices["rule"].items()) + ".", "",
+          f"Held out: {result.choices['held_out']['used']} ({result.choices['held_out']['why']}).", "",
+          md_table(["threshold", "value", "from"], [[k, fmt(v["value"], 4), v["from"]]
+                                                   for k, v in result.choices["thresholds"].items()]),
           md_table(["group", "method", "calibration", "gain", "std", "from", "train recordings"],
                    [[e["group"], e["method"], e["calibration"], _metric(e["mean"]), _metric(e["std"]), e["from"],
                      ", ".join(e["train"]) or "none"] for e in result.choices["gains"]]),
