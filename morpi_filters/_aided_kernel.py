@@ -308,7 +308,7 @@ def nhc_model(x, C, v, M, H, y):
         H[r, _EPS + 2] = -(a0 * u[1] - a1 * u[0])
 
 
-def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn_q, par, C0, P0, fj,
+def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn_q, par, C0, v0, P0, fj,
                    keep_inn, keep_hist, ep_k, ep_p, ep_P, nis, inn_k, inn_z, inn_y, inn_S, inn_n,
                    hist_P, hist_rec, x, P, bias):
     """The forward filter over one recording, written into the output arrays.
@@ -327,8 +327,8 @@ def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn
         Turn variance added to the heading error of given directions at a sample.
     par : (len(PAR),)
         Tunables (:data:`PAR`).
-    C0, P0 : (3, 3), (N, N)
-        Initial attitude (also the phone-to-robot tilt) and covariance.
+    C0, v0, P0 : (3, 3), (3,), (N, N)
+        Initial attitude (also the phone-to-robot tilt), velocity and covariance.
     fj : int
         Considered state, or -1.
     keep_inn, keep_hist : bool
@@ -348,7 +348,7 @@ def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn
     C = C0.copy()
     Cn = np.zeros((3, 3))
     Rt = np.zeros((3, 3))
-    v = np.zeros(3)
+    v = v0.copy()
     p = np.zeros(3)
     clone = np.zeros(2)
     ba = np.zeros(3)

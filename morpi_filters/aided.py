@@ -595,7 +595,10 @@ class AidedInput:
     f, omega : ndarray, shape (n, 3)
         Specific force [m/s^2] and angular rate [rad/s] (calibrated as wished).
     C0 : ndarray, shape (3, 3)
-        Initial attitude (roll and pitch from rest, yaw zero).
+        Initial attitude (roll and pitch from rest, yaw zero: the frame's x
+        axis is the initial heading, whose variance the filter starts near
+        zero; the non-holonomic constraint takes `C0` as the phone-to-robot
+        tilt, so a yaw in it would turn the robot's axes as well).
     g : float
         Gravity magnitude [m/s^2].
     step_start, step_end, step_length : ndarray, shape (k,)
@@ -611,6 +614,18 @@ class AidedInput:
     sample_dt : float, optional
         The sample interval that sets the epoch grid [s] (default: the
         median interval of `time`; :meth:`until` keeps the whole recording's).
+    v0 : ndarray, shape (3,)
+        Velocity at the first sample, in the navigation frame [m/s] (default
+        zero: a recording that starts at rest). The nominal velocity starts
+        there, so a recording that starts under way can be followed when its
+        initial velocity is known (from an earlier pass, a wheel odometer, a
+        commanded speed).
+    v0_sigma : float or ndarray, shape (3,)
+        Its 1-sigma uncertainty per axis [m/s] (one value for the three, or
+        one per axis; default 1 mm/s): the initial velocity covariance is
+        ``diag(v0_sigma^2)``. Too small a sigma around a wrong `v0` leaves the
+        filter confident of a wrong velocity, which the step lengths correct
+        only slowly.
     """
 
     time: np.ndarray
@@ -625,6 +640,8 @@ class AidedInput:
     standing: tuple = ()
     step_vector: np.ndarray | None = None
     sample_dt: float | None = None
+    v0: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    v0_sigma: float | np.ndarray = 1e-3
 
     def __post_init__(self):
         t = np.asarray(self.time, float)
@@ -639,6 +656,13 @@ class AidedInput:
             raise ParameterError("AidedInput: step_start, step_end and step_length must have one shape")
         if self.step_vector is not None and np.shape(self.step_vector) != k + (2,):
             raise ParameterError(f"AidedInput: step_vector must have shape {k + (2,)}")
+        v0 = np.asarray(self.v0, float)
+        if v0.shape != (3,) or not np.all(np.isfinite(v0)):
+            raise ParameterError(f"AidedInput.v0={self.v0!r}: expected three finite velocities [m/s]")
+        sig = np.asarray(self.v0_sigma, float)
+        if sig.shape not in ((), (3,)) or not np.all(np.isfinite(sig) & (sig >= 0)):
+            raise ParameterError(f"AidedInput.v0_sigma={self.v0_sigma!r}: expected one or three finite "
+                                 f"values >= 0 [m/s]")
 
     @property
     def nominal_dt(self) -> float:
@@ -678,9 +702,11 @@ class AidedInput:
 
         The steps that start before that sample are dropped, the rest and
         standing stretches are cut to start there (those that end before are
-        dropped); the initial attitude :attr:`C0` and the epoch grid's
-        sample interval are kept. The filter started on it knows nothing of
-        what came before.
+        dropped); the initial attitude :attr:`C0`, the initial velocity
+        :attr:`v0` with its :attr:`v0_sigma` (set them with
+        :func:`dataclasses.replace` when the cut starts under way) and the
+        epoch grid's sample interval are kept. The filter started on it knows
+        nothing of what came before.
 
         Examples
         --------
@@ -1074,7 +1100,7 @@ def _kernel_args(inp: AidedInput, tun: AidTuning, epoch_s, smooth, keep_inn):
     par = np.array([named[k] for k in K.PAR])
     I3 = np.eye(3)
     P0 = np.zeros((N_AIDED, N_AIDED))
-    P0[DV, DV] = I3 * 1e-6
+    P0[DV, DV] = np.diag(np.broadcast_to(np.square(np.asarray(inp.v0_sigma, float)), (3,)))
     P0[EPS, EPS] = I3 * tun.tilt0 ** 2
     P0[EPS.stop - 1, EPS.stop - 1] = 1e-10        # the heading is zero by definition of the frame
     P0[BA, BA] = I3 * tun.ba0 ** 2
@@ -1086,7 +1112,8 @@ def _kernel_args(inp: AidedInput, tun: AidTuning, epoch_s, smooth, keep_inn):
     return dict(
         t=time, f=np.ascontiguousarray(inp.f, float), w=np.ascontiguousarray(inp.omega, float), flags=flags,
         end_k=end_k, end_a=end_a, end_j=end_j, step_len=np.ascontiguousarray(inp.step_length, float),
-        step_vec=step_vec, turn_q=turn_q, par=par, C0=np.ascontiguousarray(inp.C0, float), P0=P0,
+        step_vec=step_vec, turn_q=turn_q, par=par, C0=np.ascontiguousarray(inp.C0, float),
+        v0=np.array(inp.v0, float), P0=P0,
         fj=-1 if tun.gain_estimated else GAIN, keep_inn=bool(keep_inn), keep_hist=bool(smooth),
         ep_k=np.zeros(m, np.int64), ep_p=np.zeros((m, 3)), ep_P=np.zeros((m, 2, 2)), nis=np.zeros((kinds, 3)),
         inn_k=np.zeros((kinds, cap), np.int64), inn_z=np.zeros((kinds, cap, 3)), inn_y=np.zeros((kinds, cap, 3)),

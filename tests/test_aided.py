@@ -1120,3 +1120,106 @@ def test_the_period_count_is_chosen_where_the_amplitude_varies_and_counts_half_m
     pick = choose_length(data, "s6", "MoRPI-G", config, config.heading)
     assert pick.held_out == "run" and pick.runs == 4
     assert pick.length == "period count" and pick.period_percent < pick.weinberg_percent
+
+
+# ----------------------------------------------------------------------------- a recording that starts under way
+
+#: chi-square, 2 dof: the squared Mahalanobis distance a consistent filter exceeds with probability 1e-6
+#: (``scipy.stats.chi2.ppf(1 - 1e-6, 2) = -2 ln 1e-6``).
+_M2_1E6 = -2.0 * np.log(1e-6)
+
+
+def _level_cruise(v0, *, seconds=10.0, rate_hz=100.0, **kw):
+    """A level phone carried straight along x at 1 m/s from its first sample: the specific force is exactly
+    gravity, the rate zero; steps every 0.5 s with their exact lengths."""
+    n = int(round(seconds * rate_hz)) + 1
+    t = np.arange(n) / rate_hz
+    b = t[::int(round(0.5 * rate_hz))]
+    return aided.AidedInput(time=t, f=np.tile([0.0, 0.0, units.G0], (n, 1)), omega=np.zeros((n, 3)),
+                            C0=np.eye(3), g=units.G0, step_start=b[:-1], step_end=b[1:],
+                            step_length=np.diff(b) * 1.0, v0=np.asarray(v0, float), **kw)
+
+
+def test_a_cruise_started_at_its_true_velocity_ends_on_the_truth_and_from_zero_far_off():
+    """A run that starts at 1 m/s along x (no rest before it), all aids on.
+
+    Given the true initial velocity the nominal state is the truth itself:
+    the phone is level and reads exactly gravity, so the acceleration is
+    zero in floating point, the velocity stays 1 m/s and the position is the
+    sum of the n trapezoid increments ``h (v + v') = dt``. That sum is off
+    the exact ``v0 T`` by at most ``(n - 1) eps/2 T`` (recursive summation),
+    the time differences ``dt`` by at most ``n eps/2 T`` more; the step and
+    non-holonomic innovations are rounding of the same size and so are their
+    corrections. Bound: ``n eps T``. Started at zero velocity (1 mm/s sigma:
+    the filter is sure it stands), the steps pull the position only part of
+    the way: meters off, far outside the filter's own ellipse.
+    """
+    from dataclasses import replace
+
+    moving = _level_cruise([1.0, 0.0, 0.0], v0_sigma=1e-3)
+    n, T = moving.time.size, float(moving.time[-1] - moving.time[0])
+    truth = np.array([T, 0.0])
+    good, bad = aided.run_batch([moving, replace(moving, v0=np.zeros(3))], aided.AidTuning())
+    bound = n * np.finfo(float).eps * T
+    assert np.abs(good.end_point - truth).max() <= bound, (good.end_point - truth, bound)
+    e = bad.end_point - truth
+    assert np.linalg.norm(e) > 0.1 * T, e                          # more than a tenth of the 10 m driven
+    assert e @ np.linalg.solve(bad.end_cov, e) > _M2_1E6
+
+
+def test_the_initial_velocity_sigma_is_the_velocity_covariance():
+    """Without process noise or other initial uncertainty, the position variance after T seconds of
+    dead reckoning is ``(v0_sigma T)^2`` per axis (``dp`` integrates ``dv``: ``Phi`` holds ``T I``)."""
+    sig = np.array([0.1, 0.3, 0.05])
+    quiet = aided.AidTuning(accel_noise=0.0, gyro_noise=0.0, accel_walk=0.0, gyro_walk=0.0, tilt0=0.0, ba0=0.0,
+                            bg0=0.0, steps=False, nhc=False, rest=False)
+    per_axis, one = aided.run_batch([_level_cruise([1.0, 0.0, 0.0], v0_sigma=sig),
+                                     _level_cruise([1.0, 0.0, 0.0], v0_sigma=0.2)], quiet)
+    T = 10.0
+    # 101 epochs, each prediction a few products rounded at eps relative: 1e-12 relative covers them
+    np.testing.assert_allclose(per_axis.end_cov, np.diag(sig[:2] * T) ** 2, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(one.end_cov, np.eye(2) * (0.2 * T) ** 2, rtol=1e-12, atol=0)
+
+
+@pytest.mark.parametrize("kw, match", [
+    (dict(v0=np.zeros(2)), "v0="), (dict(v0=np.array([0.0, np.nan, 0.0])), "v0="),
+    (dict(v0_sigma=-1e-3), "v0_sigma="), (dict(v0_sigma=np.array([0.1, 0.1])), "v0_sigma="),
+    (dict(v0_sigma=np.array([0.1, np.inf, 0.1])), "v0_sigma=")])
+def test_a_bad_initial_velocity_is_refused_by_name(kw, match):
+    t = np.arange(3) * 0.1
+    with pytest.raises(ParameterError, match=match):
+        aided.AidedInput(time=t, f=np.zeros((3, 3)), omega=np.zeros((3, 3)), C0=np.eye(3), g=9.8, **kw)
+
+
+def test_a_simulated_drive_cut_under_way_is_followed_from_its_true_velocity():
+    """The simulator's straight drive (1 m/s), noisy IMU, cut 2 s into the motion (``since``): from the
+    true velocity at the cut (10 mm/s sigma) the end point lies inside the filter's own 1 - 1e-6 ellipse
+    (chi-square, 2 dof; the tuning's noise densities are the simulated IMU's, its initial bias
+    uncertainties above the simulated biases); from zero velocity it is meters off and far outside."""
+    from dataclasses import replace
+
+    traj = simulate.straight(12.0, speed=1.0, ramp=1.0, rest=1.0, rate_hz=100.0)
+    t, pos = traj.time, traj.position
+    b = t[::50]
+    pa = np.array([np.interp(b[:-1], t, pos[:, j]) for j in range(2)]).T
+    pb = np.array([np.interp(b[1:], t, pos[:, j]) for j in range(2)]).T
+    spec = units.LSM6DSL
+    tun = aided.AidTuning(accel_noise=spec.accel_noise, gyro_noise=spec.gyro_noise)
+    members = []
+    for seed in (0, 1, 2):
+        d = simulate.imu(traj, spec, np.random.default_rng(seed), bias_scale=(0.05, 0.05))
+        whole = aided.AidedInput(time=t, f=d.f, omega=d.omega, C0=traj.C_bn[0], g=units.G0, step_start=b[:-1],
+                                 step_end=b[1:], step_length=np.linalg.norm(pb - pa, axis=1),
+                                 rest=((traj.stop_time + 0.1, t[-1]),))
+        cut = whole.since(traj.start_time + 2.0)
+        i0 = int(np.searchsorted(t, cut.time[0]))
+        assert np.linalg.norm(traj.velocity[i0]) == pytest.approx(1.0, abs=1e-9)      # cruising at the cut
+        members += [replace(cut, v0=traj.velocity[i0], v0_sigma=0.01), replace(cut, v0=np.zeros(3))]
+        truth = traj.end_point[:2] - pos[i0, :2]
+    out = aided.run_batch(members, tun)
+    for good, bad in zip(out[::2], out[1::2]):
+        e = good.end_point - truth
+        assert e @ np.linalg.solve(good.end_cov, e) < _M2_1E6, e
+        e = bad.end_point - truth
+        assert np.linalg.norm(e) > 0.1 * np.linalg.norm(truth), e
+        assert e @ np.linalg.solve(bad.end_cov, e) > _M2_1E6
