@@ -858,6 +858,104 @@ class AidedResult:
         return self.P_xy[-1]
 
 
+# --------------------------------------------------------------------------- the horizontal error ellipse
+
+@dataclass(frozen=True)
+class ErrorEllipse:
+    """The region ``d^T P^-1 d <= chi2_2(level)`` of a horizontal position covariance ``P``.
+
+    Attributes
+    ----------
+    semi_major, semi_minor : float
+        Semi-axes [m] (``sqrt(chi2 * lambda)`` of the eigenvalues of ``P``).
+    orientation : float
+        Angle of the major axis from the x axis, counter-clockwise, in ``(-pi/2, pi/2]`` [rad].
+    level : float
+        Probability inside the ellipse for a Gaussian error of covariance ``P``.
+    points : ndarray, shape (k, 2)
+        Points on the ellipse around its centre [m], the first repeated last (a closed curve to plot).
+    """
+
+    semi_major: float
+    semi_minor: float
+    orientation: float
+    level: float
+    points: np.ndarray
+
+
+def error_ellipse(P_xy, *, level: float = 0.95, center=(0.0, 0.0), n_points: int = 65) -> ErrorEllipse:
+    """The horizontal error ellipse of a 2 x 2 position covariance (95 % by default).
+
+    A Gaussian horizontal error ``d`` of covariance ``P`` has ``d^T P^-1 d``
+    chi-square distributed with 2 degrees of freedom, so the ellipse
+    ``d^T P^-1 d <= q`` with ``q`` that distribution's `level` quantile
+    (scipy's ``chi2.ppf``; 5.991 for 95 %) holds it with probability
+    `level`. Its semi-axes are ``sqrt(q lambda)`` for the eigenvalues
+    ``lambda`` of ``P``, along their eigenvectors.
+
+    Parameters
+    ----------
+    P_xy : array_like, shape (2, 2)
+        Symmetric positive semi-definite covariance [m^2] (e.g. :attr:`AidedResult.end_cov`).
+    level : float
+        Probability inside, in (0, 1).
+    center : array_like, shape (2,)
+        Centre of the returned points [m] (e.g. the estimate).
+    n_points : int
+        Points on the curve (at least 3; the first is repeated last).
+
+    Returns
+    -------
+    ErrorEllipse
+        Semi-axes, orientation and points.
+
+    Raises
+    ------
+    ParameterError
+        A covariance that is not a finite symmetric positive semi-definite
+        2 x 2 matrix, a `level` outside (0, 1), fewer than 3 points.
+
+    Examples
+    --------
+    >>> e = error_ellipse(np.diag([4.0, 1.0]))          # sigma 2 m along x, 1 m along y
+    >>> round(e.semi_major, 4), round(e.semi_minor, 4), e.orientation, e.points.shape
+    (4.8955, 2.4477, 0.0, (65, 2))
+    """
+    P = np.asarray(P_xy, float)
+    if P.shape != (2, 2) or not np.all(np.isfinite(P)):
+        raise ParameterError(f"error_ellipse: P_xy must be a finite 2 x 2 covariance; got shape {P.shape}")
+    scale = float(np.abs(P).max())
+    if abs(P[0, 1] - P[1, 0]) > 1e-9 * scale:
+        raise ParameterError(f"error_ellipse: P_xy must be symmetric; got off-diagonals {P[0, 1]!r}, {P[1, 0]!r}")
+    if not (isinstance(level, (float, int)) and 0.0 < level < 1.0):
+        raise ParameterError(f"error_ellipse: level={level!r}: expected a probability in (0, 1)")
+    if isinstance(n_points, bool) or not (isinstance(n_points, (int, np.integer)) and n_points >= 3):
+        raise ParameterError(f"error_ellipse: n_points={n_points!r}: expected a whole number >= 3")
+    c = np.asarray(center, float)
+    if c.shape != (2,) or not np.all(np.isfinite(c)):
+        raise ParameterError(f"error_ellipse: center={center!r}: expected two finite coordinates [m]")
+    from scipy.stats import chi2
+
+    q = float(chi2.ppf(level, 2))
+    a, b, d = P[0, 0], 0.5 * (P[0, 1] + P[1, 0]), P[1, 1]
+    # eigenvalues of a symmetric 2 x 2 matrix: mean -/+ the radius of its Mohr circle
+    mean, radius = 0.5 * (a + d), math.hypot(0.5 * (a - d), b)
+    big, small = mean + radius, mean - radius
+    if small < -1e-12 * scale or a < 0 or d < 0:
+        raise ParameterError(f"error_ellipse: P_xy must be positive semi-definite; its eigenvalues are {big!r}, "
+                             f"{small!r}")
+    theta = 0.5 * math.atan2(2.0 * b, a - d)          # the major axis (in (-pi/2, pi/2])
+    if theta == -0.5 * math.pi:
+        theta = 0.5 * math.pi
+    major, minor = math.sqrt(q * big), math.sqrt(q * max(small, 0.0))
+    s = np.linspace(0.0, 2.0 * math.pi, int(n_points))
+    s[-1] = 0.0                                         # the curve closes on its first point exactly
+    u, w = major * np.cos(s), minor * np.sin(s)
+    ct, st = math.cos(theta), math.sin(theta)
+    pts = np.stack([c[0] + ct * u - st * w, c[1] + st * u + ct * w], axis=1)
+    return ErrorEllipse(semi_major=major, semi_minor=minor, orientation=theta, level=float(level), points=pts)
+
+
 # --------------------------------------------------------------------------- the pass over many members
 
 def _step_samples(inp: AidedInput):

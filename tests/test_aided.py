@@ -1223,3 +1223,62 @@ def test_a_simulated_drive_cut_under_way_is_followed_from_its_true_velocity():
         e = bad.end_point - truth
         assert np.linalg.norm(e) > 0.1 * np.linalg.norm(truth), e
         assert e @ np.linalg.solve(bad.end_cov, e) > _M2_1E6
+
+
+# ----------------------------------------------------------------------------- the horizontal error ellipse
+
+def _q(level):
+    # the chi-square distribution with 2 dof is exponential: P(X <= q) = 1 - exp(-q / 2)
+    return -2.0 * np.log1p(-level)
+
+
+@pytest.mark.parametrize("sx, sy, angle", [(2.0, 1.0, 0.0), (0.5, 3.0, np.pi / 2)])
+def test_error_ellipse_of_a_diagonal_covariance(sx, sy, angle):
+    e = aided.error_ellipse(np.diag([sx ** 2, sy ** 2]))
+    k = np.sqrt(_q(0.95))                                      # 2.4477: the 95 % radius in sigmas
+    # a square root and a product of exact inputs: a few eps relative
+    assert e.semi_major == pytest.approx(k * max(sx, sy), rel=1e-14)
+    assert e.semi_minor == pytest.approx(k * min(sx, sy), rel=1e-14)
+    assert e.orientation == pytest.approx(angle, abs=1e-15) and e.level == 0.95
+    assert aided.CHI2_95_2DOF == pytest.approx(_q(0.95), rel=1e-15)
+    np.testing.assert_allclose(np.abs(e.points).max(axis=0), k * np.array([sx, sy]), rtol=1e-12)
+
+
+@pytest.mark.parametrize("theta", [0.3, -1.1, 1.4, np.pi / 2 - 1e-3])
+def test_error_ellipse_of_a_rotated_covariance(theta):
+    s1, s2 = 0.8, 0.25
+    R = np.array([[np.cos(theta), -np.sin(theta)], [np.sin(theta), np.cos(theta)]])
+    P = R @ np.diag([s1 ** 2, s2 ** 2]) @ R.T
+    e = aided.error_ellipse(P, level=0.99, center=(3.0, -2.0), n_points=37)
+    q = _q(0.99)
+    # P built with a few roundings of relative eps; its eigenvalues keep them, the square roots halve them
+    assert e.semi_major == pytest.approx(np.sqrt(q) * s1, rel=1e-13)
+    assert e.semi_minor == pytest.approx(np.sqrt(q) * s2, rel=1e-13)
+    # the angle of an eigenvector: rounding of P (1e-16 relative) over the eigenvalue gap (0.6 of the largest)
+    assert e.orientation == pytest.approx(theta, abs=1e-13)
+    d = e.points - [3.0, -2.0]
+    np.testing.assert_allclose(np.einsum("ki,ij,kj->k", d, np.linalg.inv(P), d), q, rtol=1e-12)
+    assert e.points.shape == (37, 2) and np.array_equal(e.points[0], e.points[-1])
+
+
+def test_error_ellipse_holds_its_share_of_gaussian_draws():
+    rng = np.random.default_rng(20240601)
+    P = np.array([[0.09, -0.05], [-0.05, 0.04]])
+    d = rng.multivariate_normal([0.0, 0.0], P, size=200_000)
+    for level in (0.5, 0.95):
+        e = aided.error_ellipse(P, level=level)
+        ct, st = np.cos(e.orientation), np.sin(e.orientation)
+        u, w = ct * d[:, 0] + st * d[:, 1], -st * d[:, 0] + ct * d[:, 1]        # in the ellipse's axes
+        inside = np.mean((u / e.semi_major) ** 2 + (w / e.semi_minor) ** 2 <= 1.0)
+        # a binomial share of 200,000 draws: 5 standard deviations
+        assert abs(inside - level) < 5 * np.sqrt(level * (1 - level) / d.shape[0]), (level, inside)
+
+
+@pytest.mark.parametrize("P, kw, match", [
+    (np.eye(3), {}, "2 x 2"), (np.array([[1.0, np.nan], [np.nan, 1.0]]), {}, "finite"),
+    (np.array([[1.0, 0.5], [0.4, 1.0]]), {}, "symmetric"), (np.array([[1.0, 2.0], [2.0, 1.0]]), {}, "semi-definite"),
+    (np.eye(2), {"level": 1.0}, "level="), (np.eye(2), {"n_points": 2}, "n_points="),
+    (np.eye(2), {"center": (0.0, np.inf)}, "center=")])
+def test_error_ellipse_refuses_a_bad_covariance_by_name(P, kw, match):
+    with pytest.raises(ParameterError, match=match):
+        aided.error_ellipse(P, **kw)
