@@ -8,16 +8,16 @@ updates and feedback at the epochs, writing into arrays the caller owns, then, w
 
 - the transition ``I + F T + (F T)^2 / 2`` of an epoch interval by its non-zero blocks, and the
   prediction that touches only those (:func:`transition_blocks`, :func:`predict`);
-- the Joseph update of :func:`aided.kf_update` (filterpy's equations; one considered state at
-  most: the gain error);
-- the measurement models ``h`` and ``H`` of :class:`aided.StepDisplacement`,
-  :class:`aided.ZeroVelocity`, :class:`aided.ZeroRate` and :class:`aided.NonHolonomic`;
+- filterpy's Joseph-form update (:func:`kf_update`; one considered state at most: the gain error);
+- the measurement models ``h`` and ``H`` of the step displacement, zero velocity, zero rate and the
+  non-holonomic constraint (:func:`step_model`, :func:`zero_velocity_model`, :func:`zero_rate_model`,
+  :func:`nhc_model`);
 - Rodrigues' formula of :func:`strapdown.rotvec_to_C`, and with it the running attitude product of
   each run of :func:`strapdown.ins3d` (:func:`attitude_chain`, :func:`attitude_chains`);
-- the Rauch-Tung-Striebel recursion of :func:`aided.rts_smooth`.
+- filterpy's Rauch-Tung-Striebel recursion for the fed-back filter (:func:`smooth_member`).
 
-The tests hold each piece against those (the transition against the dense series, the
-prediction against :func:`aided.kf_predict`, the smoother against :func:`aided.rts_smooth`).
+The tests hold each piece within a stated rounding tolerance to the dense series or a numpy reference
+form (``tests/oracles/aided.py``, itself held to filterpy and to finite differences).
 
 numba is imported on the first call (:func:`compiled`), not with the package, and its machine code
 is cached on disk. Every function runs as plain Python too (slowly): the tests compare both.
@@ -115,7 +115,7 @@ def transition_blocks(d, fn, Cm, A):
 
 
 def predict(x, P, A, q, AP, APA, xa):
-    """``x = Phi x``, ``P = Phi P Phi^T + diag(q)`` in place for ``Phi = I + A`` (:func:`aided.kf_predict`
+    """``x = Phi x``, ``P = Phi P Phi^T + diag(q)`` in place for ``Phi = I + A`` (filterpy's prediction
     on the non-zero blocks); `AP` (9, n), `APA` (9, 9) and `xa` (9,) are scratch."""
     n = x.shape[0]
     AP[:, :] = 0.0
@@ -196,10 +196,12 @@ def h_x_plus_r(H, X, R, m, out):
 
 
 def kf_update(x, P, y, H, R, m, fj, S, PHt, KHt, K, D, Si, Sc):
-    """Joseph-form update in place, the innovation covariance into `S`: :func:`aided.kf_update`.
+    """Joseph-form update in place, the innovation covariance into `S`.
 
-    `fj` is the considered (frozen) state, or -1. Returns the NIS ``y^T S^-1 y``. `PHt`, `KHt`,
-    `K`, `D` (n, 3) and `Si`, `Sc` (3, 3) are scratch.
+    filterpy's ``S = H P H^T + R``, ``K = P H^T S^-1``, ``x = x + K y``, ``P = (I - K H) P (I - K H)^T
+    + K R K^T``. `fj` is the considered (frozen) state, or -1: the gain is then the one of the filter taking
+    it as known (from ``P`` conditioned on it) and it is not updated. Returns the NIS ``y^T S^-1 y``.
+    `PHt`, `KHt`, `K`, `D` (n, 3) and `Si`, `Sc` (3, 3) are scratch.
     """
     n = x.shape[0]
     product(P, H, True, n, n, m, PHt)
@@ -251,7 +253,8 @@ def kf_update(x, P, y, H, R, m, fj, S, PHt, KHt, K, D, Si, Sc):
 
 
 def step_model(x, p, clone, attitude, z, H, y):
-    """Innovation and Jacobian of the MoRPI step: :class:`aided.StepDisplacement`."""
+    """Innovation and Jacobian of the MoRPI step ``z = (1 + k) R(e) (p_xy - c)`` (true position ``p``
+    and clone ``c``; ``e`` the attitude's heading error, or with given directions :data:`_TURN`)."""
     gain = 1.0 + x[_GAIN]
     d0 = (p[0] - x[_DP]) - (clone[0] - x[_CL])
     d1 = (p[1] - x[_DP + 1]) - (clone[1] - x[_CL + 1])
@@ -268,7 +271,7 @@ def step_model(x, p, clone, attitude, z, H, y):
 
 
 def zero_velocity_model(x, v, H, y):
-    """Innovation (measurement zero) and Jacobian of the zero-velocity update: :class:`aided.ZeroVelocity`."""
+    """Innovation and Jacobian of the zero-velocity update, ``z = 0 = v_hat - dv``."""
     H[:, :] = 0.0
     for i in range(3):
         H[i, _DV + i] = -1.0
@@ -276,7 +279,7 @@ def zero_velocity_model(x, v, H, y):
 
 
 def zero_rate_model(x, z, H, y):
-    """Innovation and Jacobian of the zero-rate update (`z` the mean rate): :class:`aided.ZeroRate`."""
+    """Innovation and Jacobian of the zero-rate update, ``z = mean(omega) - bg_hat = bg`` (`z` the mean rate)."""
     H[:, :] = 0.0
     for i in range(3):
         H[i, _BG + i] = 1.0
@@ -284,7 +287,8 @@ def zero_rate_model(x, z, H, y):
 
 
 def nhc_model(x, C, v, M, H, y):
-    """Innovation (measurement zero) and Jacobian of the non-holonomic constraint: :class:`aided.NonHolonomic`."""
+    """Innovation (measurement zero) and Jacobian of the non-holonomic constraint: rows 2-3 of ``M C^T v``
+    (true ``C`` and ``v``; `M` the phone-to-robot tilt), linearized at the fed-back state."""
     R = np.zeros((3, 3))
     rodrigues(-x[_EPS], -x[_EPS + 1], -x[_EPS + 2], R)
     Ct = np.zeros((3, 3))
@@ -308,7 +312,7 @@ def nhc_model(x, C, v, M, H, y):
         H[r, _EPS + 2] = -(a0 * u[1] - a1 * u[0])
 
 
-def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn_q, par, C0, P0, fj,
+def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn_q, par, C0, v0, P0, fj,
                    keep_inn, keep_hist, ep_k, ep_p, ep_P, nis, inn_k, inn_z, inn_y, inn_S, inn_n,
                    hist_P, hist_rec, x, P, bias):
     """The forward filter over one recording, written into the output arrays.
@@ -327,8 +331,8 @@ def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn
         Turn variance added to the heading error of given directions at a sample.
     par : (len(PAR),)
         Tunables (:data:`PAR`).
-    C0, P0 : (3, 3), (N, N)
-        Initial attitude (also the phone-to-robot tilt) and covariance.
+    C0, v0, P0 : (3, 3), (3,), (N, N)
+        Initial attitude (also the phone-to-robot tilt), velocity and covariance.
     fj : int
         Considered state, or -1.
     keep_inn, keep_hist : bool
@@ -348,7 +352,7 @@ def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn
     C = C0.copy()
     Cn = np.zeros((3, 3))
     Rt = np.zeros((3, 3))
-    v = np.zeros(3)
+    v = v0.copy()
     p = np.zeros(3)
     clone = np.zeros(2)
     ba = np.zeros(3)
@@ -560,8 +564,7 @@ def _log(kind, m, k, z, y, val, S, nis, keep_inn, inn_k, inn_z, inn_y, inn_S, in
 
 
 def condition(P, j):
-    """``P`` conditioned on state `j` in place (one Schur complement; its row and column zero):
-    ``aided._condition``."""
+    """``P`` conditioned on state `j` in place (one Schur complement; its row and column zero)."""
     pjj = P[j, j]
     if pjj > 0:
         w = 1.0 / pjj
@@ -574,7 +577,7 @@ def condition(P, j):
 
 
 def smooth_member(hist_P, hist_rec, q_ba, q_bg, fj, covariance, xs, Ps_xy):
-    """Rauch-Tung-Striebel smoother over one member's epochs (:func:`aided.rts_smooth`), from the
+    """Rauch-Tung-Striebel smoother over one member's epochs (filterpy's recursion), from the
     history :func:`forward_member` wrote: the smoothed error states into `xs` (m, N) and, with
     `covariance`, the smoothed horizontal covariances into `Ps_xy` (m, 2, 2).
 

@@ -18,7 +18,7 @@ nominal state (position, velocity, attitude, biases, clone) and those error
 states return to zero; the gain error and the step directions' heading error stay states. It is either estimated
 or only considered (:attr:`AidTuning.gain_estimated`: the estimate is the one
 of the filter that takes the trained gain as exact, the covariance carries the
-gain's spread; :func:`kf_update`'s `frozen`).
+gain's spread).
 
 The covariance is propagated on an epoch grid (every ``epoch_s`` seconds of
 samples, 0.1 s by default, and every step boundary's own sample) with the
@@ -26,32 +26,35 @@ transition ``I + F T + (F T)^2 / 2`` of the interval's mean specific force and
 attitude; the nominal state is integrated at every sample. Updates happen at
 the epochs:
 
-* :class:`StepDisplacement`: the MoRPI step, ``L (cos psi, sin psi)`` (length
+* the step displacement: the MoRPI step, ``L (cos psi, sin psi)`` (length
   ``L`` from the trained gain; heading ``psi`` of the filter's attitude averaged
   over the step, which turns the measured vector with the filter's heading
   error, or a given step vector) equals ``(1 + k)`` times the displacement
   since the clone;
-* :class:`ZeroVelocity` and :class:`ZeroRate`: the still stretches the caller
+* zero velocity and zero rate: the still stretches the caller
   names (``AidedInput.rest``), and the zero-velocity update alone where the
   robot stands while its phone may hum with the motors (``AidedInput.standing``);
   while the robot stands, the process noise is the still phone's own
   (``AidTuning.rest_accel_noise``, ``rest_gyro_noise``), not the motion's;
-* :class:`NonHolonomic`: the robot's lateral and vertical velocity are zero
+* non-holonomic: the robot's lateral and vertical velocity are zero
   (phone-to-robot tilt from the rest specific force, mounting yaw zero).
 
 The accelerometer bias may step when the robot starts or stops moving
 (``AidTuning.accel_jump``): the phone's apparent specific force shifts under way.
 
-Every measurement is a small object with its nonlinear model ``h(x, nom)``,
-Jacobian ``H(x, nom)`` and noise ``R``, batched over a leading axis of
-members. One predict/update core serves every measurement: filterpy's
-``KalmanFilter`` equations in Joseph form (:func:`kf_predict`, :func:`kf_update`),
-and :func:`rts_smooth` is filterpy's Rauch-Tung-Striebel recursion written for
-the fed-back filter. :func:`run_batch` runs many recordings (or one recording
-under many tunings): each member's forward pass and smoother run these
-equations and measurement models as loops over its samples and epochs, compiled
-by numba (:mod:`morpi_filters._aided_kernel`, whose tests hold every piece
-against the functions and classes here).
+Every measurement has its nonlinear model ``h``, Jacobian ``H`` and noise
+``R`` (``step_model``, ``zero_velocity_model``, ``zero_rate_model``,
+``nhc_model`` of :mod:`morpi_filters._aided_kernel`). One update serves them
+all: filterpy's ``KalmanFilter`` equations in Joseph form (``kf_update``,
+with the considered gain error: the gain of the filter that takes it as
+known), and the smoother is filterpy's Rauch-Tung-Striebel recursion written
+for the fed-back filter (``smooth_member``). :func:`run_batch` runs many
+recordings (or one recording under many tunings): each member's forward pass
+and smoother are loops over its samples and epochs, compiled by numba. The
+tests hold every piece to numpy reference forms (``tests/oracles/aided.py``:
+``kf_predict``, ``kf_update``, ``rts_smooth`` and the measurement classes
+``StepDisplacement``, ``ZeroVelocity``, ``ZeroRate``, ``NonHolonomic``), and
+those to filterpy and to finite differences.
 """
 
 from __future__ import annotations
@@ -65,7 +68,6 @@ from . import _aided_kernel
 from .error_model import BA, BG, DP, DV, EPS, N_STATES
 from .errors import ParameterError
 from .parallel import available_cores, chunk_ranges, execute
-from .strapdown import rotvec_to_C
 
 #: Clone of the horizontal position error at the last step boundary.
 CLONE = slice(N_STATES, N_STATES + 2)
@@ -80,407 +82,6 @@ N_AIDED = N_STATES + 4
 STEP_HEADINGS = ("attitude", "gyro")
 #: 95 % point of the chi-square distribution with 2 degrees of freedom (the horizontal ellipse).
 CHI2_95_2DOF = 5.991464547107979
-
-
-# --------------------------------------------------------------------------- Kalman core (batched)
-
-def kf_predict(x, P, Phi, Q):
-    """Kalman prediction ``x = Phi x``, ``P = Phi P Phi^T + Q`` over a leading batch axis.
-
-    The equations of filterpy's ``KalmanFilter.predict`` (no control input).
-
-    Parameters
-    ----------
-    x : ndarray, shape (b, n)
-        Error states of b filters.
-    P, Phi, Q : ndarray, shape (b, n, n)
-        Covariances, transition matrices and discrete process noise.
-
-    Returns
-    -------
-    x : ndarray, shape (b, n)
-        Predicted states.
-    P : ndarray, shape (b, n, n)
-        Predicted covariances.
-
-    Examples
-    --------
-    >>> Phi = np.array([[[1.0, 1.0], [0.0, 1.0]]])          # position integrates velocity over 1 s
-    >>> x, P = kf_predict(np.array([[0.0, 1.0]]), np.eye(2)[None], Phi, np.zeros((1, 2, 2)))
-    >>> x.tolist(), P[0].tolist()
-    ([[1.0, 1.0]], [[2.0, 1.0], [1.0, 1.0]])
-    """
-    x = np.einsum("bij,bj->bi", Phi, x)
-    P = Phi @ P @ np.swapaxes(Phi, 1, 2) + Q
-    return x, P
-
-
-def kf_update(x, P, y, H, R, frozen=None, out=None, work=None):
-    """Kalman update with innovation `y` over a leading batch axis (Joseph form).
-
-    The equations of filterpy's ``KalmanFilter.update``: ``S = H P H^T + R``,
-    ``K = P H^T S^-1``, ``x = x + K y``, ``P = (I - K H) P (I - K H)^T + K R K^T``.
-    With `frozen` (a consider analysis), the flagged states are taken as
-    known at their estimate: the gain ``K`` is the one of the filter without
-    them, computed from ``P`` conditioned on them (the Schur complement
-    ``P - P_.f P_ff^-1 P_f.``, which evolves as that filter's own covariance),
-    and they are not updated. The Joseph form, valid for any gain, then
-    carries their uncertainty into ``P``: the covariance of the estimate
-    around the truth, whatever their true value, and ``S`` the innovations'
-    true covariance.
-
-    Parameters
-    ----------
-    x : ndarray, shape (b, n)
-        Prior states of b filters.
-    P : ndarray, shape (b, n, n)
-        Prior covariances.
-    y : ndarray, shape (b, m)
-        Innovation ``z - h(x)``.
-    H : ndarray, shape (b, m, n)
-        Measurement matrices.
-    R : ndarray, shape (b, m, m)
-        Measurement noise covariances.
-    frozen : ndarray, shape (b, n) of bool, optional
-        Considered states (not updated) per filter.
-    out : ndarray, shape (b, n, n), optional
-        Where to write the updated covariances (may be `P` itself).
-    work : ndarray, shape (b, n, n), optional
-        Scratch space for the update (not `P` or `out`).
-
-    Returns
-    -------
-    x : ndarray, shape (b, n)
-        Updated states.
-    P : ndarray, shape (b, n, n)
-        Updated covariances (Joseph form, symmetrized; `out` when given).
-    S : ndarray, shape (b, m, m)
-        Innovation covariances (for the NIS ``y^T S^-1 y``).
-
-    Examples
-    --------
-    >>> x, P, S = kf_update(np.zeros((1, 1)), np.eye(1)[None], np.ones((1, 1)), np.eye(1)[None], np.eye(1)[None])
-    >>> x.tolist(), P.tolist(), S.tolist()       # equal prior and measurement variances: half way
-    ([[0.5]], [[[0.5]]], [[[2.0]]])
-    """
-    Ht = np.swapaxes(H, 1, 2)
-    PHt = P @ Ht
-    S = H @ PHt + R
-    KHt = PHt
-    Sc = S
-    if frozen is not None:
-        frozen = np.broadcast_to(np.asarray(frozen, bool), x.shape)
-        cols = np.flatnonzero(frozen.any(axis=0))
-        if cols.size == 1:
-            # one frozen state: P_c H^T = P H^T - p_j (H p_j)^T / P_jj, without forming P_c
-            j = int(cols[0])
-            col = P[:, :, j]
-            pjj = P[:, j, j]
-            use = frozen[:, j] & (pjj > 0)
-            w = np.where(use, 1.0 / np.where(pjj > 0, pjj, 1.0), 0.0)
-            KHt = PHt - w[:, None, None] * col[:, :, None] * np.einsum("bmn,bn->bm", H, col)[:, None, :]
-            KHt[use, j, :] = 0.0
-        else:
-            KHt = _condition(P, frozen) @ Ht
-        Sc = H @ KHt + R
-    K = KHt @ np.linalg.inv(Sc)
-    x = x + np.einsum("bij,bj->bi", K, y)
-    # the Joseph form expanded: (I - K H) P (I - K H)^T + K R K^T = P - K H P - P H^T K^T + K S K^T
-    # = P + K D^T - P H^T K^T with D = K S - P H^T: one product of n x 2m and 2m x n factors
-    D = K @ S - PHt
-    Pn = np.matmul(np.concatenate([K, -PHt], axis=2), np.swapaxes(np.concatenate([D, K], axis=2), 1, 2), out=work)
-    Pn += P
-    if out is None:
-        out = np.empty_like(Pn)
-    np.add(Pn, np.swapaxes(Pn, 1, 2), out=out)
-    out *= 0.5
-    return x, out, S
-
-
-def _condition(P, frozen):
-    """``P`` conditioned on the `frozen` states (one Schur complement per state), batched.
-
-    Parameters
-    ----------
-    P : ndarray, shape (b, n, n)
-    frozen : ndarray, shape (b, n) or (n,) of bool
-
-    Returns
-    -------
-    ndarray, shape (b, n, n)
-        The conditional covariances: the frozen states' rows and columns are zero.
-    """
-    frozen = np.broadcast_to(np.asarray(frozen, bool), P.shape[:-1])
-    Pc = P
-    for j in np.flatnonzero(frozen.any(axis=0)):
-        pjj = Pc[:, j, j]
-        use = frozen[:, j] & (pjj > 0)
-        w = np.where(use, 1.0 / np.where(pjj > 0, pjj, 1.0), 0.0)
-        col = Pc[:, :, j]
-        # P - w p_j p_j^T, the outer product's array taking the difference (one (b, n, n) array per state)
-        out = w[:, None, None] * col[:, :, None] * col[:, None, :]
-        Pc = np.subtract(Pc, out, out=out)
-        Pc[use, j, :] = 0.0                   # exact zeros where rounding leaves 1e-20
-        Pc[use, :, j] = 0.0
-    return Pc
-
-
-def rts_smooth(x_post, P_post, x_prior, P_prior, Phi, fed=None, frozen=None, covariance=True):
-    """Rauch-Tung-Striebel smoother over epochs ``0..m-1`` (filterpy's recursion).
-
-    ``Phi[k]`` propagates from epoch ``k - 1`` to ``k`` (filterpy's
-    ``Fs[k]``); ``x_prior[k]``, ``P_prior[k]`` are the predictions at epoch ``k``
-    before its update. With feedback, ``fed[k]`` is the correction moved into
-    the nominal state at epoch ``k`` (the smoothed error there is then
-    relative to the corrected nominal state).
-
-    Parameters
-    ----------
-    x_post, x_prior : ndarray, shape (m, n)
-        Filtered (after update) and predicted (before update) states.
-    P_post, P_prior, Phi : ndarray, shape (m, n, n)
-        Their covariances, and the transitions into each epoch (``Phi[0]``
-        is not used).
-    fed : ndarray, shape (m, n), optional
-        Corrections fed back into the nominal state per epoch.
-    frozen : ndarray, shape (n,) of bool, optional
-        Considered states of the forward pass (:func:`kf_update`): the
-        smoother's gains come from the covariances conditioned on them, so
-        the smoothed estimate is that of the filter taking them as known
-        (the smoothed covariance does not carry their uncertainty).
-    covariance : bool
-        Also run the covariance recursion (the states do not need it).
-
-    Returns
-    -------
-    xs : ndarray, shape (m, n)
-        Smoothed states.
-    Ps : ndarray, shape (m, n, n), or None
-        Smoothed covariances (None without `covariance`).
-
-    Examples
-    --------
-    A constant measured twice (z = 1, then 4; prior 0, all variances 1):
-    the smoothed value at both epochs is the mean of the three, 5/3, with
-    variance 1/3.
-
-    >>> one = np.ones((1, 1, 1))
-    >>> x0, P0, _ = kf_update(np.zeros((1, 1)), one, np.array([[1.0]]), one, one)
-    >>> x1p, P1p = kf_predict(x0, P0, one, 0 * one)
-    >>> x1, P1, _ = kf_update(x1p, P1p, np.array([[4.0]]) - x1p, one, one)
-    >>> xs, Ps = rts_smooth(np.concatenate([x0, x1]), np.concatenate([P0, P1]),
-    ...                     np.concatenate([np.zeros((1, 1)), x1p]), np.concatenate([one, P1p]),
-    ...                     np.concatenate([one, one]))
-    >>> (3 * xs).round(12).ravel().tolist(), (3 * Ps).round(12).ravel().tolist()
-    ([5.0, 5.0], [1.0, 1.0])
-    """
-    xs = np.array(x_post, dtype=float)
-    Ps = np.array(P_post, dtype=float) if covariance else None
-    if xs.shape[0] < 2:
-        return xs, Ps
-    # the smoother gains depend on the forward pass only: all of them in one batched call
-    Pp, Pq = P_post[:-1], P_prior[1:]
-    own = frozen is not None and bool(np.any(frozen))     # Pq then an array of the smoother's own
-    if own:
-        # the smoother of the filter that takes the frozen states as known (:func:`kf_update`)
-        Pp, Pq = _condition(Pp, frozen), _condition(Pq, frozen)
-    # G = Pp Phi^T Pq^+ : states without uncertainty (an unused clone or gain, a considered state) have
-    # exactly zero rows and columns in Pq, where the pseudo-inverse is zero too; the rest is invertible
-    dead = ~(Pq != 0).any(axis=2)
-    if dead.any():
-        if not own:                           # a view of the caller's P_prior: written in a copy
-            Pq = Pq.copy()
-        np.einsum("bii->bi", Pq)[...] += dead  # a one on the diagonal of each such state
-    G = np.swapaxes(np.linalg.solve(Pq, Phi[1:] @ np.swapaxes(Pp, 1, 2)), 1, 2)
-    np.copyto(G, 0.0, where=dead[:, None, :])
-    for k in range(xs.shape[0] - 2, -1, -1):
-        ahead = xs[k + 1] if fed is None else xs[k + 1] + fed[k + 1]
-        xs[k] = x_post[k] + G[k] @ (ahead - x_prior[k + 1])
-        if covariance:
-            Ps[k] = P_post[k] + G[k] @ (Ps[k + 1] - P_prior[k + 1]) @ G[k].T
-    return xs, Ps
-
-
-def _skew(v):
-    """Batched cross-product matrices, shape (b, 3) -> (b, 3, 3)."""
-    out = np.zeros(v.shape[:-1] + (3, 3))
-    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
-    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
-    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
-    return out
-
-
-# --------------------------------------------------------------------------- measurements
-
-@dataclass(frozen=True)
-class Nominal:
-    """Nominal (fed-back) navigation state the measurements linearize about, batched.
-
-    Attributes
-    ----------
-    C : ndarray, shape (b, 3, 3)
-        Body-to-navigation attitude.
-    v, p : ndarray, shape (b, 3)
-        Velocity [m/s] and position [m] in the navigation frame (z up).
-    clone : ndarray, shape (b, 2)
-        Horizontal position at the last step boundary [m].
-    """
-
-    C: np.ndarray
-    v: np.ndarray
-    p: np.ndarray
-    clone: np.ndarray
-
-
-@dataclass(frozen=True)
-class StepDisplacement:
-    """MoRPI step: ``z = (1 + k) R(e) (p_xy - c)`` with the true position ``p`` and clone ``c``.
-
-    When the step's direction is read from the filter's own attitude
-    (``attitude``), the measured vector turns with the filter's heading
-    error, ``e = eps_z``: the step then says nothing about the heading, only
-    about the length. With a direction from elsewhere (MoRPI's own heading
-    reading, the route's heading), ``e`` is that reading's own heading error
-    (:data:`TURN`, which grows with every turn the reading takes).
-
-    Attributes
-    ----------
-    z : ndarray, shape (b, 2)
-        Measured displacement [m].
-    sigma : ndarray, shape (b,)
-        Noise per axis [m].
-    attitude : ndarray, shape (b,) of bool, optional
-        Whether each member's direction comes from the filter's attitude.
-    """
-
-    z: np.ndarray
-    sigma: np.ndarray
-    attitude: np.ndarray | None = None
-
-    def _d(self, x, nom):
-        return (nom.p[:, :2] - x[:, DP][:, :2]) - (nom.clone - x[:, CLONE])
-
-    def _e(self, x):
-        if self.attitude is None:
-            return x[:, TURN]
-        return np.where(self.attitude, x[:, EPS.stop - 1], x[:, TURN])
-
-    def h(self, x, nom: Nominal):
-        gain = 1.0 + x[:, GAIN]
-        d = self._d(x, nom)
-        e = self._e(x)
-        c, s = np.cos(e), np.sin(e)
-        d = np.stack([c * d[:, 0] - s * d[:, 1], s * d[:, 0] + c * d[:, 1]], axis=1)
-        return gain[:, None] * d
-
-    def H(self, x, nom: Nominal):
-        # at the state given: the attitude's heading error is fed back (zero), the reading's is not
-        gain = 1.0 + x[:, GAIN]
-        d = self._d(x, nom)
-        e = self._e(x)
-        c, s = np.cos(e), np.sin(e)
-        Rm = np.stack([np.stack([c, -s], axis=1), np.stack([s, c], axis=1)], axis=1)      # (b, 2, 2)
-        Rd = np.einsum("bij,bj->bi", Rm, d)
-        dRd = np.stack([-Rd[:, 1], Rd[:, 0]], axis=1)                                       # dR/de d
-        H = np.zeros((x.shape[0], 2, N_AIDED))
-        H[:, :, DP.start:DP.start + 2] = -gain[:, None, None] * Rm
-        H[:, :, CLONE] = gain[:, None, None] * Rm
-        H[:, :, GAIN] = Rd
-        if self.attitude is None:
-            H[:, :, TURN] = gain[:, None] * dRd
-        else:
-            a = np.asarray(self.attitude, bool)
-            H[:, :, EPS.stop - 1] = np.where(a[:, None], gain[:, None] * dRd, 0.0)
-            H[:, :, TURN] = np.where(a[:, None], 0.0, gain[:, None] * dRd)
-        return H
-
-    def R(self):
-        return self.sigma[:, None, None] ** 2 * np.eye(2)
-
-
-@dataclass(frozen=True)
-class ZeroVelocity:
-    """Rest: the true velocity is zero, ``z = 0 = v_hat - dv``."""
-
-    sigma: np.ndarray
-
-    @property
-    def z(self):
-        return np.zeros((self.sigma.shape[0], 3))
-
-    def h(self, x, nom: Nominal):
-        return nom.v - x[:, DV]
-
-    def H(self, x, nom: Nominal):
-        H = np.zeros((x.shape[0], 3, N_AIDED))
-        H[:, :, DV] = -np.eye(3)
-        return H
-
-    def R(self):
-        return self.sigma[:, None, None] ** 2 * np.eye(3)
-
-
-@dataclass(frozen=True)
-class ZeroRate:
-    """Rest: the gyro reads its bias, ``z = mean(omega) - bg_hat = bg``.
-
-    Attributes
-    ----------
-    z : ndarray, shape (b, 3)
-        Mean bias-corrected angular rate over the epoch [rad/s].
-    sigma : ndarray, shape (b,)
-        Its noise per axis [rad/s] (the white-noise density over the epoch's duration).
-    """
-
-    z: np.ndarray
-    sigma: np.ndarray
-
-    def h(self, x, nom: Nominal):
-        return x[:, BG].copy()
-
-    def H(self, x, nom: Nominal):
-        H = np.zeros((x.shape[0], 3, N_AIDED))
-        H[:, :, BG] = np.eye(3)
-        return H
-
-    def R(self):
-        return self.sigma[:, None, None] ** 2 * np.eye(3)
-
-
-@dataclass(frozen=True)
-class NonHolonomic:
-    """Robot-frame lateral and vertical velocity zero: rows 2-3 of ``M C^T v`` (true ``C``, ``v``).
-
-    Attributes
-    ----------
-    M : ndarray, shape (b, 3, 3)
-        Phone body axes to robot axes (the tilt at rest, yaw zero).
-    sigma : ndarray, shape (b,)
-        Velocity noise [m/s].
-    """
-
-    M: np.ndarray
-    sigma: np.ndarray
-
-    @property
-    def z(self):
-        return np.zeros((self.sigma.shape[0], 2))
-
-    def h(self, x, nom: Nominal):
-        C_true = rotvec_to_C(-x[:, EPS]) @ nom.C
-        vb = np.einsum("bji,bj->bi", C_true, nom.v - x[:, DV])
-        return np.einsum("bij,bj->bi", self.M, vb)[:, 1:]
-
-    def H(self, x, nom: Nominal):
-        # linearized at the fed-back state (eps = dv = 0)
-        A = (self.M @ np.swapaxes(nom.C, 1, 2))[:, 1:]
-        H = np.zeros((x.shape[0], 2, N_AIDED))
-        H[:, :, DV] = -A
-        H[:, :, EPS] = -A @ _skew(nom.v - x[:, DV])
-        return H
-
-    def R(self):
-        return self.sigma[:, None, None] ** 2 * np.eye(2)
 
 
 # --------------------------------------------------------------------------- inputs and tunables
@@ -520,7 +121,7 @@ class AidTuning:
         Prior relative gain error (0: the gain is taken as exact).
     gain_estimated : bool
         Whether the updates estimate the gain error (True) or only consider
-        it (False: :func:`kf_update`'s `frozen`; the estimate is that of the
+        it (False: a considered state; the estimate is that of the
         filter taking the trained gain as exact, its covariance carries the
         gain's uncertainty).
     tilt0, ba0, bg0 : float
@@ -595,7 +196,10 @@ class AidedInput:
     f, omega : ndarray, shape (n, 3)
         Specific force [m/s^2] and angular rate [rad/s] (calibrated as wished).
     C0 : ndarray, shape (3, 3)
-        Initial attitude (roll and pitch from rest, yaw zero).
+        Initial attitude (roll and pitch from rest, yaw zero: the frame's x
+        axis is the initial heading, whose variance the filter starts near
+        zero; the non-holonomic constraint takes `C0` as the phone-to-robot
+        tilt, so a yaw in it would turn the robot's axes as well).
     g : float
         Gravity magnitude [m/s^2].
     step_start, step_end, step_length : ndarray, shape (k,)
@@ -611,6 +215,18 @@ class AidedInput:
     sample_dt : float, optional
         The sample interval that sets the epoch grid [s] (default: the
         median interval of `time`; :meth:`until` keeps the whole recording's).
+    v0 : ndarray, shape (3,)
+        Velocity at the first sample, in the navigation frame [m/s] (default
+        zero: a recording that starts at rest). The nominal velocity starts
+        there, so a recording that starts under way can be followed when its
+        initial velocity is known (from an earlier pass, a wheel odometer, a
+        commanded speed).
+    v0_sigma : float or ndarray, shape (3,)
+        Its 1-sigma uncertainty per axis [m/s] (one value for the three, or
+        one per axis; default 1 mm/s): the initial velocity covariance is
+        ``diag(v0_sigma^2)``. Too small a sigma around a wrong `v0` leaves the
+        filter confident of a wrong velocity, which the step lengths correct
+        only slowly.
     """
 
     time: np.ndarray
@@ -625,6 +241,8 @@ class AidedInput:
     standing: tuple = ()
     step_vector: np.ndarray | None = None
     sample_dt: float | None = None
+    v0: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    v0_sigma: float | np.ndarray = 1e-3
 
     def __post_init__(self):
         t = np.asarray(self.time, float)
@@ -639,6 +257,13 @@ class AidedInput:
             raise ParameterError("AidedInput: step_start, step_end and step_length must have one shape")
         if self.step_vector is not None and np.shape(self.step_vector) != k + (2,):
             raise ParameterError(f"AidedInput: step_vector must have shape {k + (2,)}")
+        v0 = np.asarray(self.v0, float)
+        if v0.shape != (3,) or not np.all(np.isfinite(v0)):
+            raise ParameterError(f"AidedInput.v0={self.v0!r}: expected three finite velocities [m/s]")
+        sig = np.asarray(self.v0_sigma, float)
+        if sig.shape not in ((), (3,)) or not np.all(np.isfinite(sig) & (sig >= 0)):
+            raise ParameterError(f"AidedInput.v0_sigma={self.v0_sigma!r}: expected one or three finite "
+                                 f"values >= 0 [m/s]")
 
     @property
     def nominal_dt(self) -> float:
@@ -678,9 +303,11 @@ class AidedInput:
 
         The steps that start before that sample are dropped, the rest and
         standing stretches are cut to start there (those that end before are
-        dropped); the initial attitude :attr:`C0` and the epoch grid's
-        sample interval are kept. The filter started on it knows nothing of
-        what came before.
+        dropped); the initial attitude :attr:`C0`, the initial velocity
+        :attr:`v0` with its :attr:`v0_sigma` (set them with
+        :func:`dataclasses.replace` when the cut starts under way) and the
+        epoch grid's sample interval are kept. The filter started on it knows
+        nothing of what came before.
 
         Examples
         --------
@@ -830,6 +457,104 @@ class AidedResult:
     def end_cov(self) -> np.ndarray:
         """Its covariance, shape (2, 2) [m^2]."""
         return self.P_xy[-1]
+
+
+# --------------------------------------------------------------------------- the horizontal error ellipse
+
+@dataclass(frozen=True)
+class ErrorEllipse:
+    """The region ``d^T P^-1 d <= chi2_2(level)`` of a horizontal position covariance ``P``.
+
+    Attributes
+    ----------
+    semi_major, semi_minor : float
+        Semi-axes [m] (``sqrt(chi2 * lambda)`` of the eigenvalues of ``P``).
+    orientation : float
+        Angle of the major axis from the x axis, counter-clockwise, in ``(-pi/2, pi/2]`` [rad].
+    level : float
+        Probability inside the ellipse for a Gaussian error of covariance ``P``.
+    points : ndarray, shape (k, 2)
+        Points on the ellipse around its centre [m], the first repeated last (a closed curve to plot).
+    """
+
+    semi_major: float
+    semi_minor: float
+    orientation: float
+    level: float
+    points: np.ndarray
+
+
+def error_ellipse(P_xy, *, level: float = 0.95, center=(0.0, 0.0), n_points: int = 65) -> ErrorEllipse:
+    """The horizontal error ellipse of a 2 x 2 position covariance (95 % by default).
+
+    A Gaussian horizontal error ``d`` of covariance ``P`` has ``d^T P^-1 d``
+    chi-square distributed with 2 degrees of freedom, so the ellipse
+    ``d^T P^-1 d <= q`` with ``q`` that distribution's `level` quantile
+    (scipy's ``chi2.ppf``; 5.991 for 95 %) holds it with probability
+    `level`. Its semi-axes are ``sqrt(q lambda)`` for the eigenvalues
+    ``lambda`` of ``P``, along their eigenvectors.
+
+    Parameters
+    ----------
+    P_xy : array_like, shape (2, 2)
+        Symmetric positive semi-definite covariance [m^2] (e.g. :attr:`AidedResult.end_cov`).
+    level : float
+        Probability inside, in (0, 1).
+    center : array_like, shape (2,)
+        Centre of the returned points [m] (e.g. the estimate).
+    n_points : int
+        Points on the curve (at least 3; the first is repeated last).
+
+    Returns
+    -------
+    ErrorEllipse
+        Semi-axes, orientation and points.
+
+    Raises
+    ------
+    ParameterError
+        A covariance that is not a finite symmetric positive semi-definite
+        2 x 2 matrix, a `level` outside (0, 1), fewer than 3 points.
+
+    Examples
+    --------
+    >>> e = error_ellipse(np.diag([4.0, 1.0]))          # sigma 2 m along x, 1 m along y
+    >>> round(e.semi_major, 4), round(e.semi_minor, 4), e.orientation, e.points.shape
+    (4.8955, 2.4477, 0.0, (65, 2))
+    """
+    P = np.asarray(P_xy, float)
+    if P.shape != (2, 2) or not np.all(np.isfinite(P)):
+        raise ParameterError(f"error_ellipse: P_xy must be a finite 2 x 2 covariance; got shape {P.shape}")
+    scale = float(np.abs(P).max())
+    if abs(P[0, 1] - P[1, 0]) > 1e-9 * scale:
+        raise ParameterError(f"error_ellipse: P_xy must be symmetric; got off-diagonals {P[0, 1]!r}, {P[1, 0]!r}")
+    if not (isinstance(level, (float, int)) and 0.0 < level < 1.0):
+        raise ParameterError(f"error_ellipse: level={level!r}: expected a probability in (0, 1)")
+    if isinstance(n_points, bool) or not (isinstance(n_points, (int, np.integer)) and n_points >= 3):
+        raise ParameterError(f"error_ellipse: n_points={n_points!r}: expected a whole number >= 3")
+    c = np.asarray(center, float)
+    if c.shape != (2,) or not np.all(np.isfinite(c)):
+        raise ParameterError(f"error_ellipse: center={center!r}: expected two finite coordinates [m]")
+    from scipy.stats import chi2
+
+    q = float(chi2.ppf(level, 2))
+    a, b, d = P[0, 0], 0.5 * (P[0, 1] + P[1, 0]), P[1, 1]
+    # eigenvalues of a symmetric 2 x 2 matrix: mean -/+ the radius of its Mohr circle
+    mean, radius = 0.5 * (a + d), math.hypot(0.5 * (a - d), b)
+    big, small = mean + radius, mean - radius
+    if small < -1e-12 * scale or a < 0 or d < 0:
+        raise ParameterError(f"error_ellipse: P_xy must be positive semi-definite; its eigenvalues are {big!r}, "
+                             f"{small!r}")
+    theta = 0.5 * math.atan2(2.0 * b, a - d)          # the major axis (in (-pi/2, pi/2])
+    if theta == -0.5 * math.pi:
+        theta = 0.5 * math.pi
+    major, minor = math.sqrt(q * big), math.sqrt(q * max(small, 0.0))
+    s = np.linspace(0.0, 2.0 * math.pi, int(n_points))
+    s[-1] = 0.0                                         # the curve closes on its first point exactly
+    u, w = major * np.cos(s), minor * np.sin(s)
+    ct, st = math.cos(theta), math.sin(theta)
+    pts = np.stack([c[0] + ct * u - st * w, c[1] + st * u + ct * w], axis=1)
+    return ErrorEllipse(semi_major=major, semi_minor=minor, orientation=theta, level=float(level), points=pts)
 
 
 # --------------------------------------------------------------------------- the pass over many members
@@ -1019,7 +744,7 @@ def _run_member(kern, inp: AidedInput, tun: AidTuning, epoch_s, smooth, smoothed
     time, ep_p, x, P, bias, nis_arr = a["t"], a["ep_p"], a["x"], a["P"], a["bias"], a["nis"]
     sm = Psm = None
     if smooth:
-        # the smoothed error states (filterpy's recursion, :func:`rts_smooth`) correct the forward positions
+        # the smoothed error states (filterpy's recursion) correct the forward positions
         xs, Ps_xy = np.zeros((ep_p.shape[0], N_AIDED)), np.zeros((ep_p.shape[0], 2, 2))
         kern["smooth_member"](a["hist_P"], a["hist_rec"], tun.accel_walk ** 2, tun.gyro_walk ** 2, a["fj"],
                               bool(smoothed_covariance), xs, Ps_xy)
@@ -1074,7 +799,7 @@ def _kernel_args(inp: AidedInput, tun: AidTuning, epoch_s, smooth, keep_inn):
     par = np.array([named[k] for k in K.PAR])
     I3 = np.eye(3)
     P0 = np.zeros((N_AIDED, N_AIDED))
-    P0[DV, DV] = I3 * 1e-6
+    P0[DV, DV] = np.diag(np.broadcast_to(np.square(np.asarray(inp.v0_sigma, float)), (3,)))
     P0[EPS, EPS] = I3 * tun.tilt0 ** 2
     P0[EPS.stop - 1, EPS.stop - 1] = 1e-10        # the heading is zero by definition of the frame
     P0[BA, BA] = I3 * tun.ba0 ** 2
@@ -1086,7 +811,8 @@ def _kernel_args(inp: AidedInput, tun: AidTuning, epoch_s, smooth, keep_inn):
     return dict(
         t=time, f=np.ascontiguousarray(inp.f, float), w=np.ascontiguousarray(inp.omega, float), flags=flags,
         end_k=end_k, end_a=end_a, end_j=end_j, step_len=np.ascontiguousarray(inp.step_length, float),
-        step_vec=step_vec, turn_q=turn_q, par=par, C0=np.ascontiguousarray(inp.C0, float), P0=P0,
+        step_vec=step_vec, turn_q=turn_q, par=par, C0=np.ascontiguousarray(inp.C0, float),
+        v0=np.array(inp.v0, float), P0=P0,
         fj=-1 if tun.gain_estimated else GAIN, keep_inn=bool(keep_inn), keep_hist=bool(smooth),
         ep_k=np.zeros(m, np.int64), ep_p=np.zeros((m, 3)), ep_P=np.zeros((m, 2, 2)), nis=np.zeros((kinds, 3)),
         inn_k=np.zeros((kinds, cap), np.int64), inn_z=np.zeros((kinds, cap, 3)), inn_y=np.zeros((kinds, cap, 3)),

@@ -1,10 +1,12 @@
-"""The MoRPI-aided filter: Jacobians, the Kalman core against filterpy, simulated routes with known truth."""
+"""The MoRPI-aided filter: the reference forms' Jacobians and Kalman core (``tests/oracles/aided.py``) against
+finite differences and filterpy, simulated routes with known truth."""
 from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
 import pytest
+from oracles import aided as oracle
 
 from morpi_filters import aided, simulate, units
 from morpi_filters.errors import MorpiError, ParameterError
@@ -14,7 +16,7 @@ def _nominal(rng, b=3):
     from scipy.spatial.transform import Rotation
 
     C = Rotation.from_rotvec(rng.normal(size=(b, 3)) * 0.5).as_matrix()
-    return aided.Nominal(C=C, v=rng.normal(size=(b, 3)), p=rng.normal(size=(b, 3)), clone=rng.normal(size=(b, 2)))
+    return oracle.Nominal(C=C, v=rng.normal(size=(b, 3)), p=rng.normal(size=(b, 3)), clone=rng.normal(size=(b, 2)))
 
 
 def _fd_jacobian(meas, x, nom, h=1e-6):
@@ -38,12 +40,12 @@ def test_jacobians_match_finite_differences(kind):
     x[:, aided.CLONE] = rng.normal(size=(3, 2)) * 0.01
     x[:, aided.TURN] = [0.05, -0.02, 0.1]                  # the reading's heading error is not fed back
     s = np.full(3, 0.1)
-    meas = {"step": aided.StepDisplacement(z=np.zeros((3, 2)), sigma=s),
-            "step (attitude heading)": aided.StepDisplacement(z=np.zeros((3, 2)), sigma=s,
+    meas = {"step": oracle.StepDisplacement(z=np.zeros((3, 2)), sigma=s),
+            "step (attitude heading)": oracle.StepDisplacement(z=np.zeros((3, 2)), sigma=s,
                                                               attitude=np.array([True, False, True])),
-            "zero velocity": aided.ZeroVelocity(sigma=s),
-            "zero rate": aided.ZeroRate(z=np.zeros((3, 3)), sigma=s),
-            "non-holonomic": aided.NonHolonomic(M=_nominal(rng).C, sigma=s)}[kind]
+            "zero velocity": oracle.ZeroVelocity(sigma=s),
+            "zero rate": oracle.ZeroRate(z=np.zeros((3, 3)), sigma=s),
+            "non-holonomic": oracle.NonHolonomic(M=_nominal(rng).C, sigma=s)}[kind]
     # central differences with h = 1e-6 on smooth functions of order 1: truncation ~h^2, rounding ~1e-16/h
     np.testing.assert_allclose(meas.H(x, nom), _fd_jacobian(meas, x, nom), atol=1e-8)
 
@@ -62,8 +64,8 @@ def test_predict_and_update_are_filterpys():
     R = np.broadcast_to(np.diag([0.3, 0.5]), (b, m, m)).copy()
     x = rng.normal(size=(b, n))
     z = rng.normal(size=(b, m))
-    x1, P1 = aided.kf_predict(x, P, Phi, Q)
-    x2, P2, _ = aided.kf_update(x1, P1, z - np.einsum("bij,bj->bi", H, x1), H, R)
+    x1, P1 = oracle.kf_predict(x, P, Phi, Q)
+    x2, P2, _ = oracle.kf_update(x1, P1, z - np.einsum("bij,bj->bi", H, x1), H, R)
     for j in range(b):
         kf = KalmanFilter(dim_x=n, dim_z=m)
         kf.x, kf.P, kf.F, kf.Q, kf.H, kf.R = x[j].copy(), P[j].copy(), Phi[j], Q[j], H[j], R[j]
@@ -86,8 +88,9 @@ def test_smoother_is_filterpys_rts():
     kf.H, kf.R = rng.normal(size=(2, n)), np.eye(2) * 0.2
     xs, Ps, xp, Pp = kf.batch_filter(rng.normal(size=(k, 2)))
     ref_x, ref_P, _, _ = kf.rts_smoother(xs, Ps)
-    sx, sP = aided.rts_smooth(xs, Ps, xp, Pp, np.broadcast_to(Phi, (k, n, n)))
-    # the same recursion; the bar of the issue (1e-9)
+    sx, sP = oracle.rts_smooth(xs, Ps, xp, Pp, np.broadcast_to(Phi, (k, n, n)))
+    # the same recursion, the gains formed in another order: 40 epochs of values of order 1 whose
+    # covariances' condition numbers stay below 1e3, about 40 * 1e3 * eps = 1e-11; 1e-9 holds with room
     np.testing.assert_allclose(sx, ref_x, atol=1e-9)
     np.testing.assert_allclose(sP, ref_P, atol=1e-9)
 
@@ -926,7 +929,7 @@ def test_consider_update_one_state_equals_the_conditioned_covariance_update():
     y = rng.normal(size=(b, m))
     frozen = np.zeros((b, n), bool)
     frozen[[0, 2, 3], 5] = True                    # member 1 estimates every state
-    xs, Ps, Ss = aided.kf_update(x, P, y, H, R, frozen)
+    xs, Ps, Ss = oracle.kf_update(x, P, y, H, R, frozen)
     # reference: the gain from the Schur complement built by hand, Joseph form on the full covariance
     for i in range(b):
         Pc = P[i].copy()
@@ -960,7 +963,7 @@ def test_smoother_with_a_state_without_uncertainty_uses_the_pseudo_inverse():
     x_prior = x_post.copy()
     x_prior[1:] = np.einsum("bij,bj->bi", Phi[1:], x_post[:-1])
     given = [a.copy() for a in (x_post, P_post, x_prior, P_prior, Phi)]
-    xs, Ps = aided.rts_smooth(x_post, P_post, x_prior, P_prior, Phi)
+    xs, Ps = oracle.rts_smooth(x_post, P_post, x_prior, P_prior, Phi)
     # the dead state's padding goes into the smoother's own arrays: the caller's are left as they were
     for a, b in zip((x_post, P_post, x_prior, P_prior, Phi), given):
         assert np.array_equal(a, b)
@@ -1120,3 +1123,165 @@ def test_the_period_count_is_chosen_where_the_amplitude_varies_and_counts_half_m
     pick = choose_length(data, "s6", "MoRPI-G", config, config.heading)
     assert pick.held_out == "run" and pick.runs == 4
     assert pick.length == "period count" and pick.period_percent < pick.weinberg_percent
+
+
+# ----------------------------------------------------------------------------- a recording that starts under way
+
+#: chi-square, 2 dof: the squared Mahalanobis distance a consistent filter exceeds with probability 1e-6
+#: (``scipy.stats.chi2.ppf(1 - 1e-6, 2) = -2 ln 1e-6``).
+_M2_1E6 = -2.0 * np.log(1e-6)
+
+
+def _level_cruise(v0, *, seconds=10.0, rate_hz=100.0, **kw):
+    """A level phone carried straight along x at 1 m/s from its first sample: the specific force is exactly
+    gravity, the rate zero; steps every 0.5 s with their exact lengths."""
+    n = int(round(seconds * rate_hz)) + 1
+    t = np.arange(n) / rate_hz
+    b = t[::int(round(0.5 * rate_hz))]
+    return aided.AidedInput(time=t, f=np.tile([0.0, 0.0, units.G0], (n, 1)), omega=np.zeros((n, 3)),
+                            C0=np.eye(3), g=units.G0, step_start=b[:-1], step_end=b[1:],
+                            step_length=np.diff(b) * 1.0, v0=np.asarray(v0, float), **kw)
+
+
+def test_a_cruise_started_at_its_true_velocity_ends_on_the_truth_and_from_zero_far_off():
+    """A run that starts at 1 m/s along x (no rest before it), all aids on.
+
+    Given the true initial velocity the nominal state is the truth itself:
+    the phone is level and reads exactly gravity, so the acceleration is
+    zero in floating point, the velocity stays 1 m/s and the position is the
+    sum of the n trapezoid increments ``h (v + v') = dt``. That sum is off
+    the exact ``v0 T`` by at most ``(n - 1) eps/2 T`` (recursive summation),
+    the time differences ``dt`` by at most ``n eps/2 T`` more; the step and
+    non-holonomic innovations are rounding of the same size and so are their
+    corrections. Bound: ``n eps T``. Started at zero velocity (1 mm/s sigma:
+    the filter is sure it stands), the steps pull the position only part of
+    the way: meters off, far outside the filter's own ellipse.
+    """
+    from dataclasses import replace
+
+    moving = _level_cruise([1.0, 0.0, 0.0], v0_sigma=1e-3)
+    n, T = moving.time.size, float(moving.time[-1] - moving.time[0])
+    truth = np.array([T, 0.0])
+    good, bad = aided.run_batch([moving, replace(moving, v0=np.zeros(3))], aided.AidTuning())
+    bound = n * np.finfo(float).eps * T
+    assert np.abs(good.end_point - truth).max() <= bound, (good.end_point - truth, bound)
+    e = bad.end_point - truth
+    assert np.linalg.norm(e) > 0.1 * T, e                          # more than a tenth of the 10 m driven
+    assert e @ np.linalg.solve(bad.end_cov, e) > _M2_1E6
+
+
+def test_the_initial_velocity_sigma_is_the_velocity_covariance():
+    """Without process noise or other initial uncertainty, the position variance after T seconds of
+    dead reckoning is ``(v0_sigma T)^2`` per axis (``dp`` integrates ``dv``: ``Phi`` holds ``T I``)."""
+    sig = np.array([0.1, 0.3, 0.05])
+    quiet = aided.AidTuning(accel_noise=0.0, gyro_noise=0.0, accel_walk=0.0, gyro_walk=0.0, tilt0=0.0, ba0=0.0,
+                            bg0=0.0, steps=False, nhc=False, rest=False)
+    per_axis, one = aided.run_batch([_level_cruise([1.0, 0.0, 0.0], v0_sigma=sig),
+                                     _level_cruise([1.0, 0.0, 0.0], v0_sigma=0.2)], quiet)
+    T = 10.0
+    # 101 epochs, each prediction a few products rounded at eps relative: 1e-12 relative covers them
+    np.testing.assert_allclose(per_axis.end_cov, np.diag(sig[:2] * T) ** 2, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(one.end_cov, np.eye(2) * (0.2 * T) ** 2, rtol=1e-12, atol=0)
+
+
+@pytest.mark.parametrize("kw, match", [
+    (dict(v0=np.zeros(2)), "v0="), (dict(v0=np.array([0.0, np.nan, 0.0])), "v0="),
+    (dict(v0_sigma=-1e-3), "v0_sigma="), (dict(v0_sigma=np.array([0.1, 0.1])), "v0_sigma="),
+    (dict(v0_sigma=np.array([0.1, np.inf, 0.1])), "v0_sigma=")])
+def test_a_bad_initial_velocity_is_refused_by_name(kw, match):
+    t = np.arange(3) * 0.1
+    with pytest.raises(ParameterError, match=match):
+        aided.AidedInput(time=t, f=np.zeros((3, 3)), omega=np.zeros((3, 3)), C0=np.eye(3), g=9.8, **kw)
+
+
+def test_a_simulated_drive_cut_under_way_is_followed_from_its_true_velocity():
+    """The simulator's straight drive (1 m/s), noisy IMU, cut 2 s into the motion (``since``): from the
+    true velocity at the cut (10 mm/s sigma) the end point lies inside the filter's own 1 - 1e-6 ellipse
+    (chi-square, 2 dof; the tuning's noise densities are the simulated IMU's, its initial bias
+    uncertainties above the simulated biases); from zero velocity it is meters off and far outside."""
+    from dataclasses import replace
+
+    traj = simulate.straight(12.0, speed=1.0, ramp=1.0, rest=1.0, rate_hz=100.0)
+    t, pos = traj.time, traj.position
+    b = t[::50]
+    pa = np.array([np.interp(b[:-1], t, pos[:, j]) for j in range(2)]).T
+    pb = np.array([np.interp(b[1:], t, pos[:, j]) for j in range(2)]).T
+    spec = units.LSM6DSL
+    tun = aided.AidTuning(accel_noise=spec.accel_noise, gyro_noise=spec.gyro_noise)
+    members = []
+    for seed in (0, 1, 2):
+        d = simulate.imu(traj, spec, np.random.default_rng(seed), bias_scale=(0.05, 0.05))
+        whole = aided.AidedInput(time=t, f=d.f, omega=d.omega, C0=traj.C_bn[0], g=units.G0, step_start=b[:-1],
+                                 step_end=b[1:], step_length=np.linalg.norm(pb - pa, axis=1),
+                                 rest=((traj.stop_time + 0.1, t[-1]),))
+        cut = whole.since(traj.start_time + 2.0)
+        i0 = int(np.searchsorted(t, cut.time[0]))
+        assert np.linalg.norm(traj.velocity[i0]) == pytest.approx(1.0, abs=1e-9)      # cruising at the cut
+        members += [replace(cut, v0=traj.velocity[i0], v0_sigma=0.01), replace(cut, v0=np.zeros(3))]
+        truth = traj.end_point[:2] - pos[i0, :2]
+    out = aided.run_batch(members, tun)
+    for good, bad in zip(out[::2], out[1::2]):
+        e = good.end_point - truth
+        assert e @ np.linalg.solve(good.end_cov, e) < _M2_1E6, e
+        e = bad.end_point - truth
+        assert np.linalg.norm(e) > 0.1 * np.linalg.norm(truth), e
+        assert e @ np.linalg.solve(bad.end_cov, e) > _M2_1E6
+
+
+# ----------------------------------------------------------------------------- the horizontal error ellipse
+
+def _q(level):
+    # the chi-square distribution with 2 dof is exponential: P(X <= q) = 1 - exp(-q / 2)
+    return -2.0 * np.log1p(-level)
+
+
+@pytest.mark.parametrize("sx, sy, angle", [(2.0, 1.0, 0.0), (0.5, 3.0, np.pi / 2)])
+def test_error_ellipse_of_a_diagonal_covariance(sx, sy, angle):
+    e = aided.error_ellipse(np.diag([sx ** 2, sy ** 2]))
+    k = np.sqrt(_q(0.95))                                      # 2.4477: the 95 % radius in sigmas
+    # a square root and a product of exact inputs: a few eps relative
+    assert e.semi_major == pytest.approx(k * max(sx, sy), rel=1e-14)
+    assert e.semi_minor == pytest.approx(k * min(sx, sy), rel=1e-14)
+    assert e.orientation == pytest.approx(angle, abs=1e-15) and e.level == 0.95
+    assert aided.CHI2_95_2DOF == pytest.approx(_q(0.95), rel=1e-15)
+    np.testing.assert_allclose(np.abs(e.points).max(axis=0), k * np.array([sx, sy]), rtol=1e-12)
+
+
+@pytest.mark.parametrize("theta", [0.3, -1.1, 1.4, np.pi / 2 - 1e-3])
+def test_error_ellipse_of_a_rotated_covariance(theta):
+    s1, s2 = 0.8, 0.25
+    R = np.array([[np.cos(theta), -np.sin(theta)], [np.sin(theta), np.cos(theta)]])
+    P = R @ np.diag([s1 ** 2, s2 ** 2]) @ R.T
+    e = aided.error_ellipse(P, level=0.99, center=(3.0, -2.0), n_points=37)
+    q = _q(0.99)
+    # P built with a few roundings of relative eps; its eigenvalues keep them, the square roots halve them
+    assert e.semi_major == pytest.approx(np.sqrt(q) * s1, rel=1e-13)
+    assert e.semi_minor == pytest.approx(np.sqrt(q) * s2, rel=1e-13)
+    # the angle of an eigenvector: rounding of P (1e-16 relative) over the eigenvalue gap (0.6 of the largest)
+    assert e.orientation == pytest.approx(theta, abs=1e-13)
+    d = e.points - [3.0, -2.0]
+    np.testing.assert_allclose(np.einsum("ki,ij,kj->k", d, np.linalg.inv(P), d), q, rtol=1e-12)
+    assert e.points.shape == (37, 2) and np.array_equal(e.points[0], e.points[-1])
+
+
+def test_error_ellipse_holds_its_share_of_gaussian_draws():
+    rng = np.random.default_rng(20240601)
+    P = np.array([[0.09, -0.05], [-0.05, 0.04]])
+    d = rng.multivariate_normal([0.0, 0.0], P, size=200_000)
+    for level in (0.5, 0.95):
+        e = aided.error_ellipse(P, level=level)
+        ct, st = np.cos(e.orientation), np.sin(e.orientation)
+        u, w = ct * d[:, 0] + st * d[:, 1], -st * d[:, 0] + ct * d[:, 1]        # in the ellipse's axes
+        inside = np.mean((u / e.semi_major) ** 2 + (w / e.semi_minor) ** 2 <= 1.0)
+        # a binomial share of 200,000 draws: 5 standard deviations
+        assert abs(inside - level) < 5 * np.sqrt(level * (1 - level) / d.shape[0]), (level, inside)
+
+
+@pytest.mark.parametrize("P, kw, match", [
+    (np.eye(3), {}, "2 x 2"), (np.array([[1.0, np.nan], [np.nan, 1.0]]), {}, "finite"),
+    (np.array([[1.0, 0.5], [0.4, 1.0]]), {}, "symmetric"), (np.array([[1.0, 2.0], [2.0, 1.0]]), {}, "semi-definite"),
+    (np.eye(2), {"level": 1.0}, "level="), (np.eye(2), {"n_points": 2}, "n_points="),
+    (np.eye(2), {"center": (0.0, np.inf)}, "center=")])
+def test_error_ellipse_refuses_a_bad_covariance_by_name(P, kw, match):
+    with pytest.raises(ParameterError, match=match):
+        aided.error_ellipse(P, **kw)
