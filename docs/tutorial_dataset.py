@@ -183,10 +183,10 @@ def figures(result, dataset, folder, shown=(("INS-2D", "GAC"), ("MoRPI-A", "GAC"
         ax.set(title=rec_id, xlabel="east [m]", ylabel="north [m]", aspect="equal", adjustable="datalim")
         ex.set(title=rec_id, xlabel="time [s]", ylabel="horizontal error [m]")
         ax.legend(fontsize=8), ex.legend(fontsize=8)
-    out = {"paths": Path(folder) / "paths.png", "errors": Path(folder) / "errors.png"}
-    paths_fig.savefig(out["paths"], dpi=100, bbox_inches="tight")
-    errors_fig.savefig(out["errors"], dpi=100, bbox_inches="tight")
-    return out
+    files = {"paths": Path(folder) / "paths.png", "errors": Path(folder) / "errors.png"}
+    paths_fig.savefig(files["paths"], dpi=100, bbox_inches="tight")
+    errors_fig.savefig(files["errors"], dpi=100, bbox_inches="tight")
+    return {"files": files, "paths": paths_fig, "errors": errors_fig}
 
 
 def run(folder, seed=0):
@@ -218,7 +218,7 @@ def main(argv=None) -> dict:
     print("5. end error [% of the distance], mean over the test runs:")
     print(r["groups"].pivot(index="method", columns="calibration", values="end_error_percent")
           .reindex(columns=["RD", "GC", "GAC"]).round(2).to_string())
-    print(f"6. figures: {r['figures']['paths']}, {r['figures']['errors']}")
+    print(f"6. figures: {r['figures']['files']['paths']}, {r['figures']['files']['errors']}")
     return r
 
 
