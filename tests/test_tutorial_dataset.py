@@ -177,3 +177,38 @@ def test_the_page_never_writes_into_a_folder_that_holds_files(tutorial, tmp_path
     with pytest.raises(FileExistsError):
         tutorial.run(tmp_path)
     assert keep.read_text() == "mine\n" and sorted(p.name for p in tmp_path.iterdir()) == ["dataset.toml"]
+
+
+def test_the_readmes_manifest_loads_checks_and_evaluates_as_it_says(tmp_path, capsys):
+    import re
+
+    from morpi_filters import units
+    from morpi_filters.dataset_eval import evaluate
+
+    readme = (ROOT / "README.md").read_text()
+    section = readme[readme.index("## Your own recordings\n"):]
+    toml = re.search(r"```toml\n(.*?)```", section, re.S).group(1)
+    assert len(toml.strip().splitlines()) <= 6
+    root = tmp_path / "my-robot"
+    (root / "imu").mkdir(parents=True)
+    (root / "dataset.toml").write_text(toml)
+    # the run it describes: 12 m straight ahead, written as the text says (FRD axes, g, deg/s, the default header)
+    traj = simulate.straight(12.0, rest=(2.0, 1.5))
+    t = 100.0 + np.arange(int(traj.end_time * 200.0) + 1) / 200.0
+    data = simulate.imu(traj, units.LSM6DSL, np.random.default_rng(3), sampling=t - 100.0, bias_scale=(0.25, 0.3))
+    frd = np.array([1.0, -1.0, -1.0])
+    table = np.column_stack([t, data.f * frd / units.G0, data.omega * frd / units.DEG])
+    np.savetxt(root / "imu" / "run-01.csv", table, delimiter=",", header="time,f_x,f_y,f_z,g_x,g_y,g_z",
+               comments="")
+    capsys.readouterr()
+    assert main(["check", "--dataset", str(root / "dataset.toml")]) == 0
+    assert capsys.readouterr().out.startswith("1 recording(s) OK, 0 problem(s)")
+    assert main(["evaluate", "--dataset", str(root / "dataset.toml"), "--out", str(root / "evaluation")]) == 0
+    assert (root / "evaluation" / "README.md").is_file()
+    result = evaluate(str(root / "dataset.toml"))
+    rows, means = result.table(), result.group_table()
+    assert set(rows["method"]) == {"INS-3D", "INS-2D"} and set(rows["calibration"]) == {"RD", "GC", "GAC"}
+    assert list(means["group"].unique()) == ["all"] and len(means) == 6
+    # the GAC estimate of a straight 12 m run ends within a few metres of its end point
+    gac = rows[(rows["method"] == "INS-2D") & (rows["calibration"] == "GAC")]
+    assert float(gac["end_error_m"].iloc[0]) < 3.0
