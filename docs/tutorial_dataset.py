@@ -182,7 +182,8 @@ def figures(result, dataset, folder, shown=(("INS-2D", "GAC"), ("MoRPI-A", "GAC"
                 ex.plot(p.time, error, label=f"{p.method} {p.calibration}")
         ax.set(title=rec_id, xlabel="east [m]", ylabel="north [m]", aspect="equal", adjustable="datalim")
         ex.set(title=rec_id, xlabel="time [s]", ylabel="horizontal error [m]")
-        ax.legend(fontsize=8), ex.legend(fontsize=8)
+        ax.legend(fontsize=8)
+        ex.legend(fontsize=8)
     files = {"paths": Path(folder) / "paths.png", "errors": Path(folder) / "errors.png"}
     paths_fig.savefig(files["paths"], dpi=100, bbox_inches="tight")
     errors_fig.savefig(files["errors"], dpi=100, bbox_inches="tight")
