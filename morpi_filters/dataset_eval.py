@@ -91,8 +91,8 @@ from .manifest import Dataset, RouteTruth, TruthTrack
 from .strapdown import ins2d, ins3d
 from .units import G0
 
-__all__ = ["COURSE_M", "METHODS", "CALIBRATIONS", "METRICS", "EstimatedPath", "DatasetEvaluation",
-           "evaluate_dataset", "path_metrics"]
+__all__ = ["COURSE_M", "METHODS", "CALIBRATIONS", "METRICS", "ROW_LABELS", "EstimatedPath", "DatasetEvaluation",
+           "evaluate_dataset", "path_metrics", "evaluate"]
 
 #: Horizontal distance over which the truth's course gives the heading of a start at rest [m].
 COURSE_M = 0.3
@@ -206,6 +206,37 @@ class DatasetEvaluation:
                 "choices": self.choices, "recordings": rows,
                 "groups": {"over": self.groups_over, "rows": list(self.groups)},
                 "left_out": list(self.left_out), "starts": list(self.starts), "course_m": self.course_m}
+
+    def table(self):
+        """One row per estimate, as a pandas DataFrame: the ``recordings`` rows of :meth:`to_json`.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns :data:`ROW_LABELS` (``id``, ``split``, ``group``,
+            ``method``, ``calibration``, ``estimate``) then :data:`METRICS`,
+            one row per path in the order of :attr:`paths`. The metric columns
+            are float64: a metric None in the JSON (``path_rmse_m`` of a route)
+            or not finite (null in the JSON) is NaN. The JSON's ``track_file``
+            is not a column. pandas is imported by this call, not by the
+            package.
+        """
+        return _table(self.to_json()["recordings"], ROW_LABELS)
+
+    def group_table(self):
+        """The group means of :attr:`groups` as a pandas DataFrame.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``group``, ``method``, ``calibration``, ``n`` (int64: the
+            recordings averaged) then :data:`METRICS` (float64; a mean with no
+            value to average is NaN), one row per group, method and
+            calibration. ``attrs["over"]`` is :attr:`groups_over`.
+        """
+        out = _table(self.groups, ("group", "method", "calibration", "n"), counts=("n",))
+        out.attrs["over"] = self.groups_over
+        return out
 
 
 # --------------------------------------------------------------------------- geometry
@@ -574,3 +605,93 @@ def evaluate_dataset(dataset: Dataset, *, course_m: float = COURSE_M, workers: i
     return DatasetEvaluation(name=dataset.name, source=dataset.source, count=len(dataset), paths=paths,
                              choices=choices, groups=_group_means(paths, over),
                              groups_over=over, left_out=left, course_m=float(course_m), starts=tuple(starts))
+
+
+# --------------------------------------------------------------------------- entry point and tables
+
+#: The label columns of :meth:`DatasetEvaluation.table`, before the :data:`METRICS`.
+ROW_LABELS = ("id", "split", "group", "method", "calibration", "estimate")
+
+
+def _table(rows, labels: tuple, counts: tuple = ()):
+    """A DataFrame of `rows` (dicts): the `labels` as given, `counts` as int64, the metrics as float64."""
+    import pandas as pd
+
+    data = {}
+    for key in labels:
+        values = [r[key] for r in rows]
+        data[key] = pd.Series(values, dtype="int64" if key in counts else object)
+    for key in METRICS:
+        data[key] = pd.Series([np.nan if r[key] is None else r[key] for r in rows], dtype="float64")
+    return pd.DataFrame(data, columns=list(labels + METRICS))
+
+
+def evaluate(dataset, *, course_m: float = COURSE_M, workers: int | None = None,
+             progress=None) -> DatasetEvaluation:
+    """Evaluate a dataset: the entry point for a manifest or a :class:`~morpi_filters.manifest.Dataset`.
+
+    What ``morpi evaluate --dataset FILE`` computes, without its files:
+    every method and calibration on every recording, against its truth
+    (:func:`evaluate_dataset`, the module docstring). The result's
+    :meth:`~DatasetEvaluation.table` and
+    :meth:`~DatasetEvaluation.group_table` are the JSON's rows and group
+    means as pandas DataFrames; each :class:`EstimatedPath` of its ``paths``
+    holds an estimate's times and positions in the truth's frame.
+
+    Parameters
+    ----------
+    dataset : Dataset or str or path-like
+        A dataset (:func:`~morpi_filters.manifest.load_dataset`,
+        :meth:`~morpi_filters.manifest.Dataset.from_arrays`), or the path of
+        its manifest, which is loaded and checked first.
+    course_m : float
+        Horizontal distance over which the truth's course gives the heading
+        of a track recording that starts at rest [m].
+    workers : int, optional
+        Threads that evaluate the recordings (default 1); the result does
+        not depend on it.
+    progress : morpi_filters.parallel.Progress, optional
+        Counts one run per recording.
+
+    Returns
+    -------
+    DatasetEvaluation
+        The estimates with their metrics, the train-only choices, the group
+        means and what was left out.
+
+    Raises
+    ------
+    ParameterError
+        `dataset` neither a Dataset nor a path, a problem of the manifest,
+        or a bad `course_m` or `workers`.
+    DataError
+        A data file of the manifest that does not load.
+
+    Examples
+    --------
+    A level robot at rest for 2 s, then 1 m/s^2 forward for 2 s (2 m), with
+    its route:
+
+    >>> t = np.arange(401) / 100.0
+    >>> f = np.tile([0.0, 0.0, G0], (401, 1)); f[t > 2.0, 0] = 1.0
+    >>> ds = Dataset.from_arrays("bench", [{"id": "a", "time": t, "f": f, "omega": np.zeros((401, 3)),
+    ...     "motion": "straight", "rest": [0.0, 1.5],
+    ...     "truth": RouteTruth(distance_m=2.0, end_point_m=np.array([2.0, 0.0]))}])
+    >>> table = evaluate(ds).table()
+    >>> print(table[["id", "method", "calibration", "end_error_m"]].head(3).round(2).to_string(index=False))
+    id method calibration  end_error_m
+     a INS-3D          RD         0.01
+     a INS-3D          GC         0.01
+     a INS-3D         GAC         0.01
+    >>> bool(table["path_rmse_m"].isna().all()), str(table["path_rmse_m"].dtype)   # None for a route: NaN
+    (True, 'float64')
+    """
+    import os
+
+    from .manifest import load_dataset
+
+    if isinstance(dataset, (str, os.PathLike)):
+        dataset = load_dataset(dataset)
+    elif not isinstance(dataset, Dataset):
+        raise ParameterError(f"dataset: {type(dataset).__name__}, expected a Dataset or the path of a manifest")
+    return evaluate_dataset(dataset, course_m=course_m, workers=workers, progress=progress)

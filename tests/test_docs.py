@@ -15,3 +15,8 @@ def test_api_reference_builds_without_warnings(tmp_path):
     page = (tmp_path / "html" / "api.html").read_text()
     # the reference holds every public module, the aided filter among them
     assert "morpi_filters.aided" in page and "StepDisplacement" in page
+    # the foreign-layout tutorial is a page of its own, in the table of contents, and the tables are referenced
+    tutorial = (tmp_path / "html" / "tutorial_dataset.html").read_text()
+    assert 'href="tutorial_dataset.html"' in (tmp_path / "html" / "index.html").read_text()
+    assert 'href="api.html#morpi_filters.dataset_eval.evaluate"' in tutorial and "format_version = 1" in tutorial
+    assert "morpi_filters.dataset_eval.DatasetEvaluation.table" in page
