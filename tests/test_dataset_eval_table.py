@@ -13,7 +13,7 @@ from morpi_filters.dataset_eval import METRICS, ROW_LABELS, evaluate, evaluate_d
 from morpi_filters.errors import ParameterError
 from morpi_filters.foreign import LAYOUTS, write_foreign_dataset
 from morpi_filters.manifest import load_dataset
-from morpi_filters.reporting import JSON_DIGITS, round_significant
+from morpi_filters.results import JSON_DIGITS, round_significant
 
 #: Route truth over three groups with train and test runs (MoRPI rows, path_rmse_m null), and a NED truth track.
 CASES = ("groups", "truth-ned")

@@ -17,7 +17,7 @@ import pytest
 from morpi_filters import simulate
 from morpi_filters.cli import main
 from morpi_filters.dataset_eval import METRICS
-from morpi_filters.reporting import JSON_DIGITS, round_significant
+from morpi_filters.results import JSON_DIGITS, round_significant
 
 ROOT = Path(__file__).resolve().parents[1]
 TUTORIAL = ROOT / "docs" / "tutorial_dataset.py"
