@@ -1084,13 +1084,11 @@ def _boundaries(p, method, config, peak_cache):
     kernel = _KERNELS or _kernels()
     psi_m = memo.get("motion heading")
     if psi_m is None:
-        psi_m = memo["motion heading"] = np.empty(2)
-        kernel["interp"](np.array([m0, m1]), t, psi, psi_m)     # np.interp([m0, m1], t, psi)
+        psi_m = memo["motion heading"] = np.interp([m0, m1], t, psi)
     bkey = ("boundary heading", pkey)
     psi_b = memo.get(bkey)
     if psi_b is None:
-        psi_b = memo[bkey] = np.empty(bt.shape[0])
-        kernel["interp"](bt, t, psi, psi_b)                     # np.interp(bt, t, psi)
+        psi_b = memo[bkey] = np.interp(bt, t, psi)
         psi_b.flags.writeable = False                           # shared by the Steps of every reading
     skey = ("swing",) + pkey[3:5]                               # the maxima: prominence, least period
     med = memo.get(skey)
@@ -1111,16 +1109,16 @@ def _edge_values(p, config, pkey, bt, psi_b) -> np.ndarray:
         key = ("integral values", pkey)
     out = memo.get(key)
     if out is None:
-        kernel = _KERNELS or _kernels()
         x = np.empty(bt.shape[0] + 2)
         x[0], x[1:-1], x[-1] = p.motion[0], bt, p.motion[1]
-        out = np.empty(x.shape[0])
         if config.heading == "turns":
             # turn_heading(x, t, psi, turn_stretches(bt, psi_b, ...), integral=...) in one compiled call
-            kernel["turn_values"](bt, psi_b, np.radians(config.turn_deg), 2 if config.segment == "extrema" else 1,
-                                  x, p.time, p.heading, p.heading_integral, out)
+            out = np.empty(x.shape[0])
+            (_KERNELS or _kernels())["turn_values"](bt, psi_b, np.radians(config.turn_deg),
+                                                    2 if config.segment == "extrema" else 1,
+                                                    x, p.time, p.heading, p.heading_integral, out)
         else:
-            kernel["interp"](x, p.time, p.heading_integral, out)
+            out = np.interp(x, p.time, p.heading_integral)
         out.flags.writeable = False
         memo[key] = out
     return out
@@ -1179,34 +1177,16 @@ def _find_steps(p, method, config, peak_cache):
 
 def _prominent(x, distance, prominence, cache, key):
     """``scipy.signal.find_peaks(x, distance=distance, prominence=prominence)[0]``, with the peaks kept by the
-    distance and their prominences (:func:`_find_peaks`) cached under `key`: find_peaks applies the distance
-    before it measures the prominences, so every prominence threshold selects from the same candidates."""
+    distance and their prominences cached under `key`: find_peaks applies the distance before it measures the
+    prominences, so every prominence threshold selects from the same candidates."""
     found = None if cache is None else cache.get(key)
     if found is None:
-        found = _find_peaks(x, distance)
+        peaks, props = _signal().find_peaks(x, distance=distance, prominence=0.0)
+        found = (peaks, props["prominences"])
         if cache is not None:
             cache[key] = found
     peaks, prominences = found
     return peaks[prominences >= prominence]
-
-
-def _find_peaks(x, distance: int):
-    """``peaks, props["prominences"]`` of ``scipy.signal.find_peaks(x, distance=distance, prominence=0.0)``
-    for a finite 1-D `x` and an integer `distance` >= 1, bit for bit, from the compiled loops of
-    ``_signal_kernel`` (scipy's own argsort of the heights ranks equal peaks)."""
-    kernel = _KERNELS or _kernels()
-    x = np.require(x, float, ["C"])
-    peaks = np.empty(x.shape[0] // 2, dtype=np.intp)
-    m = kernel["local_maxima"](x, peaks)
-    peaks, prom = peaks[:m], np.empty(m)
-    kernel["maxima_prominences"](x, peaks, prom)
-    if distance > 1 and m > 1:                                  # distance 1 drops nothing
-        keep = np.empty(m, dtype=bool)
-        if kernel["select_by_distance"](peaks, np.argsort(x[peaks]), distance, keep) < m:
-            m = kernel["compress"](peaks, prom, keep)
-            peaks, prom = peaks[:m], prom[:m]
-    m = kernel["drop_below"](peaks, prom, 0.0)                  # scipy's prominence >= 0 (all, for a finite x)
-    return peaks[:m].copy(), prom[:m].copy()
 
 
 def require_swing(source, method: str, swing_deg: float, min_swing_deg: float) -> None:
