@@ -147,7 +147,8 @@ def test_cached_thresholds_are_scipys_find_peaks_called_afresh():
     cache, seen = {}, set()
     # thresholds up and down in one cache, each against scipy with all of them at once
     for prominence, height, width in ((0.05, None, None), (0.05, 0.5, None), (0.05, None, 0.2), (0.3, 0.5, 0.2),
-                                      (0.05, 0.5, 0.05), (0.02, None, 0.02), (0.3, None, None), (0.05, 0.5, None)):
+                                      (0.05, 1.2, None), (0.05, 0.5, 0.05), (0.02, None, 0.02), (0.3, None, None),
+                                      (0.05, -0.5, 0.2), (0.05, 0.5, None)):
         cfg = _LOOSE.with_(segment="extrema", prominence=prominence, min_height=height, min_width_s=width)
         s = st.extract_steps(None, "MoRPI-G", cfg, prepared=p, peak_cache=cache)
         kw = dict(distance=30, prominence=prominence * (p.span[1] - p.span[0]), height=height,
