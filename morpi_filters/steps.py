@@ -75,7 +75,7 @@ __all__ = [
     "turn_heading",
 ]
 
-#: Rate of the uniform grid peak detection works on [Hz].
+#: Default rate of the uniform grid peak detection works on [Hz] (:attr:`StepConfig.grid_hz`).
 GRID_HZ = 100.0
 #: Window of :func:`activity_span` [s]: the motion onset is the last sample of the first active window.
 ACTIVITY_WINDOW_S = 0.5
