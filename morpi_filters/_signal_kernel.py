@@ -25,13 +25,9 @@
   forward-backward second-order-sections filter of :func:`scipy.signal.sosfiltfilt` with its
   default odd padding, each section's update in the order scipy's own loop takes, so the result has
   scipy's bits;
-- :func:`local_maxima`, :func:`select_by_distance`, :func:`maxima_prominences` (with :func:`compress`,
-  :func:`drop_below`), ``scipy.signal.find_peaks(x, distance=d, prominence=0.0)``'s peaks and
-  prominences comparison for comparison (scipy's ``_local_maxima_1d``, ``_select_by_peak_distance``
-  from numpy's argsort of the heights, and the prominences of every maximum in one pass instead of a
-  walk per peak: the same samples, so the same bits);
-- :func:`interp` and :func:`swing_median`, the boundary headings and the median heading swing of a
-  step rule, with numpy's arithmetic (``np.interp``; ``searchsorted`` and ``reduceat`` windows);
+- :func:`interp`, ``np.interp`` with numpy's arithmetic, for the compiled turn heading below (code
+  outside the compiled loops calls ``np.interp`` itself), and :func:`swing_median`, the median heading
+  swing of a step rule (``searchsorted`` and ``reduceat`` windows);
 - :func:`turn_values`, the turn heading of ``steps.turn_heading`` at the step edges, with the turning
   stretches of ``steps.turn_stretches``, comparison for comparison and with :func:`interp`;
 - :func:`reading_sums`, what :func:`morpi_filters.steps.step_sums` returns for one step rule: the steps
@@ -508,140 +504,6 @@ def reading_sums(bt, psi_b, weight, aux, m0, m1, psi_m0, psi_m1, per, wmed, ends
     return w, ux, uy, n
 
 
-def local_maxima(x, out_peaks):
-    """Indices of the local maxima of `x` (n,) into ``out_peaks[:m]``; returns m.
-
-    `out_peaks` (at least ``n // 2``, intp). A maximum is one sample, or a run of equal samples, with
-    a smaller sample on each side; its index is the run's middle, rounded down.
-    """
-    m = 0
-    i = 1
-    i_max = x.shape[0] - 1
-    while i < i_max:
-        if x[i - 1] < x[i]:
-            i_ahead = i + 1
-            while i_ahead < i_max and x[i_ahead] == x[i]:
-                i_ahead += 1
-            if x[i_ahead] < x[i]:
-                out_peaks[m] = (i + (i_ahead - 1)) // 2
-                m += 1
-                i = i_ahead
-        i += 1
-    return m
-
-
-def select_by_distance(peaks, order, distance, keep):
-    """Flags `keep` (k,) of the peaks (k,, increasing) kept by the minimal distance `distance` (int >= 1).
-
-    `order` (k,) is ``np.argsort(x[peaks])``: from its last entry down, each peak still kept flags
-    the peaks fewer than `distance` samples away as dropped. Returns the number kept.
-    """
-    k = peaks.shape[0]
-    for j in range(k):
-        keep[j] = True
-    for i in range(k - 1, -1, -1):
-        j = order[i]
-        if not keep[j]:
-            continue
-        q = j - 1
-        while 0 <= q and peaks[j] - peaks[q] < distance:
-            keep[q] = False
-            q -= 1
-        q = j + 1
-        while q < k and peaks[q] - peaks[j] < distance:
-            keep[q] = False
-            q += 1
-    kept = 0
-    for j in range(k):
-        if keep[j]:
-            kept += 1
-    return kept
-
-
-def compress(peaks, values, keep):
-    """Keep, in place and in order, the peaks (k,) and their `values` (k,) flagged in `keep` (k,);
-    returns their number."""
-    c = 0
-    for j in range(peaks.shape[0]):
-        if keep[j]:
-            peaks[c] = peaks[j]
-            values[c] = values[j]
-            c += 1
-    return c
-
-
-def maxima_prominences(x, maxima, out):
-    """Prominence of every local maximum of `x` (n,) into `out` (m,): what scipy's walk from each peak
-    (``_peak_prominences``: the smallest sample to each side before a strictly higher one or the end,
-    ``x[peak] - max(left_min, right_min)``) gives, in O(n + m) instead of a walk per peak.
-
-    `maxima` (m,) must be all the local maxima, as :func:`local_maxima` finds them. Between two
-    neighbouring maxima the signal falls, then rises (weakly: a rise then a fall would make a maximum
-    between them), and so it does between the signal's start and the first maximum and between the
-    last one and the end. The walk to the left of maximum j thus crosses
-    whole valleys, up to the nearest maximum strictly higher (whose valley it leaves on the rise, past
-    the valley's bottom) or to the start: its minimum is the smallest of those valleys' minima; to the
-    right likewise. Each side is one pass over the maxima with a stack of the maxima still unbeaten,
-    each holding the smallest valley since the one below it. The minima are samples of `x`, exactly,
-    so the prominences are the walk's bit for bit (a zero's sign cannot show: a
-    maximum is strictly above both minima).
-    """
-    n = x.shape[0]
-    m = maxima.shape[0]
-    if m == 0:
-        return
-    # valley[j]: the smallest sample between maxima j - 1 and j (the start for j = 0, the end for j = m)
-    valley = np.empty(m + 1)
-    lo = 0
-    for j in range(m + 1):
-        hi = maxima[j] if j < m else n - 1
-        v = x[lo]
-        for i in range(lo + 1, hi + 1):
-            if x[i] < v:
-                v = x[i]
-        valley[j] = v
-        lo = hi
-    left = np.empty(m)
-    right = np.empty(m)
-    _side_minima(x, maxima, valley, True, left)
-    _side_minima(x, maxima, valley, False, right)
-    for j in range(m):
-        out[j] = x[maxima[j]] - (left[j] if left[j] > right[j] else right[j])
-
-
-def _side_minima(x, maxima, valley, before, out):
-    """``out[j]``: the smallest of the valleys (:func:`maxima_prominences`) between maximum j and the nearest
-    strictly higher maximum before it (`before`) or after it, or the signal's end: one pass over the maxima
-    with a stack of those still unbeaten, each holding the smallest valley since the one below it."""
-    m = maxima.shape[0]
-    stack = np.empty(m, dtype=np.intp)
-    acc = np.empty(m)
-    top = 0
-    for i in range(m):
-        j = i if before else m - 1 - i
-        h = x[maxima[j]]
-        cur = valley[j] if before else valley[j + 1]
-        while top > 0 and x[maxima[stack[top - 1]]] <= h:
-            top -= 1
-            if acc[top] < cur:
-                cur = acc[top]
-        out[j] = cur
-        stack[top] = j
-        acc[top] = cur
-        top += 1
-
-
-def drop_below(peaks, values, vmin):
-    """Keep, in place and in order, the peaks (k,) with ``vmin <= values`` (k,); returns their number."""
-    c = 0
-    for j in range(peaks.shape[0]):
-        if vmin <= values[j]:
-            peaks[c] = peaks[j]
-            values[c] = values[j]
-            c += 1
-    return c
-
-
 #: The smallest positive float, the bound of the block noise sigmas (:func:`block_noise`).
 _TINY = float(np.finfo(float).tiny)
 _SQRT2 = math.sqrt(2.0)
@@ -899,7 +761,6 @@ _FUNCTIONS = (
     "_sections", "filtfilt",
     "loo_errors",
     "interp", "swing_median", "_interp1", "_window_mean", "_add_turn", "turn_values", "reading_sums",
-    "local_maxima", "select_by_distance", "compress", "_side_minima", "maxima_prominences", "drop_below",
 )
 _COMPILED = None
 #: Held while a module's functions are put through numba: threads that reach a kernel at once (a study's

@@ -13,7 +13,8 @@ on the lateral specific force ``f_y`` (MoRPI-A) or on the z angular rate
 Sampling
     The recordings are not uniformly sampled (the S6 files wander between about
     50 and 100 Hz). Peak detection therefore resamples the signal by linear
-    interpolation onto a uniform grid (:data:`GRID_HZ`), low-pass filters it
+    interpolation onto a uniform grid (:data:`GRID_HZ`, or the recording's
+    median sample rate: :attr:`StepConfig.grid_hz`), low-pass filters it
     there (zero-phase Butterworth), runs :func:`scipy.signal.find_peaks` with
     the period and width converted to grid samples, and maps the peaks back to
     the nearest original sample. Heading is integrated on the original time
@@ -74,7 +75,7 @@ __all__ = [
     "turn_heading",
 ]
 
-#: Rate of the uniform grid peak detection works on [Hz].
+#: Default rate of the uniform grid peak detection works on [Hz] (:attr:`StepConfig.grid_hz`).
 GRID_HZ = 100.0
 #: Window of :func:`activity_span` [s]: the motion onset is the last sample of the first active window.
 ACTIVITY_WINDOW_S = 0.5
@@ -132,6 +133,23 @@ class StepConfig:
         is what :func:`morpi_filters.field.train_thresholds` sets on the
         straight train runs of the field dataset (1.5 times the largest
         full-period change they show, 34 deg).
+    min_height : float or None
+        Least peak value of the step signal, filtered when ``cutoff_hz`` is
+        set, in its own SI unit (m/s^2 for MoRPI-A, rad/s for MoRPI-G);
+        the minima that bound half-period steps (``segment="extrema"``)
+        must lie at ``-min_height`` or below. Unlike ``prominence`` it is
+        absolute, so it moves with a constant offset of the signal (a gyro
+        bias, the calibration). None (the default): no height threshold.
+    min_width_s : float or None
+        Least peak width [s], at half the peak's prominence as
+        :func:`scipy.signal.find_peaks` measures it; narrow spikes fall
+        below it. None (the default): no width threshold.
+    grid_hz : float or None
+        Rate of the uniform grid the peaks are found on [Hz]; the default
+        :data:`GRID_HZ` keeps the MoRPI field numbers. None: the
+        recording's own median sample rate (``1 / median(diff(time))``),
+        against which ``cutoff_hz`` is then checked when the signal is
+        prepared (:func:`prepare_signal`).
     """
 
     heading: str = "mean"
@@ -144,6 +162,9 @@ class StepConfig:
     min_swing_deg: float = 15.0
     turn_deg: float = 51.0
     heading_source: str = "gyro"
+    min_height: float | None = None
+    min_width_s: float | None = None
+    grid_hz: float | None = GRID_HZ
 
     def __post_init__(self):
         for name, allowed in (("heading", HEADINGS), ("segment", SEGMENTS), ("ends", ENDS),
@@ -154,8 +175,19 @@ class StepConfig:
             raise ParameterError(f"StepConfig.min_period_s={self.min_period_s}: expected a positive time [s]")
         if not self.prominence >= 0:
             raise ParameterError(f"StepConfig.prominence={self.prominence}: expected a fraction >= 0")
-        if self.cutoff_hz is not None and not 0 < self.cutoff_hz < GRID_HZ / 2:
-            raise ParameterError(f"StepConfig.cutoff_hz={self.cutoff_hz}: expected None or 0 < f < {GRID_HZ / 2} Hz")
+        if self.min_height is not None and not _finite(self.min_height):
+            raise ParameterError(f"StepConfig.min_height={self.min_height!r}: expected None or a finite peak value "
+                                 "in the signal's unit (m/s^2 or rad/s)")
+        for name in ("min_width_s", "grid_hz"):
+            v = getattr(self, name)
+            if v is not None and not (_finite(v) and v > 0):
+                unit = "time [s]" if name == "min_width_s" else "rate [Hz]"
+                raise ParameterError(f"StepConfig.{name}={v!r}: expected None or a positive finite {unit}")
+        if self.cutoff_hz is not None:
+            top = math.inf if self.grid_hz is None else self.grid_hz / 2
+            if not (_finite(self.cutoff_hz) and 0 < self.cutoff_hz < top):
+                half = "" if self.grid_hz is None else f" < {top:g} Hz (half of grid_hz)"
+                raise ParameterError(f"StepConfig.cutoff_hz={self.cutoff_hz!r}: expected None or 0 < f{half}")
         if not 0 < self.turn_deg < 360:
             raise ParameterError(f"StepConfig.turn_deg={self.turn_deg}: expected a heading change "
                                  "0 < turn_deg < 360 [deg]")
@@ -193,6 +225,11 @@ class StepConfig:
             if len(_DERIVED) < _DERIVED_MAX:
                 _DERIVED[key] = out
         return out
+
+
+def _finite(v) -> bool:
+    """A finite real number (not a bool)."""
+    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) and math.isfinite(v)
 
 
 #: Rules derived by :meth:`StepConfig.with_`, by rule and change (bounded: a search derives a few hundred).
@@ -630,6 +667,11 @@ class PreparedSignal:
     span : tuple of float
         2nd and 98th percentile of the filtered signal during the motion
         (the scale of the prominence threshold).
+    grid_hz : float or None
+        The grid rate asked for (:attr:`StepConfig.grid_hz`; None: the
+        recording's median sample rate).
+    rate_hz : float
+        The rate of `grid` [Hz].
     steps_memo : dict
         Filled by :func:`extract_steps` and :func:`step_sums`: what every
         heading reading of the same steps shares (boundary headings, end
@@ -647,6 +689,8 @@ class PreparedSignal:
     time: np.ndarray
     heading: np.ndarray
     span: tuple = (0.0, 0.0)
+    grid_hz: float | None = GRID_HZ
+    rate_hz: float = GRID_HZ
     #: What every heading reading of the same steps shares (:func:`extract_steps`); not copied by ``replace``.
     steps_memo: dict = field(default_factory=dict, init=False, repr=False)
 
@@ -685,7 +729,7 @@ def _attitude_heading(rec, rest_end_time=None) -> np.ndarray:
 
 
 def prepare_signal(rec, method: str, cutoff_hz: float | None, *, rest_end_time: float | None = None,
-                   heading=None, motion=None) -> PreparedSignal:
+                   heading=None, motion=None, grid_hz: float | None = GRID_HZ) -> PreparedSignal:
     """Resample (and filter) a recording's MoRPI signal once for many step configs.
 
     Parameters
@@ -703,12 +747,23 @@ def prepare_signal(rec, method: str, cutoff_hz: float | None, *, rest_end_time: 
     motion : (float, float), optional
         Motion start and end time [s]; default: :func:`motion_span` of the
         signal.
+    grid_hz : float or None
+        Rate of the uniform grid [Hz] (:attr:`StepConfig.grid_hz`); None:
+        the recording's median sample rate.
 
     Returns
     -------
     PreparedSignal
         Grid, raw and filtered signal, motion span, heading and the 2nd/98th
         percentile span of the filtered signal during the motion.
+
+    Raises
+    ------
+    DataError
+        With ``grid_hz=None``, when `cutoff_hz` is not below half the
+        recording's median sample rate.
+    ParameterError
+        When `cutoff_hz` is not below half of a given `grid_hz`.
 
     Examples
     --------
@@ -724,8 +779,9 @@ def prepare_signal(rec, method: str, cutoff_hz: float | None, *, rest_end_time: 
     attr, col = METHODS[method]
     x = getattr(rec, attr)[:, col]
     t = rec.time
-    grid, graw = resample_uniform(t, x)
-    g = lowpass(graw, cutoff_hz) if cutoff_hz is not None else graw
+    rate = _grid_rate(rec, cutoff_hz, grid_hz)
+    grid, graw = resample_uniform(t, x, rate)
+    g = lowpass(graw, cutoff_hz, rate) if cutoff_hz is not None else graw
     if motion is None:
         motion = motion_span(t, x, rest_end_time)
     psi = integrate_heading(t, rec.omega[:, 2]) if heading is None else np.asarray(heading, float)
@@ -733,9 +789,27 @@ def prepare_signal(rec, method: str, cutoff_hz: float | None, *, rest_end_time: 
     span = _percentiles(g[i0:i1], (2.0, 98.0)) if i1 - i0 >= 3 else (0.0, 0.0)
     out = PreparedSignal(source=rec.source, method=method, grid=grid, raw=graw, filtered=g,
                          cutoff_hz=cutoff_hz, motion=(float(motion[0]), float(motion[1])), time=t, heading=psi,
-                         span=span)
+                         span=span, grid_hz=grid_hz, rate_hz=rate)
     out.__dict__["motion_index"] = (int(i0), int(i1))           # the cached property, found here already
     return out
+
+
+def _grid_rate(rec, cutoff_hz, grid_hz) -> float:
+    """The rate of the grid [Hz]: `grid_hz`, or the recording's median sample rate when None, above twice the
+    cut-off."""
+    if grid_hz is not None:
+        if cutoff_hz is not None and not cutoff_hz < grid_hz / 2:
+            raise ParameterError(f"StepConfig.cutoff_hz={cutoff_hz}: expected below half of grid_hz={grid_hz} Hz")
+        return float(grid_hz)
+    dt = np.diff(np.asarray(rec.time, float))
+    rate = 1.0 / float(np.median(dt)) if dt.size else math.nan
+    if not (math.isfinite(rate) and rate > 0):
+        raise DataError(f"{rec.source}: no median sample rate for StepConfig.grid_hz=None "
+                        "(expected at least two samples with increasing time)")
+    if cutoff_hz is not None and not cutoff_hz < rate / 2:
+        raise DataError(f"{rec.source}: StepConfig.cutoff_hz={cutoff_hz} Hz with grid_hz=None: expected below half "
+                        f"the recording's median sample rate ({rate:.6g} Hz)")
+    return rate
 
 
 def _percentiles(x, qs) -> tuple:
@@ -884,14 +958,18 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
         the mean specific force before `rest_end_time` (the first 2 s without
         it).
     prepared : PreparedSignal, optional
-        Output of :func:`prepare_signal` with ``config.cutoff_hz`` (saves the
+        Output of :func:`prepare_signal` with ``config.cutoff_hz`` and
+        ``config.grid_hz`` (saves the
         resampling and filtering when many configs are tried).
     peak_cache : dict, optional
         Reuses the peaks found for the same recording, method, cut-off,
-        prominence, least period and segment rule, and the steps' Weinberg
-        weights read from the same signal (``amplitude_from``). The peaks do not depend on
-        a constant offset of the signal (the threshold is relative to its
-        range), so one entry serves the raw and the gyro-calibrated signal.
+        grid, peak thresholds and segment rule, and the steps' Weinberg
+        weights read from the same signal (``amplitude_from``). Without
+        ``min_height`` the peaks do not depend on a constant offset of the
+        signal (the prominence is relative to its range, the width measured
+        from the prominence), so one entry serves the raw and the
+        gyro-calibrated signal; with it the peaks are kept on the prepared
+        signal only.
 
     Returns
     -------
@@ -922,7 +1000,8 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
     if prepared is None:
         if heading is None and config.heading_source == "attitude":
             heading = _attitude_heading(rec, rest_end_time)
-        prepared = prepare_signal(rec, method, config.cutoff_hz, rest_end_time=rest_end_time, heading=heading)
+        prepared = prepare_signal(rec, method, config.cutoff_hz, rest_end_time=rest_end_time, heading=heading,
+                                  grid_hz=config.grid_hz)
     else:
         _check_prepared(prepared, method, config)
     (st, et, weight, frac, _, _, med, peaks), dpsi = _find_steps(prepared, method, config, peak_cache)
@@ -956,7 +1035,7 @@ def step_sums(prepared: PreparedSignal, method: str, config: StepConfig, *, peak
     Parameters
     ----------
     prepared : PreparedSignal
-        Output of :func:`prepare_signal` with ``config.cutoff_hz``.
+        Output of :func:`prepare_signal` with ``config.cutoff_hz`` and ``config.grid_hz``.
     method : str
         ``"MoRPI-A"`` or ``"MoRPI-G"``.
     config : StepConfig
@@ -1021,9 +1100,10 @@ _NO_EDGES = np.zeros(0)
 
 
 def _check_prepared(prepared, method, config):
-    if prepared.cutoff_hz != config.cutoff_hz or prepared.method != method:
-        raise ParameterError(f"{prepared.source}: prepared signal ({prepared.method}, cutoff {prepared.cutoff_hz}) "
-                             f"does not match ({method}, cutoff {config.cutoff_hz})")
+    if prepared.cutoff_hz != config.cutoff_hz or prepared.method != method or prepared.grid_hz != config.grid_hz:
+        raise ParameterError(f"{prepared.source}: prepared signal ({prepared.method}, cutoff {prepared.cutoff_hz}, "
+                             f"grid_hz {prepared.grid_hz}) does not match ({method}, cutoff {config.cutoff_hz}, "
+                             f"grid_hz {config.grid_hz})")
 
 
 def _boundaries(p, method, config, peak_cache):
@@ -1033,7 +1113,8 @@ def _boundaries(p, method, config, peak_cache):
     median step duration, the boundaries' grid indices, the whole steps' Weinberg weights, the median
     heading swing [deg] and the median weight."""
     memo = p.steps_memo
-    rule = (config.prominence, config.min_period_s, config.segment, config.amplitude_from)
+    rule = (config.prominence, config.min_period_s, config.min_height, config.min_width_s, config.segment,
+            config.amplitude_from)
     out = memo.get(rule)                                        # the rule's peaks on this signal, found before
     if out is not None:
         return out
@@ -1047,17 +1128,21 @@ def _boundaries(p, method, config, peak_cache):
         raise DataError(f"{p.source}: no periodic motion found in the {method} signal (flat signal)")
     prom = config.prominence * (hi - lo)
     # the peaks, the boundaries and the weights do not depend on the heading: kept in `peak_cache` (shared by
-    # the prepared signals of the same recording, method and cut-off); the headings on the prepared signal
-    cache = p.steps_memo if peak_cache is None else peak_cache
-    pkey = (p.source, method, config.cutoff_hz, config.prominence, config.min_period_s, config.segment)
+    # the prepared signals of the same recording, method and cut-off, which may differ by a constant offset:
+    # an absolute height threshold keeps its peaks on the prepared signal); the headings on the prepared signal
+    shared = peak_cache if config.min_height is None else None
+    cache = p.steps_memo if shared is None else shared
+    pkey = (p.source, method, config.cutoff_hz, config.prominence, config.min_period_s, config.min_height,
+            config.min_width_s, p.rate_hz, config.segment)
     found = cache.get(pkey)
     if found is None:
-        dist = max(1, int(round(config.min_period_s * GRID_HZ)))
+        dist = max(1, int(round(config.min_period_s * p.rate_hz)))
+        width = None if config.min_width_s is None else config.min_width_s * p.rate_hz
         seg = g[i0:i1]
-        ckey = (p.source, method, config.cutoff_hz, config.min_period_s)
-        imax = _prominent(seg, dist, prom, peak_cache, ckey + ("max",)) + i0
+        ckey = (p.source, method, config.cutoff_hz, config.min_period_s, config.min_height, p.rate_hz)
+        imax = _prominent(seg, dist, prom, cache, ckey + ("max",), height=config.min_height, width=width) + i0
         if config.segment == "extrema":
-            imin = _prominent(-seg, dist, prom, peak_cache, ckey + ("min",)) + i0
+            imin = _prominent(-seg, dist, prom, cache, ckey + ("min",), height=config.min_height, width=width) + i0
             bounds = np.sort(np.concatenate([imax, imin]))
         else:
             bounds = imax
@@ -1084,15 +1169,13 @@ def _boundaries(p, method, config, peak_cache):
     kernel = _KERNELS or _kernels()
     psi_m = memo.get("motion heading")
     if psi_m is None:
-        psi_m = memo["motion heading"] = np.empty(2)
-        kernel["interp"](np.array([m0, m1]), t, psi, psi_m)     # np.interp([m0, m1], t, psi)
+        psi_m = memo["motion heading"] = np.interp([m0, m1], t, psi)
     bkey = ("boundary heading", pkey)
     psi_b = memo.get(bkey)
     if psi_b is None:
-        psi_b = memo[bkey] = np.empty(bt.shape[0])
-        kernel["interp"](bt, t, psi, psi_b)                     # np.interp(bt, t, psi)
+        psi_b = memo[bkey] = np.interp(bt, t, psi)
         psi_b.flags.writeable = False                           # shared by the Steps of every reading
-    skey = ("swing",) + pkey[3:5]                               # the maxima: prominence, least period
+    skey = ("swing",) + pkey[3:8]                               # the maxima: their thresholds, the grid
     med = memo.get(skey)
     if med is None:
         med = memo[skey] = float(kernel["swing_median"](t, psi, grid[imax]))
@@ -1111,16 +1194,16 @@ def _edge_values(p, config, pkey, bt, psi_b) -> np.ndarray:
         key = ("integral values", pkey)
     out = memo.get(key)
     if out is None:
-        kernel = _KERNELS or _kernels()
         x = np.empty(bt.shape[0] + 2)
         x[0], x[1:-1], x[-1] = p.motion[0], bt, p.motion[1]
-        out = np.empty(x.shape[0])
         if config.heading == "turns":
             # turn_heading(x, t, psi, turn_stretches(bt, psi_b, ...), integral=...) in one compiled call
-            kernel["turn_values"](bt, psi_b, np.radians(config.turn_deg), 2 if config.segment == "extrema" else 1,
-                                  x, p.time, p.heading, p.heading_integral, out)
+            out = np.empty(x.shape[0])
+            (_KERNELS or _kernels())["turn_values"](bt, psi_b, np.radians(config.turn_deg),
+                                                    2 if config.segment == "extrema" else 1,
+                                                    x, p.time, p.heading, p.heading_integral, out)
         else:
-            kernel["interp"](x, p.time, p.heading_integral, out)
+            out = np.interp(x, p.time, p.heading_integral)
         out.flags.writeable = False
         memo[key] = out
     return out
@@ -1177,36 +1260,25 @@ def _find_steps(p, method, config, peak_cache):
     return memo[mkey], np.divide(edge[1:] - edge[:-1], span, out=np.array(psi_s), where=span > 1e-9)
 
 
-def _prominent(x, distance, prominence, cache, key):
-    """``scipy.signal.find_peaks(x, distance=distance, prominence=prominence)[0]``, with the peaks kept by the
-    distance and their prominences (:func:`_find_peaks`) cached under `key`: find_peaks applies the distance
-    before it measures the prominences, so every prominence threshold selects from the same candidates."""
-    found = None if cache is None else cache.get(key)
+def _prominent(x, distance, prominence, cache, key, *, height=None, width=None):
+    """``scipy.signal.find_peaks(x, height=height, distance=distance, prominence=prominence, width=width)[0]``,
+    with the peaks kept by the height and the distance, their prominences and, once asked, their widths cached
+    under `key`: find_peaks applies the height and the distance before it measures the prominences, and
+    measures each peak's width from its own prominence, so every prominence and width threshold selects from
+    the same candidates."""
+    found = cache.get(key)
     if found is None:
-        found = _find_peaks(x, distance)
-        if cache is not None:
-            cache[key] = found
-    peaks, prominences = found
-    return peaks[prominences >= prominence]
-
-
-def _find_peaks(x, distance: int):
-    """``peaks, props["prominences"]`` of ``scipy.signal.find_peaks(x, distance=distance, prominence=0.0)``
-    for a finite 1-D `x` and an integer `distance` >= 1, bit for bit, from the compiled loops of
-    ``_signal_kernel`` (scipy's own argsort of the heights ranks equal peaks)."""
-    kernel = _KERNELS or _kernels()
-    x = np.require(x, float, ["C"])
-    peaks = np.empty(x.shape[0] // 2, dtype=np.intp)
-    m = kernel["local_maxima"](x, peaks)
-    peaks, prom = peaks[:m], np.empty(m)
-    kernel["maxima_prominences"](x, peaks, prom)
-    if distance > 1 and m > 1:                                  # distance 1 drops nothing
-        keep = np.empty(m, dtype=bool)
-        if kernel["select_by_distance"](peaks, np.argsort(x[peaks]), distance, keep) < m:
-            m = kernel["compress"](peaks, prom, keep)
-            peaks, prom = peaks[:m], prom[:m]
-    m = kernel["drop_below"](peaks, prom, 0.0)                  # scipy's prominence >= 0 (all, for a finite x)
-    return peaks[:m].copy(), prom[:m].copy()
+        peaks, props = _signal().find_peaks(x, height=height, distance=distance, prominence=0.0)
+        found = cache[key] = {"peaks": peaks, "prominences": props["prominences"],
+                              "bases": (props["left_bases"], props["right_bases"])}
+    keep = found["prominences"] >= prominence
+    if width is not None:
+        widths = found.get("widths")
+        if widths is None:
+            widths = found["widths"] = _signal().peak_widths(
+                x, found["peaks"], rel_height=0.5, prominence_data=(found["prominences"], *found["bases"]))[0]
+        keep &= widths >= width
+    return found["peaks"][keep]
 
 
 def require_swing(source, method: str, swing_deg: float, min_swing_deg: float) -> None:

@@ -631,49 +631,6 @@ def test_reading_sums_kernel_by_hand():
             np.testing.assert_allclose(got[:3], want[:3], rtol=8 * eps, atol=8 * eps, err_msg=str((ends, heading)))
 
 
-def _scipy_peaks(x, distance):
-    import warnings
-
-    from scipy.signal import find_peaks
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")                           # a zero prominence would warn
-        peaks, props = find_peaks(x, distance=distance, prominence=0.0)
-    return peaks, props["prominences"]
-
-
-@pytest.mark.parametrize("compiled", [True, False])
-def test_find_peaks_kernel_is_scipys_bit_for_bit(compiled, monkeypatch):
-    from scipy import signal
-
-    if not compiled:                                             # the same loops run as plain Python
-        plain = plain_kernels()
-        monkeypatch.setattr(st, "_KERNELS", {n: getattr(plain, n) for n in plain._FUNCTIONS})
-    rng = np.random.default_rng(12)
-    t = np.arange(6000) / 100.0
-    sine = np.sin(2 * np.pi * 1.3 * t) + 0.3 * rng.standard_normal(t.size)
-    signals = [rng.standard_normal(n) for n in (0, 1, 2, 3, 10, 1000)]
-    signals += [sine, signal.sosfiltfilt(signal.butter(2, 3.0, fs=100.0, output="sos"), sine)]
-    # plateaus of odd and even width, flat runs at both ends, a flat run on a rise (not a peak)
-    signals += [np.round(np.sin(2 * np.pi * t[:2000] / 3.7) * levels) for levels in (1, 2, 5)]
-    signals += [np.array([1.0, 1.0, 2.0, 2.0, 2.0, 2.0, 1.0, 3.0, 3.0, 3.0, 0.0, 2.0, 2.0, 4.0, 4.0])]
-    # equal heights within the distance: which one survives is numpy's argsort's call, as in scipy
-    ties = np.zeros(400)
-    ties[rng.choice(np.arange(1, 399), 80, replace=False)] = rng.choice([1.0, 2.0], 80)
-    signals += [ties, -sine]
-    # equal maxima with valleys of different depths between them (a walk passes an equal maximum)
-    signals += [np.array([0.0, 5.0, 1.0, 5.0, -3.0, 5.0, 2.0, 7.0, 0.0])]
-    signals += [rng.integers(0, 4, 30).astype(float) for _ in range(100)]
-    for x in signals:
-        for distance in (1, 2, 3, 50, 200):
-            want = _scipy_peaks(x, distance)
-            got = st._find_peaks(x, distance)
-            for g, w in zip(got, want):
-                assert g.dtype == w.dtype
-                np.testing.assert_array_equal(g, w)
-                assert g.tobytes() == w.tobytes()
-
-
 def test_peaks_shared_across_prominence_thresholds_are_scipys_own():
     from scipy.signal import find_peaks
 
