@@ -301,7 +301,7 @@ def interp(x, xp, fp, out):
 
 def swing_median(t, psi, at):
     """Median heading swing [deg] between the samples first at or after the times `at` (k,): what
-    ``steps._boundaries`` reads with ``np.searchsorted`` and ``np.maximum.reduceat``, so the same
+    ``steps.extract._boundaries`` reads with ``np.searchsorted`` and ``np.maximum.reduceat``, so the same
     windows (the last one runs to the end of `psi`; a window of no sample is the sample it starts
     on); NaN for k < 2."""
     k = at.shape[0]
@@ -458,7 +458,7 @@ def reading_sums(bt, psi_b, weight, aux, m0, m1, psi_m0, psi_m1, per, wmed, ends
     `heading` 0 the heading at the step's end, 1 its change over the step, 2 the change plus the turn
     heading at the step's start, 3 the mean over the step. `aux` (k + 2,) holds a value at
     ``[m0, bt..., m1]``: the turn heading (2) or the heading's running integral (3). A step's heading
-    and weight are those of ``steps._find_steps``, element for element; ``w = sum(weight * fraction)``,
+    and weight are those of ``steps.extract._find_steps``, element for element; ``w = sum(weight * fraction)``,
     ``(ux, uy) = sum(weight * fraction * [cos, sin](heading))``.
     """
     k = bt.shape[0]

@@ -152,7 +152,8 @@ def still_spans(time, omega, motion, rest_slice) -> tuple:
     >>> still_spans(t, omega, (3.0, 6.0), (0, 300))
     ((0.0, 2.99), (6.01, 9.99))
     """
-    from .steps import GRID_HZ, resample_uniform, window_spread
+    from .steps import GRID_HZ, resample_uniform
+    from .steps.prepare import window_spread
 
     grid, g = resample_uniform(time, omega)
     k = max(2, int(round(STILL_WINDOW_S * GRID_HZ)))

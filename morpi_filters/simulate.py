@@ -62,13 +62,14 @@ from .strapdown import rotvec_to_C
 
 __all__ = [
     "Trajectory", "ImuData", "straight", "sine", "l_route", "route_trajectory", "imu",
-    "sample_times", "paper_speed",
+    "sample_times", "paper_speed", "L_ROUTE_SPEED",
 ]
 
 # typical driven speeds [m/s] along the centreline, from the paper's average durations over 6.3 m:
 # ~5 s straight, ~14.5 s with 1 m periods, ~11 s with 1.5 m periods (1 s ramps at both ends)
 _SPEED = {"straight": 6.3 / 4.0, 1.0: 6.3 / 13.5, 1.5: 6.3 / 10.0}
-_L_SPEED = 0.6          # the field L recordings last 45-90 s for 28 m
+#: Cruise speed of the paper's robot on the L route [m/s]: the field L recordings last 45-90 s for 28 m.
+L_ROUTE_SPEED = 0.6
 
 
 
@@ -575,7 +576,7 @@ def sine(length: float = 6.3, *, period: float = 1.0, amplitude: float = 0.1, sp
 
 def l_route(legs=(18.0, 10.0), *, turn_deg: float = 90.0, turn_radius: float = 1.0, slope_deg: float = 0.0,
             slope_length: float = 5.0, period: float | None = None, amplitude: float | None = None,
-            speed: float = _L_SPEED, ramp: float = 1.0, rest=3.0, taper: float | None = None,
+            speed: float = L_ROUTE_SPEED, ramp: float = 1.0, rest=3.0, taper: float | None = None,
             rate_hz: float = 100.0, t0: float = 0.0, g: float = units.G0) -> Trajectory:
     """L-shaped route: a leg along x, a smooth turn, a second leg; optional slope and sine.
 

@@ -27,7 +27,7 @@ import numpy as np
 from . import dataset, units
 from .errors import ParameterError
 from .fetch import sha256_file
-from .simulate import _L_SPEED, _SPEED, imu, route_trajectory
+from .simulate import L_ROUTE_SPEED, imu, paper_speed, route_trajectory
 
 __all__ = ["write_dataset", "ensure_synthetic_dataset", "GENERATOR_VERSION", "REALISTIC_BIAS_FRACTION",
            "DATASET_OPTIONS"]
@@ -97,11 +97,11 @@ def _synthetic_run(seed: int, folder: str, run: int) -> tuple[dataset.Recording,
     o = DATASET_OPTIONS
     jitter = trng.standard_normal(4)
     if len(r.segments_m) == 2:
-        base = _L_SPEED
+        base = L_ROUTE_SPEED
     elif r.kind == "periodic":
-        base = _SPEED.get(r.p2p_m, _SPEED[1.0])
+        base = paper_speed(r.p2p_m)
     else:
-        base = _SPEED["straight"]
+        base = paper_speed()
     speed = base * math.exp(o["speed_spread"] * jitter[0])
     kw = dict(speed=speed, rest=tuple(trng.uniform(3.0, 4.5, 2)), t0=float(trng.uniform(0.3, 0.5)))
     if r.kind == "periodic":

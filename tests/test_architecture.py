@@ -282,7 +282,7 @@ def _functions_calling(attr_chain: str) -> set:
 
 @pytest.mark.parametrize("concept, pattern, home", [
     ("the Weinberg length (a fourth root)", r"def weinberg_length\b|\*\*\s*\(?\s*(0\.25|1\s*/\s*4)\b|sqrt\(\s*np\.sqrt",
-     {"steps"}),
+     {"steps.reckon"}),
     ("the rate integrator", r"def integrate_rate\b", {"strapdown"}),
     ("the gravity constant", r"\b9\.80665\b", {"units"}),
     ("the gravity model (WGS84 normal gravity)", r"def normal_gravity\b|\b9\.78032", {"calibration"}),
@@ -309,7 +309,7 @@ def test_one_definition_counts():
 
 def test_the_heading_wrapper_uses_the_rate_integrator():
     # steps.integrate_heading is MoRPI's name for the heading; it must delegate, not integrate on its own
-    tree = _modules_cache()["steps"]
+    tree = _modules_cache()["steps.prepare"]
     fn = next(n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef) and n.name == "integrate_heading")
     calls = {ast.unparse(n.func) for n in ast.walk(fn) if isinstance(n, ast.Call)}
     assert "integrate_rate" in calls and not any("cumsum" in c or "trapz" in c or "trapezoid" in c for c in calls)

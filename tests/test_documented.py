@@ -275,7 +275,8 @@ def test_public_functions_have_parameters_returns_and_examples():
 #: ``__all__`` (``aided``, ``report.aided``) counts its functions whose names do not start with "_".
 _STUDY_PAGE_MODULES = (
     "field_aided", "montecarlo", "montecarlo.config", "montecarlo.engine", "montecarlo.training", "montecarlo.drift",
-    "montecarlo.pages", "outputs", "results", "units", "simulate", "strapdown", "synthetic", "aided", "errors",
+    "montecarlo.pages", "steps.rules", "steps.prepare", "steps.extract", "steps.headings",
+    "steps.reckon", "outputs", "results", "units", "simulate", "strapdown", "synthetic", "aided", "errors",
     "resources", "report.aided", "report.assessment", "report.calibration", "report.common", "report.curves",
     "report.index", "report.montecarlo", "report.plots", "report.tables",
 )

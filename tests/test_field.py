@@ -15,6 +15,7 @@ import pytest
 from morpi_filters import aided, field_aided, simulate, synthetic, units
 from morpi_filters import dataset as ds
 from morpi_filters import steps as st
+from morpi_filters.steps import prepare as stp
 from morpi_filters.calibration import NoRestError, detect_rest
 from morpi_filters.errors import DataError, MorpiError
 from morpi_filters.field import INS_SPANS, LEVELED, FieldData, Thresholds
@@ -42,7 +43,7 @@ def _windows_s() -> dict:
     rest = inspect.signature(detect_rest).parameters
     act = inspect.signature(st.activity_span).parameters
     epoch = inspect.signature(field_aided.rest_noise).parameters["epoch_s"].default
-    _, _, pad = st._butter(2, 1.0, st.GRID_HZ)                  # the low-pass's odd padding [grid samples]
+    _, _, pad = stp._butter(2, 1.0, st.GRID_HZ)                  # the low-pass's odd padding [grid samples]
     return {
         "rest: moving window, noise blocks": rest["window_s"].default,
         "rest: guard": rest["guard_s"].default,

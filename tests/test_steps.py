@@ -8,6 +8,7 @@ import pytest
 from scipy.integrate import cumulative_trapezoid, quad
 
 from morpi_filters import steps as st
+from morpi_filters.steps import extract as stx, prepare as stp
 from morpi_filters.dataset import Recording
 from morpi_filters.errors import MorpiError
 from conftest import plain_kernels
@@ -110,8 +111,8 @@ def test_span_percentiles_are_numpys_bit_for_bit():
     rng = np.random.default_rng(5)
     for n in (3, 4, 5, 26, 50, 51, 76, 6000, 6001):               # 26, 76: an index halfway between two
         for x in (rng.normal(size=n), 1e3 + 1e-3 * rng.normal(size=n), np.round(rng.normal(size=n), 1)):
-            assert st._percentiles(x, (2.0, 98.0)) == tuple(np.percentile(x, [2, 98]).tolist())
-            assert st._percentiles(x, (0.0, 50.0, 100.0)) == tuple(np.percentile(x, [0, 50, 100]).tolist())
+            assert stp._percentiles(x, (2.0, 98.0)) == tuple(np.percentile(x, [2, 98]).tolist())
+            assert stp._percentiles(x, (0.0, 50.0, 100.0)) == tuple(np.percentile(x, [0, 50, 100]).tolist())
 
 
 def test_weinberg_length_of_a_sinusoid():
@@ -463,10 +464,10 @@ def test_step_sums_are_the_steps_own_sums_for_every_reading_and_refuse_the_same_
             turning += heading == "turns" and bool(np.any(s.heading != st.extract_steps(
                 None, method, cfg.with_(heading="change"), prepared=prep, peak_cache=cache).heading))
             # the compiled loop gives the plain Python loop's bits
-            pkey, _, bt, psi_b, psi_m, per, _, weight, _, wmed = st._boundaries(prep, method, cfg, cache)
-            edge = st._edge_values(prep, cfg, pkey, bt, psi_b) if heading in ("turns", "mean") else np.zeros(0)
+            pkey, _, bt, psi_b, psi_m, per, _, weight, _, wmed = stx._boundaries(prep, method, cfg, cache)
+            edge = stx._edge_values(prep, cfg, pkey, bt, psi_b) if heading in ("turns", "mean") else np.zeros(0)
             assert plain.reading_sums(bt, psi_b, weight, edge, *prep.motion, *psi_m, per, wmed,
-                                      st._ENDS_CODES[ends], st._HEADING_CODES[heading]) == (w, ux, uy, n)
+                                      stx._ENDS_CODES[ends], stx._HEADING_CODES[heading]) == (w, ux, uy, n)
     assert turning == 2 * len(st.SEGMENTS) * len(st.ENDS)        # the L route's turn enters every turns reading
     # the L route turns: the turns reading's integral, given or computed, gives the same heading
     prep = st.prepare_signal(rec, "MoRPI-G", 3.0)
@@ -517,7 +518,7 @@ def test_interp_and_swing_kernels_are_numpys_bit_for_bit():
         bi = np.searchsorted(t, at)
         if bi.size < 2:
             return float("nan")
-        return st._median(np.degrees(np.maximum.reduceat(psi, bi[:-1])[:bi.size - 1]
+        return stp.small_median(np.degrees(np.maximum.reduceat(psi, bi[:-1])[:bi.size - 1]
                                      - np.minimum.reduceat(psi, bi[:-1])[:bi.size - 1]))
 
     # peaks a sample apart, two peaks on one sample (a window of none), an odd and an even count
@@ -546,7 +547,7 @@ def test_turn_values_kernel_is_turn_heading_of_turn_stretches_bit_for_bit():
             psi = psi + size * np.clip((t - t0) / dur, 0.0, 1.0)
         if case % 10 == 0:
             psi[1500:2500] = psi[1500]                              # a flat stretch: pb == pa
-        integral = st._running_integral(t, psi)
+        integral = stp.running_integral(t, psi)
         bt = np.sort(rng.choice(t[50:-50], int(rng.integers(2, 120)), replace=False))
         psi_b = np.interp(bt, t, psi)
         x = np.concatenate([[t[10]], bt, [t[-10]]])
@@ -565,7 +566,7 @@ def test_turn_values_kernel_is_turn_heading_of_turn_stretches_bit_for_bit():
     psi_b = np.array([0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 1.0])
     tt = np.linspace(0.0, 6.0, 601)
     pp = np.interp(tt, bt, psi_b)
-    integral = st._running_integral(tt, pp)
+    integral = stp.running_integral(tt, pp)
     stretches = st.turn_stretches(bt, psi_b, 1.5, 1)
     assert stretches == [(0.0, 1.0, 5.0, 6.0)]
     want = st.turn_heading(bt, tt, pp, stretches, integral=integral)
@@ -594,7 +595,7 @@ def test_window_spread_kernel_is_the_numpy_running_sums_bit_for_bit():
                 f(w, k, sd, means)
                 np.testing.assert_array_equal(sd, want)
                 np.testing.assert_array_equal(means, mean)
-            np.testing.assert_array_equal(st.window_spread(w, k)[1], mean)
+            np.testing.assert_array_equal(stp.window_spread(w, k)[1], mean)
 
 
 def test_reading_sums_kernel_by_hand():

@@ -377,7 +377,7 @@ def test_translation_is_the_numpy_sums_bit_for_bit(n):
 
 @pytest.mark.parametrize("n", [2, 3, 4, 500])
 def test_increments_and_running_integral_are_the_numpy_sums_bit_for_bit(n):
-    from morpi_filters.steps import _running_integral
+    from morpi_filters.steps.prepare import running_integral as _running_integral
     from morpi_filters.strapdown import _increments
 
     rng = np.random.default_rng(41)
