@@ -561,7 +561,8 @@ def block_noise(x, edges, bounds, sig, spread):
     median; ``dev = |d - med|``; ``q90`` the linear-interpolation 0.9 quantile of ``dev``
     (``pos = (n - 1) 0.9``, ``lo = floor(pos)``, ``hi = min(lo + 1, n - 1)``, ``f = pos - lo``: ``s[hi] -
     (s[hi] - s[lo]) (1 - f)`` when ``f >= 0.5``, else ``s[lo] + (s[hi] - s[lo]) f``, ``s`` the sorted
-    ``dev``); ``sigma = sqrt(sum(dev^2 | dev <= q90) / count) / 0.7891 / sqrt(2)``, the kept squares
+    ``dev``); ``sigma = sqrt(sum(dev^2 | dev <= q90 + tie) / count) / 0.7891 / sqrt(2)`` (``tie`` the tie margin
+    of ``choice.tie_margin(q90)``: a deviation that rounding puts a hair above the quantile is kept), the kept squares
     added in row order from 0.0; at least the smallest positive ``|d|`` over ``sqrt(12)`` (0 without
     one) and the smallest positive float.
 
@@ -649,9 +650,10 @@ def block_noise(x, edges, bounds, sig, spread):
             ss = 0.0
             cnt = 0
             pos_min = np.inf
+            cut = q90 + (TIE_REL * abs(q90) + TIE_ABS)            # choice.tie_margin: rounding cannot flip a kept value
             for i in range(n):
                 v = abs(d[i] - med)
-                if v <= q90:
+                if v <= cut:
                     ss += v * v
                     cnt += 1
                 ad = abs(d[i])

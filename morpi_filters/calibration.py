@@ -87,7 +87,7 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
-from .choice import choose
+from .choice import tie_margin
 from .dataset import Recording
 from .errors import DataError, MorpiError, ParameterError
 from .units import MPU6500, SensorSpec
@@ -412,7 +412,10 @@ def noise_sigma(x: np.ndarray) -> np.ndarray:
         the 90 % of differences closest to their median and rescaled by the
         standard deviation of a normal law truncated at +-1.645 sigma (0.7891),
         so that quantized signals (many zero differences), for which a median
-        absolute deviation collapses to zero, are still measured. Never below
+        absolute deviation collapses to zero, are still measured. A difference
+        whose deviation lies within the tie margin of the 90 % quantile
+        (:func:`morpi_filters.choice.tie_margin`) is kept, so a change of the
+        input in its last bits cannot move a difference across the cut. Never below
         the signal's resolution / sqrt(12) (its smallest non-zero step).
         With fewer than three rows: the smallest positive float per column.
 
@@ -429,89 +432,39 @@ def noise_sigma(x: np.ndarray) -> np.ndarray:
     if d.shape[0] < 2:
         return np.full(x.shape[1], np.finfo(float).tiny)
     dev = np.abs(d - np.median(d, axis=0))
-    keep = dev <= np.quantile(dev, 0.9, axis=0)
+    q90 = np.quantile(dev, 0.9, axis=0)
+    keep = dev <= q90 + tie_margin(q90)                  # within the tie band: rounding cannot flip a kept value
     sigma = np.sqrt((np.where(keep, dev, 0.0) ** 2).sum(axis=0) / keep.sum(axis=0)) / 0.7891 / math.sqrt(2.0)
     floor = np.array([np.min(c[c > 0]) if np.any(c > 0) else 0.0 for c in np.abs(d).T]) / math.sqrt(12.0)
     return np.maximum(np.maximum(sigma, floor), np.finfo(float).tiny)
 
 
-def _sorted_order_stat(s: np.ndarray, n: np.ndarray, q: float) -> np.ndarray:
-    """Linear-interpolation quantile `q` of sorted, padded columns, as :func:`numpy.quantile` computes it.
-
-    `s` has shape (blocks, L, k), sorted along axis 1 with each block's `n`
-    values first; returns shape (blocks, k).
-    """
-    pos = (n - 1) * q
-    lo = np.floor(pos).astype(int)
-    hi = np.minimum(lo + 1, n - 1)
-    frac = (pos - lo)[:, None]
-    rows = np.arange(s.shape[0])
-    a, b = s[rows, lo], s[rows, hi]
-    diff = b - a
-    return np.where(frac >= 0.5, b - diff * (1 - frac), a + diff * frac)
-
-
-def _noise_sigma_blocks(x: np.ndarray, blocks) -> np.ndarray:
-    """:func:`noise_sigma` of every ``x[a:b]`` for ``(a, b)`` in `blocks` (each b - a >= 3) at once.
-
-    Same arithmetic in the same order, so the results are identical; shape (len(blocks), k).
-    """
-    d_all = np.diff(np.asarray(x, dtype=float), axis=0)
-    start = np.array([a for a, _ in blocks])
-    n = np.array([b - a - 1 for a, b in blocks])          # differences per block
-    col = np.arange(n.max())
-    valid = (col[None, :] < n[:, None])[..., None]         # (blocks, L, 1)
-    d = d_all[np.where(valid[..., 0], start[:, None] + col[None, :], 0)]
-    srt = np.sort(np.where(valid, d, np.inf), axis=1)
-    rows = np.arange(len(blocks))
-    mid = (n - 1) // 2
-    odd = (n % 2 == 1)[:, None]
-    med = np.where(odd, srt[rows, mid], (srt[rows, mid] + srt[rows, np.minimum(mid + 1, n - 1)]) / 2.0)
-    dev = np.abs(d - med[:, None, :])
-    q90 = _sorted_order_stat(np.sort(np.where(valid, dev, np.inf), axis=1), n, 0.9)
-    keep = valid & (dev <= q90[:, None, :])
-    sigma = np.sqrt((np.where(keep, dev, 0.0) ** 2).sum(axis=1) / keep.sum(axis=1)) / 0.7891 / math.sqrt(2.0)
-    ad = np.abs(d)
-    pos_min = np.where(valid & (ad > 0), ad, np.inf).min(axis=1)
-    floor = np.where(np.isfinite(pos_min), pos_min, 0.0) / math.sqrt(12.0)
-    return np.maximum(np.maximum(sigma, floor), np.finfo(float).tiny)
-
-
-def _block_sigma(t: np.ndarray, x: np.ndarray, span: float, block: float):
+def _block_sigma(t: np.ndarray, x: np.ndarray, span: float, block: float, source: str = "<array>"):
     """Noise sigma and rest level from blocks of `block` seconds within the first `span` seconds.
 
     Returns the lower quartile over the blocks of :func:`noise_sigma` (shape
     (k,)) and the median of the quietest block (shape (k,)): the compiled loops
-    of ``_signal_kernel.block_sigma_loops``, with the bits of the numpy form
-    (:func:`_block_sigma_numpy`), which serves the cases whose sums numpy takes
-    in another order (not a C-ordered array of 2 to 7 columns), a non-finite
-    value in a block, no block of five samples, and a block or span that is not
-    a finite positive length.
+    of ``_signal_kernel.block_sigma_loops`` (the blocks of at least five
+    samples; the quietest is chosen with the tie tolerance of
+    :func:`morpi_filters.choice.choose`). Without a block of five samples,
+    :func:`noise_sigma` and the median of the samples up to `span`. A
+    non-finite value (or a sum that overflows) is a DataError naming `source`.
     """
     from ._signal_kernel import compiled
 
-    t = np.asarray(t, dtype=float)
-    x = np.asarray(x, dtype=float)
-    if (x.ndim != 2 or not 2 <= x.shape[1] <= 7 or not x.flags.c_contiguous or t.ndim != 1
-            or not (block > 0 and math.isfinite(block) and math.isfinite(span))):
-        return _block_sigma_numpy(t, x, span, block)
+    if not (block > 0 and math.isfinite(block) and math.isfinite(span)):
+        raise ParameterError(f"block={block!r}, span={span!r}: expected finite lengths, block > 0 [s]")
+    t = np.ascontiguousarray(t, dtype=float)
+    x = np.ascontiguousarray(x, dtype=float)
     q, med = np.empty(x.shape[1]), np.empty(x.shape[1])
-    if compiled()["block_sigma_loops"](t, x, float(span), float(block), q, med) <= 0:
-        return _block_sigma_numpy(t, x, span, block)
-    return q, med
-
-
-def _block_sigma_numpy(t: np.ndarray, x: np.ndarray, span: float, block: float):
-    """:func:`_block_sigma` in numpy: the form the compiled loops are held to."""
-    edges = np.searchsorted(t, np.arange(0.0, max(span, block) + 1e-12, block), side="left")
-    blocks = [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b - a >= 5]
-    if not blocks:
+    nb = compiled()["block_sigma_loops"](t, x, float(span), float(block), q, med)
+    if nb < 0:
+        raise DataError(f"{source}: a value that is not finite (or too large to sum) in the first "
+                        f"{max(span, block):g} s")
+    if nb == 0:
         stop = max(int(np.searchsorted(t, span, side="right")), 3)
         return noise_sigma(x[:stop]), np.median(x[:stop], axis=0)
-    sig = _noise_sigma_blocks(x, blocks)
-    spread = np.array([x[a:b].std(axis=0) for a, b in blocks])
-    a, b = blocks[choose((spread / np.maximum(sig.min(axis=0), 1e-300)).sum(axis=1))]   # tie-tolerant argmin
-    return np.quantile(sig, 0.25, axis=0), np.median(x[a:b], axis=0)
+    return q, med
 
 
 def _moving_stats(t: np.ndarray, x: np.ndarray, half: float):
@@ -603,8 +556,8 @@ def rest_measures(rec: Recording, *, max_window_s: float = 3.0, window_s: float 
             raise ParameterError(f"{name}={v!r}: expected a positive number")
     t = rec.time - rec.time[0]
     span = max_window_s if noise_s is None else noise_s
-    sig_g, med_g = _block_sigma(t, rec.omega, span, window_s)
-    sig_a, _ = _block_sigma(t, rec.f, span, window_s)
+    sig_g, med_g = _block_sigma(t, rec.omega, span, window_s, rec.source)
+    sig_a, _ = _block_sigma(t, rec.f, span, window_s, rec.source)
     # Noise-free (simulated) rests: stay above floating-point rounding.
     sig_g = np.maximum(sig_g, _GYRO_SIGMA_MIN)
     sig_a = np.maximum(sig_a, _ACCEL_SIGMA_MIN)
