@@ -396,7 +396,7 @@ def test_turns_reading_follows_the_simulated_l_route(method):
     from morpi_filters import simulate
 
     L = simulate.l_route(period=1.0, amplitude=0.1)
-    train = simulate.sine(10.0, period=1.0, amplitude=0.1, speed=simulate._L_SPEED)
+    train = simulate.sine(10.0, period=1.0, amplitude=0.1, speed=simulate.L_ROUTE_SPEED)
     truth = L.position[-1, :2]
     change = _track(train, L, method, "change", bias_dps=0.1)
     turns = _track(train, L, method, "turns", bias_dps=0.1)
@@ -423,8 +423,8 @@ def test_turns_reading_drifts_less_than_absolute_on_a_biased_straight_sine(metho
     """
     from morpi_filters import simulate
 
-    straight = simulate.sine(13.0, period=1.0, amplitude=0.1, speed=simulate._L_SPEED)
-    train = simulate.sine(10.0, period=1.0, amplitude=0.1, speed=simulate._L_SPEED)
+    straight = simulate.sine(13.0, period=1.0, amplitude=0.1, speed=simulate.L_ROUTE_SPEED)
+    train = simulate.sine(10.0, period=1.0, amplitude=0.1, speed=simulate.L_ROUTE_SPEED)
     truth = straight.position[-1, :2]
     absolute = _track(train, straight, method, "absolute", bias_dps=0.3)
     turns = _track(train, straight, method, "turns", bias_dps=0.3)
