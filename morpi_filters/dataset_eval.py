@@ -11,7 +11,15 @@ Methods
     (the steps of :meth:`morpi_filters.field.FieldData.steps` over the
     dataset: motion window and heading as for the MoRPI recordings, the step
     rule chosen on this dataset's train recordings) only on
-    ``motion = "periodic"``.
+    ``motion = "periodic"``; ``"MoRPI-aided INS"``
+    (:mod:`morpi_filters.aided`, as :mod:`morpi_filters.field_aided` runs it
+    on the MoRPI cells) on the same recordings, read forward and smoothed
+    (``estimate``), under every calibration the recording has: it starts
+    at the rest window (GC and GAC need it, as for the other methods) or,
+    with ``initial = "truth"``, at the first sample under way, where RD
+    serves without a rest window. A recording without a rest window and
+    with ``initial = "rest"`` has no start for it: it is left out with the
+    reason.
 Calibrations
     ``"RD"`` always; ``"GC"`` and ``"GAC"`` (:func:`~morpi_filters.calibration.calibrate`,
     gravity ``G0``) when the recording has a rest window: ``rest = [t0, t1]``
@@ -41,6 +49,36 @@ Choices (train only)
     leave-one-recording-out. Both scores of the chosen rule are reported. A
     dataset whose train recordings give no score (none, or one run) falls
     back to :data:`morpi_filters.steps.DEFAULT_CONFIGS`, as ``choices`` says.
+The aided filter (train only)
+    Per group and calibration, for the step rule and gain of each MoRPI
+    method, the tunables are :func:`~morpi_filters.field_aided.choose_tunables_many`
+    on the group's train set (the gains' set: every train set's runs for a
+    group without one), each run scored against its own truth; the train
+    runs need their rest window (the noise densities are read there). The
+    filter takes the steps of the MoRPI method whose tuned filter has the
+    lower nested leave-one-out train error (the train error when a set has
+    one run; :func:`morpi_filters.choice.choose`, MoRPI-A first on a tie).
+    ``choices["aided"]`` lists every one. ``initial = "rest"``: the input of
+    :func:`~morpi_filters.field_aided.prepare` (calibrated IMU from the rest
+    window on, coarse-level attitude, the rest updates on the window and on
+    the still stretches after the motion, zero velocity up to the motion's
+    onset). ``initial = "truth"``: from the first sample, at the initial
+    velocity below with a 1-sigma of ``v0_sigma_mps`` on each axis (the
+    change of the truth velocity from the difference's span to the next one
+    of the same length, at least :data:`V0_SIGMA_MIN`: how far the velocity
+    moves over the track's own sampling), level attitude (roll and pitch of
+    the rest window's specific force where there is one) and no rest update
+    at the start (still stretches after the motion only). Both are read up to
+    the last step boundary, where MoRPI's track ends. Per row also the NIS
+    of each measurement type over the forward pass (per degree of freedom,
+    with its 95 % chi-square band: :func:`~morpi_filters.field_aided.nis_consistency`)
+    and ``coverage_95``: the share of the truth samples inside the estimate's
+    time span that lie inside its 95 % horizontal ellipse (:data:`morpi_filters.aided.CHI2_95_2DOF`;
+    the estimate and its covariance, forward or smoothed, interpolated
+    linearly in time; a point counts inside when ``d^T adj(P) d <= chi2 det(P)``,
+    which holds a zero error under a zero covariance); for a route, whose
+    truth is its end point, whether the end point lies inside the last
+    point's ellipse (1 or 0).
 Gains (train only)
     The Weinberg gain of each group, method and calibration is
     :func:`~morpi_filters.field.set_gain` (:func:`~morpi_filters.steps.train_gain`,
@@ -84,22 +122,32 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from . import aided
 from . import field as fd
+from . import field_aided as fa
 from . import steps as st
+from .choice import choose
 from .errors import DataError, MorpiError, ParameterError
 from .manifest import Dataset, RouteTruth, TruthTrack
 from .strapdown import ins2d, ins3d
 from .units import G0
 
-__all__ = ["COURSE_M", "METHODS", "CALIBRATIONS", "METRICS", "ROW_LABELS", "EstimatedPath", "DatasetEvaluation",
-           "evaluate_dataset", "path_metrics", "evaluate"]
+__all__ = ["COURSE_M", "AIDED", "METHODS", "CALIBRATIONS", "ESTIMATES", "METRICS", "V0_SIGMA_MIN", "ROW_LABELS",
+           "EstimatedPath", "DatasetEvaluation", "evaluate_dataset", "path_metrics", "ellipse_share", "evaluate"]
 
 #: Horizontal distance over which the truth's course gives the heading of a start at rest [m].
 COURSE_M = 0.3
+#: The aided filter's method name.
+AIDED = "MoRPI-aided INS"
 #: The methods, in the page's order.
-METHODS = ("INS-3D", "INS-2D", "MoRPI-A", "MoRPI-G")
+METHODS = ("INS-3D", "INS-2D", "MoRPI-A", "MoRPI-G", AIDED)
 #: The calibrations, in the page's order.
 CALIBRATIONS = ("RD", "GC", "GAC")
+#: The aided filter's read-outs (the ``estimate`` of its rows; None for the other methods).
+ESTIMATES = ("forward", "smoothed")
+#: Least 1-sigma of the aided filter's initial velocity from a truth track, per axis [m/s]: a
+#: centimetre-level truth differenced over a tenth of a second.
+V0_SIGMA_MIN = 0.01
 #: The metrics of each estimate.
 METRICS = ("end_error_m", "end_error_percent", "path_rmse_m", "cross_track_rmse_m", "distance_error_percent")
 
@@ -113,13 +161,25 @@ class EstimatedPath:
     id, split, group : str
         The recording's labels.
     method, calibration : str
-        ``"INS-3D"`` ... ``"MoRPI-G"``; ``"RD"``, ``"GC"`` or ``"GAC"``.
+        ``"INS-3D"`` ... ``"MoRPI-aided INS"``; ``"RD"``, ``"GC"`` or ``"GAC"``.
     time : ndarray, shape (k,)
         Times of the estimate's points on the IMU clock [s].
     xy : ndarray, shape (k, 2)
         Horizontal positions in the truth frame's first two axes [m].
     metrics : dict
         :data:`METRICS` -> float or None.
+    estimate : str or None
+        The aided filter's read-out, ``"forward"`` or ``"smoothed"``; None for the other methods.
+    P_xy : ndarray, shape (k, 2, 2), or None
+        The aided filter's horizontal covariance of `xy` in the truth's frame (the forward one for
+        forward rows, the smoothed one for smoothed rows) [m^2].
+    nis : dict or None
+        The aided filter's forward pass: measurement name -> ``per_dof``, ``band``, ``updates`` and
+        ``dof`` (:func:`~morpi_filters.field_aided.nis_consistency`).
+    coverage_95 : float or None
+        The share of the truth inside the 95 % ellipse (:func:`ellipse_share`).
+    innovations : dict or None
+        The forward pass's updates, measurement name -> :class:`morpi_filters.aided.Innovations`.
     """
 
     id: str
@@ -130,6 +190,11 @@ class EstimatedPath:
     time: np.ndarray
     xy: np.ndarray
     metrics: dict
+    estimate: str | None = None
+    P_xy: np.ndarray | None = None
+    nis: dict | None = None
+    coverage_95: float | None = None
+    innovations: dict | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -143,16 +208,19 @@ class DatasetEvaluation:
     count : int
         Recordings in the dataset.
     paths : tuple of EstimatedPath
-        In the manifest's order, then :data:`METHODS`, then :data:`CALIBRATIONS`.
+        In the manifest's order, then :data:`METHODS`, then :data:`CALIBRATIONS`, then
+        :data:`ESTIMATES`.
     choices : dict
         Every train-only choice: ``rule`` (per MoRPI method, the step rule's
         fields, where it comes from and its train scores), ``held_out`` (the
         score the search used and why), ``train_sets``, ``thresholds`` (each
         value and where it came from) and ``gains`` (one entry per group,
         method and calibration: mean, std, per run, the train recordings and
-        those left out); ``docs/manifest.md`` lists the keys.
+        those left out) and ``aided`` (per group and calibration, the aided
+        filter's tunables and the MoRPI method whose steps it takes);
+        ``docs/manifest.md`` lists the keys.
     groups : tuple of dict
-        Per group, method and calibration, the mean of each metric over
+        Per group, method, calibration and estimate, the mean of each metric over
         :attr:`groups_over` recordings, and their count.
     groups_over : str
         ``"test"`` (the dataset has test recordings) or ``"all"``.
@@ -164,7 +232,9 @@ class DatasetEvaluation:
         Per recording: ``id``, ``initial``, ``rest`` window [s from the first
         sample] or None, ``course_deg`` (the truth's course, counter-clockwise
         from the truth frame's x axis; None for a route), ``speed_mps``
-        (initial speed) and how they were found (``how``).
+        (initial speed), ``v0_sigma_mps`` (the aided filter's initial
+        velocity sigma for ``initial = "truth"``, else None) and how they were
+        found (``how``).
     """
 
     name: str
@@ -184,24 +254,34 @@ class DatasetEvaluation:
         Parameters
         ----------
         track_files : dict, optional
-            ``(id, method, calibration)`` -> the track file's path relative to
-            the output folder; without it every ``track_file`` is None.
+            ``(id, method, calibration, estimate)`` (or without the estimate
+            for the methods other than the aided filter) -> the track file's
+            path relative to the output folder; without it every
+            ``track_file`` is None.
 
         Returns
         -------
         dict
             ``dataset`` (``name``, ``manifest``, ``count``), ``choices``,
             ``recordings`` (one row per estimate: ``id``, ``split``, ``group``,
-            ``method``, ``calibration``, ``estimate`` (None), the metrics,
-            ``track_file``), ``groups`` (with ``over``), ``left_out``, ``starts``
-            and ``course_m``.
+            ``method``, ``calibration``, ``estimate`` (``"forward"`` or
+            ``"smoothed"`` for the aided filter, else None), the metrics,
+            ``track_file``; the aided filter's rows also ``nis`` and
+            ``coverage_95``), ``groups`` (with ``over``), ``left_out``,
+            ``starts`` and ``course_m``.
         """
         from pathlib import Path
 
         files = track_files or {}
-        rows = [{"id": p.id, "split": p.split, "group": p.group, "method": p.method, "calibration": p.calibration,
-                 "estimate": None, **p.metrics, "track_file": files.get((p.id, p.method, p.calibration))}
-                for p in self.paths]
+        rows = []
+        for p in self.paths:
+            key = (p.id, p.method, p.calibration)
+            row = {"id": p.id, "split": p.split, "group": p.group, "method": p.method, "calibration": p.calibration,
+                   "estimate": p.estimate, **p.metrics,
+                   "track_file": files.get(key + (p.estimate,), files.get(key) if p.estimate is None else None)}
+            if p.method == AIDED:
+                row.update(nis=p.nis, coverage_95=p.coverage_95)
+            rows.append(row)
         return {"dataset": {"name": self.name, "manifest": Path(self.source).name, "count": self.count},
                 "choices": self.choices, "recordings": rows,
                 "groups": {"over": self.groups_over, "rows": list(self.groups)},
@@ -229,12 +309,13 @@ class DatasetEvaluation:
         Returns
         -------
         pandas.DataFrame
-            Columns ``group``, ``method``, ``calibration``, ``n`` (int64: the
-            recordings averaged) then :data:`METRICS` (float64; a mean with no
-            value to average is NaN), one row per group, method and
-            calibration. ``attrs["over"]`` is :attr:`groups_over`.
+            Columns ``group``, ``method``, ``calibration``, ``estimate``,
+            ``n`` (int64: the recordings averaged) then :data:`METRICS`
+            (float64; a mean with no value to average is NaN), one row per
+            group, method, calibration and estimate. ``attrs["over"]`` is
+            :attr:`groups_over`.
         """
-        out = _table(self.groups, ("group", "method", "calibration", "n"), counts=("n",))
+        out = _table(self.groups, ("group", "method", "calibration", "estimate", "n"), counts=("n",))
         out.attrs["over"] = self.groups_over
         return out
 
@@ -322,6 +403,60 @@ def path_metrics(time, xy, truth) -> dict:
             "distance_error_percent": pct(_length(est_full) - dist)}
 
 
+def ellipse_share(time, xy, P_xy, truth) -> float:
+    """The share of the truth inside an estimate's 95 % horizontal error ellipse.
+
+    A point with error ``d`` (estimate minus truth) under the covariance ``P``
+    is inside when ``d^T adj(P) d <= q det(P)``, ``q`` the 2-dof chi-square
+    95 % point (:data:`morpi_filters.aided.CHI2_95_2DOF`): ``d^T P^-1 d <= q``
+    for a positive definite ``P``, and a zero error under a zero covariance.
+
+    Parameters
+    ----------
+    time : array_like, shape (k,)
+        Increasing times of the estimate's points on the IMU clock [s].
+    xy : array_like, shape (k, 2)
+        Horizontal positions in the truth frame's first two axes [m].
+    P_xy : array_like, shape (k, 2, 2)
+        Their covariances in that frame [m^2].
+    truth : RouteTruth or TruthTrack
+        The recording's truth.
+
+    Returns
+    -------
+    float
+        A truth track: the share of its samples inside the estimate's time
+        span (estimate and covariance interpolated linearly in time; NaN
+        without one). A route: 1.0 when its end point lies inside the last
+        point's ellipse, else 0.0.
+
+    Examples
+    --------
+    An estimate 1 m and then 3 m east of a track, with 1 m^2 variances:
+
+    >>> track = TruthTrack(time=[0.0, 1.0], position=[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    >>> ellipse_share([0.0, 1.0], [[1.0, 0.0], [4.0, 0.0]], [np.eye(2), np.eye(2)], track)
+    0.5
+    """
+    t = np.asarray(time, dtype=float)
+    xy = np.asarray(xy, dtype=float)
+    P = np.asarray(P_xy, dtype=float)
+    if isinstance(truth, RouteTruth):
+        d, Q = (xy[-1] - np.asarray(truth.end_point_m, float))[None], P[-1:]
+    else:
+        inside = (truth.time >= t[0]) & (truth.time <= t[-1])
+        tt = truth.time[inside]
+        if not tt.size:
+            return float("nan")
+        d = np.column_stack([np.interp(tt, t, xy[:, j]) for j in range(2)]) - truth.position[inside, :2]
+        Q = np.stack([np.interp(tt, t, P[:, 0, 0]), np.interp(tt, t, P[:, 0, 1]),
+                      np.interp(tt, t, P[:, 1, 1])], axis=1)
+        Q = np.stack([Q[:, [0, 1]], Q[:, [1, 2]]], axis=1)
+    det = Q[:, 0, 0] * Q[:, 1, 1] - Q[:, 0, 1] * Q[:, 1, 0]
+    adj = d[:, 0] ** 2 * Q[:, 1, 1] - d[:, 0] * d[:, 1] * (Q[:, 0, 1] + Q[:, 1, 0]) + d[:, 1] ** 2 * Q[:, 0, 0]
+    return float(np.mean(adj <= aided.CHI2_95_2DOF * det))
+
+
 # --------------------------------------------------------------------------- per recording
 
 def _rest_window(data, dr):
@@ -345,12 +480,15 @@ def _start(dr, course_m: float) -> dict:
         h = truth.interval
         a = max(t0 - h, float(truth.time[0]))
         b = a + 2 * h if a < t0 - 0.5 * h else t0 + h
-        pa, pb = truth.at([a, b])
+        pa, pb, pc = truth.at([a, b, 2 * b - a])
         v = (pb - pa) / (b - a)
         psi = math.atan2(v[1], v[0])
         c, s = math.cos(psi), math.sin(psi)
         v0 = np.array([c * v[0] + s * v[1], -s * v[0] + c * v[1], v[2]])
+        # the aided filter's sigma: how far the truth velocity moves from this span to the next
+        sigma = max(V0_SIGMA_MIN, float(np.linalg.norm((pc - pb) / (b - a) - v)))
         return {"v0": v0, "psi": psi, "course_deg": math.degrees(psi), "speed_mps": float(np.hypot(v[0], v[1])),
+                "v0_sigma": sigma,
                 "how": f"truth velocity over [{a - t0:.4g}, {b - t0:.4g}] s from the first sample"}
     p0 = truth.at([t0])[0, :2]
     later = truth.time > t0
@@ -395,9 +533,10 @@ def _why_not(data, rec, mode, method, config) -> str:
     return f"{data.relpath(rec)}: no gain"
 
 
-def _choose(data, dataset) -> tuple[dict, dict, dict]:
+def _choose(data, dataset) -> tuple[dict, dict, dict, dict]:
     """The train-only choices on `data`: the step rule per MoRPI method, the gains per (group, method,
-    calibration), and their JSON entries (``choices``)."""
+    calibration), their JSON entries (``choices``) and per (group, method, calibration) the trained
+    :class:`~morpi_filters.field.Gain` with its train set and scope."""
     th = data.thresholds
     sets = [s for s in fd._train_sets(data) if s.runs]
     held_out = "group" if len(sets) >= 2 else "recording"
@@ -426,7 +565,7 @@ def _choose(data, dataset) -> tuple[dict, dict, dict]:
                          np.concatenate([s.end_point_m for s in sets]) if sets else np.empty((0, 2)),
                          np.concatenate([s.distance_m for s in sets]) if sets else np.empty(0))
     by_group = {s.name: s for s in sets}
-    gains, entries = {}, []
+    gains, entries, trained = {}, [], {}
     for group in dict.fromkeys(dr.group for dr in dataset.recordings):
         tset, scope = by_group.get(group), "group"
         if tset is None:
@@ -439,6 +578,7 @@ def _choose(data, dataset) -> tuple[dict, dict, dict]:
                          "skipped": list(g.skipped) if g else [], "mean": None, "std": None, "per_run": []}
                 if g is not None:
                     gains[group, m, mode] = g.mean
+                    trained[group, m, mode] = (g, tset, scope)
                     entry.update(mean=g.mean, std=g.std, per_run=list(g.per_run))
                 else:
                     entry["skipped"] = [_why_not(data, r, mode, m, configs[m]) for r in tset.runs]
@@ -459,10 +599,132 @@ def _choose(data, dataset) -> tuple[dict, dict, dict]:
                                "end_point_m": s.end_point_m.tolist(), "distance_m": s.distance_m.tolist()}
                               for s in sets],
                "thresholds": thresholds, "gains": entries}
-    return configs, gains, choices
+    return configs, gains, choices, trained
 
 
-def _evaluate_one(data, dr, prep, gains, configs) -> tuple[list, list]:
+def _none_if_nan(v):
+    return float(v) if v is not None and math.isfinite(v) else None
+
+
+def _aided_choices(data, dataset, configs, trained, workers) -> tuple[dict, list]:
+    """The aided filter's train-only tunables per (group, calibration) of a group with periodic motion:
+    (MoRPI method, :class:`~morpi_filters.field_aided.TunableChoice`, Gain), and their JSON entries."""
+    groups = [g for g in dict.fromkeys(dr.group for dr in dataset.recordings)
+              if any(dr.group == g and dr.motion == "periodic" for dr in dataset.recordings)]
+    keys, requests, index = [], [], {}
+    for group in groups:
+        for m in _MORPI:
+            for mode in CALIBRATIONS:
+                if (group, m, mode) not in trained:
+                    continue
+                g, tset, _ = trained[group, m, mode]
+                at = index.setdefault((id(tset), m, mode), len(requests))
+                if at == len(requests):                 # a set shared by several groups is tuned once
+                    requests.append((tset, m, mode, configs[m], g))
+                keys.append(((group, m, mode), at))
+    picks = fa.choose_tunables_many(data, requests, workers=workers) if requests else []
+    per = {k: picks[at] for k, at in keys}
+    chosen, entries = {}, []
+    for group in groups:
+        for mode in CALIBRATIONS:
+            cands, why = [], {}
+            for m in _MORPI:
+                c = per.get((group, m, mode))
+                if c is None:
+                    why[m] = "no gain: no train recording gave one"
+                elif isinstance(c, MorpiError):
+                    why[m] = str(c)
+                else:
+                    cands.append((m, c))
+            entry = {"group": group, "calibration": mode, "method": None, "from": None, "train": [],
+                     "candidates": {m: ({"score_percent": _none_if_nan(c.score_percent),
+                                         "loo_percent": _none_if_nan(c.loo_percent),
+                                         "morpi_percent": _none_if_nan(c.morpi_percent)} if m not in why
+                                        else {"why": why[m]})
+                                    for m, c in [(m, per.get((group, m, mode))) for m in _MORPI]},
+                     "tunables": None}
+            if cands:
+                loo = [c.loo_percent for _, c in cands]
+                by = "loo_percent" if all(math.isfinite(v) for v in loo) else "score_percent"
+                m, c = cands[choose(np.array([getattr(c, by) for _, c in cands]))]
+                g, tset, scope = trained[group, m, mode]
+                noise, info = c.noise, c.info
+                chosen[group, mode] = (m, c, g)
+                entry.update(method=m, train=list(g.files),
+                             **{"from": f"field_aided.choose_tunables_many on the train set {tset.name!r} ({scope}); "
+                                        f"the method of least {by}"},
+                             tunables={**info, "accel_noise": noise[0] * info["vibration"],
+                                       "gyro_noise": noise[1] * info["vibration"], "rest_accel_noise": noise[0],
+                                       "rest_gyro_noise": noise[2], "gyro_walk": noise[3], "accel_jump": noise[4],
+                                       "gain_sigma": g.std / g.mean})
+            entries.append(entry)
+    return chosen, entries
+
+
+def _aided_input(data, dr, prep, mode, method, config, gain, info):
+    """The aided filter's input for one recording and its read-out time: from the rest window
+    (:func:`~morpi_filters.field_aided.prepare`) or, for ``initial = "truth"``, from the first sample under way."""
+    from .strapdown import coarse_level
+
+    rec = prep["rec"]
+    if dr.initial == "rest":
+        p = fa.prepare(data, rec, mode, method, config, gain.mean)
+        return p.input_for(info), p.stop_s
+    crec = prep["cals"][mode]
+    s = data.steps(rec, mode, method, config)
+    track = st.morpi_track(s, gain.mean)
+    window = prep["window"]
+    if window is not None:
+        f_rest = crec.f[window.i0:window.i1].mean(axis=0)
+        C0, g, rest = coarse_level(f_rest), float(np.linalg.norm(f_rest)), fa._rest_terms(data, rec, mode)[1][1:]
+    else:
+        C0, g, rest = np.eye(3), G0, ()
+    vectors = (fa._route_steps(data, rec, mode, config, s, track.length) if info["step_heading"] == "route"
+               else np.diff(track.position, axis=0))
+    inp = aided.AidedInput(time=crec.time, f=crec.f, omega=crec.omega, C0=C0, g=g, step_start=s.start_time,
+                           step_end=s.end_time, step_length=track.length, rest=tuple(rest), standing=(),
+                           step_vector=vectors, v0=prep["start"]["v0"], v0_sigma=prep["start"]["v0_sigma"])
+    stop = float(s.end_time[-1]) if s.end_time.size else float(data.activity(rec)[1])
+    return inp, stop
+
+
+def _aided_paths(data, dr, prep, chosen, configs) -> tuple[list, list]:
+    """The aided filter's rows of one recording (forward and smoothed per calibration) and what was left out."""
+    if dr.initial == "rest" and prep["window"] is None:
+        return [], [{"id": dr.id, "what": AIDED,
+                     "why": "initial = \"rest\" without a rest window: the filter starts at the rest"}]
+    members, left = [], []
+    for mode in prep["cals"]:
+        if (dr.group, mode) not in chosen:
+            left.append({"id": dr.id, "what": f"{AIDED} {mode}", "why": "no tunables: no train run served the filter"})
+            continue
+        method, choice, gain = chosen[dr.group, mode]
+        try:
+            inp, stop = _aided_input(data, dr, prep, mode, method, configs[method], gain, choice.info)
+        except MorpiError as exc:
+            left.append({"id": dr.id, "what": f"{AIDED} {mode}", "why": str(exc)})
+            continue
+        members.append((mode, inp, stop, fa._tuning(choice.noise, choice.info, gain.std / gain.mean)))
+    results = aided.run_batch([q[1] for q in members], [q[3] for q in members], smooth=True,
+                              smoothed_covariance=True, innovations=True, workers=1) if members else []
+    start, truth = prep["start"], dr.truth
+    rot = _rot(start["psi"])
+    paths = []
+    for (mode, inp, stop, _), r in zip(members, results):
+        j = r.index_at(stop)
+        t = r.time[:j + 1]
+        nis = {k: {**fa.nis_consistency(total, n, dof), "dof": dof} for k, (total, n, dof) in r.nis.items()}
+        for estimate, xy, P in (("forward", r.position, r.P_xy), ("smoothed", r.smoothed, r.P_xy_smoothed)):
+            placed = _place(start, truth, float(t[0]), np.asarray(xy)[:j + 1, :2])
+            P = rot @ np.asarray(P)[:j + 1] @ rot.T
+            paths.append(EstimatedPath(id=dr.id, split=dr.split, group=dr.group, method=AIDED, calibration=mode,
+                                       time=t, xy=placed, metrics=path_metrics(t, placed, truth), estimate=estimate,
+                                       P_xy=P, nis=nis, coverage_95=ellipse_share(t, placed, P, truth),
+                                       innovations=r.innovations))
+    return paths, left
+
+
+def _evaluate_one(data, dr, prep, gains, configs, chosen) -> tuple[list, list]:
     rec, truth, start = dr.recording, dr.truth, prep["start"]
     paths, left = [], []
     label = dict(id=dr.id, split=dr.split, group=dr.group)
@@ -491,12 +753,17 @@ def _evaluate_one(data, dr, prep, gains, configs) -> tuple[list, list]:
             xy = _place(start, truth, float(tm[0]), track.position)
             paths.append(EstimatedPath(**label, method=method, calibration=mode, time=tm, xy=xy,
                                        metrics=path_metrics(tm, xy, truth)))
+    if dr.motion == "periodic":
+        more, why = _aided_paths(data, dr, prep, chosen, configs)
+        paths += more
+        left += why
     order = {(m, c): i for i, (m, c) in enumerate((m, c) for m in METHODS for c in CALIBRATIONS)}
-    paths.sort(key=lambda p: order[p.method, p.calibration])
+    paths.sort(key=lambda p: (order[p.method, p.calibration], ESTIMATES.index(p.estimate) if p.estimate else 0))
     if prep["window"] is None:
         left.insert(0, {"id": dr.id, "what": "GC, GAC", "why": prep["why"]})
     if dr.motion != "periodic":
-        left.append({"id": dr.id, "what": "MoRPI-A, MoRPI-G", "why": f"motion = {dr.motion!r}: no periodic motion"})
+        left.append({"id": dr.id, "what": f"MoRPI-A, MoRPI-G, {AIDED}",
+                     "why": f"motion = {dr.motion!r}: no periodic motion"})
     return paths, left
 
 
@@ -505,10 +772,10 @@ def _group_means(paths, over: str) -> tuple:
     for p in paths:
         if over == "test" and p.split != "test":
             continue
-        out.setdefault((p.group, p.method, p.calibration), []).append(p)
+        out.setdefault((p.group, p.method, p.calibration, p.estimate), []).append(p)
     rows = []
-    for (group, method, mode), ps in out.items():
-        row = {"group": group, "method": method, "calibration": mode, "n": len(ps)}
+    for (group, method, mode, estimate), ps in out.items():
+        row = {"group": group, "method": method, "calibration": mode, "estimate": estimate, "n": len(ps)}
         for key in METRICS:
             vals = [p.metrics[key] for p in ps if p.metrics[key] is not None and math.isfinite(p.metrics[key])]
             row[key] = float(np.mean(vals)) if vals else None
@@ -567,7 +834,8 @@ def evaluate_dataset(dataset: Dataset, *, course_m: float = COURSE_M, workers: i
         raise ParameterError(f"workers: {workers!r}, expected a positive whole number")
     where = dataset.source
     data = fd.FieldData(dataset, course_m=float(course_m))
-    configs, gains, choices = _choose(data, dataset)
+    configs, gains, choices, trained = _choose(data, dataset)
+    chosen, choices["aided"] = _aided_choices(data, dataset, configs, trained, workers or 1)
 
     def prepare(dr):
         try:
@@ -581,7 +849,7 @@ def evaluate_dataset(dataset: Dataset, *, course_m: float = COURSE_M, workers: i
         def one(dr):
             prep = prepared[dr.id]
             return (([], [{"id": dr.id, "what": "every method", "why": prep["error"]}]) if "error" in prep
-                    else _evaluate_one(data, dr, prep, gains, configs))
+                    else _evaluate_one(data, dr, prep, gains, configs, chosen))
 
         results = []
         for out in pool.map(one, dataset.recordings):      # in order; the progress line from this thread
@@ -601,7 +869,7 @@ def evaluate_dataset(dataset: Dataset, *, course_m: float = COURSE_M, workers: i
         starts.append({"id": dr.id, "initial": dr.initial,
                        "rest": None if w is None else [w.start_s - t0, w.end_s - t0],
                        "course_deg": prep["start"]["course_deg"], "speed_mps": prep["start"]["speed_mps"],
-                       "how": prep["start"]["how"]})
+                       "v0_sigma_mps": prep["start"].get("v0_sigma"), "how": prep["start"]["how"]})
     return DatasetEvaluation(name=dataset.name, source=dataset.source, count=len(dataset), paths=paths,
                              choices=choices, groups=_group_means(paths, over),
                              groups_over=over, left_out=left, course_m=float(course_m), starts=tuple(starts))

@@ -889,8 +889,11 @@ def choose_tunables(data, train, method, mode, config, gain):
     ----------
     data : field.FieldData
         The dataset's cached per-recording work.
-    train : (str, str)
-        Phone and route of the training set (its ``train`` folder is read).
+    train : (str, str) or field.TrainSet
+        Phone and route of the training set (its ``train`` folder is read,
+        every run scored against the route), or a train set of a manifest
+        dataset (:meth:`~morpi_filters.field.FieldData.train_sets`: its runs,
+        each scored against its own end point and distance).
     method : {"MoRPI-A", "MoRPI-G"}
         MoRPI method.
     mode : {"RD", "GC", "GAC"}
@@ -941,14 +944,31 @@ def choose_tunables_many(data, requests, *, workers: int | None = None) -> list:
         One per request, in order.
     """
     from . import dataset as ds
+    from .field import TrainSet
 
     # stage 1: every grid point with the trained gain taken as exact (its spread considered)
     cands = [c for c in _candidates() if c["gain_state"] == "considered" and c["nhc"]]
     plans, groups = [], {}                        # training set -> (inputs, tunings)
     for train, method, mode, config, gain in requests:
-        runs = _prepared_runs(data, train[0], train[1], "train", mode, method, config, gain.mean)
+        if isinstance(train, TrainSet):
+            # a manifest group's train runs, each with its own truth (those the filter cannot run are left out)
+            runs, ends, dist = [], [], []
+            for rec, end, d in zip(train.runs, train.end_point_m, train.distance_m):
+                try:
+                    runs.append(prepare(data, rec, mode, method, config, gain.mean))
+                except MorpiError:
+                    continue
+                ends.append(end)
+                dist.append(d)
+            where = train.name
+            ends, dist = np.array(ends, float).reshape(-1, 2), np.array(dist, float)
+        else:
+            runs = _prepared_runs(data, train[0], train[1], "train", mode, method, config, gain.mean)
+            truth, where = ds.route(train[1]), f"{train[0]}/{train[1]}/train"
+            ends = np.tile(np.asarray(truth.end_point_m, float), (len(runs), 1))
+            dist = np.full(len(runs), float(truth.distance_m))
         if not runs:
-            plans.append(DataError(f"{train[0]}/{train[1]}/train: no train run with steps for the aided filter"))
+            plans.append(DataError(f"{where}: no train run with steps for the aided filter"))
             continue
         noise = tuple(float(np.median([r.noise[j] for r in runs])) for j in range(3))
         # the gyro bias walk that the train runs' rest stretches show: E[dm^2] = q dt per axis
@@ -960,7 +980,7 @@ def choose_tunables_many(data, requests, *, workers: int | None = None) -> list:
         noise = noise + (walk, jump)
         rel = gain.std / gain.mean
         inputs, tunings = groups.setdefault(train, ([], []))
-        plans.append((train, len(inputs), runs, ds.route(train[1]), noise, rel))
+        plans.append((train, len(inputs), runs, (ends, dist), noise, rel))
         inputs += [r.input_for(c, forward_only=True) for c in cands for r in runs]
         tunings += [_tuning(noise, c, rel) for c in cands for _ in runs]
     # one batch per training set (one batch of every set is slower: a larger working set for the same work)
@@ -968,10 +988,11 @@ def choose_tunables_many(data, requests, *, workers: int | None = None) -> list:
            for train, (inputs, tunings) in groups.items()}
 
     def score(mine, runs, truth):
+        true_end, dist = truth                    # per run: its true end point and distance
         ends = [runs[i % len(runs)].end(r) for i, r in enumerate(mine)]
-        d = np.array([e[0] - truth.end_point_m for e in ends])
+        d = np.array([e[0] - true_end[i % len(runs)] for i, e in enumerate(ends)])
         m2 = np.array([x @ np.linalg.solve(e[1], x) for x, e in zip(d, ends)]).reshape(-1, len(runs))
-        err = np.linalg.norm(d, axis=1).reshape(-1, len(runs)) / truth.distance_m * 100
+        err = np.linalg.norm(d, axis=1).reshape(-1, len(runs)) / dist * 100
         return err, m2 <= aided.CHI2_95_2DOF
 
     # stage 2, at the point each selection (all runs, and each leave-one-out fold) picks: without the
@@ -1004,8 +1025,8 @@ def choose_tunables_many(data, requests, *, workers: int | None = None) -> list:
         err2, inside2 = score(mine, runs, truth)
         k_hat = np.array([r.gain_error for r in mine]).reshape(-1, len(runs))
         # each train run's own gain error: its step sum against the route (z = (1 + k) x the true displacement)
-        k_true = np.array([np.linalg.norm(np.diff(r.morpi_xy, axis=0), axis=1).sum() for r in runs]) \
-            / truth.distance_m - 1.0
+        true_end, dist = truth
+        k_true = np.array([np.linalg.norm(np.diff(r.morpi_xy, axis=0), axis=1).sum() for r in runs]) / dist - 1.0
         chosen = []
         for f, w in zip(folds, picks):
             i = wins.index(w) * len(variants)
@@ -1020,8 +1041,10 @@ def choose_tunables_many(data, requests, *, workers: int | None = None) -> list:
         info, e_all = chosen[0]
         # nested leave-one-out: each train run scored by the choice made without it
         loo = [c[1][i] for i, c in enumerate(chosen[1:])]
-        morpi = float(np.mean([np.linalg.norm(r.morpi_xy[-1] - truth.end_point_m) for r in runs])
-                      / truth.distance_m * 100)
+        morpi_m = np.array([np.linalg.norm(r.morpi_xy[-1] - e) for r, e in zip(runs, true_end)])
+        # the mean error in per cent of the distance (one route's distance: the mean error over it)
+        morpi = (float(np.mean(morpi_m) / dist[0] * 100) if np.all(dist == dist[0])
+                 else float(np.mean(morpi_m / dist) * 100))
         out.append(TunableChoice(float(e_all.mean()), float(np.mean(loo)) if loo else float("nan"),
                                  morpi, info, noise))
     return out

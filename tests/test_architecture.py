@@ -26,8 +26,8 @@ LAYERS = (
     ("navigation", {"strapdown", "steps", "symbolic", "error_model", "eskf", "aided", "_aided_kernel", "_batch_ins"}),
     ("synthetic recordings", {"simulate", "synthetic", "foreign"}),
     ("field", {"field"}),
-    ("evaluation", {"evaluate", "dataset_eval"}),
-    ("studies", {"field_aided", "curves", "montecarlo", "assessment"}),
+    ("evaluation", {"evaluate"}),
+    ("studies", {"field_aided", "dataset_eval", "curves", "montecarlo", "assessment"}),
     ("pages", {"report"}),
     ("command", {"cli"}),
 )
