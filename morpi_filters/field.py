@@ -681,14 +681,43 @@ class FieldData:
         """End time of the initial rest window [s]."""
         return float(self.rest_window(rec).end_s)
 
-    def prepared(self, rec, mode: str, method: str, cutoff_hz, source: str = "gyro"):
-        # RD and GC differ by a constant on omega_z and not at all on f_y. A constant offset changes
-        # neither the peaks, the prominence threshold (relative to the signal's range) nor any
-        # max - min, so the signal part is shared between RD and GC, between the heading sources and
-        # between the instances that share this one's work (FieldData.sharing): only the heading differs
-        key = (rec.source, mode, method, cutoff_hz, source)
+    def prepared(self, rec, mode: str, method: str, cutoff_hz, source: str = "gyro", *,
+                 grid_hz: float | None = st.GRID_HZ, min_height: float | None = None):
+        """The recording's MoRPI signal resampled on the rule's grid and filtered
+        (:func:`morpi_filters.steps.prepare_signal`), with the heading of `mode` and `source`, cached.
+
+        RD and GC differ by a constant on omega_z and not at all on f_y. A
+        constant offset changes neither the peaks, the prominence threshold
+        (relative to the signal's range) nor any max - min, so the signal is
+        shared between RD and GC, between the heading sources and between
+        the instances that share this one's work (:meth:`sharing`): only the
+        heading differs. A rule with an absolute peak height (`min_height`
+        set) sees the offset, so its RD and GC signals are each their own.
+
+        Parameters
+        ----------
+        rec : Recording
+        mode : {"RD", "GC", "GAC"}
+        method : {"MoRPI-A", "MoRPI-G"}
+        cutoff_hz : float or None
+            The low-pass cut-off [Hz] (:attr:`morpi_filters.steps.StepConfig.cutoff_hz`).
+        source : str
+            The heading source (:data:`HEADING_SOURCES`).
+        grid_hz : float or None
+            The grid's rate [Hz] (:attr:`morpi_filters.steps.StepConfig.grid_hz`; None: the recording's).
+        min_height : float or None
+            The rule's absolute peak height (:attr:`morpi_filters.steps.StepConfig.min_height`): only
+            whether it is set matters here.
+
+        Returns
+        -------
+        PreparedSignal
+        """
+        offset_free = min_height is None
+        key = (rec.source, mode, method, cutoff_hz, source, grid_hz, offset_free)
         if key not in self._prep:
-            skey = (rec.source, "RD|GC" if mode in ("RD", "GC") else mode, method, cutoff_hz)
+            shared_mode = "RD|GC" if mode in ("RD", "GC") and offset_free else mode
+            skey = (rec.source, shared_mode, method, cutoff_hz, grid_hz)
             shared = self._signals.get(skey)
             if shared is not None:
                 from dataclasses import replace
@@ -698,7 +727,8 @@ class FieldData:
             else:
                 crec, _ = self.calibrated(rec, mode)
                 p = self._signals[skey] = st.prepare_signal(
-                    crec, method, cutoff_hz, motion=self.activity(rec), heading=self.heading(rec, mode, source))
+                    crec, method, cutoff_hz, motion=self.activity(rec), heading=self.heading(rec, mode, source),
+                    grid_hz=grid_hz)
             # the heading's integral is the same for every method and cut-off: computed once, then given
             # to each signal as its cached property
             ikey = (rec.source, mode, "heading integral", source)
@@ -764,7 +794,8 @@ class FieldData:
             out = self._steps.get(ckey)
             if out is None:
                 try:
-                    out = st.step_sums(self.prepared(rec, mode, method, config.cutoff_hz, config.heading_source),
+                    out = st.step_sums(self.prepared(rec, mode, method, config.cutoff_hz, config.heading_source,
+                                                     grid_hz=config.grid_hz, min_height=config.min_height),
                                        method, canon, peak_cache=self._peaks)
                 except MorpiError as exc:
                     out = exc
@@ -782,7 +813,9 @@ class FieldData:
             try:
                 self._steps[key] = st.extract_steps(None, method, canon,
                                                     prepared=self.prepared(rec, mode, method, config.cutoff_hz,
-                                                                           config.heading_source),
+                                                                           config.heading_source,
+                                                                           grid_hz=config.grid_hz,
+                                                                           min_height=config.min_height),
                                                     peak_cache=self._peaks)
             except MorpiError as exc:
                 self._steps[key] = exc
