@@ -20,6 +20,15 @@ Layout of a manifest::
     imu.file = "imu/run1.csv"
     truth = { kind = "route", distance_m = 6.3, end_point_m = [6.3, 0.0] }
 
+Relative file names start at the manifest's folder, or at a ``root`` given
+when it is read, so one manifest describes every copy of a dataset (the
+package's MoRPI manifest, :func:`morpi_filters.resources.morpi_manifest`); an
+``imu.file`` holding a glob pattern makes one recording of each file it
+matches, its id the file's relative path. :func:`index_dataset` lists the
+recordings with their labels without reading a file. ``latitude_deg`` sets
+the gravity the calibrations take; ``imu.spec`` may name an IMU the package
+knows.
+
 Truth tracks are stored in a local ENU frame (x east, y north, z up: right
 handed and z up like the package's navigation frame, from which it differs
 by a rotation about z and the origin), whatever the file's frame (NED or
@@ -401,7 +410,7 @@ class Dataset:
                 raise ParameterError(f"{where}.truth: {type(truth).__name__}, expected a RouteTruth or TruthTrack")
             rec = Recording(time=np.asarray(item["time"], dtype=float), f=np.asarray(item["f"], dtype=float),
                             omega=np.asarray(item["omega"], dtype=float), source=f"<memory>:{rec_id}",
-                            split=None if labels["split"] == "none" else labels["split"])
+                            split=None if labels["split"] == "none" else labels["split"], label=rec_id)
             check_recording(rec)
             ctx = _Context(where, {})
             _check_labels(ctx, rec, truth, labels)
@@ -938,7 +947,7 @@ def _load_entry(ctx: _Context, values: dict) -> DatasetRecording:
         f = np.ascontiguousarray(np.stack([sign[i] * f_file[:, perm[i]] for i in range(3)], axis=-1))
         omega = np.ascontiguousarray(np.stack([sign[i] * w_file[:, perm[i]] for i in range(3)], axis=-1))
     rec = Recording(time=time, f=f, omega=omega, source=str(path),
-                    split=None if labels["split"] == "none" else labels["split"], imu=settings["imu"])
+                    split=None if labels["split"] == "none" else labels["split"], imu=settings["imu"], label=rec_id)
     truth = _truth(ctx, values["truth"], rec)
     _check_labels(ctx, rec, truth, labels)
     _check_physics(ctx, rec, labels["rest"], {"accel_unit": settings["accel_unit"], "gyro_unit": settings["gyro_unit"],
