@@ -234,6 +234,10 @@ class Recording:
         them (the MoRPI catalogue: the phone's IMU; a manifest: ``imu.spec``;
         a simulation: its spec). What reads a recording's noise floor (rest
         detection) reads it here, never from the phone's name.
+    label : str or None
+        The recording's name within its dataset, when the dataset gives it
+        one (a manifest: the recording's id); otherwise :attr:`name` is made
+        from the labels above.
 
     Raises
     ------
@@ -259,6 +263,7 @@ class Recording:
     route: str | None = None
     split: str | None = None
     imu: SensorSpec | None = None
+    label: str | None = None
 
     def __post_init__(self):
         n = self.time.shape[0]
@@ -305,7 +310,9 @@ class Recording:
 
     @property
     def name(self) -> str:
-        """Short label ``phone/route/split/file``."""
+        """Short label: :attr:`label` when given, else ``phone/route/split/file`` (the source without labels)."""
+        if self.label:
+            return self.label
         parts = [p for p in (self.phone, self.route, self.split) if p]
         return "/".join(parts + [Path(self.source).name]) if parts else self.source
 

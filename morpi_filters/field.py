@@ -184,31 +184,50 @@ _DEFAULT_THRESHOLDS = Thresholds(accel_floor=0.1, min_swing_deg=st.StepConfig().
 
 
 @dataclass(frozen=True, eq=False)
-class _DatasetEntry:
-    """A manifest recording in the place of a catalogue entry: its dataset's name as the phone, its group as
-    the route, its split, its id as the relative path."""
+class _Entry:
+    """A manifest recording as FieldData lists it: its folder ``(phone, route, split)`` (the group split at its
+    first ``/``, else the dataset's name and the group; the split None for ``"none"``), its id as its relative
+    path, its file, and how to load it (a DatasetRecording)."""
 
     phone: str
     route: str
-    split: str
+    split: str | None
     relpath: str
-    item: object
+    path: object
+    group: str
+    motion: str
+    load: object
 
-    def load(self):
-        return self.item.recording
+
+def _folder(name: str, group: str, split: str) -> tuple:
+    phone, route = group.split("/", 1) if "/" in group else (name, group)
+    return phone, route, None if split == "none" else split
 
 
-def _dataset_entries(dataset) -> list:
-    """The catalogue entries of a manifest dataset, in its order (a recording whose file another recording
-    reads too is told apart by its id in its source)."""
+def _entries_of(dataset) -> list:
+    """The entries of a manifest Dataset (in memory) or DatasetIndex (read on demand), in the manifest's order.
+
+    A recording whose file another recording reads too is told apart by its id in its source.
+    """
     from dataclasses import replace
 
-    sources = [dr.recording.source for dr in dataset.recordings]
+    from .manifest import Dataset
+
+    items = dataset.recordings
+    files = [dr.recording.source if isinstance(dataset, Dataset) else str(dr.file) for dr in items]
     out = []
-    for dr in dataset.recordings:
-        if sources.count(dr.recording.source) > 1:
-            dr = replace(dr, recording=replace(dr.recording, source=f"{dr.recording.source}#{dr.id}"))
-        out.append(_DatasetEntry(dataset.name, dr.group, dr.split, dr.id, dr))
+    for dr, file in zip(items, files):
+        if isinstance(dataset, Dataset):
+            if files.count(file) > 1:
+                dr = replace(dr, recording=replace(dr.recording, source=f"{file}#{dr.id}"))
+            load = (lambda dr=dr: dr)
+        else:
+            load = dr.load
+            if files.count(file) > 1:
+                def load(dr=dr, file=file):
+                    got = dr.load()
+                    return replace(got, recording=replace(got.recording, source=f"{file}#{dr.id}"))
+        out.append(_Entry(*_folder(dataset.name, dr.group, dr.split), dr.id, Path(file), dr.group, dr.motion, load))
     return out
 
 
@@ -282,20 +301,31 @@ class FieldData:
     """Lazy, cached access to a dataset: recordings, calibrations, INS runs, step signals.
 
     Every per-recording computation is done once and reused by all cells,
-    the gain training and the config search. The dataset is a root in the
-    MoRPI layout or a manifest :class:`~morpi_filters.manifest.Dataset`; the
-    same functions read both (:func:`train_thresholds`, :func:`select_config`,
-    :func:`set_gain`). A manifest recording's entry has the dataset's name as
-    its phone, its group as its route and its id as its relative path; its
-    rest window is the manifest's ``rest`` (``[t0, t1]`` as given, ``"none"``
-    none: :class:`~morpi_filters.calibration.NoRestError`, ``"auto"``
-    detected), its calibrations assume gravity :data:`morpi_filters.units.G0`
-    and its train sets are its groups (:meth:`train_sets`).
+    the gain training and the config search. The dataset is a manifest's:
+    a :class:`~morpi_filters.manifest.Dataset`, or a root in the MoRPI layout,
+    read through the package's MoRPI manifest
+    (:func:`morpi_filters.resources.morpi_manifest` applied to the root, its
+    recordings read when first asked for). One code path serves both: a
+    recording's folder ``(phone, route, split)`` is its group split at its
+    first ``/`` (the MoRPI groups ``s8/short_distance``; a group without one
+    has the dataset's name as its phone), and its split (None for
+    ``"none"``); its id is its relative path; its rest window is the
+    manifest's ``rest`` (``[t0, t1]`` as given, ``"none"`` none:
+    :class:`~morpi_filters.calibration.NoRestError`, ``"auto"`` detected);
+    its calibrations and 3D INS assume the normal gravity at the manifest's
+    ``latitude_deg`` (:data:`morpi_filters.calibration.LOCAL_GRAVITY` for the
+    MoRPI manifest), else :data:`morpi_filters.units.G0`; the train sets are
+    its groups (:meth:`train_sets`).
 
     Parameters
     ----------
     root : path or Dataset
         Dataset root in the MoRPI layout, or a manifest dataset.
+
+    Raises
+    ------
+    DataError
+        `root` is a path but not a directory.
     include_test : bool
         False hides every ``test`` folder (as if absent).
     ins_span : str
@@ -327,15 +357,31 @@ class FieldData:
         self._accel_floor = None if thresholds is None else thresholds.accel_floor
         self.course_m = float(course_m)
         if isinstance(root, Dataset):
+            self.root, index = root, root
+        else:
+            from .manifest import index_dataset
+            from .resources import morpi_manifest
+
+            self.root = Path(root)
+            if not self.root.is_dir():
+                raise DataError(f"{self.root}: not a directory; expected a dataset root (the folder holding s6 and "
+                                "s8)")
+            index = index_dataset(morpi_manifest(), root=self.root)
+        if index.latitude_deg is None:
             from .units import G0
 
-            self.root, self._g_local = root, G0
-            entries = _dataset_entries(root)
-            #: per recording source, its manifest labels and truth (DatasetRecording)
-            self._labels = {e.item.recording.source: e.item for e in entries}
+            self._g_local = G0
         else:
-            self.root, self._g_local, self._labels = Path(root), None, {}
-            entries = ds.catalogue(self.root)
+            from .calibration import normal_gravity
+
+            self._g_local = normal_gravity(index.latitude_deg)
+        entries = _entries_of(index)
+        declared = getattr(index, "declared", ()) or tuple((r.group, r.split, r.motion) for r in index.recordings)
+        #: the groups of the train sets (:meth:`train_sets`): (group, phone, route) in the manifest's order
+        self._train_groups = tuple(dict.fromkeys((g, *_folder(index.name, g, sp)[:2]) for g, sp, m in declared
+                                                 if sp == "train" and m == "periodic"))
+        #: per recording source, its manifest labels and truth (DatasetRecording), once loaded
+        self._labels: dict = {}
         self._entries = [e for e in entries if include_test or e.split != "test"]
         self._by_folder: dict = {}
         for e in self._entries:
@@ -411,7 +457,9 @@ class FieldData:
         it has a :meth:`problem`)."""
         if entry.relpath not in self._rec:
             try:
-                self._rec[entry.relpath] = entry.load()
+                item = entry.load()
+                self._labels[item.recording.source] = item
+                self._rec[entry.relpath] = item.recording
             except MorpiError as exc:
                 self._rec[entry.relpath] = exc
         r = self._rec[entry.relpath]
@@ -511,48 +559,40 @@ class FieldData:
         return self._accel_floor
 
     def train_entries(self, periodic: bool = False) -> list:
-        """The catalogue entries of every ``train`` folder (with `periodic`, only those of periodic motion: a
-        manifest's ``motion = "periodic"``; every MoRPI recording)."""
-        return [e for e in self._entries if e.split == "train"
-                and not (periodic and isinstance(e, _DatasetEntry) and e.item.motion != "periodic")]
+        """The entries of every ``train`` recording (with `periodic`, only those with ``motion = "periodic"``), by
+        folder (sorted by phone and route, as :meth:`no_rest_lines` lists them), in the manifest's order within
+        one: the order of the per-run measurements of :func:`train_thresholds`."""
+        return sorted((e for e in self._entries if e.split == "train" and not (periodic and e.motion != "periodic")),
+                      key=lambda e: (e.phone, e.route))
 
     def train_sets(self) -> list:
         """The train sets of the rule search and the gains (:class:`TrainSet`), each run with its truth.
 
-        A MoRPI root: the short-route sets :data:`SHORT_SETS`, in that order
-        (a set without train runs is empty). A manifest dataset: per group, in
-        the order groups first appear, its train recordings with periodic
-        motion that can be evaluated (:meth:`recordings`), each with its truth
+        One per group the manifest gives train recordings with periodic
+        motion (a glob that matches no file counts), in the order the groups
+        first appear: its train recordings with periodic motion that can be
+        evaluated (:meth:`recordings`), each with its truth
         (:meth:`run_truth`); a run whose truth track gives no course is left
-        out; a group without such runs has no set.
+        out, and a set may be empty. For a MoRPI root (the package's manifest)
+        these are the short-route sets of :data:`SHORT_SETS`, in that order.
         """
-        if not self._labels:
-            return [self._route_set(phone, route) for phone, route, _ in SHORT_SETS]
-        out = []
-        for group in dict.fromkeys(e.route for e in self.train_entries(periodic=True)):
-            runs, ends, dists = [], [], []
-            for r in self.recordings(self.root.name, group, "train"):
-                if self._labels[r.source].motion != "periodic":
-                    continue
-                try:
-                    end, dist = self.run_truth(r)
-                except MorpiError:
-                    continue
-                runs.append(r)
-                ends.append(end)
-                dists.append(dist)
-            if runs:
-                out.append(TrainSet(group, tuple(self.relpath(r) for r in runs), tuple(runs),
-                                    np.array(ends, dtype=float).reshape(-1, 2), np.array(dists, dtype=float)))
-        return out
+        return [self._group_set(group, phone, route) for group, phone, route in self._train_groups]
 
-    def _route_set(self, phone, route) -> TrainSet:
-        """The train runs of a MoRPI folder, sharing the route's truth."""
-        recs = tuple(self.recordings(phone, route, "train"))
-        truth = ds.route(route)
-        return TrainSet(f"{phone}/{route}", tuple(self.relpath(r) for r in recs), recs,
-                        np.tile(np.asarray(truth.end_point_m, dtype=float), (len(recs), 1)),
-                        np.full(len(recs), float(truth.distance_m)))
+    def _group_set(self, group: str, phone: str, route: str) -> TrainSet:
+        """The train runs of a group with periodic motion that can be evaluated, each with its truth."""
+        runs, ends, dists = [], [], []
+        for r in self.recordings(phone, route, "train"):
+            if self._labels[r.source].motion != "periodic":
+                continue
+            try:
+                end, dist = self.run_truth(r)
+            except MorpiError:
+                continue
+            runs.append(r)
+            ends.append(end)
+            dists.append(dist)
+        return TrainSet(group, tuple(self.relpath(r) for r in runs), tuple(runs),
+                        np.array(ends, dtype=float).reshape(-1, 2), np.array(dists, dtype=float))
 
     def run_truth(self, rec) -> tuple[np.ndarray, float]:
         """A manifest recording's true end point in the MoRPI estimate's navigation frame [m], shape (2,), and
@@ -604,6 +644,7 @@ class FieldData:
 
         key = (rec.source, "rest", accel_floor)
         if key not in self._cal:
+            # a recording of no entry (one built in memory and passed in) has its rest detected
             rest = self._labels[rec.source].rest if rec.source in self._labels else "auto"
             try:
                 if rest == "none":
@@ -632,8 +673,7 @@ class FieldData:
                 cal = calibrate(rec, mode)
                 self._cal[key] = (rec, cal)
             else:
-                kw = {} if self._g_local is None else {"g_local": self._g_local}
-                cal = calibrate(rec, mode, window=self.rest_window(rec), **kw)
+                cal = calibrate(rec, mode, window=self.rest_window(rec), g_local=self._g_local)
                 self._cal[key] = (cal.apply(rec), cal)
         return self._cal[key]
 
@@ -641,14 +681,43 @@ class FieldData:
         """End time of the initial rest window [s]."""
         return float(self.rest_window(rec).end_s)
 
-    def prepared(self, rec, mode: str, method: str, cutoff_hz, source: str = "gyro"):
-        # RD and GC differ by a constant on omega_z and not at all on f_y. A constant offset changes
-        # neither the peaks, the prominence threshold (relative to the signal's range) nor any
-        # max - min, so the signal part is shared between RD and GC, between the heading sources and
-        # between the instances that share this one's work (FieldData.sharing): only the heading differs
-        key = (rec.source, mode, method, cutoff_hz, source)
+    def prepared(self, rec, mode: str, method: str, cutoff_hz, source: str = "gyro", *,
+                 grid_hz: float | None = st.GRID_HZ, min_height: float | None = None):
+        """The recording's MoRPI signal resampled on the rule's grid and filtered
+        (:func:`morpi_filters.steps.prepare_signal`), with the heading of `mode` and `source`, cached.
+
+        RD and GC differ by a constant on omega_z and not at all on f_y. A
+        constant offset changes neither the peaks, the prominence threshold
+        (relative to the signal's range) nor any max - min, so the signal is
+        shared between RD and GC, between the heading sources and between
+        the instances that share this one's work (:meth:`sharing`): only the
+        heading differs. A rule with an absolute peak height (`min_height`
+        set) sees the offset, so its RD and GC signals are each their own.
+
+        Parameters
+        ----------
+        rec : Recording
+        mode : {"RD", "GC", "GAC"}
+        method : {"MoRPI-A", "MoRPI-G"}
+        cutoff_hz : float or None
+            The low-pass cut-off [Hz] (:attr:`morpi_filters.steps.StepConfig.cutoff_hz`).
+        source : str
+            The heading source (:data:`HEADING_SOURCES`).
+        grid_hz : float or None
+            The grid's rate [Hz] (:attr:`morpi_filters.steps.StepConfig.grid_hz`; None: the recording's).
+        min_height : float or None
+            The rule's absolute peak height (:attr:`morpi_filters.steps.StepConfig.min_height`): only
+            whether it is set matters here.
+
+        Returns
+        -------
+        PreparedSignal
+        """
+        offset_free = min_height is None
+        key = (rec.source, mode, method, cutoff_hz, source, grid_hz, offset_free)
         if key not in self._prep:
-            skey = (rec.source, "RD|GC" if mode in ("RD", "GC") else mode, method, cutoff_hz)
+            shared_mode = "RD|GC" if mode in ("RD", "GC") and offset_free else mode
+            skey = (rec.source, shared_mode, method, cutoff_hz, grid_hz)
             shared = self._signals.get(skey)
             if shared is not None:
                 from dataclasses import replace
@@ -658,7 +727,8 @@ class FieldData:
             else:
                 crec, _ = self.calibrated(rec, mode)
                 p = self._signals[skey] = st.prepare_signal(
-                    crec, method, cutoff_hz, motion=self.activity(rec), heading=self.heading(rec, mode, source))
+                    crec, method, cutoff_hz, motion=self.activity(rec), heading=self.heading(rec, mode, source),
+                    grid_hz=grid_hz)
             # the heading's integral is the same for every method and cut-off: computed once, then given
             # to each signal as its cached property
             ikey = (rec.source, mode, "heading integral", source)
@@ -724,7 +794,8 @@ class FieldData:
             out = self._steps.get(ckey)
             if out is None:
                 try:
-                    out = st.step_sums(self.prepared(rec, mode, method, config.cutoff_hz, config.heading_source),
+                    out = st.step_sums(self.prepared(rec, mode, method, config.cutoff_hz, config.heading_source,
+                                                     grid_hz=config.grid_hz, min_height=config.min_height),
                                        method, canon, peak_cache=self._peaks)
                 except MorpiError as exc:
                     out = exc
@@ -742,7 +813,9 @@ class FieldData:
             try:
                 self._steps[key] = st.extract_steps(None, method, canon,
                                                     prepared=self.prepared(rec, mode, method, config.cutoff_hz,
-                                                                           config.heading_source),
+                                                                           config.heading_source,
+                                                                           grid_hz=config.grid_hz,
+                                                                           min_height=config.min_height),
                                                     peak_cache=self._peaks)
             except MorpiError as exc:
                 self._steps[key] = exc
@@ -787,11 +860,10 @@ class FieldData:
         span = span or self.ins_span
         key = (rec.source, mode, method, span)
         if key not in self._ins:
-            from .calibration import LOCAL_GRAVITY
             from .strapdown import ins2d, ins3d
 
-            # the gravity the calibration assumed at rest (GAC leaves (0, 0, LOCAL_GRAVITY) there)
-            C0, g = None, LOCAL_GRAVITY
+            # the gravity the calibration assumed at rest (GAC leaves (0, 0, g) there)
+            C0, g = None, self._g_local
             if mode == LEVELED:
                 # gyro zero-order calibration; the initial attitude from the rest specific force
                 # instead of the level assumption (the accelerometer bias stays in, read as tilt)
@@ -836,9 +908,7 @@ class FieldData:
         """
         r3 = self.ins(rec, mode, "INS-3D")
         s = np.clip(np.asarray(r3.C_bn)[:, 2, 0], -1.0, 1.0)
-        from .calibration import LOCAL_GRAVITY
-
-        a = LOCAL_GRAVITY * s
+        a = self._g_local * s
         dt = np.diff(r3.time)
         v = np.concatenate([[0.0], np.cumsum(0.5 * (a[1:] + a[:-1]) * dt)])
         return float(np.degrees(np.mean(np.arcsin(s)))), float(np.sum(0.5 * (v[1:] + v[:-1]) * dt))
@@ -1128,7 +1198,11 @@ def trained_gain(data: FieldData, phone, route, calibration, method, config) -> 
     """
     if not data.recordings(phone, route, "train"):
         return None
-    return set_gain(data, data._route_set(phone, route), calibration, method, config, phone=phone, route=route,
+    group = data.entries(phone, route, "train")[0].group
+    tset = next((s for s in _train_sets(data) if s.name == group), None)
+    if tset is None:
+        return None
+    return set_gain(data, tset, calibration, method, config, phone=phone, route=route,
                     skipped=data.load_errors(phone, route, "train"))
 
 
@@ -1489,29 +1563,27 @@ def nested_rule_comparison(data: FieldData) -> dict:
         than the full train set's. The means, differences, fractions and
         ``preferred`` are None without train runs.
     """
-    folds = [(phone, route, data.relpath(r)) for phone, route, _ in SHORT_SETS
-             for r in data.recordings(phone, route, "train")]
+    folds = [(k, rel) for k, tset in enumerate(_train_sets(data)) for rel in tset.files]
     full = {"per_method": {m: select_config(data, m).config for m in _MORPI_METHODS}}
     cj = select_config(data).config
     full["joint"] = {m: cj for m in _MORPI_METHODS}
     errs = {rule: {m: [] for m in _MORPI_METHODS} for rule in RULES}
     same = {rule: {m: 0 for m in _MORPI_METHODS} for rule in RULES}
     own = []
-    for phone, route, rel in folds:
+    for k, rel in folds:
         th, same_windows = fold_thresholds(data, rel)
         d = data
         if not same_windows:
             # the fold's floor moves a rest window: the fold gets its own windows, calibrations and steps
             d = FieldData(data.root, include_test=False, ins_span=data.ins_span, heading_from=data.heading_from,
                           thresholds=th, course_m=data.course_m)
-            d._rec = data._rec
+            d._rec, d._labels = data._rec, data._labels
         own.append({"file": rel, "accel_floor": th.accel_floor, "min_swing_deg": th.min_swing_deg,
                     "turn_deg": th.turn_deg, "same_rest_windows": same_windows})
         chosen = {"per_method": {m: select_config(d, m, exclude=(rel,), thresholds=th).config
                                  for m in _MORPI_METHODS}}
         cj = select_config(d, exclude=(rel,), thresholds=th).config
         chosen["joint"] = {m: cj for m in _MORPI_METHODS}
-        k = [s[:2] for s in SHORT_SETS].index((phone, route))
         for rule in RULES:
             for m in _MORPI_METHODS:
                 cfg = chosen[rule][m]

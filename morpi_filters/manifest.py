@@ -20,6 +20,15 @@ Layout of a manifest::
     imu.file = "imu/run1.csv"
     truth = { kind = "route", distance_m = 6.3, end_point_m = [6.3, 0.0] }
 
+Relative file names start at the manifest's folder, or at a ``root`` given
+when it is read, so one manifest describes every copy of a dataset (the
+package's MoRPI manifest, :func:`morpi_filters.resources.morpi_manifest`); an
+``imu.file`` holding a glob pattern makes one recording of each file it
+matches, its id the file's relative path. :func:`index_dataset` lists the
+recordings with their labels without reading a file. ``latitude_deg`` sets
+the gravity the calibrations take; ``imu.spec`` may name an IMU the package
+knows.
+
 Truth tracks are stored in a local ENU frame (x east, y north, z up: right
 handed and z up like the package's navigation frame, from which it differs
 by a rotation about z and the origin), whatever the file's frame (NED or
@@ -49,7 +58,7 @@ from __future__ import annotations
 import difflib
 import math
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -58,12 +67,13 @@ from .dataset import (
     COLUMNS, MAX_GAP_S, MEMS_SPEC, MIN_SAMPLES, ColumnLayout, Recording, check_recording, read_columns, rest_problems,
 )
 from .errors import DataError, MorpiError, ParameterError
-from .units import DEG, DEG_S, DEG_S_SQRT_HZ, G0, MG, UG_SQRT_HZ, SensorSpec
+from .units import DEG, DEG_S, DEG_S_SQRT_HZ, G0, MG, SENSORS, UG_SQRT_HZ, SensorSpec
 
 __all__ = [
     "FORMAT_VERSION", "TIME_UNITS", "ACCEL_UNITS", "GYRO_UNITS", "SPEC_KEYS", "RATE_TOLERANCE", "RouteTruth",
     "TruthTrack",
-    "DatasetRecording", "Dataset", "load_dataset", "check_dataset",
+    "DatasetRecording", "Dataset", "IndexedRecording", "DatasetIndex", "index_dataset", "load_dataset", "check_dataset",
+    "GLOB_CHARS",
 ]
 
 #: The manifest format this module reads.
@@ -81,13 +91,15 @@ SPEC_KEYS = {"gyro_bias_deg_s": ("gyro_bias", DEG_S), "gyro_noise_deg_s_sqrt_hz"
              "accel_bias_mg": ("accel_bias", MG), "accel_noise_ug_sqrt_hz": ("accel_noise", UG_SQRT_HZ)}
 #: Largest relative difference between a declared ``rate_hz`` and the median rate of a time column.
 RATE_TOLERANCE = 0.05
+#: An ``imu.file`` holding one of these characters is a glob pattern: one recording per file it matches.
+GLOB_CHARS = "*?["
 
 _SPLITS = ("train", "test", "none")
 _MOTIONS = ("periodic", "straight")
 _INITIALS = ("rest", "truth")
 _FRAMES = ("NED", "ENU")
 _FRAME_LETTERS = {"NED": ("n", "e", "d"), "ENU": ("e", "n", "u")}
-_TOP_KEYS = ("format_version", "name", "description", "defaults", "recording")
+_TOP_KEYS = ("format_version", "name", "description", "latitude_deg", "defaults", "recording")
 _RECORDING_KEYS = ("id", "split", "group", "motion", "rest", "initial", "notes", "imu", "truth")
 _IMU_KEYS = ("file", "format", "columns", "skip_rows", "rate_hz", "time_unit", "time_origin", "accel_unit",
              "gyro_unit", "axes", "spec")
@@ -275,6 +287,11 @@ class Dataset:
         The manifest file, or ``"<memory>"``.
     description : str
         Free text.
+    latitude_deg : float or None
+        The recordings' latitude [deg]: the calibrations and the 3D INS take
+        the normal gravity there
+        (:func:`morpi_filters.calibration.normal_gravity`); None: standard
+        gravity :data:`morpi_filters.units.G0`.
 
     Examples
     --------
@@ -290,9 +307,15 @@ class Dataset:
     recordings: tuple
     source: str = "<memory>"
     description: str = ""
+    latitude_deg: float | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "recordings", tuple(self.recordings))
+        if self.latitude_deg is not None:
+            try:
+                object.__setattr__(self, "latitude_deg", _latitude(self.latitude_deg))
+            except _Bad as bad:
+                raise ParameterError(f"{self.source}: latitude_deg: {bad}") from None
         seen = set()
         for r in self.recordings:
             if r.id in seen:
@@ -322,7 +345,8 @@ class Dataset:
         return {k: tuple(v) for k, v in out.items()}
 
     @classmethod
-    def from_arrays(cls, name: str, recordings, *, description: str = "") -> "Dataset":
+    def from_arrays(cls, name: str, recordings, *, description: str = "", latitude_deg: float | None = None
+                    ) -> "Dataset":
         """A dataset from arrays in memory, with the checks of a manifest's recordings.
 
         Parameters
@@ -338,6 +362,9 @@ class Dataset:
             ``notes`` with the meanings and defaults of the manifest keys.
         description : str, optional
             Free text.
+        latitude_deg : float, optional
+            The recordings' latitude [deg] (the manifest key ``latitude_deg``);
+            default: standard gravity.
 
         Returns
         -------
@@ -383,14 +410,14 @@ class Dataset:
                 raise ParameterError(f"{where}.truth: {type(truth).__name__}, expected a RouteTruth or TruthTrack")
             rec = Recording(time=np.asarray(item["time"], dtype=float), f=np.asarray(item["f"], dtype=float),
                             omega=np.asarray(item["omega"], dtype=float), source=f"<memory>:{rec_id}",
-                            split=None if labels["split"] == "none" else labels["split"])
+                            split=None if labels["split"] == "none" else labels["split"], label=rec_id)
             check_recording(rec)
             ctx = _Context(where, {})
             _check_labels(ctx, rec, truth, labels)
             _check_physics(ctx, rec, labels["rest"], {"accel_unit": "m/s^2", "gyro_unit": "rad/s", "axes": "FLU"},
                            MEMS_SPEC)
             out.append(DatasetRecording(id=rec_id, recording=rec, truth=truth, **labels))
-        return cls(name=name, recordings=tuple(out), description=description)
+        return cls(name=name, recordings=tuple(out), description=description, latitude_deg=latitude_deg)
 
 
 # --------------------------------------------------------------------------- values
@@ -522,16 +549,32 @@ def _axes(v):
     return perm, tuple(sign[v[perm[i]]] for i in range(3))
 
 
+def _latitude(v) -> float:
+    v = _number(v)
+    if not -90.0 <= v <= 90.0:
+        raise _Bad(f"{v!r}, expected a latitude in degrees from -90 to 90")
+    return v
+
+
 def _spec(v) -> SensorSpec:
+    if isinstance(v, str):
+        known = {s.name: s for s in SENSORS.values()}
+        if v not in known:
+            near = _nearest(v, known, cutoff=0.6)
+            raise _Bad(f"{v!r} is not an IMU the package knows ({', '.join(repr(k) for k in known)})"
+                       + (f" (nearest: {near!r})" if near else "") + ", expected one of them or a table of the "
+                       f"IMU's datasheet figures: {', '.join(SPEC_KEYS)}")
+        return known[v]
     if not isinstance(v, dict):
-        raise _Bad(f"{_kind(v)} {v!r}, expected a table of the IMU's datasheet figures: {', '.join(SPEC_KEYS)}")
+        raise _Bad(f"{_kind(v)} {v!r}, expected the name of an IMU the package knows or a table of the IMU's "
+                   f"datasheet figures: {', '.join(SPEC_KEYS)}")
     figures = {}
     for key, x in v.items():
         if key not in SPEC_KEYS:
             raise _Bad(_unknown(key, SPEC_KEYS))
         try:
-            field, unit = SPEC_KEYS[key]
-            figures[field] = _number(x, lowest=0.0) * unit
+            attr, unit = SPEC_KEYS[key]
+            figures[attr] = _number(x, lowest=0.0) * unit
         except _Bad as bad:
             raise _Bad(f"{key}: {bad}") from None
     base = {k: getattr(MEMS_SPEC, k) for k in ("gyro_bias", "gyro_noise", "accel_bias", "accel_noise")}
@@ -564,8 +607,10 @@ _TRUTH_CHECKS = {"kind": _choice(("route", "track")), "distance_m": lambda v: _n
 class _Context:
     """Where the values of one recording come from, to name them in messages."""
 
-    def __init__(self, head: str, origin: dict, manifest: str = "", rec_id=None):
-        self.head, self.origin, self.manifest, self.id = head, origin, manifest, rec_id
+    def __init__(self, head: str, origin: dict, manifest: str = "", rec_id=None, base=None, table: int = 0):
+        self.head, self.origin, self.manifest, self.id, self.table = head, origin, manifest, rec_id, table
+        #: the folder relative file names start at (the manifest's, unless a root is given)
+        self.base = Path(base) if base is not None else Path(manifest).parent
 
     def where(self, key: str) -> str:
         if self.origin.get(key) == "defaults":
@@ -583,6 +628,9 @@ class _Manifest:
     name: str
     description: str
     entries: tuple        # (context, merged values or None, problem or None)
+    latitude_deg: float | None = None
+    base: Path | None = None
+    empty: tuple = ()     # (context, values) of each glob table that matches no file
 
 
 def _toml():
@@ -593,7 +641,7 @@ def _toml():
     return tomli
 
 
-def _read_manifest(path) -> _Manifest:
+def _read_manifest(path, root=None) -> _Manifest:
     path = Path(path).expanduser()
     try:
         raw = path.read_bytes()
@@ -628,6 +676,13 @@ def _read_manifest(path) -> _Manifest:
         raise ParameterError(f"{path}: {'name' if 'name' in doc else 'description'}: {bad}") from None
     if name is None:
         raise ParameterError(f"{path}: name: missing, expected the dataset's name (a string)")
+    try:
+        latitude = _latitude(doc["latitude_deg"]) if "latitude_deg" in doc else None
+    except _Bad as bad:
+        raise ParameterError(f"{path}: latitude_deg: {bad}") from None
+    base = path.parent if root is None else Path(root).expanduser()
+    if not base.is_dir():
+        raise ParameterError(f"{base}: not a directory, expected the folder the manifest's file names start at")
     defaults = doc.get("defaults", {})
     if not isinstance(defaults, dict):
         raise ParameterError(f"{path}: defaults: {_kind(defaults)}, expected a table [defaults]")
@@ -639,22 +694,71 @@ def _read_manifest(path) -> _Manifest:
         raise ParameterError(f"{path}: recording: one table [recording], expected [[recording]] tables (an array)")
     if not isinstance(tables, list) or not tables or not all(isinstance(t, dict) for t in tables):
         raise ParameterError(f"{path}: recording: {_kind(tables)}, expected [[recording]] tables")
-    entries, first_of = [], {}
+    entries, first_of, empty = [], {}, []
     for k, table in enumerate(tables, start=1):
         rec_id = table.get("id") if isinstance(table.get("id"), str) else None
         head = f"{path}: [[recording]] {k}" + (f" (id {rec_id!r})" if rec_id else "")
         try:
             values, origin = _merge(head, defaults, table)
-            ctx = _Context(head, origin, str(path), rec_id)
-            if rec_id is not None and rec_id in first_of:
-                raise ctx.bad("id", f"{rec_id!r} is the id of [[recording]] {first_of[rec_id]} too, expected "
-                                    "unique ids")
-            if rec_id is not None:
-                first_of[rec_id] = k
-            entries.append((ctx, values, None))
+            ctx = _Context(head, origin, str(path), rec_id, base, k)
+            expanded = _expand(ctx, values, k)
+            if not expanded:
+                empty.append((ctx, values))
+            for ctx, values in expanded:
+                rec_id = ctx.id
+                if rec_id is not None and rec_id in first_of:
+                    raise ctx.bad("id", f"{rec_id!r} is the id of [[recording]] {first_of[rec_id]} too, expected "
+                                        "unique ids")
+                if rec_id is not None:
+                    first_of[rec_id] = k
+                entries.append((ctx, values, None))
         except ParameterError as exc:
-            entries.append((_Context(head, {}, str(path), rec_id), None, exc))
-    return _Manifest(path=path, name=name, description=description, entries=tuple(entries))
+            entries.append((_Context(head, {}, str(path), rec_id, base), None, exc))
+    return _Manifest(path=path, name=name, description=description, entries=tuple(entries), latitude_deg=latitude,
+                     base=base, empty=tuple(empty))
+
+
+def _is_glob(name) -> bool:
+    return isinstance(name, str) and any(c in name for c in GLOB_CHARS)
+
+
+def _natural(p: Path):
+    """A file's place among the matches of a glob: by folder, then by the number its name is (``2.csv`` before
+    ``10.csv``), then by name."""
+    return (p.parent.parts, (0, int(p.stem), "") if p.stem.isdigit() else (1, 0, p.stem), p.name)
+
+
+def _expand(ctx: _Context, values: dict, k: int) -> list:
+    """A recording's (context, values), or one per file a glob ``imu.file`` matches (its id the file's path
+    relative to the base folder), in the order of :func:`_natural`."""
+    pattern = values.get("imu", {}).get("file") if isinstance(values.get("imu"), dict) else None
+    if not _is_glob(pattern):
+        return [(ctx, values)]
+    if ctx.origin.get("id") == "recording":
+        raise ctx.bad("id", "not used with a glob imu.file (each recording's id is the path of its file relative "
+                            f"to {ctx.base}); remove it")
+    truth = values.get("truth")
+    if isinstance(truth, dict) and truth.get("kind") == "track":
+        raise ctx.bad("truth.kind", "'track' with a glob imu.file: one truth file cannot serve every file it "
+                                    "matches; expected 'route', or one [[recording]] per file")
+    pat = Path(pattern).expanduser()
+    start, rel_pattern = (Path(pat.anchor), str(pat.relative_to(pat.anchor))) if pat.is_absolute() else \
+        (ctx.base, pattern)
+    try:
+        found = sorted((p for p in start.glob(rel_pattern) if p.is_file()), key=_natural)
+    except (ValueError, OSError) as exc:
+        raise ctx.bad("imu.file", f"{pattern!r} is not a glob pattern the package can read ({exc})") from None
+    out = []
+    for p in found:
+        try:
+            rel = p.relative_to(ctx.base).as_posix()
+        except ValueError:
+            rel = str(p)
+        head = f"{ctx.manifest}: [[recording]] {k} (id {rel!r})"
+        origin = dict(ctx.origin, id="recording")
+        out.append((_Context(head, origin, ctx.manifest, rel, ctx.base, k),
+                    {**values, "id": rel, "imu": {**values["imu"], "file": rel}}))
+    return out
 
 
 def _check_defaults(path: Path, defaults: dict) -> None:
@@ -736,9 +840,10 @@ def _file_of(ctx: _Context, table: dict, prefix: str) -> tuple[Path, str]:
     name = _get(ctx, table, prefix, "file", _IMU_CHECKS, required=True)
     path = Path(name).expanduser()
     if not path.is_absolute():
-        path = Path(ctx.manifest).parent / path
+        path = ctx.base / path
     if not path.exists():
-        raise ctx.bad(f"{prefix}.file", f"{path}: no such file (relative paths start at the manifest's folder)")
+        where = "the manifest's folder" if ctx.base == Path(ctx.manifest).parent else f"{ctx.base}"
+        raise ctx.bad(f"{prefix}.file", f"{path}: no such file (relative paths start at {where})")
     if path.is_dir():
         raise ctx.bad(f"{prefix}.file", f"{path}: is a directory, expected a file")
     fmt = table.get("format")
@@ -842,7 +947,7 @@ def _load_entry(ctx: _Context, values: dict) -> DatasetRecording:
         f = np.ascontiguousarray(np.stack([sign[i] * f_file[:, perm[i]] for i in range(3)], axis=-1))
         omega = np.ascontiguousarray(np.stack([sign[i] * w_file[:, perm[i]] for i in range(3)], axis=-1))
     rec = Recording(time=time, f=f, omega=omega, source=str(path),
-                    split=None if labels["split"] == "none" else labels["split"], imu=settings["imu"])
+                    split=None if labels["split"] == "none" else labels["split"], imu=settings["imu"], label=rec_id)
     truth = _truth(ctx, values["truth"], rec)
     _check_labels(ctx, rec, truth, labels)
     _check_physics(ctx, rec, labels["rest"], {"accel_unit": settings["accel_unit"], "gyro_unit": settings["gyro_unit"],
@@ -977,13 +1082,17 @@ def _check_physics(ctx: _Context, rec: Recording, rest, declared: dict, spec: Se
 
 # --------------------------------------------------------------------------- entry points
 
-def load_dataset(path) -> Dataset:
+def load_dataset(path, *, root=None) -> Dataset:
     """Read a manifest and every recording it describes, converted and checked.
 
     Parameters
     ----------
     path : str or Path
         The manifest (TOML, format version 1; ``docs/manifest.md``).
+    root : str or Path, optional
+        The folder relative file names start at; default: the manifest's
+        folder. One manifest describes every copy of a dataset this way (the
+        package's MoRPI manifest, :func:`morpi_filters.resources.morpi_manifest`).
 
     Returns
     -------
@@ -1026,23 +1135,161 @@ def load_dataset(path) -> Dataset:
     >>> ds.name, rec.n, float(rec.time[1]), rec.f[0].tolist() == [0.0, 0.0, G0]     # 1 g is G0 m/s^2
     ('bench', 200, 0.01, True)
     """
-    manifest = _read_manifest(path)
+    manifest = _read_manifest(path, root)
     out = []
     for ctx, values, problem in manifest.entries:
         if problem is not None:
             raise problem
         out.append(_load_entry(ctx, values))
+    if not out:
+        raise _no_match(manifest)
     return Dataset(name=manifest.name, recordings=tuple(out), source=str(manifest.path),
-                   description=manifest.description)
+                   description=manifest.description, latitude_deg=manifest.latitude_deg)
 
 
-def check_dataset(path) -> tuple[list, int]:
+def _no_match(manifest: _Manifest) -> ParameterError:
+    return ParameterError(f"{manifest.path}: recording: the glob imu.file patterns match no file under "
+                          f"{manifest.base}, expected at least one recording")
+
+
+@dataclass(frozen=True, eq=False)
+class IndexedRecording:
+    """A manifest recording before its files are read: its labels and its IMU file (:func:`index_dataset`).
+
+    Attributes
+    ----------
+    id, split, group, motion, rest, initial
+        As in :class:`DatasetRecording`.
+    file : Path
+        The IMU file (not yet checked to exist).
+    """
+
+    id: str
+    split: str
+    group: str
+    motion: str
+    rest: object
+    initial: str
+    file: Path
+    _ctx: object = field(default=None, repr=False)
+    _values: dict = field(default=None, repr=False)
+
+    def load(self) -> DatasetRecording:
+        """Read, convert and check the recording as :func:`load_dataset` does.
+
+        Returns
+        -------
+        DatasetRecording
+
+        Raises
+        ------
+        ParameterError, DataError
+            As :func:`load_dataset`, for this recording.
+        """
+        return _load_entry(self._ctx, self._values)
+
+
+@dataclass(frozen=True, eq=False)
+class DatasetIndex:
+    """A manifest's recordings, labelled, none read yet (:func:`index_dataset`).
+
+    Attributes
+    ----------
+    name, description, latitude_deg
+        As in :class:`Dataset`.
+    source : str
+        The manifest file.
+    root : Path
+        The folder its relative file names start at.
+    recordings : tuple of IndexedRecording
+        In the manifest's order (the files of a glob in the order of their
+        folders and numbers).
+    declared : tuple of (str, str, str)
+        ``(group, split, motion)`` of every ``[[recording]]`` table in order,
+        a glob table's once, whether or not it matches a file.
+    """
+
+    name: str
+    source: str
+    root: Path
+    recordings: tuple
+    description: str = ""
+    latitude_deg: float | None = None
+    declared: tuple = ()
+
+
+def index_dataset(path, *, root=None) -> DatasetIndex:
+    """A manifest's recordings with their labels and files, without reading a file.
+
+    What :func:`load_dataset` reads, one recording at a time
+    (:meth:`IndexedRecording.load`): a caller that reads a few recordings,
+    or keeps going past one that does not load, starts here. A glob that
+    matches no file gives no recording (no error).
+
+    Parameters
+    ----------
+    path : str or Path
+        The manifest.
+    root : str or Path, optional
+        As for :func:`load_dataset`.
+
+    Returns
+    -------
+    DatasetIndex
+
+    Raises
+    ------
+    ParameterError
+        The first problem of the manifest's keys and labels (one line naming
+        the file, the recording and the key).
+
+    Examples
+    --------
+    >>> from morpi_filters.resources import morpi_manifest
+    >>> import pathlib, tempfile
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> for rel in ("s8/short_distance/train/10.csv", "s8/short_distance/train/2.csv", "s6/L_line/1.csv"):
+    ...     (root / rel).parent.mkdir(parents=True, exist_ok=True)
+    ...     (root / rel).touch()
+    >>> index = index_dataset(morpi_manifest(), root=root)
+    >>> [(r.id, r.group, r.split, r.motion) for r in index.recordings]    # doctest: +NORMALIZE_WHITESPACE
+    [('s8/short_distance/train/2.csv', 's8/short_distance', 'train', 'periodic'),
+     ('s8/short_distance/train/10.csv', 's8/short_distance', 'train', 'periodic'),
+     ('s6/L_line/1.csv', 's6/L_line', 'none', 'straight')]
+    """
+    manifest = _read_manifest(path, root)
+    out, declared = [], {}
+    for ctx, values in manifest.empty:
+        labels = [_get(ctx, values, "", k, _LABEL_CHECKS, default=_DEFAULTS[k]) for k in ("group", "split", "motion")]
+        declared[ctx.table] = tuple(labels)
+    for ctx, values, problem in manifest.entries:
+        if problem is not None:
+            raise problem
+        rec_id = _get(ctx, values, "", "id", {"id": _text}, required=True)
+        labels = {k: _get(ctx, values, "", k, _LABEL_CHECKS, default=d) for k, d in _DEFAULTS.items()}
+        imu = values.get("imu")
+        if not isinstance(imu, dict) or "file" not in imu:
+            raise ctx.bad("imu", "missing, expected a table with at least imu.file")
+        name = Path(_get(ctx, imu, "imu", "file", _IMU_CHECKS, required=True)).expanduser()
+        out.append(IndexedRecording(id=rec_id, file=name if name.is_absolute() else ctx.base / name,
+                                    _ctx=ctx, _values=values, **{k: labels[k] for k in
+                                                                 ("split", "group", "motion", "rest", "initial")}))
+        declared[ctx.table] = (labels["group"], labels["split"], labels["motion"])
+    order = sorted(declared)
+    return DatasetIndex(name=manifest.name, source=str(manifest.path), root=manifest.base, recordings=tuple(out),
+                        description=manifest.description, latitude_deg=manifest.latitude_deg,
+                        declared=tuple(declared[k] for k in order))
+
+
+def check_dataset(path, *, root=None) -> tuple[list, int]:
     """Load every recording of a manifest in turn and collect the problems, one per recording.
 
     Parameters
     ----------
     path : str or Path
         The manifest.
+    root : str or Path, optional
+        As for :func:`load_dataset`.
 
     Returns
     -------
@@ -1075,7 +1322,7 @@ def check_dataset(path) -> tuple[list, int]:
     >>> n_ok, [str(p).replace(str(root), "ROOT") for p in problems]
     (0, ["ROOT/dataset.toml: [[recording]] 1 (id 'run1'): imu.file: ROOT/run1.csv: no such file (...)"])
     """
-    manifest = _read_manifest(path)
+    manifest = _read_manifest(path, root)
     problems, n_ok = [], 0
     for ctx, values, problem in manifest.entries:
         if problem is None:
@@ -1086,4 +1333,6 @@ def check_dataset(path) -> tuple[list, int]:
             except MorpiError as exc:
                 problem = exc
         problems.append(problem)
+    if not manifest.entries:
+        problems.append(_no_match(manifest))
     return problems, n_ok

@@ -230,3 +230,44 @@ def test_the_leave_one_group_out_score_is_the_numpy_computation_from_the_steps(t
         assert result.choices["rule"][m]["score_percent"]["group"] == pytest.approx(np.mean(errs), rel=1e-9)
         assert result.choices["rule"][m]["runs_scored"]["group"] == 2
         assert result.choices["rule"][m]["score_percent"]["recording"] is None   # one train run per group
+
+
+# ----------------------------------------------------------------------------- the tables and evaluate on one root
+
+def test_the_tables_and_evaluate_with_the_morpi_manifest_agree_where_they_compute_the_same(tmp_path):
+    """One root in the MoRPI layout, two commands: ``morpi tables`` (evaluate.evaluate_tables over FieldData(root))
+    and ``morpi evaluate --dataset`` (the package's MoRPI manifest applied to the root). Under the same step rule
+    (the one evaluate chose: it scores leave-one-group-out, the tables leave-one-recording-out), the short-route
+    train sets set the same gains, and every run of the short-route MoRPI cells (RD, GC) ends at the same point.
+    The planar INS over the whole recording (the tables' ``ins_span="full"``) ends at the same point too; the 3D
+    INS differs by design (evaluate integrates with standard gravity, the tables with the manifest's latitude)."""
+    from morpi_filters import steps as st
+    from morpi_filters import synthetic
+    from morpi_filters.dataset_eval import evaluate
+    from morpi_filters.evaluate import evaluate_tables
+    from morpi_filters.field import SHORT_SETS, FieldData
+    from morpi_filters.resources import morpi_manifest
+
+    root = synthetic.write_dataset(tmp_path / "ds", seed=3, runs_per_folder=3)
+    ev = evaluate(load_dataset(morpi_manifest(), root=root))
+    configs = {m: st.StepConfig(**ev.choices["rule"][m]["config"]) for m in ("MoRPI-A", "MoRPI-G")}
+    tables = evaluate_tables(root, data=FieldData(root, ins_span="full"), configs=configs, alternatives=False)
+    paths = {(p.id, p.method, p.calibration): p for p in ev.paths}
+    gains = {(g["group"], g["method"], g["calibration"]): g["mean"] for g in ev.choices["gains"]}
+    assert [s["group"] for s in ev.choices["train_sets"]] == [f"{ph}/{r}" for ph, r, _ in SHORT_SETS]
+    compared = {"MoRPI": 0, "INS-2D": 0}
+    for g in tables.gains:
+        assert g.mean == pytest.approx(gains[f"{g.phone}/{g.route}", g.method, g.calibration], rel=1e-12)
+    for cell in tables.cells:
+        s = cell.spec
+        same = (s.table == "short_route" and s.calibration in ("RD", "GC")) if s.method.startswith("MoRPI") \
+            else s.method == "INS-2D" and s.calibration in ("RD", "GC", "GAC")
+        if not same:
+            continue
+        assert cell.runs, s
+        for run in cell.runs:
+            p = paths[run.file, s.method, s.calibration]
+            np.testing.assert_allclose(p.xy[-1], run.end_point, rtol=1e-9, atol=1e-9)
+            assert p.metrics["end_error_m"] == pytest.approx(run.end_error_m, rel=1e-9, abs=1e-9)
+            compared["MoRPI" if s.method.startswith("MoRPI") else "INS-2D"] += 1
+    assert compared["MoRPI"] >= 2 * 2 * 3 * 3 and compared["INS-2D"] >= 3, compared

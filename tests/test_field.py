@@ -219,3 +219,62 @@ def test_a_recording_moving_from_its_first_sample_is_evaluated_under_rd_only(tmp
     with pytest.raises(NoRestError) as ei:
         data.calibrated(rec, "GC")
     assert str(ei.value) == why
+
+
+# ----------------------------------------------------------------------------- a rule's grid and absolute height
+
+def _offset_run(gyro_offset: float = 0.08):
+    """The s8 short-route run with a z gyro offset, as a one-recording manifest dataset."""
+    from morpi_filters.manifest import Dataset, RouteTruth
+
+    rec, _, _ = _run("s8")
+    w = rec.omega.copy()
+    w[:, 2] += gyro_offset
+    dataset = Dataset.from_arrays("bench", [{"id": "r", "time": rec.time, "f": rec.f, "omega": w,
+                                             "truth": RouteTruth(distance_m=6.3, end_point_m=np.array([6.3, 0.0]))}])
+    data = FieldData(dataset, thresholds=THRESHOLDS)
+    return data, data.recording_at("r")
+
+
+def _direct_sums(data, rec, mode, method, config):
+    """steps.step_sums on the mode's calibrated recording prepared afresh on the rule's grid (no cache)."""
+    crec, _ = data.calibrated(rec, mode)
+    p = st.prepare_signal(crec, method, config.cutoff_hz, motion=data.activity(rec),
+                          heading=data.heading(rec, mode), grid_hz=config.grid_hz)
+    return st.step_sums(p, method, config)
+
+
+@pytest.mark.parametrize("grid_hz", [50.0, 40.0, None])
+def test_a_rule_on_another_grid_runs_on_that_grid(grid_hz):
+    """A rule's grid_hz reaches the prepared signal: its steps are those steps.step_sums finds on that grid (the
+    default grid's differ), for FieldData.step_sums and FieldData.steps alike."""
+    data, rec = _offset_run()
+    for method in ("MoRPI-A", "MoRPI-G"):
+        cfg = replace(st.StepConfig(cutoff_hz=2.0), grid_hz=grid_hz)
+        got = data.step_sums(rec, "GC", method, cfg)
+        want = _direct_sums(data, rec, "GC", method, cfg)
+        assert tuple(got) == tuple(want)
+        steps = data.steps(rec, "GC", method, cfg)
+        assert steps.peaks.grid_time.size == data.prepared(rec, "GC", method, 2.0, grid_hz=grid_hz).grid.size
+        rate = rec.rate_hz if grid_hz is None else grid_hz
+        np.testing.assert_allclose(np.diff(steps.peaks.grid_time), 1.0 / rate, rtol=1e-9)
+        assert tuple(got) != tuple(data.step_sums(rec, "GC", method, replace(cfg, grid_hz=st.GRID_HZ)))
+
+
+def test_an_absolute_peak_height_sees_the_gyro_offset_rd_and_gc_keep_their_own_signals():
+    """With min_height the RD signal (gyro offset in) and the GC signal (offset out) give other steps; FieldData
+    gives each mode the steps of its own signal, whichever mode was asked first."""
+    data, rec = _offset_run()
+    cfg = st.StepConfig(cutoff_hz=2.0, min_height=0.9)
+    want = {mode: _direct_sums(data, rec, mode, "MoRPI-G", cfg) for mode in ("RD", "GC")}
+    assert want["RD"][0] != want["GC"][0]           # the offset moves the absolute threshold
+    for order in (("RD", "GC"), ("GC", "RD")):
+        fresh, r = _offset_run()
+        for mode in order:
+            assert tuple(fresh.step_sums(r, mode, "MoRPI-G", cfg)) == tuple(want[mode])
+            assert fresh.steps(r, mode, "MoRPI-G", cfg).weight.size > 0
+    # without a height the two modes still share one signal (the offset cannot move a relative threshold)
+    plain = st.StepConfig(cutoff_hz=2.0)
+    assert data.prepared(rec, "RD", "MoRPI-G", 2.0).filtered is data.prepared(rec, "GC", "MoRPI-G", 2.0).filtered
+    assert tuple(data.step_sums(rec, "RD", "MoRPI-G", plain)[:1]) == tuple(_direct_sums(data, rec, "RD", "MoRPI-G",
+                                                                                     plain)[:1])

@@ -538,6 +538,17 @@ MALFORMED = [
      "truth.polyline_m: ends at [1.0, 1.0], expected end_point_m"),
     ("track key on a route", _sub("end_point_m = [2.0, 0.0]", 'end_point_m = [2.0, 0.0], frame = "NED"'),
      "truth.frame: not used by kind = 'route'"),
+    ("latitude beyond a pole", _sub('description = "two recordings"', 'description = "two recordings"\n'
+                                                                       "latitude_deg = 95.0"),
+     "latitude_deg: 95.0, expected a latitude in degrees from -90 to 90"),
+    ("latitude a string", _sub('description = "two recordings"', 'description = "two recordings"\n'
+                                                                  'latitude_deg = "32.8 N"'),
+     "latitude_deg: a string '32.8 N', expected a number"),
+    ("spec an unknown IMU", _imu_a('spec = "LSM6DS3"'),
+     "imu.spec: 'LSM6DS3' is not an IMU the package knows ('MPU-6500', 'LSM6DSL') (nearest: 'LSM6DSL')"),
+    ("glob with an id", _sub('file = "a.csv"', 'file = "a*.csv"'), "id: not used with a glob imu.file"),
+    ("glob with a track", lambda t: _sub('id = "b"\n', "")(_sub(_B, 'imu = { file = "[b].csv" }')(t)),
+     "truth.kind: 'track' with a glob imu.file"),
     ("frame", _sub('frame = "NED"', 'frame = "NEU"'), "truth.frame: 'NEU' is not one of 'NED', 'ENU'"),
     ("frame against letters", _sub('frame = "NED"', 'frame = "ENU"'),
      "truth.frame: 'ENU', but columns name the NED axes"),
@@ -694,3 +705,118 @@ def test_the_npy_example_of_the_reference_page_loads(tmp_path):
         np.testing.assert_array_equal(got.recording.omega, data.omega)
         np.testing.assert_array_equal(got.truth.position, pos)
         np.testing.assert_allclose(got.truth.time, t_rel, rtol=0, atol=1e-12)
+
+
+# ----------------------------------------------------------------------------- globs, a root, gravity, named IMUs
+
+def _glob_tree(root: Path) -> Path:
+    (root / "runs").mkdir(parents=True)
+    (root / "other").mkdir()
+    for name in ("10.csv", "2.csv", "1.csv", "run.csv"):
+        _imu_csv(root / "runs" / name, _still_rows())
+    _imu_csv(root / "other" / "3.csv", _still_rows())
+    return root
+
+
+def test_a_glob_gives_one_recording_per_file_in_number_order_with_its_path_as_id(tmp_path):
+    folder = _glob_tree(tmp_path / "copy")
+    body = (f'[[recording]]\ngroup = "g"\nimu = {{ file = "runs/*.csv", columns = {_COLS} }}\n{_ROUTE}\n'
+            f'[[recording]]\nid = "x"\nimu = {{ file = "other/3.csv", columns = {_COLS} }}\n{_ROUTE}\n')
+    ds = load_dataset(_manifest(folder, body))
+    assert [r.id for r in ds.recordings] == ["runs/1.csv", "runs/2.csv", "runs/10.csv", "runs/run.csv", "x"]
+    assert [r.recording.source for r in ds.recordings[:2]] == [str(folder / "runs" / "1.csv"),
+                                                               str(folder / "runs" / "2.csv")]
+    assert {r.group for r in ds.recordings[:4]} == {"g"}
+    # the same manifest read against another folder: its files, its ids
+    other = _glob_tree(tmp_path / "other-copy")
+    (other / "runs" / "10.csv").unlink()
+    ds2 = load_dataset(folder / "dataset.toml", root=other)
+    assert [r.id for r in ds2.recordings] == ["runs/1.csv", "runs/2.csv", "runs/run.csv", "x"]
+    assert ds2["x"].recording.source == str(other / "other" / "3.csv")
+    assert check_dataset(folder / "dataset.toml", root=other) == ([], 4)
+
+
+def test_globs_that_match_nothing_give_no_recording_and_a_manifest_of_none_is_refused(tmp_path):
+    from morpi_filters.manifest import index_dataset
+
+    body = f'[[recording]]\ngroup = "g"\nsplit = "train"\nimu = {{ file = "runs/*.csv" }}\n{_ROUTE}\n'
+    path = _manifest(tmp_path, body)
+    index = index_dataset(path)
+    assert index.recordings == () and index.declared == (("g", "train", "periodic"),)
+    with pytest.raises(ParameterError, match="recording: the glob imu.file patterns match no file under"):
+        load_dataset(path)
+    problems, n_ok = check_dataset(path)
+    assert n_ok == 0 and len(problems) == 1 and "match no file" in str(problems[0])
+    with pytest.raises(ParameterError, match="not a directory, expected the folder the manifest's file names start"):
+        load_dataset(path, root=tmp_path / "nowhere")
+
+
+def test_a_named_imu_is_the_packages_spec(tmp_path):
+    _imu_csv(tmp_path / "a.csv", _still_rows())
+    body = f'[[recording]]\nid = "a"\nimu = {{ file = "a.csv", columns = {_COLS}, spec = "MPU-6500" }}\n{_ROUTE}'
+    assert load_dataset(_manifest(tmp_path, body))["a"].recording.imu is units.MPU6500
+
+
+@pytest.mark.parametrize("latitude", [None, 0.0, 32.8, -90.0])
+def test_the_latitude_sets_the_gravity_the_calibrations_take(latitude):
+    """At rest GAC leaves exactly (0, 0, g) on the mean specific force: g the WGS84 normal gravity at the
+    manifest's latitude (Somigliana's closed form), or standard gravity without one."""
+    from morpi_filters.calibration import normal_gravity
+    from morpi_filters.field import FieldData
+
+    rng = np.random.default_rng(3)
+    t = np.arange(600) / 100.0
+    f = np.array([0.2, -0.1, 9.79]) + 0.01 * rng.standard_normal((600, 3))
+    w = 0.001 * rng.standard_normal((600, 3))
+    w[400:, 2] += 0.4 * np.sin(2 * np.pi * t[400:])
+    truth = RouteTruth(distance_m=1.0, end_point_m=np.array([1.0, 0.0]))
+    ds = Dataset.from_arrays("bench", [{"id": "a", "time": t, "f": f, "omega": w, "truth": truth,
+                                        "rest": [0.0, 3.0]}], latitude_deg=latitude)
+    data = FieldData(ds)
+    rec = data.recording_at("a")
+    crec, _ = data.calibrated(rec, "GAC")
+    window = data.rest_window(rec)
+    g = units.G0 if latitude is None else normal_gravity(latitude)
+    np.testing.assert_allclose(crec.f[window.i0:window.i1].mean(axis=0), [0.0, 0.0, g], rtol=0, atol=1e-12)
+    assert data._g_local == g
+    with pytest.raises(ParameterError, match="latitude_deg: 91.0, expected a latitude"):
+        Dataset.from_arrays("bench", [{"id": "a", "time": t, "f": f, "omega": w, "truth": truth}], latitude_deg=91.0)
+
+
+def test_the_shipped_morpi_manifest_is_what_its_generator_writes():
+    from morpi_filters.resources import morpi_manifest
+
+    sys.path.insert(0, str(ROOT / "analysis"))
+    try:
+        import morpi_manifest as generator
+    finally:
+        sys.path.remove(str(ROOT / "analysis"))
+    assert morpi_manifest().read_text() == generator.manifest_text()
+
+
+def test_the_morpi_manifest_applied_to_a_root_lists_the_catalogues_recordings(tmp_path):
+    """Every CSV of the layout in the catalogue's folders, each folder in number order, ids the relative paths;
+    the groups of the train recordings in the order of field.SHORT_SETS."""
+    from morpi_filters import dataset as mds
+    from morpi_filters.field import SHORT_SETS
+    from morpi_filters.manifest import index_dataset
+    from morpi_filters.resources import morpi_manifest
+
+    rels = [f"{folder}/{n}.csv" for folder in mds.layout() for n in (1, 2, 11)] + ["notes/x.csv", "s8/L_line/1.csv"]
+    for rel in rels:
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).touch()
+    index = index_dataset(morpi_manifest(), root=tmp_path)
+    cat = [e.relpath for e in mds.catalogue(tmp_path) if mds.folder_key(e.phone, e.route, e.split) in mds.layout()]
+    ids = [r.id for r in index.recordings]
+    assert sorted(ids) == sorted(cat) and len(ids) == 3 * len(mds.layout())
+    for folder in mds.layout():           # within each folder, the catalogue's order
+        assert [i for i in ids if i.startswith(folder + "/")] == [c for c in cat if c.startswith(folder + "/")]
+    for r in index.recordings:
+        phone, route, *_ = r.id.split("/")
+        assert r.group == f"{phone}/{route}" and r.file == tmp_path / r.id
+        assert r.split == (r.id.split("/")[2] if r.id.count("/") == 3 else "none")
+        assert r.motion == ("periodic" if mds.route(route).kind == "periodic" else "straight")
+    train = [g for g, split, motion in index.declared if split == "train"]
+    assert train == [f"{phone}/{route}" for phone, route, _ in SHORT_SETS]
+    assert index.latitude_deg == 32.8

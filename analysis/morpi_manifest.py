@@ -1,0 +1,96 @@
+"""Write the manifest of the MoRPI dataset, ``data/morpi.toml``, from the project's ``data/routes.json``.
+
+Usage (from the project root)::
+
+    PYTHONPATH=. python3 analysis/morpi_manifest.py [--out data/morpi.toml] [--check]
+
+One ``[[recording]]`` per folder of the layout (``<phone>/<route>[/<split>]``), its CSV
+files by a glob relative to the dataset root, in this order: the phones S8, then S6, each
+one's folders by route, then split, so that the groups with train recordings come in the
+order of :data:`morpi_filters.field.SHORT_SETS`. Each folder's group is ``<phone>/<route>``,
+its split the folder's (``"none"`` without one), its motion the route's kind, its rest
+detected (``"auto"``), its IMU the phone's (:data:`morpi_filters.units.SENSORS`), its truth
+the route's distance, end point and centre line (:attr:`morpi_filters.dataset.Route.polyline`).
+The recordings' latitude is the experiment site's
+(:data:`morpi_filters.calibration.SITE_LATITUDE_DEG`), so the calibrations take the same
+normal gravity as :data:`morpi_filters.calibration.LOCAL_GRAVITY`. No recording is read.
+
+``--check`` writes nothing and exits 1 when the file differs from what would be written.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from morpi_filters import dataset as ds
+from morpi_filters.calibration import SITE_LATITUDE_DEG
+from morpi_filters.resources import morpi_manifest
+from morpi_filters.units import SENSORS
+
+#: The phones in the manifest's order.
+PHONES = ("s8", "s6")
+
+
+def _folders() -> list:
+    """(phone, route, split or None) of every layout folder, in the manifest's order."""
+    out = []
+    for key in ds.layout():
+        parts = key.split("/")
+        out.append((parts[0], parts[1], parts[2] if len(parts) == 3 else None))
+    return sorted(out, key=lambda k: (PHONES.index(k[0]), k[1], k[2] or ""))
+
+
+def _number(x: float) -> str:
+    return repr(float(x))
+
+
+def manifest_text() -> str:
+    """The manifest, as TOML text."""
+    lines = [
+        "# The MoRPI dataset (github.com/ansfl/MoRPI) as a dataset manifest: its files relative to the dataset",
+        "# root (the folder holding s6 and s8). Written by analysis/morpi_manifest.py from data/routes.json.",
+        "format_version = 1",
+        'name = "MoRPI"',
+        'description = "Two phones (Galaxy S6 and S8) on a mobile robot: straight and periodic routes, indoor and '
+        'outdoor; truth: the routes\' end points."',
+        f"latitude_deg = {_number(SITE_LATITUDE_DEG)}",
+        "",
+        "[defaults]",
+        'rest = "auto"',
+    ]
+    for phone, route_name, split in _folders():
+        r = ds.route(route_name)
+        folder = ds.folder_key(phone, route_name, split)
+        poly = ", ".join(f"[{_number(x)}, {_number(y)}]" for x, y in r.polyline)
+        end = ", ".join(_number(v) for v in r.end_point_m)
+        lines += [
+            "",
+            "[[recording]]",
+            f'group = "{phone}/{route_name}"',
+            f'split = "{split or "none"}"',
+            f'motion = "{"periodic" if r.kind == "periodic" else "straight"}"',
+            f'imu = {{ file = "{folder}/*.csv", spec = "{SENSORS[phone].name}" }}',
+            f'truth = {{ kind = "route", distance_m = {_number(r.distance_m)}, end_point_m = [{end}], '
+            f"polyline_m = [{poly}] }}",
+        ]
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", type=Path, default=Path("data") / morpi_manifest().name)
+    ap.add_argument("--check", action="store_true", help="compare with the file instead of writing it")
+    args = ap.parse_args(argv)
+    text = manifest_text()
+    if args.check:
+        same = args.out.is_file() and args.out.read_text() == text
+        print(f"{args.out}: {'up to date' if same else 'differs from what analysis/morpi_manifest.py writes'}")
+        return 0 if same else 1
+    args.out.write_text(text)
+    print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
