@@ -41,10 +41,11 @@ BENCHMARKS = (
     ("bench_montecarlo", "morpi montecarlo against its random draws"),
     ("bench_aided", "morpi aided against morpi tables"),
     ("bench_report", "morpi report against morpi tables"),
+    ("bench_evaluate", "morpi evaluate on the shipped MoRPI manifest against morpi tables"),
     ("bench_cold", "first runs after a fresh install (empty numba cache) against warm runs"),
 )
 
-DATA_BENCHMARKS = {"bench_tables", "bench_aided", "bench_report", "bench_cold"}
+DATA_BENCHMARKS = {"bench_tables", "bench_aided", "bench_report", "bench_evaluate", "bench_cold"}
 
 #: Benchmarks of a few seconds a pair: at least this many pairs (noise on a shared machine
 #: moves a short timing most).

@@ -247,8 +247,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a dataset manifest (TOML, docs/manifest.md): load and check every recording it describes")
 
     s = sub.add_parser("evaluate", help="the methods on every recording of a dataset manifest, against its truth")
-    s.add_argument("--dataset", metavar="FILE", type=_path("--dataset"), required=True,
-                   help="a dataset manifest (TOML, docs/manifest.md)")
+    which = s.add_mutually_exclusive_group(required=True)
+    which.add_argument("--dataset", metavar="FILE", type=_path("--dataset"),
+                       help="a dataset manifest (TOML, docs/manifest.md)")
+    which.add_argument("--data", metavar="DIR",
+                       help="the MoRPI field dataset at DIR, read through the manifest the package ships "
+                            "(morpi_filters/data/morpi.toml)")
     s.add_argument("--out", metavar="DIR", type=_path("--out"), default=None,
                    help="write README.md, result.json and every estimated path (tracks/<id>/<method>_<calibration>"
                         ".csv) here; replaced only if new, empty or an earlier evaluation")
@@ -557,7 +561,8 @@ def _check_manifest(args):
 
 
 def _cmd_evaluate(args):
-    """``morpi evaluate --dataset FILE``: outputs checked, the manifest loaded, the study run, its page written."""
+    """``morpi evaluate --dataset FILE`` (or ``--data DIR``: the shipped MoRPI manifest applied to DIR): outputs
+    checked, the manifest loaded, the study run, its page written."""
     from .dataset_eval import evaluate_dataset
     from .manifest import load_dataset
     from .parallel import Progress
@@ -568,7 +573,13 @@ def _cmd_evaluate(args):
     if args.json is not None:
         check_output_file(args.json, force=args.force, folder=out)
     _clean_stale(*([out.parent] if out is not None else []), *([args.json.parent] if args.json is not None else []))
-    dataset = load_dataset(args.dataset)
+    if args.dataset is not None:
+        dataset = load_dataset(args.dataset)
+    else:
+        from .dataset import resolve_data_root
+        from .resources import morpi_manifest
+
+        dataset = load_dataset(morpi_manifest(), root=resolve_data_root(args.data))
     progress = Progress(len(dataset), "evaluate", enabled=True)
     result = evaluate_dataset(dataset, workers=args.workers, progress=progress)
     with Outputs("morpi evaluate") as outputs:

@@ -271,3 +271,30 @@ def test_the_tables_and_evaluate_with_the_morpi_manifest_agree_where_they_comput
             assert p.metrics["end_error_m"] == pytest.approx(run.end_error_m, rel=1e-9, abs=1e-9)
             compared["MoRPI" if s.method.startswith("MoRPI") else "INS-2D"] += 1
     assert compared["MoRPI"] >= 2 * 2 * 3 * 3 and compared["INS-2D"] >= 3, compared
+
+
+def test_evaluate_data_reads_a_morpi_root_through_the_shipped_manifest(tmp_path, capsys):
+    # `morpi evaluate --data DIR` is `morpi evaluate --dataset <the shipped manifest>` with DIR as the root its
+    # files start at: the same JSON as the Python call on that dataset; --data and --dataset exclude each other
+    import json
+
+    from morpi_filters import cli, synthetic
+    from morpi_filters.dataset_eval import evaluate
+    from morpi_filters.resources import morpi_manifest
+
+    root = synthetic.write_dataset(tmp_path / "ds", seed=4, runs_per_folder=2)
+    out = tmp_path / "ev.json"
+    assert cli.main(["evaluate", "--data", str(root), "--json", str(out)]) == 0
+    got = json.loads(out.read_text())
+    want = evaluate(load_dataset(morpi_manifest(), root=root)).to_json()
+    assert got["dataset"]["name"] == "MoRPI" and got["dataset"]["count"] == want["dataset"]["count"]
+    assert [(r["id"], r["method"], r["calibration"], r["estimate"]) for r in got["recordings"]] == \
+        [(r["id"], r["method"], r["calibration"], r["estimate"]) for r in want["recordings"]]
+    for a, b in zip(got["recordings"], want["recordings"]):
+        for k in ("end_error_m", "end_error_percent"):
+            assert (a[k] is None) == (b[k] is None) and (a[k] is None or a[k] == pytest.approx(b[k], rel=1e-12))
+    capsys.readouterr()
+    for argv in (["evaluate", "--data", str(root), "--dataset", str(morpi_manifest())], ["evaluate"]):
+        with pytest.raises(SystemExit) as exc:
+            cli.main(argv)
+        assert exc.value.code == 2 and "--data" in capsys.readouterr().err
