@@ -754,7 +754,8 @@ def _expand(ctx: _Context, values: dict, k: int) -> list:
             rel = p.relative_to(ctx.base).as_posix()
         except ValueError:
             rel = str(p)
-        head = f"{ctx.manifest}: [[recording]] {k} (id {rel!r})"
+        # one recording per file: what goes wrong with it names the file first, then the manifest's entry
+        head = f"{p}: [[recording]] {k} of {ctx.manifest}"
         origin = dict(ctx.origin, id="recording")
         out.append((_Context(head, origin, ctx.manifest, rel, ctx.base, k),
                     {**values, "id": rel, "imu": {**values["imu"], "file": rel}}))
