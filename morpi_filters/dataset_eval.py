@@ -101,6 +101,24 @@ Alignment (the truth's frame)
     the first truth position ``course_m`` (default :data:`COURSE_M`) away
     horizontally.
 
+Ablation (the aided filter)
+    On every recording the group means read (the test recordings, or all
+    without a test split) where the aided filter runs, per calibration, each
+    aid of :data:`~morpi_filters.field_aided.ABLATIONS` is removed in turn
+    from the chosen filter (its :class:`~morpi_filters.aided.AidTuning` with
+    the ablation's change), both filters read forward and smoothed up to the
+    same read-out time, with ``end_error_percent``, ``path_rmse_m`` and
+    ``cross_track_rmse_m`` (:data:`ABLATION_METRICS`). As the MoRPI ablation
+    (:func:`~morpi_filters.field_aided.aided_study`): an aid the filter does
+    not use (:func:`~morpi_filters.field_aided.aid_used`) is not run, its
+    values are the full filter's (an effect of exactly zero); without
+    smoothing the smoothed read-out is the forward one; the rest updates are
+    removed from the filter started at the motion onset (the input cut there:
+    :meth:`~morpi_filters.field_aided.Prepared.onset_input`, or the same cut
+    of a start from the truth, which keeps its initial velocity) and compared
+    with that filter with them. :attr:`DatasetEvaluation.ablation` holds the
+    group means, :attr:`DatasetEvaluation.ablation_runs` the recordings.
+
 Metrics, per recording, method and calibration (horizontal, in metres)
     ``end_error_m`` (estimate's last point against the route's end point or
     the truth at the estimate's last time); ``end_error_percent`` (of the
@@ -133,7 +151,7 @@ from .strapdown import ins2d, ins3d
 from .units import G0
 
 __all__ = ["COURSE_M", "AIDED", "METHODS", "CALIBRATIONS", "ESTIMATES", "METRICS", "V0_SIGMA_MIN", "ROW_LABELS",
-           "EstimatedPath", "DatasetEvaluation", "evaluate_dataset", "path_metrics", "ellipse_share", "evaluate"]
+           "ABLATION_METRICS", "EstimatedPath", "AblationRun", "DatasetEvaluation", "evaluate_dataset", "path_metrics", "ellipse_share", "evaluate"]
 
 #: Horizontal distance over which the truth's course gives the heading of a start at rest [m].
 COURSE_M = 0.3
@@ -150,6 +168,8 @@ ESTIMATES = ("forward", "smoothed")
 V0_SIGMA_MIN = 0.01
 #: The metrics of each estimate.
 METRICS = ("end_error_m", "end_error_percent", "path_rmse_m", "cross_track_rmse_m", "distance_error_percent")
+#: The metrics of the aided filter's ablation.
+ABLATION_METRICS = ("end_error_percent", "path_rmse_m", "cross_track_rmse_m")
 
 
 @dataclass(frozen=True, eq=False)
@@ -198,6 +218,46 @@ class EstimatedPath:
 
 
 @dataclass(frozen=True, eq=False)
+class AblationRun:
+    """One recording's aided filter with one aid removed, beside the filter it is compared with.
+
+    Attributes
+    ----------
+    id, split, group, calibration : str
+        The recording's labels and the calibration.
+    removed : str
+        A key of :data:`morpi_filters.field_aided.ABLATIONS`.
+    used : bool
+        Whether the chosen filter uses the aid (:func:`morpi_filters.field_aided.aid_used`); an aid
+        not used is not run: :attr:`ablated` is :attr:`full`.
+    estimate : str
+        The read-out of both filters, ``"forward"`` or ``"smoothed"`` (``"smoothing"`` removed: the
+        ablated filter is read forward).
+    start : str
+        Where both filters start: ``"rest window"`` or ``"first sample"`` (the full filter's start,
+        as for ``initial = "rest"`` or ``"truth"``) or ``"motion onset"`` (the rest updates, removed
+        from a filter started there and compared with that filter with them).
+    start_s : float
+        The first time of :attr:`full`, from the recording's first sample [s].
+    full, ablated : EstimatedPath
+        The compared filters' estimates with their metrics (without covariance); :attr:`full` is
+        the aided filter's row of :attr:`DatasetEvaluation.paths` unless it starts at the motion onset.
+    """
+
+    id: str
+    split: str
+    group: str
+    calibration: str
+    removed: str
+    used: bool
+    estimate: str
+    start: str
+    start_s: float
+    full: EstimatedPath
+    ablated: EstimatedPath
+
+
+@dataclass(frozen=True, eq=False)
 class DatasetEvaluation:
     """What :func:`evaluate_dataset` found on a dataset.
 
@@ -235,6 +295,14 @@ class DatasetEvaluation:
         (initial speed), ``v0_sigma_mps`` (the aided filter's initial
         velocity sigma for ``initial = "truth"``, else None) and how they were
         found (``how``).
+    ablation : tuple of dict
+        Per group, calibration, aid of :data:`morpi_filters.field_aided.ABLATIONS` and read-out
+        (``estimate``), over the aided filter's :attr:`groups_over` recordings: ``used``, ``start``,
+        ``n`` and, for each of :data:`ABLATION_METRICS`, the mean of the full filter (``full``), of
+        the ablated one (``ablated``) over the recordings where both have it, and ``difference``
+        (ablated minus full).
+    ablation_runs : tuple of AblationRun
+        Per recording the entries the rows average.
     """
 
     name: str
@@ -247,6 +315,8 @@ class DatasetEvaluation:
     left_out: tuple
     course_m: float
     starts: tuple
+    ablation: tuple = ()
+    ablation_runs: tuple = ()
 
     def to_json(self, track_files: dict | None = None) -> dict:
         """The result as JSON values.
@@ -256,8 +326,10 @@ class DatasetEvaluation:
         track_files : dict, optional
             ``(id, method, calibration, estimate)`` (or without the estimate
             for the methods other than the aided filter) -> the track file's
-            path relative to the output folder; without it every
-            ``track_file`` is None.
+            path relative to the output folder; ``("ablation", id,
+            calibration, removed, estimate, "full")`` (or ``"ablated"``) ->
+            the track file of an :class:`AblationRun`'s filter; without it
+            every ``track_file`` is None.
 
         Returns
         -------
@@ -268,7 +340,11 @@ class DatasetEvaluation:
             ``"smoothed"`` for the aided filter, else None), the metrics,
             ``track_file``; the aided filter's rows also ``nis`` and
             ``coverage_95``), ``groups`` (with ``over``), ``left_out``,
-            ``starts`` and ``course_m``.
+            ``starts``, ``course_m`` and ``ablation`` (the rows of
+            :attr:`ablation`, each with its ``runs``: per recording ``id``,
+            ``split``, ``start``, ``start_s``, the metrics of ``full`` and
+            ``ablated``, their ``difference``, ``full_track_file`` and
+            ``ablated_track_file``).
         """
         from pathlib import Path
 
@@ -285,7 +361,23 @@ class DatasetEvaluation:
         return {"dataset": {"name": self.name, "manifest": Path(self.source).name, "count": self.count},
                 "choices": self.choices, "recordings": rows,
                 "groups": {"over": self.groups_over, "rows": list(self.groups)},
-                "left_out": list(self.left_out), "starts": list(self.starts), "course_m": self.course_m}
+                "left_out": list(self.left_out), "starts": list(self.starts), "course_m": self.course_m,
+                "ablation": self._ablation_json(files)}
+
+    def _ablation_json(self, files: dict) -> list:
+        per = {}
+        for a in self.ablation_runs:
+            key = (a.id, a.calibration, a.removed, a.estimate)
+            full = {m: a.full.metrics[m] for m in ABLATION_METRICS}
+            ablated = {m: a.ablated.metrics[m] for m in ABLATION_METRICS}
+            per.setdefault((a.group, a.calibration, a.removed, a.estimate), []).append(
+                {"id": a.id, "split": a.split, "start": a.start, "start_s": a.start_s, "full": full,
+                 "ablated": ablated, "difference": {m: None if full[m] is None or ablated[m] is None
+                                                    else ablated[m] - full[m] for m in ABLATION_METRICS},
+                 "full_track_file": files.get(("ablation",) + key + ("full",)),
+                 "ablated_track_file": files.get(("ablation",) + key + ("ablated",))})
+        return [{**row, "runs": per.get((row["group"], row["calibration"], row["removed"], row["estimate"]), [])}
+                for row in self.ablation]
 
     def table(self):
         """One row per estimate, as a pandas DataFrame: the ``recordings`` rows of :meth:`to_json`.
@@ -662,14 +754,16 @@ def _aided_choices(data, dataset, configs, trained, workers) -> tuple[dict, list
 
 
 def _aided_input(data, dr, prep, mode, method, config, gain, info):
-    """The aided filter's input for one recording and its read-out time: from the rest window
-    (:func:`~morpi_filters.field_aided.prepare`) or, for ``initial = "truth"``, from the first sample under way."""
+    """The aided filter's input for one recording, its read-out time and the input started at the motion
+    onset: from the rest window (:func:`~morpi_filters.field_aided.prepare`,
+    :meth:`~morpi_filters.field_aided.Prepared.onset_input`) or, for ``initial = "truth"``, from the first
+    sample under way."""
     from .strapdown import coarse_level
 
     rec = prep["rec"]
     if dr.initial == "rest":
         p = fa.prepare(data, rec, mode, method, config, gain.mean)
-        return p.input_for(info), p.stop_s
+        return p.input_for(info), p.stop_s, p.onset_input(info)
     crec = prep["cals"][mode]
     s = data.steps(rec, mode, method, config)
     track = st.morpi_track(s, gain.mean)
@@ -685,14 +779,17 @@ def _aided_input(data, dr, prep, mode, method, config, gain, info):
                            step_end=s.end_time, step_length=track.length, rest=tuple(rest), standing=(),
                            step_vector=vectors, v0=prep["start"]["v0"], v0_sigma=prep["start"]["v0_sigma"])
     stop = float(s.end_time[-1]) if s.end_time.size else float(data.activity(rec)[1])
-    return inp, stop
+    # the same input started at the motion onset (Prepared.onset_input's cut): at the first sample when the
+    # recording moves from there; the robot stands up to the onset, the initial velocity is kept
+    return inp, stop, inp.since(float(data.activity(rec)[0]))
 
 
-def _aided_paths(data, dr, prep, chosen, configs) -> tuple[list, list]:
-    """The aided filter's rows of one recording (forward and smoothed per calibration) and what was left out."""
+def _aided_paths(data, dr, prep, chosen, configs, ablate: bool = False) -> tuple[list, list, list]:
+    """The aided filter's rows of one recording (forward and smoothed per calibration), what was left out and,
+    with `ablate`, its :class:`AblationRun` entries."""
     if dr.initial == "rest" and prep["window"] is None:
         return [], [{"id": dr.id, "what": AIDED,
-                     "why": "initial = \"rest\" without a rest window: the filter starts at the rest"}]
+                     "why": "initial = \"rest\" without a rest window: the filter starts at the rest"}], []
     members, left = [], []
     for mode in prep["cals"]:
         if (dr.group, mode) not in chosen:
@@ -700,17 +797,17 @@ def _aided_paths(data, dr, prep, chosen, configs) -> tuple[list, list]:
             continue
         method, choice, gain = chosen[dr.group, mode]
         try:
-            inp, stop = _aided_input(data, dr, prep, mode, method, configs[method], gain, choice.info)
+            inp, stop, onset = _aided_input(data, dr, prep, mode, method, configs[method], gain, choice.info)
         except MorpiError as exc:
             left.append({"id": dr.id, "what": f"{AIDED} {mode}", "why": str(exc)})
             continue
-        members.append((mode, inp, stop, fa._tuning(choice.noise, choice.info, gain.std / gain.mean)))
+        members.append((mode, inp, stop, fa._tuning(choice.noise, choice.info, gain.std / gain.mean), onset))
     results = aided.run_batch([q[1] for q in members], [q[3] for q in members], smooth=True,
                               smoothed_covariance=True, innovations=True, workers=1) if members else []
     start, truth = prep["start"], dr.truth
     rot = _rot(start["psi"])
     paths = []
-    for (mode, inp, stop, _), r in zip(members, results):
+    for (mode, inp, stop, *_), r in zip(members, results):
         j = r.index_at(stop)
         t = r.time[:j + 1]
         nis = {k: {**fa.nis_consistency(total, n, dof), "dof": dof} for k, (total, n, dof) in r.nis.items()}
@@ -721,12 +818,60 @@ def _aided_paths(data, dr, prep, chosen, configs) -> tuple[list, list]:
                                        time=t, xy=placed, metrics=path_metrics(t, placed, truth), estimate=estimate,
                                        P_xy=P, nis=nis, coverage_95=ellipse_share(t, placed, P, truth),
                                        innovations=r.innovations))
-    return paths, left
+    return paths, left, (_ablation_runs(dr, prep, members, paths) if ablate else [])
 
 
-def _evaluate_one(data, dr, prep, gains, configs, chosen) -> tuple[list, list]:
+def _ablation_runs(dr, prep, members, paths) -> list:
+    """Per calibration the filter of `members` with each aid of :data:`~morpi_filters.field_aided.ABLATIONS`
+    removed in turn, both read-outs, beside the filter it is compared with (`paths`: the full filter's rows)."""
+    full = {(p.calibration, p.estimate): p for p in paths}
+    t_first = float(dr.recording.time[0])
+    items = []                                  # (mode, name, which, tuning, input, stop)
+    for mode, inp, stop, tuning, onset in members:
+        for name, change in fa.ABLATIONS.items():
+            if not (change and fa.aid_used(name, tuning)):
+                continue                        # not used: not run, the full filter's values; smoothing: no run
+            if name == "rest updates":          # removed from a filter started at the motion onset, beside it
+                items.append((mode, name, "full", tuning, onset, stop))
+            items.append((mode, name, "ablated", tuning.with_(**change), onset if name == "rest updates" else inp,
+                          stop))
+    results = aided.run_batch([q[4] for q in items], [q[3] for q in items], smooth=True, smoothed_covariance=False,
+                              nis=False, workers=1) if items else []
+    start, truth = prep["start"], dr.truth
+    label = dict(id=dr.id, split=dr.split, group=dr.group, method=AIDED)
+    ran = {}
+    for (mode, name, which, _, _, stop), r in zip(items, results):
+        j = r.index_at(stop)
+        t = r.time[:j + 1]
+        for estimate, xy in (("forward", r.position), ("smoothed", r.smoothed)):
+            placed = _place(start, truth, float(t[0]), np.asarray(xy)[:j + 1, :2])
+            ran[mode, name, which, estimate] = EstimatedPath(**label, calibration=mode, time=t, xy=placed,
+                                                             metrics=path_metrics(t, placed, truth),
+                                                             estimate=estimate)
+    begin = "rest window" if dr.initial == "rest" else "first sample"
+    out = []
+    for mode, _, _, tuning, _ in members:
+        for name, change in fa.ABLATIONS.items():
+            used = fa.aid_used(name, tuning)
+            for estimate in ESTIMATES:
+                base, where = full[mode, estimate], begin
+                if name == "smoothing":         # the forward read-out in place of the smoothed one
+                    without = full[mode, "forward"]
+                elif not used:                  # the same filter: exactly no effect
+                    without = base
+                else:
+                    without = ran[mode, name, "ablated", estimate]
+                    if name == "rest updates":
+                        base, where = ran[mode, name, "full", estimate], "motion onset"
+                out.append(AblationRun(id=dr.id, split=dr.split, group=dr.group, calibration=mode, removed=name,
+                                       used=bool(used), estimate=estimate, start=where,
+                                       start_s=float(base.time[0]) - t_first, full=base, ablated=without))
+    return out
+
+
+def _evaluate_one(data, dr, prep, gains, configs, chosen, ablate=False) -> tuple[list, list, list]:
     rec, truth, start = dr.recording, dr.truth, prep["start"]
-    paths, left = [], []
+    paths, left, ablated = [], [], []
     label = dict(id=dr.id, split=dr.split, group=dr.group)
     for mode, crec in prep["cals"].items():
         t = crec.time
@@ -754,7 +899,7 @@ def _evaluate_one(data, dr, prep, gains, configs, chosen) -> tuple[list, list]:
             paths.append(EstimatedPath(**label, method=method, calibration=mode, time=tm, xy=xy,
                                        metrics=path_metrics(tm, xy, truth)))
     if dr.motion == "periodic":
-        more, why = _aided_paths(data, dr, prep, chosen, configs)
+        more, why, ablated = _aided_paths(data, dr, prep, chosen, configs, ablate)
         paths += more
         left += why
     order = {(m, c): i for i, (m, c) in enumerate((m, c) for m in METHODS for c in CALIBRATIONS)}
@@ -764,7 +909,7 @@ def _evaluate_one(data, dr, prep, gains, configs, chosen) -> tuple[list, list]:
     if dr.motion != "periodic":
         left.append({"id": dr.id, "what": f"MoRPI-A, MoRPI-G, {AIDED}",
                      "why": f"motion = {dr.motion!r}: no periodic motion"})
-    return paths, left
+    return paths, left, ablated
 
 
 def _group_means(paths, over: str) -> tuple:
@@ -783,8 +928,36 @@ def _group_means(paths, over: str) -> tuple:
     return tuple(rows)
 
 
+def _ablation_means(runs) -> tuple:
+    """The ablation rows: per group, calibration, aid and read-out, the mean of each of
+    :data:`ABLATION_METRICS` of the full and the ablated filter over the recordings where both have it,
+    and their difference (ablated minus full)."""
+    out = {}
+    for a in runs:
+        out.setdefault((a.group, a.calibration, a.removed, a.estimate), []).append(a)
+    order = ({g: i for i, g in enumerate(dict.fromkeys(a.group for a in runs))}, CALIBRATIONS,
+             tuple(fa.ABLATIONS), ESTIMATES)
+    rows = []
+    for key in sorted(out, key=lambda k: (order[0][k[0]], *(o.index(v) for o, v in zip(order[1:], k[1:])))):
+        group, mode, name, estimate = key
+        ps = out[key]
+        full, ablated, diff = {}, {}, {}
+        for m in ABLATION_METRICS:
+            pairs = [(a.full.metrics[m], a.ablated.metrics[m]) for a in ps
+                     if all(v is not None and math.isfinite(v) for v in (a.full.metrics[m], a.ablated.metrics[m]))]
+            if pairs:
+                full[m], ablated[m] = (float(np.mean([q[k] for q in pairs])) for k in (0, 1))
+                diff[m] = ablated[m] - full[m]
+            else:
+                full[m] = ablated[m] = diff[m] = None
+        rows.append({"group": group, "calibration": mode, "removed": name, "used": any(a.used for a in ps),
+                     "estimate": estimate, "start": " / ".join(dict.fromkeys(a.start for a in ps)), "n": len(ps),
+                     "full": full, "ablated": ablated, "difference": diff})
+    return tuple(rows)
+
+
 def evaluate_dataset(dataset: Dataset, *, course_m: float = COURSE_M, workers: int | None = None,
-                     progress=None) -> DatasetEvaluation:
+                     progress=None, ablation: bool = True) -> DatasetEvaluation:
     """Every method and calibration on every recording of a manifest dataset, against its truth.
 
     Parameters
@@ -800,17 +973,20 @@ def evaluate_dataset(dataset: Dataset, *, course_m: float = COURSE_M, workers: i
         not depend on it.
     progress : morpi_filters.parallel.Progress, optional
         Counts one run per recording.
+    ablation : bool
+        Also run the aided filter's ablation (module docstring) on the
+        recordings the group means read.
 
     Returns
     -------
     DatasetEvaluation
         The estimates with their metrics, the train-only choices, the group
-        means and what was left out (module docstring).
+        means, the ablation and what was left out (module docstring).
 
     Raises
     ------
     ParameterError
-        A bad `course_m` or `workers`. (A recording whose truth track never
+        A bad `course_m`, `workers` or `ablation`. (A recording whose truth track never
         moves `course_m` from its start, with ``initial = "rest"``, is listed
         in ``left_out`` and not evaluated.)
 
@@ -832,7 +1008,10 @@ def evaluate_dataset(dataset: Dataset, *, course_m: float = COURSE_M, workers: i
         raise ParameterError(f"course_m: {course_m!r}, expected a positive distance in metres")
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
         raise ParameterError(f"workers: {workers!r}, expected a positive whole number")
+    if not isinstance(ablation, bool):
+        raise ParameterError(f"ablation: {ablation!r}, expected True or False")
     where = dataset.source
+    over = "test" if any(dr.split == "test" for dr in dataset.recordings) else "all"
     data = fd.FieldData(dataset, course_m=float(course_m))
     configs, gains, choices, trained = _choose(data, dataset)
     chosen, choices["aided"] = _aided_choices(data, dataset, configs, trained, workers or 1)
@@ -848,17 +1027,18 @@ def evaluate_dataset(dataset: Dataset, *, course_m: float = COURSE_M, workers: i
 
         def one(dr):
             prep = prepared[dr.id]
-            return (([], [{"id": dr.id, "what": "every method", "why": prep["error"]}]) if "error" in prep
-                    else _evaluate_one(data, dr, prep, gains, configs, chosen))
+            return (([], [{"id": dr.id, "what": "every method", "why": prep["error"]}], []) if "error" in prep
+                    else _evaluate_one(data, dr, prep, gains, configs, chosen,
+                                       ablation and (over == "all" or dr.split == "test")))
 
         results = []
         for out in pool.map(one, dataset.recordings):      # in order; the progress line from this thread
             results.append(out)
             if progress is not None:
                 progress.update(1)
-    paths = tuple(p for ps, _ in results for p in ps)
-    left = tuple(x for _, lo in results for x in lo)
-    over = "test" if any(dr.split == "test" for dr in dataset.recordings) else "all"
+    paths = tuple(p for ps, _, _ in results for p in ps)
+    left = tuple(x for _, lo, _ in results for x in lo)
+    runs = tuple(a for _, _, ab in results for a in ab)
     starts = []
     for dr in dataset.recordings:
         prep = prepared[dr.id]
@@ -872,7 +1052,8 @@ def evaluate_dataset(dataset: Dataset, *, course_m: float = COURSE_M, workers: i
                        "v0_sigma_mps": prep["start"].get("v0_sigma"), "how": prep["start"]["how"]})
     return DatasetEvaluation(name=dataset.name, source=dataset.source, count=len(dataset), paths=paths,
                              choices=choices, groups=_group_means(paths, over),
-                             groups_over=over, left_out=left, course_m=float(course_m), starts=tuple(starts))
+                             groups_over=over, left_out=left, course_m=float(course_m), starts=tuple(starts),
+                             ablation=_ablation_means(runs), ablation_runs=runs)
 
 
 # --------------------------------------------------------------------------- entry point and tables
@@ -895,7 +1076,7 @@ def _table(rows, labels: tuple, counts: tuple = ()):
 
 
 def evaluate(dataset, *, course_m: float = COURSE_M, workers: int | None = None,
-             progress=None) -> DatasetEvaluation:
+             progress=None, ablation: bool = True) -> DatasetEvaluation:
     """Evaluate a dataset: the entry point for a manifest or a :class:`~morpi_filters.manifest.Dataset`.
 
     What ``morpi evaluate --dataset FILE`` computes, without its files:
@@ -920,18 +1101,20 @@ def evaluate(dataset, *, course_m: float = COURSE_M, workers: int | None = None,
         not depend on it.
     progress : morpi_filters.parallel.Progress, optional
         Counts one run per recording.
+    ablation : bool
+        Also run the aided filter's ablation.
 
     Returns
     -------
     DatasetEvaluation
         The estimates with their metrics, the train-only choices, the group
-        means and what was left out.
+        means, the ablation and what was left out.
 
     Raises
     ------
     ParameterError
         `dataset` neither a Dataset nor a path, a problem of the manifest,
-        or a bad `course_m` or `workers`.
+        or a bad `course_m`, `workers` or `ablation`.
     DataError
         A data file of the manifest that does not load.
 
@@ -962,4 +1145,4 @@ def evaluate(dataset, *, course_m: float = COURSE_M, workers: int | None = None,
         dataset = load_dataset(dataset)
     elif not isinstance(dataset, Dataset):
         raise ParameterError(f"dataset: {type(dataset).__name__}, expected a Dataset or the path of a manifest")
-    return evaluate_dataset(dataset, course_m=course_m, workers=workers, progress=progress)
+    return evaluate_dataset(dataset, course_m=course_m, workers=workers, progress=progress, ablation=ablation)

@@ -132,6 +132,12 @@ def test_aided_rows_have_the_contract_columns_and_their_track_files(tmp_path):
     assert {(r["id"], r["calibration"], r["estimate"]) for r in rows} == {
         (i, c, e) for i in periodic for c in ("RD", "GC", "GAC") for e in ("forward", "smoothed")}
     assert all(r["estimate"] is None and "nis" not in r for r in js["recordings"] if r["method"] != AIDED)
+    # the ablation runs on the recordings the group means read; a route has no path RMSE
+    over = js["groups"]["over"]
+    ablated = {r["id"] for r in rows if over == "all" or r["split"] == "test"}
+    assert js["ablation"] and {q["id"] for a in js["ablation"] for q in a["runs"]} == ablated
+    assert all(a["full"]["path_rmse_m"] is None and a["full"]["end_error_percent"] is not None
+               for a in js["ablation"])
     # the page: each periodic group's table holds the aided rows beside the other methods
     page = (out / "README.md").read_text()
     for group in ("sine-1.0m", "sine-1.5m"):

@@ -5,12 +5,12 @@ import re
 from pathlib import Path
 from urllib.parse import quote
 
-from ..dataset_eval import AIDED, CALIBRATIONS, ESTIMATES, METHODS, METRICS, DatasetEvaluation
+from ..dataset_eval import ABLATION_METRICS, AIDED, CALIBRATIONS, ESTIMATES, METHODS, METRICS, DatasetEvaluation
 from ..outputs import write_json, write_text
 from ..results import SectionSummary
 from .common import fmt, md_table
 
-__all__ = ["report_dataset_evaluation", "track_file_name"]
+__all__ = ["report_dataset_evaluation", "track_file_name", "ablation_file_name"]
 
 
 def track_file_name(rec_id: str, method: str, calibration: str, estimate: str | None = None) -> str:
@@ -41,6 +41,79 @@ def track_file_name(rec_id: str, method: str, calibration: str, estimate: str | 
     return f"tracks/{safe}/{method}_{calibration}{'' if estimate is None else '_' + estimate}.csv"
 
 
+def ablation_file_name(rec_id: str, calibration: str, removed: str, estimate: str, which: str) -> str:
+    """Where a filter of the aided filter's ablation is written when no other track file holds it.
+
+    Parameters
+    ----------
+    rec_id, calibration : str
+        The recording's id (made safe as in :func:`track_file_name`) and the calibration.
+    removed : str
+        The aid removed (a key of :data:`morpi_filters.field_aided.ABLATIONS`; spaces become ``_``).
+    estimate : str
+        The read-out, ``"forward"`` or ``"smoothed"``.
+    which : str
+        ``"full"`` or ``"ablated"``.
+
+    Returns
+    -------
+    str
+        ``tracks/<id>/ablation/<calibration>_<removed>_<estimate>_<which>.csv``.
+
+    Examples
+    --------
+    >>> ablation_file_name("run 1", "GC", "rest updates", "smoothed", "ablated")
+    'tracks/run_1/ablation/GC_rest_updates_smoothed_ablated.csv'
+    """
+    folder = track_file_name(rec_id, "x", "x").rsplit("/", 1)[0]
+    name = re.sub(r"[^A-Za-z0-9._-]", "_", f"{calibration}_{removed}_{estimate}_{which}")
+    return f"{folder}/ablation/{name}.csv"
+
+
+def _write_track(path: Path, p) -> None:
+    """An estimate's ``time,x,y`` (and ``p_xx,p_xy,p_yy`` with a covariance) as CSV."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if p.P_xy is None:
+        lines = ["time,x,y"] + [f"{t!r},{x!r},{y!r}" for t, (x, y) in zip(p.time.tolist(), p.xy.tolist())]
+    else:
+        lines = ["time,x,y,p_xx,p_xy,p_yy"] + [
+            f"{t!r},{x!r},{y!r},{P[0][0]!r},{P[0][1]!r},{P[1][1]!r}"
+            for t, (x, y), P in zip(p.time.tolist(), p.xy.tolist(), p.P_xy.tolist())]
+    write_text(path, "\n".join(lines) + "\n")
+
+
+def _change(full, ablated) -> str:
+    """``full -> ablated (+difference)``, or ``-`` without values."""
+    if full is None or ablated is None:
+        return "-"
+    return f"{fmt(full, 3)} -> {fmt(ablated, 3)} ({'+' if ablated - full >= 0 else ''}{fmt(ablated - full, 3)})"
+
+
+def _ablation_section(result: DatasetEvaluation, group: str) -> list:
+    """The ablation table of one group: a row per calibration and aid, a column per metric and read-out."""
+    rows = [r for r in result.ablation if r["group"] == group]
+    if not rows:
+        return []
+    names = {"end_error_percent": "end error [%]", "path_rmse_m": "path RMSE [m]",
+             "cross_track_rmse_m": "cross-track RMSE [m]"}
+    heads = ["calibration", "removed", "used", "start", "n"] + [
+        f"{names[m]}, {e}: full -> without" for m in ABLATION_METRICS for e in ("smoothed", "forward")]
+    table = []
+    for key in dict.fromkeys((r["calibration"], r["removed"]) for r in rows):
+        by = {r["estimate"]: r for r in rows if (r["calibration"], r["removed"]) == key}
+        first = by.get("smoothed") or by["forward"]
+        table.append([*key, "yes" if first["used"] else "no (exactly 0)", first["start"], first["n"],
+                      *(_change(by[e]["full"][m], by[e]["ablated"][m]) if e in by else "-"
+                        for m in ABLATION_METRICS for e in ("smoothed", "forward"))])
+    return [f"### {AIDED} ablation, group {group}", "",
+            "Each aid removed in turn from the chosen filter, on the same recordings as the group means: the full "
+            "filter's mean, the mean without the aid and their difference. `smoothed` columns read both filters "
+            "smoothed (removing the smoothing: the forward read-out against the smoothed one), `forward` columns "
+            "read both forward. An aid the filter does not use is not run (exactly 0). The rest updates are "
+            "removed from the filter started at the motion onset and compared with that filter with them.", "",
+            md_table(heads, table)]
+
+
 def _metric(v) -> str:
     return "-" if v is None else fmt(v, 3)
 
@@ -63,7 +136,10 @@ def report_dataset_evaluation(out, result: DatasetEvaluation) -> SectionSummary:
     and ``tracks/<id>/<method>_<calibration>.csv`` (columns ``time,x,y``:
     seconds on the IMU clock, metres in the truth frame's first two axes;
     the aided filter's ``tracks/<id>/MoRPI-aided INS_<calibration>_<estimate>.csv``
-    add its horizontal covariance in that frame, ``p_xx,p_xy,p_yy`` [m^2]).
+    add its horizontal covariance in that frame, ``p_xx,p_xy,p_yy`` [m^2]; the
+    ablation's filters that no such file holds:
+    :func:`ablation_file_name`). Per group, after its means, the aided
+    filter's ablation table.
 
     Parameters
     ----------
@@ -78,20 +154,18 @@ def report_dataset_evaluation(out, result: DatasetEvaluation) -> SectionSummary:
         Name ``"evaluate"``, page ``README.md``.
     """
     out = Path(out)
-    files = {}
+    files, written = {}, {}
     for p in result.paths:
         rel = track_file_name(p.id, p.method, p.calibration, p.estimate)
-        files[p.id, p.method, p.calibration, p.estimate] = rel
-        path = out / rel
-        path.parent.mkdir(parents=True, exist_ok=True)
-        if p.P_xy is None:
-            lines = ["time,x,y"] + [f"{t!r},{x!r},{y!r}" for t, (x, y) in
-                                    zip(p.time.tolist(), p.xy.tolist())]
-        else:
-            lines = ["time,x,y,p_xx,p_xy,p_yy"] + [
-                f"{t!r},{x!r},{y!r},{P[0][0]!r},{P[0][1]!r},{P[1][1]!r}"
-                for t, (x, y), P in zip(p.time.tolist(), p.xy.tolist(), p.P_xy.tolist())]
-        write_text(path, "\n".join(lines) + "\n")
+        files[p.id, p.method, p.calibration, p.estimate] = written[id(p)] = rel
+        _write_track(out / rel, p)
+    # the ablation's filters: a row of the paths keeps its file, the others get one each
+    for a in result.ablation_runs:
+        for which, p in (("full", a.full), ("ablated", a.ablated)):
+            if id(p) not in written:
+                written[id(p)] = ablation_file_name(a.id, a.calibration, a.removed, a.estimate, which)
+                _write_track(out / written[id(p)], p)
+            files["ablation", a.id, a.calibration, a.removed, a.estimate, which] = written[id(p)]
     write_json(out / "result.json", result.to_json(files))
 
     over = ("the test recordings" if result.groups_over == "test"
@@ -115,7 +189,8 @@ def report_dataset_evaluation(out, result: DatasetEvaluation) -> SectionSummary:
                       key=lambda g: (order[g["method"], g["calibration"]], rank[g.get("estimate")]))
         L += [f"## Group {group}", "",
               md_table(heads, [[_label(g["method"], g.get("estimate")), g["calibration"], g["n"],
-                                *(_metric(g[k]) for k in METRICS)] for g in rows])]
+                                *(_metric(g[k]) for k in METRICS)] for g in rows]),
+              *_ablation_section(result, group)]
     aided_rows = [p for p in result.paths if p.method == AIDED]
     if aided_rows:
         L += [f"## {AIDED}: consistency", "",
