@@ -17,6 +17,22 @@ no turn); at the chosen point the non-holonomic updates stay and the gain error 
 error's prior is the trained gain's spread. Nothing of a ``test`` folder
 enters the choice.
 
+The choice is a consistency criterion before an error criterion
+(:func:`choose_consistent`, fixed before any test run was scored with it): a
+grid point competes on its mean train end-point error only when it is
+consistent on the train runs, its 95 % ellipse holding the true end point of
+at least :data:`MIN_TRAIN_COVERAGE` of them and the NIS per degree of freedom
+of each measurement type it uses (steps, zero velocity, zero rate,
+non-holonomic), summed over the train runs' forward passes up to the read-out,
+inside :data:`NIS_BAND`. The least error alone picked points whose step updates
+expect innovations tens of times wider than they come (a dead reckoning of the
+steps with an INS beside it that the covariance does not describe). When no
+point is consistent the least inconsistent wins: enough coverage first, then
+the fewest measurement types outside the band, then the least error. The
+nested leave-one-out repeats the same rule on each fold's runs, and the second
+stage (non-holonomic updates, estimated gain) keeps a change only when it
+leaves the filter no less consistent.
+
 The filter starts at the calibration's initial rest window (what precedes it,
 the phone placed and handled, is no motion of the robot). The rest updates run
 on that window and on every
@@ -47,7 +63,7 @@ from itertools import product
 
 import numpy as np
 
-from . import aided
+from . import _aided_kernel, aided
 from .choice import choose
 from .errors import DataError, MorpiError, ParameterError
 
@@ -56,7 +72,8 @@ __all__ = ["GRID", "ABLATIONS", "AidedCell", "AidedStudy", "PairedDifference", "
            "still_spans", "rest_noise", "gyro_drift", "gain_estimate_pays", "route_vectors", "steps_alone",
            "holm", "detectable_difference", "READING_SE", "ReadingChoice", "route_sums",
            "route_reading_pays", "choose_reading", "LENGTHS", "period_sums", "period_length", "LengthChoice",
-           "choose_length", "ellipse_coverage", "nis_consistency", "aid_used"]
+           "choose_length", "ellipse_coverage", "nis_consistency", "aid_used", "NIS_BAND",
+           "choose_consistent"]
 
 #: Train-only grid: factor on the rest-window noise densities (the moving robot vibrates far above
 #: them), step displacement noise [m], whether the gain error is estimated or only considered (the
@@ -65,9 +82,11 @@ __all__ = ["GRID", "ABLATIONS", "AidedCell", "AidedStudy", "PairedDifference", "
 #: alone, :func:`route_vectors`), and whether the non-holonomic updates run. MoRPI's own heading reading
 #: (its step vectors) is not a candidate: the route's heading took its place in every training set and
 #: nested fold, with identical choices and scores without it, at a third less tuning time.
-#: The search takes the gain as exact and the non-holonomic updates on first; at the chosen point the
-#: updates are then dropped unless they pay, and the gain is estimated only where that pays, on the
-#: train runs (:func:`gain_estimate_pays` and the one-standard-error rule). A vibration factor of 30 (every
+#: The search takes the gain as exact, with and without the non-holonomic updates, and keeps the
+#: consistent points (:func:`choose_consistent`); at the chosen point the updates are then dropped unless
+#: they pay, and the gain is estimated only where that pays, on the train runs (:func:`gain_estimate_pays`
+#: and the one-standard-error rule). On every training set of the field data the grid holds consistent
+#: points, so it is not extended below 100. A vibration factor of 30 (every
 #: MoRPI-A training set picks it; train mean end-point error 3.93 -> 3.71 %) is not a candidate: with it the
 #: filter's updates on the test runs are far more confident than their innovations (normalized innovation
 #: squared of the steps 25, of zero velocity 15, against 2 and 3 expected; 5 and 0.7 without it) for the same
@@ -86,6 +105,17 @@ TURN_SIGMA = 0.03
 #: grid point to be eligible: a filter that claims 95 % must hold it on the runs it is tuned on
 #: (the bound leaves room for the sampling spread of 10-15 train runs).
 MIN_TRAIN_COVERAGE = 0.85
+#: Band of the train NIS per degree of freedom that a consistent grid point keeps for every measurement
+#: type it uses (:func:`choose_consistent`). Not the chi-square band of the mean over the train updates:
+#: with the hundreds to thousands of updates of a training set that band is a few per cent wide (1 +- 0.04
+#: for 3000 two-dof updates) and tests a filter whose measurement noises are white and exactly known,
+#: while the field filter's are modelling choices (the rest windows' densities, a zero-velocity sigma, a
+#: step sigma from a two-value grid) and a step's error carries over to the next steps: a filter matched
+#: within tens of per cent would fail it at every grid point and the criterion would see nothing. The band
+#: is a factor 5 on either side of 1 (symmetric in the logarithm): outside it the innovations the filter
+#: expects are off from those it sees by more than a factor sqrt(5) = 2.2 in spread, a gross mistuning
+#: (a filter that hands its position to every step, or one that holds its INS against the steps).
+NIS_BAND = (0.2, 5.0)
 #: Accelerometer bias random walk [m/s^2/sqrt(s)]: a slow wander of the phone's accelerometer bias
 #: (0.06 m/s^2 over a 40 s run, against the 0.2-0.3 m/s^2 offset of f_x while cruising, which it
 #: does not try to follow).
@@ -874,11 +904,14 @@ def choose_tunables(data, train, method, mode, config, gain):
     """Tunables with the least mean end-point error on the ``train`` runs of `train` (phone, route).
 
     Every candidate of :data:`GRID` that takes the gain as exact runs on
-    every train run in one batch; only those whose 95 % ellipse holds the
-    true end point of at least :data:`MIN_TRAIN_COVERAGE` of the train runs
-    compete (all of them when none does). At the chosen point the
-    non-holonomic updates are then dropped unless they pay, and the gain is
-    estimated instead where that pays, on the train runs (end points better
+    every train run in one batch, with and without the non-holonomic
+    updates; only those consistent on the train runs compete
+    (:func:`choose_consistent`: the 95 % ellipse holds the true end point of
+    at least :data:`MIN_TRAIN_COVERAGE` of them and every measurement type's
+    NIS per dof lies in :data:`NIS_BAND`; the least inconsistent when none
+    is). At the chosen point the non-holonomic updates are then dropped
+    unless they pay, and the gain is estimated instead where that pays, on
+    the train runs (a less inconsistent filter first, then end points better
     by more than one standard error; for the gain also
     :func:`gain_estimate_pays`). The nested leave-one-out repeats both
     stages without the run it scores.
@@ -946,8 +979,10 @@ def choose_tunables_many(data, requests, *, workers: int | None = None) -> list:
     from . import dataset as ds
     from .field import TrainSet
 
-    # stage 1: every grid point with the trained gain taken as exact (its spread considered)
-    cands = [c for c in _candidates() if c["gain_state"] == "considered" and c["nhc"]]
+    # stage 1: every grid point with the trained gain taken as exact (its spread considered), with and without
+    # the non-holonomic updates (their NIS is judged like the others': a point without them may be the
+    # consistent one)
+    cands = [c for c in _candidates() if c["gain_state"] == "considered"]
     plans, groups = [], {}                        # training set -> (inputs, tunings)
     for train, method, mode, config, gain in requests:
         if isinstance(train, TrainSet):
@@ -984,8 +1019,10 @@ def choose_tunables_many(data, requests, *, workers: int | None = None) -> list:
         inputs += [r.input_for(c, forward_only=True) for c in cands for r in runs]
         tunings += [_tuning(noise, c, rel) for c in cands for _ in runs]
     # one batch per training set (one batch of every set is slower: a larger working set for the same work)
-    res = {train: aided.run_batch(inputs, tunings, nis=False, workers=workers)
+    res = {train: aided.run_batch(inputs, tunings, workers=workers)
            for train, (inputs, tunings) in groups.items()}
+    # the measurement types of the filter and the degrees of freedom of one update of each
+    kinds, dof = _aided_kernel.KINDS, np.array(_aided_kernel.KIND_DOF)
 
     def score(mine, runs, truth):
         true_end, dist = truth                    # per run: its true end point and distance
@@ -993,7 +1030,10 @@ def choose_tunables_many(data, requests, *, workers: int | None = None) -> list:
         d = np.array([e[0] - true_end[i % len(runs)] for i, e in enumerate(ends)])
         m2 = np.array([x @ np.linalg.solve(e[1], x) for x, e in zip(d, ends)]).reshape(-1, len(runs))
         err = np.linalg.norm(d, axis=1).reshape(-1, len(runs)) / dist * 100
-        return err, m2 <= aided.CHI2_95_2DOF
+        # each run's NIS sum and update count per measurement type, over its forward pass up to the read-out
+        nis = np.array([[r.nis.get(k, (0.0, 0, 0))[:2] for k in kinds] for r in mine]).reshape(-1, len(runs),
+                                                                                              len(kinds), 2)
+        return err, m2 <= aided.CHI2_95_2DOF, nis[..., 0], nis[..., 1]
 
     # stage 2, at the point each selection (all runs, and each leave-one-out fold) picks: without the
     # non-holonomic updates, and with the gain estimated (with and without them)
@@ -1004,49 +1044,69 @@ def choose_tunables_many(data, requests, *, workers: int | None = None) -> list:
             firsts.append(None)
             continue
         train, start, runs, truth, noise, rel = plan
-        err, inside = score(res[train][start:start + len(cands) * len(runs)], runs, truth)
+        err, inside, ns, nc = score(res[train][start:start + len(cands) * len(runs)], runs, truth)
         keep = np.ones(len(runs), bool)
         folds = [keep] + [np.arange(len(runs)) != i for i in range(len(runs))] if len(runs) > 1 else [keep]
-        picks = [_best(err[:, f], inside[:, f]) for f in folds]
+        # the same rule in every selection: all runs, and each nested leave-one-out fold without its run
+        picks = [choose_consistent(err[:, f], inside[:, f], ns[:, f], nc[:, f], dof)[0] for f in folds]
         wins = sorted(set(picks))
-        firsts.append((err, inside, folds, picks, wins, len(inputs)))
+        firsts.append((err, inside, ns, nc, folds, picks, wins, len(inputs)))
         more = [dict(cands[w], **v) for w in wins for v in variants]
         inputs += [r.input_for(c, forward_only=True) for c in more for r in runs]
         tunings += [_tuning(noise, c, rel) for c in more for _ in runs]
-    res2 = aided.run_batch(inputs, tunings, nis=False, workers=workers)
+    res2 = aided.run_batch(inputs, tunings, workers=workers)
     out = []
     for plan, first in zip(plans, firsts):
         if isinstance(plan, MorpiError):
             out.append(plan)
             continue
         _, _, runs, truth, noise, rel = plan
-        err, inside, folds, picks, wins, at = first
+        err, inside, ns, nc, folds, picks, wins, at = first
         mine = res2[at:at + len(wins) * len(variants) * len(runs)]
-        err2, inside2 = score(mine, runs, truth)
+        err2, inside2, ns2, nc2 = score(mine, runs, truth)
         k_hat = np.array([r.gain_error for r in mine]).reshape(-1, len(runs))
         # each train run's own gain error: its step sum against the route (z = (1 + k) x the true displacement)
         true_end, dist = truth
         k_true = np.array([np.linalg.norm(np.diff(r.morpi_xy, axis=0), axis=1).sum() for r in runs]) / dist - 1.0
+        # the grid point and its variants, each with its runs: error, coverage, NIS sums and counts
+        arms = {("grid", w): (err[w], inside[w], ns[w], nc[w]) for w in wins}
+        arms.update({("variant", j): (err2[j], inside2[j], ns2[j], nc2[j]) for j in range(err2.shape[0])})
+
+        def rank(arm, f):
+            e, ins, s_, c_ = arms[arm]
+            short, out = _rank(ins[None, f], s_[None, f], c_[None, f], dof)
+            return int(short[0]), int(out[0])
+
         chosen = []
         for f, w in zip(folds, picks):
             i = wins.index(w) * len(variants)
-            no_nhc, est, est_no_nhc = i, i + 1, i + 2
-            if _aid_pays(err[w, f], inside[w, f], err2[no_nhc, f], inside2[no_nhc, f]):
-                base, e, g = cands[w], err[w], est
+            no_nhc, est, est_no_nhc = ("variant", i), ("variant", i + 1), ("variant", i + 2)
+            if _aid_pays(err[w, f], rank(("grid", w), f), err2[no_nhc[1], f], rank(no_nhc, f)):
+                base, arm, g = cands[w], ("grid", w), est
             else:
-                base, e, g = dict(cands[w], nhc=False), err2[no_nhc], est_no_nhc
-            if _estimate_wins(e[f], err2[g, f], inside2[g, f], k_hat[g, f], k_true[f]):
-                base, e = dict(base, gain_state="estimated"), err2[g]
-            chosen.append((base, e))
-        info, e_all = chosen[0]
+                base, arm, g = dict(cands[w], nhc=False), no_nhc, est_no_nhc
+            if _estimate_wins(arms[arm][0][f], rank(arm, f), err2[g[1], f], rank(g, f), k_hat[g[1], f], k_true[f]):
+                base, arm = dict(base, gain_state="estimated"), g
+            chosen.append((base, arm))
+        info, arm = chosen[0]
+        e_all, ins_all, s_all, c_all = arms[arm]
+        short, out_n = rank(arm, folds[0])
+        per_dof = _nis_per_dof(s_all[None], c_all[None], dof)[0]
+        train_nis = {k: {"per_dof": float(q), "updates": int(c_all[:, j].sum()), "dof": int(dof[j])}
+                     for j, (k, q) in enumerate(zip(kinds, per_dof)) if c_all[:, j].sum() > 0}
+        outside = sorted(k for k, q in train_nis.items() if not NIS_BAND[0] <= q["per_dof"] <= NIS_BAND[1])
         # nested leave-one-out: each train run scored by the choice made without it
-        loo = [c[1][i] for i, c in enumerate(chosen[1:])]
+        loo = [arms[c[1]][0][i] for i, c in enumerate(chosen[1:])]
+        # the folds whose choice is not consistent on their own runs
+        loo_fallback = sum(rank(c[1], f) != (0, 0) for c, f in zip(chosen[1:], folds[1:]))
         morpi_m = np.array([np.linalg.norm(r.morpi_xy[-1] - e) for r, e in zip(runs, true_end)])
         # the mean error in per cent of the distance (one route's distance: the mean error over it)
         morpi = (float(np.mean(morpi_m) / dist[0] * 100) if np.all(dist == dist[0])
                  else float(np.mean(morpi_m / dist) * 100))
         out.append(TunableChoice(float(e_all.mean()), float(np.mean(loo)) if loo else float("nan"),
-                                 morpi, info, noise))
+                                 morpi, info, noise, consistent=(short, out_n) == (0, 0), train_nis=train_nis,
+                                 train_coverage=float(np.mean(ins_all)), outside=tuple(outside),
+                                 loo_fallback=int(loo_fallback)))
     return out
 
 
@@ -1087,42 +1147,119 @@ def gain_estimate_pays(k_hat, k_true) -> bool:
     return bool(d.mean() > d.std(ddof=1) / np.sqrt(d.size))
 
 
-def _best(err, inside) -> int:
-    """The grid point of least mean error among those whose ellipse holds enough train end points."""
-    score = err.mean(axis=1)
-    eligible = inside.mean(axis=1) >= MIN_TRAIN_COVERAGE
-    # the earliest grid point within the tie tolerance of the least (choice.choose)
-    return choose(np.where(eligible, score, np.inf)) if eligible.any() else choose(score)
+def _nis_per_dof(nis_sum, nis_count, dof):
+    """NIS per degree of freedom per candidate and measurement type, summed over the runs (axis 1); NaN
+    where a type has no update."""
+    total, count = np.asarray(nis_sum, float).sum(axis=1), np.asarray(nis_count, float).sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(count > 0, total / (count * np.asarray(dof, float)), np.nan)
 
 
-def _aid_pays(err_with, inside_with, err_without, inside_without) -> bool:
+def _rank(inside, nis_sum, nis_count, dof, band=NIS_BAND):
+    """Per candidate, how far from consistent it is on these runs: (1 when its 95 % ellipse holds fewer
+    than :data:`MIN_TRAIN_COVERAGE` of the true end points else 0, the number of measurement types whose
+    NIS per dof lies outside `band`). ``(0, 0)`` is consistent; lower ranks are less inconsistent."""
+    per_dof = _nis_per_dof(nis_sum, nis_count, dof)
+    out = np.sum((per_dof < band[0]) | (per_dof > band[1]), axis=1)      # NaN (no update) is never outside
+    short = (np.asarray(inside, float).mean(axis=1) < MIN_TRAIN_COVERAGE).astype(int)
+    return short, out
+
+
+def choose_consistent(err, inside, nis_sum, nis_count, dof, band=NIS_BAND) -> tuple[int, bool]:
+    """The grid point of least mean train error among the consistent ones, else the least inconsistent.
+
+    A candidate is consistent on the runs when its 95 % ellipse holds the
+    true end point of at least :data:`MIN_TRAIN_COVERAGE` of them and, for
+    every measurement type it updates with, the NIS summed over the runs'
+    updates per degree of freedom (``sum NIS / (updates * dof)``) lies in
+    `band` (:data:`NIS_BAND`, edges included). Among the consistent
+    candidates the least mean error wins (:func:`morpi_filters.choice.choose`:
+    the earliest within the tie tolerance). When none is consistent, the
+    least inconsistent compete on the error: first those whose ellipse holds
+    enough end points (all when none does), among them those with the fewest
+    measurement types outside the band. A count of types, not a distance
+    from the band: a type no candidate brings into the band (the rest
+    updates, whose noise the grid does not move) then weighs the same on
+    every candidate and the choice is made by the types the grid moves and
+    by the error, not by the rounding of a distance all of them share.
+
+    Parameters
+    ----------
+    err : array_like, shape (c, r)
+        End-point error of each candidate on each run (any unit).
+    inside : array_like of bool, shape (c, r)
+        Whether the run's true end point lies inside the candidate's 95 % ellipse.
+    nis_sum : array_like, shape (c, r, k)
+        Sum of the NIS of each candidate's updates of each measurement type on each run.
+    nis_count : array_like, shape (c, r, k)
+        Number of those updates (a type without updates is not judged).
+    dof : array_like, shape (k,)
+        Degrees of freedom of one update of each type.
+    band : (float, float)
+        The consistent NIS per degree of freedom.
+
+    Returns
+    -------
+    index : int
+        The chosen candidate.
+    consistent : bool
+        Whether it is consistent (False: the least inconsistent).
+
+    Examples
+    --------
+    Three candidates on two runs, one measurement type of 2 dof: the first
+    has the least error but a NIS per dof of 0.01 (it expects innovations
+    ten times the spread it sees); the third is consistent:
+
+    >>> err = [[1.0, 1.0], [3.0, 3.0], [2.0, 2.0]]
+    >>> inside = np.ones((3, 2), bool)
+    >>> count = np.full((3, 2, 1), 50)
+    >>> nis = count * 2 * np.array([0.01, 20.0, 0.9])[:, None, None]
+    >>> choose_consistent(err, inside, nis, count, [2])
+    (2, True)
+    >>> nis[2] *= 10                                  # now none is consistent: each has one type outside,
+    >>> choose_consistent(err, inside, nis, count, [2])       # and the least error of them wins
+    (0, False)
+    """
+    score = np.asarray(err, float).mean(axis=1)
+    short, out = _rank(inside, nis_sum, nis_count, dof, band)
+    ok = (short == 0) & (out == 0)
+    if ok.any():
+        return choose(np.where(ok, score, np.inf)), True
+    pool = short == short.min()
+    pool &= out == out[pool].min()
+    return choose(np.where(pool, score, np.inf)), False
+
+
+def _aid_pays(err_with, rank_with, err_without, rank_without) -> bool:
     """Whether an aid (the non-holonomic updates) earns its place at the chosen point on the train runs.
 
-    It stays when only with it the ellipse holds enough train end points, or
-    when it improves the end points by more than one standard error of the
-    paired per-run differences (the one-standard-error rule, for the simpler
-    filter without it).
+    It stays when the filter with it is less inconsistent on the train runs
+    (:func:`_rank`: its ellipse holds enough train end points and fewer
+    measurement types leave :data:`NIS_BAND`; ``(0, 0)`` consistent), and
+    goes when it is more; at the same rank, it stays when it improves the
+    end points by more than one standard error of the paired per-run
+    differences (the one-standard-error rule, for the simpler filter without it).
     """
-    ok_with = np.mean(inside_with) >= MIN_TRAIN_COVERAGE
-    ok_without = np.mean(inside_without) >= MIN_TRAIN_COVERAGE
-    if ok_with != ok_without:
-        return bool(ok_with)
+    if tuple(rank_with) != tuple(rank_without):
+        return tuple(rank_with) < tuple(rank_without)
     d = np.asarray(err_without) - np.asarray(err_with)
     if d.size < 2:
         return False
     return bool(d.mean() > d.std(ddof=1) / np.sqrt(d.size))
 
 
-def _estimate_wins(err, err_e, inside_e, k_hat, k_true) -> bool:
+def _estimate_wins(err, rank, err_e, rank_e, k_hat, k_true) -> bool:
     """Whether estimating the gain at the chosen point replaces taking it as exact.
 
-    Only when the estimate's ellipse still holds enough train end points,
-    the estimates explain the runs' gain errors (:func:`gain_estimate_pays`)
-    and the end points improve by more than one standard error of the paired
-    per-run differences (the one-standard-error rule).
+    Only when the estimate's ellipse still holds enough train end points and
+    it is no less consistent than the filter taking the gain as exact
+    (:func:`_rank`), the estimates explain the runs' gain errors
+    (:func:`gain_estimate_pays`) and the end points improve by more than one
+    standard error of the paired per-run differences (the one-standard-error rule).
     """
     d = np.asarray(err) - np.asarray(err_e)
-    if d.size < 2 or np.mean(inside_e) < MIN_TRAIN_COVERAGE or not gain_estimate_pays(k_hat, k_true):
+    if d.size < 2 or rank_e[0] or tuple(rank_e) > tuple(rank) or not gain_estimate_pays(k_hat, k_true):
         return False
     return bool(d.mean() > d.std(ddof=1) / np.sqrt(d.size))
 
@@ -1536,6 +1673,19 @@ class TunableChoice:
         What the train runs show: noise densities at rest (accel, gyro, gyro per epoch), the gyro
         bias walk [rad/s/sqrt(s)] and the shift of the mean specific force between rest and motion
         [m/s^2] (the accelerometer bias step of :class:`aided.AidTuning`).
+    consistent : bool
+        Whether the chosen filter is consistent on the train runs (:func:`choose_consistent`: its 95 %
+        ellipse holds at least :data:`MIN_TRAIN_COVERAGE` of the true end points and every measurement
+        type's NIS per dof lies in :data:`NIS_BAND`); False: no grid point was, the least inconsistent won.
+    train_nis : dict
+        Measurement type -> ``{per_dof, updates, dof}``: the chosen filter's NIS on the train runs' forward
+        passes up to the read-out.
+    train_coverage : float
+        Share of the train runs whose true end point lies inside its forward 95 % ellipse.
+    outside : tuple of str
+        The measurement types whose train NIS per dof lies outside :data:`NIS_BAND`.
+    loo_fallback : int
+        Nested leave-one-out folds whose choice was not consistent on the fold's runs.
     """
 
     score_percent: float
@@ -1543,6 +1693,11 @@ class TunableChoice:
     morpi_percent: float
     info: dict
     noise: tuple
+    consistent: bool = True
+    train_nis: dict = field(default_factory=dict)
+    train_coverage: float = float("nan")
+    outside: tuple = ()
+    loo_fallback: int = 0
 
 
 @dataclass(frozen=True)
@@ -1618,6 +1773,13 @@ class AidedCell:
     paired_best : PairedDifference or None
         The smoothed filter minus :attr:`morpi_best_percent`'s MoRPI alone, run by run (Holm-adjusted over
         the study's cells of its calibration).
+    train_consistency : dict
+        The chosen tunables on the train runs (:class:`TunableChoice`): ``consistent`` (every measurement
+        type's NIS per dof in :data:`NIS_BAND` and the 95 % ellipse holding at least
+        :data:`MIN_TRAIN_COVERAGE` of the end points; False: the least inconsistent grid point),
+        ``nis`` (type -> ``{per_dof, updates, dof}``, the forward passes up to the read-out),
+        ``coverage_95`` (forward ellipse), ``outside`` (the types outside the band) and ``loo_fallback``
+        (nested leave-one-out folds whose choice was not consistent).
     """
 
     spec: object
@@ -1647,6 +1809,7 @@ class AidedCell:
     paired_best: PairedDifference | None = None
     morpi_length: str = ""
     period_count_percent: float = float("nan")
+    train_consistency: dict = field(default_factory=dict)
 
     @property
     def label(self) -> str:
@@ -1943,7 +2106,10 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
             coverage_axes={"smoothed": cov_sm, "forward": cov_fw}, cross_zero_by_construction=cross_free,
             morpi_best_percent=mean("morpi_best_m"), morpi_reading=readings[sp.method].reading,
             morpi_length=lengths[(sp.train[0], sp.method)].length, period_count_percent=mean("period_count_m"),
-            paired_best=paired_difference(col("smoothed_m"), col("morpi_best_m"), truth.distance_m)))
+            paired_best=paired_difference(col("smoothed_m"), col("morpi_best_m"), truth.distance_m),
+            train_consistency={"consistent": choice.consistent, "nis": dict(choice.train_nis),
+                               "coverage_95": choice.train_coverage, "outside": list(choice.outside),
+                               "loo_fallback": choice.loo_fallback}))
         if ablation and sp.calibration == "GC":
             base = _tuning(noise, info, g.std / g.mean)
             full = (cells[-1].smoothed_percent, cells[-1].forward_percent)

@@ -510,6 +510,85 @@ def test_an_aid_the_filter_does_not_use_has_exactly_zero_effect():
         aid_used("compass", considered)
 
 
+def _innovation_nis(rng, scale, runs, updates, dof):
+    """NIS sums of `updates` innovations per run drawn with `scale` times the covariance the filter states:
+    the NIS per dof of such a filter is `scale` in expectation (chi-square, ``updates * dof`` degrees per run)."""
+    y = rng.normal(0.0, np.sqrt(scale), (runs, updates, dof))
+    return (y ** 2).sum(axis=(1, 2)), np.full(runs, updates)
+
+
+def _grid_case(rng, scales, coverage, runs=12, updates=40, dof=(2, 3)):
+    """Candidates with the true innovation-to-stated variance ratio `scales[c][k]` per measurement type k and
+    `coverage[c]` of the runs' end points inside their ellipse."""
+    c, k = len(scales), len(dof)
+    nis, count = np.zeros((c, runs, k)), np.zeros((c, runs, k), int)
+    for i in range(c):
+        for j in range(k):
+            nis[i, :, j], count[i, :, j] = _innovation_nis(rng, scales[i][j], runs, updates, dof[j])
+    inside = np.array([np.arange(runs) < round(cov * runs) for cov in coverage])
+    return inside, nis, count, np.array(dof)
+
+
+def test_the_consistent_point_is_chosen_over_a_less_erring_inconsistent_one():
+    """Drawn innovations: the least-error candidate expects them 30 times wider than they come (a step dead
+    reckoning), the second 6 times narrower, the third's ellipse misses a third of the end points; the fourth
+    (the right spread, a larger error) is the only consistent one and is chosen, in every leave-one-out fold."""
+    from morpi_filters.field_aided import MIN_TRAIN_COVERAGE, NIS_BAND, _nis_per_dof, choose_consistent
+
+    rng = np.random.default_rng(11)
+    scales = [(1 / 30, 1.0), (6.0, 1.0), (1.0, 1.0), (1.0, 0.8)]
+    inside, nis, count, dof = _grid_case(rng, scales, coverage=(1.0, 1.0, 0.67, 1.0))
+    err = np.array([2.0, 2.5, 2.2, 3.0])[:, None] + rng.normal(0.0, 0.05, (4, 12))
+    per_dof = _nis_per_dof(nis, count, dof)
+    assert per_dof[0, 0] < NIS_BAND[0] and per_dof[1, 0] > NIS_BAND[1]            # the draws show the spread
+    assert np.all((per_dof[2:] > NIS_BAND[0]) & (per_dof[2:] < NIS_BAND[1]))
+    assert inside[2].mean() < MIN_TRAIN_COVERAGE <= inside[3].mean()
+    assert int(np.argmin(err.mean(axis=1))) == 0                                     # least error: inconsistent
+    assert choose_consistent(err, inside, nis, count, dof) == (3, True)
+    for i in range(12):
+        f = np.arange(12) != i
+        assert choose_consistent(err[:, f], inside[:, f], nis[:, f], count[:, f], dof) == (3, True)
+    # a type without updates (the non-holonomic updates off) is not judged; with them, too loose, it is
+    count[3, :, 1] = 0
+    assert choose_consistent(err, inside, nis, count, dof) == (3, True)
+    count[3, :, 1], nis[3, :, 1] = 40, nis[3, :, 1] / 100
+    assert choose_consistent(err, inside, nis, count, dof)[1] is False
+
+
+def test_without_a_consistent_point_the_least_inconsistent_wins_on_its_error():
+    """No candidate consistent: those whose ellipse holds enough end points, then the fewest measurement types
+    outside the band, then the least error; the verdict says it is a fallback."""
+    from morpi_filters.field_aided import choose_consistent
+
+    rng = np.random.default_rng(12)
+    #            two types out      one type out     one type out      coverage short, none out
+    scales = [(1 / 30, 1 / 30), (1 / 30, 1.0), (1.0, 1 / 30), (1.0, 1.0)]
+    inside, nis, count, dof = _grid_case(rng, scales, coverage=(1.0, 1.0, 1.0, 0.5))
+    err = np.array([[1.0] * 12, [2.0] * 12, [1.5] * 12, [0.5] * 12])
+    assert choose_consistent(err, inside, nis, count, dof) == (2, False)
+    # every ellipse short of the coverage: the types decide among all, the consistent-NIS one wins
+    assert choose_consistent(err, np.zeros_like(inside), nis, count, dof) == (3, False)
+    # among equally inconsistent candidates the tie-tolerant choice keeps the earliest of equal errors
+    err[1] = err[2]
+    assert choose_consistent(err, inside, nis, count, dof) == (1, False)
+
+
+def test_an_aid_stays_when_it_makes_the_filter_less_inconsistent():
+    """The second stage ranks by consistency first: a less inconsistent filter keeps (or drops) the
+    non-holonomic updates whatever the errors; at the same rank the one-standard-error rule decides; an
+    estimated gain never makes the filter less consistent."""
+    from morpi_filters.field_aided import _aid_pays, _estimate_wins
+
+    worse, better = np.full(10, 3.0), np.full(10, 2.0) + np.linspace(-0.01, 0.01, 10)
+    assert _aid_pays(worse, (0, 0), better, (0, 1))          # only with the aid is the filter consistent
+    assert not _aid_pays(better, (0, 1), worse, (0, 0))      # only without it
+    assert _aid_pays(better, (0, 0), worse, (0, 0)) and not _aid_pays(worse, (0, 0), better, (0, 0))
+    k = np.array([0.04, -0.02, 0.03, 0.05, -0.03, 0.02, 0.01, -0.04, 0.03, 0.02])
+    assert _estimate_wins(worse, (0, 0), better, (0, 0), k, k)
+    assert not _estimate_wins(worse, (0, 0), better, (0, 1), k, k)
+    assert not _estimate_wins(worse, (0, 1), better, (1, 0), k, k)
+
+
 def test_a_filter_started_later_knows_nothing_before():
     """Started at the motion onset, a rest window before it does not hold the filter: the INS drifts freely."""
     t = np.arange(0.0, 4.0, 0.01)
@@ -537,7 +616,8 @@ def test_field_cell_json_contract_and_consistency(field_root, monkeypatch):
     from morpi_filters.field_aided import aided_study, prepare
     from morpi_filters.report.aided import study_json
 
-    label = "short_route s8 1 m MoRPI-G GC"
+    # a cell whose train runs choose the route's heading (its steps alone are then defined)
+    label = "short_route s8 1 m MoRPI-A GC"
     res = evaluate_tables(field_root, alternatives=False, ins=False)
     # with the RD cell of the same runs and method beside it: the study's coverage and NIS count each
     # (run, method) once, over the GC cells
@@ -591,9 +671,9 @@ def test_field_cell_json_contract_and_consistency(field_root, monkeypatch):
     # recomputed from the prepared recordings: the step vectors the filter is fed, summed by a plain loop;
     # the filter rerun with the cell's tunables, its NIS from the kept innovations and its coverage by count
     g = next(g for g in res.gains if (g.phone, g.route, g.method, g.calibration) == ("s8", "short_distance",
-                                                                                  "MoRPI-G", "GC"))
-    config = res.selections["MoRPI-G"].config
-    preps = [prepare(res.data, rec, "GC", "MoRPI-G", config, g.mean)
+                                                                                  "MoRPI-A", "GC"))
+    config = res.selections["MoRPI-A"].config
+    preps = [prepare(res.data, rec, "GC", "MoRPI-A", config, g.mean)
              for rec in res.data.recordings("s8", "short_distance", "test")]
     preps = sorted(preps, key=lambda p: [r["file"] for r in c.runs].index(p.rel))
     alone = []
@@ -623,6 +703,22 @@ def test_field_cell_json_contract_and_consistency(field_root, monkeypatch):
     tun = field_aided._tuning((t["rest_accel_noise"], t["gyro_noise"] / t["vibration"], t["rest_gyro_noise"],
                                t["gyro_walk"], t["accel_jump"]), t, t["gain_sigma"])
     out = aided.run_batch([p.input_for(t) for p in preps], tun, smooth=True, innovations=True)
+    # the tunables' train verdict: the same filter rerun on the train runs up to the read-out, its NIS per
+    # dof by type and its ellipse coverage, against the band and the least coverage
+    tc = cell["train_consistency"]
+    trains = field_aided._prepared_runs(res.data, "s8", "short_distance", "train", "GC", "MoRPI-A", config, g.mean)
+    got = aided.run_batch([p.input_for(t, forward_only=True) for p in trains], tun)
+    assert set(tc["nis"]) == set().union(*(r.nis for r in got))
+    for kind, q in tc["nis"].items():
+        total, n = sum(r.nis[kind][0] for r in got), sum(r.nis[kind][1] for r in got)
+        assert q["updates"] == n and q["per_dof"] == pytest.approx(total / n / q["dof"], rel=1e-9)
+    ends = [p.end(r) for p, r in zip(trains, got)]
+    held = np.mean([(xy - end) @ np.linalg.solve(P, xy - end) <= stats.chi2.ppf(0.95, 2) for xy, P, _ in ends])
+    assert tc["coverage_95"] == pytest.approx(held, abs=1e-12)
+    lo, hi = field_aided.NIS_BAND
+    assert tc["consistent"] == (held >= field_aided.MIN_TRAIN_COVERAGE
+                                and all(lo <= q["per_dof"] <= hi for q in tc["nis"].values()))
+    assert tc["outside"] == sorted(k for k, q in tc["nis"].items() if not lo <= q["per_dof"] <= hi)
     inside = inside_fw = 0
     for p, r, row in zip(preps, out, c.runs):
         j = r.index_at(p.stop_s)

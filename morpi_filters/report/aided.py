@@ -61,8 +61,9 @@ def study_json(study) -> dict:
         covariance), ``coverage_95_forward``, ``coverage_axes`` (:func:`field_aided.ellipse_coverage` of
         each read-out), ``cross_zero_by_construction``, ``morpi_best_percent`` and ``morpi_reading``
         (MoRPI alone under its best train-chosen heading reading) and ``morpi_length`` (its step length)
-        with ``smoothed_vs_morpi_best`` (as ``smoothed_vs_morpi``), ``period_count_percent``, ``runs``,
-        ``failed``), ``ablation`` (rows of
+        with ``smoothed_vs_morpi_best`` (as ``smoothed_vs_morpi``), ``period_count_percent``,
+        ``train_consistency`` (:attr:`field_aided.AidedCell.train_consistency`: the chosen tunables'
+        verdict, NIS and coverage on the train runs), ``runs``, ``failed``), ``ablation`` (rows of
         :attr:`field_aided.AidedStudy.ablation`: ``cell``, ``removed``, ``smoothed_percent``,
         ``forward_percent``, ``used``, ``full_percent``, ``full_forward_percent``, ``start``),
         ``coverage_95`` and ``coverage_95_forward`` (the GC cells, each run and method once),
@@ -105,6 +106,7 @@ def study_json(study) -> dict:
                       "coverage_95": c.coverage_95, "coverage_95_forward": c.coverage_95_forward,
                       "coverage_axes": c.coverage_axes,
                       "cross_zero_by_construction": c.cross_zero_by_construction,
+                      "train_consistency": dict(c.train_consistency),
                       "runs": list(c.runs), "failed": list(c.failed)})
     return {"cells": cells, "ablation": list(study.ablation), "coverage_95": study.coverage_95,
             "coverage_95_forward": study.coverage_95_forward, "coverage": study.coverage,
@@ -116,6 +118,7 @@ def study_json(study) -> dict:
                          "fixed": {"accel_walk": field_aided.ACCEL_WALK, "nhc_sigma": field_aided.NHC_SIGMA,
                                    "turn_sigma": field_aided.TURN_SIGMA,
                                    "min_train_coverage": field_aided.MIN_TRAIN_COVERAGE,
+                                   "nis_band": list(field_aided.NIS_BAND),
                                    **{k: v for k, v in aided.AidTuning().__dict__.items()
                                       if k in ("gyro_walk", "zupt_sigma", "tilt0", "ba0", "bg0")}},
                          "chosen": [{"cell": c.label, "train_percent": c.train_percent, **c.tuning}
@@ -219,6 +222,49 @@ def _consistency(c, kind) -> dict:
 
     mean, dof, n = c.nis[kind]
     return nis_consistency(mean * n, n, dof)
+
+
+def _train_consistency_text(cells, gc) -> str:
+    """The chosen tunables' consistency on the train runs, per cell: the verdict, the train NIS per dof of each
+    measurement beside the test step NIS, the train ellipse coverage, the nested folds that fell back."""
+    from .. import field_aided
+
+    have = [c for c in cells if c.train_consistency]
+    if not have:
+        return ""
+    lo, hi = field_aided.NIS_BAND
+    kinds = [k for k in ("step", "zero velocity", "zero rate", "non-holonomic")
+             if any(k in c.train_consistency.get("nis", {}) for c in have)]
+
+    def verdict(t):
+        if t.get("consistent"):
+            return "consistent"
+        short = ["ellipse coverage"] if t.get("coverage_95", 1.0) < field_aided.MIN_TRAIN_COVERAGE else []
+        return "least inconsistent (outside: " + ", ".join([*t.get("outside", ()), *short]) + ")"
+
+    def train_nis(t, k):
+        q = t.get("nis", {}).get(k)
+        return "-" if q is None else fmt(q["per_dof"])
+
+    rows = [[c.label, verdict(c.train_consistency), fmt(c.train_consistency.get("coverage_95", np.nan) * 100, 0),
+             *[train_nis(c.train_consistency, k) for k in kinds],
+             fmt(_consistency(c, "step")["per_dof"]) if "step" in c.nis else "-",
+             c.train_consistency.get("loo_fallback", 0)] for c in have]
+    fall = [c.label for c in have if not c.train_consistency.get("consistent")]
+    gc_have = [c for c in gc if c.train_consistency]
+    gc_in = [c for c in gc_have if "step" in c.nis and lo <= _consistency(c, "step")["per_dof"] <= hi]
+    return (
+        "\n\nThe tunables' consistency on their train runs (the criterion of the choice: the train runs' 95 % "
+        f"ellipse holds at least {fmt(field_aided.MIN_TRAIN_COVERAGE * 100, 0)} % of the end points and the NIS "
+        f"per dof of every measurement the filter uses, over the train runs' forward passes up to the read-out, "
+        f"lies in [{fmt(lo, 1)}, {fmt(hi, 1)}]). "
+        + f"{len(have) - len(fall)} of {len(have)} cells' tunables are consistent on their train runs"
+        + ("; the others are the least inconsistent grid point: " + "; ".join(fall) + ". " if fall else ". ")
+        + f"On the test runs the step NIS per dof of {len(gc_in)} of the {len(gc_have)} GC cells lies in that "
+        "range (`test step` below; the whole forward pass, the same step updates as up to the read-out). "
+        "`LOO folds not consistent`: nested leave-one-out folds whose own choice found no consistent grid point.\n\n"
+        + md_table(["cell", "train verdict", "train ellipse %", *[f"train NIS/dof {k}" for k in kinds],
+                    "test NIS/dof step", "LOO folds not consistent"], rows))
 
 
 def _mean(values) -> float:
@@ -336,6 +382,7 @@ def _page(study, source, figures) -> str:
     per_dof = [q["per_dof"] for q in steps_q]
     in_band = sum(q["band"][0] <= q["per_dof"] <= q["band"][1] for q in steps_q)
     straight = [c for c in gc if c.cross_zero_by_construction]
+    train_text = _train_consistency_text(cells, gc)
     nis_rows = []
     for k, (mean, dof, n) in sorted(study.nis.items()):
         q = field_aided.nis_consistency(mean * n, n, dof)
@@ -399,7 +446,7 @@ def _page(study, source, figures) -> str:
         margin_text = (
             f"\n\n**What the margin is made of.** {reading}; and the train runs choose vibration factors of "
             + ", ".join(f"{v:g}" for v in vib) +
-            " on the rest noise, so between steps the filter gives the INS little weight"
+            " on the rest noise (the least error among the grid points consistent on the train runs)"
             + (f": the smoothed filter's mean end-point error differs from that of its own steps alone (the same "
                f"step vectors summed without the INS) by {fmt(float(np.mean(gaps)), 3)} pp on average over the "
                f"GC cells, at most {fmt(max(gaps), 3)} pp. Its steps alone reach {fmt(m_alone)} % (mean over the GC "
@@ -438,13 +485,24 @@ def _page(study, source, figures) -> str:
         "- biases started from the initial rest and kept as states;\n"
         "- a Rauch-Tung-Striebel smoother over the whole run for the path in between (the read-out at the last "
         "step boundary also hears the final rest).\n\n"
-        "Tunables are chosen per training set, method and calibration on the train runs only, in two stages: "
-        "least mean train end-point error over the grid with the gain considered and the non-holonomic updates "
-        "on (grid points whose 95 % ellipse holds fewer than "
-        f"{fmt(field_aided.MIN_TRAIN_COVERAGE * 100, 0)} % of the train end points are left out), then, at the "
-        "chosen point, the non-holonomic updates are dropped unless they improve the train end points by more "
-        "than one standard error, and the gain is estimated only where its estimates explain the train runs' own "
-        "gain errors and improve the end points by more than one standard error. Grid "
+        "Tunables are chosen per training set, method and calibration on the train runs only, in two stages. "
+        "First, over the grid with the gain considered, with and without the non-holonomic updates, the least "
+        "mean train end-point error among the grid points consistent on the train runs: their 95 % ellipse holds "
+        "at least "
+        f"{fmt(field_aided.MIN_TRAIN_COVERAGE * 100, 0)} % of the train end points and the normalized innovation "
+        "squared per degree of freedom of every measurement they use (steps, zero velocity, zero rate, "
+        "non-holonomic), over the train runs' forward passes up to the read-out, lies in "
+        f"[{fmt(field_aided.NIS_BAND[0], 1)}, {fmt(field_aided.NIS_BAND[1], 1)}] (a factor "
+        f"{fmt(field_aided.NIS_BAND[1], 0)} on either side of 1: the chi-square band of the mean over the train "
+        "updates is a few per cent wide and no field filter with modelled noise keeps it). When no grid point is "
+        "consistent, the least inconsistent compete: those whose ellipse holds enough end points, among them those "
+        "with the fewest measurement types outside the band, and the least error of them wins (the page names "
+        "these cells). Then, at the chosen point, the non-holonomic updates are dropped unless the filter with "
+        "them is less inconsistent on the train runs or, as consistent, improves the train end points by more "
+        "than one standard error, and the gain is estimated only where that filter is no less consistent, its "
+        "estimates explain the train runs' own gain errors and it improves the end points by more than one "
+        "standard error. The nested leave-one-out (`train LOO`) repeats the whole rule without the run it "
+        "scores. Grid "
         f"`{dict(field_aided.GRID)}`; the noise densities are the rest windows' own (median over the train runs) "
         "times the vibration factor; the gain error's prior is the trained gain's spread.\n\n"
         "**Verdict.** " + gc_text + rd_text + margin_text + "\n\n"
@@ -505,6 +563,7 @@ def _page(study, source, figures) -> str:
            f"\n\nNo GC cell's step NIS per dof lies outside [{fmt(lo, 1)}, {fmt(hi, 1)}].")
         + (f"\n\nOutside that range too, for the other measurements of the GC cells: {'; '.join(others)}."
            if others else "")
+        + train_text
         + "\n\nMean normalized innovation squared per update over the same GC runs as the coverage:\n\n"
         + md_table(["measurement", "dof", "updates", "mean NIS", "NIS / dof", "95 % band"], nis_rows)
         + innov_text + "\n"
