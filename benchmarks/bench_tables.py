@@ -31,7 +31,7 @@ from pairs import paired, paired_commands, python_command  # noqa: E402
 
 from morpi_filters import dataset as ds  # noqa: E402
 from morpi_filters import evaluate as ev  # noqa: E402
-from morpi_filters.outputs import DataSource  # noqa: E402
+from morpi_filters.results import DataSource  # noqa: E402
 
 
 def _root(arg):
