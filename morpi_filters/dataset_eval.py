@@ -7,7 +7,9 @@ Methods
     ``"INS-3D"`` and ``"INS-2D"`` (:func:`~morpi_filters.strapdown.ins3d`,
     :func:`~morpi_filters.strapdown.ins2d`) from the recording's first sample
     to its last, on its own time steps, level start (identity attitude),
-    gravity :data:`morpi_filters.units.G0`; ``"MoRPI-A"`` and ``"MoRPI-G"``
+    gravity :attr:`morpi_filters.field.FieldData.gravity` (normal gravity at
+    the manifest's ``latitude_deg``, :data:`morpi_filters.units.G0` without
+    one); ``"MoRPI-A"`` and ``"MoRPI-G"``
     (the steps of :meth:`morpi_filters.field.FieldData.steps` over the
     dataset: motion window and heading as for the MoRPI recordings, the step
     rule chosen on this dataset's train recordings) only on
@@ -22,7 +24,7 @@ Methods
     reason.
 Calibrations
     ``"RD"`` always; ``"GC"`` and ``"GAC"`` (:func:`~morpi_filters.calibration.calibrate`,
-    gravity ``G0``) when the recording has a rest window: ``rest = [t0, t1]``
+    the same gravity) when the recording has a rest window: ``rest = [t0, t1]``
     as given, ``"auto"`` as :func:`~morpi_filters.calibration.detect_rest`
     finds it with the trained accelerometer floor; ``"none"`` (or no rest
     found) gives RD only, listed in :attr:`DatasetEvaluation.left_out` with
@@ -148,7 +150,6 @@ from .choice import choose
 from .errors import DataError, MorpiError, ParameterError
 from .manifest import Dataset, RouteTruth, TruthTrack
 from .strapdown import ins2d, ins3d
-from .units import G0
 
 __all__ = ["COURSE_M", "AIDED", "METHODS", "CALIBRATIONS", "ESTIMATES", "METRICS", "V0_SIGMA_MIN", "ROW_LABELS",
            "ABLATION_METRICS", "EstimatedPath", "AblationRun", "DatasetEvaluation", "evaluate_dataset", "path_metrics", "ellipse_share", "evaluate"]
@@ -772,7 +773,7 @@ def _aided_input(data, dr, prep, mode, method, config, gain, info):
         f_rest = crec.f[window.i0:window.i1].mean(axis=0)
         C0, g, rest = coarse_level(f_rest), float(np.linalg.norm(f_rest)), fa._rest_terms(data, rec, mode)[1][1:]
     else:
-        C0, g, rest = np.eye(3), G0, ()
+        C0, g, rest = np.eye(3), data.gravity, ()
     vectors = (fa._route_steps(data, rec, mode, config, s, track.length) if info["step_heading"] == "route"
                else np.diff(track.position, axis=0))
     inp = aided.AidedInput(time=crec.time, f=crec.f, omega=crec.omega, C0=C0, g=g, step_start=s.start_time,
@@ -876,7 +877,7 @@ def _evaluate_one(data, dr, prep, gains, configs, chosen, ablate=False) -> tuple
     for mode, crec in prep["cals"].items():
         t = crec.time
         for method in ("INS-3D", "INS-2D"):
-            run = (ins3d(t, crec.f, crec.omega, v0=start["v0"], g=G0) if method == "INS-3D"
+            run = (ins3d(t, crec.f, crec.omega, v0=start["v0"], g=data.gravity) if method == "INS-3D"
                    else ins2d(t, crec.f, crec.omega, v0=start["v0"]))
             xy = _place(start, truth, float(t[0]), np.asarray(run.position)[:, :2])
             paths.append(EstimatedPath(**label, method=method, calibration=mode, time=t, xy=xy,
@@ -996,6 +997,7 @@ def evaluate_dataset(dataset: Dataset, *, course_m: float = COURSE_M, workers: i
     its route:
 
     >>> t = np.arange(401) / 100.0
+    >>> from morpi_filters.units import G0
     >>> f = np.tile([0.0, 0.0, G0], (401, 1)); f[t > 2.0, 0] = 1.0
     >>> ds = Dataset.from_arrays("bench", [{"id": "a", "time": t, "f": f, "omega": np.zeros((401, 3)),
     ...     "motion": "straight", "rest": [0.0, 1.5],
@@ -1124,6 +1126,7 @@ def evaluate(dataset, *, course_m: float = COURSE_M, workers: int | None = None,
     its route:
 
     >>> t = np.arange(401) / 100.0
+    >>> from morpi_filters.units import G0
     >>> f = np.tile([0.0, 0.0, G0], (401, 1)); f[t > 2.0, 0] = 1.0
     >>> ds = Dataset.from_arrays("bench", [{"id": "a", "time": t, "f": f, "omega": np.zeros((401, 3)),
     ...     "motion": "straight", "rest": [0.0, 1.5],

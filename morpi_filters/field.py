@@ -546,6 +546,12 @@ class FieldData:
         return self._rec[key]
 
     @property
+    def gravity(self) -> float:
+        """The gravity every calibration and 3D start of this dataset uses [m/s^2]: WGS84 normal gravity at the
+        manifest's ``latitude_deg``, :data:`morpi_filters.units.G0` without one."""
+        return float(self._g_local)
+
+    @property
     def thresholds(self) -> Thresholds:
         """The detection thresholds in use (:func:`train_thresholds` unless given)."""
         if self._thresholds is None:

@@ -239,8 +239,8 @@ def test_the_tables_and_evaluate_with_the_morpi_manifest_agree_where_they_comput
     and ``morpi evaluate --dataset`` (the package's MoRPI manifest applied to the root). Under the same step rule
     (the one evaluate chose: it scores leave-one-group-out, the tables leave-one-recording-out), the short-route
     train sets set the same gains, and every run of the short-route MoRPI cells (RD, GC) ends at the same point.
-    The planar INS over the whole recording (the tables' ``ins_span="full"``) ends at the same point too; the 3D
-    INS differs by design (evaluate integrates with standard gravity, the tables with the manifest's latitude)."""
+    The planar and the 3D INS over the whole recording (the tables' ``ins_span="full"``) end at the same horizontal
+    point too (both integrate with the gravity of the manifest's latitude, FieldData.gravity)."""
     from morpi_filters import steps as st
     from morpi_filters import synthetic
     from morpi_filters.dataset_eval import evaluate
@@ -255,13 +255,13 @@ def test_the_tables_and_evaluate_with_the_morpi_manifest_agree_where_they_comput
     paths = {(p.id, p.method, p.calibration): p for p in ev.paths}
     gains = {(g["group"], g["method"], g["calibration"]): g["mean"] for g in ev.choices["gains"]}
     assert [s["group"] for s in ev.choices["train_sets"]] == [f"{ph}/{r}" for ph, r, _ in SHORT_SETS]
-    compared = {"MoRPI": 0, "INS-2D": 0}
+    compared = {"MoRPI": 0, "INS-2D": 0, "INS-3D": 0}
     for g in tables.gains:
         assert g.mean == pytest.approx(gains[f"{g.phone}/{g.route}", g.method, g.calibration], rel=1e-12)
     for cell in tables.cells:
         s = cell.spec
         same = (s.table == "short_route" and s.calibration in ("RD", "GC")) if s.method.startswith("MoRPI") \
-            else s.method == "INS-2D" and s.calibration in ("RD", "GC", "GAC")
+            else s.method in ("INS-2D", "INS-3D") and s.calibration in ("RD", "GC", "GAC")
         if not same:
             continue
         assert cell.runs, s
@@ -269,8 +269,8 @@ def test_the_tables_and_evaluate_with_the_morpi_manifest_agree_where_they_comput
             p = paths[run.file, s.method, s.calibration]
             np.testing.assert_allclose(p.xy[-1], run.end_point, rtol=1e-9, atol=1e-9)
             assert p.metrics["end_error_m"] == pytest.approx(run.end_error_m, rel=1e-9, abs=1e-9)
-            compared["MoRPI" if s.method.startswith("MoRPI") else "INS-2D"] += 1
-    assert compared["MoRPI"] >= 2 * 2 * 3 * 3 and compared["INS-2D"] >= 3, compared
+            compared[s.method if s.method.startswith("INS") else "MoRPI"] += 1
+    assert compared["MoRPI"] >= 2 * 2 * 3 * 3 and compared["INS-2D"] >= 3 and compared["INS-3D"] >= 3, compared
 
 
 def test_evaluate_data_reads_a_morpi_root_through_the_shipped_manifest(tmp_path, capsys):
