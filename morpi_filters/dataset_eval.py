@@ -631,7 +631,7 @@ def _choose(data, dataset) -> tuple[dict, dict, dict, dict]:
     calibration), their JSON entries (``choices``) and per (group, method, calibration) the trained
     :class:`~morpi_filters.field.Gain` with its train set and scope."""
     th = data.thresholds
-    sets = [s for s in fd._train_sets(data) if s.runs]
+    sets = [s for s in data.train_sets() if s.runs]
     held_out = "group" if len(sets) >= 2 else "recording"
     why = ("two train groups or more: each group's runs are scored with a gain none of its runs set, as a "
            "test run of a group without train recordings is" if held_out == "group"
@@ -649,7 +649,7 @@ def _choose(data, dataset) -> tuple[dict, dict, dict, dict]:
                    + ("the dataset has no train recording with periodic motion" if not sets
                       else "its train recordings give no held-out score"))
         configs[m] = cfg
-        scores = {h: fd._loo_score(data, m, cfg, held_out=h) for h in fd.HELD_OUT}
+        scores = {h: fd.held_out_score(data, m, cfg, held_out=h) for h in fd.HELD_OUT}
         rule[m] = {"config": {f.name: getattr(cfg, f.name) for f in fields(cfg)}, "from": src,
                    "score_percent": {h: (v if math.isfinite(v) else None) for h, (v, _) in scores.items()},
                    "runs_scored": {h: n for h, (_, n) in scores.items()}}
@@ -771,10 +771,10 @@ def _aided_input(data, dr, prep, mode, method, config, gain, info):
     window = prep["window"]
     if window is not None:
         f_rest = crec.f[window.i0:window.i1].mean(axis=0)
-        C0, g, rest = coarse_level(f_rest), float(np.linalg.norm(f_rest)), fa._rest_terms(data, rec, mode)[1][1:]
+        C0, g, rest = coarse_level(f_rest), float(np.linalg.norm(f_rest)), fa.rest_terms(data, rec, mode)[1][1:]
     else:
         C0, g, rest = np.eye(3), data.gravity, ()
-    vectors = (fa._route_steps(data, rec, mode, config, s, track.length) if info["step_heading"] == "route"
+    vectors = (fa.route_steps(data, rec, mode, config, s, track.length) if info["step_heading"] == "route"
                else np.diff(track.position, axis=0))
     inp = aided.AidedInput(time=crec.time, f=crec.f, omega=crec.omega, C0=C0, g=g, step_start=s.start_time,
                            step_end=s.end_time, step_length=track.length, rest=tuple(rest), standing=(),
@@ -802,7 +802,7 @@ def _aided_paths(data, dr, prep, chosen, configs, ablate: bool = False) -> tuple
         except MorpiError as exc:
             left.append({"id": dr.id, "what": f"{AIDED} {mode}", "why": str(exc)})
             continue
-        members.append((mode, inp, stop, fa._tuning(choice.noise, choice.info, gain.std / gain.mean), onset))
+        members.append((mode, inp, stop, fa.tuning_from(choice.noise, choice.info, gain.std / gain.mean), onset))
     results = aided.run_batch([q[1] for q in members], [q[3] for q in members], smooth=True,
                               smoothed_covariance=True, innovations=True, workers=1) if members else []
     start, truth = prep["start"], dr.truth

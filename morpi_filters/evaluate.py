@@ -72,7 +72,7 @@ from . import steps as st
 from .choice import choose
 from .errors import DataError, MissingDataError, MorpiError, ParameterError
 from .field import (
-    _MORPI_METHODS, LEVELED, RULES, SHORT_SETS, FieldData, Gain, Selection, _loo_vector, trained_gain,
+    MORPI_METHODS, LEVELED, RULES, SHORT_SETS, FieldData, Gain, Selection, held_out_errors, trained_gain,
     nested_rule_comparison, select_config,
 )
 from .parallel import heap_frozen
@@ -131,7 +131,8 @@ PAPER_COMPARISON = {
                        ("MoRPI-G", "INS-3D"): 48.5, ("MoRPI-G", "INS-2D"): 24.0, ("MoRPI-G", "MoRPI-A"): 1.27},
 }
 
-_INS_METHODS = ("INS-3D", "INS-2D")
+#: The INS methods, in the tables' order.
+INS_METHODS = ("INS-3D", "INS-2D")
 
 
 @dataclass(frozen=True)
@@ -344,12 +345,12 @@ def rule_sensitivity(result: TablesResult) -> list[dict]:
     specs = {(s.phone, s.p2p_m, s.method): s for s in cell_specs()
              if s.table == "short_route" and s.calibration == "GC"}
     out = []
-    for m in _MORPI_METHODS:
+    for m in MORPI_METHODS:
         sel = result.selections[m]
         if not sel.trials:
             continue
-        base = _loo_vector(data, m, sel.config)
-        vecs = [(cfg, _loo_vector(data, m, cfg)) for cfg, _ in sel.trials]
+        base = held_out_errors(data, m, sel.config)
+        vecs = [(cfg, held_out_errors(data, m, cfg)) for cfg, _ in sel.trials]
         # the method's own train error (with one rule for both methods the search scored their mean)
         own = [(cfg, vec, float(vec.mean()) if vec is not None and vec.size else float("inf")) for cfg, vec in vecs]
         for cfg, vec, score in sorted(own, key=lambda t: t[2]):
@@ -499,20 +500,20 @@ def evaluate_tables(root, *, include_test: bool = True, configs: dict | None = N
         raise ParameterError(f"rule={rule!r}: expected one of {RULES}")
     selections = {}
     joint = select_config(data) if rule == "joint" and not configs else None
-    for m in _MORPI_METHODS:
+    for m in MORPI_METHODS:
         if configs and m in configs:
             selections[m] = Selection(m, configs[m], float("nan"), (), 0)
         else:
             selections[m] = joint if joint is not None else select_config(data, m)
     gains = []
-    for (phone, route, _), m, mode in itertools.product(SHORT_SETS, _MORPI_METHODS, ("RD", "GC")):
+    for (phone, route, _), m, mode in itertools.product(SHORT_SETS, MORPI_METHODS, ("RD", "GC")):
         g = trained_gain(data, phone, route, mode, m, selections[m].config)
         if g is not None:
             gains.append(g)
     gmap = {(g.phone, g.route, g.method, g.calibration): g for g in gains}
     cells = []
     for spec in cell_specs():
-        if spec.method in _INS_METHODS:
+        if spec.method in INS_METHODS:
             if ins:
                 cells.append(_ins_cell(data, spec))
         else:
@@ -564,7 +565,7 @@ def _alternative_readings(data: FieldData, selections) -> list[dict]:
     """
     out = []
     specs = cell_specs()
-    for m, mode in itertools.product(_MORPI_METHODS, ("GC", "RD")):
+    for m, mode in itertools.product(MORPI_METHODS, ("GC", "RD")):
         base = selections[m].config
         for h, sg, e in itertools.product(st.HEADINGS, st.SEGMENTS, st.ENDS):
             if mode == "RD" and (sg, e) != (base.segment, base.ends):
@@ -609,17 +610,17 @@ def comparison(result: TablesResult) -> dict:
         (None when not available).
     """
     best = {}
-    for m in _INS_METHODS:
+    for m in INS_METHODS:
         c = result.cell("ins_straight", "s8", None, m, "GAC")
         if c.runs:
             best[m] = c
-    for m in _MORPI_METHODS:
+    for m in MORPI_METHODS:
         cs = [c for c in result.cells if c.spec.table == "short_route" and c.spec.method == m
               and c.spec.calibration == "GC" and c.runs]
         if cs:
             best[m] = cs[choose([c.ours_percent for c in cs])]        # the first of ties (choice.choose)
     rows = []
-    order = list(_INS_METHODS) + list(_MORPI_METHODS)
+    order = list(INS_METHODS) + list(MORPI_METHODS)
     for m in order:
         c = best.get(m)
         row = {"method": m, "paper_error_m": PAPER_COMPARISON["error_m"][m],
@@ -653,7 +654,7 @@ def ins_full_span(result: TablesResult) -> list[dict]:
     data = result.data
     out = []
     for c in result.cells:
-        if c.spec.method not in _INS_METHODS or not c.runs:
+        if c.spec.method not in INS_METHODS or not c.runs:
             continue
         truth = ds.route(c.spec.route)
         errs = []
@@ -741,7 +742,7 @@ def other_rule(result: TablesResult, rule: str | None = None) -> dict:
             "cells": [{"table": c.spec.table, "phone": c.spec.phone, "p2p_m": c.spec.p2p_m, "method": c.spec.method,
                        "calibration": c.spec.calibration, "paper_percent": c.spec.paper_percent,
                        "ours_percent": c.ours_percent, "distance_error_percent": c.distance_percent}
-                      for c in alt.cells if c.spec.method in _MORPI_METHODS]}
+                      for c in alt.cells if c.spec.method in MORPI_METHODS]}
 
 
 def heading_readings(result: TablesResult) -> dict:
@@ -793,7 +794,7 @@ def heading_readings(result: TablesResult) -> dict:
     cells = []
     for c in result.cells:
         s = c.spec
-        if s.method not in _MORPI_METHODS:
+        if s.method not in MORPI_METHODS:
             continue
         key = (s.table, s.phone, s.p2p_m, s.method, s.calibration)
         cells.append({"table": s.table, "phone": s.phone, "p2p_m": s.p2p_m, "method": s.method,
@@ -802,9 +803,9 @@ def heading_readings(result: TablesResult) -> dict:
                       **{f"{h}_percent": under[h][1].cell(*key).ours_percent for h in HEADING_SOURCES},
                       "from_start_percent": from_start.cell(*key).ours_percent})
     train = {}
-    for m in _MORPI_METHODS:
-        g = _loo_vector(data, m, under["gyro"][0][m])
-        a = _loo_vector(data, m, under["attitude"][0][m])
+    for m in MORPI_METHODS:
+        g = held_out_errors(data, m, under["gyro"][0][m])
+        a = held_out_errors(data, m, under["attitude"][0][m])
         ok = g is not None and a is not None and g.size == a.size > 1
         d = a - g if ok else None
         train[m] = {"chosen_source": chosen[m].heading_source,
@@ -863,7 +864,7 @@ def turn_reading(result: TablesResult) -> dict:
     cells = []
     for c in result.cells:
         s = c.spec
-        if s.method not in _MORPI_METHODS or s.table not in ("long_route", "morpi_l_shape"):
+        if s.method not in MORPI_METHODS or s.table not in ("long_route", "morpi_l_shape"):
             continue
         key = (s.table, s.phone, s.p2p_m, s.method, s.calibration)
         cells.append({"table": s.table, "phone": s.phone, "p2p_m": s.p2p_m, "method": s.method,
@@ -871,11 +872,11 @@ def turn_reading(result: TablesResult) -> dict:
                       "chosen_heading": chosen[s.method].heading, "chosen_percent": c.ours_percent,
                       **{f"{h}_percent": under[h][1].cell(*key).ours_percent for h in st.HEADINGS}})
     train = {m: {h: (lambda v: None if v is None or not v.size else float(v.mean()))(
-        _loo_vector(data, m, under[h][0][m])) for h in st.HEADINGS} for m in _MORPI_METHODS}
+        held_out_errors(data, m, under[h][0][m])) for h in st.HEADINGS} for m in MORPI_METHODS}
     th = data.thresholds
     turns = {}
     truth = ds.route("L_shape")
-    for m in _MORPI_METHODS:
+    for m in MORPI_METHODS:
         cfg = under["turns"][0][m]
         found = []
         for r in data.recordings("s6", "L_shape", "test"):
@@ -1327,7 +1328,7 @@ def _figure_data(res: TablesResult):
         errs = [x.end_error_percent for x in cell.runs]
         r = recs[int(np.argsort(errs)[len(errs) // 2])] if errs else recs[0]
         ins = {}
-        for m, mode in itertools.product(_INS_METHODS, ("RD", "GAC")):
+        for m, mode in itertools.product(INS_METHODS, ("RD", "GAC")):
             try:
                 ins[f"{m} {mode}"] = np.asarray(data.ins(r, mode, m).position)[:, :2]
             except MorpiError:
@@ -1340,7 +1341,7 @@ def _figure_data(res: TablesResult):
                               ("long_route", "s8", 1.0), ("long_route", "s6", 1.0), ("morpi_l_shape", "s6", 1.0)):
         paths = {}
         route_name = None
-        for m in _MORPI_METHODS:
+        for m in MORPI_METHODS:
             c = res.cell(table, phone, p2p, m, "GC")
             route_name = c.spec.route
             if not c.runs or c.gain is None:
@@ -1365,7 +1366,7 @@ def _cell_notes(res: TablesResult) -> dict:
         if not c.runs or abs(c.deviation_pp) <= DEVIATION_PP:
             continue
         s = c.spec
-        if s.method in _INS_METHODS:
+        if s.method in INS_METHODS:
             if s.method == "INS-2D" and s.calibration == "GAC" and res.data is not None:
                 recs = [r for r in res.data.recordings(s.phone, s.route, s.split) if not res.data.no_rest(r)]
                 if recs:

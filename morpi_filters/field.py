@@ -4,7 +4,7 @@
 calibrations, INS runs and step signals, each computed once and shared by
 every cell, the gain training and the rule search. :func:`select_config`
 chooses the step rule on the ``train`` runs only, by leave-one-out end-point
-error (:func:`_loo_score`); :func:`nested_rule_comparison` checks that
+error (:func:`held_out_score`); :func:`nested_rule_comparison` checks that
 choice with the training sets themselves held out in turn. The cells and
 comparisons built on this data are in :mod:`morpi_filters.evaluate`.
 """
@@ -26,7 +26,8 @@ from .errors import DataError, MorpiError, ParameterError
 __all__ = ["SHORT_SETS", "HELD_OUT", "COURSE_M", "TrainSet", "RULES", "INS_SPANS", "LEVELED", "HEADING_ORIGINS", "HEADING_SOURCES", "Gain",
            "Selection", "Thresholds", "FieldData", "train_thresholds", "fold_thresholds", "select_config", "nested_rule_comparison",
            "READING_GRID", "TUNABLE_GRID", "SWING_MARGIN", "TURN_MARGIN", "SOURCE_SE", "trained_gain",
-           "set_gain", "track_course", "check_recordings"]
+           "set_gain", "track_course", "check_recordings", "MORPI_METHODS", "train_summary", "loo_errors",
+           "held_out_errors", "held_out_score"]
 
 #: Short-route training/test sets: (phone, route, p2p).
 SHORT_SETS = (("s8", "short_distance", 1.0), ("s8", "short_distance_1.5p2p", 1.5), ("s6", "short_distance", 1.0))
@@ -55,7 +56,8 @@ SWING_MARGIN = 0.75
 #: A full period turns (the ``"turns"`` heading reading) when its heading change exceeds this multiple of
 #: the largest full-period heading change of the straight train runs.
 TURN_MARGIN = 1.5
-_MORPI_METHODS = tuple(st.METHODS)
+#: The MoRPI methods, in the tables' order.
+MORPI_METHODS = tuple(st.METHODS)
 
 
 @dataclass(frozen=True)
@@ -571,8 +573,9 @@ class FieldData:
         return sorted((e for e in self._entries if e.split == "train" and not (periodic and e.motion != "periodic")),
                       key=lambda e: (e.phone, e.route))
 
-    def train_sets(self) -> list:
-        """The train sets of the rule search and the gains (:class:`TrainSet`), each run with its truth.
+    def train_sets(self) -> tuple:
+        """The train sets of the rule search and the gains (:class:`TrainSet`), each run with its truth (found
+        once and kept: every rule's train summary reads them).
 
         One per group the manifest gives train recordings with periodic
         motion (a glob that matches no file counts), in the order the groups
@@ -582,7 +585,11 @@ class FieldData:
         out, and a set may be empty. For a MoRPI root (the package's manifest)
         these are the short-route sets of :data:`SHORT_SETS`, in that order.
         """
-        return [self._group_set(group, phone, route) for group, phone, route in self._train_groups]
+        out = self._train_summaries.get("train sets")
+        if out is None:
+            out = self._train_summaries["train sets"] = tuple(self._group_set(group, phone, route)
+                                                              for group, phone, route in self._train_groups)
+        return out
 
     def _group_set(self, group: str, phone: str, route: str) -> TrainSet:
         """The train runs of a group with periodic motion that can be evaluated, each with its truth."""
@@ -1161,7 +1168,7 @@ def _train_period_changes(data: FieldData) -> tuple[list, list]:
     """Per train run and method, the largest absolute full-period heading change [deg], and the runs' paths."""
     cfg = _START.with_(segment="extrema", min_swing_deg=0.0)
     changes, files = [], []
-    for m in _MORPI_METHODS:
+    for m in MORPI_METHODS:
         for e in data.train_entries(periodic=True):
             for r in data.recordings(e.phone, e.route, e.split):
                 if data.relpath(r) != e.relpath:
@@ -1205,7 +1212,7 @@ def trained_gain(data: FieldData, phone, route, calibration, method, config) -> 
     if not data.recordings(phone, route, "train"):
         return None
     group = data.entries(phone, route, "train")[0].group
-    tset = next((s for s in _train_sets(data) if s.name == group), None)
+    tset = next((s for s in data.train_sets() if s.name == group), None)
     if tset is None:
         return None
     return set_gain(data, tset, calibration, method, config, phone=phone, route=route,
@@ -1262,23 +1269,39 @@ _START = st.StepConfig(heading="absolute", segment="maxima", ends="drop", cutoff
                        min_period_s=0.5)
 
 
-def _train_summary(data: FieldData, method, config, mode="GC"):
+def train_summary(data: FieldData, method, config, mode="GC"):
     """Per train set (:meth:`FieldData.train_sets`), the train runs reduced to what a gain and an end point need.
 
     A tuple of ``(train_set, members, relpaths, g, u, loo, failed)`` per set:
     ``g`` each run's own gain (its distance / effective weight), ``u`` the end
     point per unit gain (``sum(weight * fraction * [cos, sin](heading))``,
     shape ``(n, 2)``), so that a run dead-reckoned with gain ``G`` ends at
-    ``G u``, ``loo`` the runs' leave-one-out errors (:func:`_loo_errors`; None
+    ``G u``, ``loo`` the runs' leave-one-out errors (:func:`loo_errors`; None
     below two runs or when a run fails) and ``failed`` the runs the rule cannot
     process (no periodic motion found; NaN in ``g`` and ``u``). Cached on
     `data`.
+
+    Parameters
+    ----------
+    data : FieldData
+        The dataset; only its train sets are read.
+    method : {"MoRPI-A", "MoRPI-G"}
+        MoRPI method.
+    config : steps.StepConfig
+        The step rule.
+    mode : {"RD", "GC", "GAC"}
+        Calibration.
+
+    Returns
+    -------
+    tuple of tuple
+        One ``(train_set, members, relpaths, g, u, loo, failed)`` per train set.
     """
     key = (method, config, mode)
     out = data._train_summaries.get(key)
     if out is None:
         out = []
-        for tset in _train_sets(data):
+        for tset in data.train_sets():
             recs, rels = tset.runs, tset.files
             g, u, failed = np.full(len(recs), np.nan), np.full((len(recs), 2), np.nan), set()
             for i, r in enumerate(recs):
@@ -1289,22 +1312,13 @@ def _train_summary(data: FieldData, method, config, mode="GC"):
                     continue
                 g[i] = tset.distance_m[i] / w
                 u[i] = ux, uy
-            loo = _loo_errors(tset, g, u) if g.size >= 2 and not failed else None
+            loo = loo_errors(tset, g, u) if g.size >= 2 and not failed else None
             out.append((tset, frozenset(rels), rels, g, u, loo, frozenset(failed)))
         out = data._train_summaries[key] = tuple(out)
     return out
 
 
-def _train_sets(data: FieldData) -> tuple:
-    """The train sets of the rule search (:meth:`FieldData.train_sets`), cached on `data`: every rule's train
-    summary reads them."""
-    out = data._train_summaries.get("train sets")
-    if out is None:
-        out = data._train_summaries["train sets"] = tuple(data.train_sets())
-    return out
-
-
-def _loo_errors(truth, g, u, keep=None) -> np.ndarray:
+def loo_errors(truth, g, u, keep=None) -> np.ndarray:
     """End-point errors [%] of each run (each flagged in `keep`) with the mean gain of the others (leave-one-out).
 
     ``gi = (sum(g) - g) / (n - 1)``, ``|gi u - end| / distance * 100``, each run
@@ -1313,6 +1327,32 @@ def _loo_errors(truth, g, u, keep=None) -> np.ndarray:
     shape (n,)), as a :class:`TrainSet` or a route does. A compiled loop
     (``_signal_kernel.loo_errors``), the gains summed in order (the numpy form
     within rounding).
+
+    Parameters
+    ----------
+    truth : TrainSet or Route
+        ``end_point_m`` and ``distance_m`` of the runs.
+    g : ndarray, shape (n,)
+        Each run's own gain.
+    u : ndarray, shape (n, 2)
+        Each run's end point per unit gain [m].
+    keep : ndarray of bool, shape (n,), optional
+        The runs taken (default: all).
+
+    Returns
+    -------
+    ndarray, shape (k,)
+        The kept runs' errors [%], in order.
+
+    Examples
+    --------
+    Three runs along x with gains 1, 2 and 3 and a true end point 2 m ahead: each
+    run takes the mean of the other two gains (2.5, 2, 1.5).
+
+    >>> from types import SimpleNamespace
+    >>> truth = SimpleNamespace(end_point_m=np.array([2.0, 0.0]), distance_m=2.0)
+    >>> loo_errors(truth, np.array([1.0, 2.0, 3.0]), np.tile([1.0, 0.0], (3, 1))).tolist()
+    [25.0, 0.0, 25.0]
     """
     n = g.shape[0]
     out = np.empty(n)
@@ -1326,7 +1366,7 @@ def _loo_errors(truth, g, u, keep=None) -> np.ndarray:
 def _logo_errors(summary, keep_of) -> list:
     """Per set, the end-point errors [%] of its kept runs with the mean gain of the other sets' kept runs.
 
-    `summary`: :func:`_train_summary`'s tuples; `keep_of(k)`: the kept runs
+    `summary`: :func:`train_summary`'s tuples; `keep_of(k)`: the kept runs
     of set k (bool, shape (n_k,)). A set is scored when the other sets keep a
     run; the errors are ``|G u - end| / distance * 100`` with ``G`` the mean
     of the other sets' runs' own gains (leave-one-group-out).
@@ -1346,7 +1386,7 @@ def _logo_errors(summary, keep_of) -> list:
     return out
 
 
-def _loo_vector(data: FieldData, method, config, mode="GC", exclude=frozenset(), held_out: str = "recording"
+def held_out_errors(data: FieldData, method, config, mode="GC", exclude=frozenset(), held_out: str = "recording"
                 ) -> np.ndarray | None:
     """Per-run held-out end-point errors [%] of the train runs not in `exclude`.
 
@@ -1355,10 +1395,26 @@ def _loo_vector(data: FieldData, method, config, mode="GC", exclude=frozenset(),
     run with the mean gain of the other sets' runs (:func:`_logo_errors`;
     none below two sets). In the train sets' order; None if a run not in
     `exclude` fails (the rule cannot process it).
+
+    Parameters
+    ----------
+    data : FieldData
+        The dataset; only its train sets are read.
+    method, config, mode
+        As for :func:`train_summary`.
+    exclude : frozenset of str
+        Train runs (relative paths or ids) to leave out.
+    held_out : {"recording", "group"}
+        What a run is held out of (:data:`HELD_OUT`).
+
+    Returns
+    -------
+    ndarray or None
+        The errors [%], shape (k,).
     """
     if held_out not in HELD_OUT:
         raise ParameterError(f"held_out={held_out!r}: expected one of {HELD_OUT}")
-    summary = _train_summary(data, method, config, mode)
+    summary = train_summary(data, method, config, mode)
     errs = []
     for tset, members, rels, g, u, loo, failed in summary:
         if failed - exclude:
@@ -1373,7 +1429,7 @@ def _loo_vector(data: FieldData, method, config, mode="GC", exclude=frozenset(),
             continue
         keep = np.array([r not in exclude for r in rels], dtype=bool)
         if keep.sum() >= 2:
-            errs.append(_loo_errors(tset, g, u, keep))
+            errs.append(loo_errors(tset, g, u, keep))
     return np.concatenate(errs) if errs else np.empty(0)
 
 
@@ -1382,32 +1438,42 @@ def _held_out_error(data: FieldData, method, config, k: int, rel: str) -> float:
 
     NaN when the rule cannot process `rel` or when no other run of the set gives a gain.
     """
-    truth, _, rels, g, u, _, failed = _train_summary(data, method, config)[k]
+    truth, _, rels, g, u, _, failed = train_summary(data, method, config)[k]
     ok = [r for r in rels if r not in failed]
     if rel not in ok or len(ok) < 2:
         return float("nan")
     keep = np.array([r not in failed for r in rels], dtype=bool)
-    return float(_loo_errors(truth, g, u, keep)[ok.index(rel)])
+    return float(loo_errors(truth, g, u, keep)[ok.index(rel)])
 
 
-def _loo_score(data: FieldData, method, config, mode="GC", exclude=frozenset(), held_out: str = "recording"
+def held_out_score(data: FieldData, method, config, mode="GC", exclude=frozenset(), held_out: str = "recording"
                ) -> tuple[float, int]:
-    """Held-out mean end-point error [%] over the train runs not in `exclude` (:func:`_loo_vector`).
+    """Held-out mean end-point error [%] over the train runs not in `exclude` (:func:`held_out_errors`).
 
     Cached on `data` with the train summaries: the searches of one method, of the other and of both
     (:func:`select_config`) score many of the same rules.
+
+    Parameters
+    ----------
+    data, method, config, mode, exclude, held_out
+        As for :func:`held_out_errors`.
+
+    Returns
+    -------
+    tuple of (float, int)
+        The mean error [%] (infinite when no run scores) and the number of runs scored.
     """
     key = ("loo score", method, config, mode, exclude, held_out)
     out = data._train_summaries.get(key)
     if out is None:
-        errs = _loo_vector(data, method, config, mode, exclude, held_out)
+        errs = held_out_errors(data, method, config, mode, exclude, held_out)
         # np.mean's bits: numpy's sum, divided by the count
         out = (float("inf"), 0) if errs is None or not errs.size else (float(errs.sum()) / errs.size, int(errs.size))
         data._train_summaries[key] = out
     return out
 
 
-def select_config(data: FieldData, methods=_MORPI_METHODS, *, exclude=(), thresholds: Thresholds | None = None,
+def select_config(data: FieldData, methods=MORPI_METHODS, *, exclude=(), thresholds: Thresholds | None = None,
                   held_out: str = "recording") -> Selection:
     """Choose the step rule from the train runs only (the train sets of :meth:`FieldData.train_sets`).
 
@@ -1488,8 +1554,8 @@ def _source_difference(data, methods, exclude, gyro_cfg, attitude_cfg, held_out=
     """Per train run, the leave-one-out error of `attitude_cfg` minus `gyro_cfg` [pp], averaged over `methods`."""
     diffs = []
     for m in methods:
-        g = _loo_vector(data, m, gyro_cfg, exclude=exclude, held_out=held_out)
-        a = _loo_vector(data, m, attitude_cfg, exclude=exclude, held_out=held_out)
+        g = held_out_errors(data, m, gyro_cfg, exclude=exclude, held_out=held_out)
+        a = held_out_errors(data, m, attitude_cfg, exclude=exclude, held_out=held_out)
         if g is None or a is None or g.size != a.size or not g.size:
             return None
         diffs.append(a - g)
@@ -1500,7 +1566,7 @@ def _search(data: FieldData, methods, exclude, start, held_out="recording") -> t
     """The coordinate search of :func:`select_config` from `start`: (best, score, n_train, trials)."""
 
     def score(cfg):
-        vals = [_loo_score(data, m, cfg, exclude=exclude, held_out=held_out) for m in methods]
+        vals = [held_out_score(data, m, cfg, exclude=exclude, held_out=held_out) for m in methods]
         return sum(v for v, _ in vals) / len(vals), int(sum(n for _, n in vals))       # np.mean's bits
 
     trials, counts = [], []
@@ -1569,12 +1635,12 @@ def nested_rule_comparison(data: FieldData) -> dict:
         than the full train set's. The means, differences, fractions and
         ``preferred`` are None without train runs.
     """
-    folds = [(k, rel) for k, tset in enumerate(_train_sets(data)) for rel in tset.files]
-    full = {"per_method": {m: select_config(data, m).config for m in _MORPI_METHODS}}
+    folds = [(k, rel) for k, tset in enumerate(data.train_sets()) for rel in tset.files]
+    full = {"per_method": {m: select_config(data, m).config for m in MORPI_METHODS}}
     cj = select_config(data).config
-    full["joint"] = {m: cj for m in _MORPI_METHODS}
-    errs = {rule: {m: [] for m in _MORPI_METHODS} for rule in RULES}
-    same = {rule: {m: 0 for m in _MORPI_METHODS} for rule in RULES}
+    full["joint"] = {m: cj for m in MORPI_METHODS}
+    errs = {rule: {m: [] for m in MORPI_METHODS} for rule in RULES}
+    same = {rule: {m: 0 for m in MORPI_METHODS} for rule in RULES}
     own = []
     for k, rel in folds:
         th, same_windows = fold_thresholds(data, rel)
@@ -1587,11 +1653,11 @@ def nested_rule_comparison(data: FieldData) -> dict:
         own.append({"file": rel, "accel_floor": th.accel_floor, "min_swing_deg": th.min_swing_deg,
                     "turn_deg": th.turn_deg, "same_rest_windows": same_windows})
         chosen = {"per_method": {m: select_config(d, m, exclude=(rel,), thresholds=th).config
-                                 for m in _MORPI_METHODS}}
+                                 for m in MORPI_METHODS}}
         cj = select_config(d, exclude=(rel,), thresholds=th).config
-        chosen["joint"] = {m: cj for m in _MORPI_METHODS}
+        chosen["joint"] = {m: cj for m in MORPI_METHODS}
         for rule in RULES:
-            for m in _MORPI_METHODS:
+            for m in MORPI_METHODS:
                 cfg = chosen[rule][m]
                 # the rule is compared with the full selection's apart from the fold's own thresholds
                 same[rule][m] += cfg.with_(min_swing_deg=full[rule][m].min_swing_deg,
@@ -1601,7 +1667,7 @@ def nested_rule_comparison(data: FieldData) -> dict:
     # per fold, the mean over the methods whose held-out run could be dead-reckoned (NaN when none)
     per_rule = {}
     for rule in RULES:
-        e = np.array([errs[rule][m] for m in _MORPI_METHODS]).reshape(len(_MORPI_METHODS), n)
+        e = np.array([errs[rule][m] for m in MORPI_METHODS]).reshape(len(MORPI_METHODS), n)
         ok = np.isfinite(e)
         per_rule[rule] = np.where(ok.any(axis=0), np.where(ok, e, 0.0).sum(axis=0) / np.maximum(ok.sum(axis=0), 1),
                                   np.nan)
@@ -1613,15 +1679,15 @@ def nested_rule_comparison(data: FieldData) -> dict:
     d = d[np.isfinite(d)]
     mean = {rule: finite_mean(per_rule[rule]) for rule in RULES}
     return {
-        "rules": {rule: {m: finite_mean(errs[rule][m]) for m in _MORPI_METHODS} for rule in RULES},
+        "rules": {rule: {m: finite_mean(errs[rule][m]) for m in MORPI_METHODS} for rule in RULES},
         "mean": mean,
         "difference_pp": float(d.mean()) if d.size else None,
         "difference_se_pp": float(d.std(ddof=1) / np.sqrt(d.size)) if d.size > 1 else None,
         "n_folds": n,
-        "same_as_full": {rule: {m: same[rule][m] / n if n else None for m in _MORPI_METHODS} for rule in RULES},
+        "same_as_full": {rule: {m: same[rule][m] / n if n else None for m in MORPI_METHODS} for rule in RULES},
         "preferred": (RULES[choose([mean[r] for r in RULES])] if all(v is not None for v in mean.values())
                       else None),
-        "folds": [{**own[i], **{rule: {m: errs[rule][m][i] for m in _MORPI_METHODS} for rule in RULES}}
+        "folds": [{**own[i], **{rule: {m: errs[rule][m][i] for m in MORPI_METHODS} for rule in RULES}}
                   for i in range(n)],
         "folds_with_other_thresholds": sum((f["accel_floor"], f["min_swing_deg"], f["turn_deg"])
                                            != (data.thresholds.accel_floor, data.thresholds.min_swing_deg,

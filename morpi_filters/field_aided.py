@@ -73,7 +73,7 @@ __all__ = ["GRID", "ABLATIONS", "AidedCell", "AidedStudy", "PairedDifference", "
            "holm", "detectable_difference", "READING_SE", "ReadingChoice", "route_sums",
            "route_reading_pays", "choose_reading", "LENGTHS", "period_sums", "period_length", "LengthChoice",
            "choose_length", "ellipse_coverage", "nis_consistency", "aid_used", "NIS_BAND",
-           "choose_consistent"]
+           "choose_consistent", "route_steps", "tuning_from", "rest_terms"]
 
 #: Train-only grid: factor on the rest-window noise densities (the moving robot vibrates far above
 #: them), step displacement noise [m], whether the gain error is estimated or only considered (the
@@ -432,7 +432,7 @@ def prepare(data, rec, mode, method, config, gain) -> Prepared:
         return cache[key]
     crec, _ = data.calibrated(rec, mode)
     w = data.rest_window(rec)
-    f_rest, rest, shift, drift, noise = _rest_terms(data, rec, mode)
+    f_rest, rest, shift, drift, noise = rest_terms(data, rec, mode)
     s = data.steps(rec, mode, method, config)
     track = st.morpi_track(s, gain)
     # between the rest window and the motion onset (the start of the motion window, where MoRPI's steps
@@ -451,16 +451,31 @@ def prepare(data, rec, mode, method, config, gain) -> Prepared:
     # read where MoRPI's track ends: the gain is trained on MoRPI's step sum, which covers the motion up
     # to the last step boundary (the robot's creep after it is part of what the gain absorbs)
     stop = float(s.end_time[-1]) if s.end_time.size else data.activity(rec)[1]
-    along = _route_steps(data, rec, mode, config, s, track.length)
+    along = route_steps(data, rec, mode, config, s, track.length)
     cache[key] = Prepared(data.relpath(rec), inp, replace(inp, step_vector=along), track.position, noise, float(stop),
                           drift, shift, onset)
     return cache[key]
 
 
-def _rest_terms(data, rec, mode):
+def rest_terms(data, rec, mode):
     """What :func:`prepare` reads from one recording and calibration whatever the steps: the mean specific
     force of the rest window, the rest stretches, the specific force's shift under way, the gyro drift and the
-    rest noise (cached in ``data.study_cache``)."""
+    rest noise (cached in ``data.study_cache``).
+
+    Parameters
+    ----------
+    data : field.FieldData
+        The dataset's cached per-recording work.
+    rec : Recording
+        The recording.
+    mode : {"RD", "GC", "GAC"}
+        Calibration.
+
+    Returns
+    -------
+    tuple
+        The terms above, in that order.
+    """
     key = (rec.source, mode, "aided rest")
     cache = data.study_cache
     if key in cache:
@@ -527,8 +542,29 @@ def route_vectors(length, start, end, boundaries, time, psi, turn_deg, per_perio
     return np.asarray(length, float)[:, None] * np.stack([np.cos(h), np.sin(h)], axis=1)
 
 
-def _route_steps(data, rec, mode, config, s, length) -> np.ndarray:
-    """:func:`route_vectors` of a recording's steps `s` (found under `config`) with the step lengths `length`."""
+def route_steps(data, rec, mode, config, s, length) -> np.ndarray:
+    """:func:`route_vectors` of a recording's steps `s` (found under `config`) with the step lengths `length`.
+
+    Parameters
+    ----------
+    data : field.FieldData
+        The dataset's cached per-recording work.
+    rec : Recording
+        The recording.
+    mode : {"RD", "GC", "GAC"}
+        Calibration.
+    config : steps.StepConfig
+        The rule `s` was found under.
+    s : steps.Steps
+        The recording's steps.
+    length : ndarray, shape (k,)
+        The steps' lengths [m].
+
+    Returns
+    -------
+    ndarray, shape (k, 2)
+        The step vectors along the route's heading [m].
+    """
     crec, _ = data.calibrated(rec, mode)
     bt = s.peaks.grid_time[s.peaks.grid_index]
     return route_vectors(length, s.start_time, s.end_time, bt, crec.time,
@@ -566,7 +602,7 @@ def route_sums(data, rec, mode, method, config) -> tuple[float, np.ndarray]:
     """
     s = data.steps(rec, mode, method, config)
     unit = np.asarray(s.weight, float) * np.asarray(s.fraction, float)
-    v = _route_steps(data, rec, mode, config, s, unit)
+    v = route_steps(data, rec, mode, config, s, unit)
     return float(unit.sum()), (v.sum(axis=0) if v.size else np.zeros(2))
 
 
@@ -632,11 +668,11 @@ def route_reading_pays(rule_errors, route_errors, *, se_factor: float = READING_
 
 def _route_loo(data, method, config, mode="GC"):
     """Per short-route train run, the leave-one-out end-point errors [%] of the rule's reading and of the
-    route's heading, the same gains (:func:`morpi_filters.field._train_summary`); None when a run fails."""
+    route's heading, the same gains (:func:`morpi_filters.field.train_summary`); None when a run fails."""
     from . import field as fd
 
     rule, route = [], []
-    for truth, _, _, g, u, loo, failed in fd._train_summary(data, method, config, mode):
+    for truth, _, _, g, u, loo, failed in fd.train_summary(data, method, config, mode):
         recs = truth.runs
         if failed:
             return None
@@ -649,7 +685,7 @@ def _route_loo(data, method, config, mode="GC"):
             except MorpiError:
                 return None
         rule.append(loo)
-        route.append(fd._loo_errors(truth, g, ur))
+        route.append(fd.loo_errors(truth, g, ur))
     if not rule:
         return None
     return np.concatenate(rule), np.concatenate(route)
@@ -727,7 +763,7 @@ def period_sums(data, rec, mode, method, config, reading) -> tuple[float, np.nda
     s = data.steps(rec, mode, method, config)
     c = np.asarray(s.fraction, float) * (2.0 if config.segment == "maxima" else 1.0)
     if reading == "route":
-        v = _route_steps(data, rec, mode, config, s, c)
+        v = route_steps(data, rec, mode, config, s, c)
     else:
         h = np.asarray(s.heading, float)
         v = c[:, None] * np.stack([np.cos(h), np.sin(h)], axis=1)
@@ -749,7 +785,7 @@ def _phone_sets(data, phone):
     from . import dataset as ds
     from . import field as fd
 
-    return [(ds.route(route), tset.runs) for (ph, route, _), tset in zip(fd.SHORT_SETS, fd._train_sets(data))
+    return [(ds.route(route), tset.runs) for (ph, route, _), tset in zip(fd.SHORT_SETS, data.train_sets())
             if ph == phone and tset.runs]
 
 
@@ -872,7 +908,23 @@ def choose_length(data, phone, method, config, reading) -> LengthChoice:
                         int(a.size))
 
 
-def _tuning(noise, info, gain_rel) -> aided.AidTuning:
+def tuning_from(noise, info, gain_rel) -> aided.AidTuning:
+    """The filter's tunables from a recording's rest noise and a grid point.
+
+    Parameters
+    ----------
+    noise : tuple
+        ``(accel, gyro, rest gyro, gyro walk, accel jump)`` noise densities of the rest window
+        (:func:`rest_noise`).
+    info : dict
+        A grid point (:data:`GRID`'s keys).
+    gain_rel : float
+        The trained gain's relative spread (the gain error's prior).
+
+    Returns
+    -------
+    aided.AidTuning
+    """
     a, g, ge, walk, jump = noise
     return aided.AidTuning(accel_noise=a * info["vibration"], gyro_noise=g * info["vibration"], rest_gyro_noise=ge,
                            rest_accel_noise=a, turn_sigma=TURN_SIGMA,
@@ -1017,7 +1069,7 @@ def choose_tunables_many(data, requests, *, workers: int | None = None) -> list:
         inputs, tunings = groups.setdefault(train, ([], []))
         plans.append((train, len(inputs), runs, (ends, dist), noise, rel))
         inputs += [r.input_for(c, forward_only=True) for c in cands for r in runs]
-        tunings += [_tuning(noise, c, rel) for c in cands for _ in runs]
+        tunings += [tuning_from(noise, c, rel) for c in cands for _ in runs]
     # one batch per training set (one batch of every set is slower: a larger working set for the same work)
     res = {train: aided.run_batch(inputs, tunings, workers=workers)
            for train, (inputs, tunings) in groups.items()}
@@ -1053,7 +1105,7 @@ def choose_tunables_many(data, requests, *, workers: int | None = None) -> list:
         firsts.append((err, inside, ns, nc, folds, picks, wins, len(inputs)))
         more = [dict(cands[w], **v) for w in wins for v in variants]
         inputs += [r.input_for(c, forward_only=True) for c in more for r in runs]
-        tunings += [_tuning(noise, c, rel) for c in more for _ in runs]
+        tunings += [tuning_from(noise, c, rel) for c in more for _ in runs]
     res2 = aided.run_batch(inputs, tunings, workers=workers)
     out = []
     for plan, first in zip(plans, firsts):
@@ -2007,7 +2059,7 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
         for i, (cell, g, score, info, noise, runs, by_file, _, _) in enumerate(todo):
             if cell.spec.route != route:
                 continue
-            base = _tuning(noise, info, g.std / g.mean)
+            base = tuning_from(noise, info, g.std / g.mean)
             items += [(i, p, None, base, p.input_for(info)) for p in runs]
             if ablation and cell.spec.calibration == "GC":
                 for name, change in ABLATIONS.items():
@@ -2111,7 +2163,7 @@ def aided_study(root=None, result=None, labels=None, ablation: bool = True,
                                "coverage_95": choice.train_coverage, "outside": list(choice.outside),
                                "loo_fallback": choice.loo_fallback}))
         if ablation and sp.calibration == "GC":
-            base = _tuning(noise, info, g.std / g.mean)
+            base = tuning_from(noise, info, g.std / g.mean)
             full = (cells[-1].smoothed_percent, cells[-1].forward_percent)
 
             def read(name, which):

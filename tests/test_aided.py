@@ -700,7 +700,7 @@ def test_field_cell_json_contract_and_consistency(field_root, monkeypatch):
                                                                       abs=1e-9)
     assert payload["significance"]["vs_morpi_best"]["cells"] == 1
     t = c.tuning
-    tun = field_aided._tuning((t["rest_accel_noise"], t["gyro_noise"] / t["vibration"], t["rest_gyro_noise"],
+    tun = field_aided.tuning_from((t["rest_accel_noise"], t["gyro_noise"] / t["vibration"], t["rest_gyro_noise"],
                                t["gyro_walk"], t["accel_jump"]), t, t["gain_sigma"])
     out = aided.run_batch([p.input_for(t) for p in preps], tun, smooth=True, innovations=True)
     # the tunables' train verdict: the same filter rerun on the train runs up to the read-out, its NIS per
@@ -1165,7 +1165,7 @@ def test_the_route_heading_is_chosen_where_the_rule_reading_drifts(tmp_path):
     config = fd.select_config(data, "MoRPI-G").config.with_(heading="absolute")
     pick = choose_reading(data, "MoRPI-G", config)
     assert pick.runs == 4 and pick.reading == "route"
-    assert pick.rule_percent == fd._loo_score(data, "MoRPI-G", config)[0]
+    assert pick.rule_percent == fd.held_out_score(data, "MoRPI-G", config)[0]
     assert pick.route_percent < pick.rule_percent - pick.difference_se_pp
 
 

@@ -334,3 +334,39 @@ def test_every_package_folder_is_shipped():
     listed = set(tomllib.loads((PKG.parent / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
     folders = {".".join(("morpi_filters",) + p.parent.relative_to(PKG).parts) for p in PKG.rglob("__init__.py")}
     assert folders <= listed, sorted(folders - listed)
+
+
+#: Private modules their concepts import by name: the compiled loops.
+_KERNEL_MODULES = {"_signal_kernel", "_aided_kernel", "_batch_ins"}
+
+
+def _private_reads(tree: ast.AST) -> list:
+    """(line, text) of every private name a module imports from another module of the package, or reads as an
+    attribute of a module (or name) it imported from the package."""
+    bound, out = set(), []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and (node.level > 0 or (node.module or "").startswith("morpi_filters")):
+            for a in node.names:
+                if a.name.startswith("_") and not a.name.startswith("__") and a.name not in _KERNEL_MODULES:
+                    out.append((node.lineno, f"from {'.' * node.level}{node.module or ''} import {a.name}"))
+                bound.add(a.asname or a.name)
+        elif isinstance(node, ast.Import):
+            for a in node.names:
+                if a.name.startswith("morpi_filters"):
+                    bound.add(a.asname or a.name.split(".")[0])
+    for node in ast.walk(tree):
+        if (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id in bound
+                and node.attr.startswith("_") and not node.attr.startswith("__")):
+            out.append((node.lineno, f"{node.value.id}.{node.attr}"))
+    return out
+
+
+def test_no_module_reads_another_modules_private_names():
+    found = [f"{name}:{line}: {text}" for name, tree in _modules_cache().items() for line, text in _private_reads(tree)]
+    assert found == []
+
+
+def test_the_private_name_rule_finds_a_private_import_and_a_private_attribute():
+    tree = ast.parse("from .field import _loo_vector\nfrom . import field as fd\nx = fd._train_sets(d)\n"
+                     "from . import _signal_kernel\ny = _signal_kernel.compiled()\n")
+    assert [t for _, t in _private_reads(tree)] == ["from .field import _loo_vector", "fd._train_sets"]

@@ -76,7 +76,7 @@ def test_the_rule_search_keeps_the_earlier_of_two_rules_tied_within_rounding(mon
                 noise[cfg] = 1.0 + 1e-12 * rng.standard_normal()
             return exact(cfg) * noise[cfg], 10
 
-        monkeypatch.setattr(fd, "_loo_score", score)
+        monkeypatch.setattr(fd, "held_out_score", score)
         best, best_score, n, trials = fd._search(None, ("MoRPI-A",), frozenset(), start)
         assert n == 10 and abs(best_score - 2.5) < 1e-9
         chosen.add(best)

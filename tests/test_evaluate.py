@@ -182,10 +182,10 @@ def test_train_score_is_the_tracked_leave_one_out_error(field_root):
     data = fd.FieldData(field_root, include_test=False)
     drop = ("s6/short_distance/train/1.csv",)
     for m in ("MoRPI-A", "MoRPI-G"):
-        score, n = fd._loo_score(data, m, DEFAULT_CONFIGS[m])
+        score, n = fd.held_out_score(data, m, DEFAULT_CONFIGS[m])
         ref = _loo_by_tracking(data, m, DEFAULT_CONFIGS[m])
         assert n == ref.size == 40 and score == pytest.approx(ref.mean(), rel=1e-12)  # the mean of the same errors: float rounding
-        score, n = fd._loo_score(data, m, DEFAULT_CONFIGS[m], exclude=frozenset(drop))
+        score, n = fd.held_out_score(data, m, DEFAULT_CONFIGS[m], exclude=frozenset(drop))
         ref = _loo_by_tracking(data, m, DEFAULT_CONFIGS[m], drop=drop)
         assert n == ref.size == 39 and score == pytest.approx(ref.mean(), rel=1e-12)  # the mean of the same errors: float rounding
 
@@ -224,7 +224,7 @@ def test_nested_rule_comparison_matches_a_search_without_the_held_out_run(field_
                 assert cfg.turn_deg == fold["turn_deg"] and cfg.min_swing_deg == fold["min_swing_deg"]
                 assert part.data.thresholds.accel_floor == fold["accel_floor"]
                 th, _ = fd.fold_thresholds(data, rel)
-                ref = fd.select_config(data, m if rule == "per_method" else fd._MORPI_METHODS, exclude=(rel,),
+                ref = fd.select_config(data, m if rule == "per_method" else fd.MORPI_METHODS, exclude=(rel,),
                                        thresholds=th).config
                 assert cfg == ref
                 gain = part.gain(phone, route, m, "GC").mean
@@ -249,7 +249,7 @@ def test_rule_sensitivity_rows_agree_with_the_tables(field_root):
         sel = [r for r in mine if r["selected"]]
         assert len(sel) == 1 and sel[0]["train_difference_pp"] == 0.0
         # the method's own train error; with one rule for both methods the search scored their mean
-        assert sel[0]["train_loo_percent"] == pytest.approx(fd._loo_score(res.data, m, res.selections[m].config)[0])  # same errors, same mean: rounding
+        assert sel[0]["train_loo_percent"] == pytest.approx(fd.held_out_score(res.data, m, res.selections[m].config)[0])  # same errors, same mean: rounding
         # the selected rule's cells are the main table's
         for x in sel[0]["cells"]:
             assert x["ours_percent"] == pytest.approx(res.cell("short_route", x["phone"], x["p2p_m"], m, "GC").ours_percent)
@@ -690,7 +690,7 @@ def test_leave_one_out_errors_kernel_is_the_numpy_form_within_the_rounding_of_th
             if keep.sum() < 2:
                 continue
             want = oracle.loo_errors(truth, g, u, keep)
-            got = fd._loo_errors(truth, g, u, None if keep.all() else keep)
+            got = fd.loo_errors(truth, g, u, None if keep.all() else keep)
             assert got.shape == want.shape
             assert np.all(np.abs(got - want) <= oracle.order_bound(truth, g, u, keep))
             if n <= 300:

@@ -6,10 +6,10 @@ from pathlib import Path
 import numpy as np
 
 from ..evaluate import (
-    _INS_METHODS, DEVIATION_PP, TABLES, Cell, TablesStudy, rule_json,
+    INS_METHODS, DEVIATION_PP, TABLES, Cell, TablesStudy, rule_json,
 )
 from ..fetch import dataset_identity
-from ..field import _MORPI_METHODS, SHORT_SETS
+from ..field import MORPI_METHODS, SHORT_SETS
 from ..outputs import write_json, write_text
 from ..results import SectionSummary
 from . import plots
@@ -365,7 +365,7 @@ def _page(study: TablesStudy, payload, source, figures) -> str:
               "short-route GC test cells with gains trained under it. The search sees the train columns only. "
               f"Rules within {TRAIN_SE_BAND:g} standard errors of the selected one (marked ≈) are ones the train "
               "runs cannot tell apart.", ""]
-        for m in _MORPI_METHODS:
+        for m in MORPI_METHODS:
             mine = [r for r in sens if r["method"] == m]
             if not mine:
                 continue
@@ -383,7 +383,7 @@ def _page(study: TablesStudy, payload, source, figures) -> str:
                              fmt(r["train_loo_percent"]), d] + [fmt(x["ours_percent"]) for x in r["cells"]])
             L += [f"**{m}**", "", md_table(heads, rows)]
         lines = []
-        for m in _MORPI_METHODS:
+        for m in MORPI_METHODS:
             parts = []
             for phone, _, p2p in SHORT_SETS:
                 rng = _sensitivity_range(sens, m, phone, p2p)
@@ -537,7 +537,7 @@ def _thresholds_json(result) -> dict | None:
 def _closest_reading(readings) -> dict:
     """Per method: (the GC reading closest to the paper, its mean |deviation|, the selected rule's) [pp]."""
     out = {}
-    for m in _MORPI_METHODS:
+    for m in MORPI_METHODS:
         rows = [r for r in readings if r["method"] == m and r["calibration"] == "GC"
                 and all(x["ours_percent"] is not None for x in r["cells"])]
         if not rows:
@@ -570,7 +570,7 @@ def _sensitivity_range(rows, method, phone, p2p) -> tuple | None:
 def _explain(c, res, notes: dict, other: dict | None = None, sens: list | None = None) -> str:
     s = c.spec
     side = "above" if c.deviation_pp > 0 else "below"
-    if s.method in _INS_METHODS:
+    if s.method in INS_METHODS:
         leak = ""
         n = notes.get(s.label)
         if n is not None and "tilt_deg" in n:
