@@ -563,7 +563,7 @@ def _check_manifest(args):
 def _cmd_evaluate(args):
     """``morpi evaluate --dataset FILE`` (or ``--data DIR``: the shipped MoRPI manifest applied to DIR): outputs
     checked, the manifest loaded, the study run, its page written."""
-    from .dataset_eval import evaluate_dataset
+    from .dataset_eval import evaluate
     from .manifest import load_dataset
     from .parallel import Progress
     from .report.dataset_eval import report_dataset_evaluation
@@ -581,7 +581,7 @@ def _cmd_evaluate(args):
 
         dataset = load_dataset(morpi_manifest(), root=resolve_data_root(args.data))
     progress = Progress(len(dataset), "evaluate", enabled=True)
-    result = evaluate_dataset(dataset, workers=args.workers, progress=progress)
+    result = evaluate(dataset, workers=args.workers, progress=progress)
     with Outputs("morpi evaluate") as outputs:
         if out is not None:
             stage = outputs.folder(out, "evaluate")

@@ -1,6 +1,6 @@
 """The methods on a manifest dataset, each estimate held against the recording's truth.
 
-:func:`evaluate_dataset` runs, on every recording of a
+:func:`evaluate` runs, on every recording of a
 :class:`~morpi_filters.manifest.Dataset` (``morpi evaluate --dataset FILE``):
 
 Methods
@@ -152,7 +152,7 @@ from .manifest import Dataset, RouteTruth, TruthTrack
 from .strapdown import ins2d, ins3d
 
 __all__ = ["COURSE_M", "AIDED", "METHODS", "CALIBRATIONS", "ESTIMATES", "METRICS", "V0_SIGMA_MIN", "ROW_LABELS",
-           "ABLATION_METRICS", "EstimatedPath", "AblationRun", "DatasetEvaluation", "evaluate_dataset", "path_metrics", "ellipse_share", "evaluate"]
+           "ABLATION_METRICS", "EstimatedPath", "AblationRun", "DatasetEvaluation", "path_metrics", "ellipse_share", "evaluate"]
 
 #: Horizontal distance over which the truth's course gives the heading of a start at rest [m].
 COURSE_M = 0.3
@@ -260,7 +260,7 @@ class AblationRun:
 
 @dataclass(frozen=True, eq=False)
 class DatasetEvaluation:
-    """What :func:`evaluate_dataset` found on a dataset.
+    """What :func:`evaluate` found on a dataset.
 
     Attributes
     ----------
@@ -957,7 +957,7 @@ def _ablation_means(runs) -> tuple:
     return tuple(rows)
 
 
-def evaluate_dataset(dataset: Dataset, *, course_m: float = COURSE_M, workers: int | None = None,
+def _evaluate(dataset: Dataset, *, course_m: float = COURSE_M, workers: int | None = None,
                      progress=None, ablation: bool = True) -> DatasetEvaluation:
     """Every method and calibration on every recording of a manifest dataset, against its truth.
 
@@ -1002,7 +1002,7 @@ def evaluate_dataset(dataset: Dataset, *, course_m: float = COURSE_M, workers: i
     >>> ds = Dataset.from_arrays("bench", [{"id": "a", "time": t, "f": f, "omega": np.zeros((401, 3)),
     ...     "motion": "straight", "rest": [0.0, 1.5],
     ...     "truth": RouteTruth(distance_m=2.0, end_point_m=np.array([2.0, 0.0]))}])
-    >>> r = evaluate_dataset(ds)
+    >>> r = _evaluate(ds)
     >>> [(p.method, p.calibration) for p in r.paths][:3], round(r.paths[0].metrics["end_error_m"], 2)
     ([('INS-3D', 'RD'), ('INS-3D', 'GC'), ('INS-3D', 'GAC')], 0.01)
     """
@@ -1083,7 +1083,7 @@ def evaluate(dataset, *, course_m: float = COURSE_M, workers: int | None = None,
 
     What ``morpi evaluate --dataset FILE`` computes, without its files:
     every method and calibration on every recording, against its truth
-    (:func:`evaluate_dataset`, the module docstring). The result's
+    (the module docstring). The result's
     :meth:`~DatasetEvaluation.table` and
     :meth:`~DatasetEvaluation.group_table` are the JSON's rows and group
     means as pandas DataFrames; each :class:`EstimatedPath` of its ``paths``
@@ -1148,4 +1148,4 @@ def evaluate(dataset, *, course_m: float = COURSE_M, workers: int | None = None,
         dataset = load_dataset(dataset)
     elif not isinstance(dataset, Dataset):
         raise ParameterError(f"dataset: {type(dataset).__name__}, expected a Dataset or the path of a manifest")
-    return evaluate_dataset(dataset, course_m=course_m, workers=workers, progress=progress, ablation=ablation)
+    return _evaluate(dataset, course_m=course_m, workers=workers, progress=progress, ablation=ablation)

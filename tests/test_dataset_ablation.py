@@ -39,7 +39,7 @@ def evaluated(tmp_path_factory):
     made = [_run(i, "train", L) for i, L in enumerate((4.0, 5.0, 6.0, 7.0))]
     made += [_run(10, "test", 7.0), _run(11, "test", 8.0), _run(12, "test", 5.0, moving=True)]
     ds = Dataset.from_arrays("sines", [m[0] for m in made])
-    result = de.evaluate_dataset(ds, course_m=0.05)
+    result = de.evaluate(ds, course_m=0.05)
     out = tmp_path_factory.mktemp("ablation")
     report_dataset_evaluation(out, result)
     motion_start = {m[0]["id"]: m[1] for m in made}

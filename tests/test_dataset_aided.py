@@ -46,13 +46,13 @@ def _dataset(noise_free, extra=()):
 @pytest.fixture(scope="module")
 def noise_free():
     ds = _dataset(True)
-    return ds, de.evaluate_dataset(ds, course_m=0.05)
+    return ds, de.evaluate(ds, course_m=0.05)
 
 
 @pytest.fixture(scope="module")
 def noisy(tmp_path_factory):
     ds = _dataset(False)
-    result = de.evaluate_dataset(ds, course_m=0.05)
+    result = de.evaluate(ds, course_m=0.05)
     out = tmp_path_factory.mktemp("noisy")
     report_dataset_evaluation(out, result)
     return ds, result, out
@@ -105,7 +105,7 @@ def test_a_moving_start_is_followed_from_the_truth_velocity_and_lost_from_zero(n
         return dict(s, v0=np.zeros(3), v0_sigma=1e-3) if dr.id == "test-11" else s
 
     monkeypatch.setattr(de, "_start", at_zero)
-    zero = de.evaluate_dataset(ds, course_m=0.05)
+    zero = de.evaluate(ds, course_m=0.05)
     (zf,) = [p for p in _aided(zero, "test-11") if p.estimate == "forward"]
     tz, ez = before_first_step(zf)
     np.testing.assert_allclose(ez, start["speed_mps"] * (tz - zf.time[0]), atol=0.03)
@@ -186,7 +186,7 @@ def test_nis_and_coverage_equal_a_numpy_computation_from_the_track_files(noisy):
 
 def test_a_recording_without_rest_that_starts_at_rest_leaves_the_aided_filter_out():
     extra = [dict(_run(12, "test", 5.0, noise_free=False, moving=True), initial="rest")]
-    result = de.evaluate_dataset(_dataset(False, extra), course_m=0.05)
+    result = de.evaluate(_dataset(False, extra), course_m=0.05)
     assert not _aided(result, "test-12")
     (why,) = [x for x in result.left_out if x["id"] == "test-12" and x["what"] == AIDED]
     assert "without a rest window" in why["why"]
@@ -202,8 +202,8 @@ def _corrupted(dr):
 def test_corrupting_every_test_recording_leaves_the_aided_tunables_unchanged(tmp_path):
     ds = write_foreign_dataset(tmp_path / "groups", LAYOUTS["groups"], seed=2)
     data = load_dataset(ds.manifest)
-    clean = de.evaluate_dataset(data)
-    dirty = de.evaluate_dataset(Dataset(name=data.name, source=data.source,
+    clean = de.evaluate(data)
+    dirty = de.evaluate(Dataset(name=data.name, source=data.source,
                                         recordings=[_corrupted(dr) if dr.split == "test" else dr
                                                     for dr in data.recordings]))
     chosen = [e for e in clean.choices["aided"] if e["tunables"] is not None]

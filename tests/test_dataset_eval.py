@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from morpi_filters.cli import main
-from morpi_filters.dataset_eval import evaluate_dataset
+from morpi_filters.dataset_eval import evaluate
 from morpi_filters.foreign import LAYOUTS, write_foreign_dataset
 from morpi_filters.manifest import Dataset, load_dataset
 
@@ -26,7 +26,7 @@ def _given_rest(manifest: Path) -> None:
 def test_noise_free_ins_paths_lie_within_a_centimetre_of_the_truth_track(tmp_path):
     ds = write_foreign_dataset(tmp_path / "nf", LAYOUTS["truth-ned"], noise_free=True)
     _given_rest(ds.manifest)
-    result = evaluate_dataset(load_dataset(ds.manifest), course_m=0.05)
+    result = evaluate(load_dataset(ds.manifest), course_m=0.05)
     ins = [p for p in result.paths if p.method.startswith("INS")]
     assert len(ins) == 2 * 2 * 3                  # two recordings, two INS, three calibrations
     worst = max(p.metrics["path_rmse_m"] for p in ins)
@@ -38,7 +38,7 @@ def test_noise_free_runs_that_start_moving_take_their_velocity_from_the_truth_tr
     ds = write_foreign_dataset(tmp_path / "nf", LAYOUTS["moving-start"], noise_free=True)
     data = load_dataset(ds.manifest)
     assert {dr.initial for dr in data.recordings} == {"truth"}
-    result = evaluate_dataset(data)
+    result = evaluate(data)
     assert len(result.paths) == 2 * 2 and all(s["speed_mps"] > 0.3 for s in result.starts)
     worst = max(p.metrics["path_rmse_m"] for p in result.paths)
     assert worst < 0.01, worst
@@ -98,7 +98,7 @@ def test_a_recording_without_rest_gets_raw_data_only_and_is_listed(tmp_path):
     ds = write_foreign_dataset(tmp_path / "moving", LAYOUTS["moving-start"], seed=1)
     data = load_dataset(ds.manifest)
     assert {dr.rest for dr in data.recordings} == {"none"}
-    result = evaluate_dataset(data)
+    result = evaluate(data)
     assert result.paths and {p.calibration for p in result.paths} == {"RD"}
     listed = {x["id"]: x for x in result.left_out if x["what"] == "GC, GAC"}
     assert set(listed) == {dr.id for dr in data.recordings}
@@ -115,8 +115,8 @@ def test_corrupting_every_test_recording_leaves_the_choices_unchanged(tmp_path):
     ds = write_foreign_dataset(tmp_path / "groups", LAYOUTS["groups"], seed=2)
     data = load_dataset(ds.manifest)
     assert {dr.split for dr in data.recordings} == {"train", "test"}
-    clean = evaluate_dataset(data)
-    dirty = evaluate_dataset(Dataset(name=data.name, source=data.source,
+    clean = evaluate(data)
+    dirty = evaluate(Dataset(name=data.name, source=data.source,
                                      recordings=[_corrupted(dr) if dr.split == "test" else dr
                                                  for dr in data.recordings]))
     assert any(g["mean"] is not None for g in clean.choices["gains"])
@@ -145,7 +145,7 @@ def test_a_truth_track_that_never_moves_leaves_its_recording_out_with_the_reason
     still = {"time": t, "f": np.tile([0.0, 0.0, 9.81], (400, 1)), "omega": np.zeros((400, 3)),
              "motion": "straight", "rest": [0.0, 1.0],
              "truth": TruthTrack(time=t[::10], position=np.zeros((40, 3)))}
-    result = evaluate_dataset(Dataset.from_arrays("bench", [dict(still, id="a")]))
+    result = evaluate(Dataset.from_arrays("bench", [dict(still, id="a")]))
     assert result.paths == ()
     assert [(x["id"], x["what"]) for x in result.left_out] == [("a", "every method")]
     assert "never moves" in result.left_out[0]["why"]
@@ -175,7 +175,7 @@ def test_the_rule_searched_on_the_train_runs_beats_the_phones_rule_on_the_test_r
 
     data = Dataset.from_arrays("sway", [_sine_recording(i, "train" if i % 3 else "test", "g", period=0.8,
                                                         amplitude=0.06, speed=1.6) for i in range(1, 7)])
-    searched = evaluate_dataset(data)
+    searched = evaluate(data)
     rule = searched.choices["rule"]["MoRPI-A"]
     assert searched.choices["held_out"]["used"] == "recording"
     assert rule["from"].startswith("field.select_config") and rule["runs_scored"]["recording"] == 4
@@ -183,7 +183,7 @@ def test_the_rule_searched_on_the_train_runs_beats_the_phones_rule_on_the_test_r
     # the same evaluation with the phones' rule (the fallback when nothing scores)
     monkeypatch.setattr(fd, "select_config",
                         lambda *a, **k: fd.Selection("x", st.StepConfig(), float("inf"), (), 0))
-    phones = evaluate_dataset(data)
+    phones = evaluate(data)
     assert phones.choices["rule"]["MoRPI-A"]["from"].startswith("steps.DEFAULT_CONFIGS")
     assert phones.choices["rule"]["MoRPI-A"]["config"]["ends"] == st.DEFAULT_CONFIGS["MoRPI-A"].ends
     got, base = _test_end_errors(searched, "MoRPI-A"), _test_end_errors(phones, "MoRPI-A")
@@ -195,7 +195,7 @@ def test_a_dataset_without_train_recordings_falls_back_to_the_phones_rule():
     from morpi_filters import steps as st
 
     data = Dataset.from_arrays("bench", [_sine_recording(i, "none", "g") for i in (1, 2)])
-    result = evaluate_dataset(data)
+    result = evaluate(data)
     for m in ("MoRPI-A", "MoRPI-G"):
         c = result.choices["rule"][m]
         assert c["from"].startswith("steps.DEFAULT_CONFIGS") and "no train recording" in c["from"]
@@ -212,7 +212,7 @@ def test_the_leave_one_group_out_score_is_the_numpy_computation_from_the_steps(t
 
     ds = write_foreign_dataset(tmp_path / "groups", LAYOUTS["groups"], seed=2)
     data = load_dataset(ds.manifest)
-    result = evaluate_dataset(data)
+    result = evaluate(data)
     assert result.choices["held_out"]["used"] == "group"
     assert [s["group"] for s in result.choices["train_sets"]] == ["sine-1.0m", "sine-1.5m"]
     fdata = fd.FieldData(data)

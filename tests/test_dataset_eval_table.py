@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from morpi_filters.cli import main
-from morpi_filters.dataset_eval import METRICS, ROW_LABELS, evaluate, evaluate_dataset
+from morpi_filters.dataset_eval import METRICS, ROW_LABELS, evaluate
 from morpi_filters.errors import ParameterError
 from morpi_filters.foreign import LAYOUTS, write_foreign_dataset
 from morpi_filters.manifest import load_dataset
@@ -98,7 +98,7 @@ def test_evaluate_takes_a_manifest_path_or_a_dataset_and_nothing_else(tmp_path):
     ds = write_foreign_dataset(tmp_path / "data", LAYOUTS["truth-ned"], seed=1)
     by_path = evaluate(str(ds.manifest)).to_json()
     by_dataset = evaluate(load_dataset(ds.manifest), workers=2).to_json()
-    direct = evaluate_dataset(load_dataset(ds.manifest)).to_json()
+    direct = evaluate(load_dataset(ds.manifest)).to_json()
     assert json.dumps(by_path, sort_keys=True) == json.dumps(by_dataset, sort_keys=True) \
         == json.dumps(direct, sort_keys=True)
     with pytest.raises(ParameterError, match="dataset: dict, expected a Dataset or the path of a manifest"):

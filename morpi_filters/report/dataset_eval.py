@@ -146,7 +146,7 @@ def report_dataset_evaluation(out, result: DatasetEvaluation) -> SectionSummary:
     out : path-like
         Staging folder.
     result : DatasetEvaluation
-        What :func:`morpi_filters.dataset_eval.evaluate_dataset` found.
+        What :func:`morpi_filters.dataset_eval.evaluate` found.
 
     Returns
     -------
