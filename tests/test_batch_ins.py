@@ -136,7 +136,8 @@ def test_3d_kernel_may_write_over_the_x_and_y_rates():
 
 def test_double_integral_by_groups_matches_the_plain_recursion():
     # kept rows close together, one gap far longer than a group, and the last row; the grouped
-    # prefix sums must give the bits of the same formula over the whole array, and the step by
+    # prefix sums must give the same formula over the whole array within the rounding of its sums (another
+    # order of the same running sums: Higham's bound, oracles.sums.prefix_bound), and the step by
     # step rule of a linear in each interval (v += h (a_k + a_k+1) / 2, p += v_k h + h^2 (a_k / 3 +
     # a_k+1 / 6)) to rounding
     rng = np.random.default_rng(3)
@@ -156,14 +157,24 @@ def test_double_integral_by_groups_matches_the_plain_recursion():
     whole[keep > 0] += a[kk] / 6
     whole[keep > 0] -= a[0] * (kk / 2 + 1 / 6)[:, None]
     whole *= h * h
-    assert np.array_equal(got, whole)
+    # P_k and the sums of P over the kept segments in any order: twice gamma(n) of the sums of |a| and |P| (a
+    # P's own error adds to each later sum of P); the three corrections and the scaling round a few times
+    from oracles.sums import U, gamma
+    abs_p = np.abs(P)
+    bound = np.zeros((keep.size, R))
+    bound[keep > 0] = (2.0 * gamma(n) * (np.cumsum(abs_p, axis=0)[kk - 1]
+                                         + np.cumsum(np.cumsum(np.abs(a), axis=0), axis=0)[kk - 1])
+                       + 8.0 * U * (np.abs(Q) + abs_p[kk] + np.abs(a[kk]) / 6 + np.abs(a[0]) * (kk / 2 + 1 / 6)[:, None]))
+    bound *= h * h * (1.0 + 4.0 * U)
+    assert np.all(np.abs(got - whole) <= bound)
     v, p, ref = np.zeros(R), np.zeros(R), np.zeros((n, R))
     for k in range(n - 1):
         p = p + v * h + h * h * (a[k] / 3 + a[k + 1] / 6)
         v = v + h * (a[k] + a[k + 1]) / 2
         ref[k + 1] = p
     np.testing.assert_allclose(got, ref[keep], rtol=1e-10, atol=1e-12)
-    # planes of one array (any strides) give each plane's own result
+    # planes of one array (any strides) give each plane's own result: the same loop on the same values, so
+    # exact whatever numpy does
     planes = np.stack([a, 2 * a, -a], axis=1)                 # (n, 3, R)
     got3 = bi.double_integral_at(planes, h, keep)
     assert np.array_equal(got3[:, 0], got) and np.array_equal(got3[:, 2], bi.double_integral_at(-a, h, keep))
