@@ -9,22 +9,21 @@
   :func:`sort_head`), what :func:`morpi_filters.calibration.rest_measures` reads of the first
   seconds of a recording: each block's noise sigma (the robust sigma of the first differences,
   :func:`morpi_filters.calibration.noise_sigma`) and spread, the lower quartile of the sigmas and
-  the median of the quietest block, with numpy's arithmetic in numpy's order (on a C-ordered array
-  of 2 to 7 columns every sum of that code adds its terms one after the other from 0.0), so its bits;
+  the median of the quietest block (a deviation within the tie margin of the 90 % quantile is kept,
+  so rounding cannot move it across the cut; the numpy form is ``tests/oracles/noise.py``);
 - :func:`window_spread`, the moving spread and mean of the gyro on the uniform grid that
   :func:`morpi_filters.steps.activity_span` and ``field_aided.still_spans`` threshold;
 - :func:`motion_flags`, the samples :func:`morpi_filters.calibration.detect_rest` takes as
   moving: a gyro deviation or spread, or an accelerometer spread, above its threshold on any axis;
 - :func:`increments`, the integral of sampled signals over each interval of the real time grid
   (the corrected trapezoid of :mod:`morpi_filters.strapdown`: 3-point slopes, cubic Hermite
-  interpolant), the element-wise arithmetic in numpy's order, so with numpy's bits, the velocity and
+  interpolant), the element-wise arithmetic in numpy's order, the velocity and
   position they give (:func:`translation`), the attitude increments' coning term (:func:`coning`),
   :func:`running_integral`, the plain trapezoid's running sum, and :func:`time_order`, the check that
   sample times are finite and strictly increasing;
 - :func:`filtfilt`, the zero-phase low-pass of :func:`morpi_filters.steps.lowpass`: the
   forward-backward second-order-sections filter of :func:`scipy.signal.sosfiltfilt` with its
-  default odd padding, each section's update in the order scipy's own loop takes, so the result has
-  scipy's bits;
+  default odd padding, each section's update in the order scipy's own loop takes;
 - :func:`interp`, ``np.interp`` with numpy's arithmetic, for the compiled turn heading below (code
   outside the compiled loops calls ``np.interp`` itself), and :func:`swing_median`, the median heading
   swing of a step rule (``searchsorted`` and ``reduceat`` windows);
@@ -34,14 +33,14 @@
   between the boundaries under each end and heading reading, summed in step order (the rule searches
   read thousands of rules per run);
 - :func:`loo_errors`, the leave-one-out end-point errors the rule searches score
-  (``field._loo_errors``), the gains summed in order (the search's choices are tie-tolerant,
+  (``field.loo_errors``), the gains summed in order (the search's choices are tie-tolerant,
   ``choice.choose``, so the numpy form is met within rounding, not bit for bit).
 
 numba is imported on the first call (:func:`compiled`, through :func:`jit_functions`, which also
 compiles the loops of ``_aided_kernel``), not with the package, and its machine code is cached on disk
 (so no function here calls itself: numba's cache does not hold recursive functions). The functions run
 as plain Python too (slowly): the tests compare both, and hold them to the numpy or scipy form they
-restate, bit for bit where the bits are the same.
+restate within the rounding their sums and filters allow, each bound written beside it (``tests/oracles``).
 """
 from __future__ import annotations
 
@@ -270,7 +269,7 @@ def filtfilt(sos, zi, pad, x, out):
 
 def interp(x, xp, fp, out):
     """``out[:] = np.interp(x, xp, fp)`` for `xp` (m,) strictly increasing, with numpy's arithmetic
-    (``slope * (x - xp[j]) + fp[j]``, the far end's form when that is NaN), so numpy's bits."""
+    (``slope * (x - xp[j]) + fp[j]``, the far end's form when that is NaN)."""
     m = xp.shape[0]
     for i in range(x.shape[0]):
         v = x[i]
@@ -355,7 +354,7 @@ def _window_mean(a, b, t, psi, integral):
 def turn_values(bt, psi_b, threshold, per_period, x, t, psi, integral, out):
     """``steps.turn_heading(x, t, psi, steps.turn_stretches(bt, psi_b, threshold, per_period),
     integral=integral)`` into `out` (like `x`), comparison for comparison and with numpy's
-    arithmetic (:func:`interp`), so its bits; returns the number of turning stretches.
+    arithmetic (:func:`interp`); returns the number of turning stretches.
 
     A full period's heading change ``psi_b[j + per_period] - psi_b[j]`` above `threshold` in
     magnitude turns; turning windows that overlap or touch merge, widen by a period on each side

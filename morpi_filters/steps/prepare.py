@@ -480,7 +480,7 @@ def _grid_rate(rec, cutoff_hz, grid_hz) -> float:
 
 
 def _percentiles(x, qs) -> tuple:
-    """``np.percentile(x, qs)`` of a finite 1-D `x` (linear method) with numpy's arithmetic, so its bits: the
+    """``np.percentile(x, qs)`` of a finite 1-D `x` (linear method) with numpy's arithmetic: the
     order statistics from one partition, without the general function's set-up."""
     n = x.shape[0]
     at = []
