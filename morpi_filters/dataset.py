@@ -1121,15 +1121,18 @@ def _fast_columns(blocks, capacity: int | None, order: list[int], lay: ColumnLay
     group_idx = [order[p:p + 3] for p in range(first, len(order), 3)]
     group_cols = [present[p:p + 3] for p in range(first, len(present), 3)]
     limits = [_limit(lay.columns[cols[0]]) for cols in group_cols]
+    # a short row's missing cells are NaN, which the limits refuse in a column read: the fields are counted
+    # only when some column is left unread
+    counted = lenient and len(order) < width
     if capacity is None:
         (block,) = blocks
-        rows = _read_rows(block, width, lenient)
+        rows = _read_rows(block, width, lenient, counted)
         if rows is None:
             return None
         parsed, capacity = iter([rows]), rows.shape[0]
         del rows
     else:
-        parsed = (_read_rows(block, width, lenient) for block in blocks)
+        parsed = (_read_rows(block, width, lenient, counted) for block in blocks)
     time = np.empty(capacity) if pos_t is not None else None
     groups = [np.empty((capacity, 3)) for _ in group_idx]
     n, prev_t, t_first = 0, None, None
@@ -1168,15 +1171,17 @@ def _fast_columns(blocks, capacity: int | None, order: list[int], lay: ColumnLay
     return tuple(out)
 
 
-def _read_rows(block: bytes, width: int = len(COLUMNS), lenient: bool = False) -> np.ndarray | None:
+def _read_rows(block: bytes, width: int = len(COLUMNS), lenient: bool = False,
+               counted: bool = False) -> np.ndarray | None:
     """The rows of a block of data lines as float64, shape (m, width) (m = 0 for blank lines); None when the
     bytes are not plain (:func:`_plain_block`), pandas' C reader refuses them (a cell that is not a
-    number, a long row) or they are not `width` columns (`lenient`: a line of another width)."""
+    number, a long row) or they are not `width` columns (`counted`: a line of another width,
+    :func:`_fields_per_line`). `lenient` skips the spaces that start a field."""
     import warnings
 
     import pandas as pd
 
-    if not _plain_block(block) or (lenient and not _fields_per_line(block, width)):
+    if not _plain_block(block) or (counted and not _fields_per_line(block, width)):
         return None
     if not block or block.isspace():
         return np.empty((0, width))

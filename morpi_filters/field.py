@@ -1356,8 +1356,12 @@ def loo_errors(truth, g, u, keep=None) -> np.ndarray:
     """
     n = g.shape[0]
     out = np.empty(n)
-    end = np.ascontiguousarray(np.broadcast_to(np.asarray(truth.end_point_m, dtype=float), (n, 2)))
-    dist = np.ascontiguousarray(np.broadcast_to(np.asarray(truth.distance_m, dtype=float), (n,)))
+    end, dist = np.asarray(truth.end_point_m, dtype=float), np.asarray(truth.distance_m, dtype=float)
+    # a train set's arrays are already one row per run (the rule searches call this thousands of times)
+    if end.shape != (n, 2) or not end.flags.c_contiguous:
+        end = np.ascontiguousarray(np.broadcast_to(end, (n, 2)))
+    if dist.shape != (n,) or not dist.flags.c_contiguous:
+        dist = np.ascontiguousarray(np.broadcast_to(dist, (n,)))
     keep = np.ones(n, dtype=bool) if keep is None else keep
     m = _signal_kernel.compiled()["loo_errors"](g, u, keep, end, dist, out)
     return out[:m]

@@ -850,3 +850,49 @@ def test_time_from_first_counts_a_unix_clock_from_its_first_row(tmp_path):
     assert time[0] == 0.0 and time[1] == 0.01 and time[-1] == 0.49
     for a, b in zip(ds._fast_parse(p, lay), ds._parse(p, lay)):
         assert np.array_equal(a, b)
+
+
+def test_a_layout_reading_every_column_takes_only_what_the_line_by_line_reading_reads_the_same(tmp_path):
+    """Seeded edits of a file whose every column is read (no trailing comma, no column left over): short and
+    long rows, empty cells and blank lines; whenever the C reader takes a file, the precise path reads the same
+    bits, and when the precise path refuses it, the C reader did not take it."""
+    from morpi_filters import dataset as ds
+    from morpi_filters.errors import DataError as DE
+
+    rng = np.random.default_rng(20261127)
+    rows = [[0.01 * k, 0.1, -0.2, 9.8, 0.01, -0.02, 0.3] for k in range(60)]
+    base = _logger_text(rows, extra=False, trailing=False).splitlines()
+    lay = _logger_layout()
+    edits = [
+        lambda c: c[:-1],                                  # a short row (the last field read is missing)
+        lambda c: c[:2] + c[3:],                           # a short row (a middle field missing)
+        lambda c: c[:3] + [""] + c[4:],                    # an empty cell
+        lambda c: c + [""],                                # a long row (a trailing comma)
+        lambda c: c + [" 1.0"],                            # a long row
+        lambda c: [f' "{x.strip()}"' for x in c],          # quoted after a blank
+        lambda c: c[:-1] + [" "],                          # a blank last cell
+    ]
+    taken = refused = 0
+    for case in range(200):
+        lines = list(base)
+        for _ in range(int(rng.integers(1, 3))):
+            k = int(rng.integers(1, len(lines)))
+            kind = int(rng.integers(len(edits) + 1))
+            if kind == len(edits):
+                lines.insert(k, " " * int(rng.integers(0, 3)))     # a blank line
+            else:
+                lines[k] = ",".join(edits[kind](lines[k].split(",")))
+        p = tmp_path / f"f{case}.csv"
+        p.write_text("\n".join(lines) + "\n")
+        fast = ds._fast_parse(p, lay)
+        try:
+            precise = ds._parse(p, lay)
+        except DE:
+            refused += 1
+            assert fast is None, case
+            continue
+        if fast is not None:
+            taken += 1
+            for a, b in zip(fast, precise):
+                assert a.shape == b.shape and np.array_equal(a.view(np.int64), b.view(np.int64)), case
+    assert taken >= 20 and refused >= 20, (taken, refused)

@@ -4,6 +4,7 @@ from __future__ import annotations
 import json
 import re
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -696,4 +697,12 @@ def test_leave_one_out_errors_kernel_is_the_numpy_form_within_the_rounding_of_th
             if n <= 300:
                 out = np.empty(n)
                 m = plain.loo_errors(g, u, keep, np.tile(truth.end_point_m, (n, 1)), np.full(n, truth.distance_m), out)
+                np.testing.assert_array_equal(out[:m], got)
+            # each run with its own end point and distance (a train set's arrays; a column-major copy alike)
+            ends, dists = rng.normal(size=(n, 2)) * 30.0, rng.uniform(1.0, 50.0, n)
+            for e in (ends, np.asfortranarray(ends)):
+                own = SimpleNamespace(end_point_m=e, distance_m=dists)
+                got = fd.loo_errors(own, g, u, None if keep.all() else keep)
+                out = np.empty(n)
+                m = plain.loo_errors(g, u, keep, ends, dists, out)
                 np.testing.assert_array_equal(out[:m], got)
