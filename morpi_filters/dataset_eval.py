@@ -958,54 +958,8 @@ def _ablation_means(runs) -> tuple:
 
 
 def _evaluate(dataset: Dataset, *, course_m: float = COURSE_M, workers: int | None = None,
-                     progress=None, ablation: bool = True) -> DatasetEvaluation:
-    """Every method and calibration on every recording of a manifest dataset, against its truth.
-
-    Parameters
-    ----------
-    dataset : Dataset
-        From :func:`morpi_filters.manifest.load_dataset` or
-        :meth:`~morpi_filters.manifest.Dataset.from_arrays`.
-    course_m : float
-        Horizontal distance over which the truth's course gives the heading
-        of a track recording that starts at rest [m].
-    workers : int, optional
-        Threads that evaluate the recordings (default 1); the result does
-        not depend on it.
-    progress : morpi_filters.parallel.Progress, optional
-        Counts one run per recording.
-    ablation : bool
-        Also run the aided filter's ablation (module docstring) on the
-        recordings the group means read.
-
-    Returns
-    -------
-    DatasetEvaluation
-        The estimates with their metrics, the train-only choices, the group
-        means, the ablation and what was left out (module docstring).
-
-    Raises
-    ------
-    ParameterError
-        A bad `course_m`, `workers` or `ablation`. (A recording whose truth track never
-        moves `course_m` from its start, with ``initial = "rest"``, is listed
-        in ``left_out`` and not evaluated.)
-
-    Examples
-    --------
-    A level robot at rest for 2 s, then 1 m/s^2 forward for 2 s (2 m), with
-    its route:
-
-    >>> t = np.arange(401) / 100.0
-    >>> from morpi_filters.units import G0
-    >>> f = np.tile([0.0, 0.0, G0], (401, 1)); f[t > 2.0, 0] = 1.0
-    >>> ds = Dataset.from_arrays("bench", [{"id": "a", "time": t, "f": f, "omega": np.zeros((401, 3)),
-    ...     "motion": "straight", "rest": [0.0, 1.5],
-    ...     "truth": RouteTruth(distance_m=2.0, end_point_m=np.array([2.0, 0.0]))}])
-    >>> r = _evaluate(ds)
-    >>> [(p.method, p.calibration) for p in r.paths][:3], round(r.paths[0].metrics["end_error_m"], 2)
-    ([('INS-3D', 'RD'), ('INS-3D', 'GC'), ('INS-3D', 'GAC')], 0.01)
-    """
+              progress=None, ablation: bool = True) -> DatasetEvaluation:
+    """:func:`evaluate` of a loaded dataset (its parameters and result)."""
     if not (isinstance(course_m, (int, float)) and math.isfinite(course_m) and course_m > 0):
         raise ParameterError(f"course_m: {course_m!r}, expected a positive distance in metres")
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
