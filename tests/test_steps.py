@@ -558,7 +558,30 @@ def test_interp_and_swing_kernels_are_numpys_within_rounding():
             assert (np.isnan(want) and np.isnan(got)) or abs(got - want) <= 6.0 * U * abs(want), (a.size, got, want)
 
 
-def test_turn_values_kernel_is_turn_heading_of_turn_stretches_bit_for_bit():
+def _turn_heading_bound(t, psi, integral, stretches) -> float:
+    """How far two correct evaluations of turn_heading may differ: each linear interpolation (np.interp against
+    the kernel's own) is within 4 eps of its values' magnitude (a subtraction, a product, a division and an
+    addition, each correctly rounded: Higham, lemma 3.1), of psi (`dp`) or of its running integral (`dc`). A
+    turn is a difference of two window means (each two interpolations of the integral over the window, or one
+    of psi for an empty window); the share done of a turn is (psi(x) - pa) / (pb - pa) clipped to [0, 1], three
+    interpolations over |pb - pa|; the clip only narrows a difference."""
+    eps = np.finfo(float).eps
+    dp, dc = 4 * eps * np.max(np.abs(psi)), 4 * eps * np.max(np.abs(integral))
+
+    def mean(x0, x1):
+        if x1 - x0 <= 1e-9:
+            return float(np.interp(x0, t, psi)), dp
+        return float((np.interp(x1, t, integral) - np.interp(x0, t, integral)) / (x1 - x0)), 2 * dc / (x1 - x0)
+
+    total = 0.0
+    for before, a, b, after in stretches:
+        (m1, e1), (m0, e0) = mean(b, after), mean(before, a)
+        pa, pb = np.interp([a, b], t, psi)
+        total += e1 + e0 + (abs(m1 - m0) * 3 * dp / abs(pb - pa) if pb != pa else 0.0)
+    return total
+
+
+def test_turn_values_kernel_is_turn_heading_of_turn_stretches_within_the_rounding_of_interpolation():
     from morpi_filters import _signal_kernel
 
     plain = plain_kernels()
@@ -581,10 +604,11 @@ def test_turn_values_kernel_is_turn_heading_of_turn_stretches_bit_for_bit():
             stretches = st.turn_stretches(bt, psi_b, threshold, per_period)
             stretches_seen.add(min(len(stretches), 3))
             want = st.turn_heading(x, t, psi, stretches, integral=integral)
+            bound = _turn_heading_bound(t, psi, integral, stretches)
             for f in (_signal_kernel.compiled()["turn_values"], plain.turn_values):
                 out = np.empty(x.shape[0])
                 assert f(bt, psi_b, threshold, per_period, x, t, psi, integral, out) == len(stretches)
-                np.testing.assert_array_equal(out, want)
+                np.testing.assert_allclose(out, want, rtol=0.0, atol=bound)
     assert stretches_seen == {0, 1, 2, 3}                           # none, one, several stretches
     # a stretch that starts and ends on the same heading (pb == pa) with a turn around it: the turn is
     # taken whole at the stretch's end, which is one of the edges read
@@ -600,7 +624,8 @@ def test_turn_values_kernel_is_turn_heading_of_turn_stretches_bit_for_bit():
     for f in (_signal_kernel.compiled()["turn_values"], plain.turn_values):
         out = np.empty(7)
         f(bt, psi_b, 1.5, 1, bt, tt, pp, integral, out)
-        np.testing.assert_array_equal(out, want)
+        np.testing.assert_allclose(out, want, rtol=0.0, atol=_turn_heading_bound(tt, pp, integral, stretches))
+        assert out[4] == 0.0                                    # before the stretch's end: exactly none of the turn
 
 
 def test_window_spread_kernel_is_the_numpy_running_sums_within_their_rounding():
