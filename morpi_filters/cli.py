@@ -260,7 +260,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="also write the JSON result here (an existing file only if morpi wrote it)")
     s.add_argument("--force", action="store_true", help="let --json overwrite a file morpi did not write")
     s.add_argument("--workers", metavar="N", type=_Number(True, 1, MAX_WORKERS, "threads"), default=None,
-                   help="threads that evaluate the recordings (default 1; the results do not depend on it)")
+                   help="threads that evaluate the recordings and tune the aided filter (default: the cores "
+                        "the process may use; the results do not depend on it)")
 
     s = sub.add_parser("tables", help="every table of the paper on the recordings, ours beside the paper's")
     data_arg(s)

@@ -970,7 +970,11 @@ def _evaluate(dataset: Dataset, *, course_m: float = COURSE_M, workers: int | No
     over = "test" if any(dr.split == "test" for dr in dataset.recordings) else "all"
     data = fd.FieldData(dataset, course_m=float(course_m))
     configs, gains, choices, trained = _choose(data, dataset)
-    chosen, choices["aided"] = _aided_choices(data, dataset, configs, trained, workers or 1)
+    if workers is None:
+        from .parallel import available_cores
+
+        workers = available_cores()
+    chosen, choices["aided"] = _aided_choices(data, dataset, configs, trained, workers)
 
     def prepare(dr):
         try:
@@ -978,7 +982,7 @@ def _evaluate(dataset: Dataset, *, course_m: float = COURSE_M, workers: int | No
         except MorpiError as exc:           # no start to align with: the recording is listed, not evaluated
             return {"error": f"{where}: recording {dr.id!r}: {exc}"}
 
-    with ThreadPoolExecutor(max_workers=workers or 1) as pool:
+    with ThreadPoolExecutor(max_workers=workers) as pool:
         prepared = dict(zip((dr.id for dr in dataset.recordings), pool.map(prepare, dataset.recordings)))
 
         def one(dr):
@@ -1053,7 +1057,8 @@ def evaluate(dataset, *, course_m: float = COURSE_M, workers: int | None = None,
         Horizontal distance over which the truth's course gives the heading
         of a track recording that starts at rest [m].
     workers : int, optional
-        Threads that evaluate the recordings (default 1); the result does
+        Threads that evaluate the recordings and run the aided filter's
+        tuning (default: the cores the process may use); the result does
         not depend on it.
     progress : morpi_filters.parallel.Progress, optional
         Counts one run per recording.
