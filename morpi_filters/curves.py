@@ -670,10 +670,12 @@ def compute_curves(case: CurveCase, times=DEFAULT_TIMES, runs=MC_RUNS, rng=None,
 def _field_points(source, data=None):
     """End-point errors of the field INS straight-line runs, or why there are none.
 
-    Each recording of ``s8/line_dataset`` is calibrated (GAC, the paper's best
-    for INS) and integrated by the 3D and 2D strapdown over the robot's motion,
-    as the field evaluation does (:class:`morpi_filters.field.FieldData`),
-    and compared with the route's end point.
+    Each recording the dataset's manifest labels straight along one straight
+    segment (:meth:`morpi_filters.field.FieldData.straight_line_recordings`)
+    is calibrated (GAC, the paper's best for INS) and integrated by the 3D and
+    2D strapdown over the robot's motion, as the field evaluation does
+    (:class:`morpi_filters.field.FieldData`), and compared with its route's
+    end point.
 
     Returns
     -------
@@ -682,28 +684,28 @@ def _field_points(source, data=None):
     """
     if source is None or source.root is None:
         return {}, "no data source configured, so no field end points are drawn"
-    from . import dataset as ds
     from .field import FieldData
 
     data = data if data is not None else FieldData(source.root)
-    recs = data.recordings("s8", "line_dataset", None)
+    recs = data.straight_line_recordings()
     if not recs:
-        return {}, "the dataset has no straight-line (s8/line_dataset) recordings"
-    truth = ds.route("line_dataset")
-    pts, skipped = {"INS-3D": [], "INS-2D": []}, 0
+        return {}, "the dataset has no straight-line recordings (motion = \"straight\" along one straight segment)"
+    pts, skipped, lengths = {"INS-3D": [], "INS-2D": []}, 0, set()
     for rec in recs:
+        end_point, distance = data.run_truth(rec)
         for key in ("INS-3D", "INS-2D"):
             try:
                 res = data.ins(rec, "GAC", key)
             except MorpiError:
                 skipped += 1
                 continue
+            lengths.add(distance)
             end = np.asarray(res.position)[-1, :2]
-            pts[key].append((float(res.time[-1] - res.time[0]), float(np.linalg.norm(end - truth.end_point_m))))
+            pts[key].append((float(res.time[-1] - res.time[0]), float(np.linalg.norm(end - end_point))))
     if not pts["INS-3D"]:
-        return {}, "no straight-line (s8/line_dataset) recording of the dataset could be integrated"
-    note = (f"{len(pts['INS-3D'])} straight-line recordings ({truth.distance_m:g} m, GAC calibration, INS over the "
-            f"robot's motion as in the tables section); end-point error against duration"
+        return {}, "no straight-line recording of the dataset could be integrated"
+    note = (f"{len(pts['INS-3D'])} straight-line recordings ({', '.join(f'{d:g}' for d in sorted(lengths))} m, GAC "
+            f"calibration, INS over the robot's motion as in the tables section); end-point error against duration"
             + (f"; {skipped} INS runs skipped (no rest or no motion found)" if skipped else "")
             + ". MoRPI runs are compared per table cell below")
     return pts, note

@@ -607,6 +607,22 @@ class FieldData:
         return TrainSet(group, tuple(self.relpath(r) for r in runs), tuple(runs),
                         np.array(ends, dtype=float).reshape(-1, 2), np.array(dists, dtype=float))
 
+    def straight_line_recordings(self) -> list:
+        """The recordings the manifest labels ``motion = "straight"`` whose truth is a route along one straight
+        segment (a polyline of two points, or none: start to end point), that load and are no :meth:`problem`,
+        folder by folder (sorted as :meth:`no_rest_lines` lists them), in the manifest's order within one."""
+        from .manifest import RouteTruth
+
+        folders = sorted({(e.phone, e.route, e.split) for e in self._entries if e.motion == "straight"},
+                         key=lambda k: (k[0], k[1], k[2] or ""))
+        out = []
+        for folder in folders:
+            for rec in self.recordings(*folder):
+                truth = self._labels[rec.source].truth
+                if isinstance(truth, RouteTruth) and (truth.polyline_m is None or len(truth.polyline_m) == 2):
+                    out.append(rec)
+        return out
+
     def run_truth(self, rec) -> tuple[np.ndarray, float]:
         """A manifest recording's true end point in the MoRPI estimate's navigation frame [m], shape (2,), and
         its true distance [m].

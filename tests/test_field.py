@@ -278,3 +278,23 @@ def test_an_absolute_peak_height_sees_the_gyro_offset_rd_and_gc_keep_their_own_s
     assert data.prepared(rec, "RD", "MoRPI-G", 2.0).filtered is data.prepared(rec, "GC", "MoRPI-G", 2.0).filtered
     assert tuple(data.step_sums(rec, "RD", "MoRPI-G", plain)[:1]) == tuple(_direct_sums(data, rec, "RD", "MoRPI-G",
                                                                                      plain)[:1])
+
+
+def test_straight_line_recordings_are_what_the_manifest_labels_straight_along_one_segment():
+    # chosen by the manifest's labels (motion, route truth), whatever the groups are called
+    from morpi_filters.manifest import Dataset, RouteTruth
+
+    t = np.arange(600) / 100.0
+    f = np.tile([0.0, 0.0, 9.81], (600, 1))
+    f[t > 3.0, 0] = 0.2
+    one = RouteTruth(distance_m=2.0, end_point_m=np.array([2.0, 0.0]))
+    bent = RouteTruth(distance_m=2.0, end_point_m=np.array([1.0, 1.0]),
+                      polyline_m=np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]]))
+    base = {"time": t, "f": f, "omega": np.zeros((600, 3)), "rest": [0.0, 2.5]}
+    ds = Dataset.from_arrays("labels", [
+        {**base, "id": "a", "group": "robot/hall", "motion": "straight", "truth": one},
+        {**base, "id": "b", "group": "robot/corner", "motion": "straight", "truth": bent},
+        {**base, "id": "c", "group": "robot/sway", "motion": "periodic", "truth": one},
+        {**base, "id": "d", "group": "robot/hall", "motion": "straight", "truth": one}])
+    data = FieldData(ds)
+    assert [data.relpath(r) for r in data.straight_line_recordings()] == ["a", "d"]
