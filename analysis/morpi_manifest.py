@@ -7,7 +7,7 @@ Usage (from the project root)::
 One ``[[recording]]`` per folder of the layout (``<phone>/<route>[/<split>]``), its CSV
 files by a glob relative to the dataset root, in this order: the phones S8, then S6, each
 one's folders by route, then split, so that the groups with train recordings come in the
-order of :data:`morpi_filters.field.SHORT_SETS`. Each folder's group is ``<phone>/<route>``,
+order of the paper's short-route table (:func:`morpi_filters.evaluate.short_route_sets`). Each folder's group is ``<phone>/<route>``,
 its split the folder's (``"none"`` without one), its motion the route's kind, its rest
 detected (``"auto"``), its IMU the phone's (:data:`morpi_filters.units.SENSORS`), its truth
 the route's distance, end point and centre line (:attr:`morpi_filters.dataset.Route.polyline`).

@@ -72,7 +72,7 @@ from . import steps as st
 from .choice import choose
 from .errors import DataError, MissingDataError, MorpiError, ParameterError
 from .field import (
-    MORPI_METHODS, LEVELED, RULES, SHORT_SETS, FieldData, Gain, Selection, held_out_errors, trained_gain,
+    MORPI_METHODS, LEVELED, RULES, FieldData, Gain, Selection, held_out_errors, trained_gain,
     nested_rule_comparison, select_config,
 )
 from .parallel import heap_frozen
@@ -82,6 +82,7 @@ __all__ = [
     "TablesResult", "evaluate_tables", "TablesStudy", "RecordingView", "TrackView", "tables_study",
     "training_gain_spread", "rule_sensitivity", "comparison", "ins_full_span", "ins_leveled", "other_rule",
     "DEVIATION_PP", "check_cells", "dataset_problems", "heading_readings", "turn_reading", "rule_json",
+    "short_route_sets",
 ]
 
 # --------------------------------------------------------------------------- the paper's numbers
@@ -192,6 +193,25 @@ def cell_specs() -> list[CellSpec]:
             route, split, train = "L_shape", "test", ("s6", "short_distance")
         out.append(CellSpec(table, phone, p2p, method, cal, pct, route, split, train))
     return out
+
+
+def short_route_sets(data: FieldData) -> list:
+    """The short-route training sets of the paper's tables: ``(phone, route, p2p_m)`` of each of the dataset's
+    train sets (:meth:`~morpi_filters.field.FieldData.train_sets`, in the manifest's order) that trains a cell of
+    the short-route table (:func:`cell_specs`).
+
+    Parameters
+    ----------
+    data : FieldData
+        The dataset.
+
+    Returns
+    -------
+    list of tuple
+        ``(phone, route, p2p_m)`` per set.
+    """
+    p2p = {s.train: s.p2p_m for s in cell_specs() if s.table == "short_route"}
+    return [(t.phone, t.route, p2p[(t.phone, t.route)]) for t in data.train_sets() if (t.phone, t.route) in p2p]
 
 
 # --------------------------------------------------------------------------- results
@@ -362,7 +382,7 @@ def rule_sensitivity(result: TablesResult) -> list[dict]:
                    "train_difference_se_pp": (float(np.std(d, ddof=1) / np.sqrt(d.size))
                                               if d.size > 1 and np.all(np.isfinite(d)) else None),
                    "cells": []}
-            for phone, route, p2p in SHORT_SETS:
+            for phone, route, p2p in short_route_sets(data):
                 g = trained_gain(data, phone, route, "GC", m, cfg)
                 c = _morpi_cell(data, specs[(phone, p2p, m)], cfg, g)
                 row["cells"].append({"phone": phone, "p2p_m": p2p, "paper_percent": specs[(phone, p2p, m)].paper_percent,
@@ -506,7 +526,7 @@ def evaluate_tables(root, *, include_test: bool = True, configs: dict | None = N
         else:
             selections[m] = joint if joint is not None else select_config(data, m)
     gains = []
-    for (phone, route, _), m, mode in itertools.product(SHORT_SETS, MORPI_METHODS, ("RD", "GC")):
+    for (phone, route, _), m, mode in itertools.product(short_route_sets(data), MORPI_METHODS, ("RD", "GC")):
         g = trained_gain(data, phone, route, mode, m, selections[m].config)
         if g is not None:
             gains.append(g)
@@ -573,7 +593,7 @@ def _alternative_readings(data: FieldData, selections) -> list[dict]:
             cfg = base.with_(heading=h, segment=sg, ends=e)
             row = {"method": m, "calibration": mode, "heading": h, "segment": sg, "ends": e,
                    "selected": cfg == base, "cells": []}
-            for phone, route, p2p in SHORT_SETS:
+            for phone, route, p2p in short_route_sets(data):
                 spec = next(s for s in specs if (s.table, s.phone, s.p2p_m, s.method, s.calibration)
                             == ("short_route", phone, p2p, m, mode))
                 g = trained_gain(data, phone, route, mode, m, cfg)

@@ -23,14 +23,11 @@ from .calibration import NoRestError
 from .choice import choose
 from .errors import DataError, MorpiError, ParameterError
 
-__all__ = ["SHORT_SETS", "HELD_OUT", "COURSE_M", "TrainSet", "RULES", "INS_SPANS", "LEVELED", "HEADING_ORIGINS", "HEADING_SOURCES", "Gain",
+__all__ = ["HELD_OUT", "COURSE_M", "TrainSet", "RULES", "INS_SPANS", "LEVELED", "HEADING_ORIGINS", "HEADING_SOURCES", "Gain",
            "Selection", "Thresholds", "FieldData", "train_thresholds", "fold_thresholds", "select_config", "nested_rule_comparison",
            "READING_GRID", "TUNABLE_GRID", "SWING_MARGIN", "TURN_MARGIN", "SOURCE_SE", "trained_gain",
            "set_gain", "track_course", "check_recordings", "MORPI_METHODS", "train_summary", "loo_errors",
            "held_out_errors", "held_out_score"]
-
-#: Short-route training/test sets: (phone, route, p2p).
-SHORT_SETS = (("s8", "short_distance", 1.0), ("s8", "short_distance_1.5p2p", 1.5), ("s6", "short_distance", 1.0))
 
 #: How a train run is held out of the gain that scores it (:func:`select_config`): with the mean gain of its
 #: set's other runs (leave-one-recording-out), or of the other sets' runs (leave-one-group-out).
@@ -155,9 +152,9 @@ class Thresholds:
 class TrainSet:
     """One train set of the rule search: runs that share a gain, each with its own truth.
 
-    For a MoRPI root, one short-route set of :data:`SHORT_SETS` (the runs share
-    the route's end point and distance); for a manifest dataset, the train
-    recordings with periodic motion of one group.
+    The train recordings with periodic motion of one group of the dataset's
+    manifest (for the MoRPI dataset, a short-route folder such as
+    ``s8/short_distance``, whose runs share the route's end point and distance).
 
     Attributes
     ----------
@@ -171,6 +168,8 @@ class TrainSet:
         estimate (origin at the motion's start, x along the heading there) [m].
     distance_m : ndarray, shape (n,)
         Each run's true travelled distance [m].
+    phone, route : str
+        The group split at its first ``/`` (:class:`FieldData`'s folder).
     """
 
     name: str
@@ -178,6 +177,8 @@ class TrainSet:
     runs: tuple
     end_point_m: np.ndarray
     distance_m: np.ndarray
+    phone: str = ""
+    route: str = ""
 
 
 #: Used when a root has no train runs (no gains either, so no MoRPI cell): the library's defaults.
@@ -583,7 +584,7 @@ class FieldData:
         evaluated (:meth:`recordings`), each with its truth
         (:meth:`run_truth`); a run whose truth track gives no course is left
         out, and a set may be empty. For a MoRPI root (the package's manifest)
-        these are the short-route sets of :data:`SHORT_SETS`, in that order.
+        these are its short-route folders, in the manifest's order.
         """
         out = self._train_summaries.get("train sets")
         if out is None:
@@ -605,7 +606,7 @@ class FieldData:
             ends.append(end)
             dists.append(dist)
         return TrainSet(group, tuple(self.relpath(r) for r in runs), tuple(runs),
-                        np.array(ends, dtype=float).reshape(-1, 2), np.array(dists, dtype=float))
+                        np.array(ends, dtype=float).reshape(-1, 2), np.array(dists, dtype=float), phone, route)
 
     def straight_line_recordings(self) -> list:
         """The recordings the manifest labels ``motion = "straight"`` whose truth is a route along one straight

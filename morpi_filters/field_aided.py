@@ -783,17 +783,15 @@ def _unit_sums(data, rec, mode, method, config, reading, length):
 def _phone_sets(data, phone):
     """The phone's short-route training sets: (truth, train recordings) of those holding train runs."""
     from . import dataset as ds
-    from . import field as fd
 
-    return [(ds.route(route), tset.runs) for (ph, route, _), tset in zip(fd.SHORT_SETS, data.train_sets())
-            if ph == phone and tset.runs]
+    return [(ds.route(tset.route), tset.runs) for tset in data.train_sets() if tset.phone == phone and tset.runs]
 
 
 def period_length(data, phone, mode, method, config, reading) -> float:
     """The period count's half-period length [m]: total train distance over total train half periods.
 
     Over every train run of the phone's short-route training sets
-    (:data:`morpi_filters.field.SHORT_SETS`), the method's steps under
+    (:meth:`morpi_filters.field.FieldData.train_sets`), the method's steps under
     `config` and `mode`. NaN when a train run has no steps or there are none.
 
     Parameters

@@ -245,7 +245,8 @@ def test_the_tables_and_evaluate_with_the_morpi_manifest_agree_where_they_comput
     from morpi_filters import synthetic
     from morpi_filters.dataset_eval import evaluate
     from morpi_filters.evaluate import evaluate_tables
-    from morpi_filters.field import SHORT_SETS, FieldData
+    from morpi_filters.evaluate import cell_specs
+    from morpi_filters.field import FieldData
     from morpi_filters.resources import morpi_manifest
 
     root = synthetic.write_dataset(tmp_path / "ds", seed=3, runs_per_folder=3)
@@ -254,7 +255,8 @@ def test_the_tables_and_evaluate_with_the_morpi_manifest_agree_where_they_comput
     tables = evaluate_tables(root, data=FieldData(root, ins_span="full"), configs=configs, alternatives=False)
     paths = {(p.id, p.method, p.calibration): p for p in ev.paths}
     gains = {(g["group"], g["method"], g["calibration"]): g["mean"] for g in ev.choices["gains"]}
-    assert [s["group"] for s in ev.choices["train_sets"]] == [f"{ph}/{r}" for ph, r, _ in SHORT_SETS]
+    short = dict.fromkeys(f"{s.train[0]}/{s.train[1]}" for s in cell_specs() if s.table == "short_route")
+    assert [s["group"] for s in ev.choices["train_sets"]] == list(short)
     compared = {"MoRPI": 0, "INS-2D": 0, "INS-3D": 0}
     for g in tables.gains:
         assert g.mean == pytest.approx(gains[f"{g.phone}/{g.route}", g.method, g.calibration], rel=1e-12)

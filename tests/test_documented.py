@@ -212,6 +212,7 @@ _NO_EXAMPLE = {
     "evaluate.dataset_problems": "loads every recording of the field dataset",
     "evaluate.heading_readings": "re-evaluates the tables twice on the field dataset",
     "evaluate.turn_reading": "re-evaluates the tables once per heading reading on the field dataset",
+    "evaluate.short_route_sets": "reads the train sets of a FieldData",
 }
 
 

@@ -161,11 +161,11 @@ def test_the_morpi_cells_alone_equal_those_of_the_whole_evaluation(field_root):
         assert a.spec == b.spec and a.runs == b.runs
 
 
-def _loo_by_tracking(data, method, config, sets=fd.SHORT_SETS, drop=()):
+def _loo_by_tracking(data, method, config, sets=None, drop=()):
     """Leave-one-out end-point errors [%] the long way: train_gain on the others, morpi_track on the run."""
     from morpi_filters import steps as st
     errs = []
-    for phone, route, _ in sets:
+    for phone, route, _ in ev.short_route_sets(data) if sets is None else sets:
         truth = ds.route(route)
         recs = [r for r in data.recordings(phone, route, "train") if data.relpath(r) not in drop]
         sl = [data.steps(r, "GC", method, config) for r in recs]
@@ -539,7 +539,7 @@ def test_corrupted_test_recordings_change_no_threshold_window_rule_or_gain(field
     full = ev.evaluate_tables(field_root, alternatives=False)
     bad = ev.evaluate_tables(root, alternatives=False)
     assert bad.data.thresholds == full.data.thresholds
-    for phone, route, _ in fd.SHORT_SETS:
+    for phone, route, _ in ev.short_route_sets(full.data):
         for r0, r1 in zip(full.data.recordings(phone, route, "train"), bad.data.recordings(phone, route, "train")):
             assert full.data.rest_window(r0) == bad.data.rest_window(r1)
             assert full.data.activity(r0) == bad.data.activity(r1)

@@ -796,9 +796,9 @@ def test_the_shipped_morpi_manifest_is_what_its_generator_writes():
 
 def test_the_morpi_manifest_applied_to_a_root_lists_the_catalogues_recordings(tmp_path):
     """Every CSV of the layout in the catalogue's folders, each folder in number order, ids the relative paths;
-    the groups of the train recordings in the order of field.SHORT_SETS."""
+    the groups of the train recordings those that train the paper's short-route table, in its order."""
     from morpi_filters import dataset as mds
-    from morpi_filters.field import SHORT_SETS
+    from morpi_filters.evaluate import cell_specs
     from morpi_filters.manifest import index_dataset
     from morpi_filters.resources import morpi_manifest
 
@@ -818,5 +818,5 @@ def test_the_morpi_manifest_applied_to_a_root_lists_the_catalogues_recordings(tm
         assert r.split == (r.id.split("/")[2] if r.id.count("/") == 3 else "none")
         assert r.motion == ("periodic" if mds.route(route).kind == "periodic" else "straight")
     train = [g for g, split, motion in index.declared if split == "train"]
-    assert train == [f"{phone}/{route}" for phone, route, _ in SHORT_SETS]
+    assert train == list(dict.fromkeys(f"{s.train[0]}/{s.train[1]}" for s in cell_specs() if s.table == "short_route"))
     assert index.latitude_deg == 32.8

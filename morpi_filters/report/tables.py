@@ -9,7 +9,7 @@ from ..evaluate import (
     INS_METHODS, DEVIATION_PP, TABLES, Cell, TablesStudy, rule_json,
 )
 from ..fetch import dataset_identity
-from ..field import MORPI_METHODS, SHORT_SETS
+from ..field import MORPI_METHODS
 from ..outputs import write_json, write_text
 from ..results import SectionSummary
 from . import plots
@@ -385,7 +385,7 @@ def _page(study: TablesStudy, payload, source, figures) -> str:
         lines = []
         for m in MORPI_METHODS:
             parts = []
-            for phone, _, p2p in SHORT_SETS:
+            for phone, p2p in dict.fromkeys((x["phone"], x["p2p_m"]) for r in sens for x in r["cells"]):
                 rng = _sensitivity_range(sens, m, phone, p2p)
                 if rng is not None:
                     parts.append(f"{phone} {p2p:g} m {fmt(rng[0])}–{fmt(rng[1])} %")
