@@ -364,6 +364,7 @@ def rule_sensitivity(result: TablesResult) -> list[dict]:
     data = result.data
     specs = {(s.phone, s.p2p_m, s.method): s for s in cell_specs()
              if s.table == "short_route" and s.calibration == "GC"}
+    sets = short_route_sets(data)
     out = []
     for m in MORPI_METHODS:
         sel = result.selections[m]
@@ -382,7 +383,7 @@ def rule_sensitivity(result: TablesResult) -> list[dict]:
                    "train_difference_se_pp": (float(np.std(d, ddof=1) / np.sqrt(d.size))
                                               if d.size > 1 and np.all(np.isfinite(d)) else None),
                    "cells": []}
-            for phone, route, p2p in short_route_sets(data):
+            for phone, route, p2p in sets:
                 g = trained_gain(data, phone, route, "GC", m, cfg)
                 c = _morpi_cell(data, specs[(phone, p2p, m)], cfg, g)
                 row["cells"].append({"phone": phone, "p2p_m": p2p, "paper_percent": specs[(phone, p2p, m)].paper_percent,
@@ -585,6 +586,7 @@ def _alternative_readings(data: FieldData, selections) -> list[dict]:
     """
     out = []
     specs = cell_specs()
+    sets = short_route_sets(data)
     for m, mode in itertools.product(MORPI_METHODS, ("GC", "RD")):
         base = selections[m].config
         for h, sg, e in itertools.product(st.HEADINGS, st.SEGMENTS, st.ENDS):
@@ -593,7 +595,7 @@ def _alternative_readings(data: FieldData, selections) -> list[dict]:
             cfg = base.with_(heading=h, segment=sg, ends=e)
             row = {"method": m, "calibration": mode, "heading": h, "segment": sg, "ends": e,
                    "selected": cfg == base, "cells": []}
-            for phone, route, p2p in short_route_sets(data):
+            for phone, route, p2p in sets:
                 spec = next(s for s in specs if (s.table, s.phone, s.p2p_m, s.method, s.calibration)
                             == ("short_route", phone, p2p, m, mode))
                 g = trained_gain(data, phone, route, mode, m, cfg)
