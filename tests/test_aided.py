@@ -363,7 +363,8 @@ def test_holm_step_down_matches_a_hand_worked_example():
     # a family of cells: wins before and after the correction (0.003 x 3 = 0.009; 0.03 x 2 = 0.06; 0.2)
     from types import SimpleNamespace
 
-    from morpi_filters.field_aided import PairedDifference, _family
+    from morpi_filters.field_aided import PairedDifference
+    from morpi_filters.field_aided.study import _family
 
     cells = [SimpleNamespace(paired=PairedDifference(m, 0.1, 10, p)) for m, p in
              ((-0.5, 0.03), (-0.9, 0.003), (0.2, 0.2))] + [SimpleNamespace(paired=None)]
@@ -489,7 +490,8 @@ def test_nis_band_is_the_chi_square_of_the_cells_updates():
 
 def test_an_aid_the_filter_does_not_use_has_exactly_zero_effect():
     """Not run: its row is the full filter's, in both read-outs; a used aid must have been run."""
-    from morpi_filters.field_aided import ABLATIONS, _ablation_row, aid_used
+    from morpi_filters.field_aided import ABLATIONS, aid_used
+    from morpi_filters.field_aided.ablation import ablation_row
 
     considered = aided.AidTuning(nhc=False, gain_estimated=False, gain_sigma=0.05)
     assert [n for n in ABLATIONS if not aid_used(n, considered)] == ["non-holonomic", "gain state"]
@@ -497,15 +499,15 @@ def test_an_aid_the_filter_does_not_use_has_exactly_zero_effect():
     assert not aid_used("gain state", considered.with_(gain_estimated=True, gain_sigma=0.0))
     full = (5.213, 5.198)                      # smoothed and forward differ: each column keeps its own
     for name in ("non-holonomic", "gain state"):
-        row = _ablation_row("cell", name, aid_used(name, considered), full)
+        row = ablation_row("cell", name, aid_used(name, considered), full)
         assert row["used"] is False
         assert row["smoothed_percent"] - row["full_percent"] == 0.0
         assert row["forward_percent"] - row["full_forward_percent"] == 0.0
     # without smoothing both read-outs are the forward filter's
-    row = _ablation_row("cell", "smoothing", True, full)
+    row = ablation_row("cell", "smoothing", True, full)
     assert (row["smoothed_percent"], row["forward_percent"]) == (full[1], full[1])
     with pytest.raises(MorpiError, match="used but was not run"):
-        _ablation_row("cell", "steps", True, full)
+        ablation_row("cell", "steps", True, full)
     with pytest.raises(MorpiError, match="expected one of"):
         aid_used("compass", considered)
 
@@ -533,7 +535,8 @@ def test_the_consistent_point_is_chosen_over_a_less_erring_inconsistent_one():
     """Drawn innovations: the least-error candidate expects them 30 times wider than they come (a step dead
     reckoning), the second 6 times narrower, the third's ellipse misses a third of the end points; the fourth
     (the right spread, a larger error) is the only consistent one and is chosen, in every leave-one-out fold."""
-    from morpi_filters.field_aided import MIN_TRAIN_COVERAGE, NIS_BAND, _nis_per_dof, choose_consistent
+    from morpi_filters.field_aided import MIN_TRAIN_COVERAGE, NIS_BAND, choose_consistent
+    from morpi_filters.field_aided.tuning import _nis_per_dof
 
     rng = np.random.default_rng(11)
     scales = [(1 / 30, 1.0), (6.0, 1.0), (1.0, 1.0), (1.0, 0.8)]
@@ -577,7 +580,7 @@ def test_an_aid_stays_when_it_makes_the_filter_less_inconsistent():
     """The second stage ranks by consistency first: a less inconsistent filter keeps (or drops) the
     non-holonomic updates whatever the errors; at the same rank the one-standard-error rule decides; an
     estimated gain never makes the filter less consistent."""
-    from morpi_filters.field_aided import _aid_pays, _estimate_wins
+    from morpi_filters.field_aided.tuning import _aid_pays, _estimate_wins
 
     worse, better = np.full(10, 3.0), np.full(10, 2.0) + np.linspace(-0.01, 0.01, 10)
     assert _aid_pays(worse, (0, 0), better, (0, 1))          # only with the aid is the filter consistent
@@ -706,7 +709,8 @@ def test_field_cell_json_contract_and_consistency(field_root, monkeypatch):
     # the tunables' train verdict: the same filter rerun on the train runs up to the read-out, its NIS per
     # dof by type and its ellipse coverage, against the band and the least coverage
     tc = cell["train_consistency"]
-    trains = field_aided._prepared_runs(res.data, "s8", "short_distance", "train", "GC", "MoRPI-A", config, g.mean)
+    trains = field_aided.inputs.prepared_runs(res.data, "s8", "short_distance", "train", "GC", "MoRPI-A", config,
+                                              g.mean)
     got = aided.run_batch([p.input_for(t, forward_only=True) for p in trains], tun)
     assert set(tc["nis"]) == set().union(*(r.nis for r in got))
     for kind, q in tc["nis"].items():

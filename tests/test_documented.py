@@ -282,7 +282,9 @@ _STUDY_PAGE_MODULES = (
     "montecarlo.pages", "steps.rules", "steps.prepare", "steps.extract", "steps.headings",
     "steps.reckon", "outputs", "results", "units", "simulate", "strapdown", "synthetic", "aided", "errors",
     "resources", "report.aided", "report.assessment", "report.calibration", "report.common", "report.curves",
-    "report.index", "report.montecarlo", "report.plots", "report.tables",
+    "report.index", "report.montecarlo", "report.plots", "report.tables", "field_aided.inputs",
+    "field_aided.baselines", "field_aided.tuning", "field_aided.significance", "field_aided.ablation",
+    "field_aided.study",
 )
 
 #: Functions allowed to lack a section, with the reason. Empty: every function has its sections.
