@@ -14,7 +14,12 @@ updates and feedback at the epochs, writing into arrays the caller owns, then, w
   :func:`nhc_model`);
 - Rodrigues' formula of :func:`strapdown.rotvec_to_C`, and with it the running attitude product of
   each run of :func:`strapdown.ins3d` (:func:`attitude_chain`, :func:`attitude_chains`);
-- filterpy's Rauch-Tung-Striebel recursion for the fed-back filter (:func:`smooth_member`).
+- filterpy's Rauch-Tung-Striebel recursion for the fed-back filter (:func:`smooth_member`), its linear
+  solves by LU factors with partial pivoting (:func:`lu_factor`, :func:`lu_solve`).
+
+The loops avoid what numba is slow to compile (array assignments with broadcasting, numpy's linear
+algebra, literal integer arguments, which it compiles a callee for once per value): a fresh install
+compiles them on its first run.
 
 The tests hold each piece within a stated rounding tolerance to the dense series or a numpy reference
 form (``tests/oracles/aided.py``, itself held to filterpy and to finite differences).
@@ -78,10 +83,18 @@ def matmul3(a, b, out):
             out[i, j] = a[i, 0] * b[0, j] + a[i, 1] * b[1, j] + a[i, 2] * b[2, j]
 
 
+def copy_into(dst, src):
+    """``dst[:, :] = src[:ni, :nj]`` for `dst` (ni, nj), element by element (numba compiles this loop in a
+    fraction of the time an array assignment takes)."""
+    for i in range(dst.shape[0]):
+        for j in range(dst.shape[1]):
+            dst[i, j] = src[i, j]
+
+
 def attitude_chain(phi, C0, out):
     """``out[0] = C0``, ``out[k + 1] = out[k] exp([phi[k] x])`` for the rotation vectors `phi` (m, 3): the
     attitude of one run of :func:`strapdown.ins3d`, `out` (m + 1, 3, 3)."""
-    out[0, :, :] = C0
+    copy_into(out[0], C0)
     E = np.empty((3, 3))
     for k in range(phi.shape[0]):
         rodrigues(phi[k, 0], phi[k, 1], phi[k, 2], E)
@@ -174,14 +187,23 @@ def inverse(S, m, out):
         out[2, 2] = (S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]) / det
 
 
-def product(A, B, transposed, ni, nl, nj, out):
-    """``out[:ni, :nj] = A[:ni, :nl] B[:nl, :nj]`` (or ``B[:nj, :nl]^T`` when `transposed`), each entry
-    summed over l in order."""
+def product(A, B, ni, nl, nj, out):
+    """``out[:ni, :nj] = A[:ni, :nl] B[:nl, :nj]``, each entry summed over l in order."""
     for i in range(ni):
         for j in range(nj):
             s = 0.0
             for l in range(nl):
-                s += A[i, l] * (B[j, l] if transposed else B[l, j])
+                s += A[i, l] * B[l, j]
+            out[i, j] = s
+
+
+def product_t(A, B, ni, nl, nj, out):
+    """``out[:ni, :nj] = A[:ni, :nl] B[:nj, :nl]^T``, each entry summed over l in order."""
+    for i in range(ni):
+        for j in range(nj):
+            s = 0.0
+            for l in range(nl):
+                s += A[i, l] * B[j, l]
             out[i, j] = s
 
 
@@ -204,7 +226,7 @@ def kf_update(x, P, y, H, R, m, fj, S, PHt, KHt, K, D, Si, Sc):
     `PHt`, `KHt`, `K`, `D` (n, 3) and `Si`, `Sc` (3, 3) are scratch.
     """
     n = x.shape[0]
-    product(P, H, True, n, n, m, PHt)
+    product_t(P, H, n, n, m, PHt)
     h_x_plus_r(H, PHt, R, m, S)
     inverse(S, m, Si)
     nis = 0.0
@@ -226,7 +248,7 @@ def kf_update(x, P, y, H, R, m, fj, S, PHt, KHt, K, D, Si, Sc):
             KHt[fj, a] = 0.0
         h_x_plus_r(H, KHt, R, m, Sc)
         inverse(Sc, m, Si)
-    product(KHt, Si, False, n, m, m, K)
+    product(KHt, Si, n, m, m, K)
     for i in range(n):
         s = 0.0
         for a in range(m):
@@ -348,6 +370,9 @@ def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn
     q_a, q_a_rest, q_g, q_g_rest, q_ba, q_bg, jump2 = par[0], par[1], par[2], par[3], par[4], par[5], par[6]
     step_sig, nhc_sig, zupt_sig, gsr = par[7], par[8], par[9], par[10]
     use_nhc, g, gyro = par[11] != 0.0, par[12], par[13] != 0.0
+    # sizes and kinds as run-time integers: numba compiles a callee once per literal argument it is given
+    two, three = np.int64(2), np.int64(3)
+    kinds = np.arange(4)
     N = x.shape[0]
     C = C0.copy()
     Cn = np.zeros((3, 3))
@@ -358,7 +383,7 @@ def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn
     ba = np.zeros(3)
     bg = np.zeros(3)
     x[:] = 0.0
-    P[:, :] = P0
+    copy_into(P, P0)
     acc = np.zeros(16)                         # duration, force integral (3), attitude integral (9), rate (3)
     head = np.zeros(2)
     head_at = np.zeros((n, 2))
@@ -460,7 +485,8 @@ def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn
             step_model(x, p, clone, not gyro, z, H, y)
             Rm[:, :] = 0.0
             Rm[0, 0] = Rm[1, 1] = step_sig * step_sig
-            _log(0, 2, k, z, y, kf_update(x, P, y, H, Rm, 2, fj, S, W1, W2, W3, W4, Si, Sc), S, nis, keep_inn, inn_k, inn_z, inn_y, inn_S, inn_n)
+            val = kf_update(x, P, y, H, Rm, two, fj, S, W1, W2, W3, W4, Si, Sc)
+            _log(kinds[0], two, k, z, y, val, S, nis, keep_inn, inn_k, inn_z, inn_y, inn_S, inn_n)
             touched = True
             ie += 1
         if k > 0 and (fl & (REST | STAND)) != 0:
@@ -470,7 +496,8 @@ def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn
             for i in range(3):
                 Rm[i, i] = zupt_sig * zupt_sig
                 z[i] = 0.0
-            _log(1, 3, k, z, y, kf_update(x, P, y, H, Rm, 3, fj, S, W1, W2, W3, W4, Si, Sc), S, nis, keep_inn, inn_k, inn_z, inn_y, inn_S, inn_n)
+            val = kf_update(x, P, y, H, Rm, three, fj, S, W1, W2, W3, W4, Si, Sc)
+            _log(kinds[1], three, k, z, y, val, S, nis, keep_inn, inn_k, inn_z, inn_y, inn_S, inn_n)
             if (fl & REST) != 0:
                 dr = max(acc[0], 1e-9)
                 sg = gsr / math.sqrt(dr)
@@ -478,15 +505,16 @@ def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn
                     Rm[i, i] = sg * sg
                     z[i] = acc[13 + i] / dr
                 zero_rate_model(x, z, H, y)
-                _log(2, 3, k, z, y, kf_update(x, P, y, H, Rm, 3, fj, S, W1, W2, W3, W4, Si, Sc), S, nis, keep_inn, inn_k, inn_z, inn_y, inn_S,
-                     inn_n)
+                val = kf_update(x, P, y, H, Rm, three, fj, S, W1, W2, W3, W4, Si, Sc)
+                _log(kinds[2], three, k, z, y, val, S, nis, keep_inn, inn_k, inn_z, inn_y, inn_S, inn_n)
             touched = True
         if k > 0 and not still and use_nhc:
             nhc_model(x, C, v, C0, H, y)
             Rm[:, :] = 0.0
             Rm[0, 0] = Rm[1, 1] = nhc_sig * nhc_sig
             z[0] = z[1] = 0.0
-            _log(3, 2, k, z, y, kf_update(x, P, y, H, Rm, 2, fj, S, W1, W2, W3, W4, Si, Sc), S, nis, keep_inn, inn_k, inn_z, inn_y, inn_S, inn_n)
+            val = kf_update(x, P, y, H, Rm, two, fj, S, W1, W2, W3, W4, Si, Sc)
+            _log(kinds[3], two, k, z, y, val, S, nis, keep_inn, inn_k, inn_z, inn_y, inn_S, inn_n)
             touched = True
         # ---- feedback into the nominal state
         fed[:] = 0.0
@@ -498,7 +526,7 @@ def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn
                 bg[i] += x[_BG + i]
             rodrigues(-x[_EPS], -x[_EPS + 1], -x[_EPS + 2], Rt)
             matmul3(Rt, C, Cn)
-            C[:, :] = Cn
+            copy_into(C, Cn)
             clone[0] -= x[_CL]
             clone[1] -= x[_CL + 1]
             for i in range(_GAIN):
@@ -528,7 +556,7 @@ def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn
             for j in range(2):
                 ep_P[e, i, j] = P[i, j]
         if keep_hist:
-            hist_P[e, :, :] = P
+            copy_into(hist_P[e], P)
             for i in range(N):
                 hist_rec[e, i] = x[i]
                 hist_rec[e, N + i] = fed[i]
@@ -576,6 +604,56 @@ def condition(P, j):
         P[:, j] = 0.0
 
 
+def lu_factor(A, piv):
+    """LU factorization of the square `A` in place with partial pivoting (the largest magnitude of each
+    column below the diagonal, the first of equals: LAPACK's ``getrf``), the row swaps into `piv`."""
+    n = A.shape[0]
+    for c in range(n):
+        p = c
+        big = abs(A[c, c])
+        for i in range(c + 1, n):
+            if abs(A[i, c]) > big:
+                big = abs(A[i, c])
+                p = i
+        piv[c] = p
+        if p != c:
+            for j in range(n):
+                a = A[c, j]
+                A[c, j] = A[p, j]
+                A[p, j] = a
+        d = A[c, c]
+        for i in range(c + 1, n):
+            l = A[i, c] / d
+            A[i, c] = l
+            if l != 0.0:
+                for j in range(c + 1, n):
+                    A[i, j] -= l * A[c, j]
+
+
+def lu_solve(LU, piv, B):
+    """``B = A^-1 B`` in place (`B` (n, k)) from the factors of :func:`lu_factor`."""
+    n, k = B.shape
+    for c in range(n):
+        p = piv[c]
+        if p != c:
+            for j in range(k):
+                b = B[c, j]
+                B[c, j] = B[p, j]
+                B[p, j] = b
+    for i in range(n):
+        for j in range(k):
+            s = B[i, j]
+            for l in range(i):
+                s -= LU[i, l] * B[l, j]
+            B[i, j] = s
+    for i in range(n - 1, -1, -1):
+        for j in range(k):
+            s = B[i, j]
+            for l in range(i + 1, n):
+                s -= LU[i, l] * B[l, j]
+            B[i, j] = s / LU[i, i]
+
+
 def smooth_member(hist_P, hist_rec, q_ba, q_bg, fj, covariance, xs, Ps_xy):
     """Rauch-Tung-Striebel smoother over one member's epochs (filterpy's recursion), from the
     history :func:`forward_member` wrote: the smoothed error states into `xs` (m, N) and, with
@@ -584,7 +662,8 @@ def smooth_member(hist_P, hist_rec, q_ba, q_bg, fj, covariance, xs, Ps_xy):
     The transitions and predictions are rebuilt from the history's interval terms, as the
     forward pass computed them. The smoother's gain ``G = P Phi^T Pq^+`` (with `fj` >= 0, from
     the covariances conditioned on that considered state) is applied as ``P Phi^T u`` with
-    ``Pq u = r``; states without uncertainty (their rows of ``Pq`` zero) take no correction.
+    ``Pq u = r`` (solved by :func:`lu_factor` and :func:`lu_solve`, the partial pivoting of
+    ``numpy.linalg.solve``); states without uncertainty (their rows of ``Pq`` zero) take no correction.
     """
     m, n = hist_P.shape[0], hist_P.shape[1]
     A = np.zeros((_NR, _NC))
@@ -594,15 +673,22 @@ def smooth_member(hist_P, hist_rec, q_ba, q_bg, fj, covariance, xs, Ps_xy):
     xp = np.zeros(n)
     Pq = np.zeros((n, n))
     Pp = np.zeros((n, n))
+    Pprior = np.zeros((n, n))
+    LU = np.zeros((n, n))
+    piv = np.zeros(n, np.int64)
+    u = np.zeros((n, 1))
+    Gt = np.zeros((n, n))
+    T = np.zeros((n, n))
+    Ps = np.zeros((n, n))
     r = np.zeros(n)
     wv = np.zeros(n)
     dead = np.zeros(n, np.bool_)
     AP, APA, xa = np.zeros((_NR, n)), np.zeros((_NR, _NR)), np.zeros(_NR)
-    Ps = hist_P[m - 1].copy()
+    copy_into(Ps, hist_P[m - 1])
     for i in range(n):
         xs[m - 1, i] = hist_rec[m - 1, i]
     if covariance:
-        Ps_xy[m - 1, :, :] = Ps[:2, :2]
+        copy_into(Ps_xy[m - 1], Ps)
     for k in range(m - 2, -1, -1):
         # the forward pass's prediction into epoch k + 1
         e = hist_rec[k + 1]
@@ -621,10 +707,11 @@ def smooth_member(hist_P, hist_rec, q_ba, q_bg, fj, covariance, xs, Ps_xy):
         q[_TURN] += e[2 * n + 16]
         for i in range(n):
             xp[i] = hist_rec[k, i]
-        Pq[:, :] = hist_P[k]
+        copy_into(Pq, hist_P[k])
         predict(xp, Pq, A, q, AP, APA, xa)
-        Pp[:, :] = hist_P[k]
-        Pprior = Pq.copy() if covariance else Pq
+        copy_into(Pp, hist_P[k])
+        if covariance:
+            copy_into(Pprior, Pq)
         if fj >= 0:
             condition(Pp, fj)
             condition(Pq, fj)
@@ -641,13 +728,17 @@ def smooth_member(hist_P, hist_rec, q_ba, q_bg, fj, covariance, xs, Ps_xy):
                 Pq[i, i] = 1.0
                 r[i] = 0.0
         # G r = P Phi^T u with Pq u = r
-        u = np.linalg.solve(Pq, r)
+        copy_into(LU, Pq)
+        lu_factor(LU, piv)
         for i in range(n):
-            wv[i] = u[i]
+            u[i, 0] = r[i]
+        lu_solve(LU, piv, u)
+        for i in range(n):
+            wv[i] = u[i, 0]
         for l in range(_NC):
             s = 0.0
             for i in range(_NR):
-                s += A[i, l] * u[_R0 + i]
+                s += A[i, l] * u[_R0 + i, 0]
             wv[_C0 + l] += s
         for i in range(n):
             s = 0.0
@@ -656,25 +747,37 @@ def smooth_member(hist_P, hist_rec, q_ba, q_bg, fj, covariance, xs, Ps_xy):
             xs[k, i] = hist_rec[k, i] + s
         if covariance:
             # Ps = P + G (Ps' - Pq) G^T with G^T = Pq^+ Phi P (the dead states' columns of G zero)
-            PhiPp = Pp.copy()
+            copy_into(Gt, Pp)
             for i in range(_NR):
                 for j in range(n):
                     s = 0.0
                     for l in range(_NC):
                         s += A[i, l] * Pp[_C0 + l, j]
-                    PhiPp[_R0 + i, j] += s
-            Gt = np.linalg.solve(Pq, PhiPp)
+                    Gt[_R0 + i, j] += s
+            lu_solve(LU, piv, Gt)
             for i in range(n):
                 if dead[i]:
-                    Gt[i, :] = 0.0
-            Ps = hist_P[k] + np.dot(np.dot(Gt.T, Ps - Pprior), Gt)
-            Ps_xy[k, :, :] = Ps[:2, :2]
+                    for j in range(n):
+                        Gt[i, j] = 0.0
+            for i in range(n):                              # T = (Ps' - Pq) G^T
+                for j in range(n):
+                    s = 0.0
+                    for l in range(n):
+                        s += (Ps[i, l] - Pprior[i, l]) * Gt[l, j]
+                    T[i, j] = s
+            for i in range(n):                              # Ps = P + G T
+                for j in range(n):
+                    s = 0.0
+                    for l in range(n):
+                        s += Gt[l, i] * T[l, j]
+                    Ps[i, j] = hist_P[k, i, j] + s
+            copy_into(Ps_xy[k], Ps)
 
 
 #: The functions numba compiles, callees first (each finds the compiled form of those it calls).
-_FUNCTIONS = ("rodrigues", "matmul3", "attitude_chain", "attitude_chains", "transition_blocks", "predict", "inverse",
-              "product", "h_x_plus_r", "kf_update", "step_model", "zero_velocity_model", "zero_rate_model",
-              "nhc_model", "_log", "forward_member", "condition", "smooth_member")
+_FUNCTIONS = ("rodrigues", "matmul3", "copy_into", "attitude_chain", "attitude_chains", "transition_blocks", "predict",
+              "inverse", "product", "product_t", "h_x_plus_r", "kf_update", "step_model", "zero_velocity_model",
+              "zero_rate_model", "nhc_model", "_log", "forward_member", "condition", "lu_factor", "lu_solve", "smooth_member")
 _COMPILED = None
 
 

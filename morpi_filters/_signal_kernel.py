@@ -24,11 +24,11 @@
 - :func:`filtfilt`, the zero-phase low-pass of :func:`morpi_filters.steps.lowpass`: the
   forward-backward second-order-sections filter of :func:`scipy.signal.sosfiltfilt` with its
   default odd padding, each section's update in the order scipy's own loop takes;
-- :func:`interp`, ``np.interp`` with numpy's arithmetic, for the compiled turn heading below (code
+- :func:`interp1` and :func:`interp`, ``np.interp`` with numpy's arithmetic, for the compiled turn heading below (code
   outside the compiled loops calls ``np.interp`` itself), and :func:`swing_median`, the median heading
   swing of a step rule (``searchsorted`` and ``reduceat`` windows);
 - :func:`turn_values`, the turn heading of ``steps.turn_heading`` at the step edges, with the turning
-  stretches of ``steps.turn_stretches``, comparison for comparison and with :func:`interp`;
+  stretches of ``steps.turn_stretches``, comparison for comparison and with :func:`interp1`;
 - :func:`reading_sums`, what :func:`morpi_filters.steps.step_sums` returns for one step rule: the steps
   between the boundaries under each end and heading reading, summed in step order (the rule searches
   read thousands of rules per run);
@@ -59,7 +59,9 @@ def moving_stats(t, x, half, mean, std):
     ``t[i] - half <= t <= t[i] + half``.
     """
     n, k = x.shape
-    ref = x[0].copy()
+    ref = np.empty(k)
+    for j in range(k):
+        ref[j] = x[0, j]
     c1 = np.zeros((n + 1, k))
     c2 = np.zeros((n + 1, k))
     for i in range(n):
@@ -258,51 +260,53 @@ def filtfilt(sos, zi, pad, x, out):
     for s in range(sos.shape[0]):
         z[s, 0] = zi[s, 0] * y[0]
         z[s, 1] = zi[s, 1] * y[0]
-    _sections(sos, z, y, 0, m, 1)
+    _sections(sos, z, y, np.int64(0), m, np.int64(1))          # run-time integers: one compiled _sections
     for s in range(sos.shape[0]):
         z[s, 0] = zi[s, 0] * y[m - 1]
         z[s, 1] = zi[s, 1] * y[m - 1]
-    _sections(sos, z, y, m - 1, -1, -1)
+    _sections(sos, z, y, m - 1, np.int64(-1), np.int64(-1))
     for i in range(n):
         out[i] = y[pad + i]
 
 
-def interp(x, xp, fp, out):
-    """``out[:] = np.interp(x, xp, fp)`` for `xp` (m,) strictly increasing, with numpy's arithmetic
-    (``slope * (x - xp[j]) + fp[j]``, the far end's form when that is NaN)."""
+def interp1(v, xp, fp):
+    """``np.interp(v, xp, fp)`` at one point `v` for `xp` (m,) strictly increasing, with numpy's arithmetic
+    (``slope * (v - xp[j]) + fp[j]``, the far end's form when that is NaN)."""
     m = xp.shape[0]
-    for i in range(x.shape[0]):
-        v = x[i]
-        if v > xp[m - 1]:
-            out[i] = fp[m - 1]
-        elif v < xp[0]:
-            out[i] = fp[0]
+    if v > xp[m - 1]:
+        return fp[m - 1]
+    if v < xp[0]:
+        return fp[0]
+    lo = 0                                                      # xp[lo] <= v < xp[hi]
+    hi = m
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if xp[mid] <= v:
+            lo = mid
         else:
-            lo = 0                                              # xp[lo] <= v < xp[hi]
-            hi = m
-            while hi - lo > 1:
-                mid = (lo + hi) // 2
-                if xp[mid] <= v:
-                    lo = mid
-                else:
-                    hi = mid
-            if lo == m - 1 or xp[lo] == v:
-                out[i] = fp[lo]
-            else:
-                slope = (fp[lo + 1] - fp[lo]) / (xp[lo + 1] - xp[lo])
-                r = slope * (v - xp[lo]) + fp[lo]
-                if r != r:
-                    r = slope * (v - xp[lo + 1]) + fp[lo + 1]
-                    if r != r and fp[lo] == fp[lo + 1]:
-                        r = fp[lo]
-                out[i] = r
+            hi = mid
+    if lo == m - 1 or xp[lo] == v:
+        return fp[lo]
+    slope = (fp[lo + 1] - fp[lo]) / (xp[lo + 1] - xp[lo])
+    r = slope * (v - xp[lo]) + fp[lo]
+    if r != r:
+        r = slope * (v - xp[lo + 1]) + fp[lo + 1]
+        if r != r and fp[lo] == fp[lo + 1]:
+            r = fp[lo]
+    return r
+
+
+def interp(x, xp, fp, out):
+    """``out[:] = np.interp(x, xp, fp)`` for `xp` (m,) strictly increasing (:func:`interp1` at each point)."""
+    for i in range(x.shape[0]):
+        out[i] = interp1(x[i], xp, fp)
 
 
 def swing_median(t, psi, at):
     """Median heading swing [deg] between the samples first at or after the times `at` (k,): what
     ``steps.extract._boundaries`` reads with ``np.searchsorted`` and ``np.maximum.reduceat``, so the same
     windows (the last one runs to the end of `psi`; a window of no sample is the sample it starts
-    on); NaN for k < 2."""
+    on); NaN for k < 2. `psi` is finite (a heading integrated from checked samples)."""
     k = at.shape[0]
     if k < 2:
         return np.nan
@@ -329,32 +333,23 @@ def swing_median(t, psi, at):
             if psi[r] < lo:
                 lo = psi[r]
         sw[i] = (hi - lo) * (180.0 / math.pi)
-    sw.sort()
+    sort_head(sw, k - 1)
     h = (k - 1) // 2
     return sw[h] if (k - 1) % 2 else 0.5 * (sw[h - 1] + sw[h])
-
-
-def _interp1(v, xp, fp):
-    """:func:`interp` at one point."""
-    out = np.empty(1)
-    x = np.empty(1)
-    x[0] = v
-    interp(x, xp, fp, out)
-    return out[0]
 
 
 def _window_mean(a, b, t, psi, integral):
     """The mean of the heading `psi` over ``[a, b]`` from its running `integral` (the heading at `a` for
     ``b - a <= 1e-9``), as ``steps.turn_heading`` reads it."""
     if b - a <= 1e-9:
-        return _interp1(a, t, psi)
-    return (_interp1(b, t, integral) - _interp1(a, t, integral)) / (b - a)
+        return interp1(a, t, psi)
+    return (interp1(b, t, integral) - interp1(a, t, integral)) / (b - a)
 
 
 def turn_values(bt, psi_b, threshold, per_period, x, t, psi, integral, out):
     """``steps.turn_heading(x, t, psi, steps.turn_stretches(bt, psi_b, threshold, per_period),
     integral=integral)`` into `out` (like `x`), comparison for comparison and with numpy's
-    arithmetic (:func:`interp`); returns the number of turning stretches.
+    arithmetic (:func:`interp1`); returns the number of turning stretches.
 
     A full period's heading change ``psi_b[j + per_period] - psi_b[j]`` above `threshold` in
     magnitude turns; turning windows that overlap or touch merge, widen by a period on each side
@@ -367,8 +362,8 @@ def turn_values(bt, psi_b, threshold, per_period, x, t, psi, integral, out):
     last = k - 1
     count = 0
     j = 0
-    span_a = -1
-    span_b = -1
+    span_a = np.int64(-1)                                       # run-time integers: one compiled _add_turn
+    span_b = np.int64(-1)
     while j <= k - 1 - per_period:
         if abs(psi_b[j + per_period] - psi_b[j]) > threshold:
             # a run of turning windows, consecutive ones at most per_period apart
@@ -410,14 +405,14 @@ def _add_turn(bt, a, b, per_period, last, x, t, psi, integral, out):
     sa = bt[a]
     sb = bt[b]
     turn = _window_mean(sb, after, t, psi, integral) - _window_mean(before, sa, t, psi, integral)
-    pa = _interp1(sa, t, psi)
-    pb = _interp1(sb, t, psi)
+    pa = interp1(sa, t, psi)
+    pb = interp1(sb, t, psi)
     for i in range(x.shape[0]):
         v = x[i]
         if pb != pa:
             c = v if v > sa else sa                             # np.clip(time, a, b)
             c = c if c < sb else sb
-            done = (_interp1(c, t, psi) - pa) / (pb - pa)
+            done = (interp1(c, t, psi) - pa) / (pb - pa)
         else:
             done = 1.0 if v >= sb else 0.0
         done = done if done > 0.0 else 0.0                      # np.clip(done, 0, 1)
@@ -509,9 +504,26 @@ _SQRT2 = math.sqrt(2.0)
 _SQRT12 = math.sqrt(12.0)
 
 
+def sift_down(a, i, n):
+    """Restore the max-heap order of ``a[:n]`` below position `i` (:func:`sort_head`)."""
+    v = a[i]
+    while True:
+        c = 2 * i + 1
+        if c >= n:
+            break
+        if c + 1 < n and a[c + 1] > a[c]:
+            c += 1
+        if a[c] <= v:
+            break
+        a[i] = a[c]
+        i = c
+    a[i] = v
+
+
 def sort_head(a, n):
-    """Sort ``a[:n]`` in place (a 1-d float array without NaN): insertion sort up to 48 values, else
-    numba's sort. Sorting is exact, so the sorted values are numpy's whatever the method."""
+    """Sort ``a[:n]`` in place (a 1-d float array without NaN): insertion sort up to 48 values, else heap
+    sort (a short loop numba compiles quickly, where its own sort takes seconds). Sorting is exact, so the
+    sorted values are numpy's whatever the method."""
     if n <= 48:
         for i in range(1, n):
             v = a[i]
@@ -521,7 +533,13 @@ def sort_head(a, n):
                 p -= 1
             a[p] = v
     else:
-        a[:n].sort()
+        for i in range(n // 2 - 1, -1, -1):
+            sift_down(a, i, n)
+        for end in range(n - 1, 0, -1):
+            v = a[0]
+            a[0] = a[end]
+            a[end] = v
+            sift_down(a, np.int64(0), end)
 
 
 def block_edges(t, span, block):
@@ -757,11 +775,11 @@ def block_sigma_loops(t, x, span, block, q, med):
 #: The functions numba compiles, callees first.
 _FUNCTIONS = (
     "moving_stats", "window_spread", "motion_flags",
-    "sort_head", "block_edges", "block_noise", "block_pick", "block_sigma_loops",
+    "sift_down", "sort_head", "block_edges", "block_noise", "block_pick", "block_sigma_loops",
     "increments", "coning", "translation", "time_order", "running_integral",
     "_sections", "filtfilt",
     "loo_errors",
-    "interp", "swing_median", "_interp1", "_window_mean", "_add_turn", "turn_values", "reading_sums",
+    "interp1", "interp", "swing_median", "_window_mean", "_add_turn", "turn_values", "reading_sums",
 )
 _COMPILED = None
 #: Held while a module's functions are put through numba: threads that reach a kernel at once (a study's
@@ -779,6 +797,18 @@ def jit_functions(space: dict, names) -> dict:
     for name in names:
         out[name] = space[name] = numba.njit(cache=True, nogil=True)(space[name])
     return out
+
+
+def read_only(a, dtype=float) -> np.ndarray:
+    """A read-only C-ordered view of `a` as `dtype` (a copy only where `a` is not already one).
+
+    numba compiles a loop once per argument type, and a read-only array is another type than a
+    writeable one: the callers hand every input array of a compiled loop through here, so a loop
+    compiles once whether its caller's array is frozen or not (each compilation costs up to seconds on
+    a fresh install)."""
+    v = np.ascontiguousarray(a, dtype=dtype).view()
+    v.flags.writeable = False
+    return v
 
 
 def compiled():

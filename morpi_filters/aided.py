@@ -64,7 +64,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from . import _aided_kernel
+from . import _aided_kernel, _signal_kernel
 from .error_model import BA, BG, DP, DV, EPS, N_STATES
 from .errors import ParameterError
 from .parallel import available_cores, chunk_ranges, execute
@@ -808,11 +808,12 @@ def _kernel_args(inp: AidedInput, tun: AidTuning, epoch_s, smooth, keep_inn):
     m, kinds = epochs.size, len(K.KINDS)
     cap = (m + end_k.size) if keep_inn else 0
     rows = m if smooth else 0
+    ro = _signal_kernel.read_only                   # inputs read-only: one compiled pass, frozen inputs or not
     return dict(
-        t=time, f=np.ascontiguousarray(inp.f, float), w=np.ascontiguousarray(inp.omega, float), flags=flags,
-        end_k=end_k, end_a=end_a, end_j=end_j, step_len=np.ascontiguousarray(inp.step_length, float),
-        step_vec=step_vec, turn_q=turn_q, par=par, C0=np.ascontiguousarray(inp.C0, float),
-        v0=np.array(inp.v0, float), P0=P0,
+        t=ro(time), f=ro(inp.f), w=ro(inp.omega), flags=ro(flags, np.int64),
+        end_k=ro(end_k, np.int64), end_a=ro(end_a, np.int64), end_j=ro(end_j, np.int64),
+        step_len=ro(inp.step_length), step_vec=ro(step_vec), turn_q=ro(turn_q), par=ro(par), C0=ro(inp.C0),
+        v0=ro(inp.v0), P0=ro(P0),
         fj=-1 if tun.gain_estimated else GAIN, keep_inn=bool(keep_inn), keep_hist=bool(smooth),
         ep_k=np.zeros(m, np.int64), ep_p=np.zeros((m, 3)), ep_P=np.zeros((m, 2, 2)), nis=np.zeros((kinds, 3)),
         inn_k=np.zeros((kinds, cap), np.int64), inn_z=np.zeros((kinds, cap, 3)), inn_y=np.zeros((kinds, cap, 3)),

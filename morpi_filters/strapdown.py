@@ -252,13 +252,13 @@ def coarse_level(f_rest) -> np.ndarray:
     return Ry @ Rx
 
 def _check_time(time) -> np.ndarray:
-    from ._signal_kernel import compiled
+    from ._signal_kernel import compiled, read_only
 
     time = np.asarray(time, dtype=float)
     if time.ndim != 1 or time.shape[0] < 2:
         raise ParameterError(f"time: expected a 1-D array of at least 2 samples, got shape {time.shape}")
     time = np.require(time, float, ["C"])
-    order = compiled()["time_order"](time)                      # one pass: finite, strictly increasing
+    order = compiled()["time_order"](read_only(time))                      # one pass: finite, strictly increasing
     if order == 1:
         raise ParameterError("time: contains NaN or inf, expected finite sample times")
     if order == 2:
@@ -382,13 +382,13 @@ def _attitude_matrices(time, wb, C0b) -> np.ndarray:
     `time` (n,) checked, `wb` (B, n, 3) the body rates, `C0b` (B, 3, 3) the initial attitudes.
     """
     from ._aided_kernel import compiled as attitude_loops
-    from ._signal_kernel import compiled as signal_loops
+    from ._signal_kernel import compiled as signal_loops, read_only
 
     n, B = time.shape[0], wb.shape[0]
     wb = np.require(wb, float, ["C", "W"])
     phi = _increments(time, wb)[0]
     # the coning term, (w_j x w_j+1) dt^2 / 12 per interval (a compiled loop)
-    signal_loops()["coning"](time, wb, phi)
+    signal_loops()["coning"](read_only(time), wb, phi)
     # each run's running product C0 E_0 E_1 ... in a compiled loop (numba, loaded on the first call): Rodrigues'
     # formula and 3 x 3 products, each sum in plain order; a run's attitude does not depend on its batch
     C = np.empty((B, n, 3, 3))

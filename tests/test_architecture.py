@@ -200,6 +200,35 @@ def test_only_the_compiled_kernels_import_numba_and_importing_the_package_does_n
     assert not _loaded_by_every_module("numba")
 
 
+_ONE_COMPILATION = """
+import sys
+from pathlib import Path
+from morpi_filters import _aided_kernel, _signal_kernel, cli, synthetic
+tmp = Path(sys.argv[1])
+root = synthetic.write_dataset(tmp / "ds", seed=2, runs_per_folder=1)
+for command in ("tables", "aided"):
+    cli.main([command, "--data", str(root), "--out", str(tmp / command)])
+for kernel in (_signal_kernel, _aided_kernel):
+    for name, f in kernel.compiled().items():
+        print(name, len(f.signatures))
+"""
+
+
+def test_each_compiled_loop_compiles_once_for_the_commands(tmp_path):
+    # numba compiles a loop once per argument type (a read-only array is another type than a writeable
+    # one, and a literal integer another than an integer): each compilation costs up to seconds on a
+    # fresh install, so the callers hand their inputs read-only (_signal_kernel.read_only) and no loop
+    # is reached with two types by `morpi tables` and `morpi aided` on a synthetic dataset. (A loop only
+    # ever called from inside another one counts where numba compiles it, on a cold cache.)
+    r = subprocess.run([sys.executable, "-c", _ONE_COMPILATION, str(tmp_path)], capture_output=True, text=True,
+                       cwd=PKG.parent, env=dict(__import__("os").environ, MPLBACKEND="Agg"), timeout=900)
+    assert r.returncode == 0, r.stderr[-2000:]
+    counts = dict(line.rsplit(" ", 1) for line in r.stdout.splitlines() if line.count(" ") >= 1
+                  and line.rsplit(" ", 1)[1].isdigit())
+    assert counts and {name: int(n) for name, n in counts.items() if int(n) > 1} == {}
+    assert int(counts["forward_member"]) == int(counts["turn_values"]) == 1      # both commands reached them
+
+
 #: Markdown a page is made of: a heading at the start of a line, a table row or separator, an
 #: image or a link target, a block quote at the start of the text.
 MARKDOWN = re.compile(r"(^|\n)#{1,6} |(^|\n)\|.*\||\|---|!\[|\]\(|^> ")

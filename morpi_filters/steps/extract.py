@@ -163,6 +163,7 @@ def step_sums(prepared: PreparedSignal, method: str, config: StepConfig, *, peak
 _HEADING_CODES = {"absolute": 0, "change": 1, "turns": 2, "mean": 3}
 _ENDS_CODES = {"drop": 0, "fraction": 1, "whole": 2}
 _NO_EDGES = np.zeros(0)
+_NO_EDGES.flags.writeable = False                               # as the edge values: one compiled reading_sums
 
 
 def _check_prepared(prepared, method, config):
@@ -244,7 +245,8 @@ def _boundaries(p, method, config, peak_cache):
     skey = ("swing",) + pkey[3:8]                               # the maxima: their thresholds, the grid
     med = memo.get(skey)
     if med is None:
-        med = memo[skey] = float(kernel["swing_median"](t, psi, grid[imax]))
+        med = memo[skey] = float(kernel["swing_median"](_signal_kernel.read_only(t), _signal_kernel.read_only(psi),
+                                                        _signal_kernel.read_only(grid[imax])))
     out = memo[rule] = (pkey, wkey, bt, psi_b, psi_m, per, bounds, weight, med, wmed)
     return out
 
@@ -265,9 +267,10 @@ def _edge_values(p, config, pkey, bt, psi_b) -> np.ndarray:
         if config.heading == "turns":
             # turn_heading(x, t, psi, turn_stretches(bt, psi_b, ...), integral=...) in one compiled call
             out = np.empty(x.shape[0])
-            _signal_kernel.compiled()["turn_values"](bt, psi_b, np.radians(config.turn_deg),
+            ro = _signal_kernel.read_only
+            _signal_kernel.compiled()["turn_values"](ro(bt), ro(psi_b), np.radians(config.turn_deg),
                                                     2 if config.segment == "extrema" else 1,
-                                                    x, p.time, p.heading, p.heading_integral, out)
+                                                    ro(x), ro(p.time), ro(p.heading), ro(p.heading_integral), out)
         else:
             out = np.interp(x, p.time, p.heading_integral)
         out.flags.writeable = False
