@@ -647,17 +647,17 @@ def test_fold_thresholds_equal_the_thresholds_of_the_train_runs_without_the_held
 def test_a_study_freezes_the_heap_only_while_it_runs_and_only_when_nobody_else_did():
     import gc
 
-    from morpi_filters import evaluate as ev
+    from morpi_filters.evaluate.cells import frozen_heap
 
     seen = []
-    study = ev._frozen_heap(lambda x: seen.append(gc.get_freeze_count()) or x + 1)
+    study = frozen_heap(lambda x: seen.append(gc.get_freeze_count()) or x + 1)
     assert gc.get_freeze_count() == 0
     assert study(1) == 2 and seen[-1] > 0 and gc.get_freeze_count() == 0
     # a study inside a study: the inner one freezes what the outer one allocated before it (here 5000 lists),
     # and leaves the heap frozen for the rest of the outer one
     kept = []
-    outer = ev._frozen_heap(lambda: (seen.append(gc.get_freeze_count()), kept.extend([] for _ in range(5000)),
-                                     study(1), seen.append(gc.get_freeze_count())))
+    outer = frozen_heap(lambda: (seen.append(gc.get_freeze_count()), kept.extend([] for _ in range(5000)),
+                                 study(1), seen.append(gc.get_freeze_count())))
     outer()
     assert seen[-2] >= seen[-3] + 5000 and seen[-1] >= seen[-3] + 5000 and gc.get_freeze_count() == 0
 
@@ -665,7 +665,7 @@ def test_a_study_freezes_the_heap_only_while_it_runs_and_only_when_nobody_else_d
         raise ZeroDivisionError
 
     with pytest.raises(ZeroDivisionError):
-        ev._frozen_heap(fails)()
+        frozen_heap(fails)()
     assert gc.get_freeze_count() == 0
     gc.freeze()                                                  # a caller's own freeze is left as it is
     try:
