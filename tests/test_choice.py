@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from morpi_filters import field as fd
+from morpi_filters.field import rules as fdr, thresholds as fdt
 from morpi_filters.choice import TIE_REL, choose, tie_margin
 
 
@@ -55,7 +56,7 @@ def test_the_rule_search_keeps_the_earlier_of_two_rules_tied_within_rounding(mon
     # the search's own scores replaced by a table in which two reading combinations tie in exact arithmetic;
     # 1e-12 relative noise on every score must not move the chosen rule
     rng = np.random.default_rng(11)
-    start = fd._START.with_(heading_source="gyro")
+    start = fdt.SEARCH_START.with_(heading_source="gyro")
     keys = list(fd.READING_GRID)
     combos = [start.with_(**dict(zip(keys, c))) for c in itertools.product(*(fd.READING_GRID[k] for k in keys))]
     assert len(combos) >= 4
@@ -76,8 +77,8 @@ def test_the_rule_search_keeps_the_earlier_of_two_rules_tied_within_rounding(mon
                 noise[cfg] = 1.0 + 1e-12 * rng.standard_normal()
             return exact(cfg) * noise[cfg], 10
 
-        monkeypatch.setattr(fd, "held_out_score", score)
-        best, best_score, n, trials = fd._search(None, ("MoRPI-A",), frozenset(), start)
+        monkeypatch.setattr(fdr, "held_out_score", score)
+        best, best_score, n, trials = fdr._search(None, ("MoRPI-A",), frozenset(), start)
         assert n == 10 and abs(best_score - 2.5) < 1e-9
         chosen.add(best)
     assert chosen == {tied[0]}

@@ -14,6 +14,7 @@ from morpi_filters.errors import DataError, MorpiError
 from morpi_filters import dataset as ds
 from morpi_filters import evaluate as ev
 from morpi_filters import field as fd
+from morpi_filters.field import rules as fdr, thresholds as fdt
 from morpi_filters import simulate, units
 from morpi_filters import steps as st
 from morpi_filters.report.tables import report_tables
@@ -597,17 +598,17 @@ def test_heading_source_is_chosen_by_the_one_standard_error_rule_on_tracked_trai
     SOURCE_SE standard errors of the paired difference. Evidence: both sources' train errors dead-reckoned the long
     way (train_gain on the other runs, morpi_track on the held-out one), not the search's vectorised score. With
     no margin (0 standard errors) the lower mean wins, so a search that always kept the gyro would fail there."""
-    monkeypatch.setattr(fd, "SOURCE_SE", n_se)
+    monkeypatch.setattr(fdr, "SOURCE_SE", n_se)
     data = fd.FieldData(field_root, include_test=False)
     th = data.thresholds
-    start = fd._START.with_(min_swing_deg=th.min_swing_deg, turn_deg=th.turn_deg)
+    start = fdt.SEARCH_START.with_(min_swing_deg=th.min_swing_deg, turn_deg=th.turn_deg)
     for m in ("MoRPI-A", "MoRPI-G"):
         sel = fd.select_config(data, m)
-        best = {h: fd._search(data, (m,), frozenset(), start.with_(heading_source=h))[0] for h in st.HEADING_SOURCES}
+        best = {h: fdr._search(data, (m,), frozenset(), start.with_(heading_source=h))[0] for h in st.HEADING_SOURCES}
         assert {c.heading_source for c, _ in sel.trials} == set(st.HEADING_SOURCES)   # both sources were scored
         g, a = _loo_by_tracking(data, m, best["gyro"]), _loo_by_tracking(data, m, best["attitude"])
         d = a - g
-        attitude_wins = d.mean() < -fd.SOURCE_SE * d.std(ddof=1) / np.sqrt(d.size)
+        attitude_wins = d.mean() < -fdr.SOURCE_SE * d.std(ddof=1) / np.sqrt(d.size)
         assert sel.config == best["attitude" if attitude_wins else "gyro"], (m, d.mean(), d.std(ddof=1))
         assert sel.config.heading_source == ("attitude" if attitude_wins else "gyro")
 
@@ -646,17 +647,17 @@ def test_fold_thresholds_equal_the_thresholds_of_the_train_runs_without_the_held
 def test_a_study_freezes_the_heap_only_while_it_runs_and_only_when_nobody_else_did():
     import gc
 
-    from morpi_filters import evaluate as ev
+    from morpi_filters.evaluate.cells import frozen_heap
 
     seen = []
-    study = ev._frozen_heap(lambda x: seen.append(gc.get_freeze_count()) or x + 1)
+    study = frozen_heap(lambda x: seen.append(gc.get_freeze_count()) or x + 1)
     assert gc.get_freeze_count() == 0
     assert study(1) == 2 and seen[-1] > 0 and gc.get_freeze_count() == 0
     # a study inside a study: the inner one freezes what the outer one allocated before it (here 5000 lists),
     # and leaves the heap frozen for the rest of the outer one
     kept = []
-    outer = ev._frozen_heap(lambda: (seen.append(gc.get_freeze_count()), kept.extend([] for _ in range(5000)),
-                                     study(1), seen.append(gc.get_freeze_count())))
+    outer = frozen_heap(lambda: (seen.append(gc.get_freeze_count()), kept.extend([] for _ in range(5000)),
+                                 study(1), seen.append(gc.get_freeze_count())))
     outer()
     assert seen[-2] >= seen[-3] + 5000 and seen[-1] >= seen[-3] + 5000 and gc.get_freeze_count() == 0
 
@@ -664,7 +665,7 @@ def test_a_study_freezes_the_heap_only_while_it_runs_and_only_when_nobody_else_d
         raise ZeroDivisionError
 
     with pytest.raises(ZeroDivisionError):
-        ev._frozen_heap(fails)()
+        frozen_heap(fails)()
     assert gc.get_freeze_count() == 0
     gc.freeze()                                                  # a caller's own freeze is left as it is
     try:
