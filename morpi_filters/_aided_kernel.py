@@ -94,7 +94,9 @@ def copy_into(dst, src):
 def attitude_chain(phi, C0, out):
     """``out[0] = C0``, ``out[k + 1] = out[k] exp([phi[k] x])`` for the rotation vectors `phi` (m, 3): the
     attitude of one run of :func:`strapdown.ins3d`, `out` (m + 1, 3, 3)."""
-    copy_into(out[0], C0)
+    for i in range(3):
+        for j in range(3):
+            out[0, i, j] = C0[i, j]
     E = np.empty((3, 3))
     for k in range(phi.shape[0]):
         rodrigues(phi[k, 0], phi[k, 1], phi[k, 2], E)
@@ -383,7 +385,9 @@ def forward_member(t, f, w, flags, end_k, end_a, end_j, step_len, step_vec, turn
     ba = np.zeros(3)
     bg = np.zeros(3)
     x[:] = 0.0
-    copy_into(P, P0)
+    for i in range(N):                         # (P0 is read-only: copy_into takes writeable sources)
+        for j in range(N):
+            P[i, j] = P0[i, j]
     acc = np.zeros(16)                         # duration, force integral (3), attitude integral (9), rate (3)
     head = np.zeros(2)
     head_at = np.zeros((n, 2))

@@ -392,7 +392,7 @@ def _attitude_matrices(time, wb, C0b) -> np.ndarray:
     # each run's running product C0 E_0 E_1 ... in a compiled loop (numba, loaded on the first call): Rodrigues'
     # formula and 3 x 3 products, each sum in plain order; a run's attitude does not depend on its batch
     C = np.empty((B, n, 3, 3))
-    attitude_loops()["attitude_chains"](phi, np.require(np.broadcast_to(C0b, (B, 3, 3)), float, ["C"]), C)
+    attitude_loops()["attitude_chains"](phi, read_only(np.broadcast_to(C0b, (B, 3, 3))), C)
     return C
 
 

@@ -218,10 +218,12 @@ def test_each_compiled_loop_compiles_once_for_the_commands(tmp_path):
     # numba compiles a loop once per argument type (a read-only array is another type than a writeable
     # one, and a literal integer another than an integer): each compilation costs up to seconds on a
     # fresh install, so the callers hand their inputs read-only (_signal_kernel.read_only) and no loop
-    # is reached with two types by `morpi tables` and `morpi aided` on a synthetic dataset. (A loop only
-    # ever called from inside another one counts where numba compiles it, on a cold cache.)
+    # is reached with two types by `morpi tables` and `morpi aided` on a synthetic dataset. The run starts
+    # with an empty cache, as a fresh install does: numba then compiles (and counts) the loops called only
+    # from inside another one too.
+    env = dict(__import__("os").environ, MPLBACKEND="Agg", NUMBA_CACHE_DIR=str(tmp_path / "numba"))
     r = subprocess.run([sys.executable, "-c", _ONE_COMPILATION, str(tmp_path)], capture_output=True, text=True,
-                       cwd=PKG.parent, env=dict(__import__("os").environ, MPLBACKEND="Agg"), timeout=900)
+                       cwd=PKG.parent, env=env, timeout=900)
     assert r.returncode == 0, r.stderr[-2000:]
     counts = dict(line.rsplit(" ", 1) for line in r.stdout.splitlines() if line.count(" ") >= 1
                   and line.rsplit(" ", 1)[1].isdigit())
