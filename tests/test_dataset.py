@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from morpi_filters import MorpiError
+from morpi_filters.dataset import fastcsv as dsf, loader as dsl, plausibility as dsp
 from morpi_filters.dataset import (
     COLUMNS, Recording, catalogue, check_tree, layout, load_csv, resolve_data_root, route, write_csv,
 )
@@ -299,7 +300,7 @@ def test_every_field_file_takes_the_c_reader_and_equals_csv_and_float(field_root
     from morpi_filters import dataset as ds
 
     for e in ds.catalogue(field_root):
-        cols = ds._fast_parse(e.path)
+        cols = dsf.fast_parse(e.path)
         assert cols is not None, e.relpath
         # C order, as the line-by-line path gives them (a sum's last bits depend on the memory order)
         assert all(a.flags.c_contiguous for a in cols), e.relpath
@@ -320,8 +321,6 @@ def test_c_reader_options_round_correctly():
 
     import pandas as pd
 
-    from morpi_filters import dataset as ds
-
     rng = np.random.default_rng(5)
     getcontext().prec = 80
     mids = [format(Decimal(1.0 + int(k) * 2.0 ** -52) + Decimal(2.0 ** -53), "f")
@@ -329,14 +328,14 @@ def test_c_reader_options_round_correctly():
     strings = (mids + [m + "0000000001" for m in mids]
                + ["%.17g" % v for v in rng.normal(0.0, 10.0, 20000)]
                + ["-0." + "".join(map(str, rng.integers(0, 10, 25))) for _ in range(5000)])
-    frame = pd.read_csv(io.StringIO("x\n" + "\n".join(strings) + "\n"), dtype=np.float64, **ds._pandas_options())
+    frame = pd.read_csv(io.StringIO("x\n" + "\n".join(strings) + "\n"), dtype=np.float64, **dsf._pandas_options())
     got = frame["x"].to_numpy()
     ref = np.array([float(s) for s in strings])
     assert np.array_equal(got.view(np.int64), ref.view(np.int64))
 
 
 def test_float_options_by_pandas_version():
-    from morpi_filters.dataset import _float_options
+    from morpi_filters.dataset.fastcsv import _float_options
 
     assert _float_options("2.2.3") == {"float_precision": "round_trip"}
     assert _float_options("3.0.1") == {"float_precision": "round_trip"}
@@ -346,14 +345,13 @@ def test_float_options_by_pandas_version():
 def test_long_file_in_blocks_names_a_bad_line_after_the_first_block(tmp_path, monkeypatch):
     """A file read in blocks (as a long recording is): good rows load the same as in one piece; a repeated time
     stamp, a gap or a non-number far into the file is named by its line."""
-    from morpi_filters import dataset as ds
-
     rows = good_rows(400)
     path = write_rows(tmp_path / "long.csv", rows)
     whole = load_csv(path)
-    monkeypatch.setattr(ds, "_KEEP_BYTES", 0)
-    monkeypatch.setattr(ds, "_BLOCK_BYTES", 512)
-    assert ds._fast_parse(path) is not None
+    monkeypatch.setattr(dsf, "_KEEP_BYTES", 0)
+    monkeypatch.setattr(dsf, "BLOCK_BYTES", 512)
+    monkeypatch.setattr(dsl, "BLOCK_BYTES", 512)
+    assert dsf.fast_parse(path) is not None
     in_blocks = load_csv(path)
     _same(in_blocks, whole)
     assert all(a.flags.c_contiguous for rec in (whole, in_blocks) for a in (rec.time, rec.f, rec.omega))
@@ -376,9 +374,7 @@ def test_long_file_in_blocks_names_a_bad_line_after_the_first_block(tmp_path, mo
 def test_text_lines_in_blocks_are_those_of_splitlines(tmp_path, monkeypatch, block):
     """The precise path's line reader, fed a few bytes at a time, cuts the text as str.splitlines cuts the whole
     of it: CRLF split between blocks, multi-byte characters split between blocks, every line boundary."""
-    from morpi_filters import dataset as ds
-
-    monkeypatch.setattr(ds, "_BLOCK_BYTES", block)
+    monkeypatch.setattr(dsl, "BLOCK_BYTES", block)
     rng = np.random.default_rng(block)
     pieces = ["a", "b,1", "\r", "\n", "\r\n", "\x0b", "\x0c", "\x1c", "\x1e", "\x85", "\u2028", "\u2029", "é", "€",
               "\U0001F600", " ", ""]
@@ -387,18 +383,17 @@ def test_text_lines_in_blocks_are_those_of_splitlines(tmp_path, monkeypatch, blo
         raw = (b"\xef\xbb\xbf" if k % 3 == 0 else b"") + text.encode("utf-8")
         path = tmp_path / f"t{k}.csv"
         path.write_bytes(raw)
-        assert list(ds._text_lines(path)) == raw.decode("utf-8-sig").splitlines(), repr(text)
+        assert list(dsl._text_lines(path)) == raw.decode("utf-8-sig").splitlines(), repr(text)
 
 
 def test_precise_path_in_blocks_keeps_the_order_of_its_errors(tmp_path, monkeypatch):
     """Read a few bytes at a time, the precise path still reports a NUL byte or invalid UTF-8 before any bad
     row (wherever they lie), and names the same lines as when the file is read in one piece."""
-    from morpi_filters import dataset as ds
-
     rows = good_rows(150)
     bad = list(rows)
     bad[10] = "0.5,0,abc,9.8,0,0,0"
-    monkeypatch.setattr(ds, "_BLOCK_BYTES", 7)
+    monkeypatch.setattr(dsf, "BLOCK_BYTES", 7)
+    monkeypatch.setattr(dsl, "BLOCK_BYTES", 7)
     p = write_rows(tmp_path / "r.csv", bad)
     with pytest.raises(DataError, match=r"line 12: column f_y: 'abc' is not a number"):
         load_csv(p)
@@ -421,8 +416,8 @@ def test_keep_parsed_parses_a_file_once_and_again_when_it_changes(tmp_path, monk
     rows = good_rows()
     path = write_rows(tmp_path / "a.csv", rows)
     parsed = []
-    real = ds._fast_parse
-    monkeypatch.setattr(ds, "_fast_parse", lambda p: parsed.append(p) or real(p))
+    real = dsf.fast_parse
+    monkeypatch.setattr(dsl, "fast_parse", lambda p: parsed.append(p) or real(p))
     with ds.keep_parsed():
         first = load_csv(path)
         second = load_csv(path)
@@ -588,8 +583,8 @@ def test_a_handling_before_the_rest_is_skipped(tmp_path):
     """A hand turning the phone for the first second (1.5 rad/s) is no rest: the still stretch starts after it,
     and the recording passes; read over the first second, its gyro would exceed the rest bound."""
     rec = _phone_at_rest_then_turning(lead=100)
-    i0, i1 = ds._still_stretch(rec.time, rec.omega)
-    assert rec.time[i0] >= rec.time[100] - ds._STILL_BLOCK_S and rec.time[i1 - 1] < rec.time[100] + 3.5
+    i0, i1 = dsp._still_stretch(rec.time, rec.omega)
+    assert rec.time[i0] >= rec.time[100] - dsp._STILL_BLOCK_S and rec.time[i1 - 1] < rec.time[100] + 3.5
     assert np.abs(np.median(rec.omega[:100], axis=0)).max() > ds.GYRO_REST_LIMIT_RADPS
     assert ds.plausibility_problems(rec) == []
     _written(tmp_path, rec)
@@ -626,7 +621,7 @@ def test_every_field_recording_reads_gravity_and_a_quiet_gyro_at_rest(field_root
     for e in catalogue(field_root):
         rec = load_csv(e.path)
         assert ds.plausibility_problems(rec) == [], e.relpath
-        i0, i1 = ds._still_stretch(rec.time, rec.omega)
+        i0, i1 = dsp._still_stretch(rec.time, rec.omega)
         f = np.median(rec.f[i0:i1], axis=0)
         assert abs(np.linalg.norm(f) - units.G0) < 0.01 * ds.GRAVITY_BAND_MPS2, e.relpath
         assert f[2] / np.linalg.norm(f) > 0.97, e.relpath
@@ -678,8 +673,6 @@ def test_read_columns_converts_units_closed_form(tmp_path):
 def test_a_loggers_export_reads_the_numbers_of_the_plain_file(tmp_path):
     # a preamble, blanks after commas, a comma ending each line, quoted fields, a column not read, CRLF:
     # the numbers of the same rows written plainly, bit for bit, and the C reader takes the unquoted forms
-    from morpi_filters import dataset as ds
-
     rows = [[0.3 + 0.01 * k + 1e-4 * (k % 3), 0.1 * k, -0.2, 9.81, 0.01, -0.02 * k, 1 / 3] for k in range(150)]
     plain = tmp_path / "plain.csv"
     plain.write_text(_logger_text(rows, extra=False, trailing=False, space=","))
@@ -698,10 +691,10 @@ def test_a_loggers_export_reads_the_numbers_of_the_plain_file(tmp_path):
         got = read_columns(p, lay)
         for a, b in zip(got, ref):
             assert np.array_equal(a.view(np.int64), b.view(np.int64)), label
-        precise = ds._parse(p, lay)
+        precise = dsl._parse(p, lay)
         for a, b in zip(precise, ref):
             assert np.array_equal(a.view(np.int64), b.view(np.int64)), label
-        assert (ds._fast_parse(p, lay) is not None) == fast, label
+        assert (dsf.fast_parse(p, lay) is not None) == fast, label
 
 
 def test_read_columns_checks_the_converted_values(tmp_path):
@@ -754,7 +747,6 @@ def test_a_column_not_read_may_hold_anything(tmp_path):
 def test_logger_reader_takes_only_what_the_line_by_line_reading_reads_the_same(tmp_path):
     """Seeded edits of a logger's export: whenever the C reader takes a file, the precise path reads the same
     bits, and when the precise path refuses it, the C reader did not take it."""
-    from morpi_filters import dataset as ds
     from morpi_filters.errors import DataError as DE
 
     rng = np.random.default_rng(20260601)
@@ -787,9 +779,9 @@ def test_logger_reader_takes_only_what_the_line_by_line_reading_reads_the_same(t
                 lines[k] = ",".join(edits[kind](cells))
         p = tmp_path / f"f{case}.csv"
         p.write_text("\n".join(lines) + "\n")
-        fast = ds._fast_parse(p, lay)
+        fast = dsf.fast_parse(p, lay)
         try:
-            precise = ds._parse(p, lay)
+            precise = dsl._parse(p, lay)
         except DE:
             assert fast is None, case
             continue
@@ -838,8 +830,6 @@ def test_keep_parsed_keeps_a_file_per_layout(tmp_path):
 
 
 def test_time_from_first_counts_a_unix_clock_from_its_first_row(tmp_path):
-    from morpi_filters import dataset as ds
-
     rows = [[1_700_000_000_000 + 10 * k, 0.0, 0.0, 9.8, 0.0, 0.0, 0.1] for k in range(50)]   # Unix time in ms
     p = tmp_path / "u.csv"
     p.write_text(_logger_text(rows))
@@ -848,7 +838,7 @@ def test_time_from_first_counts_a_unix_clock_from_its_first_row(tmp_path):
     lay = _logger_layout(time_per_s=1e3, time_from_first=True)
     time, _, _ = read_columns(p, lay)
     assert time[0] == 0.0 and time[1] == 0.01 and time[-1] == 0.49
-    for a, b in zip(ds._fast_parse(p, lay), ds._parse(p, lay)):
+    for a, b in zip(dsf.fast_parse(p, lay), dsl._parse(p, lay)):
         assert np.array_equal(a, b)
 
 
@@ -856,7 +846,6 @@ def test_a_layout_reading_every_column_takes_only_what_the_line_by_line_reading_
     """Seeded edits of a file whose every column is read (no trailing comma, no column left over): short and
     long rows, empty cells and blank lines; whenever the C reader takes a file, the precise path reads the same
     bits, and when the precise path refuses it, the C reader did not take it."""
-    from morpi_filters import dataset as ds
     from morpi_filters.errors import DataError as DE
 
     rng = np.random.default_rng(20261127)
@@ -884,9 +873,9 @@ def test_a_layout_reading_every_column_takes_only_what_the_line_by_line_reading_
                 lines[k] = ",".join(edits[kind](lines[k].split(",")))
         p = tmp_path / f"f{case}.csv"
         p.write_text("\n".join(lines) + "\n")
-        fast = ds._fast_parse(p, lay)
+        fast = dsf.fast_parse(p, lay)
         try:
-            precise = ds._parse(p, lay)
+            precise = dsl._parse(p, lay)
         except DE:
             refused += 1
             assert fast is None, case

@@ -28,6 +28,7 @@ import numpy as np
 import pytest
 
 from morpi_filters import dataset as ds
+from morpi_filters.dataset import fastcsv as dsf, loader as dsl
 from morpi_filters import evaluate as ev
 from morpi_filters import synthetic, units
 from morpi_filters.errors import DataError, MorpiError
@@ -724,9 +725,9 @@ def _differential_cases(tmp_path, seed: int, n_cases: int, n_rows: int = 150):
         raw = ("\n".join(lines) + str(rng.choice(["\n", "", "\n\n"]))).encode("utf-8")
         path = tmp_path / f"d{i}.csv"
         path.write_bytes(raw)
-        fast = ds._fast_parse(path)
+        fast = dsf.fast_parse(path)
         try:
-            precise = np.column_stack(ds._parse(path))
+            precise = np.column_stack(dsl._parse(path))
         except DataError as exc:
             assert fast is None, (i, raw[:300], str(exc))
             continue
@@ -750,7 +751,8 @@ def test_c_reader_takes_only_what_the_precise_path_reads_the_same(tmp_path):
 def test_c_reader_in_blocks_takes_only_what_the_precise_path_reads_the_same(tmp_path, monkeypatch):
     """The same with the file read in small blocks (a long recording's path): rows, limits and time order
     across block ends."""
-    monkeypatch.setattr(ds, "_KEEP_BYTES", 0)
-    monkeypatch.setattr(ds, "_BLOCK_BYTES", 700)
+    monkeypatch.setattr(dsf, "_KEEP_BYTES", 0)
+    monkeypatch.setattr(dsf, "BLOCK_BYTES", 700)
+    monkeypatch.setattr(dsl, "BLOCK_BYTES", 700)
     taken = _differential_cases(tmp_path, seed=20261202, n_cases=300)
     assert taken >= 50, taken

@@ -319,8 +319,9 @@ _KEY_OF_KIND = {"axes": "imu.axes", "accel_unit": "imu.accel_unit", "gyro_unit":
 def test_the_catalogue_and_a_manifest_give_one_verdict_on_the_same_file(tmp_path, monkeypatch, kind, expect):
     """One file read by the MoRPI catalogue and by a manifest: both judge it by dataset.rest_problems (each call
     is seen), with the same verdict, the manifest naming the key of the finding's kind."""
-    from morpi_filters import dataset, manifest
-    from morpi_filters.dataset import Recording, catalogue, write_csv
+    from morpi_filters import dataset
+    from morpi_filters.dataset import Recording, catalogue, plausibility, write_csv
+    from morpi_filters.manifest import read as manifest_read
 
     seen = []
     shared = dataset.rest_problems
@@ -330,8 +331,8 @@ def test_the_catalogue_and_a_manifest_give_one_verdict_on_the_same_file(tmp_path
         seen.append((rec, kw, found))
         return found
 
-    monkeypatch.setattr(dataset, "rest_problems", spy)
-    monkeypatch.setattr(manifest, "rest_problems", spy)
+    monkeypatch.setattr(plausibility, "rest_problems", spy)
+    monkeypatch.setattr(manifest_read, "rest_problems", spy)
     t, f, w = _same_arrays_case(kind)
     path = tmp_path / "s8" / "line_dataset" / "1.csv"
     path.parent.mkdir(parents=True)

@@ -1,0 +1,505 @@
+"""The MoRPI dataset's folders: the root, the catalogue of its recordings, their loading and the checks of
+``morpi check --data``."""
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..errors import DataError, MissingDataError, MorpiError
+from .loader import load_csv
+from .plausibility import check_plausible, plausibility_problems
+from .recording import Recording
+from .truth import Route, layout, routes
+
+#: Environment variable naming the dataset root.
+DATA_ENV = "MORPI_DATA"
+
+_HOW_TO_GET = (
+    "get the field recordings with `morpi data fetch --dest DIR` (or clone the public "
+    "repository ansfl/MoRPI and use its data/ folder), then pass --data DIR or set "
+    f"{DATA_ENV}=DIR"
+)
+
+
+@dataclass(frozen=True)
+class CatalogueEntry:
+    """A recording's place in the dataset layout, before it is read.
+
+    Attributes
+    ----------
+    path : Path
+        The CSV file.
+    relpath : str
+        Its POSIX path below the dataset root.
+    phone, route : str
+        Labels read from the folders.
+    split : str or None
+        ``"train"``, ``"test"``, or None for a folder without a split.
+    """
+
+    path: Path
+    relpath: str
+    phone: str
+    route: str
+    split: str | None
+
+    def load(self) -> Recording:
+        """Read and validate the file, with the entry's labels.
+
+        Returns
+        -------
+        Recording
+            :func:`load_csv` of ``path`` with ``phone``, ``route`` and ``split``
+            set, checked by :func:`check_plausible`.
+
+        Raises
+        ------
+        DataError
+            Every error of :func:`load_csv` and :func:`check_plausible`.
+
+        Examples
+        --------
+        >>> import pathlib, tempfile, numpy as np
+        >>> from morpi_filters.dataset import write_csv
+        >>> root = pathlib.Path(tempfile.mkdtemp())
+        >>> (root / "s6" / "L_line").mkdir(parents=True)
+        >>> t = np.arange(100) * 0.01
+        >>> write_csv(root / "s6" / "L_line" / "1.csv",
+        ...           Recording(time=t, f=np.tile([0.0, 0.0, 9.8], (100, 1)), omega=np.zeros((100, 3))))
+        >>> rec = catalogue(root)[0].load()
+        >>> rec.name, rec.n
+        ('s6/L_line/1.csv', 100)
+        """
+        return check_plausible(load_csv(self.path, phone=self.phone, route=self.route, split=self.split))
+
+
+def resolve_data_root(data=None, *, required: bool = True) -> Path | None:
+    """Find the dataset root: `data` if given, else ``$MORPI_DATA``.
+
+    A folder without ``s6``/``s8`` whose ``data/`` has them (the root of an
+    ansfl/MoRPI clone) stands for that ``data/`` folder.
+
+    Parameters
+    ----------
+    data : str or Path, optional
+        The folder given by the user (``--data``); a leading ``~`` is expanded.
+        When None, the environment variable :data:`DATA_ENV` is read.
+    required : bool, optional
+        Raise when neither is set (default True); otherwise return None.
+
+    Returns
+    -------
+    Path or None
+        The dataset root; None when nothing is configured and not `required`.
+
+    Raises
+    ------
+    MissingDataError
+        When `required` and neither is set, or the folder does not exist.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> clone = pathlib.Path(tempfile.mkdtemp())
+    >>> (clone / "data" / "s8").mkdir(parents=True)
+    >>> resolve_data_root(clone) == clone / "data"
+    True
+    >>> resolve_data_root(clone / "nowhere")
+    Traceback (most recent call last):
+    ...
+    morpi_filters.errors.MissingDataError: --data=...nowhere: not a directory; get the field recordings ...
+    """
+    source = "--data"
+    if data is None:
+        data = os.environ.get(DATA_ENV) or None
+        source = DATA_ENV
+    if data is None:
+        if required:
+            raise MissingDataError(f"no dataset configured: {_HOW_TO_GET}")
+        return None
+    root = Path(data).expanduser()
+    if not root.is_dir():
+        raise MissingDataError(f"{source}={data}: not a directory; {_HOW_TO_GET}")
+    if not any((root / p).is_dir() for p in ("s6", "s8")) and any((root / "data" / p).is_dir() for p in ("s6", "s8")):
+        root = root / "data"   # the root of an ansfl/MoRPI clone: its recordings are under data/
+    return root
+
+
+def missing_data_message() -> str:
+    """How to get the field recordings, in one sentence.
+
+    Returns
+    -------
+    str
+        The sentence (it names ``morpi data fetch``, ``--data`` and
+        :data:`DATA_ENV`).
+
+    Examples
+    --------
+    >>> "morpi data fetch" in missing_data_message()
+    True
+    """
+    return _HOW_TO_GET
+
+
+def _split_parts(rel: Path) -> tuple[str, str, str | None] | None:
+    parts = rel.parts
+    if len(parts) < 3 or parts[0] not in ("s6", "s8"):
+        return None
+    phone, route_name = parts[0], parts[1]
+    split = parts[2] if len(parts) == 4 and parts[2] in ("train", "test") else None
+    if len(parts) not in (3, 4) or (len(parts) == 4 and split is None):
+        return None
+    return phone, route_name, split
+
+
+def catalogue(root) -> list[CatalogueEntry]:
+    """List the recordings under a dataset root, in a stable order.
+
+    Files outside the MoRPI layout (``<phone>/<route>[/<split>]/<n>.csv``)
+    and routes without ground truth are left out. Nothing is read but the
+    folder names.
+
+    Parameters
+    ----------
+    root : str or Path
+        The dataset root (the folder holding ``s6`` and ``s8``).
+
+    Returns
+    -------
+    list of CatalogueEntry
+        Sorted by phone, route, split, then file number (``2.csv`` before
+        ``10.csv``).
+
+    Raises
+    ------
+    DataError
+        `root` is not a directory.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> for rel in ("s8/L_shape/test/10.csv", "s8/L_shape/test/2.csv", "s6/L_line/1.csv", "notes/x.csv"):
+    ...     (root / rel).parent.mkdir(parents=True, exist_ok=True)
+    ...     (root / rel).touch()
+    >>> [(e.relpath, e.split) for e in catalogue(root)]
+    [('s6/L_line/1.csv', None), ('s8/L_shape/test/2.csv', 'test'), ('s8/L_shape/test/10.csv', 'test')]
+    """
+    root = Path(root)
+    if not root.is_dir():
+        raise DataError(f"{root}: not a directory; expected a dataset root (the folder holding s6 and s8)")
+    known = routes()
+    out = []
+    for path in root.rglob("*.csv"):
+        rel = path.relative_to(root)
+        parts = _split_parts(rel)
+        if parts is None or parts[1] not in known:
+            continue
+        out.append(CatalogueEntry(path=path, relpath=rel.as_posix(), phone=parts[0], route=parts[1], split=parts[2]))
+    out.sort(key=lambda e: (e.phone, e.route, e.split or "", _natural_key(e.path.stem)))
+    return out
+
+
+def _natural_key(stem: str):
+    return (0, int(stem), "") if stem.isdigit() else (1, 0, stem)
+
+
+def load_recording(path) -> tuple[Recording, "Route | None"]:
+    """Load one recording by path, with its labels and ground truth read from where it lies.
+
+    A file at ``.../<phone>/<route>[/<split>]/<n>.csv`` of the MoRPI layout
+    gets its phone, route and split and the route's ground truth; anywhere
+    else it loads without labels, with a warning saying so.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file.
+
+    Returns
+    -------
+    recording : Recording
+        The validated recording (:func:`load_csv`, :func:`check_plausible`),
+        labelled when in the layout.
+    truth : Route or None
+        The route's ground truth; None outside the layout.
+
+    Raises
+    ------
+    DataError
+        Every error of :func:`load_csv` and :func:`check_plausible`.
+
+    Warns
+    -----
+    UserWarning
+        When the file is not in the MoRPI layout.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, numpy as np
+    >>> from morpi_filters.dataset import write_csv
+    >>> folder = pathlib.Path(tempfile.mkdtemp()) / "s8" / "short_distance" / "test"
+    >>> folder.mkdir(parents=True)
+    >>> t = np.arange(200) * 0.01
+    >>> write_csv(folder / "1.csv", Recording(time=t, f=np.tile([0, 0, 9.8], (200, 1)),
+    ...                                       omega=np.zeros((200, 3)), source="example"))
+    >>> rec, truth = load_recording(folder / "1.csv")
+    >>> rec.phone, rec.route, rec.split, truth.distance_m
+    ('s8', 'short_distance', 'test', 6.3)
+    """
+    import warnings
+
+    path = Path(path)
+    known = routes()
+    for depth in (4, 3):
+        parts = path.resolve().parts[-depth:]
+        labels = _split_parts(Path(*parts)) if len(parts) == depth else None
+        if labels is not None and labels[1] in known:
+            phone, route_name, split = labels
+            rec = load_csv(path, phone=phone, route=route_name, split=split)
+            return check_plausible(rec), known[route_name]
+    warnings.warn(f"{path}: not in the MoRPI layout (<phone>/<route>[/<split>]/<n>.csv): loaded without "
+                  "phone, route, split or ground truth", stacklevel=2)
+    return check_plausible(load_csv(path)), None
+
+
+def load_catalogue(root, *, phone=None, route=None, split=None) -> list[Recording]:
+    """Load every recording under `root` that matches the given labels.
+
+    Parameters
+    ----------
+    root : str or Path
+        The dataset root.
+    phone, route, split : str, optional
+        Keep only recordings with these labels; None matches any. ``split`` is
+        ``"train"`` or ``"test"`` (folders without a split never match one).
+
+    Returns
+    -------
+    list of Recording
+        Labelled recordings in the order of :func:`catalogue`.
+
+    Raises
+    ------
+    DataError
+        For the first file that does not load (:func:`CatalogueEntry.load`).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile, numpy as np
+    >>> from morpi_filters.dataset import write_csv
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> t = np.arange(100) * 0.01
+    >>> rec = Recording(time=t, f=np.tile([0.0, 0.0, 9.8], (100, 1)), omega=np.zeros((100, 3)))
+    >>> for rel in ("s8/short_distance/train/1.csv", "s8/short_distance/test/1.csv", "s6/L_line/1.csv"):
+    ...     (root / rel).parent.mkdir(parents=True, exist_ok=True)
+    ...     write_csv(root / rel, rec)
+    >>> [r.name for r in load_catalogue(root, phone="s8", split="test")]
+    ['s8/short_distance/test/1.csv']
+    >>> len(load_catalogue(root)), len(load_catalogue(root, split="train"))
+    (3, 1)
+    """
+    out = []
+    for e in catalogue(root):
+        if (phone is None or e.phone == phone) and (route is None or e.route == route) and \
+                (split is None or e.split == split):
+            out.append(e.load())
+    return out
+
+
+def expected_layout(root) -> dict[str, int]:
+    """The folders a dataset root should hold and their number of recordings.
+
+    The MoRPI layout (:func:`layout`), except for a synthetic dataset written
+    by :func:`morpi_filters.synthetic.write_dataset`, whose ``manifest.json``
+    lists its files (it may hold fewer runs per folder). An unreadable
+    manifest, or one from another generator, is ignored.
+
+    Parameters
+    ----------
+    root : str or Path
+        The dataset root.
+
+    Returns
+    -------
+    dict of str -> int
+        Folder (``phone/route[/split]``) to its number of recordings.
+
+    Examples
+    --------
+    >>> import json, pathlib, tempfile
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> expected_layout(root) == layout()
+    True
+    >>> files = {"s6/L_line/1.csv": "", "s6/L_line/2.csv": "", "s8/line_dataset/1.csv": ""}
+    >>> _ = (root / "manifest.json").write_text(json.dumps({"generator": "morpi_filters.simulate", "files": files}))
+    >>> expected_layout(root)
+    {'s6/L_line': 2, 's8/line_dataset': 1}
+    """
+    man = Path(root) / "manifest.json"
+    if man.is_file():
+        try:
+            m = json.loads(man.read_text())
+            if isinstance(m, dict) and m.get("generator") == "morpi_filters.simulate" \
+                    and isinstance(m.get("files"), dict):
+                counts: dict[str, int] = {}
+                for rel in (str(r) for r in m["files"] if str(r).endswith(".csv")):
+                    folder = rel.rsplit("/", 1)[0]
+                    counts[folder] = counts.get(folder, 0) + 1
+                return counts
+        except (OSError, ValueError):
+            pass
+    return layout()
+
+
+def folder_key(phone: str, route_name: str, split: str | None) -> str:
+    """The layout name of a folder: ``phone/route[/split]``.
+
+    Parameters
+    ----------
+    phone : str
+        ``"s6"`` or ``"s8"``.
+    route_name : str
+        Route folder name.
+    split : str or None
+        ``"train"``, ``"test"``, or None for a folder without a split.
+
+    Returns
+    -------
+    str
+        The key used by :func:`layout` and :func:`expected_layout`.
+
+    Examples
+    --------
+    >>> folder_key("s8", "short_distance", "test"), folder_key("s6", "L_line", None)
+    ('s8/short_distance/test', 's6/L_line')
+    """
+    return "/".join([phone, route_name] + ([split] if split else []))
+
+
+def layout_problems(root, entries=None) -> list[str]:
+    """One line per difference between the recordings under `root` and :func:`expected_layout`.
+
+    A folder of the layout that is absent, a folder holding another number of
+    recordings, and CSV files outside the layout (which no command reads) are
+    named. No recording at all is one line saying so (with a hint when
+    ``root/data`` holds the dataset). Files are not read.
+
+    Parameters
+    ----------
+    root : str or Path
+        The dataset root.
+    entries : list of CatalogueEntry, optional
+        ``catalogue(root)`` when already listed.
+
+    Returns
+    -------
+    list of str
+        The problems, one line each; empty when the layout is complete.
+
+    Examples
+    --------
+    A synthetic dataset promising two runs of ``s6/L_line`` but holding one,
+    plus a stray file:
+
+    >>> import json, pathlib, tempfile
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> files = {"s6/L_line/1.csv": "", "s6/L_line/2.csv": ""}
+    >>> _ = (root / "manifest.json").write_text(json.dumps({"generator": "morpi_filters.simulate", "files": files}))
+    >>> for rel in ("s6/L_line/1.csv", "notes/x.csv"):
+    ...     (root / rel).parent.mkdir(parents=True, exist_ok=True)
+    ...     (root / rel).touch()
+    >>> [line.replace(str(root), "ROOT")[:50] for line in layout_problems(root)]
+    ['ROOT/s6/L_line: 1 recording(s), expected 2', 'ROOT/notes: 1 CSV file(s) outside the MoRPI layout']
+    """
+    root = Path(root)
+    entries = catalogue(root) if entries is None else entries
+    expected = expected_layout(root)
+    counts: dict[str, int] = {}
+    for e in entries:
+        k = folder_key(e.phone, e.route, e.split)
+        counts[k] = counts.get(k, 0) + 1
+    out = []
+    if not entries:
+        inner = root / "data"
+        hint = (f"; {inner} looks like the dataset root, pass --data {inner}"
+                if inner.is_dir() and catalogue(inner) else f"; {_HOW_TO_GET}")
+        out.append(f"{root}: no recordings in the MoRPI layout (<phone>/<route>[/<split>]/<n>.csv){hint}")
+    for folder, n in (expected.items() if entries else ()):
+        got = counts.get(folder, 0)
+        if not (root / folder).is_dir():
+            out.append(f"{root / folder}: missing folder, expected {n} recording(s)")
+        elif got != n:
+            out.append(f"{root / folder}: {got} recording(s), expected {n}")
+    for folder in sorted(set(counts) - set(expected)):
+        out.append(f"{root / folder}: unexpected folder ({counts[folder]} recording(s)), "
+                   f"expected only {', '.join(sorted(expected))}")
+    known = {e.path for e in entries}
+    stray: dict[Path, int] = {}
+    for path in root.rglob("*.csv"):
+        if path not in known:
+            stray[path.parent] = stray.get(path.parent, 0) + 1
+    for folder in sorted(stray):
+        out.append(f"{folder}: {stray[folder]} CSV file(s) outside the MoRPI layout "
+                   "(<phone>/<route>[/<split>]/<n>.csv, routes of data/routes.json), read by no command")
+    return out
+
+
+def check_tree(root, *, usable=None) -> tuple[list[str], int]:
+    r"""Validate every recording under `root` and the folder layout.
+
+    Parameters
+    ----------
+    root : str or Path
+        The dataset root.
+    usable : callable, optional
+        A further check of each recording that loads (with its labels):
+        ``usable(recording)`` returns a one-line problem, or None
+        (``morpi check`` passes :meth:`morpi_filters.field.FieldData.problem`).
+
+    Returns
+    -------
+    problems : list of str
+        One line per file that does not load (:func:`load_csv`), per
+        implausible reading of a file that does (:func:`plausibility_problems`:
+        a dead channel, wrong units, swapped columns, a z-down frame), and per
+        difference from the expected layout (:func:`layout_problems`: missing
+        or unexpected folders, wrong counts, no recordings at all).
+    n_ok : int
+        Number of files that loaded cleanly and passed every plausibility check (and `usable`).
+
+    Examples
+    --------
+    >>> import json, pathlib, tempfile, numpy as np
+    >>> from morpi_filters.dataset import write_csv
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> files = {"s6/L_line/1.csv": "", "s6/L_line/2.csv": ""}
+    >>> _ = (root / "manifest.json").write_text(json.dumps({"generator": "morpi_filters.simulate", "files": files}))
+    >>> (root / "s6" / "L_line").mkdir(parents=True)
+    >>> t = np.arange(100) * 0.01
+    >>> write_csv(root / "s6/L_line/1.csv", Recording(time=t, f=np.tile([0.0, 0.0, 9.8], (100, 1)),
+    ...                                                omega=np.zeros((100, 3))))
+    >>> _ = (root / "s6/L_line/2.csv").write_text("time,f_x\n")
+    >>> problems, n_ok = check_tree(root)
+    >>> n_ok, [p.replace(str(root), "ROOT") for p in problems]
+    (1, ['ROOT/s6/L_line/2.csv: line 1: missing column(s) f_y, f_z, g_x, g_y, g_z; expected the header time,f_x,f_y,f_z,g_x,g_y,g_z (in any order)'])
+    """
+    root = Path(root)
+    entries = catalogue(root)
+    problems, n_ok = [], 0
+    for e in entries:
+        try:
+            rec = load_csv(e.path, phone=e.phone, route=e.route, split=e.split)
+        except MorpiError as exc:
+            problems.append(str(exc))
+            continue
+        found = plausibility_problems(rec)           # every one, where a load names the first
+        if not found and usable is not None:
+            line = usable(rec)
+            found = [] if line is None else [line]
+        problems += found
+        n_ok += not found
+    return problems + layout_problems(root, entries), n_ok
