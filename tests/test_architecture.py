@@ -318,7 +318,7 @@ def _functions_calling(attr_chain: str) -> set:
     ("the gravity constant", r"\b9\.80665\b", {"units"}),
     ("the gravity model (WGS84 normal gravity)", r"def normal_gravity\b|\b9\.78032", {"calibration"}),
     ("the rotation-vector conversion (Rodrigues)", r"def rotvec_to_C\b|1(\.0)?\s*-\s*np\.cos\(", {"strapdown"}),
-    ("the atomic writer", r"def atomic_path\b", {"outputs"}),
+    ("the atomic writer", r"def atomic_path\b", {"outputs.atomic"}),
     ("the file checksum", r"def sha256_file\b|def _sha256_stream\b", {"fetch"}),
 ])
 def test_one_definition(concept, pattern, home):
@@ -348,7 +348,7 @@ def test_the_heading_wrapper_uses_the_rate_integrator():
 
 def test_files_are_renamed_into_place_only_by_the_atomic_writer_and_the_staged_swaps():
     renames = _functions_calling("os.replace") | _functions_calling("os.rename")
-    assert renames == {"outputs.atomic_path", "outputs.swap_in", "outputs.__exit__"}
+    assert renames == {"outputs.atomic.atomic_path", "outputs.claims.swap_in", "outputs.session.__exit__"}
 
 
 def test_sha256_is_computed_by_the_checksum_and_the_monte_carlo_digest_only():

@@ -316,7 +316,7 @@ if point == "between the renames":
     replace = os.replace
     os.replace = lambda src, dst: die() if Path(src) == stage else replace(src, dst)
 if point == "after the renames":
-    out_mod._remove_owned = die
+    out_mod.claims._remove_owned = die
 outputs.__exit__(None, None, None)
 """
 
@@ -398,7 +398,7 @@ def test_stale_staging_that_cannot_be_removed_is_named(tmp_path, fake_sections, 
     def refuse(path, *a, **k):
         raise PermissionError(13, "Permission denied", str(path))
 
-    monkeypatch.setattr(out_mod.shutil, "rmtree", refuse)
+    monkeypatch.setattr(out_mod.claims.shutil, "rmtree", refuse)
     assert cli.main(["drift", "--out", str(tmp_path / "sec")]) == 0
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and stale.name in err[0] and "interrupted run" in err[0]
