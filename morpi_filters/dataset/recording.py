@@ -77,13 +77,13 @@ class Recording:
             bad = ~np.isfinite(values)
             if bad.any():
                 i = int(np.flatnonzero(bad.reshape(n, -1).any(axis=1))[0])
-                raise DataError(f"{self.source}: {label} of sample {i} is {values[i]!r}, expected finite numbers")
+                raise DataError(f"{self.source}: {label} of sample {i} is {values[i].tolist()}, expected finite numbers")
         if n > 1:
             step = np.diff(self.time)
             if not (step > 0).all():
                 i = int(np.flatnonzero(~(step > 0))[0]) + 1
-                raise DataError(f"{self.source}: time of sample {i} ({self.time[i]!r}) is not after the one before "
-                                f"({self.time[i - 1]!r}), expected strictly increasing times")
+                raise DataError(f"{self.source}: time of sample {i} ({float(self.time[i])!r}) is not after the one before "
+                                f"({float(self.time[i - 1])!r}), expected strictly increasing times")
 
     @property
     def n(self) -> int:
