@@ -720,10 +720,17 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
     if isinstance(workers, bool) or not (isinstance(workers, (int, np.integer)) and workers >= 1):
         raise ParameterError(f"run_batch: workers={workers!r}: expected a whole number >= 1")
     kern = _aided_kernel.compiled()
+    # what depends on a member's input alone, laid out once per input (a tuning search runs each input under
+    # many tunings)
+    keys = [(id(inp), tun.steps, tun.rest) for inp, tun in zip(inputs, tunings)]
+    layouts = {}
+    for i, key in enumerate(keys):
+        if key not in layouts:
+            layouts[key] = _layout(inputs[i], tunings[i], epoch_s)
 
     def members(_, a, b):
         return [_run_member(kern, inputs[i], tunings[i], epoch_s, bool(keep_hist[i]), smoothed_covariance, nis,
-                            bool(keep_inn[i])) for i in range(a, b)]
+                            bool(keep_inn[i]), layouts[keys[i]]) for i in range(a, b)]
 
     # ranges of at most 8 members, about 4 or more per thread when the members allow: a thread lays out
     # a member's arguments (Python, under the GIL) while the others run compiled passes
@@ -733,13 +740,15 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
     return out
 
 
-def _run_member(kern, inp: AidedInput, tun: AidTuning, epoch_s, smooth, smoothed_covariance, nis, keep_inn):
+def _run_member(kern, inp: AidedInput, tun: AidTuning, epoch_s, smooth, smoothed_covariance, nis, keep_inn,
+                layout=None):
     """One member of :func:`run_batch`: the compiled forward pass, the smoother where asked, the result.
 
-    `kern` holds the compiled functions (:func:`_aided_kernel.compiled`).
+    `kern` holds the compiled functions (:func:`_aided_kernel.compiled`); `layout` is the member's
+    :func:`_layout`.
     """
     K = _aided_kernel
-    a = _kernel_args(inp, tun, epoch_s, smooth, keep_inn)
+    a = _kernel_args(inp, tun, epoch_s, smooth, keep_inn, layout)
     kern["forward_member"](*a.values())
     time, ep_p, x, P, bias, nis_arr = a["t"], a["ep_p"], a["x"], a["P"], a["bias"], a["nis"]
     sm = Psm = None
@@ -767,18 +776,32 @@ def _run_member(kern, inp: AidedInput, tun: AidTuning, epoch_s, smooth, smoothed
         bias_g_sigma=np.sqrt(np.maximum(np.diag(P[BG, BG]), 0.0)), innovations=inn_of)
 
 
-def _kernel_args(inp: AidedInput, tun: AidTuning, epoch_s, smooth, keep_inn):
-    """The arguments of :func:`_aided_kernel.forward_member` for one member, by name and in order: its
-    events and tunables, and zeroed outputs sized for it."""
+def _layout(inp: AidedInput, tun: AidTuning, epoch_s) -> dict:
+    """What a member's pass takes from its input alone (and from whether it uses steps and rest): its samples
+    and steps read-only, the epochs and step events, the per-sample flags. Members of one batch that share
+    an input and those two switches share it."""
     K = _aided_kernel
-    time = np.ascontiguousarray(inp.time, float)
-    n = time.size
+    ro = _signal_kernel.read_only                   # inputs read-only: one compiled pass, frozen inputs or not
+    time = ro(inp.time)
     epochs, end_k, end_a, end_j, starts, rest, standing = _epochs(inp, tun, epoch_s)
-    flags = np.zeros(n, np.int64)
+    flags = np.zeros(time.size, np.int64)
     flags[epochs] |= K.EPOCH
     flags[rest] |= K.REST
     flags[standing] |= K.STAND
     flags[starts] |= K.START
+    return dict(t=time, f=ro(inp.f), w=ro(inp.omega), flags=ro(flags, np.int64), end_k=ro(end_k, np.int64),
+                end_a=ro(end_a, np.int64), end_j=ro(end_j, np.int64), step_len=ro(inp.step_length),
+                epochs=epochs.size)
+
+
+def _kernel_args(inp: AidedInput, tun: AidTuning, epoch_s, smooth, keep_inn, layout=None):
+    """The arguments of :func:`_aided_kernel.forward_member` for one member, by name and in order: its
+    events and tunables, and zeroed outputs sized for it. `layout` is the member's :func:`_layout`, made
+    here when not given."""
+    K = _aided_kernel
+    if layout is None:
+        layout = _layout(inp, tun, epoch_s)
+    n, end_k, end_j = layout["t"].size, layout["end_k"], layout["end_j"]
     gyro = tun.step_heading == "gyro"
     nk = np.shape(inp.step_length)[0]
     step_vec = np.zeros((nk, 2)) if inp.step_vector is None else np.ascontiguousarray(inp.step_vector, float)
@@ -805,15 +828,14 @@ def _kernel_args(inp: AidedInput, tun: AidTuning, epoch_s, smooth, keep_inn):
     P0[BA, BA] = I3 * tun.ba0 ** 2
     P0[BG, BG] = I3 * tun.bg0 ** 2
     P0[GAIN, GAIN] = tun.gain_sigma ** 2 if tun.steps else 0.0
-    m, kinds = epochs.size, len(K.KINDS)
+    m, kinds = layout["epochs"], len(K.KINDS)
     cap = (m + end_k.size) if keep_inn else 0
     rows = m if smooth else 0
-    ro = _signal_kernel.read_only                   # inputs read-only: one compiled pass, frozen inputs or not
+    ro = _signal_kernel.read_only
     return dict(
-        t=ro(time), f=ro(inp.f), w=ro(inp.omega), flags=ro(flags, np.int64),
-        end_k=ro(end_k, np.int64), end_a=ro(end_a, np.int64), end_j=ro(end_j, np.int64),
-        step_len=ro(inp.step_length), step_vec=ro(step_vec), turn_q=ro(turn_q), par=ro(par), C0=ro(inp.C0),
-        v0=ro(inp.v0), P0=ro(P0),
+        t=layout["t"], f=layout["f"], w=layout["w"], flags=layout["flags"], end_k=end_k, end_a=layout["end_a"],
+        end_j=end_j, step_len=layout["step_len"], step_vec=ro(step_vec), turn_q=ro(turn_q), par=ro(par),
+        C0=ro(inp.C0), v0=ro(inp.v0), P0=ro(P0),
         fj=-1 if tun.gain_estimated else GAIN, keep_inn=bool(keep_inn), keep_hist=bool(smooth),
         ep_k=np.zeros(m, np.int64), ep_p=np.zeros((m, 3)), ep_P=np.zeros((m, 2, 2)), nis=np.zeros((kinds, 3)),
         inn_k=np.zeros((kinds, cap), np.int64), inn_z=np.zeros((kinds, cap, 3)), inn_y=np.zeros((kinds, cap, 3)),

@@ -71,7 +71,9 @@ def ablation_file_name(rec_id: str, calibration: str, removed: str, estimate: st
 
 
 def _write_track(path: Path, p) -> None:
-    """An estimate's ``time,x,y`` (and ``p_xx,p_xy,p_yy`` with a covariance) as CSV."""
+    """An estimate's ``time,x,y`` (and ``p_xx,p_xy,p_yy`` with a covariance) as CSV, written plainly: `path`
+    lies in the command's staging folder, which no one sees before it is complete (a file of its own per
+    track, atomic, costs thousands of staging folders)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     if p.P_xy is None:
         lines = ["time,x,y"] + [f"{t!r},{x!r},{y!r}" for t, (x, y) in zip(p.time.tolist(), p.xy.tolist())]
@@ -79,7 +81,7 @@ def _write_track(path: Path, p) -> None:
         lines = ["time,x,y,p_xx,p_xy,p_yy"] + [
             f"{t!r},{x!r},{y!r},{P[0][0]!r},{P[0][1]!r},{P[1][1]!r}"
             for t, (x, y), P in zip(p.time.tolist(), p.xy.tolist(), p.P_xy.tolist())]
-    write_text(path, "\n".join(lines) + "\n")
+    path.write_text("\n".join(lines) + "\n")
 
 
 def _change(full, ablated) -> str:
