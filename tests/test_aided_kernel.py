@@ -178,6 +178,8 @@ def test_the_compiled_loop_gives_the_plain_loops_bits(jit, tun):
     # numba compiles without fast-math (no fused multiply-add, no reordering) and calls the same libm
     inp = _busy_input()
     plain = plain_kernels(K)
+    # the strapdown's loops it calls are plain too, although the compiled pass put their compiled forms in place
+    assert not any(hasattr(getattr(plain, f), "py_func") for f in ("rodrigues", "matmul3", "forward_member"))
     a = aided._kernel_args(inp, tun, 0.1, True, True)
     b = {k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in a.items()}
     e1 = jit["forward_member"](*a.values())

@@ -206,6 +206,21 @@ def _loops_modules() -> list:
                    if isinstance(node, ast.Call) and ast.unparse(node.func) == "loops"})
 
 
+def test_every_loops_module_is_private_to_its_concept():
+    # each concept keeps its loops beside it, in a private module that only its own room imports, and the loops
+    # that call its loops (the aided kernel and the steps' loops call the strapdown's and calibration's); the
+    # aided study's tuning reads the aided kernel's names of the measurement kinds
+    mods = _loops_modules()
+    assert {"_calibration_loops", "_strapdown_loops", "_aided_kernel", "steps._loops", "field._loops",
+            "montecarlo._batch_ins"} <= set(mods)
+    owners = {"_calibration_loops": {"calibration", "steps._loops"}, "_strapdown_loops": {"strapdown", "_aided_kernel"},
+              "_aided_kernel": {"aided", "field_aided.tuning"}}
+    for name, (inside, _) in _graph().items():
+        for m in inside & set(mods):
+            room = m.split(".")[0] if "." in m else None
+            assert name.split(".")[0] == room or name in owners.get(m, ()), f"{name} imports the loops of {m}"
+
+
 _ONE_COMPILATION = """
 import importlib
 import sys
