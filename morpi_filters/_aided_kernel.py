@@ -1,5 +1,4 @@
-"""The aided filter's forward pass and smoother over one recording, and the strapdown's attitude loop:
-plain loops that numba compiles.
+"""The aided filter's forward pass and smoother over one recording: plain loops that numba compiles.
 
 :func:`aided.run_batch` prepares each member (epoch grid, step events, rest flags, tunables) and
 calls :func:`forward_member`, which runs the strapdown at every sample and the Kalman predict,
@@ -12,8 +11,8 @@ updates and feedback at the epochs, writing into arrays the caller owns, then, w
 - the measurement models ``h`` and ``H`` of the step displacement, zero velocity, zero rate and the
   non-holonomic constraint (:func:`step_model`, :func:`zero_velocity_model`, :func:`zero_rate_model`,
   :func:`nhc_model`);
-- Rodrigues' formula of :func:`strapdown.rotvec_to_C`, and with it the running attitude product of
-  each run of :func:`strapdown.ins3d` (:func:`attitude_chain`, :func:`attitude_chains`);
+- the strapdown at every sample with Rodrigues' formula and the 3 x 3 product of the strapdown's loops
+  (``_strapdown_loops.rodrigues``, ``matmul3``);
 - filterpy's Rauch-Tung-Striebel recursion for the fed-back filter (:func:`smooth_member`), its linear
   solves by LU factors with partial pivoting (:func:`lu_factor`, :func:`lu_solve`).
 
@@ -24,8 +23,9 @@ compiles them on its first run.
 The tests hold each piece within a stated rounding tolerance to the dense series or a numpy reference
 form (``tests/oracles/aided.py``, itself held to filterpy and to finite differences).
 
-numba is imported on the first call (:func:`compiled`), not with the package, and its machine code
-is cached on disk. Every function runs as plain Python too (slowly): the tests compare both.
+numba is imported on the first call (:data:`compiled`, made by ``_jit.loops``, which compiles the
+strapdown's loops first), not with the package, and its machine code is cached on disk. Every function
+runs as plain Python too (slowly): the tests compare both.
 """
 
 from __future__ import annotations
@@ -34,6 +34,8 @@ import math
 
 import numpy as np
 
+from ._jit import loops
+from ._strapdown_loops import compiled as strapdown_loops, matmul3, rodrigues
 from .error_model import BA, BG, DP, DV, EPS, N_STATES
 
 # the aided error state (aided.CLONE, GAIN, TURN, N_AIDED)
@@ -54,59 +56,12 @@ PAR = ("q_a", "q_a_rest", "q_g", "q_g_rest", "q_ba", "q_bg", "jump2", "step_sigm
        "zupt_sigma", "gyro_sigma_rest", "nhc", "g", "gyro_heading")
 
 
-def rodrigues(px, py, pz, out):
-    """``exp([phi x])`` into `out` (3, 3): :func:`strapdown.rotvec_to_C` for one vector."""
-    t2 = px * px + py * py + pz * pz
-    if t2 < 1e-8:
-        a = 1.0 - t2 / 6.0 + t2 * t2 / 120.0
-        b = 0.5 - t2 / 24.0 + t2 * t2 / 720.0
-    else:
-        t = math.sqrt(t2)
-        a = math.sin(t) / t
-        b = (1.0 - math.cos(t)) / (t * t)
-    c = 1.0 - b * t2
-    out[0, 0] = b * (px * px) + c
-    out[1, 1] = b * (py * py) + c
-    out[2, 2] = b * (pz * pz) + c
-    out[0, 1] = b * (px * py) - a * pz
-    out[1, 0] = b * (py * px) + a * pz
-    out[0, 2] = b * (px * pz) + a * py
-    out[2, 0] = b * (pz * px) - a * py
-    out[1, 2] = b * (py * pz) - a * px
-    out[2, 1] = b * (pz * py) + a * px
-
-
-def matmul3(a, b, out):
-    """``out = a b`` for 3 x 3 matrices (`out` distinct from both)."""
-    for i in range(3):
-        for j in range(3):
-            out[i, j] = a[i, 0] * b[0, j] + a[i, 1] * b[1, j] + a[i, 2] * b[2, j]
-
-
 def copy_into(dst, src):
     """``dst[:, :] = src[:ni, :nj]`` for `dst` (ni, nj), element by element (numba compiles this loop in a
     fraction of the time an array assignment takes)."""
     for i in range(dst.shape[0]):
         for j in range(dst.shape[1]):
             dst[i, j] = src[i, j]
-
-
-def attitude_chain(phi, C0, out):
-    """``out[0] = C0``, ``out[k + 1] = out[k] exp([phi[k] x])`` for the rotation vectors `phi` (m, 3): the
-    attitude of one run of :func:`strapdown.ins3d`, `out` (m + 1, 3, 3)."""
-    for i in range(3):
-        for j in range(3):
-            out[0, i, j] = C0[i, j]
-    E = np.empty((3, 3))
-    for k in range(phi.shape[0]):
-        rodrigues(phi[k, 0], phi[k, 1], phi[k, 2], E)
-        matmul3(out[k], E, out[k + 1])
-
-
-def attitude_chains(phi, C0, out):
-    """:func:`attitude_chain` for each of B runs: `phi` (B, m, 3), `C0` (B, 3, 3), `out` (B, m + 1, 3, 3)."""
-    for b in range(phi.shape[0]):
-        attitude_chain(phi[b], C0[b], out[b])
 
 
 def transition_blocks(d, fn, Cm, A):
@@ -779,23 +734,7 @@ def smooth_member(hist_P, hist_rec, q_ba, q_bg, fj, covariance, xs, Ps_xy):
 
 
 #: The functions numba compiles, callees first (each finds the compiled form of those it calls).
-_FUNCTIONS = ("rodrigues", "matmul3", "copy_into", "attitude_chain", "attitude_chains", "transition_blocks", "predict",
-              "inverse", "product", "product_t", "h_x_plus_r", "kf_update", "step_model", "zero_velocity_model",
-              "zero_rate_model", "nhc_model", "_log", "forward_member", "condition", "lu_factor", "lu_solve", "smooth_member")
-_COMPILED = None
-
-
-def compiled():
-    """:func:`forward_member`, :func:`smooth_member` and :func:`attitude_chain` compiled by numba (once per
-    process; the machine code is cached on disk).
-
-    Returns the compiled functions by name (:data:`_FUNCTIONS`).
-    """
-    global _COMPILED
-    if _COMPILED is None:
-        from ._signal_kernel import COMPILE_LOCK, jit_functions
-
-        with COMPILE_LOCK:
-            if _COMPILED is None:
-                _COMPILED = jit_functions(globals(), _FUNCTIONS)
-    return _COMPILED
+_FUNCTIONS = ("copy_into", "transition_blocks", "predict", "inverse", "product", "product_t", "h_x_plus_r", "kf_update",
+              "step_model", "zero_velocity_model", "zero_rate_model", "nhc_model", "_log", "forward_member", "condition",
+              "lu_factor", "lu_solve", "smooth_member")
+compiled = loops(globals(), _FUNCTIONS, uses=(strapdown_loops,))

@@ -64,7 +64,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from . import _aided_kernel, _signal_kernel
+from . import _aided_kernel, _jit as _signal_kernel
 from .error_model import BA, BG, DP, DV, EPS, N_STATES
 from .errors import ParameterError
 from .parallel import available_cores, chunk_ranges, execute

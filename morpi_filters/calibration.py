@@ -444,13 +444,13 @@ def _block_sigma(t: np.ndarray, x: np.ndarray, span: float, block: float, source
 
     Returns the lower quartile over the blocks of :func:`noise_sigma` (shape
     (k,)) and the median of the quietest block (shape (k,)): the compiled loops
-    of ``_signal_kernel.block_sigma_loops`` (the blocks of at least five
+    of ``_calibration_loops.block_sigma_loops`` (the blocks of at least five
     samples; the quietest is chosen with the tie tolerance of
     :func:`morpi_filters.choice.choose`). Without a block of five samples,
     :func:`noise_sigma` and the median of the samples up to `span`. A
     non-finite value (or a sum that overflows) is a DataError naming `source`.
     """
-    from ._signal_kernel import compiled
+    from ._calibration_loops import compiled
 
     if not (block > 0 and math.isfinite(block) and math.isfinite(span)):
         raise ParameterError(f"block={block!r}, span={span!r}: expected finite lengths, block > 0 [s]")
@@ -469,7 +469,7 @@ def _block_sigma(t: np.ndarray, x: np.ndarray, span: float, block: float, source
 
 def _moving_stats(t: np.ndarray, x: np.ndarray, half: float):
     """Centred time-window mean and std of each column (window [t-half, t+half]): a compiled loop."""
-    from ._signal_kernel import compiled
+    from ._calibration_loops import compiled
 
     t = np.array(t, dtype=float, order="C")                   # writable C arrays: one compiled signature
     x = np.array(x, dtype=float, order="C")
@@ -710,7 +710,7 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
     thr_sa = np.maximum(np.minimum(k_std * sig_a, still.accel), accel_floor)
     # a sample moves when, on any axis, the gyro's spread or its deviation from the quiet level, or the
     # accelerometer's spread, exceeds its threshold (a compiled loop over the samples)
-    from ._signal_kernel import compiled
+    from ._calibration_loops import compiled
 
     moving = np.empty(n, dtype=bool)
     compiled()["motion_flags"](s_g, m_g, s_a, np.array(thr_sg, dtype=float), np.array(med_g, dtype=float),

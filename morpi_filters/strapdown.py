@@ -37,11 +37,11 @@ trapezoid rule; on irregular grids (S6) it removes the trapezoid's
 dt-dependent bias, which otherwise reaches ~1 mm of end error on a sine path.
 
 Only the attitude needs a loop over time (a running product of rotation
-matrices): each run's is compiled by numba (``_aided_kernel.attitude_chains``,
+matrices): each run's is compiled by numba (``_strapdown_loops.attitude_chains``,
 imported on the first call), so a run's attitude does not depend on the batch
 it is in.
 The interval integrals, the coning term, the sample-time checks and the
-velocity and position sums are compiled loops too (``_signal_kernel``:
+velocity and position sums are compiled loops too (``_strapdown_loops``:
 ``increments``, ``coning``, ``time_order``, ``translation``; numpy's arithmetic
 in its order); the accelerations are vectorized over time and runs. Batched
 inputs (``(runs, n, 3)``) share one time vector.
@@ -252,7 +252,8 @@ def coarse_level(f_rest) -> np.ndarray:
     return Ry @ Rx
 
 def _check_time(time) -> np.ndarray:
-    from ._signal_kernel import compiled, read_only
+    from ._jit import read_only
+    from ._strapdown_loops import compiled
 
     time = np.asarray(time, dtype=float)
     if time.ndim != 1 or time.shape[0] < 2:
@@ -303,9 +304,9 @@ def _increments(time, x):
     3-point non-uniform differences (the derivative of the quadratic through each sample and its
     two neighbours, one-sided quadratics at both ends; second-order accurate). Returns the
     integrals (B, n - 1, ...) and the slopes (B, n, ...), computed by a compiled loop
-    (``_signal_kernel.increments``).
+    (``_strapdown_loops.increments``).
     """
-    from ._signal_kernel import compiled
+    from ._strapdown_loops import compiled
 
     B, n = x.shape[:2]
     x3 = np.require(x, float, ["C", "W"]).reshape(B, n, -1)    # one compiled signature
@@ -363,7 +364,7 @@ def _integrate_translation(time, a, v0, p0):
     both ends): ``dv = dt (a_k + a_k+1)/2 + dt^2 (a'_k - a'_k+1)/12``,
     ``dp = v_k dt + dt^2 (7 a_k + 3 a_k+1)/20 + dt^3 (3 a'_k - 2 a'_k+1)/60``.
     """
-    from ._signal_kernel import compiled
+    from ._strapdown_loops import compiled
 
     dt = np.diff(time)
     a = np.require(a, float, ["C", "W"])
@@ -381,18 +382,18 @@ def _attitude_matrices(time, wb, C0b) -> np.ndarray:
 
     `time` (n,) checked, `wb` (B, n, 3) the body rates, `C0b` (B, 3, 3) the initial attitudes.
     """
-    from ._aided_kernel import compiled as attitude_loops
-    from ._signal_kernel import compiled as signal_loops, read_only
+    from ._jit import read_only
+    from ._strapdown_loops import compiled
 
     n, B = time.shape[0], wb.shape[0]
     wb = np.require(wb, float, ["C", "W"])
     phi = _increments(time, wb)[0]
     # the coning term, (w_j x w_j+1) dt^2 / 12 per interval (a compiled loop)
-    signal_loops()["coning"](read_only(time), wb, phi)
+    compiled()["coning"](read_only(time), wb, phi)
     # each run's running product C0 E_0 E_1 ... in a compiled loop (numba, loaded on the first call): Rodrigues'
     # formula and 3 x 3 products, each sum in plain order; a run's attitude does not depend on its batch
     C = np.empty((B, n, 3, 3))
-    attitude_loops()["attitude_chains"](phi, read_only(np.broadcast_to(C0b, (B, 3, 3))), C)
+    compiled()["attitude_chains"](phi, read_only(np.broadcast_to(C0b, (B, 3, 3))), C)
     return C
 
 

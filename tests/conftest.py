@@ -24,16 +24,20 @@ def _field_root():
     return None
 
 
-def plain_kernels():
-    """``morpi_filters._signal_kernel`` loaded a second time and never compiled: its loops as plain Python,
-    which the tests run beside the compiled ones (same bits)."""
+def plain_kernels(module):
+    """The loops module `module` loaded a second time and never compiled: its loops as plain Python, which the
+    tests run beside the compiled ones (same bits). The loops it imports from another loops module are that
+    module's plain copies too, so no compiled callee hides in a plain loop."""
     import importlib.util
+    import sys
 
-    from morpi_filters import _signal_kernel
-
-    spec = importlib.util.spec_from_file_location("morpi_filters._signal_kernel_plain", _signal_kernel.__file__)
+    spec = importlib.util.spec_from_file_location(module.__name__ + "_plain", module.__file__)
     plain = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(plain)
+    for name, value in list(vars(plain).items()):
+        home = sys.modules.get(getattr(getattr(value, "py_func", value), "__module__", None) or "")
+        if callable(value) and home not in (None, module) and name in getattr(home, "_FUNCTIONS", ()):
+            setattr(plain, name, getattr(plain_kernels(home), name))
     return plain
 
 

@@ -3,9 +3,7 @@
 and the compiled loop against the same loop run as plain Python (the same bits)."""
 from __future__ import annotations
 
-import importlib.util
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,7 +12,7 @@ from oracles import aided as oracle
 from morpi_filters import _aided_kernel as K
 from morpi_filters import aided, simulate, units
 from morpi_filters.error_model import BA, BG, DP, DV, EPS
-from morpi_filters.strapdown import rotvec_to_C
+from conftest import plain_kernels
 
 N = aided.N_AIDED
 #: Machine epsilon of float64.
@@ -46,16 +44,6 @@ def _error_state(rng):
 def test_the_state_layout_is_aideds():
     assert (K._N, K._CL, K._GAIN, K._TURN) == (N, aided.CLONE.start, aided.GAIN, aided.TURN)
     assert K.KINDS == ("step", "zero velocity", "zero rate", "non-holonomic")
-
-
-@pytest.mark.parametrize("size", [0.0, 1e-6, 1e-4, 0.3, 3.0])
-def test_rodrigues_is_rotvec_to_C(jit, size):
-    rng = np.random.default_rng(11)
-    for phi in rng.normal(size=(20, 3)) * size:
-        out = np.zeros((3, 3))
-        jit["rodrigues"](phi[0], phi[1], phi[2], out)
-        # the same formula in another order of rounding: a few units of 1e-16
-        np.testing.assert_allclose(out, rotvec_to_C(phi), rtol=0, atol=1e-15)
 
 
 def _dense_phi(d, fn, Cm):
@@ -167,15 +155,6 @@ def test_nhc_model_is_non_holonomic(jit):
         np.testing.assert_allclose(H[:2], meas.H(x[None], nom)[0], rtol=0, atol=1e-14)
 
 
-def _plain_kernel():
-    """A second copy of the module, never compiled: its functions run as plain Python."""
-    path = Path(K.__file__)
-    spec = importlib.util.spec_from_file_location("morpi_filters._aided_kernel_plain", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
 def _busy_input():
     # a short sine drive with rest at both ends and a standing stretch: every measurement runs
     traj = simulate.sine(2.5, period=0.5, amplitude=0.1, rate_hz=100.0)
@@ -198,7 +177,9 @@ def _busy_input():
 def test_the_compiled_loop_gives_the_plain_loops_bits(jit, tun):
     # numba compiles without fast-math (no fused multiply-add, no reordering) and calls the same libm
     inp = _busy_input()
-    plain = _plain_kernel()
+    plain = plain_kernels(K)
+    # the strapdown's loops it calls are plain too, although the compiled pass put their compiled forms in place
+    assert not any(hasattr(getattr(plain, f), "py_func") for f in ("rodrigues", "matmul3", "forward_member"))
     a = aided._kernel_args(inp, tun, 0.1, True, True)
     b = {k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in a.items()}
     e1 = jit["forward_member"](*a.values())
@@ -208,23 +189,6 @@ def test_the_compiled_loop_gives_the_plain_loops_bits(jit, tun):
     for k in a:
         if isinstance(a[k], np.ndarray):
             np.testing.assert_array_equal(a[k], b[k], err_msg=k)
-
-
-def test_the_attitude_chain_is_the_running_product_of_rotvec_to_C(jit):
-    # a tumbling run: large and tiny increments (both branches of Rodrigues' formula)
-    rng = np.random.default_rng(12)
-    phi = rng.normal(size=(400, 3)) * np.repeat([0.3, 1e-5], 200)[:, None]
-    C0 = rotvec_to_C(rng.normal(size=3))
-    out = np.empty((401, 3, 3))
-    jit["attitude_chain"](phi, C0, out)
-    ref = [C0]
-    for E in rotvec_to_C(phi):
-        ref.append(ref[-1] @ E)
-    # the numpy product in another order of rounding: 400 steps of a few units of 1e-16
-    np.testing.assert_allclose(out, np.array(ref), rtol=0, atol=1e-13)
-    plain = np.empty_like(out)
-    _plain_kernel().attitude_chain(phi, C0, plain)
-    np.testing.assert_array_equal(out, plain)
 
 
 def test_run_batch_members_do_not_share_state():
@@ -321,21 +285,26 @@ def test_the_compiled_smoother_is_filterpys_recursion(jit, tun, covariance):
 
 
 def test_kernels_wrapped_once_when_threads_reach_them_together():
-    # A fresh interpreter, so no kernel is wrapped yet: four threads (a study's chunks on threads or Dask
-    # workers) ask for both kernel modules at once, and none may wrap a function another already wrapped.
+    # A fresh interpreter, so no kernel is wrapped yet: two threads per loops module (a study's chunks on threads
+    # or Dask workers) ask for every loops module at once, those that call another module's loops (the aided
+    # kernel, the steps' loops) among them; none may wrap a function another already wrapped, nor wait forever.
     import subprocess
     import sys
 
     code = (
         "import threading\n"
-        "from morpi_filters import _signal_kernel, _aided_kernel\n"
+        "from morpi_filters import _aided_kernel, _calibration_loops, _strapdown_loops\n"
+        "from morpi_filters.field import _loops as field_loops\n"
+        "from morpi_filters.montecarlo import _batch_ins\n"
+        "from morpi_filters.steps import _loops as steps_loops\n"
         "errors = []\n"
         "def call(mod):\n"
         "    try:\n"
         "        mod.compiled()\n"
         "    except Exception as exc:\n"
         "        errors.append(repr(exc))\n"
-        "threads = [threading.Thread(target=call, args=(m,)) for m in (_signal_kernel, _aided_kernel) * 2]\n"
+        "mods = (_aided_kernel, steps_loops, _strapdown_loops, _calibration_loops, field_loops, _batch_ins)\n"
+        "threads = [threading.Thread(target=call, args=(m,)) for m in mods * 2]\n"
         "[t.start() for t in threads]\n"
         "[t.join() for t in threads]\n"
         "print(len(errors), errors[:1])\n")

@@ -20,10 +20,11 @@ PKG = Path(__file__).resolve().parents[1] / "morpi_filters"
 #: modules of its own layer or of lower layers, never of a higher one. Every
 #: module of ``report/`` is in the pages layer.
 LAYERS = (
-    ("foundation", {"errors", "units", "choice", "resources", "results", "outputs", "parallel"}),
+    ("foundation", {"errors", "units", "choice", "resources", "results", "outputs", "parallel", "_jit"}),
     ("inputs", {"params", "dataset", "manifest", "fetch"}),
-    ("calibration", {"calibration", "_signal_kernel"}),
-    ("navigation", {"strapdown", "steps", "symbolic", "error_model", "eskf", "aided", "_aided_kernel", "_batch_ins"}),
+    ("calibration", {"calibration", "_calibration_loops"}),
+    ("navigation", {"strapdown", "_strapdown_loops", "steps", "symbolic", "error_model", "eskf", "aided",
+                    "_aided_kernel"}),
     ("synthetic recordings", {"simulate", "synthetic", "foreign"}),
     ("field", {"field"}),
     ("evaluation", {"evaluate"}),
@@ -189,46 +190,71 @@ def test_only_the_loader_and_the_dataset_tables_import_pandas_and_importing_the_
         assert "pandas" not in top, name
 
 
-def test_only_the_compiled_kernels_import_numba_and_importing_the_package_does_not():
-    # numba (the compiler of the 3D Monte Carlo kernel, of the aided filter's forward pass, of the
-    # strapdown's attitude loop and of the per-recording signal loops) costs about 0.6 s to import
-    # and load its cached machine code: it is imported on a kernel's first call, so only commands that
+def test_only_the_jit_accessor_imports_numba_and_importing_the_package_does_not():
+    # numba (the compiler of every loops module: the 3D Monte Carlo kernel, the aided filter's forward pass,
+    # the strapdown's, rest detection's, the steps' and the rule search's loops) costs about 0.6 s to import
+    # and load its cached machine code: it is imported by _jit on a kernel's first call, so only commands that
     # run one pay for it
     graph = _graph()
-    # (_signal_kernel.jit_functions compiles _aided_kernel's loops too)
-    assert {n for n, (_, ext) in graph.items() if "numba" in ext} == {"_batch_ins", "_signal_kernel"}
+    assert {n for n, (_, ext) in graph.items() if "numba" in ext} == {"_jit"}
     assert not _loaded_by_every_module("numba")
 
 
+def _loops_modules() -> list:
+    """The modules holding compiled loops: those that make their accessor with ``_jit.loops``."""
+    return sorted({name for name, tree in _modules_cache().items() for node in ast.walk(tree)
+                   if isinstance(node, ast.Call) and ast.unparse(node.func) == "loops"})
+
+
+def test_every_loops_module_is_private_to_its_concept():
+    # each concept keeps its loops beside it, in a private module that only its own room imports, and the loops
+    # that call its loops (the aided kernel and the steps' loops call the strapdown's and calibration's); the
+    # aided study's tuning reads the aided kernel's names of the measurement kinds
+    mods = _loops_modules()
+    assert {"_calibration_loops", "_strapdown_loops", "_aided_kernel", "steps._loops", "field._loops",
+            "montecarlo._batch_ins"} <= set(mods)
+    owners = {"_calibration_loops": {"calibration", "steps._loops"}, "_strapdown_loops": {"strapdown", "_aided_kernel"},
+              "_aided_kernel": {"aided", "field_aided.tuning"}}
+    for name, (inside, _) in _graph().items():
+        for m in inside & set(mods):
+            room = m.split(".")[0] if "." in m else None
+            assert name.split(".")[0] == room or name in owners.get(m, ()), f"{name} imports the loops of {m}"
+
+
 _ONE_COMPILATION = """
+import importlib
 import sys
 from pathlib import Path
-from morpi_filters import _aided_kernel, _signal_kernel, cli, synthetic
+from morpi_filters import cli, synthetic
 tmp = Path(sys.argv[1])
 root = synthetic.write_dataset(tmp / "ds", seed=2, runs_per_folder=1)
 for command in ("tables", "aided"):
     cli.main([command, "--data", str(root), "--out", str(tmp / command)])
-for kernel in (_signal_kernel, _aided_kernel):
-    for name, f in kernel.compiled().items():
-        print(name, len(f.signatures))
+for module in sys.argv[2:]:
+    for name, f in importlib.import_module("morpi_filters." + module).compiled().items():
+        print(module + "." + name, len(f.signatures))
 """
 
 
 def test_each_compiled_loop_compiles_once_for_the_commands(tmp_path):
     # numba compiles a loop once per argument type (a read-only array is another type than a writeable
     # one, and a literal integer another than an integer): each compilation costs up to seconds on a
-    # fresh install, so the callers hand their inputs read-only (_signal_kernel.read_only) and no loop
+    # fresh install, so the callers hand their inputs read-only (_jit.read_only) and no loop of any loops module
     # is reached with two types by `morpi tables` and `morpi aided` on a synthetic dataset. The run starts
     # with an empty cache, as a fresh install does: numba then compiles (and counts) the loops called only
     # from inside another one too.
     env = dict(__import__("os").environ, MPLBACKEND="Agg", NUMBA_CACHE_DIR=str(tmp_path / "numba"))
-    r = subprocess.run([sys.executable, "-c", _ONE_COMPILATION, str(tmp_path)], capture_output=True, text=True,
-                       cwd=PKG.parent, env=env, timeout=900)
+    r = subprocess.run([sys.executable, "-c", _ONE_COMPILATION, str(tmp_path), *_loops_modules()],
+                       capture_output=True, text=True, cwd=PKG.parent, env=env, timeout=900)
     assert r.returncode == 0, r.stderr[-2000:]
     counts = dict(line.rsplit(" ", 1) for line in r.stdout.splitlines() if line.count(" ") >= 1
                   and line.rsplit(" ", 1)[1].isdigit())
     assert counts and {name: int(n) for name, n in counts.items() if int(n) > 1} == {}
-    assert int(counts["forward_member"]) == int(counts["turn_values"]) == 1      # both commands reached them
+    # both commands reached them, and a loop of each module they run on this dataset (one run per folder: no
+    # leave-one-out errors)
+    for name in ("_aided_kernel.forward_member", "steps._loops.turn_values", "_calibration_loops.moving_stats",
+                 "_strapdown_loops.rodrigues"):
+        assert int(counts[name]) == 1, name
 
 
 #: Markdown a page is made of: a heading at the start of a line, a table row or separator, an
@@ -367,8 +393,8 @@ def test_every_package_folder_is_shipped():
     assert folders <= listed, sorted(folders - listed)
 
 
-#: Private modules their concepts import by name: the compiled loops.
-_KERNEL_MODULES = {"_signal_kernel", "_aided_kernel", "_batch_ins"}
+#: Private modules their concepts import by name: the compiled loops and the numba accessor.
+_KERNEL_MODULES = {"_jit", "_calibration_loops", "_strapdown_loops", "_aided_kernel", "_loops", "_batch_ins"}
 
 
 def _private_reads(tree: ast.AST) -> list:
@@ -399,5 +425,5 @@ def test_no_module_reads_another_modules_private_names():
 
 def test_the_private_name_rule_finds_a_private_import_and_a_private_attribute():
     tree = ast.parse("from .field import _loo_vector\nfrom . import field as fd\nx = fd._train_sets(d)\n"
-                     "from . import _signal_kernel\ny = _signal_kernel.compiled()\n")
+                     "from . import _strapdown_loops\ny = _strapdown_loops.compiled()\n")
     assert [t for _, t in _private_reads(tree)] == ["from .field import _loo_vector", "fd._train_sets"]

@@ -4,9 +4,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from morpi_filters import _batch_ins as bi
 from morpi_filters import montecarlo as mc
+from morpi_filters.montecarlo import _batch_ins as bi
 from morpi_filters.montecarlo import engine as mce
+from conftest import plain_kernels
 
 
 def _planes(a):
@@ -113,7 +114,7 @@ def test_3d_kernel_is_its_python_rule_compiled_run_by_run():
     ax, ay = np.empty((n, R)), np.empty((n, R))
     bi.horizontal_accel_3d(h, f, w, ax, ay)
     px, py = np.empty((n, R)), np.empty((n, R))
-    bi._accel_3d_rows(h, *f, *w, px, py)
+    plain_kernels(bi)._accel_3d_rows(h, *f, *w, px, py)
     assert np.array_equal(ax, px) and np.array_equal(ay, py)
     part = np.empty((2, n, 2))
     bi.horizontal_accel_3d(h, [c[:, 2:4] for c in f], [c[:, 2:4] for c in w], part[0], part[1])

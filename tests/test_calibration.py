@@ -8,7 +8,7 @@ import re
 import numpy as np
 import pytest
 
-from morpi_filters import simulate, units
+from morpi_filters import _calibration_loops, simulate, units
 from morpi_filters.calibration import (DEFAULT_IMU, LOCAL_GRAVITY, STILL_NOISE_FACTOR, Calibration, NoRestError,
                                        RestWindow, StillBound, calibrate, detect_rest, normal_gravity,
                                        rest_measures, rest_windows_summary, still_bound)
@@ -459,7 +459,7 @@ def test_moving_stats_are_the_numpy_window_sums_within_the_rounding_of_the_sums(
     assert np.all(std[:, 1] == 0.0)                               # a constant column: every difference is 0.0
     # the compiled loop gives the plain Python loop's bits: the same loop, the same operations in the same
     # order (numba compiles without fast-math), so exactness does not depend on numpy
-    plain = plain_kernels()
+    plain = plain_kernels(_calibration_loops)
     m2, s2 = np.empty_like(x[:500]), np.empty_like(x[:500])
     plain.moving_stats(t[:500], x[:500], 0.125, m2, s2)
     m1, s1 = _moving_stats(t[:500], x[:500], 0.125)
@@ -468,8 +468,6 @@ def test_moving_stats_are_the_numpy_window_sums_within_the_rounding_of_the_sums(
 
 
 def test_motion_flags_are_the_numpy_comparisons():
-    from morpi_filters import _signal_kernel
-
     rng = np.random.default_rng(22)
     n = 2000
     s_g, m_g, s_a = rng.exponential(size=(n, 3)), rng.normal(size=(n, 3)), rng.exponential(size=(n, 3))
@@ -479,9 +477,9 @@ def test_motion_flags_are_the_numpy_comparisons():
     ref = ((s_g > g_spread) | (np.abs(m_g - g_level) > g_dev)).any(axis=1) | (s_a > a_spread).any(axis=1)
     assert 0.1 < ref.mean() < 0.9                                 # both outcomes are exercised
     out = np.empty(n, dtype=bool)
-    _signal_kernel.compiled()["motion_flags"](s_g, m_g, s_a, g_spread, g_level, g_dev, a_spread, out)
+    _calibration_loops.compiled()["motion_flags"](s_g, m_g, s_a, g_spread, g_level, g_dev, a_spread, out)
     np.testing.assert_array_equal(out, ref)
-    plain = plain_kernels()
+    plain = plain_kernels(_calibration_loops)
     out2 = np.empty(n, dtype=bool)
     plain.motion_flags(s_g, m_g, s_a, g_spread, g_level, g_dev, a_spread, out2)
     np.testing.assert_array_equal(out2, ref)
@@ -490,12 +488,10 @@ def test_motion_flags_are_the_numpy_comparisons():
 # ----------------------------------------------------------------------------- block noise kernel
 
 def _block_kernels(compiled):
-    """The block loops of ``_signal_kernel``, compiled by numba or as plain Python."""
-    from morpi_filters import _signal_kernel
-
+    """The block loops of ``_calibration_loops``, compiled by numba or as plain Python."""
     if compiled:
-        return _signal_kernel.compiled()
-    plain = plain_kernels()
+        return _calibration_loops.compiled()
+    plain = plain_kernels(_calibration_loops)
     return {n: getattr(plain, n) for n in ("block_edges", "block_noise", "block_pick", "block_sigma_loops")}
 
 

@@ -184,8 +184,8 @@ def test_analysis_scripts_and_the_tutorial_use_public_names_only():
 # ----------------------------------------------------------------------------- numpydoc sections
 
 #: Modules whose public functions must carry complete numpydoc sections (issue 13, item 6).
-_SECTIONED_MODULES = ("_batch_ins", "assessment", "calibration", "cli", "curves", "dataset", "error_model", "fetch",
-                      "parallel", "params", "steps", "field", "evaluate", "eskf", "symbolic", "manifest", "foreign")
+_SECTIONED_MODULES = ("montecarlo._batch_ins", "assessment", "calibration", "cli", "curves", "dataset", "error_model",
+                      "fetch", "parallel", "params", "steps", "field", "evaluate", "eskf", "symbolic", "manifest", "foreign")
 #: Public functions of those modules without an Examples section, and why.
 _NO_EXAMPLE = {
     "assessment.fit_paper_numbers": "a bounded least-squares fit of several seconds (tests/test_assessment.py runs it)",

@@ -14,7 +14,7 @@ from morpi_filters.errors import DataError, MorpiError
 from morpi_filters import dataset as ds
 from morpi_filters import evaluate as ev
 from morpi_filters import field as fd
-from morpi_filters.field import rules as fdr, thresholds as fdt
+from morpi_filters.field import _loops as field_loops, rules as fdr, thresholds as fdt
 from morpi_filters import simulate, units
 from morpi_filters import steps as st
 from morpi_filters.report.tables import report_tables
@@ -682,7 +682,7 @@ def test_leave_one_out_errors_kernel_is_the_numpy_form_within_the_rounding_of_th
     # of the sum (oracles.loo.order_bound: about n eps relative), and the kernel run plain gives its bits
     from oracles import loo as oracle
 
-    plain = plain_kernels()
+    plain = plain_kernels(field_loops)
     rng = np.random.default_rng(29)
     truth = ds.route("L_shape")
     for n in (2, 3, 7, 8, 9, 15, 16, 17, 127, 128, 129, 300, 1029):

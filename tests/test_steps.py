@@ -8,7 +8,7 @@ import pytest
 from scipy.integrate import cumulative_trapezoid, quad
 
 from morpi_filters import steps as st
-from morpi_filters.steps import extract as stx, prepare as stp
+from morpi_filters.steps import _loops, extract as stx, prepare as stp
 from morpi_filters.dataset import Recording
 from morpi_filters.errors import MorpiError
 from conftest import plain_kernels
@@ -105,7 +105,7 @@ def test_lowpass_is_scipys_sosfiltfilt_within_the_filters_condition(cutoff_hz):
     short = rng.normal(size=9)                                   # too short for the padding: returned as is
     np.testing.assert_array_equal(st.lowpass(short, cutoff_hz), short)
     # the compiled loop gives the plain Python loop's bits: the same loop, the same operations in the same order
-    plain = plain_kernels()
+    plain = plain_kernels(_loops)
     x = rng.normal(size=200)
     out = np.empty(200)
     plain.filtfilt(sos, signal.sosfilt_zi(sos), 9, x, out)
@@ -454,7 +454,7 @@ def test_step_sums_are_the_steps_own_sums_for_every_reading_and_refuse_the_same_
 
     from morpi_filters import simulate
 
-    plain = plain_kernels()
+    plain = plain_kernels(_loops)
     eps = np.finfo(float).eps
     L = simulate.l_route(period=1.0, amplitude=0.1)
     rec = _simulated(L, 2, bias_dps=0.1, pattern="s6")
@@ -511,10 +511,9 @@ def test_interp_and_swing_kernels_are_numpys_within_rounding():
     # of at most the two neighbours' size each on each side (a slope's three, the product's two, the sum's one:
     # 12 u (|fp[j]| + |fp[j + 1]|) for both); where a neighbour is not finite the result is one of numpy's
     # fallbacks (a neighbour's value, inf or NaN), chosen without arithmetic: compared exactly
-    from morpi_filters import _signal_kernel
     from oracles.sums import U, assert_within
 
-    plain = plain_kernels()
+    plain = plain_kernels(_loops)
     rng = np.random.default_rng(8)
     t = np.cumsum(rng.uniform(0.005, 0.02, 3000))
     psi = np.cumsum(rng.normal(0.0, 0.01, 3000))
@@ -526,7 +525,7 @@ def test_interp_and_swing_kernels_are_numpys_within_rounding():
     fp[100:110] = 3.0
     fp[500:502] = np.inf                                         # inf - inf: numpy's fallbacks
     fp[2000] = np.nan
-    for f in (plain.interp, _signal_kernel.compiled()["interp"]):
+    for f in (plain.interp, _loops.compiled()["interp"]):
         for values in (psi, fp):
             out = np.empty(x.shape[0])
             with np.errstate(invalid="ignore"):                  # inf - inf in the plain loop's numpy scalars
@@ -549,7 +548,7 @@ def test_interp_and_swing_kernels_are_numpys_within_rounding():
     at = np.sort(rng.uniform(t[0], t[-1], 41))
     cases = [at, at[:-1], np.sort(np.r_[at, at[5], t[10] + 1e-4, t[10] + 2e-4]), at[:2], at[:1],
              np.array([t[10] + 1e-4, t[10] + 2e-4, t[50]])]
-    for f in (plain.swing_median, _signal_kernel.compiled()["swing_median"]):
+    for f in (plain.swing_median, _loops.compiled()["swing_median"]):
         for a in cases:
             # a window's max and min are samples and their difference one rounding, the same on both sides;
             # degrees (one product) and the median of two (a sum and a halving) may round otherwise: 3 u each side
@@ -582,9 +581,7 @@ def _turn_heading_bound(t, psi, integral, stretches) -> float:
 
 
 def test_turn_values_kernel_is_turn_heading_of_turn_stretches_within_the_rounding_of_interpolation():
-    from morpi_filters import _signal_kernel
-
-    plain = plain_kernels()
+    plain = plain_kernels(_loops)
     rng = np.random.default_rng(17)
     t = np.cumsum(rng.uniform(0.005, 0.02, 4000))
     stretches_seen = set()
@@ -605,7 +602,7 @@ def test_turn_values_kernel_is_turn_heading_of_turn_stretches_within_the_roundin
             stretches_seen.add(min(len(stretches), 3))
             want = st.turn_heading(x, t, psi, stretches, integral=integral)
             bound = _turn_heading_bound(t, psi, integral, stretches)
-            for f in (_signal_kernel.compiled()["turn_values"], plain.turn_values):
+            for f in (_loops.compiled()["turn_values"], plain.turn_values):
                 out = np.empty(x.shape[0])
                 assert f(bt, psi_b, threshold, per_period, x, t, psi, integral, out) == len(stretches)
                 np.testing.assert_allclose(out, want, rtol=0.0, atol=bound)
@@ -621,7 +618,7 @@ def test_turn_values_kernel_is_turn_heading_of_turn_stretches_within_the_roundin
     assert stretches == [(0.0, 1.0, 5.0, 6.0)]
     want = st.turn_heading(bt, tt, pp, stretches, integral=integral)
     assert want[5] != 0.0 and want[4] == 0.0
-    for f in (_signal_kernel.compiled()["turn_values"], plain.turn_values):
+    for f in (_loops.compiled()["turn_values"], plain.turn_values):
         out = np.empty(7)
         f(bt, psi_b, 1.5, 1, bt, tt, pp, integral, out)
         np.testing.assert_allclose(out, want, rtol=0.0, atol=_turn_heading_bound(tt, pp, integral, stretches))
@@ -631,17 +628,16 @@ def test_turn_values_kernel_is_turn_heading_of_turn_stretches_within_the_roundin
 def test_window_spread_kernel_is_the_numpy_running_sums_within_their_rounding():
     # the loop and numpy's cumsum add the same running sums, each within Higham's bound of the exact ones,
     # carried through the window difference and the square root (oracles.sums.window_spread)
-    from morpi_filters import _signal_kernel
     from oracles import sums
 
-    plain = plain_kernels()
+    plain = plain_kernels(_loops)
     rng = np.random.default_rng(23)
     # gyro-like noise, on offsets (cancellation in E[x^2] - E[x]^2: clipped at 0), a constant column
     for w in (0.01 * rng.normal(size=(3000, 3)), 5.0 + 1e-4 * rng.normal(size=(500, 3)),
               np.c_[np.full(400, 0.3), rng.normal(size=(400, 2))]):
         for k in (2, 3, 50, w.shape[0]):
             want, mean, d_sd, d_mean = sums.window_spread(w, k)
-            for f in (_signal_kernel.compiled()["window_spread"], plain.window_spread):
+            for f in (_loops.compiled()["window_spread"], plain.window_spread):
                 sd, means = np.empty(w.shape[0] - k + 1), np.empty((w.shape[0] - k + 1, 3))
                 f(w, k, sd, means)
                 sums.assert_within(sd, want, d_sd, f"spread, k {k}")
@@ -652,9 +648,7 @@ def test_window_spread_kernel_is_the_numpy_running_sums_within_their_rounding():
 def test_reading_sums_kernel_by_hand():
     import math
 
-    from morpi_filters import _signal_kernel
-
-    plain = plain_kernels()
+    plain = plain_kernels(_loops)
     bt, psi_b, weight = np.array([1.0, 2.0, 3.0]), np.array([0.0, 0.1, 0.2]), np.array([2.0, 3.0])
     # the motion starts on the first boundary (an empty first step) and ends half a median step after the last
     m0, m1, psi_m0, psi_m1, per, wmed = 1.0, 3.5, 0.0, 0.3, 1.0, 2.5
@@ -676,7 +670,7 @@ def test_reading_sums_kernel_by_hand():
         wf = [a for a, _ in steps]
         want = (math.fsum(wf), math.fsum(a * math.cos(h) for a, h in steps),
                 math.fsum(a * math.sin(h) for a, h in steps), len(steps))
-        for f in (plain.reading_sums, _signal_kernel.compiled()["reading_sums"]):
+        for f in (plain.reading_sums, _loops.compiled()["reading_sums"]):
             got = f(bt, psi_b, weight, aux, m0, m1, psi_m0, psi_m1, per, wmed, ends, heading)
             assert got[3] == want[3] and all(math.isfinite(v) for v in got[:3]), (ends, heading, got)
             # at most 4 terms added in order against their exact sum: a few roundings of numbers below 10

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from morpi_filters import units
+from morpi_filters import _strapdown_loops, units
 from morpi_filters.errors import MorpiError
 from morpi_filters.strapdown import coarse_level, heading_from_C, ins2d, ins3d, rotvec_to_C, yaw_to_C
 from conftest import plain_kernels
@@ -325,12 +325,37 @@ def _numpy_increments(time, x):
     return 0.5 * (x[:, :-1] + x[:, 1:]) * dt + (d[:, :-1] - d[:, 1:]) * (dt * dt / 12.0), d
 
 
+@pytest.mark.parametrize("size", [0.0, 1e-6, 1e-4, 0.3, 3.0])
+def test_rodrigues_is_rotvec_to_C(size):
+    rng = np.random.default_rng(11)
+    for phi in rng.normal(size=(20, 3)) * size:
+        out = np.zeros((3, 3))
+        _strapdown_loops.compiled()["rodrigues"](phi[0], phi[1], phi[2], out)
+        # the same formula in another order of rounding: a few units of 1e-16
+        np.testing.assert_allclose(out, rotvec_to_C(phi), rtol=0, atol=1e-15)
+
+
+def test_the_attitude_chain_is_the_running_product_of_rotvec_to_C():
+    # a tumbling run: large and tiny increments (both branches of Rodrigues' formula)
+    rng = np.random.default_rng(12)
+    phi = rng.normal(size=(400, 3)) * np.repeat([0.3, 1e-5], 200)[:, None]
+    C0 = rotvec_to_C(rng.normal(size=3))
+    out = np.empty((401, 3, 3))
+    _strapdown_loops.compiled()["attitude_chain"](phi, C0, out)
+    ref = [C0]
+    for E in rotvec_to_C(phi):
+        ref.append(ref[-1] @ E)
+    # the numpy product in another order of rounding: 400 steps of a few units of 1e-16
+    np.testing.assert_allclose(out, np.array(ref), rtol=0, atol=1e-13)
+    plain = np.empty_like(out)
+    plain_kernels(_strapdown_loops).attitude_chain(phi, C0, plain)
+    np.testing.assert_array_equal(out, plain)
+
+
 def test_coning_term_is_the_numpy_elementwise_form_exactly():
     # exact: the term is elementwise products and differences, each one correctly rounded operation in the
     # same order on both sides; no sum whose order numpy chooses
-    from morpi_filters import _signal_kernel
-
-    plain = plain_kernels()
+    plain = plain_kernels(_strapdown_loops)
     rng = np.random.default_rng(44)
     for n, B in ((2, 1), (300, 1), (300, 3)):
         time = np.cumsum(rng.uniform(0.003, 0.02, n))
@@ -343,7 +368,7 @@ def test_coning_term_is_the_numpy_elementwise_form_exactly():
         want[..., 0] += (w0[..., 1] * w1[..., 2] - w0[..., 2] * w1[..., 1]) * c
         want[..., 1] += (w0[..., 2] * w1[..., 0] - w0[..., 0] * w1[..., 2]) * c
         want[..., 2] += (w0[..., 0] * w1[..., 1] - w0[..., 1] * w1[..., 0]) * c
-        for f in (_signal_kernel.compiled()["coning"], plain.coning):
+        for f in (_strapdown_loops.compiled()["coning"], plain.coning):
             got = phi.copy()
             f(time, w, got)
             np.testing.assert_array_equal(got, want)
@@ -379,7 +404,7 @@ def test_translation_is_the_numpy_sums_within_the_rounding_of_the_running_sums(n
         assert_within(got_v, v, dv_bound, "velocity")
         assert_within(got_p, p, p_bound, "position")
     # the compiled loop gives the plain Python loop's bits: the same loop, the same operations in the same order
-    plain = plain_kernels()
+    plain = plain_kernels(_strapdown_loops)
     pv, pp = np.empty(a.shape), np.empty(a.shape)
     dv, d = _numpy_increments(time, a)
     plain.translation(np.diff(time), a, d, dv, np.diff(time) ** 3 / 60.0, v0, p0, pv, pp)
@@ -417,7 +442,7 @@ def test_increments_are_the_numpy_form_and_the_running_integral_its_sums_within_
     assert_within(_running_integral(time, psi), np.concatenate([[0.0], np.cumsum(trapezoids)]), prefix_bound(trapezoids),
                   "running integral")
     # the compiled loops give the plain Python loops' bits: the same loops, the same operations in the same order
-    plain = plain_kernels()
+    plain = plain_kernels(_strapdown_loops)
     x = rng.normal(size=(2, n, 3))
     inc, d = np.empty((2, n - 1, 3)), np.empty((2, n, 3))
     plain.increments(time, x, inc, d)

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import _signal_kernel
+from . import _loops
 from .. import steps as st
 from ..choice import choose
 from ..errors import MorpiError, ParameterError
@@ -112,7 +112,7 @@ def loo_errors(truth, g, u, keep=None) -> np.ndarray:
     against its own end point and distance: `truth` holds ``end_point_m``
     (shape (2,), shared by the runs, or (n, 2)) and ``distance_m`` (a number or
     shape (n,)), as a :class:`TrainSet` or a route does. A compiled loop
-    (``_signal_kernel.loo_errors``), the gains summed in order (the numpy form
+    (``field/_loops.py``: ``loo_errors``), the gains summed in order (the numpy form
     within rounding).
 
     Parameters
@@ -150,7 +150,7 @@ def loo_errors(truth, g, u, keep=None) -> np.ndarray:
     if dist.shape != (n,) or not dist.flags.c_contiguous:
         dist = np.ascontiguousarray(np.broadcast_to(dist, (n,)))
     keep = np.ones(n, dtype=bool) if keep is None else keep
-    m = _signal_kernel.compiled()["loo_errors"](g, u, keep, end, dist, out)
+    m = _loops.compiled()["loo_errors"](g, u, keep, end, dist, out)
     return out[:m]
 
 

@@ -82,7 +82,7 @@ Pieces from other modules
     :func:`morpi_filters.strapdown.ins3d` / ``ins2d`` and evaluates
     :func:`morpi_filters.symbolic.closed_form_errors`. The gain-error study
     propagates the INS with a specialised kernel
-    (:mod:`morpi_filters._batch_ins`: a quaternion attitude step over runs,
+    (:mod:`morpi_filters.montecarlo._batch_ins`: a quaternion attitude step over runs,
     compiled by numba, and trapezoid integration; the true signals go through
     the same rules once and are subtracted), because the general strapdown,
     which keeps every C_bn matrix, costs about 8 times the drawing of the

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import _batch_ins as bi
+from . import _batch_ins as bi
 from ..errors import ParameterError
 from ..parallel import Progress, chunk_ranges, execute
 from ..steps import weinberg_length

@@ -5,7 +5,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .. import _signal_kernel
+from .. import _jit
+from . import _loops
 from ..errors import DataError, ParameterError
 from .reckon import weinberg_length
 from .rules import DEFAULT_CONFIGS, Peaks, StepConfig, Steps
@@ -154,12 +155,12 @@ def step_sums(prepared: PreparedSignal, method: str, config: StepConfig, *, peak
     heading = _HEADING_CODES[config.heading]
     edge = _edge_values(prepared, config, pkey, bt, psi_b) if heading >= 2 else _NO_EDGES
     m0, m1 = prepared.motion
-    w, ux, uy, n = _signal_kernel.compiled()["reading_sums"](
+    w, ux, uy, n = _loops.compiled()["reading_sums"](
         bt, psi_b, weight, edge, m0, m1, psi_m[0], psi_m[1], per, wmed, _ENDS_CODES[config.ends], heading)
     return StepSums(w, ux, uy, med, n)
 
 
-#: The codes of the readings in ``_signal_kernel.reading_sums``.
+#: The codes of the readings in ``_loops.reading_sums``.
 _HEADING_CODES = {"absolute": 0, "change": 1, "turns": 2, "mean": 3}
 _ENDS_CODES = {"drop": 0, "fraction": 1, "whole": 2}
 _NO_EDGES = np.zeros(0)
@@ -233,7 +234,7 @@ def _boundaries(p, method, config, peak_cache):
     weight, wmed = found
     # the headings: at the motion's ends, at the boundaries, and the swing between the maxima
     psi = p.heading
-    kernel = _signal_kernel.compiled()
+    kernel = _loops.compiled()
     psi_m = memo.get("motion heading")
     if psi_m is None:
         psi_m = memo["motion heading"] = np.interp([m0, m1], t, psi)
@@ -245,8 +246,8 @@ def _boundaries(p, method, config, peak_cache):
     skey = ("swing",) + pkey[3:8]                               # the maxima: their thresholds, the grid
     med = memo.get(skey)
     if med is None:
-        med = memo[skey] = float(kernel["swing_median"](_signal_kernel.read_only(t), _signal_kernel.read_only(psi),
-                                                        _signal_kernel.read_only(grid[imax])))
+        med = memo[skey] = float(kernel["swing_median"](_jit.read_only(t), _jit.read_only(psi),
+                                                        _jit.read_only(grid[imax])))
     out = memo[rule] = (pkey, wkey, bt, psi_b, psi_m, per, bounds, weight, med, wmed)
     return out
 
@@ -267,10 +268,10 @@ def _edge_values(p, config, pkey, bt, psi_b) -> np.ndarray:
         if config.heading == "turns":
             # turn_heading(x, t, psi, turn_stretches(bt, psi_b, ...), integral=...) in one compiled call
             out = np.empty(x.shape[0])
-            ro = _signal_kernel.read_only
-            _signal_kernel.compiled()["turn_values"](ro(bt), ro(psi_b), np.radians(config.turn_deg),
-                                                    2 if config.segment == "extrema" else 1,
-                                                    ro(x), ro(p.time), ro(p.heading), ro(p.heading_integral), out)
+            ro = _jit.read_only
+            _loops.compiled()["turn_values"](ro(bt), ro(psi_b), np.radians(config.turn_deg),
+                                             2 if config.segment == "extrema" else 1,
+                                             ro(x), ro(p.time), ro(p.heading), ro(p.heading_integral), out)
         else:
             out = np.interp(x, p.time, p.heading_integral)
         out.flags.writeable = False

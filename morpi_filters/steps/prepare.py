@@ -7,7 +7,7 @@ from functools import cached_property, lru_cache
 
 import numpy as np
 
-from .. import _signal_kernel
+from . import _loops
 from ..errors import DataError, ParameterError
 from .rules import ACTIVITY_WINDOW_S, GRID_HZ, METHODS, Peaks
 
@@ -109,7 +109,7 @@ def lowpass(x, cutoff_hz: float, rate_hz: float = GRID_HZ, order: int = 2):
     if x.shape[0] <= 3 * (2 * sos.shape[0] + 1):
         return x
     # scipy's sosfiltfilt (odd padding, steady-state start of both passes) as a compiled loop, per column
-    filt = _signal_kernel.compiled()["filtfilt"]
+    filt = _loops.compiled()["filtfilt"]
     if x.ndim == 1:
         out = np.empty(x.shape[0])
         filt(sos, zi, pad, np.require(x, float, ["C"]), out)
@@ -365,7 +365,7 @@ def running_integral(t, x) -> np.ndarray:
         The integral at every sample, 0 at the first.
     """
     out = np.empty(t.shape[0])
-    kernel = _signal_kernel.compiled()
+    kernel = _loops.compiled()
     kernel["running_integral"](np.require(t, float, ["C", "W"]), np.require(x, float, ["C", "W"]), out)
     return out
 
@@ -612,5 +612,5 @@ def window_spread(w, k: int) -> tuple:
     """
     w = np.require(w, float, ["C"])
     sd, mean = np.empty(w.shape[0] - k + 1), np.empty((w.shape[0] - k + 1, w.shape[1]))
-    _signal_kernel.compiled()["window_spread"](w, k, sd, mean)
+    _loops.compiled()["window_spread"](w, k, sd, mean)
     return sd, mean

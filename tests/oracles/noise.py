@@ -1,6 +1,6 @@
 """The block noise of rest detection written with numpy: the reference the compiled loops are held to.
 
-``block_sigma`` is what ``calibration._block_sigma`` computes with ``_signal_kernel.block_sigma_loops``:
+``block_sigma`` is what ``calibration._block_sigma`` computes with ``_calibration_loops.block_sigma_loops``:
 the blocks of at least five samples, each block's :func:`morpi_filters.calibration.noise_sigma`
 (blockwise, all blocks at once), the lower quartile of the sigmas and the median of the quietest block
 (the tie-tolerant choice of :func:`morpi_filters.choice.choose`). numpy sums in its own (pairwise)

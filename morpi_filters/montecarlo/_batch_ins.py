@@ -11,17 +11,18 @@ elementwise over runs in a fixed order, so a run's result does not depend on
 the chunk it is computed in.
 
 The 3D attitude recursion is a loop over samples that numpy can only run as
-many passes over small arrays; it is compiled by numba (this is the only module
-that imports it, on the first call, so importing the package does not load
-it) from the plain Python function :func:`_accel_3d_rows`, whose operations, in
-their order, are those of the reference rule described in
-:func:`horizontal_accel_3d`.
+many passes over small arrays; it is compiled by numba (through ``_jit``, on
+the first call, so importing the package does not load it) from the plain
+Python function :func:`_accel_3d_rows`, whose operations, in their order, are
+those of the reference rule described in :func:`horizontal_accel_3d`.
 """
 from __future__ import annotations
 
 import math
 
 import numpy as np
+
+from .._jit import loops
 
 __all__ = ["prefix_rows", "cos_sin", "double_integral_at", "horizontal_3d", "horizontal_2d", "horizontal_accel_3d",
            "horizontal_accel_2d"]
@@ -300,20 +301,7 @@ def horizontal_accel_3d(h, f, w, ax, ay):
     >>> round(float(ax[-1, 0]), 12) + 0.0, round(float(ay[-1, 0]), 12)
     (0.0, 1.0)
     """
-    _compiled_accel_3d()(float(h), f[0], f[1], f[2], w[0], w[1], w[2], ax, ay)
-
-
-_ACCEL_3D = None
-
-
-def _compiled_accel_3d():
-    """:func:`_accel_3d_rows` compiled by numba (once per process; the machine code is cached on disk)."""
-    global _ACCEL_3D
-    if _ACCEL_3D is None:
-        import numba
-
-        _ACCEL_3D = numba.njit(cache=True, nogil=True)(_accel_3d_rows)
-    return _ACCEL_3D
+    compiled()["_accel_3d_rows"](float(h), f[0], f[1], f[2], w[0], w[1], w[2], ax, ay)
 
 
 def _accel_3d_rows(h, fx, fy, fz, wx, wy, wz, ax, ay):
@@ -491,3 +479,8 @@ def horizontal_accel_2d(f, psi, ax, ay, heading=None, block: int = 32):
         bx -= np.multiply(s, f1, out=u)
         np.multiply(s, f0, out=by)
         by += np.multiply(c, f1, out=u)
+
+
+#: The functions numba compiles.
+_FUNCTIONS = ("_accel_3d_rows",)
+compiled = loops(globals(), _FUNCTIONS)
