@@ -8,10 +8,10 @@ functions on its first call, once per process, and hands them back by name.
 
 - numba is imported here only, on a kernel's first call (:func:`jit_functions`), not with the
   package, and its machine code is cached on disk. numba's cache checks only the file a function is
-  defined in: a loop that calls another module's loop (the aided filter's pass calls the strapdown's
-  Rodrigues formula, the steps' swing median calls calibration's sort) keeps its cached machine code
-  when only the callee's file changes, so clear the cache (``__pycache__/*.nbi``, ``*.nbc``) after
-  editing such a callee.
+  defined in, but a loop that calls another module's loop (the aided filter's pass calls the
+  strapdown's Rodrigues formula, the steps' swing median calls calibration's sort) holds the callee's
+  machine code too: :func:`loops` adds the callee files' stamps to the caller's, so editing a callee
+  recompiles its callers.
 - :data:`COMPILE_LOCK` is held while a module's functions are put through numba: threads that reach
   a kernel at once (a study's chunks on threads or Dask workers) wrap each function once.
 - :func:`read_only` hands an input array to a compiled loop: numba compiles a loop once per argument
@@ -22,6 +22,7 @@ both, and hold them to the numpy or scipy forms they restate (``tests/oracles``)
 """
 from __future__ import annotations
 
+import os
 import threading
 
 import numpy as np
@@ -55,6 +56,21 @@ def read_only(a, dtype=float) -> np.ndarray:
     return v
 
 
+def _stamp_callees(dispatchers, borrowed) -> None:
+    """Make the disk cache of `dispatchers` depend on the files of the loops they call (`borrowed`, the
+    other modules' compiled loops by name) as well as on their own: numba keeps a cached index only while
+    its source stamp (the file's time and size) is unchanged, and that stamp is here extended by the
+    callee files' stamps. Without the attributes this relies on (another numba), nothing changes."""
+    files = sorted({f.py_func.__code__.co_filename for other in borrowed for f in other.values()})
+    if not files:
+        return
+    extra = tuple((os.stat(p).st_mtime, os.stat(p).st_size) for p in files)
+    for d in dispatchers:
+        index = getattr(getattr(d, "_cache", None), "_cache_file", None)
+        if index is not None and hasattr(index, "_source_stamp"):
+            index._source_stamp = (index._source_stamp, extra)
+
+
 def loops(space: dict, names, uses=()):
     """The accessor of a loops module: a function that returns the functions `names` of the module's
     namespace `space` compiled by numba, by name, compiling them on its first call (once per process,
@@ -77,6 +93,7 @@ def loops(space: dict, names, uses=()):
                             if space.get(name) is f.py_func:
                                 space[name] = f
                     result = jit_functions(space, names)
+                    _stamp_callees(result.values(), borrowed)
         return result
 
     compiled.__doc__ = (f"The loops of ``{space['__name__']}`` compiled by numba, by name (once per process; "

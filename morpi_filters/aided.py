@@ -64,7 +64,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from . import _aided_kernel, _jit as _signal_kernel
+from . import _aided_kernel, _jit
 from .error_model import BA, BG, DP, DV, EPS, N_STATES
 from .errors import ParameterError
 from .parallel import available_cores, chunk_ranges, execute
@@ -781,7 +781,7 @@ def _layout(inp: AidedInput, tun: AidTuning, epoch_s) -> dict:
     and steps read-only, the epochs and step events, the per-sample flags. Members of one batch that share
     an input and those two switches share it."""
     K = _aided_kernel
-    ro = _signal_kernel.read_only                   # inputs read-only: one compiled pass, frozen inputs or not
+    ro = _jit.read_only                   # inputs read-only: one compiled pass, frozen inputs or not
     time = ro(inp.time)
     epochs, end_k, end_a, end_j, starts, rest, standing = _epochs(inp, tun, epoch_s)
     flags = np.zeros(time.size, np.int64)
@@ -831,7 +831,7 @@ def _kernel_args(inp: AidedInput, tun: AidTuning, epoch_s, smooth, keep_inn, lay
     m, kinds = layout["epochs"], len(K.KINDS)
     cap = (m + end_k.size) if keep_inn else 0
     rows = m if smooth else 0
-    ro = _signal_kernel.read_only
+    ro = _jit.read_only
     return dict(
         t=layout["t"], f=layout["f"], w=layout["w"], flags=layout["flags"], end_k=end_k, end_a=layout["end_a"],
         end_j=end_j, step_len=layout["step_len"], step_vec=ro(step_vec), turn_q=ro(turn_q), par=ro(par),

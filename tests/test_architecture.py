@@ -236,6 +236,42 @@ for module in sys.argv[2:]:
 """
 
 
+_SWING = """
+import numpy as np
+from morpi_filters.steps import _loops
+t = np.arange(9.0)
+psi = np.radians([0.0, 9.0, 1.0, 4.0, 2.0, 9.0, 3.0, 8.0, 4.0])     # swings 9, 3, 7, 5 deg: median 6, unsorted 5
+print(_loops.compiled()["swing_median"](t, psi, np.array([0.0, 2.0, 4.0, 6.0, 8.0])))
+"""
+
+
+def test_editing_a_callee_loop_recompiles_its_callers(tmp_path):
+    # numba's disk cache checks only the file a function is defined in; the steps' swing median calls
+    # calibration's sort (another file): with the sort made a no-op in a copy of the package, the
+    # cached swing median must not keep the old sort's machine code
+    import os
+    import shutil
+
+    shutil.copytree(PKG, tmp_path / "morpi_filters", ignore=shutil.ignore_patterns("__pycache__"))
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"), PYTHONPATH=str(tmp_path))
+
+    def swing():
+        r = subprocess.run([sys.executable, "-c", _SWING], capture_output=True, text=True, cwd=tmp_path, env=env,
+                           timeout=600)
+        assert r.returncode == 0, r.stderr[-2000:]
+        return float(r.stdout.split()[-1])
+
+    sorted_median = swing()
+    assert sorted_median == pytest.approx(6.0)
+    assert swing() == sorted_median                                     # from the cache, the same
+    path = tmp_path / "morpi_filters" / "_calibration_loops.py"
+    text = path.read_text()
+    head = "def sort_head(a, n):\n"
+    doc_end = text.index('"""', text.index('"""', text.index(head)) + 3) + 3
+    path.write_text(text[:doc_end] + "\n    return" + text[doc_end:])  # the sort leaves the values as they are
+    assert swing() == pytest.approx(5.0)
+
+
 def test_each_compiled_loop_compiles_once_for_the_commands(tmp_path):
     # numba compiles a loop once per argument type (a read-only array is another type than a writeable
     # one, and a literal integer another than an integer): each compilation costs up to seconds on a
