@@ -53,6 +53,8 @@ READING_GRID = {"heading": ("absolute", "mean", "turns"), "segment": st.SEGMENTS
 #: difference over the train runs: the "one-standard-error rule" of cross-validated model selection
 #: (Hastie, Tibshirani and Friedman, The Elements of Statistical Learning, 2nd ed., section 7.10).
 SOURCE_SE = 1.0
+#: The detection tunables the rule search tries beside the readings: low-pass cut-off [Hz], peak
+#: prominence (a fraction of the run's robust signal range) and shortest period [s].
 TUNABLE_GRID = {"cutoff_hz": (1.0, 2.0, 3.0), "prominence": (0.2, 0.35, 0.5), "min_period_s": (0.5, 1.0)}
 
 

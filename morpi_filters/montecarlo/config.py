@@ -24,6 +24,7 @@ RAMP_S = 1.0
 
 #: The paper's short route when neither duration nor length is given: 6.3 m in 15 s.
 DEFAULT_LENGTH_M = 6.3
+#: The duration of :data:`DEFAULT_LENGTH_M`'s route [s].
 DEFAULT_DURATION_S = 15.0
 
 #: Per-run numbers drawn before the noise block: 3 accelerometer biases, 3 gyro biases, 1 gain.
@@ -43,6 +44,7 @@ CHUNK_BYTES = 32 * 2**20
 #: Resolution of the histograms behind :attr:`StudyResult.bands`: log-spaced bins
 #: from :data:`BAND_RANGE_M` [0] to [1] metres (plus one bin from 0 to the first edge).
 BAND_BINS_PER_DECADE = 40
+#: The range of the band histograms [m]: (first edge, last edge).
 BAND_RANGE_M = (1e-6, 1e4)
 BAND_EDGES = np.concatenate([[0.0], np.logspace(math.log10(BAND_RANGE_M[0]), math.log10(BAND_RANGE_M[1]),
                                                  BAND_BINS_PER_DECADE * 10 + 1)])

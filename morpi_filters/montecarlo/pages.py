@@ -21,6 +21,7 @@ Z99 = 2.5758293035489004
 
 #: Assumed per-run gain spread and motion mismatch (fractions) when no field gain training is available.
 ASSUMED_SPREAD = 0.05
+#: The motion mismatch of :data:`ASSUMED_SPREAD`'s assumption (a fraction).
 ASSUMED_MISMATCH = 0.02
 
 #: Significant digits of the field's per-run gain spread and mismatch when they set a gain scenario: the
@@ -177,9 +178,13 @@ def study_config_json(cfg: StudyConfig) -> dict:
 #: A chunk of 4000 runs of 15 s peaked at 0.81 GB against 0.24 GB in the default chunks of 465 runs, and
 #: one of 1000 runs of 60 s at 0.83 GB against 0.26 GB (chunks of 116): 107 bytes a sample of a run.
 RUN_SECONDS = (1.91e-7, 1.2e-11, 1.45e-10)
+#: The cost model's fixed seconds, coefficients of ``(1, n, n^2, K)`` (see :data:`RUN_SECONDS`).
 FIXED_SECONDS = (3.16, 8.32e-5, 1.02e-9, 2.0e-3)
+#: The cost model's fixed memory [bytes], coefficients of ``(1, n, n^2, K)`` (see :data:`RUN_SECONDS`).
 FIXED_BYTES = (2.55e8, 815.0, 0.13, 8.43e4)
+#: The cost model's memory per run [bytes] (see :data:`RUN_SECONDS`).
 RUN_BYTES = 0.63e3
+#: The cost model's memory per sample of a run a chunk holds beyond the default chunk [bytes].
 CHUNK_SAMPLE_BYTES = 107.0
 FIELD_SECONDS, FIELD_BYTES = 5.3, 0.17e9
 

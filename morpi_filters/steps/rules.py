@@ -16,8 +16,11 @@ from ..errors import ParameterError
 GRID_HZ = 100.0
 #: Window of :func:`activity_span` [s]: the motion onset is the last sample of the first active window.
 ACTIVITY_WINDOW_S = 0.5
+#: The readings of :attr:`StepConfig.heading`: what a step's heading change is.
 HEADINGS = ("absolute", "mean", "change", "turns")
+#: The readings of :attr:`StepConfig.segment`: where a step starts and ends.
 SEGMENTS = ("maxima", "extrema")
+#: The readings of :attr:`StepConfig.ends`: the partial steps before the first and after the last peak.
 ENDS = ("drop", "fraction", "whole")
 #: What the heading is read from (:attr:`StepConfig.heading_source`).
 HEADING_SOURCES = ("gyro", "attitude")
