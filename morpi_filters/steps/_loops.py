@@ -8,7 +8,7 @@
 - :func:`filtfilt`, the zero-phase low-pass of :func:`morpi_filters.steps.lowpass`: the
   forward-backward second-order-sections filter of :func:`scipy.signal.sosfiltfilt` with its
   default odd padding, each section's update in the order scipy's own loop takes (:func:`_sections`);
-- :func:`interp1` and :func:`interp`, ``np.interp`` with numpy's arithmetic, for the compiled turn heading below (code
+- :func:`interp1`, ``np.interp`` at one point with numpy's arithmetic, for the compiled turn heading below (code
   outside the compiled loops calls ``np.interp`` itself), and :func:`swing_median`, the median heading
   swing of a step rule (``searchsorted`` and ``reduceat`` windows; sorted by calibration's
   ``sort_head``, ``_calibration_loops``);
@@ -133,12 +133,6 @@ def interp1(v, xp, fp):
         if r != r and fp[lo] == fp[lo + 1]:
             r = fp[lo]
     return r
-
-
-def interp(x, xp, fp, out):
-    """``out[:] = np.interp(x, xp, fp)`` for `xp` (m,) strictly increasing (:func:`interp1` at each point)."""
-    for i in range(x.shape[0]):
-        out[i] = interp1(x[i], xp, fp)
 
 
 def swing_median(t, psi, at):
@@ -315,6 +309,6 @@ def reading_sums(bt, psi_b, weight, aux, m0, m1, psi_m0, psi_m1, per, wmed, ends
 
 
 #: The functions numba compiles, callees first.
-_FUNCTIONS = ("window_spread", "running_integral", "_sections", "filtfilt", "interp1", "interp",
+_FUNCTIONS = ("window_spread", "running_integral", "_sections", "filtfilt", "interp1",
               "swing_median", "_window_mean", "_add_turn", "turn_values", "reading_sums")
 compiled = loops(globals(), _FUNCTIONS, uses=(calibration_loops,))
