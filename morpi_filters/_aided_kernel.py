@@ -58,7 +58,7 @@ PAR = ("q_a", "q_a_rest", "q_g", "q_g_rest", "q_ba", "q_bg", "jump2", "step_sigm
 
 def copy_into(dst, src):
     """``dst[:, :] = src[:ni, :nj]`` for `dst` (ni, nj), element by element (numba compiles this loop in a
-    fraction of the time an array assignment takes)."""
+    fraction of the time an array assignment takes). Every caller's `src` is writeable: one compiled form."""
     for i in range(dst.shape[0]):
         for j in range(dst.shape[1]):
             dst[i, j] = src[i, j]
