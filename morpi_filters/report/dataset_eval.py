@@ -70,17 +70,22 @@ def ablation_file_name(rec_id: str, calibration: str, removed: str, estimate: st
     return f"{folder}/ablation/{name}.csv"
 
 
-def _write_track(path: Path, p) -> None:
+def _write_track(path: Path, p, times: dict) -> None:
     """An estimate's ``time,x,y`` (and ``p_xx,p_xy,p_yy`` with a covariance) as CSV, written plainly: `path`
     lies in the command's staging folder, which no one sees before it is complete (a file of its own per
-    track, atomic, costs thousands of staging folders)."""
+    track, atomic, costs thousands of staging folders). `times` keeps each time column's text by its bytes:
+    a recording's estimates share their clock, and a float's text is most of the cost."""
     path.parent.mkdir(parents=True, exist_ok=True)
+    key = p.time.tobytes()
+    t_text = times.get(key)
+    if t_text is None:
+        t_text = times[key] = list(map(repr, p.time.tolist()))
     if p.P_xy is None:
-        lines = ["time,x,y"] + [f"{t!r},{x!r},{y!r}" for t, (x, y) in zip(p.time.tolist(), p.xy.tolist())]
+        lines = ["time,x,y"] + [f"{t},{x!r},{y!r}" for t, (x, y) in zip(t_text, p.xy.tolist())]
     else:
         lines = ["time,x,y,p_xx,p_xy,p_yy"] + [
-            f"{t!r},{x!r},{y!r},{P[0][0]!r},{P[0][1]!r},{P[1][1]!r}"
-            for t, (x, y), P in zip(p.time.tolist(), p.xy.tolist(), p.P_xy.tolist())]
+            f"{t},{x!r},{y!r},{P[0][0]!r},{P[0][1]!r},{P[1][1]!r}"
+            for t, (x, y), P in zip(t_text, p.xy.tolist(), p.P_xy.tolist())]
     path.write_text("\n".join(lines) + "\n")
 
 
@@ -156,17 +161,17 @@ def report_dataset_evaluation(out, result: DatasetEvaluation) -> SectionSummary:
         Name ``"evaluate"``, page ``README.md``.
     """
     out = Path(out)
-    files, written = {}, {}
+    files, written, times = {}, {}, {}
     for p in result.paths:
         rel = track_file_name(p.id, p.method, p.calibration, p.estimate)
         files[p.id, p.method, p.calibration, p.estimate] = written[id(p)] = rel
-        _write_track(out / rel, p)
+        _write_track(out / rel, p, times)
     # the ablation's filters: a row of the paths keeps its file, the others get one each
     for a in result.ablation_runs:
         for which, p in (("full", a.full), ("ablated", a.ablated)):
             if id(p) not in written:
                 written[id(p)] = ablation_file_name(a.id, a.calibration, a.removed, a.estimate, which)
-                _write_track(out / written[id(p)], p)
+                _write_track(out / written[id(p)], p, times)
             files["ablation", a.id, a.calibration, a.removed, a.estimate, which] = written[id(p)]
     write_json(out / "result.json", result.to_json(files))
 
