@@ -17,7 +17,7 @@ import numpy as np
 from morpi_filters import units
 from morpi_filters.report import plots
 from morpi_filters.report.common import save_figure
-from morpi_filters.curves import case_from_params, case_from_sensor, compute_curves
+from morpi_filters.curves import PAPER_IMU_TITLES, case_from_params, case_from_sensor, compute_curves
 from morpi_filters.params import load_params
 
 # ----------------------------------------------------------------------------- parameters
@@ -30,7 +30,8 @@ OUT = Path("reports") / "analysis" / "covariance_curves"
 
 def main():
     params = load_params(PARAMS_FILE)
-    cases = [case_from_params(params), case_from_sensor(units.MPU6500, params), case_from_sensor(units.LSM6DSL, params)]
+    cases = [case_from_params(params)] + [case_from_sensor(s, params, PAPER_IMU_TITLES[s.name])
+                                          for s in (units.MPU6500, units.LSM6DSL)]
     rng = np.random.default_rng(SEED)
     for case, sub in zip(cases, rng.spawn(len(cases))):
         cc = compute_curves(case, times=TIMES, runs=MC_RUNS, rng=sub)

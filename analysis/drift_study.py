@@ -2,7 +2,7 @@
 
 Usage (from the project root)::
 
-    PYTHONPATH=. python3 analysis/drift_study.py [--sensor s6|s8] [--draws N] [--scheduler ADDRESS] [--out DIR]
+    PYTHONPATH=. python3 analysis/drift_study.py [--imu MPU-6500|LSM6DSL] [--draws N] [--scheduler ADDRESS] [--out DIR]
 
 Prints, per gyro bias level, the relative disagreement at the end and the time
 from which it stays above 1 % and 10 %, and draws the 3D and 2D maps.
@@ -17,18 +17,18 @@ import numpy as np
 from morpi_filters import montecarlo as mc
 from morpi_filters.report import plots
 from morpi_filters.report.common import save_figure
-from morpi_filters.units import DEG_S, sensor_for_phone
+from morpi_filters.units import DEG_S, IMUS, MPU6500
 
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sensor", default="s6", help="dataset phone whose accelerometer bias to use (s6 or s8)")
+    ap.add_argument("--imu", default=MPU6500.name, choices=sorted(IMUS), help="the IMU whose accelerometer bias to use")
     ap.add_argument("--draws", type=int, default=32)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--scheduler", default=None, help="Dask scheduler address")
     ap.add_argument("--out", type=Path, default=Path("reports/analysis/drift"))
     args = ap.parse_args(argv)
-    spec = sensor_for_phone(args.sensor)
+    spec = IMUS[args.imu]
     levels = np.union1d(np.logspace(-2, 1, 13), [spec.gyro_bias / DEG_S]) * DEG_S
     d = mc.drift_map(levels, spec=spec, draws=args.draws, seed=args.seed, scheduler=args.scheduler)
     on = {(k, lv): d.onset(k, lv) for k in ("INS-3D", "INS-2D") for lv in (0.01, 0.1)}

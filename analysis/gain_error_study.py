@@ -2,7 +2,7 @@
 
 Usage (from the project root)::
 
-    PYTHONPATH=. python3 analysis/gain_error_study.py [--runs N] [--seed S] [--sensor s6|s8]
+    PYTHONPATH=. python3 analysis/gain_error_study.py [--runs N] [--seed S] [--imu MPU-6500|LSM6DSL]
         [--calibration RD|GC|GAC] [--duration S] [--speed V] [--scheduler ADDRESS] [--out DIR]
 
 Runs one seeded study with the paper's gain errors (5 % and 10 %) and a spread
@@ -18,14 +18,14 @@ from pathlib import Path
 from morpi_filters import montecarlo as mc
 from morpi_filters.report import plots
 from morpi_filters.report.common import save_figure
-from morpi_filters.units import sensor_for_phone
+from morpi_filters.units import IMUS, MPU6500
 
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=2000)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--sensor", default="s6", help="dataset phone whose IMU datasheet to use (s6 or s8)")
+    ap.add_argument("--imu", default=MPU6500.name, choices=sorted(IMUS), help="the IMU whose datasheet to use")
     ap.add_argument("--calibration", default="GAC", choices=mc.CALIBRATIONS)
     ap.add_argument("--duration", type=float, default=None, help="time of the sine path [s] (default 15)")
     ap.add_argument("--speed", type=float, default=None, help="cruise speed [m/s] (default the paper's)")
@@ -36,7 +36,7 @@ def main(argv=None) -> None:
 
     gains = (mc.GainError("dG = 5 %", 0.05), mc.GainError("dG = 10 %", 0.10),
              mc.GainError("spread", 0.0, args.spread))
-    cfg = mc.StudyConfig(spec=sensor_for_phone(args.sensor), gains=gains, calibration=args.calibration,
+    cfg = mc.StudyConfig(spec=IMUS[args.imu], gains=gains, calibration=args.calibration,
                          duration=args.duration, speed_mps=args.speed)
     r = mc.run_study(args.runs, args.seed, cfg, scheduler=args.scheduler)
     length, speed, duration = r.config.motion()

@@ -9,7 +9,7 @@ files by a glob relative to the dataset root, in this order: the phones S8, then
 one's folders by route, then split, so that the groups with train recordings come in the
 order of the paper's short-route table (:func:`morpi_filters.evaluate.short_route_sets`). Each folder's group is ``<phone>/<route>``,
 its split the folder's (``"none"`` without one), its motion the route's kind, its rest
-detected (``"auto"``), its IMU the phone's (:data:`morpi_filters.units.SENSORS`), its truth
+detected (``"auto"``), its IMU the phone's (:data:`PHONE_IMUS`), its truth
 the route's distance, end point and centre line (:attr:`morpi_filters.dataset.Route.polyline`).
 The recordings' latitude is the experiment site's
 (:data:`morpi_filters.calibration.SITE_LATITUDE_DEG`), so the calibrations take the same
@@ -26,10 +26,13 @@ from pathlib import Path
 from morpi_filters import dataset as ds
 from morpi_filters.calibration import SITE_LATITUDE_DEG
 from morpi_filters.resources import morpi_manifest
-from morpi_filters.units import SENSORS
+from morpi_filters.units import LSM6DSL, MPU6500
 
 #: The phones in the manifest's order.
 PHONES = ("s8", "s6")
+#: Each phone's IMU (the paper's table of sensors: the Galaxy S6 carries the MPU-6500, the S8 the LSM6DSL),
+#: by the name a manifest gives it.
+PHONE_IMUS = {"s6": MPU6500.name, "s8": LSM6DSL.name}
 
 
 def _folders() -> list:
@@ -70,7 +73,7 @@ def manifest_text() -> str:
             f'group = "{phone}/{route_name}"',
             f'split = "{split or "none"}"',
             f'motion = "{"periodic" if r.kind == "periodic" else "straight"}"',
-            f'imu = {{ file = "{folder}/*.csv", spec = "{SENSORS[phone].name}" }}',
+            f'imu = {{ file = "{folder}/*.csv", spec = "{PHONE_IMUS[phone]}" }}',
             f'truth = {{ kind = "route", distance_m = {_number(r.distance_m)}, end_point_m = [{end}], '
             f"polyline_m = [{poly}] }}",
         ]

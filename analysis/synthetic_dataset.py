@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from morpi_filters import simulate, synthetic, units
+from morpi_filters import dataset, simulate, synthetic, units
 from morpi_filters.report import plots
 from morpi_filters.report.common import save_figure
 from morpi_filters.strapdown import ins2d, ins3d
@@ -28,17 +28,17 @@ from morpi_filters.strapdown import ins2d, ins3d
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--phone", choices=sorted(units.SENSORS), default="s8")
+    ap.add_argument("--phone", choices=sorted(synthetic.PHONE_CLOCKS), default="s8")
     ap.add_argument("--out", type=Path, default=Path("reports/simulation/sine_run.png"))
     args = ap.parse_args(argv)
 
     rng = np.random.default_rng(args.seed)
-    spec = units.sensor_for_phone(args.phone)
+    spec = dataset.folder_imu(args.phone)
     opts = synthetic.DATASET_OPTIONS
     amplitude = 0.1 * opts["amplitude_factor"]          # as the dataset drives the 0.1 m route
     traj = simulate.route_trajectory("short_distance", amplitude=amplitude, t0=0.4)
-    noisy = simulate.imu(traj, spec, rng, sampling=args.phone, bias_scale=synthetic.REALISTIC_BIAS_FRACTION[args.phone],
-                         misalignment=opts["misalignment"], vibration=opts["vibration"],
+    noisy = simulate.imu(traj, spec, rng, sampling=synthetic.PHONE_CLOCKS[args.phone],
+                         bias_scale=synthetic.REALISTIC_BIAS_FRACTION[args.phone], misalignment=opts["misalignment"], vibration=opts["vibration"],
                          bias_instability=opts["bias_instability"], correlation_time=opts["correlation_time"])
     clean = simulate.imu(traj, spec, rng, sampling=noisy.time, bias_scale=0.0, noise_scale=0.0)
     truth = noisy.truth

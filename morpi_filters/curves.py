@@ -53,7 +53,7 @@ from .eskf import (
 
 __all__ = [
     "STEP_LENGTH_M", "DEFAULT_TIMES", "CURVE_METHODS", "horizontal_sigma", "CurveCase", "CaseCurves", "case_from_params", "case_from_sensor",
-    "time_grid", "case_mean_square", "error_realisation", "compute_curves", "CurvesStudy", "curves_study",
+    "time_grid", "case_mean_square", "error_realisation", "compute_curves", "CurvesStudy", "curves_study", "PAPER_IMU_TITLES",
 ]
 
 #: The curves' methods, in the package's names: the filter's horizontal 1 sigma of each, and
@@ -71,6 +71,8 @@ MC_DT = 0.05
 #: Monte Carlo runs per case, and the default seed of the curves study (``morpi curves --seed``,
 #: :func:`curves_study`).
 MC_RUNS, MC_SEED = 1000, 20230901
+#: The page's titles of the paper's IMUs: each with the phone of the MoRPI recordings that carries it.
+PAPER_IMU_TITLES = {"MPU-6500": "MPU-6500 (S6)", "LSM6DSL": "LSM6DSL (S8)"}
 #: Runs per chunk of the linear Monte Carlo and most epochs of its grid (memory bound).
 MC_CHUNK, MC_MAX_EPOCHS = 250, 600
 #: Runs of the nonlinear (strapdown) Monte Carlo per IMU case, and the longest
@@ -163,7 +165,7 @@ def case_from_params(params, noise_spec=PARAMS_NOISE_SPEC) -> CurveCase:
     )
 
 
-def case_from_sensor(spec, params) -> CurveCase:
+def case_from_sensor(spec, params, title: str | None = None) -> CurveCase:
     """The case of one IMU: datasheet biases, `params` for the rest.
 
     Parameters
@@ -174,6 +176,8 @@ def case_from_sensor(spec, params) -> CurveCase:
     params : params.ErrorParams
         Initial velocity error (absolute values, as 1 sigma), gravity, gain
         error (``dG[0]``) and speed.
+    title : str, optional
+        The case's title on the page (default the IMU's name).
 
     Returns
     -------
@@ -185,14 +189,14 @@ def case_from_sensor(spec, params) -> CurveCase:
     --------
     >>> from morpi_filters import units
     >>> from morpi_filters.params import load_params
-    >>> case = case_from_sensor(units.LSM6DSL, load_params())
+    >>> case = case_from_sensor(units.LSM6DSL, load_params(), title=PAPER_IMU_TITLES["LSM6DSL"])
     >>> case.name, case.title
     ('lsm6dsl', 'LSM6DSL (S8)')
     >>> bool(np.all(case.ba == units.LSM6DSL.accel_bias)), float(case.bg[2])
     (True, 0.0)
     """
     return CurveCase(
-        name=spec.name.lower().replace("-", ""), title=f"{spec.name} ({spec.phone.upper()})",
+        name=spec.name.lower().replace("-", ""), title=spec.name if title is None else str(title),
         dv0=np.abs(params.dv0), ba=np.full(3, spec.accel_bias), bg=_drop_bgz(np.full(3, spec.gyro_bias)),
         g=params.g, gain_sigma=abs(params.dG[0]), speed=params.morpi_speed_mps,
         noise=spec if params.process_noise else None, spec=spec,
@@ -779,7 +783,8 @@ def curves_study(*, params_path=None, times=None, source=None, tables=None, seed
         raise ParameterError(f"seed: {seed!r}, expected a whole number >= 0")
     params = load_params(params_path)
     times = np.unique(np.asarray(DEFAULT_TIMES if not times else times, dtype=float))
-    cases = [case_from_params(params), case_from_sensor(units.MPU6500, params), case_from_sensor(units.LSM6DSL, params)]
+    cases = [case_from_params(params)] + [case_from_sensor(s, params, PAPER_IMU_TITLES[s.name])
+                                          for s in (units.MPU6500, units.LSM6DSL)]
     field_pts, field_note = _field_points(source, tables.data if tables is not None else None)
     curves = tuple(replace(compute_curves(case, times, rng=np.random.default_rng(int(seed))), field=field_pts)
                    for case in cases)

@@ -725,13 +725,13 @@ def sample_times(t_start: float, t_end: float, rng, *, pattern: str = "uniform",
         Time span [s].
     rng : numpy.random.Generator
         Source of the irregular intervals (unused for ``"uniform"``).
-    pattern : {"uniform", "s6", "s8"}
-        ``"uniform"``: ``1 / rate_hz``. ``"s6"``: the Galaxy S6's irregular
-        stamps: a two-state Markov chain between ~100 Hz (dt uniform in
+    pattern : {"uniform", "two-rate", "jittered"}
+        ``"uniform"``: ``1 / rate_hz``. ``"two-rate"`` (the Galaxy S6's irregular
+        stamps in the MoRPI recordings): a two-state Markov chain between ~100 Hz (dt uniform in
         0.0095-0.0115 s) and ~50 Hz (dt 0.0195 +- 0.0009 s, clipped to
         0.0175-0.0223 s) with lag-1 correlation 0.35 and a per-run share of
         slow intervals drawn in 0.1-0.75 (median dt 0.011-0.019 s, as in the
-        field files). ``"s8"``: 0.0100 s with
+        field files). ``"jittered"`` (the Galaxy S8's): 0.0100 s with
         +-0.1 ms jitter and a rare (0.3 %) longer interval up to 0.019 s.
     rate_hz : float
         Rate of the uniform pattern [Hz].
@@ -750,7 +750,7 @@ def sample_times(t_start: float, t_end: float, rng, *, pattern: str = "uniform",
     --------
     >>> sample_times(0.0, 0.05, None).round(12).tolist()
     [0.0, 0.01, 0.02, 0.03, 0.04, 0.05]
-    >>> dt = np.diff(sample_times(0.0, 60.0, np.random.default_rng(0), pattern="s6"))
+    >>> dt = np.diff(sample_times(0.0, 60.0, np.random.default_rng(0), pattern="two-rate"))
     >>> bool(dt.min() >= 0.0095 and dt.max() <= 0.0223 + 1e-12)      # the two clipped ranges
     True
     """
@@ -759,7 +759,7 @@ def sample_times(t_start: float, t_end: float, rng, *, pattern: str = "uniform",
         rate_hz = _positive("rate_hz", rate_hz)
         return t_start + np.arange(int(math.floor(span * rate_hz + 1e-9)) + 1) / rate_hz
     n_max = int(span / 0.0095) + 2
-    if pattern == "s6":
+    if pattern == "two-rate":
         q = rng.uniform(0.1, 0.75)
         lam = 0.35
         redraw = rng.random(n_max) < 1.0 - lam
@@ -769,12 +769,12 @@ def sample_times(t_start: float, t_end: float, rng, *, pattern: str = "uniform",
         slow = fresh[last]
         slow_dt = np.clip(rng.normal(0.0195, 0.0009, n_max), 0.0175, 0.0223)
         dt = np.where(slow, slow_dt, rng.uniform(0.0095, 0.0115, n_max))
-    elif pattern == "s8":
+    elif pattern == "jittered":
         dt = 0.0100 + rng.uniform(-1e-4, 1e-4, n_max)
         gap = rng.random(n_max) < 0.003
         dt = np.where(gap, rng.uniform(0.011, 0.019, n_max), dt)
     else:
-        raise ParameterError(f"sampling: {pattern!r}: expected 'uniform', 's6', 's8' or an array of times")
+        raise ParameterError(f"sampling: {pattern!r}: expected 'uniform', 'two-rate', 'jittered' or an array of times")
     t = t_start + np.concatenate([[0.0], np.cumsum(dt)])
     return t[t <= t_end]
 
@@ -834,7 +834,7 @@ class ImuData:
         source : str
             Name the recording reports in messages.
         phone, route, split : str, optional
-            Dataset labels; `phone` defaults to the spec's phone.
+            Dataset labels.
 
         Returns
         -------
@@ -845,14 +845,14 @@ class ImuData:
         Examples
         --------
         >>> data = imu(straight(), units.LSM6DSL, np.random.default_rng(0), runs=2)
-        >>> rec = data.recording(1)
-        >>> rec.phone, bool((rec.f == data.f[1]).all())
-        ('s8', True)
+        >>> rec = data.recording(1, source="run1.csv")
+        >>> rec.source, rec.imu.name, bool((rec.f == data.f[1]).all())
+        ('run1.csv', 'LSM6DSL', True)
         """
         f = self.f if self.f.ndim == 2 else self.f[run]
         w = self.omega if self.omega.ndim == 2 else self.omega[run]
         return dataset.Recording(time=self.time.copy(), f=np.ascontiguousarray(f), omega=np.ascontiguousarray(w),
-                                 source=source, phone=self.spec.phone if phone is None else phone,
+                                 source=source, phone=phone,
                                  route=route, split=split, imu=self.spec)
 
 
@@ -910,7 +910,7 @@ def imu(traj: Trajectory, spec: units.SensorSpec, rng, *, runs: int | None = Non
         must be ``"uniform"`` or explicit times).
     runs : int, optional
         Number of runs (leading axis); None for one unbatched run.
-    sampling : {"uniform", "s6", "s8"} or array_like
+    sampling : {"uniform", "two-rate", "jittered"} or array_like
         Time-stamp pattern (see :func:`sample_times`), drawn once and shared
         by the runs, or explicit times.
     bias_scale : float or (float, float)
@@ -963,7 +963,7 @@ def imu(traj: Trajectory, spec: units.SensorSpec, rng, *, runs: int | None = Non
 
     Four runs on the S6's irregular time stamps, shared by the runs:
 
-    >>> data = imu(traj, units.MPU6500, np.random.default_rng(0), runs=4, sampling="s6")
+    >>> data = imu(traj, units.MPU6500, np.random.default_rng(0), runs=4, sampling="two-rate")
     >>> data.f.shape[0], data.f.shape[1] == data.time.size, data.gyro_bias.shape
     (4, True, (4, 3))
     """

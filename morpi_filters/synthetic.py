@@ -29,7 +29,7 @@ from .errors import ParameterError
 from .fetch import sha256_file
 from .simulate import L_ROUTE_SPEED, imu, paper_speed, route_trajectory
 
-__all__ = ["write_dataset", "ensure_synthetic_dataset", "GENERATOR_VERSION", "REALISTIC_BIAS_FRACTION",
+__all__ = ["write_dataset", "ensure_synthetic_dataset", "GENERATOR_VERSION", "REALISTIC_BIAS_FRACTION", "PHONE_CLOCKS",
            "DATASET_OPTIONS"]
 
 #: Version of the synthetic-dataset generator; a cached dataset with another version is rebuilt.
@@ -42,6 +42,9 @@ GENERATOR_VERSION = "4"
 #: 6 deg/s, so drawing at the full datasheet sigma would make every synthetic run much worse
 #: than the field runs.
 REALISTIC_BIAS_FRACTION = {"s6": (0.25, 0.1), "s8": (0.25, 0.3)}
+#: Each phone's clock, as :func:`morpi_filters.simulate.sample_times` draws it: the Galaxy S6's stamps
+#: wander between about 100 and 50 Hz, the S8's stay near 100 Hz with a little jitter.
+PHONE_CLOCKS = {"s6": "two-rate", "s8": "jittered"}
 
 #: Other realism settings of the synthetic dataset (see :func:`imu`):
 #:
@@ -89,7 +92,7 @@ def _synthetic_run(seed: int, folder: str, run: int) -> tuple[dataset.Recording,
     phone, route_name = parts[0], parts[1]
     split = parts[2] if len(parts) > 2 else None
     r = dataset.route(route_name)
-    spec = units.sensor_for_phone(phone)
+    spec = dataset.folder_imu(folder)                                   # the phone's IMU, as the MoRPI manifest names it
     # both phones recorded the long route at once in the field: share its trajectory draws
     traj_key = ("long_distance", split, run) if route_name == "long_distance" else (folder, run)
     trng = np.random.default_rng(_seed_for(seed, "trajectory", *traj_key))
@@ -109,7 +112,7 @@ def _synthetic_run(seed: int, folder: str, run: int) -> tuple[dataset.Recording,
         kw["amplitude"] = (r.amplitude_m * o["amplitude_factor"]
                            * (1.0 + o["amplitude_spread"] * float(np.clip(jitter[2], -2.5, 2.5))))
     traj = route_trajectory(route_name, **kw)
-    data = imu(traj, spec, irng, sampling=phone, bias_scale=REALISTIC_BIAS_FRACTION[phone],
+    data = imu(traj, spec, irng, sampling=PHONE_CLOCKS[phone], bias_scale=REALISTIC_BIAS_FRACTION[phone],
                misalignment=o["misalignment"], vibration=o["vibration"], bias_instability=o["bias_instability"],
                correlation_time=o["correlation_time"])
     rel = f"{folder}/{run}.csv"

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 __all__ = [
     "G0", "DEG", "DEG_S", "MG", "UG", "UG_SQRT_HZ", "DEG_S_SQRT_HZ",
-    "SensorSpec", "MPU6500", "LSM6DSL", "SENSORS", "sensor_for_phone",
+    "SensorSpec", "MPU6500", "LSM6DSL", "IMUS",
 ]
 
 #: Standard gravity [m/s^2] (also the magnitude used to convert mg).
@@ -54,8 +54,6 @@ class SensorSpec:
     ----------
     name : str
         IMU model.
-    phone : str
-        Dataset phone folder (``"s6"`` or ``"s8"``; empty for another IMU).
     gyro_bias : float
         Turn-on gyro bias, 1 sigma per axis [rad/s].
     gyro_noise : float
@@ -74,7 +72,6 @@ class SensorSpec:
     """
 
     name: str
-    phone: str
     gyro_bias: float
     gyro_noise: float
     accel_bias: float
@@ -88,8 +85,7 @@ class SensorSpec:
     @classmethod
     def from_datasheet(cls, name: str, *, gyro_bias_deg_s: float, accel_bias_mg: float,
                        accel_noise_ug_sqrt_hz: float, gyro_noise_deg_s_sqrt_hz: float | None = None,
-                       gyro_noise_deg_h_sqrt_hz: float | None = None, rate_hz: float = 100.0,
-                       phone: str | None = None) -> "SensorSpec":
+                       gyro_noise_deg_h_sqrt_hz: float | None = None, rate_hz: float = 100.0) -> "SensorSpec":
         """A spec from the units a datasheet prints.
 
         Parameters
@@ -106,8 +102,6 @@ class SensorSpec:
             Accelerometer noise density [ug/sqrt(Hz)].
         rate_hz : float
             Sampling rate [Hz].
-        phone : str, optional
-            A dataset phone folder, when the IMU is one of the dataset's.
 
         Returns
         -------
@@ -147,50 +141,16 @@ class SensorSpec:
                  "accel_bias_mg": accel_bias_mg, "accel_noise_ug_sqrt_hz": accel_noise_ug_sqrt_hz,
                  "rate_hz": rate_hz}
         _check_figures("SensorSpec.from_datasheet", given)
-        return cls(name=str(name), phone="" if phone is None else str(phone),
+        return cls(name=str(name),
                    gyro_bias=float(gyro_bias_deg_s) * DEG_S, gyro_noise=float(gyro_noise_deg_s_sqrt_hz) * DEG_S_SQRT_HZ,
                    accel_bias=float(accel_bias_mg) * MG, accel_noise=float(accel_noise_ug_sqrt_hz) * UG_SQRT_HZ,
                    rate_hz=float(rate_hz))
 
 
 #: Samsung Galaxy S6 IMU: 6 deg/s, 0.01 deg/s/sqrt(Hz), 60 mg, 300 ug/sqrt(Hz).
-MPU6500 = SensorSpec("MPU-6500", "s6", 6 * DEG_S, 0.01 * DEG_S_SQRT_HZ, 60 * MG, 300 * UG_SQRT_HZ)
+MPU6500 = SensorSpec("MPU-6500", 6 * DEG_S, 0.01 * DEG_S_SQRT_HZ, 60 * MG, 300 * UG_SQRT_HZ)
 #: Samsung Galaxy S8 IMU: 3 deg/s, 0.004 deg/s/sqrt(Hz), 40 mg, 130 ug/sqrt(Hz).
-LSM6DSL = SensorSpec("LSM6DSL", "s8", 3 * DEG_S, 0.004 * DEG_S_SQRT_HZ, 40 * MG, 130 * UG_SQRT_HZ)
-#: The paper's IMUs by phone folder.
-SENSORS = {"s6": MPU6500, "s8": LSM6DSL}
-
-
-def sensor_for_phone(phone: str) -> SensorSpec:
-    """Return the datasheet spec of a dataset phone (``"s6"`` or ``"s8"``).
-
-    Parameters
-    ----------
-    phone : str
-        Dataset phone folder: ``"s6"`` (Galaxy S6, MPU-6500) or ``"s8"``
-        (Galaxy S8, LSM6DSL).
-
-    Returns
-    -------
-    SensorSpec
-        The paper's datasheet figures for that phone's IMU, in SI
-        (:data:`MPU6500` or :data:`LSM6DSL`; the same object, not a copy).
-
-    Raises
-    ------
-    ParameterError
-        Any other phone name; the message lists the known ones.
-
-    Examples
-    --------
-    >>> sensor_for_phone("s8").name, sensor_for_phone("s6").name
-    ('LSM6DSL', 'MPU-6500')
-    >>> round(sensor_for_phone("s6").accel_bias / G0 * 1000, 6)    # 60 mg back in mg
-    60.0
-    """
-    from .errors import ParameterError
-
-    try:
-        return SENSORS[phone]
-    except KeyError:
-        raise ParameterError(f"phone {phone!r}: expected one of {sorted(SENSORS)}") from None
+LSM6DSL = SensorSpec("LSM6DSL", 3 * DEG_S, 0.004 * DEG_S_SQRT_HZ, 40 * MG, 130 * UG_SQRT_HZ)
+#: The IMUs the package knows by name: a manifest's ``imu.spec`` may name one (which recordings carry
+#: which IMU is the manifest's to say: the MoRPI phones' in ``data/morpi.toml``).
+IMUS = {s.name: s for s in (MPU6500, LSM6DSL)}

@@ -1147,7 +1147,7 @@ def _drifting_root(root: Path, drift: float, *, test_gyro_scale: float = 1.0, am
             amp = None if amplitudes is None else amplitudes[i]
             traj = simulate.route_trajectory("short_distance", speed=0.3 * (1.0 + 0.1 * rng.standard_normal()),
                                              amplitude=amp)
-            imu = simulate.imu(traj, units.MPU6500, rng, sampling="s6", bias_scale=0.0)
+            imu = simulate.imu(traj, units.MPU6500, rng, sampling="two-rate", bias_scale=0.0)
             omega = imu.omega.copy()
             moving = (imu.time >= traj.start_time) & (imu.time <= traj.stop_time)
             omega[moving, 2] += drift

@@ -13,9 +13,9 @@ from morpi_filters.calibration import (DEFAULT_IMU, LOCAL_GRAVITY, STILL_NOISE_F
                                        RestWindow, StillBound, calibrate, detect_rest, normal_gravity,
                                        rest_measures, rest_windows_summary, still_bound)
 from morpi_filters.choice import choose
-from morpi_filters.dataset import Recording, load_catalogue
+from morpi_filters.dataset import Recording, folder_imu, load_catalogue
 from morpi_filters.errors import DataError, MorpiError
-from morpi_filters.synthetic import DATASET_OPTIONS
+from morpi_filters.synthetic import DATASET_OPTIONS, PHONE_CLOCKS
 from morpi_filters.report.calibration import rest_windows_table
 from conftest import plain_kernels
 
@@ -303,10 +303,11 @@ def _driven(phone, *, speed, seed, rest_s=None, seconds=8.0):
     cruise speed. `phone` "" is an IMU the library does not know (the MPU-6500's figures, uniform 100 Hz).
     The recording, its IMU data (biases, truth) and the trajectory."""
     o = DATASET_OPTIONS
-    spec = units.sensor_for_phone(phone) if phone else DEFAULT_IMU
+    spec = folder_imu(phone) if phone else DEFAULT_IMU
     traj = simulate.straight(40.0, speed=speed, ramp=1.0, rest=(rest_s or 0.0, 2.0))
     t_a = traj.start_time + 1.0 if rest_s is None else traj.time[0]      # after the 1 s ramp: at cruise speed
-    data = simulate.imu(traj, spec, np.random.default_rng(seed), sampling=phone or "uniform", bias_scale=0.3,
+    data = simulate.imu(traj, spec, np.random.default_rng(seed), sampling=PHONE_CLOCKS[phone] if phone else "uniform",
+                        bias_scale=0.3,
                         misalignment=o["misalignment"], vibration=o["vibration"], time_span=(t_a, t_a + seconds))
     return data.recording(source="driven.csv", phone=phone), data, traj
 

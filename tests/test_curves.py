@@ -154,7 +154,7 @@ def test_bad_parameter_file_is_one_clear_error(tmp_path, capsys, monkeypatch):
 
 def test_nonlinear_strapdown_monte_carlo_agrees_where_the_model_is_linear():
     """Small biases (0.2 deg/s, 5 mg): tilt stays < 1 deg over 3 s, the linear model holds."""
-    spec = units.SensorSpec("small", "s8", 0.2 * units.DEG_S, 0.004 * units.DEG_S_SQRT_HZ, 5 * units.MG,
+    spec = units.SensorSpec("small", 0.2 * units.DEG_S, 0.004 * units.DEG_S_SQRT_HZ, 5 * units.MG,
                             130 * units.UG_SQRT_HZ)
     case = case_from_sensor(spec, params_from_dict({**PARAMS, "process_noise": True}))
     N = 400

@@ -213,6 +213,27 @@ def test_check_tree_survives_a_bom_only_file(tmp_path):
     assert n_ok == 1 and any("1.csv: empty file" in p for p in problems)
 
 
+def test_the_catalogue_takes_each_folders_imu_from_the_shipped_manifest(tmp_path):
+    # which phone carries which IMU is data/morpi.toml's to say (analysis/morpi_manifest.py writes it from the
+    # paper's table of sensors): the catalogue of `morpi check --data` and load_recording read it there
+    import tomllib
+
+    from morpi_filters import units
+    from morpi_filters.dataset import catalogue, folder_imu, load_recording
+    from morpi_filters.resources import morpi_manifest
+
+    named = {r["imu"]["file"].rsplit("/", 1)[0]: r["imu"]["spec"]
+             for r in tomllib.loads(morpi_manifest().read_text())["recording"]}
+    for folder in ("s6/L_line", "s8/short_distance/test"):
+        (tmp_path / folder).mkdir(parents=True)
+        write_rows(tmp_path / folder / "1.csv", good_rows())
+        assert folder_imu(folder) is units.IMUS[named[folder]]
+    loaded = {e.relpath: e.load().imu for e in catalogue(tmp_path)}
+    assert loaded == {"s6/L_line/1.csv": units.MPU6500, "s8/short_distance/test/1.csv": units.LSM6DSL}
+    assert load_recording(tmp_path / "s8/short_distance/test/1.csv")[0].imu is units.LSM6DSL
+    assert load_csv(tmp_path / "s6/L_line/1.csv", phone="s6").imu is None     # a label is not an IMU
+
+
 def _reference(tmp_path):
     rows = good_rows()
     rows = [[r[0], 0.1 * k, -0.2, 9.81, 0.01, -0.02 * k, 0.03] for k, r in enumerate(rows)]

@@ -75,7 +75,7 @@ def test_the_command_line_exits_with_each_kinds_status(kind, tmp_path, monkeypat
 
 
 def test_each_cause_raises_its_kind(tmp_path):
-    from morpi_filters import steps, units
+    from morpi_filters import steps
     from morpi_filters.dataset import resolve_data_root
     from morpi_filters.outputs import check_output_dir
 
@@ -86,9 +86,6 @@ def test_each_cause_raises_its_kind(tmp_path):
     with pytest.raises(OutputError, match="thesis.tex"):
         check_output_dir(tmp_path / "mine")
     assert (tmp_path / "mine" / "thesis.tex").read_text() == "mine"
-    with pytest.raises(ParameterError, match="phone 'pixel'") as ei:
-        units.sensor_for_phone("pixel")
-    assert type(ei.value) is ParameterError
     with pytest.raises(DataError, match="no periodic motion"):
         steps.require_swing("run.csv", "MoRPI-G", 6.0, 15.0)
     with pytest.raises(ParameterError, match="time") as ei:

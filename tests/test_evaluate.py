@@ -81,7 +81,7 @@ def test_routes_turn_as_the_recordings_do(field_root):
 
 # ----------------------------------------------------------------------------- synthetic truth
 
-def _write_synthetic(root: Path, folder: str, route: str, runs: int, seed: int, *, sampling="s6", speed=None):
+def _write_synthetic(root: Path, folder: str, route: str, runs: int, seed: int, *, sampling="two-rate", speed=None):
     rng = np.random.default_rng(seed)
     for i in range(runs):
         traj = simulate.route_trajectory(route, speed=speed if speed else None)
@@ -92,7 +92,7 @@ def _write_synthetic(root: Path, folder: str, route: str, runs: int, seed: int, 
 
 def test_noise_free_synthetic_routes_are_recovered(tmp_path):
     root = tmp_path / "synthetic"
-    _write_synthetic(root, "s8/line_dataset", "line_dataset", 1, 1, sampling="s8")
+    _write_synthetic(root, "s8/line_dataset", "line_dataset", 1, 1, sampling="jittered")
     _write_synthetic(root, "s6/short_distance/train", "short_distance", 2, 3)
     _write_synthetic(root, "s6/short_distance/test", "short_distance", 1, 4)
     res = ev.evaluate_tables(root, alternatives=False)

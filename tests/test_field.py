@@ -12,7 +12,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from morpi_filters import aided, field_aided, simulate, synthetic, units
+from morpi_filters import aided, dataset, field_aided, simulate, synthetic, units
 from morpi_filters import dataset as ds
 from morpi_filters import steps as st
 from morpi_filters.steps import prepare as stp
@@ -30,7 +30,7 @@ def _run(phone: str):
     rng = np.random.default_rng(7)
     o = synthetic.DATASET_OPTIONS
     traj = simulate.route_trajectory("short_distance", rest=(3.2, 3.0), t0=0.4, amplitude=0.05)
-    data = simulate.imu(traj, units.sensor_for_phone(phone), rng, sampling=phone,
+    data = simulate.imu(traj, dataset.folder_imu(phone), rng, sampling=synthetic.PHONE_CLOCKS[phone],
                         bias_scale=synthetic.REALISTIC_BIAS_FRACTION[phone], misalignment=o["misalignment"],
                         vibration=o["vibration"], bias_instability=o["bias_instability"],
                         correlation_time=o["correlation_time"])
@@ -196,7 +196,7 @@ def test_a_recording_moving_from_its_first_sample_is_evaluated_under_rd_only(tmp
     o = synthetic.DATASET_OPTIONS
     traj = simulate.route_trajectory(route, speed=speed, rest=(0.0, 3.0), **({"amplitude": 0.05}
                                                                             if route == "long_distance" else {}))
-    imu = simulate.imu(traj, units.LSM6DSL, rng, sampling="s8", bias_scale=synthetic.REALISTIC_BIAS_FRACTION["s8"],
+    imu = simulate.imu(traj, units.LSM6DSL, rng, sampling="jittered", bias_scale=synthetic.REALISTIC_BIAS_FRACTION["s8"],
                        misalignment=o["misalignment"], vibration=o["vibration"],
                        time_span=(traj.start_time + 1.0, traj.end_time))
     assert 0.5 < float(np.linalg.norm(imu.truth.velocity[0])) < 1.0          # under way at the first sample

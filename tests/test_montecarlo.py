@@ -526,7 +526,7 @@ def test_ins_errors_are_those_of_the_sine_path():
     from morpi_filters import simulate
     from morpi_filters.units import SensorSpec
 
-    spec = SensorSpec(name="accelerometer bias only", phone="", gyro_bias=0.0, gyro_noise=0.0,
+    spec = SensorSpec(name="accelerometer bias only", gyro_bias=0.0, gyro_noise=0.0,
                       accel_bias=0.02, accel_noise=0.0)
     runs, seed, T = 3, 5, 20.0
     errs = {}

@@ -96,7 +96,7 @@ def test_route_end_points_match_ground_truth():
             np.testing.assert_allclose(tr.heading[-1], np.radians(r.turn_deg), atol=1e-12)  # the path ends on the route's turn angle; only rounding
 
 
-@pytest.mark.parametrize("sampling", ["uniform", "s6", "s8"])
+@pytest.mark.parametrize("sampling", ["uniform", "two-rate", "jittered"])
 @pytest.mark.parametrize("name", ["line_dataset", "short_distance", "short_distance_1.5p2p", "L_line", "L_shape"])
 def test_noise_free_ins_recovers_route(name, sampling):
     tr = simulate.route_trajectory(name)
@@ -108,7 +108,7 @@ def test_noise_free_ins_recovers_route(name, sampling):
     # the acceptance bar: under 1 mm after 15 s of recording at 100 Hz (irregular grids included)
     k15 = min(np.searchsorted(d.time, d.time[0] + 15.0), d.time.size - 1)
     assert err[k15] < 1e-3
-    if sampling != "s6":
+    if sampling != "two-rate":
         # whole route (up to 53 s for the L routes) at ~100 Hz: still under 1 mm
         assert err[-1] < 1e-3
     if not name.startswith("L_"):
@@ -144,7 +144,7 @@ def test_sine_peaks_at_known_times():
 def test_white_noise_matches_density_with_chi_square():
     tr = simulate.straight(1.0, speed=1.0, rest=0.2, ramp=0.5)
     spec = units.MPU6500
-    d = simulate.imu(tr, spec, np.random.default_rng(11), runs=400, sampling="s6", bias_scale=0)
+    d = simulate.imu(tr, spec, np.random.default_rng(11), runs=400, sampling="two-rate", bias_scale=0)
     dt = np.diff(d.time)
     dt_k = np.concatenate([dt[:1], dt])
     for meas, true, density in ((d.f, d.truth.f_b, spec.accel_noise), (d.omega, d.truth.omega_b, spec.gyro_noise)):
@@ -193,7 +193,7 @@ def test_scale_factor_misalignment_and_bias_random_walk():
 def test_gauss_markov_bias_instability_statistics():
     tr = simulate.straight(2.0, rest=2.0, rate_hz=50)
     sigma, tau = 0.01, 0.5
-    d = simulate.imu(tr, units.LSM6DSL, np.random.default_rng(14), runs=300, sampling="s6", bias_scale=0,
+    d = simulate.imu(tr, units.LSM6DSL, np.random.default_rng(14), runs=300, sampling="two-rate", bias_scale=0,
                      noise_scale=0, bias_instability=(0.0, sigma), correlation_time=tau)
     b = d.gyro_bias_drift
     dt = np.diff(d.time)
@@ -231,18 +231,18 @@ def test_per_run_generators_make_batching_irrelevant():
                      scale_factor=0.01, misalignment=0.01)
     np.testing.assert_array_equal(a.f[2:], b.f)
     np.testing.assert_array_equal(a.omega[2:], b.omega)
-    rec = a.recording(3, route="line_dataset")
+    rec = a.recording(3, phone="s6", route="line_dataset")
     assert isinstance(rec, dataset.Recording) and rec.phone == "s6" and np.array_equal(rec.f, a.f[3])
 
 
 def test_sampling_patterns_like_the_field_files():
     rng = np.random.default_rng(21)
     for _ in range(20):
-        t = simulate.sample_times(0.4, 30.0, rng, pattern="s6")
+        t = simulate.sample_times(0.4, 30.0, rng, pattern="two-rate")
         dt = np.diff(t)
         # dataset README: S6 median dt 0.011 to 0.019 s, range 0.0095 to 0.023 s
         assert 0.0105 <= np.median(dt) <= 0.0195 and dt.min() >= 0.0095 and dt.max() <= 0.023
-        t8 = simulate.sample_times(0.4, 30.0, rng, pattern="s8")
+        t8 = simulate.sample_times(0.4, 30.0, rng, pattern="jittered")
         dt8 = np.diff(t8)
         # S8: close to 100 Hz, dt 0.0099 to 0.019 s
         assert abs(np.median(dt8) - 0.01) < 2e-4 and dt8.min() >= 0.0099 and dt8.max() <= 0.019
@@ -362,7 +362,7 @@ def test_cli_simulate_end_to_end(tmp_path):
     (lambda: simulate.imu(simulate.straight(), units.MPU6500, np.random.default_rng(0), sampling="s7"), "sampling"),
     (lambda: simulate.imu(simulate.straight(), units.MPU6500, np.random.default_rng(0), noise_scale=-1), "noise_scale"),
     (lambda: simulate.imu(simulate.straight(), units.MPU6500, [np.random.default_rng(0)], runs=2), "rng"),
-    (lambda: simulate.imu(simulate.straight(), units.MPU6500, [np.random.default_rng(0)], runs=1, sampling="s6"),
+    (lambda: simulate.imu(simulate.straight(), units.MPU6500, [np.random.default_rng(0)], runs=1, sampling="two-rate"),
      "sampling"),
     (lambda: simulate.route_trajectory("nowhere"), "route"),
     (lambda: synthetic.write_dataset("/tmp/never-written-x", seed=-1), "seed"),

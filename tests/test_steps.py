@@ -336,7 +336,7 @@ def test_noise_free_simulated_sine_distance_within_half_percent(method):
                            bias_scale=0.0, noise_scale=0.0)
         return imu.recording(0)
 
-    train, test = run("uniform", 1), run("s6", 2)
+    train, test = run("uniform", 1), run("two-rate", 2)
     cfg = st.StepConfig()
     gain, _, _ = st.train_gain([st.extract_steps(train, method, cfg, rest_end_time=train.time[0] + 2.5)], 6.3)
     track = st.morpi_track(st.extract_steps(test, method, cfg, rest_end_time=test.time[0] + 2.5), gain)
@@ -393,7 +393,7 @@ def _track(train_traj, test_traj, method, heading, *, bias_dps, train_m=10.0):
     cfg = st.StepConfig(heading=heading)
     train = _simulated(train_traj, 1)
     gain, _, _ = st.train_gain([st.extract_steps(train, method, cfg, rest_end_time=train.time[0] + 2.5)], train_m)
-    test = _simulated(test_traj, 2, bias_dps=bias_dps, pattern="s6")
+    test = _simulated(test_traj, 2, bias_dps=bias_dps, pattern="two-rate")
     return st.morpi_track(st.extract_steps(test, method, cfg, rest_end_time=test.time[0] + 2.5), gain)
 
 
@@ -419,7 +419,7 @@ def test_turns_reading_follows_the_simulated_l_route(method):
     # the turn itself: one stretch, 90 deg within 1.5 deg (the bias over the 8.3 s between the middles of the
     # periods around the stretch adds 0.8 deg)
     s = turns.steps
-    rec = _simulated(L, 2, bias_dps=0.1, pattern="s6")
+    rec = _simulated(L, 2, bias_dps=0.1, pattern="two-rate")
     psi = st.integrate_heading(rec.time, rec.omega[:, 2])
     bt = s.peaks.grid_time[s.peaks.grid_index]
     stretches = st.turn_stretches(bt, np.interp(bt, rec.time, psi), np.radians(st.StepConfig().turn_deg), 2)
@@ -457,7 +457,7 @@ def test_step_sums_are_the_steps_own_sums_for_every_reading_and_refuse_the_same_
     plain = plain_kernels(_loops)
     eps = np.finfo(float).eps
     L = simulate.l_route(period=1.0, amplitude=0.1)
-    rec = _simulated(L, 2, bias_dps=0.1, pattern="s6")
+    rec = _simulated(L, 2, bias_dps=0.1, pattern="two-rate")
     turning = 0
     for method in st.METHODS:
         cache = {}

@@ -15,7 +15,7 @@ from morpi_filters.errors import ParameterError
     (units.LSM6DSL, dict(gyro_bias_deg_s=3, gyro_noise_deg_s_sqrt_hz=0.004, accel_bias_mg=40, accel_noise_ug_sqrt_hz=130)),
 ])
 def test_datasheet_units_give_the_paper_specs(spec, sheet):
-    s = units.SensorSpec.from_datasheet(spec.name, phone=spec.phone, **sheet)
+    s = units.SensorSpec.from_datasheet(spec.name, **sheet)
     assert s == spec
     # independent arithmetic: deg -> rad by pi/180, mg -> m/s^2 by 9.80665e-3, ug by 9.80665e-6
     assert math.isclose(s.gyro_bias, sheet["gyro_bias_deg_s"] * math.pi / 180, rel_tol=1e-15)
@@ -25,7 +25,7 @@ def test_datasheet_units_give_the_paper_specs(spec, sheet):
 def test_a_users_imu_needs_no_dataset_phone():
     s = units.SensorSpec.from_datasheet("BMI270", gyro_bias_deg_s=0.5, gyro_noise_deg_s_sqrt_hz=0.007,
                                         accel_bias_mg=20, accel_noise_ug_sqrt_hz=160, rate_hz=200)
-    assert s.phone == "" and s.rate_hz == 200.0
+    assert not hasattr(s, "phone") and s.rate_hz == 200.0              # an IMU is not a dataset folder
 
 
 @pytest.mark.parametrize("key,value", [("gyro_bias_deg_s", -1.0), ("accel_bias_mg", float("nan")),
@@ -43,7 +43,7 @@ def test_impossible_datasheet_values_are_refused_by_name(key, value):
     ("rate_hz", 0.0), ("rate_hz", -100.0), ("gyro_noise", "loud"),
 ])
 def test_a_plain_spec_refuses_impossible_figures(field, value):
-    good = dict(name="X", phone="", gyro_bias=1e-3, gyro_noise=1e-4, accel_bias=0.1, accel_noise=1e-3, rate_hz=100.0)
+    good = dict(name="X", gyro_bias=1e-3, gyro_noise=1e-4, accel_bias=0.1, accel_noise=1e-3, rate_hz=100.0)
     units.SensorSpec(**good)                                          # the same spec with good figures is fine
     with pytest.raises(ParameterError, match=f"SensorSpec 'X': {field}="):
         units.SensorSpec(**{**good, field: value})

@@ -30,13 +30,13 @@ from .loader import check_recording, keep_parsed, load_csv, read_columns, write_
 from .plausibility import (GRAVITY_BAND_MPS2, GYRO_NOISE_FACTOR, GYRO_REST_LIMIT_RADPS, MEMS_SPEC,
                            MOVING_RATE_LIMIT_RADPS, UP_FRACTION_MIN, RestProblem, check_plausible,
                            plausibility_problems, rest_problems)
-from .folders import (DATA_ENV, CatalogueEntry, catalogue, check_tree, expected_layout, folder_key, layout_problems,
-                      load_catalogue, load_recording, missing_data_message, resolve_data_root)
+from .folders import (DATA_ENV, CatalogueEntry, catalogue, check_tree, expected_layout, folder_imu, folder_key,
+                      layout_problems, load_catalogue, load_recording, missing_data_message, resolve_data_root)
 
 __all__ = [
     "COLUMNS", "MIN_SAMPLES", "ACCEL_LIMIT_MPS2", "GYRO_LIMIT_RADPS", "MAX_GAP_S", "TIME_LIMIT_S", "DATA_ENV", "Route", "Recording", "CatalogueEntry",
     "ColumnLayout", "load_csv", "read_columns", "check_recording", "load_recording", "write_csv", "routes", "route",
-    "catalogue", "load_catalogue",
+    "catalogue", "load_catalogue", "folder_imu",
     "resolve_data_root", "missing_data_message", "check_tree", "keep_parsed", "PROJECT_DATA",
     "layout", "expected_layout", "layout_problems", "folder_key", "GRAVITY_BAND_MPS2", "UP_FRACTION_MIN",
     "GYRO_REST_LIMIT_RADPS", "GYRO_NOISE_FACTOR", "MOVING_RATE_LIMIT_RADPS", "MEMS_SPEC", "RestProblem",

@@ -2,10 +2,11 @@
 ``morpi check --data``."""
 from __future__ import annotations
 
+import functools
 import json
 import os
 from dataclasses import dataclass
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 
 from ..errors import DataError, MissingDataError, MorpiError
 from .loader import load_csv
@@ -15,6 +16,53 @@ from .truth import Route, layout, routes
 
 #: Environment variable naming the dataset root.
 DATA_ENV = "MORPI_DATA"
+
+
+@functools.lru_cache(maxsize=1)
+def _manifest_imus() -> dict:
+    """Folder (``<phone>/<route>[/<split>]``) -> the IMU the shipped MoRPI manifest names for its files."""
+    import tomllib
+
+    from ..resources import morpi_manifest
+    from ..units import IMUS
+
+    doc = tomllib.loads(morpi_manifest().read_text(encoding="utf-8"))
+    return {str(PurePosixPath(r["imu"]["file"]).parent): IMUS[r["imu"]["spec"]]
+            for r in doc.get("recording", ()) if "spec" in r.get("imu", {})}
+
+
+def folder_imu(folder):
+    """The IMU of the recordings under a folder of the MoRPI layout, as the shipped MoRPI manifest names it.
+
+    Which phone carries which IMU is the manifest's to say (``data/morpi.toml``); the catalogue of
+    ``morpi check --data`` and the synthetic MoRPI dataset read it here.
+
+    Parameters
+    ----------
+    folder : str
+        ``<phone>[/<route>[/<split>]]``, relative to the dataset root.
+
+    Returns
+    -------
+    units.SensorSpec or None
+        The one IMU the manifest names for every file under `folder`; None when it lists none there (or
+        more than one).
+
+    Examples
+    --------
+    >>> folder_imu("s6").name, folder_imu("s8/short_distance/test").name
+    ('MPU-6500', 'LSM6DSL')
+    >>> folder_imu("pixel") is None
+    True
+    """
+    folder = str(PurePosixPath(folder))
+    found = {id(s): s for f, s in _manifest_imus().items() if f == folder or f.startswith(folder + "/")}
+    return next(iter(found.values())) if len(found) == 1 else None
+
+
+def _imu_of(phone, route, split):
+    """:func:`folder_imu` of the folder ``<phone>/<route>[/<split>]``."""
+    return folder_imu("/".join(p for p in (phone, route, split) if p))
 
 _HOW_TO_GET = (
     "get the field recordings with `morpi data fetch --dest DIR` (or clone the public "
@@ -72,7 +120,8 @@ class CatalogueEntry:
         >>> rec.name, rec.n
         ('s6/L_line/1.csv', 100)
         """
-        return check_plausible(load_csv(self.path, phone=self.phone, route=self.route, split=self.split))
+        return check_plausible(load_csv(self.path, phone=self.phone, route=self.route, split=self.split,
+                                        imu=_imu_of(self.phone, self.route, self.split)))
 
 
 def resolve_data_root(data=None, *, required: bool = True) -> Path | None:
@@ -259,7 +308,7 @@ def load_recording(path) -> tuple[Recording, "Route | None"]:
         labels = _split_parts(Path(*parts)) if len(parts) == depth else None
         if labels is not None and labels[1] in known:
             phone, route_name, split = labels
-            rec = load_csv(path, phone=phone, route=route_name, split=split)
+            rec = load_csv(path, phone=phone, route=route_name, split=split, imu=_imu_of(phone, route_name, split))
             return check_plausible(rec), known[route_name]
     warnings.warn(f"{path}: not in the MoRPI layout (<phone>/<route>[/<split>]/<n>.csv): loaded without "
                   "phone, route, split or ground truth", stacklevel=2)
@@ -492,7 +541,7 @@ def check_tree(root, *, usable=None) -> tuple[list[str], int]:
     problems, n_ok = [], 0
     for e in entries:
         try:
-            rec = load_csv(e.path, phone=e.phone, route=e.route, split=e.split)
+            rec = load_csv(e.path, phone=e.phone, route=e.route, split=e.split, imu=_imu_of(e.phone, e.route, e.split))
         except MorpiError as exc:
             problems.append(str(exc))
             continue

@@ -12,7 +12,6 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataError
-from ..units import SENSORS
 from .columns import COLUMNS, DATASET_CSV, MAX_GAP_S, MIN_SAMPLES, TIME_LIMIT_S, ColumnLayout, column_limit
 from .fastcsv import BLOCK_BYTES, csv_fields, fast_parse
 from .recording import Recording
@@ -24,7 +23,7 @@ def _header_text(lay: ColumnLayout) -> str:
     return "naming the columns " + ", ".join(repr(str(n)) for n in lay.names if n is not None)
 
 
-def load_csv(path, *, phone=None, route=None, split=None, min_samples: int = MIN_SAMPLES) -> Recording:
+def load_csv(path, *, phone=None, route=None, split=None, imu=None, min_samples: int = MIN_SAMPLES) -> Recording:
     r"""Read one recording and validate it.
 
     Parameters
@@ -37,6 +36,8 @@ def load_csv(path, *, phone=None, route=None, split=None, min_samples: int = MIN
     phone, route, split : str, optional
         Catalogue labels stored on the result (not checked against the path;
         :func:`load_recording` reads them from it).
+    imu : units.SensorSpec, optional
+        The recording's IMU, when known (the MoRPI catalogue takes it from the shipped manifest).
     min_samples : int, optional
         Fewest data rows accepted (default :data:`MIN_SAMPLES`).
 
@@ -89,7 +90,7 @@ def load_csv(path, *, phone=None, route=None, split=None, min_samples: int = MIN
     if time.shape[0] < min_samples:
         raise DataError(f"{path}: too few samples: {time.shape[0]} rows, expected at least {min_samples}")
     return Recording(time=time, f=f, omega=omega, source=str(path), phone=phone, route=route, split=split,
-                     imu=SENSORS.get(phone))      # the MoRPI catalogue's phones and their IMUs
+                     imu=imu)
 
 
 def read_columns(path, layout: ColumnLayout, *, min_rows: int = 1) -> tuple:

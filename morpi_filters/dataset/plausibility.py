@@ -8,7 +8,7 @@ import numpy as np
 
 from ..choice import choose
 from ..errors import DataError, ParameterError
-from ..units import DEG, G0, SENSORS, SensorSpec
+from ..units import DEG, G0, IMUS, SensorSpec
 from .columns import COLUMNS
 from .recording import Recording
 
@@ -18,11 +18,11 @@ from .recording import Recording
 #: folders. The bounds below are this spec's; the MoRPI catalogue uses it, and so does a dataset
 #: manifest that gives no ``imu.spec``: the two are widely used consumer MEMS IMUs, and a ground robot's
 #: IMU with smaller errors passes bounds set for larger ones.
-MEMS_SPEC = SensorSpec("MPU-6500/LSM6DSL (larger figure of each)", "",
-                       gyro_bias=max(s.gyro_bias for s in SENSORS.values()),
-                       gyro_noise=max(s.gyro_noise for s in SENSORS.values()),
-                       accel_bias=max(s.accel_bias for s in SENSORS.values()),
-                       accel_noise=max(s.accel_noise for s in SENSORS.values()))
+MEMS_SPEC = SensorSpec("MPU-6500/LSM6DSL (larger figure of each)",
+                       gyro_bias=max(s.gyro_bias for s in IMUS.values()),
+                       gyro_noise=max(s.gyro_noise for s in IMUS.values()),
+                       accel_bias=max(s.accel_bias for s in IMUS.values()),
+                       accel_noise=max(s.accel_noise for s in IMUS.values()))
 #: Initial sensitivity (scale-factor) tolerance of the accelerometer, as a fraction of the reading:
 #: +-3 %, the figure InvenSense's MPU-6000/6050 product specification (table 6.2) gives for its
 #: accelerometer, taken for the MPU-6500 of the same family (the LSM6DSL's is tighter).

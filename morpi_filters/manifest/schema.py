@@ -12,7 +12,7 @@ import numpy as np
 
 from ..dataset import MAX_GAP_S, MEMS_SPEC
 from ..errors import ParameterError
-from ..units import DEG, DEG_S, DEG_S_SQRT_HZ, G0, MG, SENSORS, UG_SQRT_HZ, SensorSpec
+from ..units import DEG, DEG_S, DEG_S_SQRT_HZ, G0, IMUS, MG, UG_SQRT_HZ, SensorSpec
 
 #: The manifest format this module reads.
 FORMAT_VERSION = 1
@@ -193,7 +193,7 @@ def check_latitude(v) -> float:
 
 def _spec(v) -> SensorSpec:
     if isinstance(v, str):
-        known = {s.name: s for s in SENSORS.values()}
+        known = IMUS
         if v not in known:
             near = _nearest(v, known, cutoff=0.6)
             raise BadValue(f"{v!r} is not an IMU the package knows ({', '.join(repr(k) for k in known)})"
@@ -213,7 +213,7 @@ def _spec(v) -> SensorSpec:
         except BadValue as bad:
             raise BadValue(f"{key}: {bad}") from None
     base = {k: getattr(MEMS_SPEC, k) for k in ("gyro_bias", "gyro_noise", "accel_bias", "accel_noise")}
-    return SensorSpec("imu.spec", "", **{**base, **figures})
+    return SensorSpec("imu.spec", **{**base, **figures})
 
 
 def check_columns(v):
