@@ -28,7 +28,12 @@ def _manifest_imus() -> dict:
 
     doc = tomllib.loads(morpi_manifest().read_text(encoding="utf-8"))
     return {str(PurePosixPath(r["imu"]["file"]).parent): IMUS[r["imu"]["spec"]]
-            for r in doc.get("recording", ()) if "spec" in r.get("imu", {})}
+            for r in doc.get("recording", ()) if isinstance(r.get("imu", {}).get("spec"), str)}
+
+
+def _phones() -> tuple:
+    """The phone folders of the MoRPI layout: the first folder of each file the shipped manifest lists."""
+    return tuple(sorted({f.split("/", 1)[0] for f in _manifest_imus()}))
 
 
 def folder_imu(folder):
@@ -171,7 +176,7 @@ def resolve_data_root(data=None, *, required: bool = True) -> Path | None:
     root = Path(data).expanduser()
     if not root.is_dir():
         raise MissingDataError(f"{source}={data}: not a directory; {_HOW_TO_GET}")
-    if not any((root / p).is_dir() for p in ("s6", "s8")) and any((root / "data" / p).is_dir() for p in ("s6", "s8")):
+    if not any((root / p).is_dir() for p in _phones()) and any((root / "data" / p).is_dir() for p in _phones()):
         root = root / "data"   # the root of an ansfl/MoRPI clone: its recordings are under data/
     return root
 
@@ -195,7 +200,7 @@ def missing_data_message() -> str:
 
 def _split_parts(rel: Path) -> tuple[str, str, str | None] | None:
     parts = rel.parts
-    if len(parts) < 3 or parts[0] not in ("s6", "s8"):
+    if len(parts) < 3 or parts[0] not in _phones():
         return None
     phone, route_name = parts[0], parts[1]
     split = parts[2] if len(parts) == 4 and parts[2] in ("train", "test") else None
