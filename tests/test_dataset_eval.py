@@ -300,3 +300,49 @@ def test_evaluate_data_reads_a_morpi_root_through_the_shipped_manifest(tmp_path,
         with pytest.raises(SystemExit) as exc:
             cli.main(argv)
         assert exc.value.code == 2 and "--data" in capsys.readouterr().err
+
+
+def test_track_files_hold_each_value_as_its_repr_whatever_the_float(tmp_path):
+    """The track writer formats a column at once; each file's bytes are those of writing every value by
+    ``repr``, row by row, for floats of every kind (subnormal, -0.0, powers beyond 1e16, nan, inf, random bit
+    patterns), and each value reads back as the same float."""
+    from types import SimpleNamespace
+
+    from morpi_filters.report.dataset_eval import _write_track
+
+    rng = np.random.default_rng(7)
+    special = np.array([0.0, -0.0, 0.1, 1e22, -1e22, 1e16, 9999999999999998.0, 1e-5, 1e-4, 5e-324, -5e-324,
+                        2.2250738585072014e-308, 2.225073858507201e-308, 1.7976931348623157e308, np.inf, -np.inf,
+                        np.nan, 1.0, 123456789.0, 0.30000000000000004])
+    bits = rng.integers(0, 2 ** 63, 400, dtype=np.int64) * rng.choice([1, -1], 400)
+    values = np.concatenate([special, bits.view(np.float64), rng.standard_normal(400) * 10.0 ** rng.integers(
+        -320, 300, 400)])
+
+    def pick(shape):
+        return rng.permutation(np.resize(values, int(np.prod(shape)))).reshape(shape)
+
+    def expected(p):
+        rows = [[t, *xy] if p.P_xy is None else [t, *xy, P[0, 0], P[0, 1], P[1, 1]]
+                for t, xy, P in zip(p.time.tolist(), p.xy.tolist(), [None] * len(p.time) if p.P_xy is None
+                                    else p.P_xy)]
+        head = "time,x,y" if p.P_xy is None else "time,x,y,p_xx,p_xy,p_yy"
+        return "\n".join([head] + [",".join(repr(float(v)) for v in r) for r in rows]) + "\n"
+
+    times = {}
+    clock = pick(len(values))
+    tracks = [SimpleNamespace(time=clock, xy=pick((len(values), 2)), P_xy=None),
+              SimpleNamespace(time=clock, xy=pick((len(values), 2)), P_xy=pick((len(values), 2, 2))),
+              SimpleNamespace(time=pick(1), xy=pick((1, 2)), P_xy=pick((1, 2, 2))),
+              SimpleNamespace(time=np.zeros(0), xy=np.zeros((0, 2)), P_xy=None),
+              SimpleNamespace(time=np.zeros(0), xy=np.zeros((0, 2)), P_xy=np.zeros((0, 2, 2)))]
+    for i, p in enumerate(tracks):
+        path = tmp_path / "tracks" / f"{i}.csv"
+        _write_track(path, p, times)
+        text = path.read_bytes().decode()
+        assert text == expected(p), i
+        sent = np.column_stack([p.time, p.xy] + ([] if p.P_xy is None else
+                                                  [p.P_xy[:, 0, 0], p.P_xy[:, 0, 1], p.P_xy[:, 1, 1]]))
+        back = np.array([[float(v) for v in line.split(",")] for line in text.splitlines()[1:]]).reshape(
+            sent.shape)
+        assert np.array_equal(back.view(np.int64)[~np.isnan(sent)], sent.view(np.int64)[~np.isnan(sent)]), i
+        assert np.array_equal(np.isnan(back), np.isnan(sent)), i

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import re
+from itertools import chain
 from pathlib import Path
 from urllib.parse import quote
 
@@ -70,23 +71,30 @@ def ablation_file_name(rec_id: str, calibration: str, removed: str, estimate: st
     return f"{folder}/ablation/{name}.csv"
 
 
+def _column_text(a) -> list:
+    """Each value of the 1-D float array `a` as its ``repr`` (the shortest text that reads back as the same
+    float), in order: the list's ``repr`` is split at its separators, which no float's text holds."""
+    return repr(a.tolist())[1:-1].split(", ") if a.size else []
+
+
 def _write_track(path: Path, p, times: dict) -> None:
     """An estimate's ``time,x,y`` (and ``p_xx,p_xy,p_yy`` with a covariance) as CSV, written plainly: `path`
     lies in the command's staging folder, which no one sees before it is complete (a file of its own per
-    track, atomic, costs thousands of staging folders). `times` keeps each time column's text by its bytes:
+    track, atomic, costs thousands of staging folders). Each column's text is made at once
+    (:func:`_column_text`) and the rows joined from it; `times` keeps each time column's text by its bytes:
     a recording's estimates share their clock, and a float's text is most of the cost."""
     path.parent.mkdir(parents=True, exist_ok=True)
     key = p.time.tobytes()
     t_text = times.get(key)
     if t_text is None:
-        t_text = times[key] = list(map(repr, p.time.tolist()))
+        t_text = times[key] = _column_text(p.time)
     if p.P_xy is None:
-        lines = ["time,x,y"] + [f"{t},{x!r},{y!r}" for t, (x, y) in zip(t_text, p.xy.tolist())]
+        head, cols = "time,x,y", (p.xy[:, 0], p.xy[:, 1])
     else:
-        lines = ["time,x,y,p_xx,p_xy,p_yy"] + [
-            f"{t},{x!r},{y!r},{P[0][0]!r},{P[0][1]!r},{P[1][1]!r}"
-            for t, (x, y), P in zip(t_text, p.xy.tolist(), p.P_xy.tolist())]
-    path.write_text("\n".join(lines) + "\n")
+        P = p.P_xy
+        head, cols = "time,x,y,p_xx,p_xy,p_yy", (p.xy[:, 0], p.xy[:, 1], P[:, 0, 0], P[:, 0, 1], P[:, 1, 1])
+    rows = map(",".join, zip(t_text, *map(_column_text, cols)))
+    path.write_text("\n".join(chain((head,), rows, ("",))))
 
 
 def _change(full, ablated) -> str:
