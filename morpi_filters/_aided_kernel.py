@@ -155,22 +155,29 @@ def product(A, B, ni, nl, nj, out):
 
 
 def product_t(A, B, ni, nl, nj, out):
-    """``out[:ni, :nj] = A[:ni, :nl] B[:nj, :nl]^T``, each entry summed over l in order."""
+    """``out[:ni, :nj] = A[:ni, :nl] B[:nj, :nl]^T``, each entry summed over l in order, the terms of the zero
+    entries of `B` left out (a measurement's Jacobian is mostly zeros; with a finite `A` they add nothing)."""
     for i in range(ni):
         for j in range(nj):
-            s = 0.0
-            for l in range(nl):
-                s += A[i, l] * B[j, l]
-            out[i, j] = s
+            out[i, j] = 0.0
+    for j in range(nj):
+        for l in range(nl):
+            b = B[j, l]
+            if b != 0.0:
+                for i in range(ni):
+                    out[i, j] += A[i, l] * b
 
 
 def h_x_plus_r(H, X, R, m, out):
-    """``out = H X + R`` for the first `m` rows of `H` and columns of `X` (an innovation covariance)."""
+    """``out = H X + R`` for the first `m` rows of `H` and columns of `X` (an innovation covariance; the terms
+    of the zero entries of `H` left out, as in :func:`product_t`)."""
     for a in range(m):
         for c in range(m):
             s = 0.0
             for l in range(H.shape[1]):
-                s += H[a, l] * X[l, c]
+                h = H[a, l]
+                if h != 0.0:
+                    s += h * X[l, c]
             out[a, c] = s + R[a, c]
 
 
@@ -590,7 +597,8 @@ def lu_factor(A, piv):
 
 
 def lu_solve(LU, piv, B):
-    """``B = A^-1 B`` in place (`B` (n, k)) from the factors of :func:`lu_factor`."""
+    """``B = A^-1 B`` in place (`B` (n, k)) from the factors of :func:`lu_factor`. Each entry of a row takes
+    its terms over l in order; the loops run along the rows of `B`."""
     n, k = B.shape
     for c in range(n):
         p = piv[c]
@@ -600,17 +608,18 @@ def lu_solve(LU, piv, B):
                 B[c, j] = B[p, j]
                 B[p, j] = b
     for i in range(n):
-        for j in range(k):
-            s = B[i, j]
-            for l in range(i):
-                s -= LU[i, l] * B[l, j]
-            B[i, j] = s
+        for l in range(i):
+            c = LU[i, l]
+            for j in range(k):
+                B[i, j] -= c * B[l, j]
     for i in range(n - 1, -1, -1):
+        for l in range(i + 1, n):
+            c = LU[i, l]
+            for j in range(k):
+                B[i, j] -= c * B[l, j]
+        d = LU[i, i]
         for j in range(k):
-            s = B[i, j]
-            for l in range(i + 1, n):
-                s -= LU[i, l] * B[l, j]
-            B[i, j] = s / LU[i, i]
+            B[i, j] = B[i, j] / d
 
 
 def smooth_member(hist_P, hist_rec, q_ba, q_bg, fj, covariance, xs, Ps_xy):
@@ -640,6 +649,7 @@ def smooth_member(hist_P, hist_rec, q_ba, q_bg, fj, covariance, xs, Ps_xy):
     T = np.zeros((n, n))
     Ps = np.zeros((n, n))
     r = np.zeros(n)
+    row = np.zeros(n)
     wv = np.zeros(n)
     dead = np.zeros(n, np.bool_)
     AP, APA, xa = np.zeros((_NR, n)), np.zeros((_NR, _NR)), np.zeros(_NR)
@@ -709,27 +719,39 @@ def smooth_member(hist_P, hist_rec, q_ba, q_bg, fj, covariance, xs, Ps_xy):
             copy_into(Gt, Pp)
             for i in range(_NR):
                 for j in range(n):
-                    s = 0.0
-                    for l in range(_NC):
-                        s += A[i, l] * Pp[_C0 + l, j]
-                    Gt[_R0 + i, j] += s
+                    row[j] = 0.0
+                for l in range(_NC):
+                    a = A[i, l]
+                    if a != 0.0:
+                        for j in range(n):
+                            row[j] += a * Pp[_C0 + l, j]
+                for j in range(n):
+                    Gt[_R0 + i, j] += row[j]
             lu_solve(LU, piv, Gt)
             for i in range(n):
                 if dead[i]:
                     for j in range(n):
                         Gt[i, j] = 0.0
-            for i in range(n):                              # T = (Ps' - Pq) G^T
+            # T = (Ps' - Pq) G^T, then Ps = P + G T: each entry summed over l in order, along the rows; a
+            # zero factor's terms left out (they add nothing to a finite sum that starts at +0)
+            for i in range(n):
                 for j in range(n):
-                    s = 0.0
-                    for l in range(n):
-                        s += (Ps[i, l] - Pprior[i, l]) * Gt[l, j]
-                    T[i, j] = s
-            for i in range(n):                              # Ps = P + G T
+                    T[i, j] = 0.0
+                for l in range(n):
+                    dl = Ps[i, l] - Pprior[i, l]
+                    if dl != 0.0:
+                        for j in range(n):
+                            T[i, j] += dl * Gt[l, j]
+            for i in range(n):
                 for j in range(n):
-                    s = 0.0
-                    for l in range(n):
-                        s += Gt[l, i] * T[l, j]
-                    Ps[i, j] = hist_P[k, i, j] + s
+                    row[j] = 0.0
+                for l in range(n):
+                    gl = Gt[l, i]
+                    if gl != 0.0:
+                        for j in range(n):
+                            row[j] += gl * T[l, j]
+                for j in range(n):
+                    Ps[i, j] = hist_P[k, i, j] + row[j]
             copy_into(Ps_xy[k], Ps)
 
 
