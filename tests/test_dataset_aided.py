@@ -214,3 +214,36 @@ def test_corrupting_every_test_recording_leaves_the_aided_tunables_unchanged(tmp
     after = {(p.id, p.calibration, p.estimate): p.metrics["end_error_m"] for p in dirty.paths
              if p.method == AIDED and p.split == "test"}
     assert before and any(not math.isclose(before[k], after.get(k, math.nan)) for k in before)
+
+
+def test_the_tuning_runs_each_input_and_tuning_once_and_chooses_as_when_every_run_is_made(noisy, monkeypatch):
+    """The tuning's second stage takes the result of a run already made (the same input and tunables) instead
+    of running it again: no input runs twice under equal tunables, and the choices and the aided rows are
+    those of the evaluation that runs every member (tunables equal only to themselves: nothing is shared)."""
+    from morpi_filters import aided
+
+    ds, result, _ = noisy
+    orig = aided.run_batch
+    runs = []
+
+    def counted(inputs, tunings, **kw):
+        inputs = list(inputs)
+        tunings = [tunings] * len(inputs) if isinstance(tunings, aided.AidTuning) else list(tunings)
+        if "smooth" not in kw:                    # the tuning's batches (the evaluation's smooth)
+            runs.extend(zip(inputs, tunings))
+        return orig(inputs, tunings, **kw)
+
+    monkeypatch.setattr(aided, "run_batch", counted)
+    shared = de.evaluate(ds, course_m=0.05)
+    once = len(runs)
+    assert len({(id(i), t) for i, t in runs}) == once
+    runs.clear()
+    monkeypatch.setattr(aided.AidTuning, "__eq__", lambda a, b: a is b)
+    monkeypatch.setattr(aided.AidTuning, "__hash__", object.__hash__)
+    every = de.evaluate(ds, course_m=0.05)
+    assert len(runs) > once                       # the grid's winners include points run again in stage two
+    assert json.dumps(shared.choices["aided"]) == json.dumps(every.choices["aided"]) == json.dumps(
+        result.choices["aided"])
+    rows = lambda r: [(p.id, p.calibration, p.estimate, p.xy.tobytes()) for p in r.paths  # noqa: E731
+                      if p.method == AIDED]
+    assert rows(shared) == rows(every)

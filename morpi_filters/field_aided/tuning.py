@@ -213,6 +213,10 @@ def choose_tunables_many(data, requests, *, workers: int | None = None) -> list:
     # one batch per training set (one batch of every set is slower: a larger working set for the same work)
     res = {train: aided.run_batch(inputs, tunings, workers=workers)
            for train, (inputs, tunings) in groups.items()}
+    # every run so far by its input and tuning: a second stage's variant that is a grid point already run
+    # (the updates off where they were), or another variant of the same run, takes that run's result
+    ran = {(i, t): r for train, (inputs, tunings) in groups.items()
+           for i, t, r in zip(inputs, tunings, res[train])}
     # the measurement types of the filter and the degrees of freedom of one update of each
     kinds, dof = _aided_kernel.KINDS, np.array(_aided_kernel.KIND_DOF)
 
@@ -246,7 +250,9 @@ def choose_tunables_many(data, requests, *, workers: int | None = None) -> list:
         more = [dict(cands[w], **v) for w in wins for v in variants]
         inputs += [r.input_for(c, forward_only=True) for c in more for r in runs]
         tunings += [tuning_from(noise, c, rel) for c in more for _ in runs]
-    res2 = aided.run_batch(inputs, tunings, workers=workers)
+    todo = list(dict.fromkeys(k for k in zip(inputs, tunings) if k not in ran))
+    ran.update(zip(todo, aided.run_batch([k[0] for k in todo], [k[1] for k in todo], workers=workers)))
+    res2 = [ran[k] for k in zip(inputs, tunings)]
     out = []
     for plan, first in zip(plans, firsts):
         if isinstance(plan, MorpiError):
