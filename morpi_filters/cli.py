@@ -260,8 +260,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="also write the JSON result here (an existing file only if morpi wrote it)")
     s.add_argument("--force", action="store_true", help="let --json overwrite a file morpi did not write")
     s.add_argument("--workers", metavar="N", type=_Number(True, 1, MAX_WORKERS, "threads"), default=None,
-                   help="threads that evaluate the recordings and tune the aided filter (default: the cores "
-                        "the process may use; the results do not depend on it)")
+                   help="threads that evaluate the recordings and tune the aided filter, and with 2 or more "
+                        "a second process that writes track files (default: the cores the process may use; "
+                        "the results do not depend on it)")
 
     s = sub.add_parser("tables", help="every table of the paper on the recordings, ours beside the paper's")
     data_arg(s)
@@ -586,7 +587,7 @@ def _cmd_evaluate(args):
     with Outputs("morpi evaluate") as outputs:
         if out is not None:
             stage = outputs.folder(out, "evaluate")
-            report_dataset_evaluation(stage, result)
+            report_dataset_evaluation(stage, result, workers=args.workers)
             stamp_json(stage / "result.json", "morpi evaluate", "evaluate")
             text = (stage / "result.json").read_text()
         if args.json is not None:

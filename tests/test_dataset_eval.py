@@ -346,3 +346,40 @@ def test_track_files_hold_each_value_as_its_repr_whatever_the_float(tmp_path):
             sent.shape)
         assert np.array_equal(back.view(np.int64)[~np.isnan(sent)], sent.view(np.int64)[~np.isnan(sent)]), i
         assert np.array_equal(np.isnan(back), np.isnan(sent)), i
+
+
+def test_track_files_written_on_two_processes_equal_those_written_on_one(tmp_path, monkeypatch):
+    """Two workers split the tracks by folder between this process and a forked child; the files are those of
+    one worker, byte for byte, also when the child fails (this process writes its share again)."""
+    import os
+    import sys
+    from types import SimpleNamespace
+
+    from morpi_filters.report import dataset_eval as page
+
+    rng = np.random.default_rng(3)
+
+    def track(n, cov):
+        return SimpleNamespace(time=np.cumsum(rng.random(n)), xy=rng.standard_normal((n, 2)),
+                               P_xy=rng.random((n, 2, 2)) if cov else None)
+
+    tracks = [(f"r{i % 7}", track(int(rng.integers(0, 60)), i % 3 == 0)) for i in range(40)]
+
+    def write(out, workers):
+        jobs = [(out / "tracks" / f / f"{j}.csv", p, f) for j, (f, p) in enumerate(tracks)]
+        page._write_tracks(jobs, workers)
+        return {q.relative_to(out): q.read_bytes() for q in sorted(out.rglob("*.csv"))}
+
+    one = write(tmp_path / "one", 1)
+    assert len(one) == len(tracks)
+    assert write(tmp_path / "two", 2) == one
+    if sys.platform.startswith("linux") and hasattr(os, "fork"):
+        parent, plain = os.getpid(), page._write_track
+
+        def fails_in_child(path, p, times):
+            if os.getpid() != parent:
+                raise OSError("disk full")
+            plain(path, p, times)
+
+        monkeypatch.setattr(page, "_write_track", fails_in_child)
+        assert write(tmp_path / "child fails", 2) == one

@@ -1,13 +1,17 @@
 """The page of ``morpi evaluate --dataset``: README.md, result.json and every estimated path as CSV."""
 from __future__ import annotations
 
+import os
 import re
+import signal
+import sys
 from itertools import chain
 from pathlib import Path
 from urllib.parse import quote
 
 from ..dataset_eval import ABLATION_METRICS, AIDED, CALIBRATIONS, ESTIMATES, METHODS, METRICS, DatasetEvaluation
 from ..outputs import write_json, write_text
+from ..parallel import available_cores
 from ..results import SectionSummary
 from .common import fmt, md_table
 
@@ -97,6 +101,58 @@ def _write_track(path: Path, p, times: dict) -> None:
     path.write_text("\n".join(chain((head,), rows, ("",))))
 
 
+def _write_tracks(jobs, workers: int) -> None:
+    """Write the tracks `jobs` (``(path, estimate, folder)``, :func:`_write_track`), with two workers or more
+    on two processes where the system forks (Linux): formatting floats holds the interpreter, so a thread
+    would not share it. A forked child writes the folders of about half the rows (a recording's tracks
+    stay together, in their order: they share their time column's text) while this process writes the others; a child that
+    does not finish (killed, a failed write) leaves its share to this process, which writes it again."""
+    if workers < 2 or len(jobs) < 2 or not sys.platform.startswith("linux") or not hasattr(os, "fork"):
+        times = {}
+        for path, p, _ in jobs:
+            _write_track(path, p, times)
+        return
+    folders = {}
+    for path, p, rec in jobs:
+        folders.setdefault(rec, []).append((path, p))
+    cost = {k: sum(len(p.time) * (3 if p.P_xy is None else 6) for _, p in v) for k, v in folders.items()}
+    half = sum(cost.values()) / 2
+    theirs, mine, held = [], [], 0.0
+    for k in sorted(folders, key=cost.get, reverse=True):
+        if held + cost[k] <= half or not theirs:
+            theirs += folders[k]
+            held += cost[k]
+        else:
+            mine += folders[k]
+    pid = os.fork()
+    if pid == 0:                                # the child: its share, then out without the parent's exit work
+        code = 1
+        try:
+            import gc
+
+            gc.disable()
+            signal.signal(signal.SIGINT, signal.SIG_DFL)
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
+            times = {}
+            for path, p in theirs:
+                _write_track(path, p, times)
+            code = 0
+        finally:
+            os._exit(code)
+    try:
+        times = {}
+        for path, p in mine:
+            _write_track(path, p, times)
+        _, status = os.waitpid(pid, 0)
+    except BaseException:
+        os.kill(pid, signal.SIGKILL)
+        os.waitpid(pid, 0)
+        raise
+    if status != 0:
+        for path, p in theirs:
+            _write_track(path, p, times)
+
+
 def _change(full, ablated) -> str:
     """``full -> ablated (+difference)``, or ``-`` without values."""
     if full is None or ablated is None:
@@ -142,7 +198,7 @@ def _nis_cell(nis: dict) -> str:
                      for k, v in nis.items()) or "-"
 
 
-def report_dataset_evaluation(out, result: DatasetEvaluation) -> SectionSummary:
+def report_dataset_evaluation(out, result: DatasetEvaluation, workers: int | None = None) -> SectionSummary:
     """Write the evaluation of a manifest dataset into folder `out`.
 
     Files: ``README.md`` (per group, every method and calibration side by
@@ -162,6 +218,10 @@ def report_dataset_evaluation(out, result: DatasetEvaluation) -> SectionSummary:
         Staging folder.
     result : DatasetEvaluation
         What :func:`morpi_filters.dataset_eval.evaluate` found.
+    workers : int, optional
+        Processes that write the track files (default: the cores this
+        process may use; two at most, on Linux: :func:`_write_tracks`). The
+        files do not depend on it.
 
     Returns
     -------
@@ -169,18 +229,21 @@ def report_dataset_evaluation(out, result: DatasetEvaluation) -> SectionSummary:
         Name ``"evaluate"``, page ``README.md``.
     """
     out = Path(out)
-    files, written, times = {}, {}, {}
+    files, written, jobs = {}, {}, []
     for p in result.paths:
         rel = track_file_name(p.id, p.method, p.calibration, p.estimate)
         files[p.id, p.method, p.calibration, p.estimate] = written[id(p)] = rel
-        _write_track(out / rel, p, times)
+        jobs.append((out / rel, p, rel.split("/")[1]))
     # the ablation's filters: a row of the paths keeps its file, the others get one each
     for a in result.ablation_runs:
         for which, p in (("full", a.full), ("ablated", a.ablated)):
             if id(p) not in written:
                 written[id(p)] = ablation_file_name(a.id, a.calibration, a.removed, a.estimate, which)
-                _write_track(out / written[id(p)], p, times)
+                jobs.append((out / written[id(p)], p, written[id(p)].split("/")[1]))
             files["ablation", a.id, a.calibration, a.removed, a.estimate, which] = written[id(p)]
+    if workers is None:
+        workers = available_cores()
+    _write_tracks(jobs, workers)
     write_json(out / "result.json", result.to_json(files))
 
     over = ("the test recordings" if result.groups_over == "test"
