@@ -366,12 +366,13 @@ def test_track_files_written_on_two_processes_equal_those_written_on_one(tmp_pat
     tracks = [(f"r{i % 7}", track(int(rng.integers(0, 60)), i % 3 == 0)) for i in range(40)]
 
     def write(out, workers):
+        out.mkdir()
         jobs = [(out / "tracks" / f / f"{j}.csv", p, f) for j, (f, p) in enumerate(tracks)]
-        page._write_tracks(jobs, workers)
+        page._write_tracks(jobs, workers, meanwhile=lambda: (out / "page.csv").write_text("page"))
         return {q.relative_to(out): q.read_bytes() for q in sorted(out.rglob("*.csv"))}
 
     one = write(tmp_path / "one", 1)
-    assert len(one) == len(tracks)
+    assert len(one) == len(tracks) + 1 and one[Path("page.csv")] == b"page"
     assert write(tmp_path / "two", 2) == one
     if sys.platform.startswith("linux") and hasattr(os, "fork"):
         parent, plain = os.getpid(), page._write_track

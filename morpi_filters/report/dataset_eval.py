@@ -101,25 +101,30 @@ def _write_track(path: Path, p, times: dict) -> None:
     path.write_text("\n".join(chain((head,), rows, ("",))))
 
 
-def _write_tracks(jobs, workers: int) -> None:
+def _write_tracks(jobs, workers: int, meanwhile=None) -> None:
     """Write the tracks `jobs` (``(path, estimate, folder)``, :func:`_write_track`), with two workers or more
     on two processes where the system forks (Linux): formatting floats holds the interpreter, so a thread
     would not share it. A forked child writes the folders of about half the rows (a recording's tracks
-    stay together, in their order: they share their time column's text) while this process writes the others; a child that
-    does not finish (killed, a failed write) leaves its share to this process, which writes it again."""
+    stay together, in their order: they share their time column's text) while this process calls `meanwhile`
+    (if given, on one process too) and writes the others; a child that does not finish (killed, a failed
+    write) leaves its share to this process, which writes it again."""
     if workers < 2 or len(jobs) < 2 or not sys.platform.startswith("linux") or not hasattr(os, "fork"):
         times = {}
         for path, p, _ in jobs:
             _write_track(path, p, times)
+        if meanwhile is not None:
+            meanwhile()
         return
     folders = {}
     for path, p, rec in jobs:
         folders.setdefault(rec, []).append((path, p))
     cost = {k: sum(len(p.time) * (3 if p.P_xy is None else 6) for _, p in v) for k, v in folders.items()}
-    half = sum(cost.values()) / 2
+    # the child takes somewhat more than half the rows: this process also runs `meanwhile` (the JSON, about a
+    # fifth of the tracks' cost on the field data)
+    share = sum(cost.values()) * (0.58 if meanwhile is not None else 0.5)
     theirs, mine, held = [], [], 0.0
     for k in sorted(folders, key=cost.get, reverse=True):
-        if held + cost[k] <= half or not theirs:
+        if held + cost[k] <= share or not theirs:
             theirs += folders[k]
             held += cost[k]
         else:
@@ -140,6 +145,8 @@ def _write_tracks(jobs, workers: int) -> None:
         finally:
             os._exit(code)
     try:
+        if meanwhile is not None:
+            meanwhile()
         times = {}
         for path, p in mine:
             _write_track(path, p, times)
@@ -243,8 +250,7 @@ def report_dataset_evaluation(out, result: DatasetEvaluation, workers: int | Non
             files["ablation", a.id, a.calibration, a.removed, a.estimate, which] = written[id(p)]
     if workers is None:
         workers = available_cores()
-    _write_tracks(jobs, workers)
-    write_json(out / "result.json", result.to_json(files))
+    _write_tracks(jobs, workers, meanwhile=lambda: write_json(out / "result.json", result.to_json(files)))
 
     over = ("the test recordings" if result.groups_over == "test"
             else "all recordings (the dataset has no test split)")
