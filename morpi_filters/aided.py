@@ -789,9 +789,11 @@ def _layout(inp: AidedInput, tun: AidTuning, epoch_s) -> dict:
     flags[rest] |= K.REST
     flags[standing] |= K.STAND
     flags[starts] |= K.START
+    nk = np.shape(inp.step_length)[0]
+    step_vec = np.zeros((nk, 2)) if inp.step_vector is None else np.ascontiguousarray(inp.step_vector, float)
     return dict(t=time, f=ro(inp.f), w=ro(inp.omega), flags=ro(flags, np.int64), end_k=ro(end_k, np.int64),
                 end_a=ro(end_a, np.int64), end_j=ro(end_j, np.int64), step_len=ro(inp.step_length),
-                epochs=epochs.size)
+                epochs=epochs.size, step_vec=ro(step_vec), turn_q={})
 
 
 def _kernel_args(inp: AidedInput, tun: AidTuning, epoch_s, smooth, keep_inn, layout=None):
@@ -803,16 +805,19 @@ def _kernel_args(inp: AidedInput, tun: AidTuning, epoch_s, smooth, keep_inn, lay
         layout = _layout(inp, tun, epoch_s)
     n, end_k, end_j = layout["t"].size, layout["end_k"], layout["end_j"]
     gyro = tun.step_heading == "gyro"
-    nk = np.shape(inp.step_length)[0]
-    step_vec = np.zeros((nk, 2)) if inp.step_vector is None else np.ascontiguousarray(inp.step_vector, float)
-    turn_q = np.zeros(0)
+    step_vec = layout["step_vec"]
+    turn_q = _NO_TURNS
     if gyro and tun.turn_sigma > 0 and inp.step_vector is not None and end_j.size:
         # the given directions' heading error grows by a share of each turn they take (from the previous
-        # step's direction; the first step's from the frame's zero heading), added where the step ends
-        psi = np.arctan2(step_vec[:, 1], step_vec[:, 0])
-        turn = np.angle(np.exp(1j * np.diff(np.r_[0.0, psi])))
-        turn_q = np.zeros(n)
-        np.add.at(turn_q, end_k, (tun.turn_sigma * turn[end_j]) ** 2)
+        # step's direction; the first step's from the frame's zero heading), added where the step ends; the
+        # layout keeps it per turn sigma (members of a batch share their input's)
+        turn_q = layout["turn_q"].get(tun.turn_sigma)
+        if turn_q is None:
+            psi = np.arctan2(step_vec[:, 1], step_vec[:, 0])
+            turn = np.angle(np.exp(1j * np.diff(np.r_[0.0, psi])))
+            turn_q = np.zeros(n)
+            np.add.at(turn_q, end_k, (tun.turn_sigma * turn[end_j]) ** 2)
+            turn_q = layout["turn_q"][tun.turn_sigma] = _jit.read_only(turn_q)
     gyro_rest = tun.rest_gyro_noise or tun.gyro_noise
     named = {"q_a": tun.accel_noise ** 2, "q_a_rest": (tun.rest_accel_noise or tun.accel_noise) ** 2,
              "q_g": tun.gyro_noise ** 2, "q_g_rest": gyro_rest ** 2, "q_ba": tun.accel_walk ** 2,
@@ -834,7 +839,7 @@ def _kernel_args(inp: AidedInput, tun: AidTuning, epoch_s, smooth, keep_inn, lay
     ro = _jit.read_only
     return dict(
         t=layout["t"], f=layout["f"], w=layout["w"], flags=layout["flags"], end_k=end_k, end_a=layout["end_a"],
-        end_j=end_j, step_len=layout["step_len"], step_vec=ro(step_vec), turn_q=ro(turn_q), par=ro(par),
+        end_j=end_j, step_len=layout["step_len"], step_vec=step_vec, turn_q=turn_q, par=ro(par),
         C0=ro(inp.C0), v0=ro(inp.v0), P0=ro(P0),
         fj=-1 if tun.gain_estimated else GAIN, keep_inn=bool(keep_inn), keep_hist=bool(smooth),
         ep_k=np.zeros(m, np.int64), ep_p=np.zeros((m, 3)), ep_P=np.zeros((m, 2, 2)), nis=np.zeros((kinds, 3)),
@@ -843,6 +848,9 @@ def _kernel_args(inp: AidedInput, tun: AidTuning, epoch_s, smooth, keep_inn, lay
         hist_P=np.zeros((rows, N_AIDED, N_AIDED)), hist_rec=np.zeros((rows, _HIST_WIDTH)),
         x=np.zeros(N_AIDED), P=np.zeros((N_AIDED, N_AIDED)), bias=np.zeros(6))
 
+
+#: The turn variances of a member without given step directions (read-only, shared).
+_NO_TURNS = _jit.read_only(np.zeros(0))
 
 #: Columns of the smoother's epoch record besides the covariance: name -> (columns, shape of one row).
 _HIST = {"x": (slice(0, N_AIDED), (N_AIDED,)), "fed": (slice(N_AIDED, 2 * N_AIDED), (N_AIDED,)),

@@ -209,7 +209,7 @@ def choose_tunables_many(data, requests, *, workers: int | None = None) -> list:
         inputs, tunings = groups.setdefault(train, ([], []))
         plans.append((train, len(inputs), runs, (ends, dist), noise, rel))
         inputs += [r.input_for(c, forward_only=True) for c in cands for r in runs]
-        tunings += [tuning_from(noise, c, rel) for c in cands for _ in runs]
+        tunings += [t for t in (tuning_from(noise, c, rel) for c in cands) for _ in runs]
     # one batch per training set (one batch of every set is slower: a larger working set for the same work)
     res = {train: aided.run_batch(inputs, tunings, workers=workers)
            for train, (inputs, tunings) in groups.items()}
@@ -249,7 +249,7 @@ def choose_tunables_many(data, requests, *, workers: int | None = None) -> list:
         firsts.append((err, inside, ns, nc, folds, picks, wins, len(inputs)))
         more = [dict(cands[w], **v) for w in wins for v in variants]
         inputs += [r.input_for(c, forward_only=True) for c in more for r in runs]
-        tunings += [tuning_from(noise, c, rel) for c in more for _ in runs]
+        tunings += [t for t in (tuning_from(noise, c, rel) for c in more) for _ in runs]
     todo = list(dict.fromkeys(k for k in zip(inputs, tunings) if k not in ran))
     ran.update(zip(todo, aided.run_batch([k[0] for k in todo], [k[1] for k in todo], workers=workers)))
     res2 = [ran[k] for k in zip(inputs, tunings)]
