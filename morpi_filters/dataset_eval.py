@@ -48,18 +48,21 @@ Choices (train only)
     must serve runs whose gain none of their own group's runs set, as it does
     for a test run of a group without train recordings, and the score exists
     even when every group has a single train run; with one group, by
-    leave-one-recording-out. Both scores of the chosen rule are reported. A
+    leave-one-recording-out; the manifest's ``evaluation.held_out``
+    (:class:`~morpi_filters.manifest.Settings`) can fix either. Both scores of
+    the chosen rule are reported. A
     dataset whose train recordings give no score (none, or one run) falls
     back to :data:`morpi_filters.steps.DEFAULT_CONFIGS`, as ``choices`` says.
 The aided filter (train only)
     Per group and calibration, for the step rule and gain of each MoRPI
     method, the tunables are :func:`~morpi_filters.field_aided.choose_tunables_many`
-    on the group's train set (the gains' set: every train set's runs for a
-    group without one), each run scored against its own truth; the train
-    runs need their rest window (the noise densities are read there). The
-    filter takes the steps of the MoRPI method whose tuned filter has the
-    lower nested leave-one-out train error (the train error when a set has
-    one run; :func:`morpi_filters.choice.choose`, MoRPI-A first on a tie).
+    on the group's train set (the gains' set), each run scored against its
+    own truth; the train runs need their rest window (the noise densities
+    are read there). The filter takes the steps of the MoRPI method whose
+    tuned filter has the lower nested leave-one-out train error (the train
+    error when a set has one run; :func:`morpi_filters.choice.choose`,
+    MoRPI-A first on a tie); with ``evaluation.aided_methods = "each"`` one
+    filter runs on each method's steps (:data:`AIDED_BY`).
     ``choices["aided"]`` lists every one. ``initial = "rest"``: the input of
     :func:`~morpi_filters.field_aided.prepare` (calibrated IMU from the rest
     window on, coarse-level attitude, the rest updates on the window and on
@@ -85,7 +88,13 @@ Gains (train only)
     The Weinberg gain of each group, method and calibration is
     :func:`~morpi_filters.field.set_gain` (:func:`~morpi_filters.steps.train_gain`,
     the function the MoRPI tables train with) over the group's train set
-    under the chosen rule; a group without one takes every train set's runs.
+    under the chosen rule: the set of the recordings' ``train_group``, else
+    the group's own, else (a group without train recordings) every train
+    set's runs.
+INS
+    From the first sample, or with ``evaluation.ins_span = "motion"`` over
+    the motion window of a recording that starts at rest
+    (:meth:`~morpi_filters.field.FieldData.ins`, as the tables).
 Initial state
     ``initial = "rest"``: velocity zero, heading zero (the navigation x axis
     is the body's heading at the first sample, as in the tables).
@@ -148,18 +157,20 @@ from . import field_aided as fa
 from . import steps as st
 from .choice import choose
 from .errors import DataError, MorpiError, ParameterError
-from .manifest import Dataset, RouteTruth, TruthTrack
+from .manifest import Dataset, RouteTruth, Settings, TruthTrack
 from .strapdown import ins2d, ins3d
 
-__all__ = ["COURSE_M", "AIDED", "METHODS", "CALIBRATIONS", "ESTIMATES", "METRICS", "V0_SIGMA_MIN", "ROW_LABELS",
+__all__ = ["COURSE_M", "AIDED", "AIDED_BY", "is_aided", "METHODS", "CALIBRATIONS", "ESTIMATES", "METRICS", "V0_SIGMA_MIN", "ROW_LABELS",
            "ABLATION_METRICS", "EstimatedPath", "AblationRun", "DatasetEvaluation", "path_metrics", "ellipse_share", "evaluate"]
 
 #: Horizontal distance over which the truth's course gives the heading of a start at rest [m].
 COURSE_M = 0.3
 #: The aided filter's method name.
 AIDED = "MoRPI-aided INS"
-#: The methods, in the page's order.
-METHODS = ("INS-3D", "INS-2D", "MoRPI-A", "MoRPI-G", AIDED)
+#: The aided filter driven by one MoRPI method's steps, by that method (``evaluation.aided_methods = "each"``).
+AIDED_BY = {"MoRPI-A": "MoRPI-A-aided INS", "MoRPI-G": "MoRPI-G-aided INS"}
+#: The methods, in the page's order (the aided filter per MoRPI method last).
+METHODS = ("INS-3D", "INS-2D", "MoRPI-A", "MoRPI-G", AIDED, *AIDED_BY.values())
 #: The calibrations, in the page's order.
 CALIBRATIONS = ("RD", "GC", "GAC")
 #: The aided filter's read-outs (the ``estimate`` of its rows; None for the other methods).
@@ -171,6 +182,11 @@ V0_SIGMA_MIN = 0.01
 METRICS = ("end_error_m", "end_error_percent", "path_rmse_m", "cross_track_rmse_m", "distance_error_percent")
 #: The metrics of the aided filter's ablation.
 ABLATION_METRICS = ("end_error_percent", "path_rmse_m", "cross_track_rmse_m")
+
+
+def is_aided(method: str) -> bool:
+    """Whether `method` names the aided filter (:data:`AIDED` or one of :data:`AIDED_BY`)."""
+    return method == AIDED or method in AIDED_BY.values()
 
 
 @dataclass(frozen=True, eq=False)
@@ -226,6 +242,8 @@ class AblationRun:
     ----------
     id, split, group, calibration : str
         The recording's labels and the calibration.
+    method : str
+        The aided filter's method name (:data:`AIDED`, or one of :data:`AIDED_BY`).
     removed : str
         A key of :data:`morpi_filters.field_aided.ABLATIONS`.
     used : bool
@@ -256,6 +274,7 @@ class AblationRun:
     start_s: float
     full: EstimatedPath
     ablated: EstimatedPath
+    method: str = AIDED
 
 
 @dataclass(frozen=True, eq=False)
@@ -284,7 +303,9 @@ class DatasetEvaluation:
         Per group, method, calibration and estimate, the mean of each metric over
         :attr:`groups_over` recordings, and their count.
     groups_over : str
-        ``"test"`` (the dataset has test recordings) or ``"all"``.
+        ``"test"`` (the dataset has test recordings: each group's, or a
+        group without them its recordings outside the train split) or
+        ``"all"``.
     left_out : tuple of dict
         ``id``, ``what`` (methods or calibrations) and ``why``.
     course_m : float
@@ -356,7 +377,7 @@ class DatasetEvaluation:
             row = {"id": p.id, "split": p.split, "group": p.group, "method": p.method, "calibration": p.calibration,
                    "estimate": p.estimate, **p.metrics,
                    "track_file": files.get(key + (p.estimate,), files.get(key) if p.estimate is None else None)}
-            if p.method == AIDED:
+            if is_aided(p.method):
                 row.update(nis=p.nis, coverage_95=p.coverage_95)
             rows.append(row)
         return {"dataset": {"name": self.name, "manifest": Path(self.source).name, "count": self.count},
@@ -368,16 +389,17 @@ class DatasetEvaluation:
     def _ablation_json(self, files: dict) -> list:
         per = {}
         for a in self.ablation_runs:
-            key = (a.id, a.calibration, a.removed, a.estimate)
+            key = (a.id, a.method, a.calibration, a.removed, a.estimate)
             full = {m: a.full.metrics[m] for m in ABLATION_METRICS}
             ablated = {m: a.ablated.metrics[m] for m in ABLATION_METRICS}
-            per.setdefault((a.group, a.calibration, a.removed, a.estimate), []).append(
+            per.setdefault((a.group, a.method, a.calibration, a.removed, a.estimate), []).append(
                 {"id": a.id, "split": a.split, "start": a.start, "start_s": a.start_s, "full": full,
                  "ablated": ablated, "difference": {m: None if full[m] is None or ablated[m] is None
                                                     else ablated[m] - full[m] for m in ABLATION_METRICS},
                  "full_track_file": files.get(("ablation",) + key + ("full",)),
                  "ablated_track_file": files.get(("ablation",) + key + ("ablated",))})
-        return [{**row, "runs": per.get((row["group"], row["calibration"], row["removed"], row["estimate"]), [])}
+        return [{**row, "runs": per.get((row["group"], row["method"], row["calibration"], row["removed"],
+                                         row["estimate"]), [])}
                 for row in self.ablation]
 
     def table(self):
@@ -626,16 +648,20 @@ def _why_not(data, rec, mode, method, config) -> str:
     return f"{data.relpath(rec)}: no gain"
 
 
-def _choose(data, dataset) -> tuple[dict, dict, dict, dict]:
+def _choose(data, dataset, settings: Settings) -> tuple[dict, dict, dict, dict]:
     """The train-only choices on `data`: the step rule per MoRPI method, the gains per (group, method,
     calibration), their JSON entries (``choices``) and per (group, method, calibration) the trained
     :class:`~morpi_filters.field.Gain` with its train set and scope."""
     th = data.thresholds
     sets = [s for s in data.train_sets() if s.runs]
-    held_out = "group" if len(sets) >= 2 else "recording"
-    why = ("two train groups or more: each group's runs are scored with a gain none of its runs set, as a "
-           "test run of a group without train recordings is" if held_out == "group"
-           else "one train group: each run is scored with the mean gain of its group's other train runs")
+    if settings.held_out != "auto":
+        held_out = settings.held_out
+        why = f"evaluation.held_out = {held_out!r}"
+    else:
+        held_out = "group" if len(sets) >= 2 else "recording"
+        why = ("two train groups or more: each group's runs are scored with a gain none of its runs set, as a "
+               "test run of a group without train recordings is" if held_out == "group"
+               else "one train group: each run is scored with the mean gain of its group's other train runs")
     configs, rule = {}, {}
     for m in _MORPI:
         sel = fd.select_config(data, m, held_out=held_out)
@@ -658,11 +684,17 @@ def _choose(data, dataset) -> tuple[dict, dict, dict, dict]:
                          np.concatenate([s.end_point_m for s in sets]) if sets else np.empty((0, 2)),
                          np.concatenate([s.distance_m for s in sets]) if sets else np.empty(0))
     by_group = {s.name: s for s in sets}
+    train_group = {dr.group: dr.train_group for dr in dataset.recordings}
     gains, entries, trained = {}, [], {}
     for group in dict.fromkeys(dr.group for dr in dataset.recordings):
-        tset, scope = by_group.get(group), "group"
-        if tset is None:
-            tset, scope = pooled, "dataset (no train recording in the group)"
+        if train_group[group] is not None:
+            tset, scope = by_group.get(train_group[group]), f"train_group {train_group[group]!r}"
+            if tset is None:        # its train recordings do not load, or none has periodic motion
+                tset = fd.TrainSet(train_group[group], (), (), np.empty((0, 2)), np.empty(0))
+        else:
+            tset, scope = by_group.get(group), "group"
+            if tset is None:
+                tset, scope = pooled, "dataset (no train recording in the group)"
         for m in _MORPI:
             for mode in CALIBRATIONS:
                 g = fd.set_gain(data, tset, mode, m, configs[m], phone=dataset.name, route=group)
@@ -687,7 +719,7 @@ def _choose(data, dataset) -> tuple[dict, dict, dict, dict]:
         "turn_deg": {"value": th.turn_deg, "from": where(th.period_changes_deg, th.change_files,
                      f"{fd.TURN_MARGIN:g} times the largest full-period heading change")},
     }
-    choices = {"rule": rule, "held_out": {"used": held_out, "why": why},
+    choices = {"settings": settings.to_json(), "rule": rule, "held_out": {"used": held_out, "why": why},
                "train_sets": [{"group": s.name, "train": list(s.files),
                                "end_point_m": s.end_point_m.tolist(), "distance_m": s.distance_m.tolist()}
                               for s in sets],
@@ -699,9 +731,10 @@ def _none_if_nan(v):
     return float(v) if v is not None and math.isfinite(v) else None
 
 
-def _aided_choices(data, dataset, configs, trained, workers) -> tuple[dict, list]:
-    """The aided filter's train-only tunables per (group, calibration) of a group with periodic motion:
-    (MoRPI method, :class:`~morpi_filters.field_aided.TunableChoice`, Gain), and their JSON entries."""
+def _aided_choices(data, dataset, configs, trained, workers, settings) -> tuple[dict, list]:
+    """The aided filter's train-only tunables per (group, calibration) of a group with periodic motion: a list
+    of (method name, MoRPI method, :class:`~morpi_filters.field_aided.TunableChoice`, Gain), one filter with
+    ``aided_methods = "chosen"``, one per MoRPI method with ``"each"``; and their JSON entries."""
     groups = [g for g in dict.fromkeys(dr.group for dr in dataset.recordings)
               if any(dr.group == g and dr.motion == "periodic" for dr in dataset.recordings)]
     keys, requests, index = [], [], {}
@@ -736,21 +769,30 @@ def _aided_choices(data, dataset, configs, trained, workers) -> tuple[dict, list
                                         else {"why": why[m]})
                                     for m, c in [(m, per.get((group, m, mode))) for m in _MORPI]},
                      "tunables": None}
-            if cands:
+            if not cands:
+                entries.append(entry)
+                continue
+            if settings.aided_methods == "each":
+                picked = [(AIDED_BY[m], m, c, "evaluation.aided_methods = 'each': one filter per MoRPI method")
+                          for m, c in cands]
+            else:
                 loo = [c.loo_percent for _, c in cands]
                 by = "loo_percent" if all(math.isfinite(v) for v in loo) else "score_percent"
                 m, c = cands[choose(np.array([getattr(c, by) for _, c in cands]))]
+                picked = [(AIDED, m, c, f"the method of least {by}")]
+            for name, m, c, how in picked:
                 g, tset, scope = trained[group, m, mode]
                 noise, info = c.noise, c.info
-                chosen[group, mode] = (m, c, g)
-                entry.update(method=m, train=list(g.files),
-                             **{"from": f"field_aided.choose_tunables_many on the train set {tset.name!r} ({scope}); "
-                                        f"the method of least {by}"},
-                             tunables={**info, "accel_noise": noise[0] * info["vibration"],
-                                       "gyro_noise": noise[1] * info["vibration"], "rest_accel_noise": noise[0],
-                                       "rest_gyro_noise": noise[2], "gyro_walk": noise[3], "accel_jump": noise[4],
-                                       "gain_sigma": g.std / g.mean})
-            entries.append(entry)
+                chosen.setdefault((group, mode), []).append((name, m, c, g))
+                one = dict(entry)
+                one.update(method=m, train=list(g.files),
+                           **{"from": f"field_aided.choose_tunables_many on the train set {tset.name!r} ({scope}); "
+                                      f"{how}"},
+                           tunables={**info, "accel_noise": noise[0] * info["vibration"],
+                                     "gyro_noise": noise[1] * info["vibration"], "rest_accel_noise": noise[0],
+                                     "rest_gyro_noise": noise[2], "gyro_walk": noise[3], "accel_jump": noise[4],
+                                     "gain_sigma": g.std / g.mean})
+                entries.append(one)
     return chosen, entries
 
 
@@ -796,26 +838,27 @@ def _aided_paths(data, dr, prep, chosen, configs, ablate: bool = False) -> tuple
         if (dr.group, mode) not in chosen:
             left.append({"id": dr.id, "what": f"{AIDED} {mode}", "why": "no tunables: no train run served the filter"})
             continue
-        method, choice, gain = chosen[dr.group, mode]
-        try:
-            inp, stop, onset = _aided_input(data, dr, prep, mode, method, configs[method], gain, choice.info)
-        except MorpiError as exc:
-            left.append({"id": dr.id, "what": f"{AIDED} {mode}", "why": str(exc)})
-            continue
-        members.append((mode, inp, stop, fa.tuning_from(choice.noise, choice.info, gain.std / gain.mean), onset))
-    results = aided.run_batch([q[1] for q in members], [q[3] for q in members], smooth=True,
+        for name, method, choice, gain in chosen[dr.group, mode]:
+            try:
+                inp, stop, onset = _aided_input(data, dr, prep, mode, method, configs[method], gain, choice.info)
+            except MorpiError as exc:
+                left.append({"id": dr.id, "what": f"{name} {mode}", "why": str(exc)})
+                continue
+            members.append((name, mode, inp, stop, fa.tuning_from(choice.noise, choice.info, gain.std / gain.mean),
+                            onset))
+    results = aided.run_batch([q[2] for q in members], [q[4] for q in members], smooth=True,
                               smoothed_covariance=True, innovations=True, workers=1) if members else []
     start, truth = prep["start"], dr.truth
     rot = _rot(start["psi"])
     paths = []
-    for (mode, inp, stop, *_), r in zip(members, results):
+    for (name, mode, inp, stop, *_), r in zip(members, results):
         j = r.index_at(stop)
         t = r.time[:j + 1]
         nis = {k: {**fa.nis_consistency(total, n, dof), "dof": dof} for k, (total, n, dof) in r.nis.items()}
         for estimate, xy, P in (("forward", r.position, r.P_xy), ("smoothed", r.smoothed, r.P_xy_smoothed)):
             placed = _place(start, truth, float(t[0]), np.asarray(xy)[:j + 1, :2])
             P = rot @ np.asarray(P)[:j + 1] @ rot.T
-            paths.append(EstimatedPath(id=dr.id, split=dr.split, group=dr.group, method=AIDED, calibration=mode,
+            paths.append(EstimatedPath(id=dr.id, split=dr.split, group=dr.group, method=name, calibration=mode,
                                        time=t, xy=placed, metrics=path_metrics(t, placed, truth), estimate=estimate,
                                        P_xy=P, nis=nis, coverage_95=ellipse_share(t, placed, P, truth),
                                        innovations=r.innovations))
@@ -825,60 +868,73 @@ def _aided_paths(data, dr, prep, chosen, configs, ablate: bool = False) -> tuple
 def _ablation_runs(dr, prep, members, paths) -> list:
     """Per calibration the filter of `members` with each aid of :data:`~morpi_filters.field_aided.ABLATIONS`
     removed in turn, both read-outs, beside the filter it is compared with (`paths`: the full filter's rows)."""
-    full = {(p.calibration, p.estimate): p for p in paths}
+    full = {(p.method, p.calibration, p.estimate): p for p in paths}
     t_first = float(dr.recording.time[0])
-    items = []                                  # (mode, name, which, tuning, input, stop)
-    for mode, inp, stop, tuning, onset in members:
+    items = []                                  # (filter, mode, aid, which, tuning, input, stop)
+    for label, mode, inp, stop, tuning, onset in members:
         for name, change in fa.ABLATIONS.items():
             if not (change and fa.aid_used(name, tuning)):
                 continue                        # not used: not run, the full filter's values; smoothing: no run
             if name == "rest updates":          # removed from a filter started at the motion onset, beside it
-                items.append((mode, name, "full", tuning, onset, stop))
-            items.append((mode, name, "ablated", tuning.with_(**change), onset if name == "rest updates" else inp,
-                          stop))
-    results = aided.run_batch([q[4] for q in items], [q[3] for q in items], smooth=True, smoothed_covariance=False,
+                items.append((label, mode, name, "full", tuning, onset, stop))
+            items.append((label, mode, name, "ablated", tuning.with_(**change),
+                          onset if name == "rest updates" else inp, stop))
+    results = aided.run_batch([q[5] for q in items], [q[4] for q in items], smooth=True, smoothed_covariance=False,
                               nis=False, workers=1) if items else []
     start, truth = prep["start"], dr.truth
-    label = dict(id=dr.id, split=dr.split, group=dr.group, method=AIDED)
     ran = {}
-    for (mode, name, which, _, _, stop), r in zip(items, results):
+    for (label, mode, name, which, _, _, stop), r in zip(items, results):
         j = r.index_at(stop)
         t = r.time[:j + 1]
         for estimate, xy in (("forward", r.position), ("smoothed", r.smoothed)):
             placed = _place(start, truth, float(t[0]), np.asarray(xy)[:j + 1, :2])
-            ran[mode, name, which, estimate] = EstimatedPath(**label, calibration=mode, time=t, xy=placed,
-                                                             metrics=path_metrics(t, placed, truth),
-                                                             estimate=estimate)
+            ran[label, mode, name, which, estimate] = EstimatedPath(
+                id=dr.id, split=dr.split, group=dr.group, method=label, calibration=mode, time=t, xy=placed,
+                metrics=path_metrics(t, placed, truth), estimate=estimate)
     begin = "rest window" if dr.initial == "rest" else "first sample"
     out = []
-    for mode, _, _, tuning, _ in members:
+    for label, mode, _, _, tuning, _ in members:
         for name, change in fa.ABLATIONS.items():
             used = fa.aid_used(name, tuning)
             for estimate in ESTIMATES:
-                base, where = full[mode, estimate], begin
+                base, where = full[label, mode, estimate], begin
                 if name == "smoothing":         # the forward read-out in place of the smoothed one
-                    without = full[mode, "forward"]
+                    without = full[label, mode, "forward"]
                 elif not used:                  # the same filter: exactly no effect
                     without = base
                 else:
-                    without = ran[mode, name, "ablated", estimate]
+                    without = ran[label, mode, name, "ablated", estimate]
                     if name == "rest updates":
-                        base, where = ran[mode, name, "full", estimate], "motion onset"
+                        base, where = ran[label, mode, name, "full", estimate], "motion onset"
                 out.append(AblationRun(id=dr.id, split=dr.split, group=dr.group, calibration=mode, removed=name,
                                        used=bool(used), estimate=estimate, start=where,
-                                       start_s=float(base.time[0]) - t_first, full=base, ablated=without))
+                                       start_s=float(base.time[0]) - t_first, full=base, ablated=without,
+                                       method=label))
     return out
 
 
-def _evaluate_one(data, dr, prep, gains, configs, chosen, ablate=False) -> tuple[list, list, list]:
-    rec, truth, start = dr.recording, dr.truth, prep["start"]
+def _ins(data, dr, prep, crec, mode, method, span):
+    """The INS run of one calibrated recording: over its motion window (``span = "motion"``, a recording that
+    starts at rest: :meth:`~morpi_filters.field.FieldData.ins`) or over the whole recording from its start."""
+    if span == "motion" and dr.initial == "rest":
+        return data.ins(prep["rec"], mode, method, span="motion")
+    v0 = prep["start"]["v0"]
+    return (ins3d(crec.time, crec.f, crec.omega, v0=v0, g=data.gravity) if method == "INS-3D"
+            else ins2d(crec.time, crec.f, crec.omega, v0=v0))
+
+
+def _evaluate_one(data, dr, prep, gains, configs, chosen, settings, ablate=False) -> tuple[list, list, list]:
+    truth, start = dr.truth, prep["start"]
     paths, left, ablated = [], [], []
     label = dict(id=dr.id, split=dr.split, group=dr.group)
     for mode, crec in prep["cals"].items():
-        t = crec.time
         for method in ("INS-3D", "INS-2D"):
-            run = (ins3d(t, crec.f, crec.omega, v0=start["v0"], g=data.gravity) if method == "INS-3D"
-                   else ins2d(t, crec.f, crec.omega, v0=start["v0"]))
+            try:
+                run = _ins(data, dr, prep, crec, mode, method, settings.ins_span)
+            except MorpiError as exc:
+                left.append({"id": dr.id, "what": f"{method} {mode}", "why": str(exc)})
+                continue
+            t = np.asarray(run.time)
             xy = _place(start, truth, float(t[0]), np.asarray(run.position)[:, :2])
             paths.append(EstimatedPath(**label, method=method, calibration=mode, time=t, xy=xy,
                                        metrics=path_metrics(t, xy, truth)))
@@ -914,9 +970,12 @@ def _evaluate_one(data, dr, prep, gains, configs, chosen, ablate=False) -> tuple
 
 
 def _group_means(paths, over: str) -> tuple:
+    """Per group, method, calibration and estimate the mean of each metric: with ``over = "test"`` over the
+    group's test recordings, or over its recordings outside the train split when it has no test recording."""
+    tested = {p.group for p in paths if p.split == "test"}
     out = {}
     for p in paths:
-        if over == "test" and p.split != "test":
+        if over == "test" and p.split != "test" and (p.group in tested or p.split == "train"):
             continue
         out.setdefault((p.group, p.method, p.calibration, p.estimate), []).append(p)
     rows = []
@@ -930,17 +989,17 @@ def _group_means(paths, over: str) -> tuple:
 
 
 def _ablation_means(runs) -> tuple:
-    """The ablation rows: per group, calibration, aid and read-out, the mean of each of
+    """The ablation rows: per group, filter (method), calibration, aid and read-out, the mean of each of
     :data:`ABLATION_METRICS` of the full and the ablated filter over the recordings where both have it,
     and their difference (ablated minus full)."""
     out = {}
     for a in runs:
-        out.setdefault((a.group, a.calibration, a.removed, a.estimate), []).append(a)
-    order = ({g: i for i, g in enumerate(dict.fromkeys(a.group for a in runs))}, CALIBRATIONS,
+        out.setdefault((a.group, a.method, a.calibration, a.removed, a.estimate), []).append(a)
+    order = ({g: i for i, g in enumerate(dict.fromkeys(a.group for a in runs))}, METHODS, CALIBRATIONS,
              tuple(fa.ABLATIONS), ESTIMATES)
     rows = []
     for key in sorted(out, key=lambda k: (order[0][k[0]], *(o.index(v) for o, v in zip(order[1:], k[1:])))):
-        group, mode, name, estimate = key
+        group, method, mode, name, estimate = key
         ps = out[key]
         full, ablated, diff = {}, {}, {}
         for m in ABLATION_METRICS:
@@ -951,15 +1010,19 @@ def _ablation_means(runs) -> tuple:
                 diff[m] = ablated[m] - full[m]
             else:
                 full[m] = ablated[m] = diff[m] = None
-        rows.append({"group": group, "calibration": mode, "removed": name, "used": any(a.used for a in ps),
+        rows.append({"group": group, "method": method, "calibration": mode, "removed": name, "used": any(a.used for a in ps),
                      "estimate": estimate, "start": " / ".join(dict.fromkeys(a.start for a in ps)), "n": len(ps),
                      "full": full, "ablated": ablated, "difference": diff})
     return tuple(rows)
 
 
 def _evaluate(dataset: Dataset, *, course_m: float = COURSE_M, workers: int | None = None,
-              progress=None, ablation: bool = True) -> DatasetEvaluation:
+              progress=None, ablation: bool = True, settings: Settings | None = None) -> DatasetEvaluation:
     """:func:`evaluate` of a loaded dataset (its parameters and result)."""
+    if settings is None:
+        settings = dataset.settings
+    elif not isinstance(settings, Settings):
+        raise ParameterError(f"settings: {type(settings).__name__}, expected a morpi_filters.manifest.Settings")
     if not (isinstance(course_m, (int, float)) and math.isfinite(course_m) and course_m > 0):
         raise ParameterError(f"course_m: {course_m!r}, expected a positive distance in metres")
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
@@ -969,12 +1032,12 @@ def _evaluate(dataset: Dataset, *, course_m: float = COURSE_M, workers: int | No
     where = dataset.source
     over = "test" if any(dr.split == "test" for dr in dataset.recordings) else "all"
     data = fd.FieldData(dataset, course_m=float(course_m))
-    configs, gains, choices, trained = _choose(data, dataset)
+    configs, gains, choices, trained = _choose(data, dataset, settings)
     if workers is None:
         from .parallel import available_cores
 
         workers = available_cores()
-    chosen, choices["aided"] = _aided_choices(data, dataset, configs, trained, workers)
+    chosen, choices["aided"] = _aided_choices(data, dataset, configs, trained, workers, settings)
 
     def prepare(dr):
         try:
@@ -988,7 +1051,7 @@ def _evaluate(dataset: Dataset, *, course_m: float = COURSE_M, workers: int | No
         def one(dr):
             prep = prepared[dr.id]
             return (([], [{"id": dr.id, "what": "every method", "why": prep["error"]}], []) if "error" in prep
-                    else _evaluate_one(data, dr, prep, gains, configs, chosen,
+                    else _evaluate_one(data, dr, prep, gains, configs, chosen, settings,
                                        ablation and (over == "all" or dr.split == "test")))
 
         results = []
@@ -1036,7 +1099,7 @@ def _table(rows, labels: tuple, counts: tuple = ()):
 
 
 def evaluate(dataset, *, course_m: float = COURSE_M, workers: int | None = None,
-             progress=None, ablation: bool = True) -> DatasetEvaluation:
+             progress=None, ablation: bool = True, settings: Settings | None = None) -> DatasetEvaluation:
     """Evaluate a dataset: the entry point for a manifest or a :class:`~morpi_filters.manifest.Dataset`.
 
     What ``morpi evaluate --dataset FILE`` computes, without its files:
@@ -1064,6 +1127,9 @@ def evaluate(dataset, *, course_m: float = COURSE_M, workers: int | None = None,
         Counts one run per recording.
     ablation : bool
         Also run the aided filter's ablation.
+    settings : morpi_filters.manifest.Settings, optional
+        How to evaluate (rule scoring, INS span, the aided filter's steps);
+        default: the dataset's own (its manifest's ``[evaluation]``).
 
     Returns
     -------
@@ -1107,4 +1173,5 @@ def evaluate(dataset, *, course_m: float = COURSE_M, workers: int | None = None,
         dataset = load_dataset(dataset)
     elif not isinstance(dataset, Dataset):
         raise ParameterError(f"dataset: {type(dataset).__name__}, expected a Dataset or the path of a manifest")
-    return _evaluate(dataset, course_m=course_m, workers=workers, progress=progress, ablation=ablation)
+    return _evaluate(dataset, course_m=course_m, workers=workers, progress=progress, ablation=ablation,
+                     settings=settings)

@@ -557,6 +557,17 @@ MALFORMED = [
      "truth.columns: expected time (optional) and x, y, z"),
     ("offset", _sub("offset_s = -0.1", 'offset_s = "soon"'), "truth.offset_s: a string 'soon', expected a number"),
     ("truth file", _sub('file = "t.csv"', 'file = "nowhere.csv"'), "truth.file: ", "nowhere.csv: no such file"),
+    ("evaluation key", _sub("[defaults]", '[evaluation]\nheld_ot = "group"\n\n[defaults]'),
+     "[evaluation]: unknown key 'held_ot', the nearest known one is 'held_out'"),
+    ("evaluation value", _sub("[defaults]", '[evaluation]\nins_span = "all"\n\n[defaults]'),
+     "evaluation.ins_span: 'all', expected one of 'recording', 'motion'"),
+    ("evaluation not a table", _sub('description = "two recordings"', 'description = "two recordings"\n'
+                                                                       "evaluation = 3"),
+     "evaluation: an integer 3, expected a table [evaluation]"),
+    ("train_group without train runs", _sub('id = "b"', 'id = "b"\ntrain_group = "elsewhere"'),
+     "recording 'b': train_group: 'elsewhere' has no train recording"),
+    ("train_group split in a group", _sub('id = "b"', 'id = "b"\ntrain_group = "bench"'),
+     "recording 'b': train_group: 'bench', but recording 'a' of the same group 'bench' says None"),
 ]
 
 

@@ -9,6 +9,7 @@ import numpy as np
 from ..dataset import MEMS_SPEC, Recording, check_recording
 from ..errors import MorpiError, ParameterError
 from .read import DatasetRecording, RouteTruth, TruthTrack, check_labels, check_physics, load_entry
+from .settings import Settings
 from .schema import (DEFAULTS, IMU_CHECKS, LABEL_CHECKS, BadValue, Context, ParsedManifest, check_latitude,
                      check_text, read_manifest, unknown_key, value_of)
 
@@ -32,6 +33,8 @@ class Dataset:
         the normal gravity there
         (:func:`morpi_filters.calibration.normal_gravity`); None: standard
         gravity :data:`morpi_filters.units.G0`.
+    settings : Settings
+        How the dataset is evaluated (the manifest's ``[evaluation]``).
 
     Examples
     --------
@@ -48,6 +51,7 @@ class Dataset:
     source: str = "<memory>"
     description: str = ""
     latitude_deg: float | None = None
+    settings: Settings = Settings()
 
     def __post_init__(self):
         object.__setattr__(self, "recordings", tuple(self.recordings))
@@ -56,11 +60,14 @@ class Dataset:
                 object.__setattr__(self, "latitude_deg", check_latitude(self.latitude_deg))
             except BadValue as bad:
                 raise ParameterError(f"{self.source}: latitude_deg: {bad}") from None
+        if not isinstance(self.settings, Settings):
+            raise ParameterError(f"{self.source}: settings: {type(self.settings).__name__}, expected a Settings")
         seen = set()
         for r in self.recordings:
             if r.id in seen:
                 raise ParameterError(f"{self.source}: recording id {r.id!r} appears twice, expected unique ids")
             seen.add(r.id)
+        _check_train_groups(self.source, self.recordings)
 
     def __getitem__(self, rec_id: str) -> DatasetRecording:
         for r in self.recordings:
@@ -85,8 +92,8 @@ class Dataset:
         return {k: tuple(v) for k, v in out.items()}
 
     @classmethod
-    def from_arrays(cls, name: str, recordings, *, description: str = "", latitude_deg: float | None = None
-                    ) -> "Dataset":
+    def from_arrays(cls, name: str, recordings, *, description: str = "", latitude_deg: float | None = None,
+                    settings: Settings | None = None) -> "Dataset":
         """A dataset from arrays in memory, with the checks of a manifest's recordings.
 
         Parameters
@@ -98,13 +105,17 @@ class Dataset:
             [m/s^2] and ``omega`` [rad/s] in body axes x forward, y left,
             z up, ``truth`` (a :class:`RouteTruth` or :class:`TruthTrack`,
             the track on the same clock as ``time``), and optionally
-            ``split``, ``group``, ``motion``, ``rest``, ``initial`` and
-            ``notes`` with the meanings and defaults of the manifest keys.
+            ``split``, ``group``, ``motion``, ``rest``, ``initial``,
+            ``train_group`` and ``notes`` with the meanings and defaults of
+            the manifest keys.
         description : str, optional
             Free text.
         latitude_deg : float, optional
             The recordings' latitude [deg] (the manifest key ``latitude_deg``);
             default: standard gravity.
+        settings : Settings, optional
+            How the dataset is evaluated (the manifest's ``[evaluation]``);
+            default: :class:`Settings` ().
 
         Returns
         -------
@@ -157,7 +168,24 @@ class Dataset:
             check_physics(ctx, rec, labels["rest"], {"accel_unit": "m/s^2", "gyro_unit": "rad/s", "axes": "FLU"},
                           MEMS_SPEC)
             out.append(DatasetRecording(id=rec_id, recording=rec, truth=truth, **labels))
-        return cls(name=name, recordings=tuple(out), description=description, latitude_deg=latitude_deg)
+        return cls(name=name, recordings=tuple(out), description=description, latitude_deg=latitude_deg,
+                   settings=Settings() if settings is None else settings)
+
+
+def _check_train_groups(source: str, recordings) -> None:
+    """Each ``train_group`` names a group with train recordings, and a group's recordings agree on it."""
+    trained = {r.group for r in recordings if r.split == "train"}
+    said: dict = {}
+    for r in recordings:
+        if r.train_group is not None and r.train_group not in trained:
+            raise ParameterError(f"{source}: recording {r.id!r}: train_group: {r.train_group!r} has no train "
+                                 "recording, expected the group of recordings with split = 'train' "
+                                 f"({', '.join(repr(g) for g in sorted(trained)) or 'none in this dataset'})")
+        first = said.setdefault(r.group, r)
+        if first.train_group != r.train_group:
+            raise ParameterError(f"{source}: recording {r.id!r}: train_group: {r.train_group!r}, but recording "
+                                 f"{first.id!r} of the same group {r.group!r} says {first.train_group!r}, expected "
+                                 "one train group per group")
 
 
 # --------------------------------------------------------------------------- entry points
@@ -225,7 +253,8 @@ def load_dataset(path, *, root=None) -> Dataset:
     if not out:
         raise _no_match(manifest)
     return Dataset(name=manifest.name, recordings=tuple(out), source=str(manifest.path),
-                   description=manifest.description, latitude_deg=manifest.latitude_deg)
+                   description=manifest.description, latitude_deg=manifest.latitude_deg,
+                   settings=manifest.settings)
 
 
 def _no_match(manifest: ParsedManifest) -> ParameterError:
@@ -416,4 +445,26 @@ def check_dataset(path, *, root=None) -> tuple[list, int]:
         problems.append(problem)
     if not manifest.entries:
         problems.append(_no_match(manifest))
+    labelled = []
+    for ctx, values, problem in manifest.entries:
+        if problem is None:
+            try:
+                labelled.append(_Labels(ctx.id, *(value_of(ctx, values, "", k, LABEL_CHECKS, default=DEFAULTS[k])
+                                                  for k in ("group", "split", "train_group"))))
+            except MorpiError:
+                pass                            # already a problem of its recording
+    try:
+        _check_train_groups(str(manifest.path), labelled)
+    except ParameterError as exc:
+        problems.append(exc)
     return problems, n_ok
+
+
+@dataclass(frozen=True)
+class _Labels:
+    """The labels :func:`_check_train_groups` reads, of a recording not loaded."""
+
+    id: str
+    group: str
+    split: str
+    train_group: str | None

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..dataset import MAX_GAP_S, MEMS_SPEC
 from ..errors import ParameterError
+from .settings import SETTING_CHOICES, Settings
 from ..units import DEG, DEG_S, DEG_S_SQRT_HZ, G0, IMUS, MG, UG_SQRT_HZ, SensorSpec
 
 #: The manifest format this module reads.
@@ -39,8 +40,8 @@ _INITIALS = ("rest", "truth")
 FRAMES = ("NED", "ENU")
 #: The column letters of each frame's axes.
 FRAME_LETTERS = {"NED": ("n", "e", "d"), "ENU": ("e", "n", "u")}
-_TOP_KEYS = ("format_version", "name", "description", "latitude_deg", "defaults", "recording")
-_RECORDING_KEYS = ("id", "split", "group", "motion", "rest", "initial", "notes", "imu", "truth")
+_TOP_KEYS = ("format_version", "name", "description", "latitude_deg", "evaluation", "defaults", "recording")
+_RECORDING_KEYS = ("id", "split", "group", "motion", "rest", "initial", "train_group", "notes", "imu", "truth")
 _IMU_KEYS = ("file", "format", "columns", "skip_rows", "rate_hz", "time_unit", "time_origin", "accel_unit",
              "gyro_unit", "axes", "spec")
 #: The keys of a route truth.
@@ -49,7 +50,8 @@ ROUTE_KEYS = ("kind", "distance_m", "end_point_m", "polyline_m")
 TRACK_KEYS = ("kind", "file", "format", "columns", "skip_rows", "rate_hz", "time_unit", "frame", "offset_s")
 _TRUTH_KEYS = tuple(dict.fromkeys(ROUTE_KEYS + TRACK_KEYS))
 #: The labels a recording takes when neither it nor [defaults] sets them.
-DEFAULTS = {"split": "none", "group": "all", "motion": "periodic", "rest": "auto", "initial": "rest", "notes": ""}
+DEFAULTS = {"split": "none", "group": "all", "motion": "periodic", "rest": "auto", "initial": "rest",
+            "train_group": None, "notes": ""}
 
 
 # --------------------------------------------------------------------------- values
@@ -89,6 +91,11 @@ def _free_text(v) -> str:
     if not isinstance(v, str):
         raise BadValue(f"{_kind(v)} {v!r}, expected a string")
     return v
+
+
+def _train_group(v):
+    """The name of a group with train recordings, or None (the recording's own group, else every train group)."""
+    return None if v is None else check_text(v)
 
 
 def _choice(options):
@@ -228,7 +235,7 @@ def check_columns(v):
 
 #: The check of each label: the value to use, or BadValue.
 LABEL_CHECKS = {"split": _choice(_SPLITS), "group": check_text, "motion": _choice(_MOTIONS), "rest": _rest,
-                "initial": _choice(_INITIALS), "notes": _free_text}
+                "initial": _choice(_INITIALS), "train_group": _train_group, "notes": _free_text}
 #: The check of each ``imu`` key.
 IMU_CHECKS = {"file": check_text, "format": _choice(("csv", "npy")), "columns": check_columns,
               "skip_rows": _integer(0), "rate_hz": _rate, "time_unit": _choice(tuple(TIME_UNITS)),
@@ -270,8 +277,22 @@ class ParsedManifest:
     description: str
     entries: tuple        # (context, merged values or None, problem or None)
     latitude_deg: float | None = None
+    settings: Settings = Settings()
     base: Path | None = None
     empty: tuple = ()     # (context, values) of each glob table that matches no file
+
+
+def _settings(table, path: Path) -> Settings:
+    """The settings of a manifest's ``[evaluation]`` table (keys left out keep their defaults)."""
+    if not isinstance(table, dict):
+        raise ParameterError(f"{path}: evaluation: {_kind(table)} {table!r}, expected a table [evaluation]")
+    for key in table:
+        if key not in SETTING_CHOICES:
+            raise ParameterError(f"{path}: [evaluation]: {unknown_key(key, tuple(SETTING_CHOICES))}")
+    try:
+        return Settings(**table)
+    except ParameterError as exc:
+        raise ParameterError(f"{path}: {exc}") from None
 
 
 def _toml():
@@ -322,6 +343,7 @@ def read_manifest(path, root=None) -> ParsedManifest:
         latitude = check_latitude(doc["latitude_deg"]) if "latitude_deg" in doc else None
     except BadValue as bad:
         raise ParameterError(f"{path}: latitude_deg: {bad}") from None
+    settings = _settings(doc["evaluation"], path) if "evaluation" in doc else Settings()
     base = path.parent if root is None else Path(root).expanduser()
     if not base.is_dir():
         raise ParameterError(f"{base}: not a directory, expected the folder the manifest's file names start at")
@@ -357,7 +379,7 @@ def read_manifest(path, root=None) -> ParsedManifest:
         except ParameterError as exc:
             entries.append((Context(head, {}, str(path), rec_id, base), None, exc))
     return ParsedManifest(path=path, name=name, description=description, entries=tuple(entries), latitude_deg=latitude,
-                          base=base, empty=tuple(empty))
+                          settings=settings, base=base, empty=tuple(empty))
 
 
 def _is_glob(name) -> bool:
