@@ -26,11 +26,59 @@ HEADING_ORIGINS = ("motion", "start")
 HEADING_SOURCES = st.HEADING_SOURCES
 
 
+class RecordingWork:
+    """One recording's work for every method and study, done once and kept (:meth:`FieldData.work`).
+
+    The part that does not depend on where the heading starts is shared by
+    the instances that share a dataset's work (:meth:`FieldData.sharing`);
+    the headings, the prepared signals that carry them and the steps are
+    kept per heading origin (:attr:`by_heading`).
+
+    Attributes
+    ----------
+    recording : Recording
+        The samples.
+    rest : dict
+        Accelerometer floor [m/s^2] -> the initial rest window, or the
+        detection's MorpiError.
+    measures : object or None
+        What the rest detection measures (:func:`morpi_filters.calibration.rest_measures`).
+    problem : str or None or Ellipsis
+        Why the recording cannot be evaluated (:meth:`FieldData.problem`); Ellipsis until asked.
+    calibrated : dict
+        ``"RD"``, ``"GC"``, ``"GAC"`` -> (calibrated Recording, Calibration).
+    activity : tuple or None
+        The motion window (start, end) [s].
+    signals : dict
+        The step signals resampled and filtered, before a heading is given to them.
+    ins : dict
+        ``(calibration, method, span)`` -> InsResult.
+    by_heading : dict
+        Heading origin -> dict of the headings, prepared signals and steps.
+    """
+
+    __slots__ = ("recording", "rest", "measures", "problem", "calibrated", "activity", "signals", "ins",
+                 "by_heading")
+
+    def __init__(self, recording):
+        self.recording = recording
+        self.rest, self.calibrated, self.signals, self.ins, self.by_heading = {}, {}, {}, {}, {}
+        self.measures, self.problem, self.activity = None, ..., None
+
+    def heading_work(self, origin: str) -> dict:
+        """The work that depends on the heading's origin (``"motion"`` or ``"start"``)."""
+        out = self.by_heading.get(origin)
+        if out is None:
+            out = self.by_heading.setdefault(origin, {})
+        return out
+
+
 class FieldData:
     """Lazy, cached access to a dataset: recordings, calibrations, INS runs, step signals.
 
-    Every per-recording computation is done once and reused by all cells,
-    the gain training and the config search. The dataset is a manifest's:
+    Every per-recording computation is done once, kept in the recording's
+    :class:`RecordingWork` (:meth:`work`), and reused by all cells, the gain
+    training and the config search. The dataset is a manifest's:
     a :class:`~morpi_filters.manifest.Dataset`, or a root in the MoRPI layout,
     read through the package's MoRPI manifest
     (:func:`morpi_filters.resources.morpi_manifest` applied to the root, its
@@ -117,15 +165,11 @@ class FieldData:
             self._by_folder.setdefault((e.phone, e.route, e.split), []).append(e)
         self._folder_recs: dict = {}
         self._rec: dict = {}
-        self._cal: dict = {}
-        self._prep: dict = {}
-        self._signals: dict = {}
+        #: per recording source, its RecordingWork
+        self._work: dict = {}
         #: Per-recording results of the studies built on this data (keyed by the study), reused across cells.
         self.study_cache: dict = {}
-        self._ins: dict = {}
-        self._steps: dict = {}
         self._peaks: dict = {}
-        self._activity: dict = {}
         self._canon: dict = {}
         self._train_summaries: dict = {}
 
@@ -134,10 +178,11 @@ class FieldData:
                 ins_span: str | None = None) -> "FieldData":
         """The same root and thresholds read another way, reusing `other`'s loaded work.
 
-        The recordings, rest windows, calibrations, motion windows, step
-        signals (resampled and filtered), peaks and INS runs are shared with
-        `other` (none depends on the heading origin; INS runs are keyed by
-        their span); what depends on the heading is computed afresh.
+        The recordings and their :class:`RecordingWork` (rest windows,
+        calibrations, motion windows, step signals, INS runs keyed by their
+        span, and the headings and steps of each heading origin) and the
+        peaks are shared with `other`; the train summaries and the studies'
+        caches start afresh.
 
         Parameters
         ----------
@@ -159,8 +204,15 @@ class FieldData:
         new.heading_from = heading_from or other.heading_from
         new._thresholds = other.thresholds
         new._accel_floor = other.accel_floor()
-        new._prep, new._steps, new._train_summaries, new.study_cache = {}, {}, {}, {}
+        new._train_summaries, new.study_cache = {}, {}
         return new
+
+    def work(self, rec) -> RecordingWork:
+        """The recording's :class:`RecordingWork`, made on first use."""
+        out = self._work.get(rec.source)
+        if out is None:
+            out = self._work.setdefault(rec.source, RecordingWork(rec))
+        return out
 
     def entries(self, phone, route, split):
         return list(self._by_folder.get((phone, route, split), ()))
@@ -206,16 +258,16 @@ class FieldData:
         from its first samples has no rest (:meth:`no_rest`) but is no
         problem: it is evaluated under RD only.
         """
-        key = (rec.source, "problem")
-        if key not in self._cal:
+        w = self.work(rec)
+        if w.problem is ...:
             try:
                 self.rest_window(rec)
-                self._cal[key] = None
+                w.problem = None
             except NoRestError:
-                self._cal[key] = None
+                w.problem = None
             except MorpiError as exc:
-                self._cal[key] = str(exc)
-        return self._cal[key]
+                w.problem = str(exc)
+        return w.problem
 
     def no_rest(self, rec) -> str | None:
         """Why a recording has no initial rest (one line naming its file), or None when it has one.
@@ -386,10 +438,10 @@ class FieldData:
         """What the rest detection measures on the recording (calibration.rest_measures), once per recording."""
         from ..calibration import rest_measures
 
-        key = (rec.source, "rest measures")
-        if key not in self._cal:
-            self._cal[key] = rest_measures(rec)
-        return self._cal[key]
+        w = self.work(rec)
+        if w.measures is None:
+            w.measures = rest_measures(rec)
+        return w.measures
 
     def rest_window_at(self, rec, accel_floor: float):
         """The initial rest window with another accelerometer floor [m/s^2], found once per floor.
@@ -398,18 +450,18 @@ class FieldData:
         """
         from ..calibration import detect_rest
 
-        key = (rec.source, "rest", accel_floor)
-        if key not in self._cal:
+        cache = self.work(rec).rest
+        if accel_floor not in cache:
             # a recording of no entry (one built in memory and passed in) has its rest detected
             rest = self._labels[rec.source].rest if rec.source in self._labels else "auto"
             try:
                 if rest == "none":
                     raise NoRestError(f'{rec.source}: rest = "none": no rest window')
-                self._cal[key] = (detect_rest(rec, accel_floor=accel_floor, measures=self.rest_measures(rec))
-                                  if rest == "auto" else given_rest_window(rec, rest))
+                cache[accel_floor] = (detect_rest(rec, accel_floor=accel_floor, measures=self.rest_measures(rec))
+                                      if rest == "auto" else given_rest_window(rec, rest))
             except MorpiError as exc:
-                self._cal[key] = exc.with_traceback(None)
-        out = self._cal[key]
+                cache[accel_floor] = exc.with_traceback(None)
+        out = cache[accel_floor]
         if isinstance(out, MorpiError):
             raise out.with_traceback(None)
         return out
@@ -423,15 +475,15 @@ class FieldData:
         """(calibrated Recording, Calibration) for RD | GC | GAC."""
         from ..calibration import calibrate
 
-        key = (rec.source, mode)
-        if key not in self._cal:
+        cache = self.work(rec).calibrated
+        if mode not in cache:
             if mode == "RD":
                 cal = calibrate(rec, mode)
-                self._cal[key] = (rec, cal)
+                cache[mode] = (rec, cal)
             else:
                 cal = calibrate(rec, mode, window=self.rest_window(rec), g_local=self._g_local)
-                self._cal[key] = (cal.apply(rec), cal)
-        return self._cal[key]
+                cache[mode] = (cal.apply(rec), cal)
+        return cache[mode]
 
     def rest_end(self, rec) -> float:
         """End time of the initial rest window [s]."""
@@ -470,11 +522,13 @@ class FieldData:
         PreparedSignal
         """
         offset_free = min_height is None
-        key = (rec.source, mode, method, cutoff_hz, source, grid_hz, offset_free)
-        if key not in self._prep:
+        work = self.work(rec)
+        cache = work.heading_work(self.heading_from)
+        key = ("prepared", mode, method, cutoff_hz, source, grid_hz, offset_free)
+        if key not in cache:
             shared_mode = "RD|GC" if mode in ("RD", "GC") and offset_free else mode
-            skey = (rec.source, shared_mode, method, cutoff_hz, grid_hz)
-            shared = self._signals.get(skey)
+            skey = (shared_mode, method, cutoff_hz, grid_hz)
+            shared = work.signals.get(skey)
             if shared is not None:
                 from dataclasses import replace
 
@@ -482,18 +536,18 @@ class FieldData:
                 p.__dict__["motion_index"] = shared.motion_index       # the same grid and motion
             else:
                 crec, _ = self.calibrated(rec, mode)
-                p = self._signals[skey] = st.prepare_signal(
+                p = work.signals[skey] = st.prepare_signal(
                     crec, method, cutoff_hz, motion=self.activity(rec), heading=self.heading(rec, mode, source),
                     grid_hz=grid_hz)
             # the heading's integral is the same for every method and cut-off: computed once, then given
             # to each signal as its cached property
-            ikey = (rec.source, mode, "heading integral", source)
-            if ikey in self._prep:
-                p.__dict__["heading_integral"] = self._prep[ikey]
+            ikey = ("heading integral", mode, source)
+            if ikey in cache:
+                p.__dict__["heading_integral"] = cache[ikey]
             else:
-                self._prep[ikey] = p.heading_integral
-            self._prep[key] = p
-        return self._prep[key]
+                cache[ikey] = p.heading_integral
+            cache[key] = p
+        return cache[key]
 
     def heading(self, rec, mode: str, source: str = "gyro") -> np.ndarray:
         """The MoRPI heading on the recording's samples [rad], shape (n,), for RD or GC.
@@ -507,8 +561,9 @@ class FieldData:
         """
         if source not in HEADING_SOURCES:
             raise ParameterError(f"heading source {source!r}: expected one of {HEADING_SOURCES}")
-        key = (rec.source, mode, "heading", source)
-        if key not in self._prep:
+        cache = self.work(rec).heading_work(self.heading_from)
+        key = ("heading", mode, source)
+        if key not in cache:
             crec, _ = self.calibrated(rec, mode)
             t = crec.time
             a, b = self.activity(rec) if self.heading_from == "motion" else (t[0], t[-1])
@@ -525,8 +580,8 @@ class FieldData:
                 part = attitude_heading(t[i0:i1], crec.f[i0:i1], crec.omega[i0:i1], self.rest_specific_force(rec))
             psi[i0:i1] = part
             psi[i1:] = part[-1]
-            self._prep[key] = psi
-        return self._prep[key]
+            cache[key] = psi
+        return cache[key]
 
     def _canonical(self, config):
         # one extraction serves every least swing (a check on the result) and, unless the heading follows
@@ -542,12 +597,13 @@ class FieldData:
 
         What :meth:`steps` gives, reduced to what a gain and an end point need; raises as it does.
         """
-        key = ("sums", rec.source, mode, method, config)
-        out = self._steps.get(key)
+        cache = self.work(rec).heading_work(self.heading_from)
+        key = ("sums", mode, method, config)
+        out = cache.get(key)
         if out is None:
             canon = self._canonical(config)                    # the rules that differ only in a check share it
-            ckey = ("sums", rec.source, mode, method, canon)
-            out = self._steps.get(ckey)
+            ckey = ("sums", mode, method, canon)
+            out = cache.get(ckey)
             if out is None:
                 try:
                     out = st.step_sums(self.prepared(rec, mode, method, config.cutoff_hz, config.heading_source,
@@ -555,8 +611,8 @@ class FieldData:
                                        method, canon, peak_cache=self._peaks)
                 except MorpiError as exc:
                     out = exc
-                self._steps[ckey] = out
-            self._steps[key] = out
+                cache[ckey] = out
+            cache[key] = out
         if isinstance(out, MorpiError):
             raise out
         st.require_swing(rec.source, method, out[3], config.min_swing_deg)
@@ -564,18 +620,19 @@ class FieldData:
 
     def steps(self, rec, mode, method, config):
         canon = self._canonical(config)
-        key = (rec.source, mode, method, canon)
-        if key not in self._steps:
+        cache = self.work(rec).heading_work(self.heading_from)
+        key = ("steps", mode, method, canon)
+        if key not in cache:
             try:
-                self._steps[key] = st.extract_steps(None, method, canon,
+                cache[key] = st.extract_steps(None, method, canon,
                                                     prepared=self.prepared(rec, mode, method, config.cutoff_hz,
                                                                            config.heading_source,
                                                                            grid_hz=config.grid_hz,
                                                                            min_height=config.min_height),
                                                     peak_cache=self._peaks)
             except MorpiError as exc:
-                self._steps[key] = exc
-        out = self._steps[key]
+                cache[key] = exc
+        out = cache[key]
         if isinstance(out, MorpiError):
             raise out
         st.require_swing(rec.source, method, out.swing_deg, config.min_swing_deg)
@@ -593,7 +650,8 @@ class FieldData:
         the axes), and the window starts at the first sample when the robot
         moves there.
         """
-        if rec.source not in self._activity:
+        work = self.work(rec)
+        if work.activity is None:
             try:
                 w = self.rest_window(rec)
             except NoRestError:
@@ -604,8 +662,8 @@ class FieldData:
                 span = st.activity_span(rec.time, rec.omega, threshold=3.0 * still_bound(rec).gyro)
             else:
                 span = st.activity_span(rec.time, rec.omega, rest=(w.start_s, w.end_s))
-            self._activity[rec.source] = span
-        return self._activity[rec.source]
+            work.activity = span
+        return work.activity
 
     def ins(self, rec, mode: str, method: str, span: str | None = None):
         """INS solution (InsResult) of a recording, 3D or 2D, over `span` (default: the instance's).
@@ -614,8 +672,9 @@ class FieldData:
         (3D only: GC gyro, initial roll and pitch from the rest specific force).
         """
         span = span or self.ins_span
-        key = (rec.source, mode, method, span)
-        if key not in self._ins:
+        cache = self.work(rec).ins
+        key = (mode, method, span)
+        if key not in cache:
             from ..strapdown import ins2d, ins3d
 
             # the gravity the calibration assumed at rest (GAC leaves (0, 0, g) there)
@@ -639,12 +698,12 @@ class FieldData:
             if t.shape[0] < 2:
                 raise DataError(f"{rec.source}: no motion found for the INS")
             if method == "INS-3D":
-                self._ins[key] = ins3d(t, f, w, C0=C0, g=g)
+                cache[key] = ins3d(t, f, w, C0=C0, g=g)
             elif mode == LEVELED:
                 raise ParameterError(f"{rec.source}: the planar INS has no tilt to level; {LEVELED} is for INS-3D")
             else:
-                self._ins[key] = ins2d(t, f, w)
-        return self._ins[key]
+                cache[key] = ins2d(t, f, w)
+        return cache[key]
 
 
     def tilt_leak(self, rec, mode: str) -> tuple[float, float]:
