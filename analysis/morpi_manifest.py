@@ -9,7 +9,8 @@ files by a glob relative to the dataset root, in this order: the phones S8, then
 one's folders by route, then split, so that the groups with train recordings come in the
 order of the paper's short-route table (:func:`morpi_filters.evaluate.short_route_sets`). Each folder's group is ``<phone>/<route>``,
 its split the folder's (``"none"`` without one), its motion the route's kind, its rest
-detected (``"auto"``), its IMU the phone's (:data:`PHONE_IMUS`), its truth
+detected (``"auto"``), its IMU the phone's (:data:`PHONE_IMUS`), its number of runs in the
+public dataset (``imu.count``, which ``morpi check --data`` compares with the files found), its truth
 the route's distance, end point and centre line (:attr:`morpi_filters.dataset.Route.polyline`).
 The recordings' latitude is the experiment site's
 (:data:`morpi_filters.calibration.SITE_LATITUDE_DEG`), so the calibrations take the same
@@ -36,11 +37,11 @@ PHONE_IMUS = {"s6": MPU6500.name, "s8": LSM6DSL.name}
 
 
 def _folders() -> list:
-    """(phone, route, split or None) of every layout folder, in the manifest's order."""
+    """(phone, route, split or None, number of runs) of every layout folder, in the manifest's order."""
     out = []
-    for key in ds.layout():
+    for key, runs in ds.layout().items():
         parts = key.split("/")
-        out.append((parts[0], parts[1], parts[2] if len(parts) == 3 else None))
+        out.append((parts[0], parts[1], parts[2] if len(parts) == 3 else None, runs))
     return sorted(out, key=lambda k: (PHONES.index(k[0]), k[1], k[2] or ""))
 
 
@@ -62,9 +63,9 @@ def manifest_text() -> str:
         "[defaults]",
         'rest = "auto"',
     ]
-    for phone, route_name, split in _folders():
+    for phone, route_name, split, runs in _folders():
         r = ds.route(route_name)
-        folder = ds.folder_key(phone, route_name, split)
+        folder = "/".join(p for p in (phone, route_name, split) if p)
         poly = ", ".join(f"[{_number(x)}, {_number(y)}]" for x, y in r.polyline)
         end = ", ".join(_number(v) for v in r.end_point_m)
         lines += [
@@ -73,7 +74,7 @@ def manifest_text() -> str:
             f'group = "{phone}/{route_name}"',
             f'split = "{split or "none"}"',
             f'motion = "{"periodic" if r.kind == "periodic" else "straight"}"',
-            f'imu = {{ file = "{folder}/*.csv", spec = "{PHONE_IMUS[phone]}" }}',
+            f'imu = {{ file = "{folder}/*.csv", spec = "{PHONE_IMUS[phone]}", count = {runs} }}',
             f'truth = {{ kind = "route", distance_m = {_number(r.distance_m)}, end_point_m = [{end}], '
             f"polyline_m = [{poly}] }}",
         ]

@@ -57,11 +57,12 @@ from __future__ import annotations
 
 from .schema import ACCEL_UNITS, FORMAT_VERSION, GLOB_CHARS, GYRO_UNITS, RATE_TOLERANCE, SPEC_KEYS, TIME_UNITS
 from .read import DatasetRecording, RouteTruth, TruthTrack
-from .model import Dataset, DatasetIndex, IndexedRecording, check_dataset, index_dataset, load_dataset
+from .model import Dataset, DatasetIndex, IndexedRecording, check_dataset, count_problems, index_dataset, load_dataset
 
 __all__ = [
     "FORMAT_VERSION", "TIME_UNITS", "ACCEL_UNITS", "GYRO_UNITS", "SPEC_KEYS", "RATE_TOLERANCE", "RouteTruth",
     "TruthTrack",
     "DatasetRecording", "Dataset", "IndexedRecording", "DatasetIndex", "index_dataset", "load_dataset", "check_dataset",
+    "count_problems",
     "GLOB_CHARS",
 ]

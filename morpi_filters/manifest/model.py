@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 
 from ..dataset import MEMS_SPEC, Recording, check_recording
-from ..errors import MorpiError, ParameterError
+from ..errors import DataError, MorpiError, ParameterError
 from .read import DatasetRecording, RouteTruth, TruthTrack, check_labels, check_physics, load_entry
-from .schema import (DEFAULTS, IMU_CHECKS, LABEL_CHECKS, BadValue, Context, ParsedManifest, check_latitude,
+from .schema import (DEFAULTS, GLOB_CHARS, IMU_CHECKS, LABEL_CHECKS, BadValue, Context, ParsedManifest, check_latitude,
                      check_text, read_manifest, unknown_key, value_of)
 
 
@@ -362,8 +362,13 @@ def index_dataset(path, *, root=None) -> DatasetIndex:
                         declared=tuple(declared[k] for k in order))
 
 
-def check_dataset(path, *, root=None) -> tuple[list, int]:
+def check_dataset(path, *, root=None, counts=None, usable=None) -> tuple[list, int]:
     """Load every recording of a manifest in turn and collect the problems, one per recording.
+
+    Only the files the manifest names (and its glob patterns match) are read;
+    nothing else under the root is listed. A glob table with ``imu.count``
+    is one more problem when its pattern matches another number of files
+    (:func:`count_problems`).
 
     Parameters
     ----------
@@ -371,15 +376,21 @@ def check_dataset(path, *, root=None) -> tuple[list, int]:
         The manifest.
     root : str or Path, optional
         As for :func:`load_dataset`.
+    counts : dict of str -> int, optional
+        See :func:`count_problems`.
+    usable : callable, optional
+        A further check of each recording that loads: ``usable(dataset_recording)``
+        returns a one-line problem (a :class:`~morpi_filters.errors.DataError`
+        then) or None.
 
     Returns
     -------
     problems : list of MorpiError
         The first problem of each recording that does not load
         (:class:`ParameterError` for the manifest, :class:`DataError` for
-        the data), each a one-line message.
+        the data), then the glob tables' counts, each a one-line message.
     n_ok : int
-        Number of recordings that loaded cleanly.
+        Number of recordings that loaded cleanly (and passed `usable`).
 
     Raises
     ------
@@ -408,12 +419,104 @@ def check_dataset(path, *, root=None) -> tuple[list, int]:
     for ctx, values, problem in manifest.entries:
         if problem is None:
             try:
-                load_entry(ctx, values)
-                n_ok += 1
-                continue
+                item = load_entry(ctx, values)
+                line = None if usable is None else usable(item)
+                if line is None:
+                    n_ok += 1
+                    continue
+                problem = DataError(line)
             except MorpiError as exc:
                 problem = exc
         problems.append(problem)
     if not manifest.entries:
-        problems.append(_no_match(manifest))
-    return problems, n_ok
+        expected = _expected(manifest, counts)
+        problems.append(_no_match(manifest) if not expected else DataError(
+            f"{manifest.base}: no recordings: no file matches the imu.file patterns of {manifest.path}, expected "
+            f"{sum(expected.values())} recording(s) (imu.count)"))
+        return problems, n_ok
+    return problems + _count_problems(manifest, counts), n_ok
+
+
+def count_problems(path, *, root=None, counts=None) -> list:
+    """One line per glob ``imu.file`` of a manifest that matches another number of files than its ``imu.count``.
+
+    Nothing is read but the names of the files the patterns match.
+
+    Parameters
+    ----------
+    path : str or Path
+        The manifest.
+    root : str or Path, optional
+        As for :func:`load_dataset`.
+    counts : dict of str -> int, optional
+        The number of files each glob pattern (as written in ``imu.file``)
+        should match, in place of every ``imu.count`` of the manifest: a
+        pattern it leaves out has no expected count (a copy of a dataset that
+        holds fewer runs per folder, listed by whoever wrote it).
+
+    Returns
+    -------
+    list of DataError
+        One per glob table whose pattern matches a number of files other
+        than expected, naming the manifest, the table, the pattern and both
+        numbers (and the folder, when it is missing); empty when no pattern
+        matches anything (:func:`check_dataset` says that once).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> (root / "runs").mkdir()
+    >>> _ = (root / "runs" / "1.csv").write_text("")
+    >>> _ = (root / "dataset.toml").write_text('''
+    ... format_version = 1
+    ... name = "bench"
+    ... [[recording]]
+    ... imu = { file = "runs/*.csv", count = 2 }
+    ... truth = { kind = "route", distance_m = 1.0, end_point_m = [1.0, 0.0] }
+    ... [[recording]]
+    ... imu = { file = "more/*.csv", count = 3 }
+    ... truth = { kind = "route", distance_m = 1.0, end_point_m = [1.0, 0.0] }
+    ... ''')
+    >>> for p in count_problems(root / "dataset.toml"):    # doctest: +NORMALIZE_WHITESPACE
+    ...     print(str(p).replace(str(root), "ROOT"))
+    ROOT/dataset.toml: [[recording]] 1: imu.file: 'runs/*.csv' matches 1 file(s) under ROOT, expected 2 (imu.count)
+    ROOT/dataset.toml: [[recording]] 2: imu.file: 'more/*.csv' matches no file: missing folder ROOT/more,
+    expected 3 file(s) (imu.count)
+    """
+    manifest = read_manifest(path, root)
+    return _count_problems(manifest, counts) if manifest.entries else []
+
+
+def _expected(manifest: ParsedManifest, counts) -> dict:
+    """Pattern -> expected number of files: `counts`, else each glob table's ``imu.count``."""
+    if counts is not None:
+        return {pattern: int(n) for pattern, n in counts.items()}
+    return {pattern: n for _, pattern, _, n in manifest.globs if n is not None}
+
+
+def _count_problems(manifest: ParsedManifest, counts) -> list:
+    expected, out = _expected(manifest, counts), []
+    for ctx, pattern, found, _ in manifest.globs:
+        n = expected.get(pattern)
+        if n is None or found == n:
+            continue
+        lead = _leading(pattern)
+        folder = ctx.base / Path(*lead) if lead else None        # an absolute lead replaces the base
+        if found == 0 and folder is not None and not folder.is_dir():
+            line = f"{pattern!r} matches no file: missing folder {folder}, expected {n} file(s) (imu.count)"
+        else:
+            line = f"{pattern!r} matches {found or 'no'} file(s) under {ctx.base}, expected {n} (imu.count)"
+        out.append(ctx.bad("imu.file", line, DataError))
+    return out
+
+
+def _leading(pattern: str) -> list:
+    """The folders of a glob pattern before its first part holding a glob character."""
+    parts = Path(pattern).expanduser().parts[:-1]
+    out = []
+    for p in parts:
+        if any(c in p for c in GLOB_CHARS):
+            break
+        out.append(p)
+    return out
