@@ -51,7 +51,9 @@ the MoRPI catalogue applies, with the IMU's error figures (``imu.spec``, else
 gravity up the body z axis, gyro offsets and noise at rest, the turns'
 rates; otherwise a ParameterError names the key to fix (``accel_unit``,
 ``axes``, ``gyro_unit`` or ``columns``), and a dead channel is a DataError
-naming ``imu.file``.
+naming ``imu.file``. :func:`check_dataset` also names, as a DataError, a
+glob ``imu.file`` that matches another number of files than its
+``imu.count`` (:func:`count_problems`).
 """
 from __future__ import annotations
 
