@@ -14,8 +14,8 @@ import numpy as np
 from .. import dataset as ds
 from .. import steps as st
 from ..errors import DataError, MorpiError, ParameterError
-from ..field import (MORPI_METHODS, RULES, FieldData, Gain, Selection, held_out_errors, missing_recordings, select_config,
-                     trained_gain)
+from ..field import (MORPI_METHODS, RULES, FieldData, Gain, Selection, held_out_errors, missing_recordings,
+                     select_config, trained_gain)
 from ..parallel import heap_frozen
 
 

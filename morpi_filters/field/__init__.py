@@ -30,5 +30,6 @@ given_rest_window = entries.given_rest_window
 __all__ = ["HELD_OUT", "COURSE_M", "TrainSet", "RULES", "INS_SPANS", "LEVELED", "HEADING_ORIGINS", "HEADING_SOURCES", "Gain",
            "Selection", "Thresholds", "FieldData", "train_thresholds", "fold_thresholds", "select_config", "nested_rule_comparison",
            "READING_GRID", "TUNABLE_GRID", "SWING_MARGIN", "TURN_MARGIN", "SOURCE_SE", "trained_gain",
-           "set_gain", "track_course", "check_recordings", "missing_recordings", "MORPI_METHODS", "train_summary", "loo_errors",
+           "set_gain", "track_course", "check_recordings", "missing_recordings", "MORPI_METHODS", "train_summary",
+           "loo_errors",
            "held_out_errors", "held_out_score"]
