@@ -10,7 +10,8 @@ one's folders by route, then split, so that the groups with train recordings com
 order of the paper's short-route table (:func:`morpi_filters.evaluate.short_route_sets`). Each folder's group is ``<phone>/<route>``,
 its split the folder's (``"none"`` without one), its motion the route's kind, its rest
 detected (``"auto"``), its train group the paper's for routes evaluated with another route's gains,
-its IMU the phone's (:data:`PHONE_IMUS`), its truth
+its IMU the phone's (:data:`PHONE_IMUS`), its number of runs in the
+public dataset (``imu.count``, which ``morpi check --data`` compares with the files found), its truth
 the route's distance, end point and centre line (:attr:`morpi_filters.dataset.Route.polyline`).
 The recordings' latitude is the experiment site's
 (:data:`morpi_filters.calibration.SITE_LATITUDE_DEG`), so the calibrations take the same
@@ -39,11 +40,11 @@ PHONE_IMUS = {"s6": MPU6500.name, "s8": LSM6DSL.name}
 
 
 def _folders() -> list:
-    """(phone, route, split or None) of every layout folder, in the manifest's order."""
+    """(phone, route, split or None, number of runs) of every layout folder, in the manifest's order."""
     out = []
-    for key in ds.layout():
+    for key, runs in ds.layout().items():
         parts = key.split("/")
-        out.append((parts[0], parts[1], parts[2] if len(parts) == 3 else None))
+        out.append((parts[0], parts[1], parts[2] if len(parts) == 3 else None, runs))
     return sorted(out, key=lambda k: (PHONES.index(k[0]), k[1], k[2] or ""))
 
 
@@ -71,7 +72,6 @@ def manifest_text() -> str:
         'outdoor; truth: the routes\' end points."',
         f"latitude_deg = {_number(SITE_LATITUDE_DEG)}",
         "",
-        "",
         "# as the paper's tables: each train run is held out of its own group, the INS integrates the motion,",
         "# and the aided filter runs on the steps of each MoRPI method",
         "[evaluation]",
@@ -83,9 +83,9 @@ def manifest_text() -> str:
         'rest = "auto"',
     ]
     trains = _train_groups()
-    for phone, route_name, split in _folders():
+    for phone, route_name, split, runs in _folders():
         r = ds.route(route_name)
-        folder = ds.folder_key(phone, route_name, split)
+        folder = "/".join(p for p in (phone, route_name, split) if p)
         poly = ", ".join(f"[{_number(x)}, {_number(y)}]" for x, y in r.polyline)
         end = ", ".join(_number(v) for v in r.end_point_m)
         lines += [
@@ -95,7 +95,7 @@ def manifest_text() -> str:
             f'split = "{split or "none"}"',
             f'motion = "{"periodic" if r.kind == "periodic" else "straight"}"',
             *([f'train_group = "{trains[phone, route_name]}"'] if (phone, route_name) in trains else []),
-            f'imu = {{ file = "{folder}/*.csv", spec = "{PHONE_IMUS[phone]}" }}',
+            f'imu = {{ file = "{folder}/*.csv", spec = "{PHONE_IMUS[phone]}", count = {runs} }}',
             f'truth = {{ kind = "route", distance_m = {_number(r.distance_m)}, end_point_m = [{end}], '
             f"polyline_m = [{poly}] }}",
         ]

@@ -241,7 +241,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="also write the JSON result here (an existing file only if morpi wrote it)")
         sp.add_argument("--force", action="store_true", help="let --json overwrite a file morpi did not write")
 
-    s = sub.add_parser("check", help="validate every recording under a dataset folder, or of a dataset manifest")
+    s = sub.add_parser("check", help="validate every recording of the MoRPI dataset at --data DIR (through the "
+                                     "manifest the package ships), or of a dataset manifest")
     data_arg(s)
     s.add_argument("--dataset", metavar="FILE", type=_path("--dataset"),
                    help="a dataset manifest (TOML, docs/manifest.md): load and check every recording it describes")

@@ -229,6 +229,46 @@ def _manifest_files(root: Path) -> tuple:
     return (_MANIFEST, *m["files"])
 
 
+def written_counts(root) -> dict | None:
+    """The runs a dataset written by :func:`write_dataset` holds, as ``imu.count`` of the shipped MoRPI manifest.
+
+    A synthetic dataset may hold another number of runs per folder than the
+    field dataset (``runs_per_folder``): its ``manifest.json`` lists them,
+    and ``morpi check --data`` expects those counts instead of the manifest's
+    (:func:`morpi_filters.manifest.check_dataset`, ``counts``).
+
+    Parameters
+    ----------
+    root : str or Path
+        A dataset root.
+
+    Returns
+    -------
+    dict of str -> int, or None
+        ``<folder>/*.csv`` (the pattern of the folder's table) -> the number
+        of CSV files listed in it; None when `root` holds no readable
+        ``manifest.json`` of this generator.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> written_counts(root) is None
+    True
+    >>> files = {"s6/L_line/1.csv": "", "s6/L_line/2.csv": "", "s8/line_dataset/1.csv": "", "README.md": ""}
+    >>> _ = (root / "manifest.json").write_text(json.dumps({"generator": "morpi_filters.simulate", "files": files}))
+    >>> written_counts(root)
+    {'s6/L_line/*.csv': 2, 's8/line_dataset/*.csv': 1}
+    """
+    listed = _manifest_files(Path(root))
+    counts: dict = {}
+    for rel in listed[1:]:
+        if str(rel).endswith(".csv") and "/" in str(rel):
+            pattern = str(rel).rsplit("/", 1)[0] + "/*.csv"
+            counts[pattern] = counts.get(pattern, 0) + 1
+    return counts if listed else None
+
+
 def _verify(root: Path, seed: int) -> bool:
     try:
         m = json.loads((root / _MANIFEST).read_text())

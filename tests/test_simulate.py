@@ -254,8 +254,10 @@ def small_dataset(tmp_path_factory):
     return synthetic.write_dataset(root, seed=3, runs_per_folder=1)
 
 
-def test_write_dataset_layout_and_check_tree(small_dataset, tmp_path):
-    problems, n_ok = dataset.check_tree(small_dataset)
+def test_write_dataset_layout_and_check(small_dataset, tmp_path):
+    from morpi_filters.field import check_recordings
+
+    problems, n_ok, _ = check_recordings(small_dataset)
     layout = dataset.layout()
     assert problems == [] and n_ok == len(layout)
     entries = dataset.catalogue(small_dataset)

@@ -730,14 +730,23 @@ class FieldData:
 
 
 def check_recordings(root) -> tuple[list[str], int, list[str]]:
-    """Validate every recording under a dataset root as the evaluation reads it (``morpi check``).
+    """Validate the recordings of a dataset root as the evaluation reads them (``morpi check --data``).
 
-    :func:`morpi_filters.dataset.check_tree` (each file, the layout), and for
-    each file that loads, :meth:`FieldData.problem`: a recording too short to
-    tell its motion from a disturbance is a problem too, so what passes is
-    what the commands evaluate. A recording that moves from its first samples
-    has no initial rest (:meth:`FieldData.no_rest`): it is evaluated under RD
-    only, and named apart from the problems.
+    The package's MoRPI manifest applied to the root, through
+    :func:`morpi_filters.manifest.check_dataset` (the check of ``morpi check
+    --dataset``, one line per problem, the same lines): each file its globs
+    match is loaded and checked, and each glob that matches another number of
+    files than its ``imu.count`` is named (a missing folder, missing runs; a
+    dataset written by :func:`morpi_filters.synthetic.write_dataset` is held
+    to the runs its ``manifest.json`` lists instead). Nothing else under the
+    root is read or listed: a file or folder outside the manifest's patterns
+    is ignored. For each file that loads, :meth:`FieldData.problem`: a
+    recording too short to tell its motion from a disturbance is a problem
+    too, so what passes is what the commands evaluate. A recording that moves
+    from its first samples has no initial rest (:meth:`FieldData.no_rest`):
+    it is evaluated under RD only, and named apart from the problems. A root
+    where no pattern matches is one line, with a hint: the ``data/`` folder
+    inside it when that holds the dataset, the CSV files directly in it.
 
     Parameters
     ----------
@@ -747,18 +756,24 @@ def check_recordings(root) -> tuple[list[str], int, list[str]]:
     Returns
     -------
     problems : list of str
-        One line per bad file and per difference from the expected layout.
+        One line per bad file and per pattern that matches another number of files than expected.
     n_ok : int
         Number of files that load and can be evaluated (with or without a
         rest).
     no_rest : list of str
         One line per recording among them without an initial rest: why.
 
+    Raises
+    ------
+    DataError
+        `root` is not a directory.
+
     Examples
     --------
     Three recordings of 4 s: at rest; at rest, then turning from 3 s on, so
     that it ends before the turn can be told from a disturbance; and
-    vibrating from its first sample (0.015 rad/s at 13 Hz), which has no rest.
+    vibrating from its first sample (0.008 rad/s at 13 Hz, within the LSM6DSL's gyro noise the manifest's
+    check allows), which has no rest.
 
     >>> import json, pathlib, tempfile
     >>> root = pathlib.Path(tempfile.mkdtemp())
@@ -770,7 +785,7 @@ def check_recordings(root) -> tuple[list[str], int, list[str]]:
     >>> f = [0.0, 0.0, 9.8] + 0.01 * rng.standard_normal((400, 3))
     >>> w = 0.002 * rng.standard_normal((400, 3))
     >>> ds.write_csv(root / "s8/line_dataset/1.csv", ds.Recording(time=t, f=f, omega=w))
-    >>> shake = 0.015 * np.sin(2 * np.pi * 13.0 * t)[:, None]
+    >>> shake = 0.008 * np.sin(2 * np.pi * 13.0 * t)[:, None]
     >>> ds.write_csv(root / "s8/line_dataset/3.csv", ds.Recording(time=t, f=f, omega=w + shake))
     >>> w[300:, 2] += 0.5 * np.sin(2 * np.pi * t[300:])
     >>> ds.write_csv(root / "s8/line_dataset/2.csv", ds.Recording(time=t, f=f, omega=w))
@@ -783,14 +798,72 @@ def check_recordings(root) -> tuple[list[str], int, list[str]]:
     ['ROOT/s8/line_dataset/3.csv: no initial rest found: motion starts 0.000 s after the first sample
     (0 samples at rest, expected at least 10)']
     """
+    from ..manifest import check_dataset
+    from ..resources import morpi_manifest
+    from ..synthetic import written_counts
+
     data = FieldData(root)
+    root = data.root
     usable = []
 
-    def problem(rec):
-        line = data.problem(rec)
+    def problem(item):
+        data._labels[item.recording.source] = item        # its manifest labels (its rest) for the detection
+        line = data.problem(item.recording)
         if line is None:
-            usable.append(rec)
+            usable.append(item.recording)
         return line
 
-    problems, n_ok = ds.check_tree(root, usable=problem)
+    found, n_ok = check_dataset(morpi_manifest(), root=root, counts=written_counts(root), usable=problem)
+    problems = [str(p) for p in found]
+    if not data.folders() and problems:                 # no recording: the line check_dataset gives, and a hint
+        problems[-1] += _hint(root)
     return problems, n_ok, [line for line in map(data.no_rest, usable) if line is not None]
+
+
+def missing_recordings(root) -> list[str]:
+    """What :func:`check_recordings` says of the files a root lacks, without reading one.
+
+    Parameters
+    ----------
+    root : str or Path
+        The dataset root.
+
+    Returns
+    -------
+    list of str
+        One line per glob of the package's MoRPI manifest that matches another
+        number of files under `root` than expected
+        (:func:`morpi_filters.manifest.count_problems`, with the counts of
+        :func:`check_recordings`); when none matches anything, the one line
+        saying so, with its hint. Empty when every expected file is there.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> (root / "s6" / "L_line").mkdir(parents=True)
+    >>> _ = (root / "s6" / "L_line" / "1.csv").write_text("")       # not read
+    >>> lines = [line.split(": imu.file: ")[1].replace(str(root), "ROOT") for line in missing_recordings(root)]
+    >>> len(lines), lines[0], lines[6]       # doctest: +NORMALIZE_WHITESPACE
+    (11, "'s8/line_dataset/*.csv' matches no file: missing folder ROOT/s8/line_dataset, expected 24 file(s)
+    (imu.count)", "'s6/L_line/*.csv' matches 1 file(s) under ROOT, expected 10 (imu.count)")
+    """
+    from ..manifest import check_dataset, count_problems
+    from ..resources import morpi_manifest
+    from ..synthetic import written_counts
+
+    root, counts = Path(root), written_counts(root)
+    if FieldData(root).folders():
+        return [str(p) for p in count_problems(morpi_manifest(), root=root, counts=counts)]
+    return [str(p) + _hint(root) for p in check_dataset(morpi_manifest(), root=root, counts=counts)[0]]
+
+
+def _hint(root: Path) -> str:
+    """Where the recordings may be, for a root where the manifest's patterns match no file: its ``data/``
+    folder when that holds them, else the CSV files directly in the root (no other folder is listed)."""
+    inner = root / "data"
+    if inner.is_dir() and FieldData(inner).folders():
+        return f"; {inner} looks like the dataset root, pass --data {inner}"
+    loose = [p for p in root.glob("*.csv") if p.is_file()]
+    return ((f"; {len(loose)} CSV file(s) directly in {root}, none where the manifest looks" if loose else "")
+            + f"; {ds.missing_data_message()}")

@@ -7,10 +7,10 @@ from pathlib import Path
 import numpy as np
 
 from ..dataset import MEMS_SPEC, Recording, check_recording
-from ..errors import MorpiError, ParameterError
+from ..errors import DataError, MorpiError, ParameterError
 from .read import DatasetRecording, RouteTruth, TruthTrack, check_labels, check_physics, load_entry
 from .settings import Settings
-from .schema import (DEFAULTS, IMU_CHECKS, LABEL_CHECKS, BadValue, Context, ParsedManifest, check_latitude,
+from .schema import (DEFAULTS, GLOB_CHARS, IMU_CHECKS, LABEL_CHECKS, BadValue, Context, ParsedManifest, check_latitude,
                      check_text, read_manifest, unknown_key, value_of)
 
 
@@ -67,7 +67,7 @@ class Dataset:
             if r.id in seen:
                 raise ParameterError(f"{self.source}: recording id {r.id!r} appears twice, expected unique ids")
             seen.add(r.id)
-        _check_train_groups(self.source, self.recordings)
+        _check_train_groups(self.source, self.recordings)      # a group's recordings agree on it
 
     def __getitem__(self, rec_id: str) -> DatasetRecording:
         for r in self.recordings:
@@ -168,16 +168,17 @@ class Dataset:
             check_physics(ctx, rec, labels["rest"], {"accel_unit": "m/s^2", "gyro_unit": "rad/s", "axes": "FLU"},
                           MEMS_SPEC)
             out.append(DatasetRecording(id=rec_id, recording=rec, truth=truth, **labels))
+        _check_train_groups("<memory>", out, {r.group for r in out if r.split == "train"})
         return cls(name=name, recordings=tuple(out), description=description, latitude_deg=latitude_deg,
                    settings=Settings() if settings is None else settings)
 
 
-def _check_train_groups(source: str, recordings) -> None:
-    """Each ``train_group`` names a group with train recordings, and a group's recordings agree on it."""
-    trained = {r.group for r in recordings if r.split == "train"}
+def _check_train_groups(source: str, recordings, trained=None) -> None:
+    """A group's recordings agree on their ``train_group``, and (with `trained`, the groups that have or declare
+    train recordings) each names one of those."""
     said: dict = {}
     for r in recordings:
-        if r.train_group is not None and r.train_group not in trained:
+        if trained is not None and r.train_group is not None and r.train_group not in trained:
             raise ParameterError(f"{source}: recording {r.id!r}: train_group: {r.train_group!r} has no train "
                                  "recording, expected the group of recordings with split = 'train' "
                                  f"({', '.join(repr(g) for g in sorted(trained)) or 'none in this dataset'})")
@@ -252,6 +253,7 @@ def load_dataset(path, *, root=None) -> Dataset:
         out.append(load_entry(ctx, values))
     if not out:
         raise _no_match(manifest)
+    _check_train_groups(str(manifest.path), out, _declared_train_groups(manifest))
     return Dataset(name=manifest.name, recordings=tuple(out), source=str(manifest.path),
                    description=manifest.description, latitude_deg=manifest.latitude_deg,
                    settings=manifest.settings)
@@ -391,8 +393,13 @@ def index_dataset(path, *, root=None) -> DatasetIndex:
                         declared=tuple(declared[k] for k in order))
 
 
-def check_dataset(path, *, root=None) -> tuple[list, int]:
+def check_dataset(path, *, root=None, counts=None, usable=None) -> tuple[list, int]:
     """Load every recording of a manifest in turn and collect the problems, one per recording.
+
+    Only the files the manifest names (and its glob patterns match) are read;
+    nothing else under the root is listed. A glob table with ``imu.count``
+    is one more problem when its pattern matches another number of files
+    (:func:`count_problems`).
 
     Parameters
     ----------
@@ -400,15 +407,21 @@ def check_dataset(path, *, root=None) -> tuple[list, int]:
         The manifest.
     root : str or Path, optional
         As for :func:`load_dataset`.
+    counts : dict of str -> int, optional
+        See :func:`count_problems`.
+    usable : callable, optional
+        A further check of each recording that loads: ``usable(dataset_recording)``
+        returns a one-line problem (a :class:`~morpi_filters.errors.DataError`
+        then) or None.
 
     Returns
     -------
     problems : list of MorpiError
         The first problem of each recording that does not load
         (:class:`ParameterError` for the manifest, :class:`DataError` for
-        the data), each a one-line message.
+        the data), then the glob tables' counts, each a one-line message.
     n_ok : int
-        Number of recordings that loaded cleanly.
+        Number of recordings that loaded cleanly (and passed `usable`).
 
     Raises
     ------
@@ -437,14 +450,21 @@ def check_dataset(path, *, root=None) -> tuple[list, int]:
     for ctx, values, problem in manifest.entries:
         if problem is None:
             try:
-                load_entry(ctx, values)
-                n_ok += 1
-                continue
+                item = load_entry(ctx, values)
+                line = None if usable is None else usable(item)
+                if line is None:
+                    n_ok += 1
+                    continue
+                problem = DataError(line)
             except MorpiError as exc:
                 problem = exc
         problems.append(problem)
     if not manifest.entries:
-        problems.append(_no_match(manifest))
+        expected = _expected(manifest, counts)
+        problems.append(_no_match(manifest) if not expected else DataError(
+            f"{manifest.base}: no recordings: no file matches the imu.file patterns of {manifest.path}, expected "
+            f"{sum(expected.values())} recording(s) (imu.count)"))
+        return problems, n_ok
     labelled = []
     for ctx, values, problem in manifest.entries:
         if problem is None:
@@ -454,10 +474,24 @@ def check_dataset(path, *, root=None) -> tuple[list, int]:
             except MorpiError:
                 pass                            # already a problem of its recording
     try:
-        _check_train_groups(str(manifest.path), labelled)
+        _check_train_groups(str(manifest.path), labelled, _declared_train_groups(manifest))
     except ParameterError as exc:
         problems.append(exc)
-    return problems, n_ok
+    return problems + _count_problems(manifest, counts), n_ok
+
+
+def _declared_train_groups(manifest: ParsedManifest) -> set:
+    """The groups of the manifest's tables with ``split = "train"``, whether or not their files are there."""
+    out = set()
+    tables = [(ctx, values) for ctx, values, problem in manifest.entries if problem is None] + list(manifest.empty)
+    for ctx, values in tables:
+        try:
+            group, split = (value_of(ctx, values, "", k, LABEL_CHECKS, default=DEFAULTS[k]) for k in ("group", "split"))
+        except MorpiError:
+            continue
+        if split == "train":
+            out.add(group)
+    return out
 
 
 @dataclass(frozen=True)
@@ -468,3 +502,88 @@ class _Labels:
     group: str
     split: str
     train_group: str | None
+
+
+def count_problems(path, *, root=None, counts=None) -> list:
+    """One line per glob ``imu.file`` of a manifest that matches another number of files than its ``imu.count``.
+
+    Nothing is read but the names of the files the patterns match.
+
+    Parameters
+    ----------
+    path : str or Path
+        The manifest.
+    root : str or Path, optional
+        As for :func:`load_dataset`.
+    counts : dict of str -> int, optional
+        The number of files each glob pattern (as written in ``imu.file``)
+        should match, in place of every ``imu.count`` of the manifest: a
+        pattern it leaves out has no expected count (a copy of a dataset that
+        holds fewer runs per folder, listed by whoever wrote it).
+
+    Returns
+    -------
+    list of DataError
+        One per glob table whose pattern matches a number of files other
+        than expected, naming the manifest, the table, the pattern and both
+        numbers (and the folder, when it is missing); empty when no pattern
+        matches anything (:func:`check_dataset` says that once).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> (root / "runs").mkdir()
+    >>> _ = (root / "runs" / "1.csv").write_text("")
+    >>> _ = (root / "dataset.toml").write_text('''
+    ... format_version = 1
+    ... name = "bench"
+    ... [[recording]]
+    ... imu = { file = "runs/*.csv", count = 2 }
+    ... truth = { kind = "route", distance_m = 1.0, end_point_m = [1.0, 0.0] }
+    ... [[recording]]
+    ... imu = { file = "more/*.csv", count = 3 }
+    ... truth = { kind = "route", distance_m = 1.0, end_point_m = [1.0, 0.0] }
+    ... ''')
+    >>> for p in count_problems(root / "dataset.toml"):    # doctest: +NORMALIZE_WHITESPACE
+    ...     print(str(p).replace(str(root), "ROOT"))
+    ROOT/dataset.toml: [[recording]] 1: imu.file: 'runs/*.csv' matches 1 file(s) under ROOT, expected 2 (imu.count)
+    ROOT/dataset.toml: [[recording]] 2: imu.file: 'more/*.csv' matches no file: missing folder ROOT/more,
+    expected 3 file(s) (imu.count)
+    """
+    manifest = read_manifest(path, root)
+    return _count_problems(manifest, counts) if manifest.entries else []
+
+
+def _expected(manifest: ParsedManifest, counts) -> dict:
+    """Pattern -> expected number of files: `counts`, else each glob table's ``imu.count``."""
+    if counts is not None:
+        return {pattern: int(n) for pattern, n in counts.items()}
+    return {pattern: n for _, pattern, _, n in manifest.globs if n is not None}
+
+
+def _count_problems(manifest: ParsedManifest, counts) -> list:
+    expected, out = _expected(manifest, counts), []
+    for ctx, pattern, found, _ in manifest.globs:
+        n = expected.get(pattern)
+        if n is None or found == n:
+            continue
+        lead = _leading(pattern)
+        folder = ctx.base / Path(*lead) if lead else None        # an absolute lead replaces the base
+        if found == 0 and folder is not None and not folder.is_dir():
+            line = f"{pattern!r} matches no file: missing folder {folder}, expected {n} file(s) (imu.count)"
+        else:
+            line = f"{pattern!r} matches {found or 'no'} file(s) under {ctx.base}, expected {n} (imu.count)"
+        out.append(ctx.bad("imu.file", line, DataError))
+    return out
+
+
+def _leading(pattern: str) -> list:
+    """The folders of a glob pattern before its first part holding a glob character."""
+    parts = Path(pattern).expanduser().parts[:-1]
+    out = []
+    for p in parts:
+        if any(c in p for c in GLOB_CHARS):
+            break
+        out.append(p)
+    return out

@@ -43,7 +43,7 @@ FRAME_LETTERS = {"NED": ("n", "e", "d"), "ENU": ("e", "n", "u")}
 _TOP_KEYS = ("format_version", "name", "description", "latitude_deg", "evaluation", "defaults", "recording")
 _RECORDING_KEYS = ("id", "split", "group", "motion", "rest", "initial", "train_group", "notes", "imu", "truth")
 _IMU_KEYS = ("file", "format", "columns", "skip_rows", "rate_hz", "time_unit", "time_origin", "accel_unit",
-             "gyro_unit", "axes", "spec")
+             "gyro_unit", "axes", "spec", "count")
 #: The keys of a route truth.
 ROUTE_KEYS = ("kind", "distance_m", "end_point_m", "polyline_m")
 #: The keys of a truth track.
@@ -240,7 +240,7 @@ LABEL_CHECKS = {"split": _choice(_SPLITS), "group": check_text, "motion": _choic
 IMU_CHECKS = {"file": check_text, "format": _choice(("csv", "npy")), "columns": check_columns,
               "skip_rows": _integer(0), "rate_hz": _rate, "time_unit": _choice(tuple(TIME_UNITS)),
               "time_origin": _choice(("clock", "first")), "accel_unit": _choice(tuple(ACCEL_UNITS)),
-              "gyro_unit": _choice(tuple(GYRO_UNITS)), "axes": _axes, "spec": _spec}
+              "gyro_unit": _choice(tuple(GYRO_UNITS)), "axes": _axes, "spec": _spec, "count": _integer(1)}
 #: The check of each ``truth`` key.
 TRUTH_CHECKS = {"kind": _choice(("route", "track")), "distance_m": lambda v: _number(v, above=0.0),
                 "end_point_m": _point, "polyline_m": _polyline, "file": check_text, "format": _choice(("csv", "npy")),
@@ -280,6 +280,7 @@ class ParsedManifest:
     settings: Settings = Settings()
     base: Path | None = None
     empty: tuple = ()     # (context, values) of each glob table that matches no file
+    globs: tuple = ()     # (context, pattern, files matched, imu.count or None) of each glob table
 
 
 def _settings(table, path: Path) -> Settings:
@@ -358,7 +359,7 @@ def read_manifest(path, root=None) -> ParsedManifest:
         raise ParameterError(f"{path}: recording: one table [recording], expected [[recording]] tables (an array)")
     if not isinstance(tables, list) or not tables or not all(isinstance(t, dict) for t in tables):
         raise ParameterError(f"{path}: recording: {_kind(tables)}, expected [[recording]] tables")
-    entries, first_of, empty = [], {}, []
+    entries, first_of, empty, globs = [], {}, [], []
     for k, table in enumerate(tables, start=1):
         rec_id = table.get("id") if isinstance(table.get("id"), str) else None
         head = f"{path}: [[recording]] {k}" + (f" (id {rec_id!r})" if rec_id else "")
@@ -366,6 +367,9 @@ def read_manifest(path, root=None) -> ParsedManifest:
             values, origin = _merge(head, defaults, table)
             ctx = Context(head, origin, str(path), rec_id, base, k)
             expanded = _expand(ctx, values, k)
+            if _is_glob(values.get("imu", {}).get("file")):
+                globs.append((ctx, values["imu"]["file"], len(expanded),
+                              value_of(ctx, values["imu"], "imu", "count", IMU_CHECKS)))
             if not expanded:
                 empty.append((ctx, values))
             for ctx, values in expanded:
@@ -379,7 +383,7 @@ def read_manifest(path, root=None) -> ParsedManifest:
         except ParameterError as exc:
             entries.append((Context(head, {}, str(path), rec_id, base), None, exc))
     return ParsedManifest(path=path, name=name, description=description, entries=tuple(entries), latitude_deg=latitude,
-                          settings=settings, base=base, empty=tuple(empty))
+                          settings=settings, base=base, empty=tuple(empty), globs=tuple(globs))
 
 
 def _is_glob(name) -> bool:
@@ -397,6 +401,8 @@ def _expand(ctx: Context, values: dict, k: int) -> list:
     relative to the base folder), in the order of :func:`_natural`."""
     pattern = values.get("imu", {}).get("file") if isinstance(values.get("imu"), dict) else None
     if not _is_glob(pattern):
+        refuse_unused(ctx, values.get("imu", {}), "imu", ("count",), "without a glob imu.file (a file is one "
+                                                                       "recording)")
         return [(ctx, values)]
     if ctx.origin.get("id") == "recording":
         raise ctx.bad("id", "not used with a glob imu.file (each recording's id is the path of its file relative "
