@@ -46,3 +46,50 @@ def test_an_old_json_key_follows_its_new_key_with_the_same_value():
     out = with_aliases({"a": 1, "speed_mps": [0.5], "b": 2}, {"speed_m_s": "speed_mps", "gone": "absent"})
     assert list(out) == ["a", "speed_mps", "speed_m_s", "b"]
     assert out["speed_m_s"] is out["speed_mps"]
+
+
+# --------------------------------------------------------------------------- the renamed public names
+
+def _same_trajectory(a, b):
+    import numpy as np
+
+    return (a.kind == b.kind and a.p2p_m == b.p2p_m and a.amplitude_m == b.amplitude_m
+            and np.array_equal(a.time, b.time) and np.array_equal(a.position, b.position))
+
+
+@pytest.mark.parametrize("func, args, old, new, value", [
+    ("straight", (6.3,), "speed", "speed_mps", 1.2),
+    ("sine", (6.3,), "speed", "speed_mps", 0.5),
+    ("sine", (6.3,), "period", "p2p_m", 1.5),
+    ("sine", (6.3,), "amplitude", "amplitude_m", 0.15),
+    ("l_route", (), "speed", "speed_mps", 0.7),
+    ("route_trajectory", ("short_distance",), "speed", "speed_mps", 0.5),
+    ("route_trajectory", ("short_distance",), "period", "p2p_m", 1.5),
+    ("route_trajectory", ("short_distance",), "amplitude", "amplitude_m", 0.15),
+])
+def test_the_simulators_take_their_old_keywords_with_a_warning(func, args, old, new, value):
+    from morpi_filters import simulate
+
+    got_old, got_new, caught = _old_keyword(getattr(simulate, func), old, new, *args, value=value, rate_hz=50.0)
+    assert _same_trajectory(got_old, got_new)
+    assert len(caught) == 1 and f"use {new}=" in str(caught[0].message)
+
+
+def test_l_route_takes_its_old_sine_keywords_and_paper_speed_its_old_period():
+    from morpi_filters import simulate
+
+    with pytest.warns(DeprecationWarning, match="use p2p_m="):
+        old = simulate.l_route(period=1.0, amplitude_m=0.1, rate_hz=50.0)
+    assert _same_trajectory(old, simulate.l_route(p2p_m=1.0, amplitude_m=0.1, rate_hz=50.0))
+    got_old, got_new, caught = _old_keyword(simulate.paper_speed, "period", "p2p_m", value=1.5)
+    assert got_old == got_new == simulate.paper_speed(1.5) and len(caught) == 1
+
+
+def test_a_trajectory_reads_its_old_period_and_amplitude_with_a_warning():
+    from morpi_filters import simulate
+
+    traj = simulate.sine(6.3, p2p_m=1.5, amplitude_m=0.2, rate_hz=50.0)
+    with pytest.warns(DeprecationWarning, match="Trajectory.p2p_m"):
+        assert traj.period == traj.p2p_m == 1.5
+    with pytest.warns(DeprecationWarning, match="Trajectory.amplitude_m"):
+        assert traj.amplitude == traj.amplitude_m == 0.2

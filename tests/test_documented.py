@@ -17,7 +17,7 @@ def test_closed_form_errors_takes_the_documented_keys():
 
 def test_train_gain_returns_a_flat_triple():
     rng = np.random.default_rng(0)
-    traj = simulate.sine(6.3, period=1.0, amplitude=0.1, rate_hz=100.0)
+    traj = simulate.sine(6.3, p2p_m=1.0, amplitude_m=0.1, rate_hz=100.0)
     data = simulate.imu(traj, units.LSM6DSL, rng, bias_scale=(0.0, 0.0))
     s = steps.extract_steps(data.recording(), "MoRPI-G", steps.DEFAULT_CONFIGS["MoRPI-G"])
     out = steps.train_gain([s, s], [6.3, 6.3])
@@ -72,7 +72,7 @@ def test_a_recording_by_path_knows_its_labels_and_truth(tmp_path):
 def test_a_track_measures_its_error_against_a_route():
     from morpi_filters import dataset as ds
 
-    traj = simulate.sine(6.3, period=1.0, amplitude=0.1, rate_hz=100.0)
+    traj = simulate.sine(6.3, p2p_m=1.0, amplitude_m=0.1, rate_hz=100.0)
     data = simulate.imu(traj, units.LSM6DSL, np.random.default_rng(1), bias_scale=(0.0, 0.0))
     s = steps.extract_steps(data.recording(), "MoRPI-G", steps.DEFAULT_CONFIGS["MoRPI-G"])
     track = steps.morpi_track(s, 1.0)
