@@ -93,3 +93,16 @@ def test_a_trajectory_reads_its_old_period_and_amplitude_with_a_warning():
         assert traj.period == traj.p2p_m == 1.5
     with pytest.warns(DeprecationWarning, match="Trajectory.amplitude_m"):
         assert traj.amplitude == traj.amplitude_m == 0.2
+
+
+def test_a_study_config_takes_and_reads_its_old_period_and_its_json_repeats_it():
+    from morpi_filters import montecarlo as mc
+    from morpi_filters.montecarlo.pages import study_config_json
+
+    got_old, got_new, caught = _old_keyword(mc.StudyConfig, "period_m", "p2p_m", value=1.5, duration=20.0)
+    assert got_old == got_new and got_old.p2p_m == 1.5 and len(caught) == 1
+    assert "StudyConfig: the keyword period_m=" in str(caught[0].message)
+    with pytest.warns(DeprecationWarning, match="StudyConfig.p2p_m"):
+        assert got_new.period_m == 1.5
+    out = study_config_json(got_new)
+    assert out["period_m"] == out["p2p_m"] == 1.5

@@ -493,7 +493,7 @@ def test_band_binning_equals_a_search_over_the_edges():
 def test_a_longer_duration_drives_a_longer_path(duration):
     # the motion fills the run: at the paper's speed for 1 m periods, 20 s drive
     # 0.4667 * (20 - 1) = 8.87 m (duration = length / speed + one ramp of 1 s)
-    cfg = mc.StudyConfig(duration=duration, period_m=1.0, training_runs=50)
+    cfg = mc.StudyConfig(duration=duration, p2p_m=1.0, training_runs=50)
     length, speed, T = cfg.motion()
     assert T == duration and speed == pytest.approx(6.3 / 13.5) and length == pytest.approx(speed * (duration - 1))
     ins_path, sine, _ = mce._paths(cfg)

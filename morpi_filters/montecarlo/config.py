@@ -7,6 +7,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..deprecation import renamed_attribute, renamed_keywords
 from ..errors import ParameterError
 from ..units import MPU6500, SensorSpec
 
@@ -109,8 +110,8 @@ class StudyConfig:
         Cruise speed along the centreline [m/s].
     rate_hz : float
         Sampling rate [Hz]; the noise standard deviation is ``density * sqrt(rate_hz)``.
-    period_m : float
-        Sine-path period (peak-to-peak step) [m].
+    p2p_m : float
+        Peak-to-peak distance (period length) of the sine path [m].
     amplitude_m : float
         Sine-path lateral amplitude [m].
     ins_path : {"sine", "straight"}
@@ -136,7 +137,7 @@ class StudyConfig:
 
     Examples
     --------
-    >>> cfg = StudyConfig(duration=20.0, period_m=1.0)
+    >>> cfg = StudyConfig(duration=20.0, p2p_m=1.0)
     >>> length, speed, duration = cfg.motion()
     >>> round(length, 3), round(speed, 4), duration
     (8.867, 0.4667, 20.0)
@@ -146,7 +147,7 @@ class StudyConfig:
     duration: float | None = None
     rate_hz: float = 100.0
     length_m: float | None = None
-    period_m: float = 1.0
+    p2p_m: float = 1.0
     amplitude_m: float = 0.1
     gains: tuple = (GainError("dG = 5 %", 0.05), GainError("dG = 10 %", 0.10))
     keep_every: int = 10
@@ -185,7 +186,7 @@ class StudyConfig:
         if v is None and (T is None or L is None):
             from ..simulate import paper_speed
 
-            v = paper_speed(self.period_m)
+            v = paper_speed(self.p2p_m)
         if T is None:
             T = L / v + RAMP_S
         elif L is None:
@@ -261,16 +262,16 @@ class StudyConfig:
         """
         if not isinstance(self.spec, SensorSpec):
             raise ParameterError(f"StudyConfig.spec: {self.spec!r}, expected a SensorSpec")
-        for name in ("rate_hz", "period_m", "amplitude_m"):
+        for name in ("rate_hz", "p2p_m", "amplitude_m"):
             v = getattr(self, name)
             if isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ParameterError(f"StudyConfig.{name}: {v!r}, expected a finite number > 0")
         length, _, duration = self.motion()
         if duration * self.rate_hz < 2:
             raise ParameterError(f"StudyConfig.duration: {duration} s at {self.rate_hz} Hz gives fewer than 2 samples")
-        if 3 * self.period_m > length:
+        if 3 * self.p2p_m > length:
             raise ParameterError(f"StudyConfig.length_m: {length:g} m holds fewer than 3 periods of "
-                                 f"{self.period_m} m (one tapered period at each end plus one step)")
+                                 f"{self.p2p_m} m (one tapered period at each end plus one step)")
         if self.ins_path not in INS_PATHS:
             raise ParameterError(f"StudyConfig.ins_path: {self.ins_path!r}, expected one of {INS_PATHS}")
         if not self.gains or not all(isinstance(g, GainError) for g in self.gains):
@@ -289,6 +290,10 @@ class StudyConfig:
             raise ParameterError(f"StudyConfig.cal_seconds: {self.cal_seconds!r}, expected a finite number > 0")
         if not (isinstance(self.training_runs, int) and self.training_runs >= 2):
             raise ParameterError(f"StudyConfig.training_runs: {self.training_runs!r}, expected a whole number >= 2")
+
+
+StudyConfig.__init__ = renamed_keywords(period_m="p2p_m")(StudyConfig.__init__)
+StudyConfig.period_m = renamed_attribute("StudyConfig", "period_m", "p2p_m")
 
 
 @dataclass(frozen=True)

@@ -83,7 +83,7 @@ def _paths_cached(length, speed, period, amplitude, duration, rate_hz, ins_path)
 def _paths(cfg: StudyConfig):
     """(path of the INS, sine path of MoRPI, backend name) sampled on the study's time grid."""
     L, v, T = cfg.motion()
-    ins, sn = _paths_cached(L, v, cfg.period_m, cfg.amplitude_m, T, cfg.rate_hz, cfg.ins_path)
+    ins, sn = _paths_cached(L, v, cfg.p2p_m, cfg.amplitude_m, T, cfg.rate_hz, cfg.ins_path)
     return ins, sn, f"simulate.sine / simulate.{cfg.ins_path} (rest 0 s, sampled on the study grid)"
 
 
@@ -158,12 +158,12 @@ def reference_gains(cfg: StudyConfig, seed: int):
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ParameterError(f"seed: {seed!r}, expected a whole number >= 0")
     L, v, _ = cfg.motion()
-    return _reference_gains(cfg.spec, L, v, cfg.period_m, cfg.amplitude_m, cfg.rate_hz, cfg.training_runs, int(seed))
+    return _reference_gains(cfg.spec, L, v, cfg.p2p_m, cfg.amplitude_m, cfg.rate_hz, cfg.training_runs, int(seed))
 
 
 @functools.lru_cache(maxsize=16)
-def _reference_gains(spec, length_m, speed_mps, period_m, amplitude_m, rate_hz, training_runs, seed):
-    cfg = StudyConfig(spec=spec, length_m=length_m, speed_mps=speed_mps, period_m=period_m, amplitude_m=amplitude_m,
+def _reference_gains(spec, length_m, speed_mps, p2p_m, amplitude_m, rate_hz, training_runs, seed):
+    cfg = StudyConfig(spec=spec, length_m=length_m, speed_mps=speed_mps, p2p_m=p2p_m, amplitude_m=amplitude_m,
                       rate_hz=rate_hz, training_runs=training_runs)
     _, sine, _ = _paths(cfg)
     rng = np.random.Generator(np.random.PCG64(training_seed(seed)))
@@ -653,7 +653,7 @@ def check_runs(runs, seed, chunk) -> None:
 
 #: StudyConfig fields that fix the draws and the paths: the studies of one
 #: :func:`run_studies` call must agree on them.
-_SHARED_FIELDS = ("spec", "duration", "rate_hz", "length_m", "speed_mps", "period_m", "amplitude_m", "ins_path",
+_SHARED_FIELDS = ("spec", "duration", "rate_hz", "length_m", "speed_mps", "p2p_m", "amplitude_m", "ins_path",
                   "keep_every", "training_runs", "cal_seconds")
 
 

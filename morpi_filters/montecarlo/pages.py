@@ -144,12 +144,13 @@ def study_config_json(cfg: StudyConfig) -> dict:
     Returns
     -------
     dict
-        JSON values; sigmas in SI units (noise as the per-sample sigma at the study's rate).
+        JSON values; sigmas in SI units (noise as the per-sample sigma at the study's rate). ``period_m``
+        repeats ``p2p_m``, its name before 0.2, for one release.
     """
     sa, sg = cfg.bias_sigmas()
     length, speed, duration = cfg.motion()
     return {"sensor": cfg.spec.name, "duration_s": duration, "rate_hz": cfg.rate_hz, "length_m": length,
-            "speed_mps": speed, "ins_path": cfg.ins_path, "period_m": cfg.period_m, "amplitude_m": cfg.amplitude_m, "calibration": cfg.calibration,
+            "speed_mps": speed, "ins_path": cfg.ins_path, "p2p_m": cfg.p2p_m, "period_m": cfg.p2p_m, "amplitude_m": cfg.amplitude_m, "calibration": cfg.calibration,
             "cal_seconds": cfg.cal_seconds, "accel_bias_sigma_mps2": sa, "gyro_bias_sigma_radps": sg,
             "accel_noise_sigma_mps2": cfg.spec.accel_noise * math.sqrt(cfg.rate_hz),
             "gyro_noise_sigma_radps": cfg.spec.gyro_noise * math.sqrt(cfg.rate_hz),
@@ -260,7 +261,7 @@ def page_cost(runs: int, *, duration: float | None = None, speed_mps: float | No
     cfg.validate()
     length, _, T = cfg.motion()
     n = sample_count(T, cfg.rate_hz)
-    k = max(1, math.ceil(length / cfg.period_m) - 1)
+    k = max(1, math.ceil(length / cfg.p2p_m) - 1)
     terms = (1.0, float(n), float(n) * n, float(k))
     seconds = runs * sum(c * t for c, t in zip(RUN_SECONDS, (float(n), float(n) * n, float(k) * n)))
     seconds += sum(c * t for c, t in zip(FIXED_SECONDS, terms))

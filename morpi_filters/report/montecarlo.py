@@ -81,7 +81,7 @@ def report_montecarlo(out, study: GainErrorPage, source=None) -> SectionSummary:
     lines.append(
         f"{runs} seeded runs (seed {seed}) of {cal.spec.name} errors over {cal.duration:g} s at "
         f"{cal.rate_hz:g} Hz. The robot drives a sine path of {cal.length_m:g} m (simulate.sine: period "
-        f"{cal.period_m:g} m, amplitude {cal.amplitude_m:g} m, tapered over the first and last period; "
+        f"{cal.p2p_m:g} m, amplitude {cal.amplitude_m:g} m, tapered over the first and last period; "
         f"1 s ramps from and to rest, cruise at {cal.speed_mps:.3g} m/s). "
         + ("INS-3D and INS-2D navigate that same path; " if cal.ins_path == "sine" else
            f"INS-3D and INS-2D drive a straight line of the same length and speed; ")
