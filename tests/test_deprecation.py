@@ -106,3 +106,69 @@ def test_a_study_config_takes_and_reads_its_old_period_and_its_json_repeats_it()
         assert got_new.period_m == 1.5
     out = study_config_json(got_new)
     assert out["period_m"] == out["p2p_m"] == 1.5
+
+
+def _equal(a, b):
+    import numpy as np
+
+    if isinstance(a, (tuple, list)):
+        return len(a) == len(b) and all(_equal(x, y) for x, y in zip(a, b))
+    if hasattr(a, "__dataclass_fields__"):
+        return all(_equal(getattr(a, f), getattr(b, f)) for f in a.__dataclass_fields__)
+    return np.array_equal(np.asarray(a), np.asarray(b))
+
+
+def test_the_time_step_keywords_take_their_old_names_with_a_warning():
+    import numpy as np
+
+    from morpi_filters.curves import time_grid
+    from morpi_filters.error_model import discretize, simulate_linear
+
+    F, G, Q = [[0.0, 1.0], [0.0, 0.0]], [[0.0], [1.0]], [[1.0]]
+    for func, args, kw in [(discretize, (F, G, Q), {}),
+                           (simulate_linear, (F, G, Q, np.eye(2)), dict(n_steps=3, runs=2, rng=None)),
+                           (time_grid, ([0.5, 1.0],), dict(step_period_s=0.4))]:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            got_old = func(*args, dt=0.3, **{k: (np.random.default_rng(1) if k == "rng" else v) for k, v in kw.items()})
+        got_new = func(*args, dt_s=0.3, **{k: (np.random.default_rng(1) if k == "rng" else v) for k, v in kw.items()})
+        assert _equal(got_old, got_new), func.__name__
+        assert [str(w.message).endswith("use dt_s=") for w in caught] == [True], func.__name__
+    old, new, caught = _old_keyword(time_grid, "step_period", "step_period_s", [0.5, 1.0], 0.3, value=0.4)
+    assert _equal(old, new) and new[1].tolist() == [2, 5] and len(caught) == 1
+
+
+def test_the_speed_keywords_of_the_step_models_take_their_old_name_with_a_warning():
+    import numpy as np
+
+    from morpi_filters.curves import CurveCase, error_realisation
+    from morpi_filters.eskf import StepModel, simulate_steps, step_update
+
+    old, new, caught = _old_keyword(step_update, "speed", "speed_mps", 10, 1.0, 0.0, StepModel(), value=2.0)
+    assert _equal(old, new) and len(caught) == 1
+    X = np.zeros((2, 20, 15))
+    old, new, caught = _old_keyword(lambda **kw: simulate_steps(X, [2], 1.0, 0.0, StepModel(), gain=np.zeros(2),
+                                                                rng=np.random.default_rng(0), **kw),
+                                    "speed", "speed_mps", value=2.0)
+    assert _equal(old, new) and len(caught) == 1
+    args = ([0.03, 0.04, 0.0], [0.0] * 3, [0.0] * 3, 0.1, 9.81)
+    old, new, caught = _old_keyword(error_realisation, "speed", "speed_mps", *args, t=[0.0, 2.0], kind="INS-2D",
+                                    value=0.5)
+    assert _equal(old, new) and len(caught) == 1
+    fields = dict(name="x", title="x", dv0=np.zeros(3), ba=np.zeros(3), bg=np.zeros(3), g=9.81, gain_sigma=0.1)
+    old, new, caught = _old_keyword(CurveCase, "speed", "speed_mps", **fields, value=0.5)
+    assert _equal(old, new) and new.speed_mps == 0.5 and len(caught) == 1
+    with pytest.warns(DeprecationWarning, match="CurveCase.speed_mps"):
+        assert new.speed == 0.5
+
+
+def test_the_aided_filter_takes_its_old_epoch_keyword_with_a_warning():
+    import numpy as np
+
+    from morpi_filters.aided import AidedInput, AidTuning, run_batch
+
+    t = np.arange(301) * 0.01
+    still = AidedInput(time=t, f=np.tile([0.0, 0.0, 9.8], (301, 1)), omega=np.zeros((301, 3)), C0=np.eye(3),
+                       g=9.8, rest=((0.0, 3.0),))
+    old, new, caught = _old_keyword(run_batch, "epoch_s", "dt_s", [still], AidTuning(), value=0.2)
+    assert _equal(old[0].end_point, new[0].end_point) and _equal(old[0].P_xy, new[0].P_xy) and len(caught) == 1

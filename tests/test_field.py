@@ -57,7 +57,7 @@ def _windows_s() -> dict:
         "still spans: window, shortest": field_aided.STILL_WINDOW_S,
         "rest noise: epoch": epoch,
         "rest noise: four epochs": 4 * epoch,
-        "aided filter: epoch": inspect.signature(aided.run_batch).parameters["epoch_s"].default,
+        "aided filter: epoch": inspect.signature(aided.run_batch).parameters["dt_s"].default,
         "steps: peak distance": st.StepConfig().min_period_s,
         "steps: two peak distances": 2 * st.StepConfig().min_period_s,
         "low-pass: padding": pad / st.GRID_HZ,
