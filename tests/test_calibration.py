@@ -194,8 +194,8 @@ def test_custom_gravity():
                                [0, 0, 9.81], rtol=0, atol=1e-12)  # GAC subtracts the window mean: float rounding
 
 
-@pytest.mark.parametrize("kwargs, match", [(dict(mode="XYZ"), "mode='XYZ'"),
-                                           (dict(mode="GAC", g_local=-1.0), "g_local")])
+@pytest.mark.parametrize("kwargs, match", [(dict(calibration="XYZ"), "calibration='XYZ'"),
+                                           (dict(calibration="GAC", g_local=-1.0), "g_local")])
 def test_bad_parameters(kwargs, match):
     rng = np.random.default_rng(18)
     rec, _ = synthetic(rng)

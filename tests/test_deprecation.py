@@ -172,3 +172,23 @@ def test_the_aided_filter_takes_its_old_epoch_keyword_with_a_warning():
                        g=9.8, rest=((0.0, 3.0),))
     old, new, caught = _old_keyword(run_batch, "epoch_s", "dt_s", [still], AidTuning(), value=0.2)
     assert _equal(old[0].end_point, new[0].end_point) and _equal(old[0].P_xy, new[0].P_xy) and len(caught) == 1
+
+
+def test_a_calibration_takes_and_reads_its_old_mode_name_with_a_warning():
+    import numpy as np
+
+    from morpi_filters import calibration as cal
+    from morpi_filters.dataset import Recording
+
+    rec = Recording(time=np.arange(400) * 0.01, f=np.tile([0.0, 0.05, 9.9], (400, 1)),
+                    omega=np.tile([0.001, 0.0, -0.002], (400, 1)))
+    for func in (cal.calibrate, lambda *a, **k: cal.calibrated(*a, **k)[1]):
+        old, new, caught = _old_keyword(func, "mode", "calibration", rec, value="GAC")
+        assert _equal(old, new) and new.calibration == "GAC" and len(caught) == 1
+    with pytest.warns(DeprecationWarning, match="Calibration.calibration"):
+        assert new.mode == "GAC"
+    old, new, caught = _old_keyword(cal.Calibration, "mode", "calibration", gyro_bias=np.zeros(3),
+                                    accel_bias=np.zeros(3), window=None, value="RD")
+    assert _equal(old, new) and len(caught) == 1
+    with pytest.warns(DeprecationWarning, match="CALIBRATIONS"):
+        assert cal.MODES == cal.CALIBRATIONS == ("RD", "GC", "GAC")
