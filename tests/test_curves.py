@@ -92,6 +92,7 @@ def test_report_contract(tmp_path):
         assert set(r[key]) == {"INS-3D", "INS-2D", "MoRPI-aided INS"}
         assert all(len(v) == 2 for v in r[key].values()), key
     assert r["times"] == [2.0, 6.0] and r["process_noise"] is True
+    assert r["seed"] == r["mc_seed"] and isinstance(r["seed"], int)    # mc_seed: the name before 0.2, for one release
     assert set(r["cases"]) == {"params", "mpu6500", "lsm6dsl"}
     assert s.name == "curves" and s.page == "README.md" and not s.synthetic
     for png in s.figures:

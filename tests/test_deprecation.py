@@ -192,3 +192,21 @@ def test_a_calibration_takes_and_reads_its_old_mode_name_with_a_warning():
     assert _equal(old, new) and len(caught) == 1
     with pytest.warns(DeprecationWarning, match="CALIBRATIONS"):
         assert cal.MODES == cal.CALIBRATIONS == ("RD", "GC", "GAC")
+
+
+def test_the_tables_json_names_each_folds_accel_floor_with_its_unit_and_keeps_the_old_key():
+    from types import SimpleNamespace
+
+    from morpi_filters.report.tables import result_json
+
+    folds = [{"file": "s6/a/train/1.csv", "accel_floor": 0.094, "min_swing_deg": 12.0},
+             {"file": "s6/a/train/2.csv", "accel_floor": 0.093, "min_swing_deg": 11.0}]
+    result = SimpleNamespace(missing=(), cells=(), gains=(), selections={}, readings=(), data=None)
+    study = SimpleNamespace(result=result, comparison=None, ins_full_span=None, other_rule=None,
+                            nested={"folds": folds, "preferred": "x"}, rule_sensitivity=None, ins_leveled=None,
+                            claims=(), heading_readings=None, turn_reading=None)
+    out = result_json(study)["step_rule_nested"]
+    assert out["preferred"] == "x" and len(out["folds"]) == 2
+    for f, given in zip(out["folds"], folds):
+        assert list(f) == ["file", "accel_floor_mps2", "accel_floor", "min_swing_deg"]
+        assert f["accel_floor_mps2"] == f["accel_floor"] == given["accel_floor"]

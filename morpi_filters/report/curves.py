@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 
 from ..curves import CURVE_METHODS, MC_RUNS, NL_MAX_T, NL_RUNS, STEP_LENGTH_M, CurvesStudy
+from ..deprecation import with_aliases
 from ..outputs import write_json, write_text
 from ..results import SectionSummary
 from . import plots
@@ -69,13 +70,13 @@ def report_curves(out, study: CurvesStudy, source=None) -> SectionSummary:
         "params_file": params.label,
         "step_length_m": STEP_LENGTH_M,
         "mc_runs": MC_RUNS,
-        "mc_seed": study.seed,
+        "seed": study.seed,
         "nonlinear_mc_runs": NL_RUNS,
         "cases": per_case,
         "field": {"note": field_note, "points_duration_s_error_m": field_pts},
         "field_aided": {"note": AIDED_NOTE, "section": "aided"},
     }
-    write_json(out / "result.json", result)
+    write_json(out / "result.json", with_aliases(result, {"mc_seed": "seed"}))
     banner_md = banner(source)
     cases = [cc.case for cc in study.cases]
     head = ["case", "t [s]", "3D sigma", "3D closed RMS", "3D MC RMS", "3D strapdown MC", "2D sigma", "2D closed RMS",

@@ -8,6 +8,7 @@ import numpy as np
 from ..evaluate import (
     INS_METHODS, DEVIATION_PP, TABLES, Cell, TablesStudy, rule_json,
 )
+from ..deprecation import with_aliases
 from ..fetch import dataset_identity
 from ..field import MORPI_METHODS
 from ..outputs import write_json, write_text
@@ -510,7 +511,7 @@ def result_json(study: TablesStudy, source=None) -> dict:
         "readings": list(result.readings),
         "ins_full_span": study.ins_full_span,
         "other_rule": study.other_rule,
-        "step_rule_nested": study.nested,
+        "step_rule_nested": _nested_json(study.nested),
         "rule_sensitivity": study.rule_sensitivity,
         "ins_leveled": study.ins_leveled,
         "claims": list(study.claims),
@@ -518,6 +519,19 @@ def result_json(study: TablesStudy, source=None) -> dict:
         "heading_readings": study.heading_readings,
         "turn_reading": study.turn_reading,
     }
+
+
+#: Keys of the nested check's folds renamed in 0.2 (old -> new); the old key follows the new one for one release.
+_FOLD_ALIASES = {"accel_floor": "accel_floor_mps2"}
+
+
+def _nested_json(nested):
+    """The nested train-only check as the JSON shows it: each fold's threshold keys with their units."""
+    if not isinstance(nested, dict) or not isinstance(nested.get("folds"), list):
+        return nested
+    folds = [with_aliases({_FOLD_ALIASES.get(k, k): v for k, v in f.items()}, _FOLD_ALIASES) if isinstance(f, dict)
+             else f for f in nested["folds"]]
+    return {**nested, "folds": folds}
 
 
 def _thresholds_json(result) -> dict | None:
