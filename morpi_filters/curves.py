@@ -156,8 +156,8 @@ def case_from_params(params, noise_spec=PARAMS_NOISE_SPEC) -> CurveCase:
     Examples
     --------
     >>> from morpi_filters.params import params_from_dict
-    >>> p = params_from_dict({"dv0_mps": [0.03, -0.04, 0.0], "ba_mps2": [0.0] * 3,
-    ...                       "bg_radps": [0.001, 0.002, 0.003], "g_mps2": 9.81, "dG": [-0.1]})
+    >>> p = params_from_dict({"dv0_mps": [0.03, -0.04, 0.0], "accel_bias_mps2": [0.0] * 3,
+    ...                       "gyro_bias_radps": [0.001, 0.002, 0.003], "g_mps2": 9.81, "dG": [-0.1]})
     >>> case = case_from_params(p)
     >>> case.name, case.dv0.tolist(), case.bg.tolist(), case.gain_sigma, case.noise is None
     ('params', [0.03, 0.04, 0.0], [0.001, 0.002, 0.0], 0.1, True)
@@ -209,8 +209,8 @@ def case_from_sensor(spec, params, title: str | None = None) -> CurveCase:
 
 
 def _keys(dv0, ba, bg, g):
-    return {"dv0_mps": [float(v) for v in dv0], "ba_mps2": [float(v) for v in ba],
-            "bg_radps": [float(v) for v in bg], "g_mps2": float(g)}
+    return {"dv0_mps": [float(v) for v in dv0], "accel_bias_mps2": [float(v) for v in ba],
+            "gyro_bias_radps": [float(v) for v in bg], "g_mps2": float(g)}
 
 
 def case_mean_square(case: CurveCase, t, kind):
@@ -249,7 +249,7 @@ def case_mean_square(case: CurveCase, t, kind):
     A velocity error of 1 sigma (0.03, 0.04) m/s grows as (0.05 t)^2:
 
     >>> from morpi_filters.params import params_from_dict
-    >>> p = params_from_dict({"dv0_mps": [0.03, 0.04, 0.0], "ba_mps2": [0.0] * 3, "bg_radps": [0.0] * 3,
+    >>> p = params_from_dict({"dv0_mps": [0.03, 0.04, 0.0], "accel_bias_mps2": [0.0] * 3, "gyro_bias_radps": [0.0] * 3,
     ...                       "g_mps2": 9.81, "dG": [0.1], "morpi_speed_mps": 0.5})
     >>> np.sqrt(case_mean_square(case_from_params(p), [0.0, 1.0, 2.0], "INS-3D")).round(12).tolist()
     [0.0, 0.05, 0.1]
@@ -636,7 +636,7 @@ def compute_curves(case: CurveCase, times=DEFAULT_TIMES, runs=MC_RUNS, rng=None,
     the closed form ``|s_dv| t``; the MoRPI steps bound the aided one:
 
     >>> from morpi_filters.params import params_from_dict
-    >>> p = params_from_dict({"dv0_mps": [0.03, 0.04, 0.0], "ba_mps2": [0.0] * 3, "bg_radps": [0.0] * 3,
+    >>> p = params_from_dict({"dv0_mps": [0.03, 0.04, 0.0], "accel_bias_mps2": [0.0] * 3, "gyro_bias_radps": [0.0] * 3,
     ...                       "g_mps2": 9.81, "dG": [0.1], "morpi_speed_mps": 0.5})
     >>> cc = compute_curves(case_from_params(p), times=[1.0, 2.0], runs=20, rng=np.random.default_rng(0))
     >>> at = cc.at_eval_times()

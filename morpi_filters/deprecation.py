@@ -10,7 +10,8 @@ every rename). A name replaced in a release stays usable until the next one:
 * a public attribute reads under its old name, with the same warning
   (:func:`renamed_attribute`);
 * a JSON object carries its old key beside the new one, with the same value
-  (:func:`with_aliases`).
+  (:func:`with_aliases`); a file the package reads takes an old key as the new
+  one, with the warning (:func:`renamed_keys`).
 """
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ import warnings
 
 from .errors import ParameterError
 
-__all__ = ["renamed_keywords", "renamed_attribute", "with_aliases"]
+__all__ = ["renamed_keywords", "renamed_attribute", "with_aliases", "renamed_keys"]
 
 
 def renamed_keywords(**old_to_new):
@@ -139,3 +140,45 @@ def with_aliases(obj: dict, aliases: dict) -> dict:
         if key in back:
             out[back[key]] = value
     return out
+
+
+def renamed_keys(obj: dict, aliases: dict, where: str) -> dict:
+    """A copy of input mapping `obj` with each old key of `aliases` (old -> new) read as its new key, with a warning.
+
+    Parameters
+    ----------
+    obj : dict
+        A mapping read from a file (a parameter file, a manifest table).
+    aliases : dict
+        Old key -> new key.
+    where : str
+        The file (or table) shown in the warning and the error.
+
+    Returns
+    -------
+    dict
+        The mapping with the old keys renamed in place (order kept); `obj` itself when it has none.
+
+    Raises
+    ------
+    ParameterError
+        When `obj` holds both the old and the new name of one key.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     renamed_keys({"bg_radps": [0.0] * 3, "g_mps2": 9.8}, {"bg_radps": "gyro_bias_radps"}, "p.json")
+    {'gyro_bias_radps': [0.0, 0.0, 0.0], 'g_mps2': 9.8}
+    >>> str(caught[0].message)
+    "p.json: the key 'bg_radps' is deprecated; use 'gyro_bias_radps'"
+    """
+    old_keys = [k for k in obj if k in aliases]
+    if not old_keys:
+        return obj
+    for old in old_keys:
+        if aliases[old] in obj:
+            raise ParameterError(f"{where}: both keys {old!r} and {aliases[old]!r} given; expected {aliases[old]!r} only")
+        warnings.warn(f"{where}: the key {old!r} is deprecated; use {aliases[old]!r}", DeprecationWarning, stacklevel=3)
+    return {aliases.get(k, k): v for k, v in obj.items()}

@@ -16,7 +16,7 @@ from morpi_filters.errors import MorpiError, ParameterError
 from morpi_filters.params import params_from_dict
 from morpi_filters.report.curves import report_curves
 
-PARAMS = {"dv0_mps": [0.06, 0.03, 0.02], "ba_mps2": [0.08, 0.03, 0.03], "bg_radps": [0.002, 0.003, 0.004],
+PARAMS = {"dv0_mps": [0.06, 0.03, 0.02], "accel_bias_mps2": [0.08, 0.03, 0.03], "gyro_bias_radps": [0.002, 0.003, 0.004],
           "g_mps2": 9.81, "dG": [0.05, 0.10], "morpi_speed_mps": 0.5}
 
 

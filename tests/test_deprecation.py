@@ -210,3 +210,28 @@ def test_the_tables_json_names_each_folds_accel_floor_with_its_unit_and_keeps_th
     for f, given in zip(out["folds"], folds):
         assert list(f) == ["file", "accel_floor_mps2", "accel_floor", "min_swing_deg"]
         assert f["accel_floor_mps2"] == f["accel_floor"] == given["accel_floor"]
+
+
+def test_a_parameter_file_with_the_old_bias_keys_reads_as_the_new_ones_with_a_warning(tmp_path):
+    import json
+
+    import numpy as np
+
+    from morpi_filters.params import load_params, params_from_dict
+
+    new = {"dv0_mps": [0.1, 0.2, 0.0], "accel_bias_mps2": [0.01, 0.02, 0.03], "gyro_bias_radps": [1e-3, 2e-3, 3e-3],
+           "g_mps2": 9.81}
+    old = {"dv0_mps": new["dv0_mps"], "ba_mps2": new["accel_bias_mps2"], "bg_radps": new["gyro_bias_radps"],
+           "g_mps2": 9.81}
+    path = tmp_path / "old.json"
+    path.write_text(json.dumps(old))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got = load_params(path)
+    messages = sorted(str(w.message) for w in caught if issubclass(w.category, DeprecationWarning))
+    assert len(messages) == 2 and "use 'accel_bias_mps2'" in messages[0] and "use 'gyro_bias_radps'" in messages[1]
+    assert str(path) in messages[0]
+    want = params_from_dict(new)
+    assert np.array_equal(got.ba, want.ba) and np.array_equal(got.bg, want.bg)
+    with pytest.raises(ParameterError, match="both keys 'bg_radps' and 'gyro_bias_radps'"):
+        params_from_dict(new | {"bg_radps": [0.0] * 3})

@@ -8,7 +8,7 @@ from morpi_filters import simulate, steps, symbolic, units
 
 
 def test_closed_form_errors_takes_the_documented_keys():
-    params = {"dv0_mps": [0.01] * 3, "ba_mps2": [0.02] * 3, "bg_radps": [1e-3] * 3, "g_mps2": 9.81}
+    params = {"dv0_mps": [0.01] * 3, "accel_bias_mps2": [0.02] * 3, "gyro_bias_radps": [1e-3] * 3, "g_mps2": 9.81}
     t = np.array([0.0, 1.0, 2.0])
     assert symbolic.closed_form_errors(params, t, "INS-3D").shape == (3,)
     assert symbolic.closed_form_errors(params, t, "INS-3D position").shape == (3, 3)

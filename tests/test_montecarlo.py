@@ -359,7 +359,7 @@ def test_drift_closed_form_over_runs_is_each_runs_own_evaluation():
     for kind in ("INS-3D", "INS-2D"):
         many = mcd._closed_form()[0](ba, bg, t, G0, kind)
         for r in range(4):
-            p = {"dv0_mps": [0.0] * 3, "ba_mps2": ba[r].tolist(), "bg_radps": bg[r].tolist(), "g_mps2": G0}
+            p = {"dv0_mps": [0.0] * 3, "accel_bias_mps2": ba[r].tolist(), "gyro_bias_radps": bg[r].tolist(), "g_mps2": G0}
             one = symbolic.closed_form_errors(p, t, kind + " position", "z_up", True)[:, :2]
             np.testing.assert_allclose(many[r], one, rtol=1e-14, atol=0)
 
