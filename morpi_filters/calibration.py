@@ -211,8 +211,8 @@ class StillBound:
         moving window while the robot stands [rad/s].
     accel : float
         The same for an accelerometer axis [m/s^2].
-    source : str
-        Where the bound comes from, for messages (an IMU and a factor, or
+    basis : str
+        What the bound rests on, for messages (an IMU and a factor, or
         ``"given"``).
 
     Raises
@@ -223,7 +223,7 @@ class StillBound:
 
     gyro: float
     accel: float
-    source: str = "given"
+    basis: str = "given"
 
     def __post_init__(self):
         for key in ("gyro", "accel"):
@@ -292,7 +292,7 @@ def still_bound(rec: Recording, bound: SensorSpec | StillBound | None = None, *,
     rate = rec.rate_hz
     return StillBound(gyro=factor * max(_nyquist_sigma(spec.gyro_noise, rate), _GYRO_SIGMA_MIN),
                       accel=factor * max(_nyquist_sigma(spec.accel_noise, rate), _ACCEL_SIGMA_MIN),
-                      source=f"{spec.name} noise x {factor:g}")
+                      basis=f"{spec.name} noise x {factor:g}")
 
 
 # ----------------------------------------------------------------------------- results
@@ -397,6 +397,8 @@ class Calibration:
         return replace(rec, time=rec.time.copy(), f=rec.f - self.accel_bias, omega=rec.omega - self.gyro_bias)
 
 
+StillBound.__init__ = renamed_keywords(source="basis")(StillBound.__init__)
+StillBound.source = renamed_attribute("StillBound", "source", "basis")
 Calibration.__init__ = renamed_keywords(mode="calibration")(Calibration.__init__)
 Calibration.mode = renamed_attribute("Calibration", "mode", "calibration")
 
@@ -777,7 +779,7 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
                               f"sample ({max(i1 - i0, 0)} samples at rest, expected at least {min_samples}); over "
                               f"its first {t[j - 1]:.2f} s the gyro spreads up to {s_g[:j].max():.3g} rad/s and the "
                               f"accelerometer up to {s_a[:j].max():.3g} m/s^2, where a still IMU stays within "
-                              f"{still.gyro:.3g} rad/s and {still.accel:.3g} m/s^2 ({still.source}); "
+                              f"{still.gyro:.3g} rad/s and {still.accel:.3g} m/s^2 ({still.basis}); "
                               f"cannot calibrate {name}")
         # no motion: the recording ends too soon after its first samples or after a disturbance
         after = f" after a movement at {t[before[-1][0]]:.2f}-{t[before[-1][1] - 1]:.2f} s" if before else ""

@@ -383,11 +383,11 @@ def _study(name, args, source=None, tables=None):
         from .curves import curves_study
         from .curves import MC_SEED
         return curves_study(params_path=getattr(args, "params", None), times=getattr(args, "times", None),
-                            source=source, tables=tables, seed=_own_seed(name, args, MC_SEED))
+                            data_source=source, tables=tables, seed=_own_seed(name, args, MC_SEED))
     if name == "montecarlo":
         from .montecarlo import gain_error_page
         return gain_error_page(runs=args.runs, seed=args.seed, chunk=getattr(args, "chunk", None),
-                               scheduler=getattr(args, "scheduler", None), source=source, tables=tables,
+                               scheduler=getattr(args, "scheduler", None), data_source=source, tables=tables,
                                duration=getattr(args, "duration", None), speed_mps=getattr(args, "speed", None))
     if name == "drift":
         from .montecarlo import DRIFT_SEED, drift_page

@@ -755,7 +755,8 @@ class CurvesStudy:
     synthetic: bool = False
 
 
-def curves_study(*, params_path=None, times=None, source=None, tables=None, seed: int = MC_SEED) -> CurvesStudy:
+@renamed_keywords(source="data_source")
+def curves_study(*, params_path=None, times=None, data_source=None, tables=None, seed: int = MC_SEED) -> CurvesStudy:
     """Compute the ``curves`` section (``morpi curves``, ``morpi report``).
 
     Runs :func:`compute_curves` with its default Monte Carlo sizes on three
@@ -768,10 +769,10 @@ def curves_study(*, params_path=None, times=None, source=None, tables=None, seed
         Parameter file (values read as 1 sigma); default the committed one.
     times : sequence of float, optional
         Evaluation times [s] (default :data:`DEFAULT_TIMES`, 0 to 15 s).
-    source : results.DataSource or None, optional
+    data_source : results.DataSource or None, optional
         Recordings for the field end points (none when None).
     tables : evaluate.TablesResult, optional
-        The field evaluation of ``source.root`` when already computed (its
+        The field evaluation of ``data_source.root`` when already computed (its
         cached recordings are reused).
     seed : int, optional
         Seed of the Monte Carlo draws, >= 0 (default :data:`MC_SEED`, the seed
@@ -792,8 +793,8 @@ def curves_study(*, params_path=None, times=None, source=None, tables=None, seed
     times = np.unique(np.asarray(DEFAULT_TIMES if not times else times, dtype=float))
     cases = [case_from_params(params)] + [case_from_sensor(s, params, PAPER_IMU_TITLES[s.name])
                                           for s in (units.MPU6500, units.LSM6DSL)]
-    field_pts, field_note = _field_points(source, tables.data if tables is not None else None)
+    field_pts, field_note = _field_points(data_source, tables.data if tables is not None else None)
     curves = tuple(replace(compute_curves(case, times, rng=np.random.default_rng(int(seed))), field=field_pts)
                    for case in cases)
     return CurvesStudy(params=params, times=times, cases=curves, field_points=field_pts, field_note=field_note,
-                       synthetic=bool(source is not None and source.synthetic), seed=int(seed))
+                       synthetic=bool(data_source is not None and data_source.synthetic), seed=int(seed))

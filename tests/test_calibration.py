@@ -327,7 +327,7 @@ def test_a_robot_driving_from_its_first_sample_has_no_rest(phone):
         assert "\n" not in msg and msg.startswith("driven.csv: no initial rest found: motion starts 0.000 s"), msg
         assert isinstance(ei.value, DataError) and ei.value.exit_code == 1
         b = still_bound(rec)
-        assert f"{b.gyro:.3g} rad/s" in msg and b.source in msg
+        assert f"{b.gyro:.3g} rad/s" in msg and b.basis in msg
         for mode in ("GC", "GAC"):
             with pytest.raises(NoRestError):
                 calibrate(rec, mode)

@@ -175,7 +175,7 @@ def test_synthetic_source_banner_and_empty_field(tmp_path):
     out.mkdir()
     (tmp_path / "empty").mkdir()                     # a dataset folder without recordings
     src = DataSource(tmp_path / "empty", synthetic=True, seed=0)
-    s = report_curves(out, curves_study(params_path=_write(tmp_path), times=[1.0], source=src), src)
+    s = report_curves(out, curves_study(params_path=_write(tmp_path), times=[1.0], data_source=src), src)
     text = (out / "README.md").read_text()
     assert text.startswith(SYNTHETIC_BANNER) and s.synthetic
     assert "no straight-line" in json.loads((out / "result.json").read_text())["field"]["note"]

@@ -235,3 +235,40 @@ def test_a_parameter_file_with_the_old_bias_keys_reads_as_the_new_ones_with_a_wa
     assert np.array_equal(got.ba, want.ba) and np.array_equal(got.bg, want.bg)
     with pytest.raises(ParameterError, match="both keys 'bg_radps' and 'gyro_bias_radps'"):
         params_from_dict(new | {"bg_radps": [0.0] * 3})
+
+
+def test_the_pages_take_their_old_source_keyword_with_a_warning(tmp_path):
+    from morpi_filters.report.common import banner
+    from morpi_filters.report.index import index_page
+    from morpi_filters.results import DataSource
+
+    src = DataSource(root=None, synthetic=True, seed=0)
+    for func, args in ((banner, ()), (index_page, ([],))):
+        old, new, caught = _old_keyword(func, "source", "data_source", *args, value=src)
+        assert old == new and "Synthetic" in new and len(caught) == 1
+
+
+@pytest.mark.parametrize("where, name", [
+    ("morpi_filters.curves", "curves_study"), ("morpi_filters.montecarlo", "gain_error_page"),
+    ("morpi_filters.report.aided", "report_aided"), ("morpi_filters.report.tables", "report_tables"),
+    ("morpi_filters.report.tables", "result_json"), ("morpi_filters.report.montecarlo", "report_montecarlo"),
+    ("morpi_filters.report.curves", "report_curves"),
+])
+def test_the_studies_and_pages_know_their_old_source_keyword(where, name):
+    """Each takes source= as data_source= (given both, it refuses before computing anything)."""
+    import importlib
+    import inspect
+
+    func = getattr(importlib.import_module(where), name)
+    assert "data_source" in inspect.signature(func).parameters
+    with pytest.raises(ParameterError, match="both source= and data_source="):
+        func(source=None, data_source=None)
+
+
+def test_a_still_bound_takes_and_reads_its_old_source_name_with_a_warning():
+    from morpi_filters.calibration import StillBound
+
+    old, new, caught = _old_keyword(StillBound, "source", "basis", gyro=0.01, accel=0.1, value="datasheet x 4")
+    assert old == new and new.basis == "datasheet x 4" and len(caught) == 1
+    with pytest.warns(DeprecationWarning, match="StillBound.basis"):
+        assert new.source == "datasheet x 4"

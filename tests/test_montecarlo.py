@@ -73,7 +73,7 @@ def test_field_gain_figures_below_their_precision_leave_the_study_unchanged(tmp_
     for scale in (1.0, 1 + 3e-11):
         monkeypatch.setattr(evaluate, "training_gain_spread",
                             lambda source, tables=None, k=scale: (figures[0] * k, figures[1] * k))
-        pages.append(mc.gain_error_page(runs=12, seed=5, source=DataSource(root)))
+        pages.append(mc.gain_error_page(runs=12, seed=5, data_source=DataSource(root)))
     a, b = pages
     assert (a.spread, a.mismatch) == (b.spread, b.mismatch) == figures
     assert np.array_equal(a.calibrated.final, b.calibrated.final, equal_nan=True)
@@ -421,6 +421,10 @@ def test_report_montecarlo_contract(tmp_path, monkeypatch):
                                                              for c in res["scenarios"]),
                                                calibration="GAC"))
     assert again.digest == res["digest"]
+    # the keys renamed in 0.2 are written beside the new ones for one release, with the same values
+    tr, cfg = res["training_runs"], res["config"]
+    assert tr["source"] == tr["spread_basis"] and tr["spread_basis"].startswith("assumed")
+    assert cfg["period_m"] == cfg["p2p_m"] == 1.0
     page = (tmp_path / "README.md").read_text()
     assert "ASSUMED" in page
     for f in s.figures:

@@ -7,6 +7,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..choice import choose
+from ..deprecation import renamed_keywords
 from ..results import round_significant
 from ..units import DEG_S, MPU6500, SensorSpec
 from .config import DRIFT_SEED, METHODS, GainError, StudyConfig, StudyResult
@@ -313,7 +314,8 @@ class GainErrorPage:
     synthetic: bool = False
 
 
-def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, source=None, tables=None,
+@renamed_keywords(source="data_source")
+def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, data_source=None, tables=None,
                     duration: float | None = None, speed_mps: float | None = None) -> GainErrorPage:
     """Compute the gain-error Monte Carlo section.
 
@@ -324,7 +326,7 @@ def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, source=
     gains (from the dataset when the field gain training is available,
     otherwise an assumed value, stated on the page). Then the gain-training
     study over k training runs. `tables` (an ``evaluate.TablesResult`` of
-    ``source.root``) gives the trained gains when already computed;
+    ``data_source.root``) gives the trained gains when already computed;
     `duration` and `speed_mps` shape the sine path as in :class:`StudyConfig`.
 
     Parameters
@@ -335,11 +337,11 @@ def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, source=
         Study seed, as in :func:`run_study`.
     chunk, scheduler
         As in :func:`run_study`.
-    source : results.DataSource, optional
+    data_source : results.DataSource, optional
         The dataset whose per-run training gains give the spread scenario
         (None: the assumed spread and mismatch).
     tables : evaluate.TablesResult, optional
-        Already computed tables of ``source.root``.
+        Already computed tables of ``data_source.root``.
     duration : float, optional
         Motion time [s].
     speed_mps : float, optional
@@ -364,7 +366,7 @@ def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, source=
     """
     seed = study_seed(seed)
     check_runs(runs, seed, chunk)
-    spread, mismatch, spread_note = _field_gain_spread(source, tables)
+    spread, mismatch, spread_note = _field_gain_spread(data_source, tables)
     assumed = spread is None
     if assumed:
         spread, mismatch = ASSUMED_SPREAD, ASSUMED_MISMATCH
@@ -382,7 +384,7 @@ def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, source=
     tr = training_summary(TRAINING_KS, tres, mismatch=mismatch, spread=spread)
     return GainErrorPage(runs=runs, seed=seed, calibrated=r, raw=rr, training=tr, checks=distance_law_check(r),
                          spread=spread, mismatch=mismatch, spread_note=spread_note, assumed=assumed,
-                         synthetic=bool(getattr(source, "synthetic", False)))
+                         synthetic=bool(getattr(data_source, "synthetic", False)))
 
 
 def _loglog_slope(x, y):

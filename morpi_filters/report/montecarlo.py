@@ -5,6 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..deprecation import renamed_keywords, with_aliases
 from ..montecarlo import DIGEST_BITS, Z99, DriftPage, GainErrorPage, study_config_json, final_statistics, summarize
 from ..outputs import write_json, write_text
 from ..results import SectionSummary
@@ -15,7 +16,8 @@ from .common import collector_paused, banner, fmt, md_table, save_figure
 __all__ = ["report_montecarlo", "report_drift"]
 
 
-def report_montecarlo(out, study: GainErrorPage, source=None) -> SectionSummary:
+@renamed_keywords(source="data_source")
+def report_montecarlo(out, study: GainErrorPage, data_source=None) -> SectionSummary:
     """Write the gain-error Monte Carlo section (README.md, result.json, PNGs) into folder `out`.
 
     Parameters
@@ -24,7 +26,7 @@ def report_montecarlo(out, study: GainErrorPage, source=None) -> SectionSummary:
         Staging folder of the section.
     study : montecarlo.GainErrorPage
         What :func:`morpi_filters.montecarlo.gain_error_page` computed.
-    source : results.DataSource or None
+    data_source : results.DataSource or None
         The dataset of the trained gains (for the synthetic-data banner).
 
     Returns
@@ -68,16 +70,17 @@ def report_montecarlo(out, study: GainErrorPage, source=None) -> SectionSummary:
                       for c in checks],
         "confidence": {"z": Z99, "bound": "mean +/- z * std / sqrt(runs)"},
         "raw_biases": {"digest": rr.digest, "config": study_config_json(raw), **final_statistics(rr)},
-        "training_runs": {"k": tr.k, "mismatch": tr.mismatch, "spread": tr.spread, "assumed": assumed,
-                          "source": spread_note if not assumed else f"assumed ({spread_note})",
-                          "rms_distance": {"MoRPI-A": tr.rms_distance[:, 0], "MoRPI-G": tr.rms_distance[:, 1]},
-                          "rms_expected": tr.rms_expected, "digests": list(tr.digests)},
+        "training_runs": with_aliases({
+            "k": tr.k, "mismatch": tr.mismatch, "spread": tr.spread, "assumed": assumed,
+            "spread_basis": spread_note if not assumed else f"assumed ({spread_note})",
+            "rms_distance": {"MoRPI-A": tr.rms_distance[:, 0], "MoRPI-G": tr.rms_distance[:, 1]},
+            "rms_expected": tr.rms_expected, "digests": list(tr.digests)}, {"source": "spread_basis"}),
         "backends": r.backends,
     }
     write_json(out / "result.json", result)
 
     synthetic = study.synthetic
-    lines = [banner(source) + "# Monte Carlo gain-error study\n"]
+    lines = [banner(data_source) + "# Monte Carlo gain-error study\n"]
     lines.append(
         f"{runs} seeded runs (seed {seed}) of {cal.spec.name} errors over {cal.duration:g} s at "
         f"{cal.rate_hz:g} Hz. The robot drives a sine path of {cal.length_m:g} m (simulate.sine: period "
