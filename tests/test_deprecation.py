@@ -99,7 +99,7 @@ def test_a_study_config_takes_and_reads_its_old_period_and_its_json_repeats_it()
     from morpi_filters import montecarlo as mc
     from morpi_filters.montecarlo.pages import study_config_json
 
-    got_old, got_new, caught = _old_keyword(mc.StudyConfig, "period_m", "p2p_m", value=1.5, duration=20.0)
+    got_old, got_new, caught = _old_keyword(mc.StudyConfig, "period_m", "p2p_m", value=1.5, duration_s=20.0)
     assert got_old == got_new and got_old.p2p_m == 1.5 and len(caught) == 1
     assert "StudyConfig: the keyword period_m=" in str(caught[0].message)
     with pytest.warns(DeprecationWarning, match="StudyConfig.p2p_m"):
@@ -272,3 +272,58 @@ def test_a_still_bound_takes_and_reads_its_old_source_name_with_a_warning():
     assert old == new and new.basis == "datasheet x 4" and len(caught) == 1
     with pytest.warns(DeprecationWarning, match="StillBound.basis"):
         assert new.source == "datasheet x 4"
+
+
+def test_the_old_cli_flags_are_hidden_aliases_of_the_new(capsys):
+    from pathlib import Path
+
+    from morpi_filters.cli import build_parser
+
+    p = build_parser()
+    old = p.parse_args(["montecarlo", "--duration", "20", "--speed", "0.5"])
+    new = p.parse_args(["montecarlo", "--duration-s", "20", "--speed-mps", "0.5"])
+    assert vars(old) == vars(new) and new.duration_s == 20.0 and new.speed_mps == 0.5
+    assert p.parse_args(["data", "fetch", "--dest", "d"]).out == p.parse_args(["data", "fetch", "--out", "d"]).out \
+        == Path("d")
+    for argv, shown, hidden in ((["montecarlo", "--help"], ("--duration-s", "--speed-mps"), ("--duration ", "--speed ")),
+                                (["data", "fetch", "--help"], ("--out",), ("--dest",))):
+        with pytest.raises(SystemExit):
+            p.parse_args(argv)
+        text = capsys.readouterr().out
+        assert all(s in text for s in shown) and not any(h in text for h in hidden), text
+
+
+def test_the_montecarlo_names_of_a_duration_and_a_calibration_window_take_their_old_names_with_a_warning():
+    from morpi_filters import montecarlo as mc
+
+    old, new, caught = _old_keyword(mc.StudyConfig, "duration", "duration_s", value=20.0)
+    assert old == new and new.motion()[2] == 20.0 and len(caught) == 1
+    old, new, caught = _old_keyword(mc.StudyConfig, "cal_seconds", "cal_window_s", value=4.0)
+    assert old == new and len(caught) == 1
+    with pytest.warns(DeprecationWarning, match="StudyConfig.duration_s"):
+        assert mc.StudyConfig(duration_s=20.0).duration == 20.0
+    with pytest.warns(DeprecationWarning, match="StudyConfig.cal_window_s"):
+        assert new.cal_seconds == 4.0
+    old, new, caught = _old_keyword(mc.page_cost, "duration", "duration_s", 100, value=60.0)
+    assert old == new and new.duration_s == 60.0 and len(caught) == 1
+    with pytest.warns(DeprecationWarning, match="PageCost.duration_s"):
+        assert new.duration == 60.0
+    from morpi_filters.montecarlo.engine import sample_count
+
+    old, new, caught = _old_keyword(sample_count, "duration", "duration_s", rate_hz=100.0, value=2.0)
+    assert old == new == 201 and len(caught) == 1
+    with pytest.raises(ParameterError, match="both duration= and duration_s="):
+        mc.gain_error_page(runs=1, seed=0, duration=20.0, duration_s=20.0)
+    with pytest.raises(ParameterError, match="both duration= and duration_s="):
+        mc.drift_map(duration=2.0, duration_s=2.0)
+    from morpi_filters.montecarlo.pages import study_config_json
+
+    out = study_config_json(mc.StudyConfig(cal_window_s=4.0))
+    assert out["cal_seconds"] == out["cal_window_s"] == 4.0
+
+
+def test_fetch_takes_its_old_destination_keyword():
+    from morpi_filters.fetch import fetch_dataset
+
+    with pytest.raises(ParameterError, match="both dest= and out="):
+        fetch_dataset(dest="a", out="a")

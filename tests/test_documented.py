@@ -158,7 +158,7 @@ def test_array_returns_have_the_documented_shapes():
                            (eskf.initial_covariance, (0.1, 0.01, 0.001), (15, 15))):
         assert tuple(int(d) for d in _shape(fn)[-2:]) == want
         assert fn(*args).shape == want
-    assert "(length_m, speed_mps, duration)" in (mc.StudyConfig.motion.__doc__ or "")
+    assert "(length_m, speed_mps, duration_s)" in (mc.StudyConfig.motion.__doc__ or "")
     assert len(mc.StudyConfig().motion()) == 3
     lo, hi = eskf.chi2_band(2, 100)
     assert "(lo, hi)" in _returns(eskf.chi2_band) and lo < 2 < hi

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _batch_ins as bi
+from ..deprecation import renamed_keywords
 from ..errors import ParameterError
 from ..parallel import Progress, chunk_ranges, execute
 from ..steps import weinberg_length
@@ -36,12 +37,13 @@ def _time_grid(cfg: StudyConfig) -> np.ndarray:
     return np.arange(n) / cfg.rate_hz
 
 
-def sample_count(duration: float, rate_hz: float) -> int:
-    """Samples of a run from t = 0 until the first sample at or after `duration`.
+@renamed_keywords(duration="duration_s")
+def sample_count(duration_s: float, rate_hz: float) -> int:
+    """Samples of a run from t = 0 until the first sample at or after `duration_s`.
 
     Parameters
     ----------
-    duration : float
+    duration_s : float
         The run's length [s].
     rate_hz : float
         The sample rate [Hz].
@@ -49,9 +51,9 @@ def sample_count(duration: float, rate_hz: float) -> int:
     Returns
     -------
     int
-        ``ceil(duration * rate_hz) + 1`` (a product within 1e-9 of a whole number counts as it).
+        ``ceil(duration_s * rate_hz) + 1`` (a product within 1e-9 of a whole number counts as it).
     """
-    return int(math.ceil(duration * rate_hz - 1e-9)) + 1
+    return int(math.ceil(duration_s * rate_hz - 1e-9)) + 1
 
 
 def _as_path(traj, t: np.ndarray, peaks: np.ndarray) -> _Path:
@@ -653,8 +655,8 @@ def check_runs(runs, seed, chunk) -> None:
 
 #: StudyConfig fields that fix the draws and the paths: the studies of one
 #: :func:`run_studies` call must agree on them.
-_SHARED_FIELDS = ("spec", "duration", "rate_hz", "length_m", "speed_mps", "p2p_m", "amplitude_m", "ins_path",
-                  "keep_every", "training_runs", "cal_seconds")
+_SHARED_FIELDS = ("spec", "duration_s", "rate_hz", "length_m", "speed_mps", "p2p_m", "amplitude_m", "ins_path",
+                  "keep_every", "training_runs", "cal_window_s")
 
 
 def run_study(runs: int, seed: int, config: StudyConfig | None = None, *, chunk: int | None = None,

@@ -7,7 +7,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..choice import choose
-from ..deprecation import renamed_keywords
+from ..deprecation import renamed_attribute, renamed_keywords
 from ..results import round_significant
 from ..units import DEG_S, MPU6500, SensorSpec
 from .config import DRIFT_SEED, METHODS, GainError, StudyConfig, StudyResult
@@ -146,13 +146,14 @@ def study_config_json(cfg: StudyConfig) -> dict:
     -------
     dict
         JSON values; sigmas in SI units (noise as the per-sample sigma at the study's rate). ``period_m``
-        repeats ``p2p_m``, its name before 0.2, for one release.
+        repeats ``p2p_m`` and ``cal_seconds`` ``cal_window_s``, their names before 0.2, for one
+        release.
     """
     sa, sg = cfg.bias_sigmas()
     length, speed, duration = cfg.motion()
     return {"sensor": cfg.spec.name, "duration_s": duration, "rate_hz": cfg.rate_hz, "length_m": length,
             "speed_mps": speed, "ins_path": cfg.ins_path, "p2p_m": cfg.p2p_m, "period_m": cfg.p2p_m, "amplitude_m": cfg.amplitude_m, "calibration": cfg.calibration,
-            "cal_seconds": cfg.cal_seconds, "accel_bias_sigma_mps2": sa, "gyro_bias_sigma_radps": sg,
+            "cal_window_s": cfg.cal_window_s, "cal_seconds": cfg.cal_window_s, "accel_bias_sigma_mps2": sa, "gyro_bias_sigma_radps": sg,
             "accel_noise_sigma_mps2": cfg.spec.accel_noise * math.sqrt(cfg.rate_hz),
             "gyro_noise_sigma_radps": cfg.spec.gyro_noise * math.sqrt(cfg.rate_hz),
             "gains": [{"label": g.label, "mean": g.mean, "std": g.std} for g in cfg.gains]}
@@ -199,7 +200,7 @@ class PageCost:
     ----------
     runs : int
         Monte Carlo runs.
-    duration : float
+    duration_s : float
         Time of one run [s].
     samples : int
         Samples of one run.
@@ -212,14 +213,19 @@ class PageCost:
     """
 
     runs: int
-    duration: float
+    duration_s: float
     samples: int
     steps: int
     seconds: float
     bytes: float
 
 
-def page_cost(runs: int, *, duration: float | None = None, speed_mps: float | None = None, chunk: int | None = None,
+PageCost.__init__ = renamed_keywords(duration="duration_s")(PageCost.__init__)
+PageCost.duration = renamed_attribute("PageCost", "duration", "duration_s")
+
+
+@renamed_keywords(duration="duration_s")
+def page_cost(runs: int, *, duration_s: float | None = None, speed_mps: float | None = None, chunk: int | None = None,
               field: bool = False) -> PageCost:
     """Estimate the time and memory of ``morpi montecarlo`` before running it.
 
@@ -233,7 +239,7 @@ def page_cost(runs: int, *, duration: float | None = None, speed_mps: float | No
     ----------
     runs : int
         Monte Carlo runs (>= 1).
-    duration, speed_mps : float, optional
+    duration_s, speed_mps : float, optional
         The path's shape, as in :func:`gain_error_page`.
     chunk : int, optional
         Runs per batch (default: as many as fit a 32 MiB noise block); a larger one takes more memory.
@@ -253,12 +259,12 @@ def page_cost(runs: int, *, duration: float | None = None, speed_mps: float | No
     --------
     The cost grows with the runs and, faster than linearly, with their duration:
 
-    >>> short, long = page_cost(100_000), page_cost(100_000, duration=60.0)
+    >>> short, long = page_cost(100_000), page_cost(100_000, duration_s=60.0)
     >>> short.samples, long.samples, bool(long.seconds > 4 * short.seconds > 0)
     (1501, 6001, True)
     """
     check_runs(runs, 0, chunk)
-    cfg = StudyConfig(duration=duration, speed_mps=speed_mps)
+    cfg = StudyConfig(duration_s=duration_s, speed_mps=speed_mps)
     cfg.validate()
     length, _, T = cfg.motion()
     n = sample_count(T, cfg.rate_hz)
@@ -272,7 +278,7 @@ def page_cost(runs: int, *, duration: float | None = None, speed_mps: float | No
         nbytes += (min(chunk, runs) - default) * n * CHUNK_SAMPLE_BYTES
     if field:
         seconds, nbytes = seconds + FIELD_SECONDS, nbytes + FIELD_BYTES
-    return PageCost(runs=int(runs), duration=T, samples=n, steps=k, seconds=seconds, bytes=nbytes)
+    return PageCost(runs=int(runs), duration_s=T, samples=n, steps=k, seconds=seconds, bytes=nbytes)
 
 
 @dataclass(frozen=True)
@@ -314,9 +320,9 @@ class GainErrorPage:
     synthetic: bool = False
 
 
-@renamed_keywords(source="data_source")
+@renamed_keywords(source="data_source", duration="duration_s")
 def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, data_source=None, tables=None,
-                    duration: float | None = None, speed_mps: float | None = None) -> GainErrorPage:
+                    duration_s: float | None = None, speed_mps: float | None = None) -> GainErrorPage:
     """Compute the gain-error Monte Carlo section.
 
     Two studies with the same seed: the primary one after a zero-order
@@ -327,7 +333,7 @@ def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, data_so
     otherwise an assumed value, stated on the page). Then the gain-training
     study over k training runs. `tables` (an ``evaluate.TablesResult`` of
     ``data_source.root``) gives the trained gains when already computed;
-    `duration` and `speed_mps` shape the sine path as in :class:`StudyConfig`.
+    `duration_s` and `speed_mps` shape the sine path as in :class:`StudyConfig`.
 
     Parameters
     ----------
@@ -342,7 +348,7 @@ def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, data_so
         (None: the assumed spread and mismatch).
     tables : evaluate.TablesResult, optional
         Already computed tables of ``data_source.root``.
-    duration : float, optional
+    duration_s : float, optional
         Motion time [s].
     speed_mps : float, optional
         Cruise speed [m/s].
@@ -372,7 +378,7 @@ def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, data_so
         spread, mismatch = ASSUMED_SPREAD, ASSUMED_MISMATCH
     gains = (GainError("dG = 5 %", 0.05), GainError("dG = 10 %", 0.10),
              GainError("training spread", mismatch, spread))
-    cal = StudyConfig(gains=gains, calibration="GAC", duration=duration, speed_mps=speed_mps)
+    cal = StudyConfig(gains=gains, calibration="GAC", duration_s=duration_s, speed_mps=speed_mps)
     cal.validate()
     raw = replace(cal, calibration="RD")
     # one pass over the random numbers: every study of the page is a set of columns of the same draws

@@ -16,7 +16,7 @@ __all__ = ["SYNTHETIC_BANNER", "banner", "fmt", "md_table", "save_figure", "coll
 SYNTHETIC_BANNER = (
     "> **Synthetic data.** No field dataset was configured, so this page was computed on a seeded "
     "synthetic dataset made by `morpi simulate` with the paper's two IMU specifications. "
-    "To run it on the MoRPI field recordings: `morpi data fetch --dest DIR` (or clone the public "
+    "To run it on the MoRPI field recordings: `morpi data fetch --out DIR` (or clone the public "
     "repository ansfl/MoRPI), then `morpi report --data DIR/data` or set `MORPI_DATA`."
 )
 

@@ -45,7 +45,7 @@ def report_montecarlo(out, study: GainErrorPage, data_source=None) -> SectionSum
     figs = []
     with collector_paused():
         figs.append(save_figure(plots.montecarlo_final_errors(
-            r.columns, r.final, title=f"{cal.spec.name}, {cal.duration:g} s, {runs} runs, GAC-calibrated biases"),
+            r.columns, r.final, title=f"{cal.spec.name}, {cal.duration_s:g} s, {runs} runs, GAC-calibrated biases"),
             out / "final_errors.png").name)
         figs.append(save_figure(plots.montecarlo_error_curves(
             r.time, r.bands, ["INS-3D", "INS-2D", "MoRPI-A (dG 5 %)", "MoRPI-G (dG 5 %)"],
@@ -82,7 +82,7 @@ def report_montecarlo(out, study: GainErrorPage, data_source=None) -> SectionSum
     synthetic = study.synthetic
     lines = [banner(data_source) + "# Monte Carlo gain-error study\n"]
     lines.append(
-        f"{runs} seeded runs (seed {seed}) of {cal.spec.name} errors over {cal.duration:g} s at "
+        f"{runs} seeded runs (seed {seed}) of {cal.spec.name} errors over {cal.duration_s:g} s at "
         f"{cal.rate_hz:g} Hz. The robot drives a sine path of {cal.length_m:g} m (simulate.sine: period "
         f"{cal.p2p_m:g} m, amplitude {cal.amplitude_m:g} m, tapered over the first and last period; "
         f"1 s ramps from and to rest, cruise at {cal.speed_mps:.3g} m/s). "
@@ -97,7 +97,7 @@ def report_montecarlo(out, study: GainErrorPage, data_source=None) -> SectionSum
     lines.append(
         f"Biases: *raw* uses the datasheet turn-on biases ({cal.spec.accel_bias:.3g} m/s^2, "
         f"{cal.spec.gyro_bias:.3g} rad/s, 1 sigma per axis); *GAC-calibrated* assumes the paper's zero-order "
-        f"gyro and accelerometer calibration on {cal.cal_seconds:g} s of rest, which leaves the mean of the white "
+        f"gyro and accelerometer calibration on {cal.cal_window_s:g} s of rest, which leaves the mean of the white "
         f"noise over that window ({ca:.3g} m/s^2, {cg:.3g} rad/s). The MoRPI position starts at the first f_y "
         "peak (known there) and moves at each later peak; its heading is the true heading plus the integrated "
         "gyro-z error.\n")
@@ -142,7 +142,7 @@ def report_montecarlo(out, study: GainErrorPage, data_source=None) -> SectionSum
     write_text(out / "README.md", "\n".join(lines))
 
     st = final_statistics(r)
-    summary = (f"{runs} runs, {cal.spec.name}, {cal.duration:g} s (GAC-calibrated): mean final error INS-3D "
+    summary = (f"{runs} runs, {cal.spec.name}, {cal.duration_s:g} s (GAC-calibrated): mean final error INS-3D "
                f"{fmt(st['INS-3D']['mean'])} m, INS-2D {fmt(st['INS-2D']['mean'])} m, MoRPI-A (dG 5 %) "
                f"{fmt(st['MoRPI-A']['mean'])} m, MoRPI-G {fmt(st['MoRPI-G']['mean'])} m. "
                f"MoRPI distance error vs ds = dG D: "
