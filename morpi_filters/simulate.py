@@ -470,14 +470,14 @@ def _build(kind, path: _Path, *, speed, ramp, rest, rate_hz, t0, g, period=None,
                       peak_times=peak_t, peak_side=side, period_times=bounds, _model=(path, law, g))
 
 
-@renamed_keywords(speed="speed_mps")
-def straight(length: float = 6.3, *, speed_mps: float = _SPEED["straight"], ramp: float = 1.0, rest=3.0,
+@renamed_keywords(length="length_m", speed="speed_mps")
+def straight(length_m: float = 6.3, *, speed_mps: float = _SPEED["straight"], ramp: float = 1.0, rest=3.0,
              rate_hz: float = 100.0, t0: float = 0.0, g: float = units.G0) -> Trajectory:
     """Straight line along x, from rest to rest.
 
     Parameters
     ----------
-    length : float
+    length_m : float
         Distance [m].
     speed_mps : float
         Cruise speed [m/s] (default: 6.3 m in about 5 s, the paper's average).
@@ -511,7 +511,7 @@ def straight(length: float = 6.3, *, speed_mps: float = _SPEED["straight"], ramp
     >>> round(traj.start_time, 9)                                # after the 3 s rest
     3.0
     """
-    length = _positive("length", length)
+    length = _positive("length_m", length_m)
     return _build("straight", _Path((length, 0.0), 0.0, 1.0, 0.0, 0.0, None, None, None),
                   speed=speed_mps, ramp=ramp, rest=rest, rate_hz=rate_hz, t0=t0, g=g)
 
@@ -529,15 +529,15 @@ def _check_sine(period, amplitude, taper, length):
     return period, amplitude, taper
 
 
-@renamed_keywords(period="p2p_m", amplitude="amplitude_m", speed="speed_mps")
-def sine(length: float = 6.3, *, p2p_m: float = 1.0, amplitude_m: float = 0.1, speed_mps: float | None = None,
+@renamed_keywords(length="length_m", period="p2p_m", amplitude="amplitude_m", speed="speed_mps")
+def sine(length_m: float = 6.3, *, p2p_m: float = 1.0, amplitude_m: float = 0.1, speed_mps: float | None = None,
          ramp: float = 1.0, rest=3.0, taper: float | None = None, rate_hz: float = 100.0, t0: float = 0.0,
          g: float = units.G0) -> Trajectory:
     """Periodic (sine) motion along x: ``y = A W(x) sin(2 pi x / P)``, from rest to rest.
 
     Parameters
     ----------
-    length : float
+    length_m : float
         Distance along x (start to end point) [m].
     p2p_m : float
         Peak-to-peak distance (period length) P [m]; the paper uses 1 m and 1.5 m.
@@ -574,16 +574,16 @@ def sine(length: float = 6.3, *, p2p_m: float = 1.0, amplitude_m: float = 0.1, s
     >>> traj.peak_times.size, traj.peak_side[:2].tolist()    # at x = 0.25, 0.75, ..., 6.25 m; left first
     (13, [1.0, -1.0])
     """
-    length = _positive("length", length)
+    length = _positive("length_m", length_m)
     period, amplitude, taper = _check_sine(p2p_m, amplitude_m, taper, length)
     speed = paper_speed(period) if speed_mps is None else speed_mps
     return _build("sine", _Path((length, 0.0), 0.0, 1.0, 0.0, 0.0, period, amplitude, taper),
                   speed=speed, ramp=ramp, rest=rest, rate_hz=rate_hz, t0=t0, g=g, period=period, amplitude=amplitude)
 
 
-@renamed_keywords(period="p2p_m", amplitude="amplitude_m", speed="speed_mps")
+@renamed_keywords(slope_length="slope_length_m", period="p2p_m", amplitude="amplitude_m", speed="speed_mps")
 def l_route(legs=(18.0, 10.0), *, turn_deg: float = 90.0, turn_radius: float = 1.0, slope_deg: float = 0.0,
-            slope_length: float = 5.0, p2p_m: float | None = None, amplitude_m: float | None = None,
+            slope_length_m: float = 5.0, p2p_m: float | None = None, amplitude_m: float | None = None,
             speed_mps: float = L_ROUTE_SPEED, ramp: float = 1.0, rest=3.0, taper: float | None = None,
             rate_hz: float = 100.0, t0: float = 0.0, g: float = units.G0) -> Trajectory:
     """L-shaped route: a leg along x, a smooth turn, a second leg; optional slope and sine.
@@ -602,7 +602,7 @@ def l_route(legs=(18.0, 10.0), *, turn_deg: float = 90.0, turn_radius: float = 1
         and out over a third of the turn's arc length each side.
     slope_deg : float
         Downhill slope at the start [deg] (the field L route: 15 deg over 5 m).
-    slope_length : float
+    slope_length_m : float
         Horizontal length of the slope [m]; it eases into level ground over 1 m.
     p2p_m, amplitude_m : float, optional
         Periodic motion on top of the centreline (both or neither).
@@ -613,7 +613,7 @@ def l_route(legs=(18.0, 10.0), *, turn_deg: float = 90.0, turn_radius: float = 1
     -------
     Trajectory
         ``kind`` ``"l_route"``, ending at ``(legs[0], legs[1])`` rotated by
-        the turn, and lower by ``slope_length tan(slope_deg)`` (approached
+        the turn, and lower by ``slope_length_m tan(slope_deg)`` (approached
         through the 1 m easing) when there is a slope.
 
     Raises
@@ -646,9 +646,9 @@ def l_route(legs=(18.0, 10.0), *, turn_deg: float = 90.0, turn_radius: float = 1
     slope_deg = float(slope_deg)
     if not (0 <= abs(slope_deg) < 45):
         raise ParameterError(f"slope_deg: expected a downhill slope of 0 to 45 deg, got {slope_deg!r}")
-    slope_length = _positive("slope_length", slope_length, allow_zero=slope_deg == 0)
+    slope_length = _positive("slope_length_m", slope_length_m, allow_zero=slope_deg == 0)
     if slope_deg and slope_length < 0.5:
-        raise ParameterError(f"slope_length: expected at least 0.5 m (the slope eases out over 1 m), "
+        raise ParameterError(f"slope_length_m: expected at least 0.5 m (the slope eases out over 1 m), "
                              f"got {slope_length!r}")
     period, amplitude = p2p_m, amplitude_m
     if (period is None) != (amplitude is None):
@@ -663,7 +663,7 @@ def l_route(legs=(18.0, 10.0), *, turn_deg: float = 90.0, turn_radius: float = 1
     if a1 <= 0 or a2 <= 0:
         raise ParameterError(f"turn_radius: {turn_radius!r} m does not fit legs {legs!r}; expected a smaller radius")
     if slope_deg and slope_length + 0.5 > a1:
-        raise ParameterError(f"slope_length: {slope_length!r} m does not fit in the first leg ({a1:.3g} m straight)")
+        raise ParameterError(f"slope_length_m: {slope_length!r} m does not fit in the first leg ({a1:.3g} m straight)")
     if period is not None:
         period, amplitude, taper = _check_sine(period, amplitude, taper, legs[0] + legs[1])
         if amplitude >= 0.5 * turn_radius:
@@ -713,7 +713,7 @@ def route_trajectory(name: str, *, speed_mps: float | None = None, p2p_m: float 
     period = r.p2p_m if p2p_m is None else p2p_m
     amplitude = r.amplitude_m if amplitude_m is None else amplitude_m
     if len(r.segments_m) == 2:
-        kw = dict(kwargs, turn_deg=r.turn_deg, slope_deg=r.slope_deg, slope_length=r.slope_length_m or 5.0)
+        kw = dict(kwargs, turn_deg=r.turn_deg, slope_deg=r.slope_deg, slope_length_m=r.slope_length_m or 5.0)
         if speed_mps is not None:
             kw["speed_mps"] = speed_mps
         if r.kind == "periodic":

@@ -59,6 +59,8 @@ def _same_trajectory(a, b):
 
 @pytest.mark.parametrize("func, args, old, new, value", [
     ("straight", (6.3,), "speed", "speed_mps", 1.2),
+    ("straight", (), "length", "length_m", 5.0),
+    ("sine", (), "length", "length_m", 5.0),
     ("sine", (6.3,), "speed", "speed_mps", 0.5),
     ("sine", (6.3,), "period", "p2p_m", 1.5),
     ("sine", (6.3,), "amplitude", "amplitude_m", 0.15),
@@ -81,6 +83,9 @@ def test_l_route_takes_its_old_sine_keywords_and_paper_speed_its_old_period():
     with pytest.warns(DeprecationWarning, match="use p2p_m="):
         old = simulate.l_route(period=1.0, amplitude_m=0.1, rate_hz=50.0)
     assert _same_trajectory(old, simulate.l_route(p2p_m=1.0, amplitude_m=0.1, rate_hz=50.0))
+    old, new, caught = _old_keyword(simulate.l_route, "slope_length", "slope_length_m", slope_deg=10.0, rate_hz=50.0,
+                                    value=4.0)
+    assert _same_trajectory(old, new) and len(caught) == 1
     got_old, got_new, caught = _old_keyword(simulate.paper_speed, "period", "p2p_m", value=1.5)
     assert got_old == got_new == simulate.paper_speed(1.5) and len(caught) == 1
 

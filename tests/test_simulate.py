@@ -346,7 +346,7 @@ def test_cli_simulate_end_to_end(tmp_path):
 
 @pytest.mark.parametrize("call, word", [
     (lambda: simulate.straight(6.3, speed_mps=-1.0), "speed_mps"),
-    (lambda: simulate.straight(-2.0), "length"),
+    (lambda: simulate.straight(-2.0), "length_m"),
     (lambda: simulate.straight(6.3, speed_mps=10.0), "speed_mps"),
     (lambda: simulate.sine(6.3, p2p_m=0.0), "p2p_m"),
     (lambda: simulate.sine(6.3, p2p_m=1.0, amplitude_m=0.5), "amplitude_m"),
@@ -359,7 +359,7 @@ def test_cli_simulate_end_to_end(tmp_path):
     (lambda: simulate.l_route((18.0, 10.0), turn_radius=30.0), "turn_radius"),
     (lambda: simulate.l_route((18.0,)), "legs"),
     (lambda: simulate.l_route((18.0, 10.0), p2p_m=1.0), "p2p_m, amplitude_m"),
-    (lambda: simulate.l_route((18.0, 10.0), slope_deg=15, slope_length=17.0), "slope_length"),
+    (lambda: simulate.l_route((18.0, 10.0), slope_deg=15, slope_length_m=17.0), "slope_length_m"),
     (lambda: simulate.l_route((18.0, 10.0), p2p_m=1.0, amplitude_m=0.6), "amplitude_m"),
     (lambda: simulate.imu(simulate.straight(), units.MPU6500, np.random.default_rng(0), runs=0), "runs"),
     (lambda: simulate.imu(simulate.straight(), units.MPU6500, np.random.default_rng(0), sampling="s7"), "sampling"),
