@@ -277,7 +277,7 @@ def still_bound(rec: Recording, bound: SensorSpec | StillBound | None = None, *,
     >>> from morpi_filters.units import LSM6DSL
     >>> rec = Recording(time=np.arange(300) * 0.01, f=np.zeros((300, 3)), omega=np.zeros((300, 3)), imu=LSM6DSL)
     >>> b = still_bound(rec)
-    >>> round(b.gyro, 5), round(b.accel, 4), b.source
+    >>> round(b.gyro, 5), round(b.accel, 4), b.basis
     (0.00494, 0.0901, 'LSM6DSL noise x 10')
     """
     if isinstance(bound, StillBound):
