@@ -178,7 +178,8 @@ def renamed_keys(obj: dict, aliases: dict, where: str) -> dict:
     if not old_keys:
         return obj
     for old in old_keys:
-        if aliases[old] in obj:
-            raise ParameterError(f"{where}: both keys {old!r} and {aliases[old]!r} given; expected {aliases[old]!r} only")
-        warnings.warn(f"{where}: the key {old!r} is deprecated; use {aliases[old]!r}", DeprecationWarning, stacklevel=3)
+        new = aliases[old]
+        if new in obj:
+            raise ParameterError(f"{where}: both keys {old!r} and {new!r} given; expected {new!r} only")
+        warnings.warn(f"{where}: the key {old!r} is deprecated; use {new!r}", DeprecationWarning, stacklevel=3)
     return {aliases.get(k, k): v for k, v in obj.items()}
