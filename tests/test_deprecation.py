@@ -280,11 +280,19 @@ def test_a_still_bound_takes_and_reads_its_old_source_name_with_a_warning():
 
 
 def test_the_old_cli_flags_are_hidden_aliases_of_the_new(capsys):
+    import argparse
     from pathlib import Path
 
     from morpi_filters.cli import build_parser
 
     p = build_parser()
+    # each old flag is an option of its own (not only a prefix argparse completes), writing the new one's value
+    sub = {a.dest: a for a in p._actions if a.dest == "command"}["command"].choices
+    fetch = {a.dest: a for a in sub["data"]._actions if a.dest == "data_command"}["data_command"].choices["fetch"]
+    for parser, old_flag, dest in ((sub["montecarlo"], "--duration", "duration_s"),
+                                   (sub["montecarlo"], "--speed", "speed_mps"), (fetch, "--dest", "out")):
+        action = parser._option_string_actions.get(old_flag)
+        assert action is not None and action.dest == dest and action.help == argparse.SUPPRESS, old_flag
     old = p.parse_args(["montecarlo", "--duration", "20", "--speed", "0.5"])
     new = p.parse_args(["montecarlo", "--duration-s", "20", "--speed-mps", "0.5"])
     assert vars(old) == vars(new) and new.duration_s == 20.0 and new.speed_mps == 0.5
