@@ -20,7 +20,7 @@ PKG = Path(__file__).resolve().parents[1] / "morpi_filters"
 #: modules of its own layer or of lower layers, never of a higher one. Every
 #: module of ``report/`` is in the pages layer.
 LAYERS = (
-    ("foundation", {"errors", "units", "choice", "resources", "results", "outputs", "parallel", "_jit"}),
+    ("foundation", {"errors", "deprecation", "units", "choice", "resources", "results", "outputs", "parallel", "_jit"}),
     ("inputs", {"params", "dataset", "manifest", "fetch"}),
     ("calibration", {"calibration", "_calibration_loops"}),
     ("navigation", {"strapdown", "_strapdown_loops", "steps", "symbolic", "error_model", "eskf", "aided",

@@ -409,7 +409,7 @@ REQUIRED = {("simulate",): ["--out", "unused"]}
 def test_the_number_options_are_found():
     # the enumeration below reads the parser: every subcommand with a number option is in it
     options = {(w, o) for w, o, _ in NUMERIC}
-    assert {(("montecarlo",), "--runs"), (("montecarlo",), "--duration"), (("assess",), "--times"),
+    assert {(("montecarlo",), "--runs"), (("montecarlo",), "--duration-s"), (("assess",), "--times"),
             (("curves",), "--times"), (("simulate",), "--seed"), (("aided",), "--workers"),
             (("report",), "--runs"), (("curves",), "--seed"), (("drift",), "--seed")} <= options
     # and the text options are not numbers
@@ -471,19 +471,19 @@ def test_a_montecarlo_run_beyond_the_budget_is_refused_with_its_estimate(no_sect
     from morpi_filters.montecarlo import page_cost
 
     # a million runs of the default 15 s fit the budget; of 600 s, they do not: the duration counts
-    assert page_cost(1_000_000).seconds < cli.MC_BUDGET_SECONDS < page_cost(1_000_000, duration=600.0).seconds
-    assert cli.main(["montecarlo", "--runs", "1000000", "--duration", "600"]) == 2
+    assert page_cost(1_000_000).seconds < cli.MC_BUDGET_SECONDS < page_cost(1_000_000, duration_s=600.0).seconds
+    assert cli.main(["montecarlo", "--runs", "1000000", "--duration-s", "600"]) == 2
     out, err = capsys.readouterr()
     assert no_sections == [] and out == ""
     assert err.count("\n") == 1 and "--allow-long" in err and "1000000 runs of 600 s" in err, err
-    hours = page_cost(1_000_000, duration=600.0).seconds / 3600
+    hours = page_cost(1_000_000, duration_s=600.0).seconds / 3600
     assert f"about {hours:.2g} h" in err and "GB" in err, err
 
 
 def test_allow_long_runs_it_and_states_the_estimate_first(no_sections, capsys):
     from morpi_filters import cli
 
-    assert cli.main(["montecarlo", "--runs", "1000000", "--duration", "600", "--allow-long"]) == 0
+    assert cli.main(["montecarlo", "--runs", "1000000", "--duration-s", "600", "--allow-long"]) == 0
     out = capsys.readouterr().out
     assert no_sections == ["montecarlo"] and "1000000 runs of 600 s, estimated at about" in out
 
@@ -500,7 +500,7 @@ def test_a_long_run_within_the_budget_states_its_estimate_and_a_short_one_does_n
 
 
 @pytest.mark.parametrize("argv, words", [
-    (["--speed", "0.01"], ("--speed", "631 s", "at most 600 s")),           # the 6.3 m path at 1 cm/s
+    (["--speed-mps", "0.01"], ("--speed-mps", "631 s", "at most 600 s")),           # the 6.3 m path at 1 cm/s
     (["--runs", "1000000", "--chunk", "1000000"], ("--chunk", "GB")),        # one chunk holding every run
 ])
 def test_montecarlo_shapes_beyond_their_bounds_are_refused(argv, words, no_sections, capsys):

@@ -84,7 +84,7 @@ def test_routes_turn_as_the_recordings_do(field_root):
 def _write_synthetic(root: Path, folder: str, route: str, runs: int, seed: int, *, sampling="two-rate", speed=None):
     rng = np.random.default_rng(seed)
     for i in range(runs):
-        traj = simulate.route_trajectory(route, speed=speed if speed else None)
+        traj = simulate.route_trajectory(route, speed_mps=speed if speed else None)
         imu = simulate.imu(traj, units.MPU6500, rng, sampling=sampling, bias_scale=0.0, noise_scale=0.0)
         rec = ds.Recording(time=imu.time, f=imu.f, omega=imu.omega, source="synthetic")
         ds.write_csv(root / folder / f"{i + 1}.csv", rec)
