@@ -173,8 +173,8 @@ def test_the_rule_searched_on_the_train_runs_beats_the_phones_rule_on_the_test_r
     from morpi_filters import field as fd
     from morpi_filters import steps as st
 
-    data = Dataset.from_arrays("sway", [_sine_recording(i, "train" if i % 3 else "test", "g", period=0.8,
-                                                        amplitude=0.06, speed=1.6) for i in range(1, 7)])
+    data = Dataset.from_arrays("sway", [_sine_recording(i, "train" if i % 3 else "test", "g", p2p_m=0.8,
+                                                        amplitude_m=0.06, speed_mps=1.6) for i in range(1, 7)])
     searched = evaluate(data)
     rule = searched.choices["rule"]["MoRPI-A"]
     assert searched.choices["held_out"]["used"] == "recording"

@@ -42,7 +42,7 @@ def _windows_s() -> dict:
     """Every window and threshold of the per-recording path [s], read from the code."""
     rest = inspect.signature(detect_rest).parameters
     act = inspect.signature(st.activity_span).parameters
-    epoch = inspect.signature(field_aided.rest_noise).parameters["epoch_s"].default
+    epoch = inspect.signature(field_aided.rest_noise).parameters["dt_s"].default
     _, _, pad = stp._butter(2, 1.0, st.GRID_HZ)                  # the low-pass's odd padding [grid samples]
     return {
         "rest: moving window, noise blocks": rest["window_s"].default,

@@ -560,7 +560,7 @@ MALFORMED = [
     ("evaluation key", _sub("[defaults]", '[evaluation]\nheld_ot = "group"\n\n[defaults]'),
      "[evaluation]: unknown key 'held_ot', the nearest known one is 'held_out'"),
     ("evaluation value", _sub("[defaults]", '[evaluation]\nins_span = "all"\n\n[defaults]'),
-     "evaluation.ins_span: 'all', expected one of 'recording', 'motion'"),
+     "evaluation.ins_span: 'all', expected one of 'motion', 'full'"),
     ("evaluation not a table", _sub('description = "two recordings"', 'description = "two recordings"\n'
                                                                        "evaluation = 3"),
      "evaluation: an integer 3, expected a table [evaluation]"),

@@ -9,13 +9,13 @@ import numpy as np
 from .. import dataset as ds
 from .. import steps as st
 from ..calibration import NoRestError
+from ..deprecation import renamed_keywords
 from ..errors import DataError, MorpiError, ParameterError
+from ..manifest.settings import INS_SPANS
 from .entries import COURSE_M, TrainSet, entries_of, folder_of, given_rest_window, track_course
 from .thresholds import Thresholds, train_accel_floor, train_thresholds
 
 
-#: INS integration spans (see :class:`FieldData`).
-INS_SPANS = ("motion", "full")
 #: INS start that measures the tilt at rest instead of assuming a level phone (3D INS only).
 LEVELED = "GC+level"
 #: Where the MoRPI heading is integrated from: the motion onset (default) or the first sample.
@@ -471,28 +471,30 @@ class FieldData:
         w = self.rest_window(rec)
         return rec.f[w.i0:w.i1].mean(axis=0)
 
-    def calibrated(self, rec, mode: str):
+    @renamed_keywords(mode="calibration")
+    def calibrated(self, rec, calibration: str):
         """(calibrated Recording, Calibration) for RD | GC | GAC."""
         from ..calibration import calibrate
 
         cache = self.work(rec).calibrated
-        if mode not in cache:
-            if mode == "RD":
-                cal = calibrate(rec, mode)
-                cache[mode] = (rec, cal)
+        if calibration not in cache:
+            if calibration == "RD":
+                cal = calibrate(rec, calibration)
+                cache[calibration] = (rec, cal)
             else:
-                cal = calibrate(rec, mode, window=self.rest_window(rec), g_local=self._g_local)
-                cache[mode] = (cal.apply(rec), cal)
-        return cache[mode]
+                cal = calibrate(rec, calibration, window=self.rest_window(rec), g_local=self._g_local)
+                cache[calibration] = (cal.apply(rec), cal)
+        return cache[calibration]
 
     def rest_end(self, rec) -> float:
         """End time of the initial rest window [s]."""
         return float(self.rest_window(rec).end_s)
 
-    def prepared(self, rec, mode: str, method: str, cutoff_hz, source: str = "gyro", *,
+    @renamed_keywords(mode="calibration")
+    def prepared(self, rec, calibration: str, method: str, cutoff_hz, source: str = "gyro", *,
                  grid_hz: float | None = st.GRID_HZ, min_height: float | None = None):
         """The recording's MoRPI signal resampled on the rule's grid and filtered
-        (:func:`morpi_filters.steps.prepare_signal`), with the heading of `mode` and `source`, cached.
+        (:func:`morpi_filters.steps.prepare_signal`), with the heading of `calibration` and `source`, cached.
 
         RD and GC differ by a constant on omega_z and not at all on f_y. A
         constant offset changes neither the peaks, the prominence threshold
@@ -505,7 +507,7 @@ class FieldData:
         Parameters
         ----------
         rec : Recording
-        mode : {"RD", "GC", "GAC"}
+        calibration : {"RD", "GC", "GAC"}
         method : {"MoRPI-A", "MoRPI-G"}
         cutoff_hz : float or None
             The low-pass cut-off [Hz] (:attr:`morpi_filters.steps.StepConfig.cutoff_hz`).
@@ -524,24 +526,24 @@ class FieldData:
         offset_free = min_height is None
         work = self.work(rec)
         cache = work.heading_work(self.heading_from)
-        key = ("prepared", mode, method, cutoff_hz, source, grid_hz, offset_free)
+        key = ("prepared", calibration, method, cutoff_hz, source, grid_hz, offset_free)
         if key not in cache:
-            shared_mode = "RD|GC" if mode in ("RD", "GC") and offset_free else mode
+            shared_mode = "RD|GC" if calibration in ("RD", "GC") and offset_free else calibration
             skey = (shared_mode, method, cutoff_hz, grid_hz)
             shared = work.signals.get(skey)
             if shared is not None:
                 from dataclasses import replace
 
-                p = replace(shared, heading=self.heading(rec, mode, source))
+                p = replace(shared, heading=self.heading(rec, calibration, source))
                 p.__dict__["motion_index"] = shared.motion_index       # the same grid and motion
             else:
-                crec, _ = self.calibrated(rec, mode)
+                crec, _ = self.calibrated(rec, calibration)
                 p = work.signals[skey] = st.prepare_signal(
-                    crec, method, cutoff_hz, motion=self.activity(rec), heading=self.heading(rec, mode, source),
+                    crec, method, cutoff_hz, motion=self.activity(rec), heading=self.heading(rec, calibration, source),
                     grid_hz=grid_hz)
             # the heading's integral is the same for every method and cut-off: computed once, then given
             # to each signal as its cached property
-            ikey = ("heading integral", mode, source)
+            ikey = ("heading integral", calibration, source)
             if ikey in cache:
                 p.__dict__["heading_integral"] = cache[ikey]
             else:
@@ -549,7 +551,8 @@ class FieldData:
             cache[key] = p
         return cache[key]
 
-    def heading(self, rec, mode: str, source: str = "gyro") -> np.ndarray:
+    @renamed_keywords(mode="calibration")
+    def heading(self, rec, calibration: str, source: str = "gyro") -> np.ndarray:
         """The MoRPI heading on the recording's samples [rad], shape (n,), for RD or GC.
 
         Read from `source` (:data:`HEADING_SOURCES`: ``"gyro"``, the integrated
@@ -562,9 +565,9 @@ class FieldData:
         if source not in HEADING_SOURCES:
             raise ParameterError(f"heading source {source!r}: expected one of {HEADING_SOURCES}")
         cache = self.work(rec).heading_work(self.heading_from)
-        key = ("heading", mode, source)
+        key = ("heading", calibration, source)
         if key not in cache:
-            crec, _ = self.calibrated(rec, mode)
+            crec, _ = self.calibrated(rec, calibration)
             t = crec.time
             a, b = self.activity(rec) if self.heading_from == "motion" else (t[0], t[-1])
             i0 = int(np.searchsorted(t, a))
@@ -592,21 +595,22 @@ class FieldData:
                 min_swing_deg=0.0, turn_deg=config.turn_deg if config.heading == "turns" else st.StepConfig.turn_deg)
         return canon
 
-    def step_sums(self, rec, mode, method, config) -> st.StepSums:
+    @renamed_keywords(mode="calibration")
+    def step_sums(self, rec, calibration, method, config) -> st.StepSums:
         """:func:`morpi_filters.steps.step_sums` of a recording (:class:`~morpi_filters.steps.StepSums`), cached.
 
         What :meth:`steps` gives, reduced to what a gain and an end point need; raises as it does.
         """
         cache = self.work(rec).heading_work(self.heading_from)
-        key = ("sums", mode, method, config)
+        key = ("sums", calibration, method, config)
         out = cache.get(key)
         if out is None:
             canon = self._canonical(config)                    # the rules that differ only in a check share it
-            ckey = ("sums", mode, method, canon)
+            ckey = ("sums", calibration, method, canon)
             out = cache.get(ckey)
             if out is None:
                 try:
-                    out = st.step_sums(self.prepared(rec, mode, method, config.cutoff_hz, config.heading_source,
+                    out = st.step_sums(self.prepared(rec, calibration, method, config.cutoff_hz, config.heading_source,
                                                      grid_hz=config.grid_hz, min_height=config.min_height),
                                        method, canon, peak_cache=self._peaks)
                 except MorpiError as exc:
@@ -618,14 +622,15 @@ class FieldData:
         st.require_swing(rec.source, method, out[3], config.min_swing_deg)
         return out
 
-    def steps(self, rec, mode, method, config):
+    @renamed_keywords(mode="calibration")
+    def steps(self, rec, calibration, method, config):
         canon = self._canonical(config)
         cache = self.work(rec).heading_work(self.heading_from)
-        key = ("steps", mode, method, canon)
+        key = ("steps", calibration, method, canon)
         if key not in cache:
             try:
                 cache[key] = st.extract_steps(None, method, canon,
-                                                    prepared=self.prepared(rec, mode, method, config.cutoff_hz,
+                                                    prepared=self.prepared(rec, calibration, method, config.cutoff_hz,
                                                                            config.heading_source,
                                                                            grid_hz=config.grid_hz,
                                                                            min_height=config.min_height),
@@ -665,21 +670,22 @@ class FieldData:
             work.activity = span
         return work.activity
 
-    def ins(self, rec, mode: str, method: str, span: str | None = None):
+    @renamed_keywords(mode="calibration")
+    def ins(self, rec, calibration: str, method: str, span: str | None = None):
         """INS solution (InsResult) of a recording, 3D or 2D, over `span` (default: the instance's).
 
-        `mode` is RD, GAC (the paper's: level phone assumed) or :data:`LEVELED`
+        `calibration` is RD, GAC (the paper's: level phone assumed) or :data:`LEVELED`
         (3D only: GC gyro, initial roll and pitch from the rest specific force).
         """
         span = span or self.ins_span
         cache = self.work(rec).ins
-        key = (mode, method, span)
+        key = (calibration, method, span)
         if key not in cache:
             from ..strapdown import ins2d, ins3d
 
             # the gravity the calibration assumed at rest (GAC leaves (0, 0, g) there)
             C0, g = None, self._g_local
-            if mode == LEVELED:
+            if calibration == LEVELED:
                 # gyro zero-order calibration; the initial attitude from the rest specific force
                 # instead of the level assumption (the accelerometer bias stays in, read as tilt)
                 from ..strapdown import coarse_level
@@ -688,7 +694,7 @@ class FieldData:
                 f_rest = self.rest_specific_force(rec)
                 C0, g = coarse_level(f_rest), float(np.linalg.norm(f_rest))
             else:
-                crec, _ = self.calibrated(rec, mode)
+                crec, _ = self.calibrated(rec, calibration)
             if span == "motion":
                 a, b = self.activity(rec)
                 sl = slice(int(np.searchsorted(crec.time, a)), int(np.searchsorted(crec.time, b, side="right")))
@@ -699,14 +705,15 @@ class FieldData:
                 raise DataError(f"{rec.source}: no motion found for the INS")
             if method == "INS-3D":
                 cache[key] = ins3d(t, f, w, C0=C0, g=g)
-            elif mode == LEVELED:
+            elif calibration == LEVELED:
                 raise ParameterError(f"{rec.source}: the planar INS has no tilt to level; {LEVELED} is for INS-3D")
             else:
                 cache[key] = ins2d(t, f, w)
         return cache[key]
 
 
-    def tilt_leak(self, rec, mode: str) -> tuple[float, float]:
+    @renamed_keywords(mode="calibration")
+    def tilt_leak(self, rec, calibration: str) -> tuple[float, float]:
         """Gravity that leaks into f_x through the tilt the 3D INS tracks, as the planar INS sees it.
 
         The planar INS takes f_x as horizontal acceleration. The 3D solution's
@@ -721,7 +728,7 @@ class FieldData:
         leak_m : float
             Double integral of ``g C_bn[2, 0]`` over the motion [m].
         """
-        r3 = self.ins(rec, mode, "INS-3D")
+        r3 = self.ins(rec, calibration, "INS-3D")
         s = np.clip(np.asarray(r3.C_bn)[:, 2, 0], -1.0, 1.0)
         a = self._g_local * s
         dt = np.diff(r3.time)

@@ -9,9 +9,10 @@ from ..errors import ParameterError
 #: group's other train runs, ``"group"`` with the mean gain of the other groups' runs, ``"auto"`` takes
 #: ``"group"`` when the train recordings form two groups or more, else ``"recording"``.
 HELD_OUT_CHOICES = ("auto", "recording", "group")
-#: What the INS integrates: the whole recording, or its motion window (from the end of the initial rest to
-#: the robot's stop; a recording started from the truth is integrated from its first sample either way).
-INS_SPANS = ("recording", "motion")
+#: What the INS integrates: its motion window (from the end of the initial rest to the robot's stop; a
+#: recording started from the truth is integrated from its first sample either way), or the full recording
+#: (the values of :class:`morpi_filters.field.FieldData`'s ``ins_span``).
+INS_SPANS = ("motion", "full")
 #: Which MoRPI steps drive the aided filter: ``"chosen"``, the method of least train error per group and
 #: calibration (one filter); ``"each"``, one filter per MoRPI method.
 AIDED_METHODS = ("chosen", "each")
@@ -30,7 +31,7 @@ class Settings:
     ----------
     held_out : {"auto", "recording", "group"}
         How the step-rule search scores a train run (:data:`HELD_OUT_CHOICES`).
-    ins_span : {"recording", "motion"}
+    ins_span : {"full", "motion"}
         What the INS integrates (:data:`INS_SPANS`).
     aided_methods : {"chosen", "each"}
         Which MoRPI steps drive the aided filter (:data:`AIDED_METHODS`).
@@ -46,7 +47,7 @@ class Settings:
     """
 
     held_out: str = "auto"
-    ins_span: str = "recording"
+    ins_span: str = "full"
     aided_methods: str = "chosen"
 
     def __post_init__(self):
