@@ -3,7 +3,7 @@
 Usage (from the project root)::
 
     PYTHONPATH=. python3 analysis/gain_error_study.py [--runs N] [--seed S] [--imu MPU-6500|LSM6DSL]
-        [--calibration RD|GC|GAC] [--duration S] [--speed V] [--scheduler ADDRESS] [--out DIR]
+        [--calibration RD|GC|GAC] [--duration-s S] [--speed-mps V] [--scheduler ADDRESS] [--out DIR]
 
 Runs one seeded study with the paper's gain errors (5 % and 10 %) and a spread
 scenario, prints the final-error statistics and the MoRPI distance error next
@@ -27,8 +27,10 @@ def main(argv=None) -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--imu", default=MPU6500.name, choices=sorted(IMUS), help="the IMU whose datasheet to use")
     ap.add_argument("--calibration", default="GAC", choices=mc.CALIBRATIONS)
-    ap.add_argument("--duration", type=float, default=None, help="time of the sine path [s] (default 15)")
-    ap.add_argument("--speed", type=float, default=None, help="cruise speed [m/s] (default the paper's)")
+    ap.add_argument("--duration-s", type=float, default=None, help="time of the sine path [s] (default 15)")
+    ap.add_argument("--duration", dest="duration_s", type=float, help=argparse.SUPPRESS)   # name before 0.2
+    ap.add_argument("--speed-mps", type=float, default=None, help="cruise speed [m/s] (default the paper's)")
+    ap.add_argument("--speed", dest="speed_mps", type=float, help=argparse.SUPPRESS)       # name before 0.2
     ap.add_argument("--spread", type=float, default=mc.ASSUMED_SPREAD, help="per-run gain spread (fraction)")
     ap.add_argument("--scheduler", default=None, help="Dask scheduler address")
     ap.add_argument("--out", type=Path, default=Path("reports/analysis/gain_error"))
@@ -37,7 +39,7 @@ def main(argv=None) -> None:
     gains = (mc.GainError("dG = 5 %", 0.05), mc.GainError("dG = 10 %", 0.10),
              mc.GainError("spread", 0.0, args.spread))
     cfg = mc.StudyConfig(spec=IMUS[args.imu], gains=gains, calibration=args.calibration,
-                         duration=args.duration, speed_mps=args.speed)
+                         duration_s=args.duration_s, speed_mps=args.speed_mps)
     r = mc.run_study(args.runs, args.seed, cfg, scheduler=args.scheduler)
     length, speed, duration = r.config.motion()
     print(f"{r.runs} runs, seed {r.seed}, {cfg.spec.name}, calibration {cfg.calibration}, {length:.2f} m in "

@@ -9,11 +9,15 @@ files by a glob relative to the dataset root, in this order: the phones S8, then
 one's folders by route, then split, so that the groups with train recordings come in the
 order of the paper's short-route table (:func:`morpi_filters.evaluate.short_route_sets`). Each folder's group is ``<phone>/<route>``,
 its split the folder's (``"none"`` without one), its motion the route's kind, its rest
-detected (``"auto"``), its IMU the phone's (:data:`PHONE_IMUS`), its truth
+detected (``"auto"``), its train group the paper's for routes evaluated with another route's gains,
+its IMU the phone's (:data:`PHONE_IMUS`), its number of runs in the
+public dataset (``imu.count``, which ``morpi check --data`` compares with the files found), its truth
 the route's distance, end point and centre line (:attr:`morpi_filters.dataset.Route.polyline`).
 The recordings' latitude is the experiment site's
 (:data:`morpi_filters.calibration.SITE_LATITUDE_DEG`), so the calibrations take the same
-normal gravity as :data:`morpi_filters.calibration.LOCAL_GRAVITY`. No recording is read.
+normal gravity as :data:`morpi_filters.calibration.LOCAL_GRAVITY`; its ``[evaluation]`` settings are
+the tables' (runs held out of their own group, the INS over the motion window) and the aided study's (a
+filter per MoRPI method). No recording is read.
 
 ``--check`` writes nothing and exits 1 when the file differs from what would be written.
 """
@@ -36,12 +40,21 @@ PHONE_IMUS = {"s6": MPU6500.name, "s8": LSM6DSL.name}
 
 
 def _folders() -> list:
-    """(phone, route, split or None) of every layout folder, in the manifest's order."""
+    """(phone, route, split or None, number of runs) of every layout folder, in the manifest's order."""
     out = []
-    for key in ds.layout():
+    for key, runs in ds.layout().items():
         parts = key.split("/")
-        out.append((parts[0], parts[1], parts[2] if len(parts) == 3 else None))
+        out.append((parts[0], parts[1], parts[2] if len(parts) == 3 else None, runs))
     return sorted(out, key=lambda k: (PHONES.index(k[0]), k[1], k[2] or ""))
+
+
+def _train_groups() -> dict:
+    """(phone, route) -> the group whose train runs set its gains, for the routes the paper evaluates with
+    another route's gains (the long and the L routes: :func:`morpi_filters.evaluate.cell_specs`)."""
+    from morpi_filters.evaluate import cell_specs
+
+    return {(s.phone, s.route): f"{s.train[0]}/{s.train[1]}" for s in cell_specs()
+            if s.train is not None and s.train != (s.phone, s.route)}
 
 
 def _number(x: float) -> str:
@@ -59,12 +72,20 @@ def manifest_text() -> str:
         'outdoor; truth: the routes\' end points."',
         f"latitude_deg = {_number(SITE_LATITUDE_DEG)}",
         "",
+        "# as the paper's tables: each train run is held out of its own group, the INS integrates the motion,",
+        "# and the aided filter runs on the steps of each MoRPI method",
+        "[evaluation]",
+        'held_out = "recording"',
+        'ins_span = "motion"',
+        'aided_methods = "each"',
+        "",
         "[defaults]",
         'rest = "auto"',
     ]
-    for phone, route_name, split in _folders():
+    trains = _train_groups()
+    for phone, route_name, split, runs in _folders():
         r = ds.route(route_name)
-        folder = ds.folder_key(phone, route_name, split)
+        folder = "/".join(p for p in (phone, route_name, split) if p)
         poly = ", ".join(f"[{_number(x)}, {_number(y)}]" for x, y in r.polyline)
         end = ", ".join(_number(v) for v in r.end_point_m)
         lines += [
@@ -73,7 +94,8 @@ def manifest_text() -> str:
             f'group = "{phone}/{route_name}"',
             f'split = "{split or "none"}"',
             f'motion = "{"periodic" if r.kind == "periodic" else "straight"}"',
-            f'imu = {{ file = "{folder}/*.csv", spec = "{PHONE_IMUS[phone]}" }}',
+            *([f'train_group = "{trains[phone, route_name]}"'] if (phone, route_name) in trains else []),
+            f'imu = {{ file = "{folder}/*.csv", spec = "{PHONE_IMUS[phone]}", count = {runs} }}',
             f'truth = {{ kind = "route", distance_m = {_number(r.distance_m)}, end_point_m = [{end}], '
             f"polyline_m = [{poly}] }}",
         ]

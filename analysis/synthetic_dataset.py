@@ -36,7 +36,7 @@ def main(argv=None) -> None:
     spec = dataset.folder_imu(args.phone)
     opts = synthetic.DATASET_OPTIONS
     amplitude = 0.1 * opts["amplitude_factor"]          # as the dataset drives the 0.1 m route
-    traj = simulate.route_trajectory("short_distance", amplitude=amplitude, t0=0.4)
+    traj = simulate.route_trajectory("short_distance", amplitude_m=amplitude, t0=0.4)
     noisy = simulate.imu(traj, spec, rng, sampling=synthetic.PHONE_CLOCKS[args.phone],
                          bias_scale=synthetic.REALISTIC_BIAS_FRACTION[args.phone], misalignment=opts["misalignment"], vibration=opts["vibration"],
                          bias_instability=opts["bias_instability"], correlation_time=opts["correlation_time"])

@@ -2,8 +2,8 @@
 
 ``montecarlo.page_cost`` estimates a run of the command from its run count, its
 samples per run (duration x 100 Hz) and its steps (path length / period), with
-constants this script measures. Each design point is a path shape (``--duration``,
-``--speed``) run as the whole command, in a fresh process and without a dataset,
+constants this script measures. Each design point is a path shape (``--duration-s``,
+``--speed-mps``) run as the whole command, in a fresh process and without a dataset,
 at two run counts R1 < R2; for each run the script reads the child's CPU time
 (user + system, from ``wait4``), its wall time and its peak resident memory.
 
@@ -60,8 +60,8 @@ def run(runs, duration=None, speed=None, data=None, chunk=None) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         cmd = [sys.executable, "-m", "morpi_filters.cli", "montecarlo", "--runs", str(runs), "--out", f"{tmp}/o",
                "--allow-long"]
-        cmd += ["--duration", str(duration)] if duration else []
-        cmd += ["--speed", str(speed)] if speed else []
+        cmd += ["--duration-s", str(duration)] if duration else []
+        cmd += ["--speed-mps", str(speed)] if speed else []
         cmd += ["--data", str(data)] if data else []
         cmd += ["--chunk", str(chunk)] if chunk else []
         with open(f"{tmp}/err", "w") as err:
@@ -75,10 +75,10 @@ def run(runs, duration=None, speed=None, data=None, chunk=None) -> dict:
 
 
 def shape(duration, speed):
-    """(samples per run, steps per run) of the path ``--duration``/``--speed`` give."""
+    """(samples per run, steps per run) of the path ``--duration-s``/``--speed-mps`` give."""
     from morpi_filters.montecarlo import page_cost
 
-    cost = page_cost(1, duration=duration, speed_mps=speed)
+    cost = page_cost(1, duration_s=duration, speed_mps=speed)
     return cost.samples, cost.steps
 
 
@@ -136,7 +136,7 @@ def main(argv=None):
     from morpi_filters.montecarlo import page_cost
 
     for (duration, speed, r1, r2), row in zip(QUICK if args.quick else DESIGN, rows):
-        est = page_cost(r2, duration=duration, speed_mps=speed)
+        est = page_cost(r2, duration_s=duration, speed_mps=speed)
         print(f"{duration} s, speed {speed or 'default'}, {r2} runs: {row[5]['cpu']:.1f} s CPU and "
               f"{row[5]['peak'] / 1e6:.0f} MB; montecarlo.page_cost says {est.seconds:.1f} s and "
               f"{est.bytes / 1e6:.0f} MB")

@@ -60,7 +60,7 @@ def shaped_monte_carlo(runs=300, seed=0, duration=20.0, spec=None):
 
     gains = (mc.GainError("dG = 5 %", 0.05), mc.GainError("dG = 10 %", 0.10),
              mc.GainError("training spread", mc.ASSUMED_MISMATCH, mc.ASSUMED_SPREAD))
-    cfg = mc.StudyConfig(spec=spec or units.MPU6500, duration=duration, calibration="GAC", gains=gains)
+    cfg = mc.StudyConfig(spec=spec or units.MPU6500, duration_s=duration, calibration="GAC", gains=gains)
     result = mc.run_study(runs, seed, cfg)                             # INS and MoRPI on the same sine path
     return result, mc.final_statistics(result), mc.distance_law_check(result)   # ds = dG D on the draws
 

@@ -22,6 +22,13 @@ Names
       ``"short_distance"``, ``"L_shape"``, ... in ``data/routes.json``).
 
     Monte Carlo columns add the gain scenario: ``"MoRPI-A[dG = 5 %]"``.
+    A quantity has one name, with its unit where it has one (``_m``, ``_s``,
+    ``_mps``, ``_mps2``, ``_radps``, ``_hz``; datasheet units as
+    :mod:`morpi_filters.units` names them, ``_deg_s``, ``_mg``): ``p2p_m`` the
+    peak-to-peak distance of a periodic path, ``speed_mps``, ``dt_s`` a time
+    step, ``calibration`` the name of a calibration. A renamed parameter,
+    field, flag or key keeps its old name for one release
+    (:mod:`morpi_filters.deprecation`; ``CHANGELOG.md``).
 Frames
     ``b``: body = phone axes. x forward (direction of travel at the start),
     y to the left, z up (out of the screen). A level phone at rest reads

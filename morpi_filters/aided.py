@@ -20,7 +20,7 @@ or only considered (:attr:`AidTuning.gain_estimated`: the estimate is the one
 of the filter that takes the trained gain as exact, the covariance carries the
 gain's spread).
 
-The covariance is propagated on an epoch grid (every ``epoch_s`` seconds of
+The covariance is propagated on an epoch grid (every ``dt_s`` seconds of
 samples, 0.1 s by default, and every step boundary's own sample) with the
 transition ``I + F T + (F T)^2 / 2`` of the interval's mean specific force and
 attitude; the nominal state is integrated at every sample. Updates happen at
@@ -66,6 +66,7 @@ import numpy as np
 
 from . import _aided_kernel, _jit
 from .error_model import BA, BG, DP, DV, EPS, N_STATES
+from .deprecation import renamed_keywords
 from .errors import ParameterError
 from .parallel import available_cores, chunk_ranges, execute
 
@@ -641,7 +642,8 @@ def _epochs(inp: AidedInput, tun: AidTuning, epoch_s: float):
     return np.flatnonzero(on), end_k, end_a, end_j.astype(np.int64), starts, rest, standing & ~rest
 
 
-def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_covariance: bool = True,
+@renamed_keywords(epoch_s="dt_s")
+def run_batch(inputs, tunings, *, dt_s: float = 0.1, smooth=False, smoothed_covariance: bool = True,
               nis: bool = True, innovations=False, workers: int | None = None):
     """Run the aided filter on many members (one compiled forward pass each, then the smoother where asked).
 
@@ -654,8 +656,8 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
     inputs : sequence of AidedInput
     tunings : AidTuning or sequence of AidTuning
         One for all members, or one per member.
-    epoch_s : float
-        Covariance and update epoch [s] (rounded to whole samples per member).
+    dt_s : float
+        Time step of the covariance and update epochs [s] (rounded to whole samples per member).
     smooth : bool or sequence of bool
         Also run the Rauch-Tung-Striebel smoother, for every member or for
         those flagged (keeps the covariance of every epoch: about
@@ -683,7 +685,7 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
     Raises
     ------
     ParameterError
-        A tuning count that differs from the inputs', a non-positive `epoch_s`
+        A tuning count that differs from the inputs', a non-positive `dt_s`
         or `workers`.
 
     Examples
@@ -702,8 +704,9 @@ def run_batch(inputs, tunings, *, epoch_s: float = 0.1, smooth=False, smoothed_c
     tunings = [tunings] * B if isinstance(tunings, AidTuning) else list(tunings)
     if len(tunings) != B:
         raise ParameterError(f"run_batch: {len(tunings)} tunings for {B} inputs")
-    if not (np.isfinite(epoch_s) and epoch_s > 0):
-        raise ParameterError(f"epoch_s={epoch_s!r}: expected a positive duration [s]")
+    if not (np.isfinite(dt_s) and dt_s > 0):
+        raise ParameterError(f"dt_s={dt_s!r}: expected a positive time step [s]")
+    epoch_s = dt_s
     keep_hist = np.asarray(smooth, bool)
     if keep_hist.ndim > 1 or keep_hist.size not in (1, B):
         raise ParameterError(f"run_batch: smooth must be a bool or {B} bools")

@@ -166,7 +166,7 @@ def assessment_curves(params: ErrorParams, times=None, convention: str = CONVENT
     With an initial velocity error alone, both INS drift as ``|dv0_xy| t``:
 
     >>> from morpi_filters.params import params_from_dict
-    >>> p = params_from_dict({"dv0_mps": [0.03, 0.04, 0.0], "ba_mps2": [0.0] * 3, "bg_radps": [0.0] * 3,
+    >>> p = params_from_dict({"dv0_mps": [0.03, 0.04, 0.0], "accel_bias_mps2": [0.0] * 3, "gyro_bias_radps": [0.0] * 3,
     ...                       "g_mps2": 9.81, "dG": [0.1], "morpi_speed_mps": 0.5})
     >>> c = assessment_curves(p, [0.0, 1.0, 2.0])
     >>> c.e3d.round(12).tolist(), c.e2d.round(12).tolist(), c.morpi[0.1].round(12).tolist(), c.convention
@@ -210,7 +210,7 @@ def improvements(params: ErrorParams, convention: str = CONVENTION, numbers=PAPE
     MoRPI-A with a 10 % gain error loses 0.25 m in 5 s and 0.7 m in 14 s:
 
     >>> from morpi_filters.params import params_from_dict
-    >>> p = params_from_dict({"dv0_mps": [0.03, 0.04, 0.0], "ba_mps2": [0.0] * 3, "bg_radps": [0.0] * 3,
+    >>> p = params_from_dict({"dv0_mps": [0.03, 0.04, 0.0], "accel_bias_mps2": [0.0] * 3, "gyro_bias_radps": [0.0] * 3,
     ...                       "g_mps2": 9.81, "morpi_speed_mps": 0.5})
     >>> improvements(p).round(6).tolist()
     [0.0, 0.0, 0.125, 0.125, -0.45, -0.45, -0.1, -0.1]
@@ -230,12 +230,12 @@ def improvements(params: ErrorParams, convention: str = CONVENTION, numbers=PAPE
 #: Prior of the fit (a plausible calibrated smartphone IMU, z_up frames) and its scale.
 FIT_PRIOR = {
     "dv0_mps": ([0.05, 0.03, 0.02], 0.05),
-    "ba_mps2": ([0.05, 0.04, 0.03], 0.05),    # ~5 mg residual after calibration
-    "bg_radps": ([0.003, 0.003, 0.002], 0.003),  # ~0.17 deg/s residual
+    "accel_bias_mps2": ([0.05, 0.04, 0.03], 0.05),    # ~5 mg residual after calibration
+    "gyro_bias_radps": ([0.003, 0.003, 0.002], 0.003),  # ~0.17 deg/s residual
     "morpi_speed_mps": (1.0, 1.0),
 }
 #: Bounds of the fitted components (absolute value at most): the paper's turn-on biases (60 mg, 6 deg/s).
-FIT_BOUNDS = {"dv0_mps": 0.3, "ba_mps2": 0.6, "bg_radps": 0.105, "morpi_speed_mps": (0.1, 3.0)}
+FIT_BOUNDS = {"dv0_mps": 0.3, "accel_bias_mps2": 0.6, "gyro_bias_radps": 0.105, "morpi_speed_mps": (0.1, 3.0)}
 
 
 @dataclass(frozen=True)
@@ -283,7 +283,7 @@ def fit_paper_numbers(g_mps2: float = 9.81, convention: str = CONVENTION, digits
     Returns
     -------
     FitResult
-        The parameter mapping (keys ``dv0_mps``, ``ba_mps2``, ``bg_radps``,
+        The parameter mapping (keys ``dv0_mps``, ``accel_bias_mps2``, ``gyro_bias_radps``,
         ``g_mps2``, ``dG``, ``morpi_speed_mps``, ``process_noise``), our eight
         improvements from it, the paper's eight and the largest absolute
         difference [m].
@@ -294,20 +294,20 @@ def fit_paper_numbers(g_mps2: float = 9.81, convention: str = CONVENTION, digits
 
     paper = np.array([n.paper_m for n in PAPER_IMPROVEMENTS])
     dv_p, dv_s = FIT_PRIOR["dv0_mps"]
-    ba_p, ba_s = FIT_PRIOR["ba_mps2"]
-    bg_p, bg_s = FIT_PRIOR["bg_radps"]
+    ba_p, ba_s = FIT_PRIOR["accel_bias_mps2"]
+    bg_p, bg_s = FIT_PRIOR["gyro_bias_radps"]
     v_p, v_s = FIT_PRIOR["morpi_speed_mps"]
     x0 = np.array([*dv_p[:2], *ba_p[:2], *bg_p[:2], v_p])
     scale = np.array([dv_s] * 2 + [ba_s] * 2 + [bg_s] * 2 + [v_s])
-    lo = np.array([-FIT_BOUNDS["dv0_mps"]] * 2 + [-FIT_BOUNDS["ba_mps2"]] * 2 + [-FIT_BOUNDS["bg_radps"]] * 2
+    lo = np.array([-FIT_BOUNDS["dv0_mps"]] * 2 + [-FIT_BOUNDS["accel_bias_mps2"]] * 2 + [-FIT_BOUNDS["gyro_bias_radps"]] * 2
                   + [FIT_BOUNDS["morpi_speed_mps"][0]])
-    hi = np.array([FIT_BOUNDS["dv0_mps"]] * 2 + [FIT_BOUNDS["ba_mps2"]] * 2 + [FIT_BOUNDS["bg_radps"]] * 2
+    hi = np.array([FIT_BOUNDS["dv0_mps"]] * 2 + [FIT_BOUNDS["accel_bias_mps2"]] * 2 + [FIT_BOUNDS["gyro_bias_radps"]] * 2
                   + [FIT_BOUNDS["morpi_speed_mps"][1]])
 
     def to_dict(x):
         return {
-            "dv0_mps": [float(x[0]), float(x[1]), dv_p[2]], "ba_mps2": [float(x[2]), float(x[3]), ba_p[2]],
-            "bg_radps": [float(x[4]), float(x[5]), bg_p[2]], "g_mps2": g_mps2, "dG": [0.05, 0.10],
+            "dv0_mps": [float(x[0]), float(x[1]), dv_p[2]], "accel_bias_mps2": [float(x[2]), float(x[3]), ba_p[2]],
+            "gyro_bias_radps": [float(x[4]), float(x[5]), bg_p[2]], "g_mps2": g_mps2, "dG": [0.05, 0.10],
             "morpi_speed_mps": float(x[6]),
             "process_noise": False,
         }

@@ -83,23 +83,25 @@ References
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
 from .choice import tie_margin
 from .dataset import Recording
+from .deprecation import renamed_attribute, renamed_keywords
 from .errors import DataError, MorpiError, ParameterError
 from .units import MPU6500, SensorSpec
 
 __all__ = [
-    "MODES", "SITE_LATITUDE_DEG", "LOCAL_GRAVITY", "normal_gravity", "RestWindow", "Calibration",
+    "CALIBRATIONS", "SITE_LATITUDE_DEG", "LOCAL_GRAVITY", "normal_gravity", "RestWindow", "Calibration",
     "RestMeasures", "rest_measures", "detect_rest", "calibrate", "calibrated", "rest_windows_summary", "RestRow",
     "RestSummary", "noise_sigma", "NoRestError", "StillBound", "still_bound", "STILL_NOISE_FACTOR", "DEFAULT_IMU",
 ]
 
-#: Calibration modes: raw data, gyro calibration, gyro and accelerometer calibration.
-MODES = ("RD", "GC", "GAC")
+#: Calibrations: raw data, gyro calibration, gyro and accelerometer calibration.
+CALIBRATIONS = ("RD", "GC", "GAC")
 
 # Smallest noise sigmas used by the detector, far below any MEMS noise but above the
 # rounding of running sums, for noise-free simulated recordings [rad/s], [m/s^2].
@@ -209,8 +211,8 @@ class StillBound:
         moving window while the robot stands [rad/s].
     accel : float
         The same for an accelerometer axis [m/s^2].
-    source : str
-        Where the bound comes from, for messages (an IMU and a factor, or
+    basis : str
+        What the bound rests on, for messages (an IMU and a factor, or
         ``"given"``).
 
     Raises
@@ -221,7 +223,7 @@ class StillBound:
 
     gyro: float
     accel: float
-    source: str = "given"
+    basis: str = "given"
 
     def __post_init__(self):
         for key in ("gyro", "accel"):
@@ -275,7 +277,7 @@ def still_bound(rec: Recording, bound: SensorSpec | StillBound | None = None, *,
     >>> from morpi_filters.units import LSM6DSL
     >>> rec = Recording(time=np.arange(300) * 0.01, f=np.zeros((300, 3)), omega=np.zeros((300, 3)), imu=LSM6DSL)
     >>> b = still_bound(rec)
-    >>> round(b.gyro, 5), round(b.accel, 4), b.source
+    >>> round(b.gyro, 5), round(b.accel, 4), b.basis
     (0.00494, 0.0901, 'LSM6DSL noise x 10')
     """
     if isinstance(bound, StillBound):
@@ -290,7 +292,7 @@ def still_bound(rec: Recording, bound: SensorSpec | StillBound | None = None, *,
     rate = rec.rate_hz
     return StillBound(gyro=factor * max(_nyquist_sigma(spec.gyro_noise, rate), _GYRO_SIGMA_MIN),
                       accel=factor * max(_nyquist_sigma(spec.accel_noise, rate), _ACCEL_SIGMA_MIN),
-                      source=f"{spec.name} noise x {factor:g}")
+                      basis=f"{spec.name} noise x {factor:g}")
 
 
 # ----------------------------------------------------------------------------- results
@@ -356,7 +358,7 @@ class Calibration:
 
     Attributes
     ----------
-    mode : str
+    calibration : str
         ``"RD"``, ``"GC"`` or ``"GAC"`` (see :func:`calibrate`).
     gyro_bias : ndarray, shape (3,)
         Angular-rate bias in body axes [rad/s] (zeros for RD).
@@ -366,7 +368,7 @@ class Calibration:
         The rest window the biases were averaged over (None for RD).
     """
 
-    mode: str
+    calibration: str
     gyro_bias: np.ndarray
     accel_bias: np.ndarray
     window: RestWindow | None
@@ -393,6 +395,19 @@ class Calibration:
         ([0.0, 0.0, 9.8], [0.1, 0.0, 9.9])
         """
         return replace(rec, time=rec.time.copy(), f=rec.f - self.accel_bias, omega=rec.omega - self.gyro_bias)
+
+
+StillBound.__init__ = renamed_keywords(source="basis")(StillBound.__init__)
+StillBound.source = renamed_attribute("StillBound", "source", "basis")
+Calibration.__init__ = renamed_keywords(mode="calibration")(Calibration.__init__)
+Calibration.mode = renamed_attribute("Calibration", "mode", "calibration")
+
+
+def __getattr__(name):
+    if name == "MODES":                      # the name of CALIBRATIONS before 0.2, kept for one release
+        warnings.warn("calibration.MODES is deprecated; use calibration.CALIBRATIONS", DeprecationWarning, stacklevel=2)
+        return CALIBRATIONS
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 # ----------------------------------------------------------------------------- detection
@@ -764,7 +779,7 @@ def detect_rest(rec: Recording, *, max_window_s: float = 3.0, min_window_s: floa
                               f"sample ({max(i1 - i0, 0)} samples at rest, expected at least {min_samples}); over "
                               f"its first {t[j - 1]:.2f} s the gyro spreads up to {s_g[:j].max():.3g} rad/s and the "
                               f"accelerometer up to {s_a[:j].max():.3g} m/s^2, where a still IMU stays within "
-                              f"{still.gyro:.3g} rad/s and {still.accel:.3g} m/s^2 ({still.source}); "
+                              f"{still.gyro:.3g} rad/s and {still.accel:.3g} m/s^2 ({still.basis}); "
                               f"cannot calibrate {name}")
         # no motion: the recording ends too soon after its first samples or after a disturbance
         after = f" after a movement at {t[before[-1][0]]:.2f}-{t[before[-1][1] - 1]:.2f} s" if before else ""
@@ -805,7 +820,8 @@ def _runs(flags: np.ndarray, t: np.ndarray, gap_s: float) -> list[tuple[int, int
 
 # ----------------------------------------------------------------------------- calibration
 
-def calibrate(rec: Recording, mode: str, *, window: RestWindow | None = None,
+@renamed_keywords(mode="calibration")
+def calibrate(rec: Recording, calibration: str, *, window: RestWindow | None = None,
               g_local: float = LOCAL_GRAVITY) -> Calibration:
     """Zero-order calibration over the initial rest window.
 
@@ -813,7 +829,7 @@ def calibrate(rec: Recording, mode: str, *, window: RestWindow | None = None,
     ----------
     rec : Recording
         The recording to calibrate.
-    mode : str
+    calibration : str
         ``"RD"``: raw data, no correction. ``"GC"``: gyro bias = mean angular
         rate over the window. ``"GAC"``: GC plus accelerometer bias = mean
         specific force over the window minus ``(0, 0, g_local)`` (the phone is
@@ -827,8 +843,8 @@ def calibrate(rec: Recording, mode: str, *, window: RestWindow | None = None,
     Returns
     -------
     Calibration
-        The mode, the gyro bias [rad/s] and accelerometer bias [m/s^2] (zeros
-        where the mode does not estimate them) and the window (None for RD).
+        The calibration's name, the gyro bias [rad/s] and accelerometer bias [m/s^2] (zeros
+        where the calibration does not estimate them) and the window (None for RD).
 
     Raises
     ------
@@ -836,7 +852,7 @@ def calibrate(rec: Recording, mode: str, *, window: RestWindow | None = None,
         GC or GAC without a `window` on a recording that has no initial rest
         (:func:`detect_rest`).
     ParameterError
-        For an unknown `mode`, a bad `g_local` or a window outside the
+        For an unknown `calibration`, a bad `g_local` or a window outside the
         recording.
     DataError
         For a recording too short to tell its rest (:func:`detect_rest`).
@@ -853,13 +869,14 @@ def calibrate(rec: Recording, mode: str, *, window: RestWindow | None = None,
     >>> calibrate(rec, "GC").accel_bias.tolist(), calibrate(rec, "RD").window is None
     ([0.0, 0.0, 0.0], True)
     """
-    if mode not in MODES:
-        raise ParameterError(f"mode={mode!r}: unknown calibration mode, expected one of {', '.join(MODES)}")
+    mode = calibration
+    if mode not in CALIBRATIONS:
+        raise ParameterError(f"calibration={mode!r}: unknown calibration, expected one of {', '.join(CALIBRATIONS)}")
     if not (math.isfinite(g_local) and g_local > 0):
         raise ParameterError(f"g_local={g_local!r}: expected a positive gravity magnitude in m/s^2")
     zero = np.zeros(3)
     if mode == "RD":
-        return Calibration(mode="RD", gyro_bias=zero, accel_bias=zero.copy(), window=None)
+        return Calibration(calibration="RD", gyro_bias=zero, accel_bias=zero.copy(), window=None)
     if window is None:
         window = detect_rest(rec)
     if not (0 <= window.i0 < window.i1 <= rec.n):
@@ -869,10 +886,11 @@ def calibrate(rec: Recording, mode: str, *, window: RestWindow | None = None,
     accel_bias = zero.copy()
     if mode == "GAC":
         accel_bias = rec.f[sl].mean(axis=0) - np.array([0.0, 0.0, g_local])
-    return Calibration(mode=mode, gyro_bias=gyro_bias, accel_bias=accel_bias, window=window)
+    return Calibration(calibration=mode, gyro_bias=gyro_bias, accel_bias=accel_bias, window=window)
 
 
-def calibrated(rec: Recording, mode: str, *, window: RestWindow | None = None,
+@renamed_keywords(mode="calibration")
+def calibrated(rec: Recording, calibration: str, *, window: RestWindow | None = None,
                g_local: float = LOCAL_GRAVITY) -> tuple[Recording, Calibration]:
     """A recording with its biases removed, in one call: :func:`calibrate`, then :meth:`Calibration.apply`.
 
@@ -880,8 +898,8 @@ def calibrated(rec: Recording, mode: str, *, window: RestWindow | None = None,
     ----------
     rec : Recording
         The recording to calibrate.
-    mode : {"RD", "GC", "GAC"}
-        Calibration mode (see :func:`calibrate`).
+    calibration : {"RD", "GC", "GAC"}
+        Calibration (see :func:`calibrate`).
     window : RestWindow, optional
         As in :func:`calibrate`.
     g_local : float, optional
@@ -902,7 +920,7 @@ def calibrated(rec: Recording, mode: str, *, window: RestWindow | None = None,
     >>> round(float(cal.gyro_bias[2]), 12), round(float(abs(crec.omega[:, 2]).max()), 12)
     (0.01, 0.0)
     """
-    cal = calibrate(rec, mode, window=window, g_local=g_local)
+    cal = calibrate(rec, calibration, window=window, g_local=g_local)
     return cal.apply(rec), cal
 
 

@@ -107,7 +107,7 @@ CURVE_SECONDS, CURVE_BYTES, CURVE_BASE_BYTES = 17e-3, 1.4e6, 0.22e9
 #: figure shows 15 s); an hour is far beyond that and keeps every value finite and plottable.
 MAX_ASSESS_TIME = 3600.0
 
-#: Longest ``montecarlo`` run [s] (``--duration``, or the time ``--speed`` alone gives the
+#: Longest ``montecarlo`` run [s] (``--duration-s``, or the time ``--speed-mps`` alone gives the
 #: 6.3 m path): the memory of the study grows with the samples of a run.
 MAX_MC_SECONDS = 600.0
 
@@ -127,10 +127,10 @@ MAX_SEED = 2**63 - 1
 #: 1100 recordings, about 2 min and 0.4 GB of CSV on a 2-core machine (110 took 13 s and 37 MB).
 MAX_RUNS_PER_FOLDER = 100
 
-#: Slowest ``montecarlo --speed`` and fastest [m/s]: the paper's robot cruises at about 0.45 m/s.
+#: Slowest ``montecarlo --speed-mps`` and fastest [m/s]: the paper's robot cruises at about 0.45 m/s.
 MC_SPEED_RANGE = (0.01, 10.0)
 
-#: Shortest ``montecarlo --duration`` [s]: the path's two 1 s speed ramps.
+#: Shortest ``montecarlo --duration-s`` [s]: the path's two 1 s speed ramps.
 MIN_MC_SECONDS = 2.0
 
 
@@ -213,8 +213,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     Examples
     --------
-    >>> args = build_parser().parse_args(["montecarlo", "--runs", "100", "--speed", "0.5"])
-    >>> args.command, args.runs, args.seed, args.speed, args.duration, args.out.as_posix()
+    >>> args = build_parser().parse_args(["montecarlo", "--runs", "100", "--speed-mps", "0.5"])
+    >>> args.command, args.runs, args.seed, args.speed_mps, args.duration_s, args.out.as_posix()
     ('montecarlo', 100, 0, 0.5, None, 'reports/montecarlo')
     """
     p = _Parser(
@@ -241,7 +241,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="also write the JSON result here (an existing file only if morpi wrote it)")
         sp.add_argument("--force", action="store_true", help="let --json overwrite a file morpi did not write")
 
-    s = sub.add_parser("check", help="validate every recording under a dataset folder, or of a dataset manifest")
+    s = sub.add_parser("check", help="validate every recording of the MoRPI dataset at --data DIR (through the "
+                                     "manifest the package ships), or of a dataset manifest")
     data_arg(s)
     s.add_argument("--dataset", metavar="FILE", type=_path("--dataset"),
                    help="a dataset manifest (TOML, docs/manifest.md): load and check every recording it describes")
@@ -312,11 +313,15 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--chunk", metavar="K", type=_Number(True, 1, MAX_RUNS, "runs"), default=None,
                    help="runs per batch (results do not depend on it)")
     s.add_argument("--scheduler", metavar="ADDRESS", help="run on a Dask cluster at this address")
-    s.add_argument("--duration", metavar="S", type=_Number(False, MIN_MC_SECONDS, MAX_MC_SECONDS, "s"), default=None,
+    duration = _Number(False, MIN_MC_SECONDS, MAX_MC_SECONDS, "s")
+    s.add_argument("--duration-s", metavar="S", type=duration, default=None,
                    help=f"time of the sine path from start to stop [s] (default 15 s for 6.3 m; at most "
                         f"{MAX_MC_SECONDS:g} s)")
-    s.add_argument("--speed", metavar="V", type=_Number(False, *MC_SPEED_RANGE, "m/s"), default=None,
+    s.add_argument("--duration", dest="duration_s", type=duration, help=argparse.SUPPRESS)   # name before 0.2
+    s.add_argument("--speed-mps", metavar="V", type=_Number(False, *MC_SPEED_RANGE, "m/s"), default=None,
                    help="cruise speed [m/s] (default the paper's for 1 m periods)")
+    s.add_argument("--speed", dest="speed_mps", type=_Number(False, *MC_SPEED_RANGE, "m/s"),
+                   help=argparse.SUPPRESS)                                                   # name before 0.2
     s.add_argument("--allow-long", action="store_true",
                    help=f"run even when the estimated time is over {_duration(MC_BUDGET_SECONDS)} (the estimate "
                         f"is printed when it is over {_duration(MC_ANNOUNCE_SECONDS)})")
@@ -334,8 +339,9 @@ def build_parser() -> argparse.ArgumentParser:
     dsub = s.add_subparsers(dest="data_command", metavar="ACTION")
     dsub.required = True
     f = dsub.add_parser("fetch", help="download the public dataset archive and verify every file")
-    f.add_argument("--dest", metavar="DIR", type=_path("--dest"), default=Path("morpi-data"),
+    f.add_argument("--out", metavar="DIR", type=_path("--out"), default=Path("morpi-data"),
                    help="destination folder (default: ./morpi-data)")
+    f.add_argument("--dest", dest="out", type=_path("--dest"), help=argparse.SUPPRESS)       # name before 0.2
     f.add_argument("--url", metavar="URL", help="archive URL (default: the public repository's archive)")
 
     s = sub.add_parser("report", help="the main job: every section into reports/ (reports/synthetic/ without "
@@ -384,12 +390,12 @@ def _study(name, args, source=None, tables=None):
         from .curves import curves_study
         from .curves import MC_SEED
         return curves_study(params_path=getattr(args, "params", None), times=getattr(args, "times", None),
-                            source=source, tables=tables, seed=_own_seed(name, args, MC_SEED))
+                            data_source=source, tables=tables, seed=_own_seed(name, args, MC_SEED))
     if name == "montecarlo":
         from .montecarlo import gain_error_page
         return gain_error_page(runs=args.runs, seed=args.seed, chunk=getattr(args, "chunk", None),
-                               scheduler=getattr(args, "scheduler", None), source=source, tables=tables,
-                               duration=getattr(args, "duration", None), speed_mps=getattr(args, "speed", None))
+                               scheduler=getattr(args, "scheduler", None), data_source=source, tables=tables,
+                               duration_s=getattr(args, "duration_s", None), speed_mps=getattr(args, "speed_mps", None))
     if name == "drift":
         from .montecarlo import DRIFT_SEED, drift_page
         return drift_page(seed=_own_seed(name, args, DRIFT_SEED), scheduler=getattr(args, "scheduler", None))
@@ -509,24 +515,24 @@ def _montecarlo_cost(args):
     from .montecarlo import page_cost
 
     try:
-        cost = page_cost(args.runs, duration=args.duration, speed_mps=args.speed, chunk=args.chunk,
+        cost = page_cost(args.runs, duration_s=args.duration_s, speed_mps=args.speed_mps, chunk=args.chunk,
                          field=bool(args.data or os.environ.get("MORPI_DATA")))
     except MorpiError as exc:           # a path the options cannot shape: name them
-        given = ", ".join(f"--{k} {v:g}" for k, v in (("duration", args.duration), ("speed", args.speed))
+        given = ", ".join(f"--{k} {v:g}" for k, v in (("duration-s", args.duration_s), ("speed-mps", args.speed_mps))
                           if v is not None)
         raise ParameterError(f"{given or 'the default path'}: {exc}") from None
-    if args.duration is None and cost.duration > MAX_MC_SECONDS:
-        raise ParameterError(f"--speed: {args.speed:g} m/s makes the 6.3 m path last {cost.duration:.0f} s; "
-                             f"at most {MAX_MC_SECONDS:g} s (give a --duration too, or a higher --speed)")
+    if args.duration_s is None and cost.duration_s > MAX_MC_SECONDS:
+        raise ParameterError(f"--speed-mps: {args.speed_mps:g} m/s makes the 6.3 m path last {cost.duration_s:.0f} s; "
+                             f"at most {MAX_MC_SECONDS:g} s (give a --duration-s too, or a higher --speed-mps)")
     gb = cost.bytes / 1e9
-    what = (f"{cost.runs} runs of {cost.duration:g} s, estimated at about {_duration(cost.seconds)} and "
+    what = (f"{cost.runs} runs of {cost.duration_s:g} s, estimated at about {_duration(cost.seconds)} and "
             f"{gb:.3g} GB of memory (as measured on one core of a 2-core machine: montecarlo.page_cost)")
     if cost.bytes > MC_MEMORY_BYTES:
         raise ParameterError(f"montecarlo: {what}; at most {MC_MEMORY_BYTES / 1e9:g} GB: a smaller --chunk or "
                              "fewer --runs")
     if cost.seconds > MC_BUDGET_SECONDS and not args.allow_long:
         raise ParameterError(f"montecarlo: {what}; over the budget of {_duration(MC_BUDGET_SECONDS)}: pass "
-                             "--allow-long to run it anyway, or ask for fewer --runs or a shorter --duration")
+                             "--allow-long to run it anyway, or ask for fewer --runs or a shorter --duration-s")
     if cost.seconds > MC_ANNOUNCE_SECONDS:
         print(f"morpi montecarlo: {what}", flush=True)
 
@@ -634,8 +640,8 @@ def _cmd_simulate(args):
 def _cmd_data(args):
     from .fetch import fetch_dataset
 
-    _clean_stale(Path(args.dest).expanduser().parent)
-    root = fetch_dataset(args.dest, url=args.url)
+    _clean_stale(Path(args.out).expanduser().parent)
+    root = fetch_dataset(args.out, url=args.url)
     print(f"field dataset verified at {root}; use --data {root} or set MORPI_DATA={root}")
     return 0
 

@@ -46,6 +46,7 @@ from .error_model import (
     DP, discretize, noise_coupling, noise_density, paper_trajectory, planar_noise_coupling,
     planar_noise_density, planar_system_matrix, simulate_linear, system_matrix,
 )
+from .deprecation import renamed_attribute, renamed_keywords
 from .errors import MorpiError, ParameterError
 from .eskf import (
     StepModel, augment, augment_covariance, initial_covariance, run_filter, simulate_steps, step_update,
@@ -98,7 +99,7 @@ class CurveCase:
         Gravity [m/s^2].
     gain_sigma : float
         1 sigma of the relative Weinberg gain error.
-    speed : float
+    speed_mps : float
         Speed along the path [m/s].
     noise : units.SensorSpec or None
         White noise added to the model (None: no process noise).
@@ -115,10 +116,14 @@ class CurveCase:
     bg: np.ndarray
     g: float
     gain_sigma: float
-    speed: float
+    speed_mps: float
     noise: units.SensorSpec | None = None
     realisation: tuple | None = None
     spec: units.SensorSpec | None = None
+
+
+CurveCase.__init__ = renamed_keywords(speed="speed_mps")(CurveCase.__init__)
+CurveCase.speed = renamed_attribute("CurveCase", "speed", "speed_mps")
 
 
 def _drop_bgz(bg):
@@ -151,15 +156,15 @@ def case_from_params(params, noise_spec=PARAMS_NOISE_SPEC) -> CurveCase:
     Examples
     --------
     >>> from morpi_filters.params import params_from_dict
-    >>> p = params_from_dict({"dv0_mps": [0.03, -0.04, 0.0], "ba_mps2": [0.0] * 3,
-    ...                       "bg_radps": [0.001, 0.002, 0.003], "g_mps2": 9.81, "dG": [-0.1]})
+    >>> p = params_from_dict({"dv0_mps": [0.03, -0.04, 0.0], "accel_bias_mps2": [0.0] * 3,
+    ...                       "gyro_bias_radps": [0.001, 0.002, 0.003], "g_mps2": 9.81, "dG": [-0.1]})
     >>> case = case_from_params(p)
     >>> case.name, case.dv0.tolist(), case.bg.tolist(), case.gain_sigma, case.noise is None
     ('params', [0.03, 0.04, 0.0], [0.001, 0.002, 0.0], 0.1, True)
     """
     return CurveCase(
         name="params", title=f"parameter file {params.label}", dv0=np.abs(params.dv0), ba=np.abs(params.ba),
-        bg=_drop_bgz(np.abs(params.bg)), g=params.g, gain_sigma=abs(params.dG[0]), speed=params.morpi_speed_mps,
+        bg=_drop_bgz(np.abs(params.bg)), g=params.g, gain_sigma=abs(params.dG[0]), speed_mps=params.morpi_speed_mps,
         noise=noise_spec if params.process_noise else None,
         realisation=(params.dv0, params.ba, _drop_bgz(params.bg), params.dG[0]),
     )
@@ -198,14 +203,14 @@ def case_from_sensor(spec, params, title: str | None = None) -> CurveCase:
     return CurveCase(
         name=spec.name.lower().replace("-", ""), title=spec.name if title is None else str(title),
         dv0=np.abs(params.dv0), ba=np.full(3, spec.accel_bias), bg=_drop_bgz(np.full(3, spec.gyro_bias)),
-        g=params.g, gain_sigma=abs(params.dG[0]), speed=params.morpi_speed_mps,
+        g=params.g, gain_sigma=abs(params.dG[0]), speed_mps=params.morpi_speed_mps,
         noise=spec if params.process_noise else None, spec=spec,
     )
 
 
 def _keys(dv0, ba, bg, g):
-    return {"dv0_mps": [float(v) for v in dv0], "ba_mps2": [float(v) for v in ba],
-            "bg_radps": [float(v) for v in bg], "g_mps2": float(g)}
+    return {"dv0_mps": [float(v) for v in dv0], "accel_bias_mps2": [float(v) for v in ba],
+            "gyro_bias_radps": [float(v) for v in bg], "g_mps2": float(g)}
 
 
 def case_mean_square(case: CurveCase, t, kind):
@@ -244,7 +249,7 @@ def case_mean_square(case: CurveCase, t, kind):
     A velocity error of 1 sigma (0.03, 0.04) m/s grows as (0.05 t)^2:
 
     >>> from morpi_filters.params import params_from_dict
-    >>> p = params_from_dict({"dv0_mps": [0.03, 0.04, 0.0], "ba_mps2": [0.0] * 3, "bg_radps": [0.0] * 3,
+    >>> p = params_from_dict({"dv0_mps": [0.03, 0.04, 0.0], "accel_bias_mps2": [0.0] * 3, "gyro_bias_radps": [0.0] * 3,
     ...                       "g_mps2": 9.81, "dG": [0.1], "morpi_speed_mps": 0.5})
     >>> np.sqrt(case_mean_square(case_from_params(p), [0.0, 1.0, 2.0], "INS-3D")).round(12).tolist()
     [0.0, 0.05, 0.1]
@@ -255,19 +260,20 @@ def case_mean_square(case: CurveCase, t, kind):
 
     t = np.asarray(t, dtype=float)
     if kind == "MoRPI-aided INS":
-        return (case.gain_sigma * case.speed * t) ** 2
+        return (case.gain_sigma * case.speed_mps * t) ** 2
     if kind not in ("INS-3D", "INS-2D"):
         raise ParameterError(f"kind {kind!r}: expected one of {', '.join(CURVE_METHODS)}")
     return symbolic.closed_form_mean_square(_keys(case.dv0, case.ba, case.bg, case.g), t, kind, "z_up",
                                             linearized=True, keep_bgz=False)
 
 
-def error_realisation(dv0, ba, bg, dG, g, speed, t, kind):
+@renamed_keywords(speed="speed_mps")
+def error_realisation(dv0, ba, bg, dG, g, speed_mps, t, kind):
     """Horizontal error of one realisation of the paper's closed form (z up, ``b_gz`` dropped).
 
     From :func:`morpi_filters.symbolic.closed_form_errors`: the paper's
     polynomials with ``alpha = g + b_az``; for ``"MoRPI-aided INS"`` the
-    MoRPI-A distance error ``|dG| speed t``.
+    MoRPI-A distance error ``|dG| speed_mps t``.
 
     Parameters
     ----------
@@ -281,7 +287,7 @@ def error_realisation(dv0, ba, bg, dG, g, speed, t, kind):
         Relative Weinberg gain error (MoRPI only).
     g : float
         Gravity magnitude [m/s^2].
-    speed : float
+    speed_mps : float
         Speed along the path [m/s] (MoRPI only).
     t : array_like, shape (n,)
         Times [s].
@@ -309,13 +315,14 @@ def error_realisation(dv0, ba, bg, dG, g, speed, t, kind):
 
     t = np.asarray(t, dtype=float)
     if kind == "MoRPI-aided INS":
-        return np.abs(dG) * speed * t
+        return np.abs(dG) * speed_mps * t
     if kind not in ("INS-3D", "INS-2D"):
         raise ParameterError(f"kind {kind!r}: expected one of {', '.join(CURVE_METHODS)}")
     return symbolic.closed_form_errors(_keys(dv0, ba, bg, g), t, kind, "z_up", keep_bgz=False)
 
 
-def time_grid(times, dt, step_period=None):
+@renamed_keywords(dt="dt_s", step_period="step_period_s")
+def time_grid(times, dt_s, step_period_s=None):
     """Epochs of a run: a uniform grid plus the requested times and step times.
 
     Times are merged after rounding to 1e-9 s, so a requested time or a step
@@ -325,10 +332,10 @@ def time_grid(times, dt, step_period=None):
     ----------
     times : array_like, shape (m,)
         Requested times [s], >= 0; the grid ends at the largest.
-    dt : float
-        Nominal step [s].
-    step_period : float, optional
-        MoRPI step period [s]: steps at ``step_period``, ``2 step_period``, ...
+    dt_s : float
+        Nominal time step [s].
+    step_period_s : float, optional
+        MoRPI step period [s]: steps at ``step_period_s``, ``2 step_period_s``, ...
         up to the last time.
 
     Returns
@@ -336,22 +343,22 @@ def time_grid(times, dt, step_period=None):
     grid : ndarray, shape (n + 1,)
         Epoch times [s]: sorted, unique, starting at 0.
     steps : ndarray of int
-        Epoch indices of the MoRPI steps (empty without `step_period`).
+        Epoch indices of the MoRPI steps (empty without `step_period_s`).
     at : ndarray of int, shape (m,)
         Epoch index of each requested time.
 
     Examples
     --------
-    >>> grid, steps, at = time_grid([0.5, 1.0], 0.3, step_period=0.4)
+    >>> grid, steps, at = time_grid([0.5, 1.0], 0.3, step_period_s=0.4)
     >>> grid.tolist(), steps.tolist(), at.tolist()
     ([0.0, 0.3, 0.4, 0.5, 0.6, 0.8, 0.9, 1.0], [2, 5], [3, 7])
     """
     times = np.asarray(times, dtype=float)
     T = float(times.max()) if times.size else 0.0
-    parts = [np.arange(0.0, T, dt), [T], times]
+    parts = [np.arange(0.0, T, dt_s), [T], times]
     st = np.zeros(0)
-    if step_period is not None:
-        st = np.arange(1, int(np.floor(T / step_period + 1e-9)) + 1) * step_period
+    if step_period_s is not None:
+        st = np.arange(1, int(np.floor(T / step_period_s + 1e-9)) + 1) * step_period_s
         parts.append(st)
     grid = np.unique(np.round(np.concatenate(parts), 9))
     at = np.searchsorted(grid, np.round(times, 9))
@@ -468,7 +475,7 @@ def _run_methods(case, grid, steps, model, only=None):
             out["INS-3D"] = run_filter(D3.Phi, D3.Qd, P3, grid)
         if only in (None, "MoRPI-aided INS"):
             Phi_a, Qd_a = augment(D3.Phi, D3.Qd, model)
-            meas = [step_update(i, STEP_LENGTH_M, 0.0, model, case.speed) for i in steps]
+            meas = [step_update(i, STEP_LENGTH_M, 0.0, model, case.speed_mps) for i in steps]
             out["MoRPI-aided INS"] = run_filter(Phi_a, Qd_a, augment_covariance(P3, model), grid, meas)
     if only in (None, "INS-2D"):
         D2 = discretize(F2, G2, Q2, dts)
@@ -478,7 +485,7 @@ def _run_methods(case, grid, steps, model, only=None):
 
 def _monte_carlo(case, times, model, runs, rng):
     """Linear-model Monte Carlo RMS per method, in chunks of :data:`MC_CHUNK` runs (bounded memory)."""
-    period = STEP_LENGTH_M / case.speed
+    period = STEP_LENGTH_M / case.speed_mps
     T = float(np.max(times))
     grid, steps, at = time_grid(times, max(MC_DT, T / MC_MAX_EPOCHS), period)
     dts = _steps(grid)
@@ -496,7 +503,7 @@ def _monte_carlo(case, times, model, runs, rng):
         sq["INS-3D"] += (X3[..., 0] ** 2 + X3[..., 1] ** 2).sum(axis=0)
         sq["INS-2D"] += (X2[..., 0] ** 2 + X2[..., 1] ** 2).sum(axis=0)
         gain = model.gain_sigma * rngg.standard_normal(size)
-        meas = simulate_steps(X3, steps, STEP_LENGTH_M, 0.0, model, case.speed, gain, rngs)
+        meas = simulate_steps(X3, steps, STEP_LENGTH_M, 0.0, model, case.speed_mps, gain, rngs)
         r = run_filter(Phi_a, Qd_a, P0a, grid, meas)
         e = r.x[..., DP][..., :2] - X3[..., DP][..., :2]
         sq["MoRPI-aided INS"] += (e ** 2).sum(axis=-1).sum(axis=0)
@@ -585,7 +592,7 @@ def horizontal_sigma(errors, times, method: str = "INS-3D") -> np.ndarray:
     times = np.unique(np.asarray(times, dtype=float))
     if times.size == 0 or not np.all(np.isfinite(times)) or times.min() < 0 or times.max() <= 0:
         raise ParameterError(f"times: expected finite times >= 0 s with the last > 0, got {times.tolist()}")
-    grid, steps, at = time_grid(times, FILTER_DT, STEP_LENGTH_M / case.speed)
+    grid, steps, at = time_grid(times, FILTER_DT, STEP_LENGTH_M / case.speed_mps)
     res = _run_methods(case, grid, steps, StepModel(gain_sigma=case.gain_sigma), only=method)
     return res[method].horizontal_sigma[at]
 
@@ -629,7 +636,7 @@ def compute_curves(case: CurveCase, times=DEFAULT_TIMES, runs=MC_RUNS, rng=None,
     the closed form ``|s_dv| t``; the MoRPI steps bound the aided one:
 
     >>> from morpi_filters.params import params_from_dict
-    >>> p = params_from_dict({"dv0_mps": [0.03, 0.04, 0.0], "ba_mps2": [0.0] * 3, "bg_radps": [0.0] * 3,
+    >>> p = params_from_dict({"dv0_mps": [0.03, 0.04, 0.0], "accel_bias_mps2": [0.0] * 3, "gyro_bias_radps": [0.0] * 3,
     ...                       "g_mps2": 9.81, "dG": [0.1], "morpi_speed_mps": 0.5})
     >>> cc = compute_curves(case_from_params(p), times=[1.0, 2.0], runs=20, rng=np.random.default_rng(0))
     >>> at = cc.at_eval_times()
@@ -648,7 +655,7 @@ def compute_curves(case: CurveCase, times=DEFAULT_TIMES, runs=MC_RUNS, rng=None,
         raise ParameterError(f"rng: {type(rng).__name__}, expected a numpy.random.Generator for the Monte Carlo "
                              f"draws (runs={runs}, nonlinear_runs={nonlinear_runs})")
     model = StepModel(gain_sigma=case.gain_sigma)
-    period = STEP_LENGTH_M / case.speed
+    period = STEP_LENGTH_M / case.speed_mps
     grid, steps, at = time_grid(times, FILTER_DT, period)
     res = _run_methods(case, grid, steps, model)
     sigma = {k: r.horizontal_sigma for k, r in res.items()}
@@ -656,7 +663,7 @@ def compute_curves(case: CurveCase, times=DEFAULT_TIMES, runs=MC_RUNS, rng=None,
     real = {}
     if case.realisation is not None:
         dv0, ba, bg, dG = case.realisation
-        real = {k: error_realisation(dv0, ba, bg, dG, case.g, case.speed, grid, k)
+        real = {k: error_realisation(dv0, ba, bg, dG, case.g, case.speed_mps, grid, k)
                 for k in CURVE_METHODS}
     mc_t, mc, mc_at = np.zeros(0), {}, np.zeros(0, int)
     r_lin, r_nl = rng.spawn(2) if rng is not None else (None, None)
@@ -748,7 +755,8 @@ class CurvesStudy:
     synthetic: bool = False
 
 
-def curves_study(*, params_path=None, times=None, source=None, tables=None, seed: int = MC_SEED) -> CurvesStudy:
+@renamed_keywords(source="data_source")
+def curves_study(*, params_path=None, times=None, data_source=None, tables=None, seed: int = MC_SEED) -> CurvesStudy:
     """Compute the ``curves`` section (``morpi curves``, ``morpi report``).
 
     Runs :func:`compute_curves` with its default Monte Carlo sizes on three
@@ -761,10 +769,10 @@ def curves_study(*, params_path=None, times=None, source=None, tables=None, seed
         Parameter file (values read as 1 sigma); default the committed one.
     times : sequence of float, optional
         Evaluation times [s] (default :data:`DEFAULT_TIMES`, 0 to 15 s).
-    source : results.DataSource or None, optional
+    data_source : results.DataSource or None, optional
         Recordings for the field end points (none when None).
     tables : evaluate.TablesResult, optional
-        The field evaluation of ``source.root`` when already computed (its
+        The field evaluation of ``data_source.root`` when already computed (its
         cached recordings are reused).
     seed : int, optional
         Seed of the Monte Carlo draws, >= 0 (default :data:`MC_SEED`, the seed
@@ -785,8 +793,8 @@ def curves_study(*, params_path=None, times=None, source=None, tables=None, seed
     times = np.unique(np.asarray(DEFAULT_TIMES if not times else times, dtype=float))
     cases = [case_from_params(params)] + [case_from_sensor(s, params, PAPER_IMU_TITLES[s.name])
                                           for s in (units.MPU6500, units.LSM6DSL)]
-    field_pts, field_note = _field_points(source, tables.data if tables is not None else None)
+    field_pts, field_note = _field_points(data_source, tables.data if tables is not None else None)
     curves = tuple(replace(compute_curves(case, times, rng=np.random.default_rng(int(seed))), field=field_pts)
                    for case in cases)
     return CurvesStudy(params=params, times=times, cases=curves, field_points=field_pts, field_note=field_note,
-                       synthetic=bool(source is not None and source.synthetic), seed=int(seed))
+                       synthetic=bool(data_source is not None and data_source.synthetic), seed=int(seed))

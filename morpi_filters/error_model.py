@@ -71,6 +71,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import expm
 
+from .deprecation import renamed_keywords
 from .errors import ParameterError
 
 __all__ = [
@@ -466,7 +467,8 @@ class Discretized:
         return iter((self.Phi, self.Qd))
 
 
-def discretize(F, G, Q, dt):
+@renamed_keywords(dt="dt_s")
+def discretize(F, G, Q, dt_s):
     """Discretize ``x_dot = F x + G w`` (``E[w w^T] = Q delta``) by Van Loan.
 
     The one place of the package where continuous models become discrete.
@@ -480,8 +482,8 @@ def discretize(F, G, Q, dt):
     Q : array_like, shape (m, m) or (n, m, m)
         Spectral density of the white noise (e.g. [m^2/s^3] for an acceleration
         noise).
-    dt : float or array_like, shape (n,)
-        Step(s) [s], >= 0; an array gives one step per epoch (real,
+    dt_s : float or array_like, shape (n,)
+        Time step(s) [s], >= 0; an array gives one step per epoch (real,
         non-uniform time steps).
 
     Returns
@@ -516,7 +518,7 @@ def discretize(F, G, Q, dt):
     F = np.asarray(F, dtype=float)
     G = np.asarray(G, dtype=float)
     Q = np.asarray(Q, dtype=float)
-    dt = np.asarray(dt, dtype=float)
+    dt = np.asarray(dt_s, dtype=float)
     if F.ndim not in (2, 3) or F.shape[-1] != F.shape[-2]:
         raise ParameterError(f"F: expected shape (k, k) or (n, k, k), got {F.shape}")
     k = F.shape[-1]
@@ -526,7 +528,7 @@ def discretize(F, G, Q, dt):
     if Q.ndim not in (2, 3) or Q.shape[-2:] != (m, m):
         raise ParameterError(f"Q: expected shape ({m}, {m}) or (n, {m}, {m}), got {Q.shape}")
     if dt.ndim > 1 or not np.all(np.isfinite(dt)) or np.any(dt < 0):
-        raise ParameterError("dt: expected a finite step >= 0 [s] or a 1-D array of them")
+        raise ParameterError("dt_s: expected a finite time step >= 0 [s] or a 1-D array of them")
     lead = np.broadcast_shapes(F.shape[:-2], G.shape[:-2], Q.shape[:-2], dt.shape)
     if len(lead) > 1:
         raise ParameterError("discretize: stacks must share one leading (time) axis")
@@ -549,11 +551,12 @@ def discretize(F, G, Q, dt):
     return Discretized(Phi=np.ascontiguousarray(Phi), Qd=Qd)
 
 
-def simulate_linear(F, G, Q, P0, dt, n_steps, runs, rng, keep=None):
+@renamed_keywords(dt="dt_s")
+def simulate_linear(F, G, Q, P0, dt_s, n_steps, runs, rng, keep=None):
     """Monte Carlo of the linear error model with sampled white noise.
 
     Each run draws ``x0 ~ N(0, P0)`` and integrates ``x_dot = F x + G w``
-    exactly over steps of length `dt` with `w` held constant over a step and
+    exactly over time steps of length `dt_s` with `w` held constant over a step and
     drawn as ``N(0, Q / dt)``, i.e. the way a sampled IMU delivers white
     noise of spectral density Q. The transition of a step comes from
     ``expm([[F, G], [0, 0]] dt)``; the Van Loan covariance integral of
@@ -570,8 +573,8 @@ def simulate_linear(F, G, Q, P0, dt, n_steps, runs, rng, keep=None):
         Spectral density of the white noise.
     P0 : array_like, shape (k, k)
         Initial covariance (positive semi-definite).
-    dt : float or array_like, shape (n_steps,)
-        Step(s) [s], > 0.
+    dt_s : float or array_like, shape (n_steps,)
+        Time step(s) [s], > 0.
     n_steps : int
         Number of steps.
     runs : int
@@ -606,9 +609,9 @@ def simulate_linear(F, G, Q, P0, dt, n_steps, runs, rng, keep=None):
     G = np.asarray(G, dtype=float)
     Q = np.asarray(Q, dtype=float)
     k, m = G.shape[-2], G.shape[-1]
-    dt = np.asarray(dt, dtype=float)
+    dt = np.asarray(dt_s, dtype=float)
     if not np.all(np.isfinite(dt)) or np.any(dt <= 0) or dt.ndim > 1 or (dt.ndim == 1 and dt.size != n_steps):
-        raise ParameterError(f"dt: expected a step > 0 [s] or {n_steps} of them")
+        raise ParameterError(f"dt_s: expected a time step > 0 [s] or {n_steps} of them")
     dts, inv = (np.unique(dt, return_inverse=True) if F.ndim == 2 and G.ndim == 2 and dt.ndim == 1
                 else (dt, None))
     M = np.zeros(np.broadcast_shapes(F.shape[:-2], G.shape[:-2], dts.shape) + (k + m, k + m))

@@ -77,6 +77,7 @@ from numpy import dot
 from scipy.stats import chi2
 
 from .error_model import DP, EPS, N_STATES, STATE_NAMES
+from .deprecation import renamed_keywords
 from .errors import ParameterError
 
 __all__ = [
@@ -347,7 +348,8 @@ def augment_covariance(P0, model: StepModel):
     return T @ P @ T.T
 
 
-def step_update(index, length, psi, model: StepModel, speed, z=None):
+@renamed_keywords(speed="speed_mps")
+def step_update(index, length, psi, model: StepModel, speed_mps, z=None):
     """The MoRPI step pseudo-measurement at one detected step.
 
     Parameters
@@ -360,7 +362,7 @@ def step_update(index, length, psi, model: StepModel, speed, z=None):
         Heading of the step [rad].
     model : StepModel
         Step error model (the sigmas of R and whether the gain is a state).
-    speed : float
+    speed_mps : float
         Speed along the path [m/s] (jitter term of R).
     z : array_like, shape (2,) or (runs, 2), optional
         The measurement [m] (see :func:`step_z`); zeros for a covariance analysis.
@@ -390,7 +392,7 @@ def step_update(index, length, psi, model: StepModel, speed, z=None):
     H[:, C_DP.start:C_DP.start + 2] = -np.eye(2)
     H[:, EPS.stop - 1] = -0.5 * length * Ju
     H[:, C_EPS.stop - 1] = -0.5 * length * Ju
-    var_along = (length * model.step_sigma) ** 2 + 2.0 * (speed * model.jitter_s) ** 2
+    var_along = (length * model.step_sigma) ** 2 + 2.0 * (speed_mps * model.jitter_s) ** 2
     if model.augment_gain:
         H[:, GAIN.start] = -length * u
     else:
@@ -773,7 +775,8 @@ def chi2_band(dof, runs, confidence=0.95):
     return (chi2.ppf(a, runs * dof) / runs, chi2.ppf(1.0 - a, runs * dof) / runs)
 
 
-def simulate_steps(X, step_index, length, psi, model: StepModel, speed, gain, rng):
+@renamed_keywords(speed="speed_mps")
+def simulate_steps(X, step_index, length, psi, model: StepModel, speed_mps, gain, rng):
     """Synthetic MoRPI step measurements of simulated error-state runs.
 
     Parameters
@@ -786,7 +789,7 @@ def simulate_steps(X, step_index, length, psi, model: StepModel, speed, gain, rn
         Step length [m] and heading [rad].
     model : StepModel
         Step error model (R of each step, and whether the gain is a state).
-    speed : float
+    speed_mps : float
         Speed along the path [m/s] (jitter term of R).
     gain : ndarray, shape (runs,)
         True relative gain error per run (dimensionless).
@@ -813,7 +816,7 @@ def simulate_steps(X, step_index, length, psi, model: StepModel, speed, gain, rn
     out = []
     prev = 0
     for idx in step_index:
-        m = step_update(idx, length, psi, model, speed)
+        m = step_update(idx, length, psi, model, speed_mps)
         xa = np.zeros((runs, m.H.shape[1]))
         xa[:, :N_STATES] = X[:, idx]
         xa[:, C_DP] = X[:, prev, DP]

@@ -1,6 +1,6 @@
 """Download the public MoRPI field dataset and verify it against committed checksums.
 
-``morpi data fetch [--dest DIR] [--url URL]`` calls :func:`fetch_dataset`: it
+``morpi data fetch [--out DIR] [--url URL]`` calls :func:`fetch_dataset`: it
 downloads an archive of the public repository ansfl/MoRPI [1]_ (by default
 the zip archive of its default branch), unpacks only the recordings (the CSV
 files under the repository's ``data/`` folder, without the archive's top
@@ -60,6 +60,7 @@ from pathlib import Path, PurePosixPath
 from typing import Callable, Mapping
 
 from .dataset import PROJECT_DATA
+from .deprecation import renamed_keywords
 from .errors import FetchError, MorpiError, OutputError, ParameterError
 from .outputs import new_stage_dir, swap_in
 
@@ -535,14 +536,15 @@ class _Archive:
 
 # ----------------------------------------------------------------------------- fetch
 
-def fetch_dataset(dest, *, url: str | None = None, checksums=None, timeout: float = 60.0,
+@renamed_keywords(dest="out")
+def fetch_dataset(out, *, url: str | None = None, checksums=None, timeout: float = 60.0,
                   progress: Callable[[str], None] | None = None) -> Path:
     """Download, unpack and verify the field dataset; all or nothing.
 
     Parameters
     ----------
-    dest : str or Path
-        Destination folder; the recordings land in ``dest/data``. It must
+    out : str or Path
+        Destination folder; the recordings land in ``out/data``. It must
         not exist, be empty, or already hold the verified dataset.
     url : str, optional
         Archive URL (``http(s)://`` or ``file://``); default
@@ -559,14 +561,14 @@ def fetch_dataset(dest, *, url: str | None = None, checksums=None, timeout: floa
     Returns
     -------
     Path
-        The dataset root ``dest/data`` (pass it as ``--data``).
+        The dataset root ``out/data`` (pass it as ``--data``).
 
     Raises
     ------
     FetchError
         One line naming the URL, for a failed download or an archive that is
         unsafe, corrupt or does not match the checksums. Nothing is left
-        behind: `dest` is either untouched or absent, and no staging or
+        behind: `out` is either untouched or absent, and no staging or
         temporary file remains.
     OutputError
         One line naming the destination, when it is in the way or cannot be
@@ -599,7 +601,7 @@ def fetch_dataset(dest, *, url: str | None = None, checksums=None, timeout: floa
     say = progress or (lambda msg: print(msg, flush=True))
     url = DEFAULT_URL if url is None else url
     expected = _resolve_checksums(checksums)
-    dest = Path(dest).expanduser()
+    dest = Path(out).expanduser()
     root = dest / ARCHIVE_DATA_DIR
     if dest.exists() or dest.is_symlink():
         if not dest.is_dir() or dest.is_symlink():
@@ -608,7 +610,7 @@ def fetch_dataset(dest, *, url: str | None = None, checksums=None, timeout: floa
             say(f"{root}: already holds the verified dataset ({len(expected)} files); nothing to do")
             return root
         if any(dest.iterdir()):
-            raise OutputError(f"{dest}: not empty and not a verified dataset; remove it or choose another --dest")
+            raise OutputError(f"{dest}: not empty and not a verified dataset; remove it or choose another --out")
     try:
         dest.parent.mkdir(parents=True, exist_ok=True)
         stage = new_stage_dir(dest)

@@ -250,13 +250,13 @@ def _runs_plan(layout: ForeignLayout):
     """(id, split, group, motion, trajectory keywords) of each run."""
     if layout.groups:
         plan = []
-        for group, motion, kw in (("sine-1.0m", "periodic", dict(period=1.0, amplitude=0.1)),
-                                  ("sine-1.5m", "periodic", dict(period=1.5, amplitude=0.15)),
+        for group, motion, kw in (("sine-1.0m", "periodic", dict(p2p_m=1.0, amplitude_m=0.1)),
+                                  ("sine-1.5m", "periodic", dict(p2p_m=1.5, amplitude_m=0.15)),
                                   ("straight", "straight", {})):
             for split in ("train", "test"):
                 plan.append((f"{group}-{split}", split, group, motion, kw))
         return plan
-    return [("periodic-1", "none", "all", "periodic", dict(period=1.0, amplitude=0.1)),
+    return [("periodic-1", "none", "all", "periodic", dict(p2p_m=1.0, amplitude_m=0.1)),
             ("straight-1", "none", "all", "straight", {})]
 
 

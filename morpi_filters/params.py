@@ -3,19 +3,21 @@
 A JSON object with units in the key names::
 
     {
-      "dv0_mps":   [dvx, dvy, dvz],   initial velocity error [m/s]
-      "ba_mps2":   [bax, bay, baz],   accelerometer bias [m/s^2]
-      "bg_radps":  [bgx, bgy, bgz],   gyro bias [rad/s]
-      "g_mps2":    9.81,              gravity magnitude [m/s^2], > 0
-      "dG":        [0.05, 0.10],      Weinberg gain errors (fractions of the gain)
-      "morpi_speed_mps": 1.0,         distance travelled per second along the path [m/s]
-      "process_noise": false          curves only: add the IMU white noise (see eskf)
+      "dv0_mps":         [dvx, dvy, dvz],   initial velocity error [m/s]
+      "accel_bias_mps2": [bax, bay, baz],   accelerometer bias [m/s^2]
+      "gyro_bias_radps": [bgx, bgy, bgz],   gyro bias [rad/s]
+      "g_mps2":          9.81,              gravity magnitude [m/s^2], > 0
+      "dG":              [0.05, 0.10],      Weinberg gain errors (fractions of the gain)
+      "morpi_speed_mps": 1.0,               distance travelled per second along the path [m/s]
+      "process_noise":   false              curves only: add the IMU white noise (see eskf)
     }
 
 ``morpi assess`` reads the values as one error realisation; ``morpi curves``
 reads the same keys as 1-sigma values of zero-mean, independent errors.
 Optional keys take the defaults of :data:`DEFAULTS`; ``"note"`` holds free
-text. Any other key, a wrong type, a non-finite number or a value beyond its
+text. The keys of :data:`RENAMED_KEYS` (``ba_mps2``, ``bg_radps``: the names
+before 0.2) are read as their new names for one release, with a
+:class:`DeprecationWarning`. Any other key, a wrong type, a non-finite number or a value beyond its
 physical bound (the constants below, each with its reason) raises
 :class:`~morpi_filters.errors.ParameterError` naming the file and the key.
 Time grids and run counts are not part of the file (they are command-line
@@ -30,19 +32,22 @@ from pathlib import Path
 
 import numpy as np
 
+from .deprecation import renamed_keys
 from .errors import ParameterError
 from .resources import project_data
 from .units import G0
 
-__all__ = ["ErrorParams", "DEFAULTS", "REQUIRED", "load_params", "params_from_dict", "DEFAULT_PARAMS_FILE",
+__all__ = ["ErrorParams", "DEFAULTS", "REQUIRED", "RENAMED_KEYS", "load_params", "params_from_dict", "DEFAULT_PARAMS_FILE",
            "BA_MAX_MPS2", "BG_MAX_RADPS", "DV0_MAX_MPS", "SPEED_MAX_MPS", "G_MIN_MPS2", "G_MAX_MPS2", "DG_MAX"]
 
 #: The committed parameter file of the analytical assessment.
 DEFAULT_PARAMS_FILE = project_data() / "assessment_params.json"
 #: Keys every parameter file must have: name -> vector length (None for a scalar).
-REQUIRED = {"dv0_mps": 3, "ba_mps2": 3, "bg_radps": 3, "g_mps2": None}
+REQUIRED = {"dv0_mps": 3, "accel_bias_mps2": 3, "gyro_bias_radps": 3, "g_mps2": None}
 #: Optional keys and their defaults.
 DEFAULTS = {"dG": [0.05, 0.10], "morpi_speed_mps": 1.0, "process_noise": False}
+#: Keys renamed in 0.2 (old -> new), still read as the new ones for one release.
+RENAMED_KEYS = {"ba_mps2": "accel_bias_mps2", "bg_radps": "gyro_bias_radps"}
 
 
 @dataclass(frozen=True)
@@ -86,7 +91,7 @@ class ErrorParams:
         --------
         >>> load_params().label
         'data/assessment_params.json'
-        >>> params_from_dict({"dv0_mps": [0] * 3, "ba_mps2": [0] * 3, "bg_radps": [0] * 3,
+        >>> params_from_dict({"dv0_mps": [0] * 3, "accel_bias_mps2": [0] * 3, "gyro_bias_radps": [0] * 3,
         ...                   "g_mps2": 9.8}, name="mine.json").label
         'mine.json'
         """
@@ -158,7 +163,7 @@ def params_from_dict(d: dict, name: str = "<dict>") -> ErrorParams:
     d : dict
         The parsed JSON object: the keys of :data:`REQUIRED`, optionally those
         of :data:`DEFAULTS` and a ``"note"`` text; values in the SI units of
-        their key names (``dv0_mps`` [m/s], ``ba_mps2`` [m/s^2], ``bg_radps``
+        their key names (``dv0_mps`` [m/s], ``accel_bias_mps2`` [m/s^2], ``gyro_bias_radps``
         [rad/s], ``g_mps2`` [m/s^2], ``morpi_speed_mps`` [m/s], ``dG`` as
         fractions of the gain).
     name : str, optional
@@ -181,17 +186,18 @@ def params_from_dict(d: dict, name: str = "<dict>") -> ErrorParams:
 
     Examples
     --------
-    >>> p = params_from_dict({"dv0_mps": [0.03, 0.04, 0.0], "ba_mps2": [0.0] * 3,
-    ...                       "bg_radps": [0.0] * 3, "g_mps2": 9.81})
+    >>> p = params_from_dict({"dv0_mps": [0.03, 0.04, 0.0], "accel_bias_mps2": [0.0] * 3,
+    ...                       "gyro_bias_radps": [0.0] * 3, "g_mps2": 9.81})
     >>> p.dv0.tolist(), p.dG, p.morpi_speed_mps, p.process_noise
     ([0.03, 0.04, 0.0], (0.05, 0.1), 1.0, False)
-    >>> params_from_dict({"dv0_mps": [0.0] * 3, "ba_mps2": [0.0] * 3, "bg_radps": [0.0] * 3, "g_mps2": 1.6})
+    >>> params_from_dict({"dv0_mps": [0.0] * 3, "accel_bias_mps2": [0.0] * 3, "gyro_bias_radps": [0.0] * 3, "g_mps2": 1.6})
     Traceback (most recent call last):
     ...
     morpi_filters.errors.ParameterError: <dict>: key 'g_mps2': 1.6 must be a positive gravity magnitude on the Earth's surface, between 9.7 and 9.9 m/s^2
     """
     if not isinstance(d, dict):
         raise ParameterError(f"{name}: expected a JSON object with keys {sorted(REQUIRED)}")
+    d = renamed_keys(d, RENAMED_KEYS, name)
     known = set(REQUIRED) | set(DEFAULTS) | set(TEXT_KEYS)
     unknown = [k for k in d if k not in known]
     if unknown:
@@ -204,8 +210,8 @@ def params_from_dict(d: dict, name: str = "<dict>") -> ErrorParams:
         if k in d and not isinstance(d[k], str):
             raise ParameterError(f"{name}: key {k!r}: expected a text string, got {type(d[k]).__name__}")
     dv0 = _vector(name, "dv0_mps", d["dv0_mps"], 3, DV0_MAX_MPS, "m/s")
-    ba = _vector(name, "ba_mps2", d["ba_mps2"], 3, BA_MAX_MPS2, "m/s^2")
-    bg = _vector(name, "bg_radps", d["bg_radps"], 3, BG_MAX_RADPS, "rad/s")
+    ba = _vector(name, "accel_bias_mps2", d["accel_bias_mps2"], 3, BA_MAX_MPS2, "m/s^2")
+    bg = _vector(name, "gyro_bias_radps", d["gyro_bias_radps"], 3, BG_MAX_RADPS, "rad/s")
     g = _number(name, "g_mps2", d["g_mps2"])
     if not G_MIN_MPS2 <= g <= G_MAX_MPS2:
         raise ParameterError(f"{name}: key 'g_mps2': {g} must be a positive gravity magnitude on the Earth's "
@@ -264,7 +270,7 @@ def load_params(path=None) -> ErrorParams:
     >>> import json, os, tempfile
     >>> path = os.path.join(tempfile.mkdtemp(), "p.json")
     >>> with open(path, "w") as fh:
-    ...     json.dump({"dv0_mps": [0.1, 0, 0], "ba_mps2": [0, 0, 0], "bg_radps": [0, 0, 0],
+    ...     json.dump({"dv0_mps": [0.1, 0, 0], "accel_bias_mps2": [0, 0, 0], "gyro_bias_radps": [0, 0, 0],
     ...                "g_mps2": 9.8, "dG": [0.1]}, fh)
     >>> p = load_params(path)
     >>> p.dv0.tolist(), p.g, p.dG, p.source == path

@@ -57,6 +57,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from . import dataset, units
+from .deprecation import renamed_attribute, renamed_keywords
 from .errors import ParameterError
 from .strapdown import rotvec_to_C
 
@@ -73,8 +74,9 @@ L_ROUTE_SPEED = 0.6
 
 
 
-def paper_speed(period: float | None = None) -> float:
-    """Cruise speed of the paper's robot [m/s]: on a straight line, or on a sine of `period` metres.
+@renamed_keywords(period="p2p_m")
+def paper_speed(p2p_m: float | None = None) -> float:
+    """Cruise speed of the paper's robot [m/s]: on a straight line, or on a sine of peak-to-peak distance `p2p_m`.
 
     From the paper's average durations over 6.3 m with 1 s ramps: about 5 s on
     a straight line, 14.5 s with 1 m periods and 11 s with 1.5 m periods;
@@ -82,8 +84,8 @@ def paper_speed(period: float | None = None) -> float:
 
     Parameters
     ----------
-    period : float, optional
-        Period length of the sine path [m]; None for a straight line.
+    p2p_m : float, optional
+        Peak-to-peak distance (period length) of the sine path [m]; None for a straight line.
 
     Returns
     -------
@@ -104,10 +106,10 @@ def paper_speed(period: float | None = None) -> float:
     >>> round(paper_speed(4.0) / paper_speed(1.0), 12)          # sqrt(4) for a period not in the paper
     2.0
     """
-    if period is None:
+    if p2p_m is None:
         return _SPEED["straight"]
-    period = _positive("period", period)
-    return _SPEED.get(period, _SPEED[1.0] * period ** 0.5)
+    p2p_m = _positive("p2p_m", p2p_m)
+    return _SPEED.get(p2p_m, _SPEED[1.0] * p2p_m ** 0.5)
 
 
 # --------------------------------------------------------------------------- smooth steps
@@ -273,7 +275,7 @@ class _SpeedLaw:
         self.L, self.V, self.Tr, self.t0 = length, speed, ramp, t0
         self.Tc = length / speed - ramp
         if self.Tc < 0:
-            raise ParameterError(f"speed: {speed!r} m/s is too fast to cover {length:.3g} m with {ramp:g} s ramps; "
+            raise ParameterError(f"speed_mps: {speed!r} m/s is too fast to cover {length:.3g} m with {ramp:g} s ramps; "
                                  f"expected at most {length / ramp:.3g} m/s")
         self.start = t0 + rest0
         self.stop = self.start + 2 * ramp + self.Tc
@@ -333,8 +335,8 @@ class Trajectory:
         Travelled 3D path length, including the lateral weaving [m].
     end_point : ndarray, shape (3,)
         Position at rest after the motion [m].
-    period, amplitude : float or None
-        Period length and lateral amplitude of the periodic motion [m].
+    p2p_m, amplitude_m : float or None
+        Peak-to-peak distance (period length) and lateral amplitude of the periodic motion [m].
     peak_times : ndarray, shape (m,)
         Times of the lateral extremes of the periodic motion [s] (empty if none).
     peak_side : ndarray, shape (m,)
@@ -359,8 +361,8 @@ class Trajectory:
     centreline_length: float
     distance: float
     end_point: np.ndarray
-    period: float | None = None
-    amplitude: float | None = None
+    p2p_m: float | None = None
+    amplitude_m: float | None = None
     peak_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
     peak_side: np.ndarray = field(default_factory=lambda: np.zeros(0))
     period_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -397,6 +399,10 @@ class Trajectory:
         return replace(self, **_kinematics(*self._model, time))
 
 
+Trajectory.period = renamed_attribute("Trajectory", "period", "p2p_m")
+Trajectory.amplitude = renamed_attribute("Trajectory", "amplitude", "amplitude_m")
+
+
 def _kinematics(path: _Path, law: _SpeedLaw, g: float, time: np.ndarray) -> dict:
     u, du, ddu = law(time)
     r, d1, d2 = path.geometry(u)
@@ -426,7 +432,7 @@ def _kinematics(path: _Path, law: _SpeedLaw, g: float, time: np.ndarray) -> dict
 
 
 def _build(kind, path: _Path, *, speed, ramp, rest, rate_hz, t0, g, period=None, amplitude=None) -> Trajectory:
-    speed = _positive("speed", speed)
+    speed = _positive("speed_mps", speed)
     ramp = _positive("ramp", ramp)
     rate_hz = _positive("rate_hz", rate_hz)
     rest0, rest1 = (rest, rest) if np.ndim(rest) == 0 else tuple(rest)
@@ -460,19 +466,20 @@ def _build(kind, path: _Path, *, speed, ramp, rest, rate_hz, t0, g, period=None,
         side = np.sign(path.offset(up)[0])
         bounds = law.inverse(np.arange(1, int(path.length / period + 1e-9) + 1) * period)
     return Trajectory(**kin, kind=kind, start_time=law.start, stop_time=law.stop, centreline_length=path.length,
-                      distance=distance, end_point=end_point, period=period, amplitude=amplitude,
+                      distance=distance, end_point=end_point, p2p_m=period, amplitude_m=amplitude,
                       peak_times=peak_t, peak_side=side, period_times=bounds, _model=(path, law, g))
 
 
-def straight(length: float = 6.3, *, speed: float = _SPEED["straight"], ramp: float = 1.0, rest=3.0,
+@renamed_keywords(length="length_m", speed="speed_mps")
+def straight(length_m: float = 6.3, *, speed_mps: float = _SPEED["straight"], ramp: float = 1.0, rest=3.0,
              rate_hz: float = 100.0, t0: float = 0.0, g: float = units.G0) -> Trajectory:
     """Straight line along x, from rest to rest.
 
     Parameters
     ----------
-    length : float
+    length_m : float
         Distance [m].
-    speed : float
+    speed_mps : float
         Cruise speed [m/s] (default: 6.3 m in about 5 s, the paper's average).
     ramp : float
         Duration of the smooth start and of the smooth stop [s].
@@ -504,16 +511,16 @@ def straight(length: float = 6.3, *, speed: float = _SPEED["straight"], ramp: fl
     >>> round(traj.start_time, 9)                                # after the 3 s rest
     3.0
     """
-    length = _positive("length", length)
+    length = _positive("length_m", length_m)
     return _build("straight", _Path((length, 0.0), 0.0, 1.0, 0.0, 0.0, None, None, None),
-                  speed=speed, ramp=ramp, rest=rest, rate_hz=rate_hz, t0=t0, g=g)
+                  speed=speed_mps, ramp=ramp, rest=rest, rate_hz=rate_hz, t0=t0, g=g)
 
 
 def _check_sine(period, amplitude, taper, length):
-    period = _positive("period", period)
-    amplitude = _positive("amplitude", amplitude)
+    period = _positive("p2p_m", period)
+    amplitude = _positive("amplitude_m", amplitude)
     if amplitude * 2 * math.pi / period > 1.5:
-        raise ParameterError(f"amplitude: {amplitude!r} m is too large for {period!r} m periods; expected at most "
+        raise ParameterError(f"amplitude_m: {amplitude!r} m is too large for {period!r} m periods; expected at most "
                              f"{1.5 * period / (2 * math.pi):.3g} m (path slope 2 pi A / P <= 1.5)")
     taper = period if taper is None else _positive("taper", taper)
     if 2 * taper > length:
@@ -522,20 +529,21 @@ def _check_sine(period, amplitude, taper, length):
     return period, amplitude, taper
 
 
-def sine(length: float = 6.3, *, period: float = 1.0, amplitude: float = 0.1, speed: float | None = None,
+@renamed_keywords(length="length_m", period="p2p_m", amplitude="amplitude_m", speed="speed_mps")
+def sine(length_m: float = 6.3, *, p2p_m: float = 1.0, amplitude_m: float = 0.1, speed_mps: float | None = None,
          ramp: float = 1.0, rest=3.0, taper: float | None = None, rate_hz: float = 100.0, t0: float = 0.0,
          g: float = units.G0) -> Trajectory:
     """Periodic (sine) motion along x: ``y = A W(x) sin(2 pi x / P)``, from rest to rest.
 
     Parameters
     ----------
-    length : float
+    length_m : float
         Distance along x (start to end point) [m].
-    period : float
-        Period (peak-to-peak event) length P [m]; the paper uses 1 m and 1.5 m.
-    amplitude : float
+    p2p_m : float
+        Peak-to-peak distance (period length) P [m]; the paper uses 1 m and 1.5 m.
+    amplitude_m : float
         Lateral amplitude A [m]; the paper uses 0.1 m and 0.2 m.
-    speed : float, optional
+    speed_mps : float, optional
         Cruise speed along x [m/s]; default from the paper's average durations
         (6.3 m in about 14.5 s with 1 m periods, 11 s with 1.5 m periods).
     ramp, rest, rate_hz, t0, g
@@ -560,23 +568,23 @@ def sine(length: float = 6.3, *, period: float = 1.0, amplitude: float = 0.1, sp
 
     Examples
     --------
-    >>> traj = sine(6.3, period=1.0, amplitude=0.1)
+    >>> traj = sine(6.3, p2p_m=1.0, amplitude_m=0.1)
     >>> round(float(traj.position[-1, 0]), 9), round(float(abs(traj.position[:, 1]).max()), 3)
     (6.3, 0.1)
     >>> traj.peak_times.size, traj.peak_side[:2].tolist()    # at x = 0.25, 0.75, ..., 6.25 m; left first
     (13, [1.0, -1.0])
     """
-    length = _positive("length", length)
-    period, amplitude, taper = _check_sine(period, amplitude, taper, length)
-    if speed is None:
-        speed = paper_speed(period)
+    length = _positive("length_m", length_m)
+    period, amplitude, taper = _check_sine(p2p_m, amplitude_m, taper, length)
+    speed = paper_speed(period) if speed_mps is None else speed_mps
     return _build("sine", _Path((length, 0.0), 0.0, 1.0, 0.0, 0.0, period, amplitude, taper),
                   speed=speed, ramp=ramp, rest=rest, rate_hz=rate_hz, t0=t0, g=g, period=period, amplitude=amplitude)
 
 
+@renamed_keywords(slope_length="slope_length_m", period="p2p_m", amplitude="amplitude_m", speed="speed_mps")
 def l_route(legs=(18.0, 10.0), *, turn_deg: float = 90.0, turn_radius: float = 1.0, slope_deg: float = 0.0,
-            slope_length: float = 5.0, period: float | None = None, amplitude: float | None = None,
-            speed: float = L_ROUTE_SPEED, ramp: float = 1.0, rest=3.0, taper: float | None = None,
+            slope_length_m: float = 5.0, p2p_m: float | None = None, amplitude_m: float | None = None,
+            speed_mps: float = L_ROUTE_SPEED, ramp: float = 1.0, rest=3.0, taper: float | None = None,
             rate_hz: float = 100.0, t0: float = 0.0, g: float = units.G0) -> Trajectory:
     """L-shaped route: a leg along x, a smooth turn, a second leg; optional slope and sine.
 
@@ -594,25 +602,25 @@ def l_route(legs=(18.0, 10.0), *, turn_deg: float = 90.0, turn_radius: float = 1
         and out over a third of the turn's arc length each side.
     slope_deg : float
         Downhill slope at the start [deg] (the field L route: 15 deg over 5 m).
-    slope_length : float
+    slope_length_m : float
         Horizontal length of the slope [m]; it eases into level ground over 1 m.
-    period, amplitude : float, optional
+    p2p_m, amplitude_m : float, optional
         Periodic motion on top of the centreline (both or neither).
-    speed, ramp, rest, taper, rate_hz, t0, g
+    speed_mps, ramp, rest, taper, rate_hz, t0, g
         As in :func:`sine`.
 
     Returns
     -------
     Trajectory
         ``kind`` ``"l_route"``, ending at ``(legs[0], legs[1])`` rotated by
-        the turn, and lower by ``slope_length tan(slope_deg)`` (approached
+        the turn, and lower by ``slope_length_m tan(slope_deg)`` (approached
         through the 1 m easing) when there is a slope.
 
     Raises
     ------
     ParameterError
-        A bad leg, turn, radius or slope, only one of `period` and
-        `amplitude`, or a geometry that does not fit (turn radius or slope
+        A bad leg, turn, radius or slope, only one of `p2p_m` and
+        `amplitude_m`, or a geometry that does not fit (turn radius or slope
         too long for the legs, amplitude above half the radius).
 
     Examples
@@ -638,12 +646,13 @@ def l_route(legs=(18.0, 10.0), *, turn_deg: float = 90.0, turn_radius: float = 1
     slope_deg = float(slope_deg)
     if not (0 <= abs(slope_deg) < 45):
         raise ParameterError(f"slope_deg: expected a downhill slope of 0 to 45 deg, got {slope_deg!r}")
-    slope_length = _positive("slope_length", slope_length, allow_zero=slope_deg == 0)
+    slope_length = _positive("slope_length_m", slope_length_m, allow_zero=slope_deg == 0)
     if slope_deg and slope_length < 0.5:
-        raise ParameterError(f"slope_length: expected at least 0.5 m (the slope eases out over 1 m), "
+        raise ParameterError(f"slope_length_m: expected at least 0.5 m (the slope eases out over 1 m), "
                              f"got {slope_length!r}")
+    period, amplitude = p2p_m, amplitude_m
     if (period is None) != (amplitude is None):
-        raise ParameterError("period, amplitude: give both for periodic motion, or neither")
+        raise ParameterError("p2p_m, amplitude_m: give both for periodic motion, or neither")
     turn = turn_deg * units.DEG
     probe = _Path((0.0, 0.0), turn, turn_radius, 0.0, 0.0, None, None, None)
     d = probe.centre_xy(np.array([probe.turn_len]))[0]
@@ -654,28 +663,29 @@ def l_route(legs=(18.0, 10.0), *, turn_deg: float = 90.0, turn_radius: float = 1
     if a1 <= 0 or a2 <= 0:
         raise ParameterError(f"turn_radius: {turn_radius!r} m does not fit legs {legs!r}; expected a smaller radius")
     if slope_deg and slope_length + 0.5 > a1:
-        raise ParameterError(f"slope_length: {slope_length!r} m does not fit in the first leg ({a1:.3g} m straight)")
+        raise ParameterError(f"slope_length_m: {slope_length!r} m does not fit in the first leg ({a1:.3g} m straight)")
     if period is not None:
         period, amplitude, taper = _check_sine(period, amplitude, taper, legs[0] + legs[1])
         if amplitude >= 0.5 * turn_radius:
-            raise ParameterError(f"amplitude: {amplitude!r} m is too large for a {turn_radius!r} m turn radius; "
+            raise ParameterError(f"amplitude_m: {amplitude!r} m is too large for a {turn_radius!r} m turn radius; "
                                  "expected less than half the radius")
     path = _Path((float(a1), float(a2)), turn, turn_radius, abs(slope_deg) * units.DEG, slope_length,
                  period, amplitude, taper)
-    return _build("l_route", path, speed=speed, ramp=ramp, rest=rest, rate_hz=rate_hz, t0=t0, g=g,
+    return _build("l_route", path, speed=speed_mps, ramp=ramp, rest=rest, rate_hz=rate_hz, t0=t0, g=g,
                   period=period, amplitude=amplitude)
 
 
-def route_trajectory(name: str, *, speed: float | None = None, period: float | None = None,
-                     amplitude: float | None = None, **kwargs) -> Trajectory:
+@renamed_keywords(speed="speed_mps", period="p2p_m", amplitude="amplitude_m")
+def route_trajectory(name: str, *, speed_mps: float | None = None, p2p_m: float | None = None,
+                     amplitude_m: float | None = None, **kwargs) -> Trajectory:
     """Trajectory of a route of ``data/routes.json`` (``"short_distance"``, ``"L_shape"``, ...).
 
     Parameters
     ----------
     name : str
         Route folder name.
-    speed, period, amplitude : float, optional
-        Override the route's typical speed and its designed period and amplitude.
+    speed_mps, p2p_m, amplitude_m : float, optional
+        Override the route's typical speed and its designed peak-to-peak distance and amplitude.
     **kwargs
         Passed to :func:`straight`, :func:`sine` or :func:`l_route`.
 
@@ -694,24 +704,24 @@ def route_trajectory(name: str, *, speed: float | None = None, period: float | N
     Examples
     --------
     >>> traj = route_trajectory("L_shape")          # 18 m, a right turn, 10 m; 15 deg downhill at first
-    >>> traj.kind, traj.period, traj.position[-1].round(6).tolist()
+    >>> traj.kind, traj.p2p_m, traj.position[-1].round(6).tolist()
     ('l_route', 1.0, [18.0, -10.0, -1.339746])
-    >>> route_trajectory("short_distance_1.5p2p").amplitude
+    >>> route_trajectory("short_distance_1.5p2p").amplitude_m
     0.2
     """
     r = dataset.route(name)
-    period = r.p2p_m if period is None else period
-    amplitude = r.amplitude_m if amplitude is None else amplitude
+    period = r.p2p_m if p2p_m is None else p2p_m
+    amplitude = r.amplitude_m if amplitude_m is None else amplitude_m
     if len(r.segments_m) == 2:
-        kw = dict(kwargs, turn_deg=r.turn_deg, slope_deg=r.slope_deg, slope_length=r.slope_length_m or 5.0)
-        if speed is not None:
-            kw["speed"] = speed
+        kw = dict(kwargs, turn_deg=r.turn_deg, slope_deg=r.slope_deg, slope_length_m=r.slope_length_m or 5.0)
+        if speed_mps is not None:
+            kw["speed_mps"] = speed_mps
         if r.kind == "periodic":
-            kw.update(period=period, amplitude=amplitude)
+            kw.update(p2p_m=period, amplitude_m=amplitude)
         return l_route(tuple(r.segments_m), **kw)
     if r.kind == "periodic":
-        return sine(r.distance_m, period=period, amplitude=amplitude, speed=speed, **kwargs)
-    return straight(r.distance_m, **(dict(kwargs, speed=speed) if speed is not None else kwargs))
+        return sine(r.distance_m, p2p_m=period, amplitude_m=amplitude, speed_mps=speed_mps, **kwargs)
+    return straight(r.distance_m, **(dict(kwargs, speed_mps=speed_mps) if speed_mps is not None else kwargs))
 
 
 # --------------------------------------------------------------------------- IMU synthesis

@@ -651,7 +651,7 @@ def closed_form_errors(params, times, kind: str = "INS-3D", convention="z_up", k
     ----------
     params : ErrorParams or dict
         An :class:`morpi_filters.params.ErrorParams`, or a dict with the keys
-        ``dv0_mps``, ``ba_mps2``, ``bg_radps`` (3 values each, SI) and ``g_mps2``.
+        ``dv0_mps``, ``accel_bias_mps2``, ``gyro_bias_radps`` (3 values each, SI) and ``g_mps2``.
     times : array_like, shape (n,)
         Times since alignment [s].
     kind : {"INS-3D", "INS-2D", "INS-3D position", "INS-2D position"}
@@ -668,7 +668,7 @@ def closed_form_errors(params, times, kind: str = "INS-3D", convention="z_up", k
 
     Examples
     --------
-    >>> p = {"dv0_mps": [0.1, 0.0, 0.0], "ba_mps2": [0.0] * 3, "bg_radps": [0.0] * 3, "g_mps2": 9.81}
+    >>> p = {"dv0_mps": [0.1, 0.0, 0.0], "accel_bias_mps2": [0.0] * 3, "gyro_bias_radps": [0.0] * 3, "g_mps2": 9.81}
     >>> closed_form_errors(p, [0.0, 5.0], "INS-3D").tolist()     # a velocity error alone: 0.1 t
     [0.0, 0.5]
     """
@@ -734,8 +734,8 @@ def closed_form_mean_square(sigmas, times, kind: str = "INS-3D", convention="z_u
     Parameters
     ----------
     sigmas : ErrorParams or dict
-        1-sigma values in the parameter-file keys (``dv0_mps``, ``ba_mps2``,
-        ``bg_radps``, ``g_mps2``).
+        1-sigma values in the parameter-file keys (``dv0_mps``, ``accel_bias_mps2``,
+        ``gyro_bias_radps``, ``g_mps2``).
     times : array_like, shape (n,)
         Times [s].
     kind : {"INS-3D", "INS-2D"}
@@ -755,7 +755,7 @@ def closed_form_mean_square(sigmas, times, kind: str = "INS-3D", convention="z_u
     Examples
     --------
     >>> import numpy as np
-    >>> sig = {"dv0_mps": [0.05] * 3, "ba_mps2": [0.04] * 3, "bg_radps": [2e-3] * 3, "g_mps2": 9.81}
+    >>> sig = {"dv0_mps": [0.05] * 3, "accel_bias_mps2": [0.04] * 3, "gyro_bias_radps": [2e-3] * 3, "g_mps2": 9.81}
     >>> rms = np.sqrt(closed_form_mean_square(sig, [0.0, 5.0, 14.0], "INS-3D", "z_up"))
     >>> bool(rms[0] == 0.0 and rms[2] > rms[1])
     True

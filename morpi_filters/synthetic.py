@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from . import dataset, units
+from .deprecation import with_aliases
 from .errors import ParameterError
 from .fetch import sha256_file
 from .simulate import L_ROUTE_SPEED, imu, paper_speed, route_trajectory
@@ -76,6 +77,8 @@ DATASET_OPTIONS = {
 
 
 _MANIFEST = "manifest.json"
+# keys of a run in the manifest renamed in 0.2 (old -> new), written beside the new ones for one release
+_RUN_INFO_ALIASES = {"speed_m_s": "speed_mps", "period_m": "p2p_m"}
 #: The kind of output a synthetic dataset folder's marker records.
 DATASET_KIND = "dataset"
 
@@ -106,10 +109,10 @@ def _synthetic_run(seed: int, folder: str, run: int) -> tuple[dataset.Recording,
     else:
         base = paper_speed()
     speed = base * math.exp(o["speed_spread"] * jitter[0])
-    kw = dict(speed=speed, rest=tuple(trng.uniform(3.0, 4.5, 2)), t0=float(trng.uniform(0.3, 0.5)))
+    kw = dict(speed_mps=speed, rest=tuple(trng.uniform(3.0, 4.5, 2)), t0=float(trng.uniform(0.3, 0.5)))
     if r.kind == "periodic":
-        kw["period"] = r.p2p_m * (1.0 + o["period_spread"] * float(np.clip(jitter[1], -2.5, 2.5)))
-        kw["amplitude"] = (r.amplitude_m * o["amplitude_factor"]
+        kw["p2p_m"] = r.p2p_m * (1.0 + o["period_spread"] * float(np.clip(jitter[1], -2.5, 2.5)))
+        kw["amplitude_m"] = (r.amplitude_m * o["amplitude_factor"]
                            * (1.0 + o["amplitude_spread"] * float(np.clip(jitter[2], -2.5, 2.5))))
     traj = route_trajectory(route_name, **kw)
     data = imu(traj, spec, irng, sampling=PHONE_CLOCKS[phone], bias_scale=REALISTIC_BIAS_FRACTION[phone],
@@ -117,8 +120,9 @@ def _synthetic_run(seed: int, folder: str, run: int) -> tuple[dataset.Recording,
                correlation_time=o["correlation_time"])
     rel = f"{folder}/{run}.csv"
     rec = data.recording(source=rel, phone=phone, route=route_name, split=split)
-    info = dict(speed_m_s=speed, period_m=kw.get("period"), amplitude_m=kw.get("amplitude"),
+    info = dict(speed_mps=speed, p2p_m=kw.get("p2p_m"), amplitude_m=kw.get("amplitude_m"),
                 distance_m=traj.distance, start_time=traj.start_time, stop_time=traj.stop_time)
+    info = with_aliases(info, _RUN_INFO_ALIASES)
     return rec, info
 
 
@@ -227,6 +231,46 @@ def _manifest_files(root: Path) -> tuple:
     if not isinstance(m.get("files"), dict):
         return ()
     return (_MANIFEST, *m["files"])
+
+
+def written_counts(root) -> dict | None:
+    """The runs a dataset written by :func:`write_dataset` holds, as ``imu.count`` of the shipped MoRPI manifest.
+
+    A synthetic dataset may hold another number of runs per folder than the
+    field dataset (``runs_per_folder``): its ``manifest.json`` lists them,
+    and ``morpi check --data`` expects those counts instead of the manifest's
+    (:func:`morpi_filters.manifest.check_dataset`, ``counts``).
+
+    Parameters
+    ----------
+    root : str or Path
+        A dataset root.
+
+    Returns
+    -------
+    dict of str -> int, or None
+        ``<folder>/*.csv`` (the pattern of the folder's table) -> the number
+        of CSV files listed in it; None when `root` holds no readable
+        ``manifest.json`` of this generator.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> written_counts(root) is None
+    True
+    >>> files = {"s6/L_line/1.csv": "", "s6/L_line/2.csv": "", "s8/line_dataset/1.csv": "", "README.md": ""}
+    >>> _ = (root / "manifest.json").write_text(json.dumps({"generator": "morpi_filters.simulate", "files": files}))
+    >>> written_counts(root)
+    {'s6/L_line/*.csv': 2, 's8/line_dataset/*.csv': 1}
+    """
+    listed = _manifest_files(Path(root))
+    counts: dict = {}
+    for rel in listed[1:]:
+        if str(rel).endswith(".csv") and "/" in str(rel):
+            pattern = str(rel).rsplit("/", 1)[0] + "/*.csv"
+            counts[pattern] = counts.get(pattern, 0) + 1
+    return counts if listed else None
 
 
 def _verify(root: Path, seed: int) -> bool:

@@ -157,7 +157,7 @@ def test_nhc_model_is_non_holonomic(jit):
 
 def _busy_input():
     # a short sine drive with rest at both ends and a standing stretch: every measurement runs
-    traj = simulate.sine(2.5, period=0.5, amplitude=0.1, rate_hz=100.0)
+    traj = simulate.sine(2.5, p2p_m=0.5, amplitude_m=0.1, rate_hz=100.0)
     rng = np.random.default_rng(16)
     d = simulate.imu(traj, units.LSM6DSL, rng, bias_scale=(0.05, 0.05))
     t, pos = traj.time, traj.position

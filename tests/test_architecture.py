@@ -20,7 +20,7 @@ PKG = Path(__file__).resolve().parents[1] / "morpi_filters"
 #: modules of its own layer or of lower layers, never of a higher one. Every
 #: module of ``report/`` is in the pages layer.
 LAYERS = (
-    ("foundation", {"errors", "units", "choice", "resources", "results", "outputs", "parallel", "_jit"}),
+    ("foundation", {"errors", "deprecation", "units", "choice", "resources", "results", "outputs", "parallel", "_jit"}),
     ("inputs", {"params", "dataset", "manifest", "fetch"}),
     ("calibration", {"calibration", "_calibration_loops"}),
     ("navigation", {"strapdown", "_strapdown_loops", "steps", "symbolic", "error_model", "eskf", "aided",
@@ -181,9 +181,9 @@ def test_only_the_loader_and_the_dataset_tables_import_pandas_and_importing_the_
     # loader, when a file is read, and inside the dataset evaluation's DataFrame tables, when one is
     # asked for, so commands that read no recording never pay for it
     graph = _graph()
-    assert {n for n, (_, ext) in graph.items() if "pandas" in ext} == {"dataset.fastcsv", "dataset_eval"}
+    assert {n for n, (_, ext) in graph.items() if "pandas" in ext} == {"dataset.fastcsv", "dataset_eval.results"}
     assert not _loaded_by_every_module("pandas")
-    for name in ("dataset.fastcsv", "dataset_eval"):
+    for name in ("dataset.fastcsv", "dataset_eval.results"):
         tree = _modules_cache()[name]
         top = {a.name.split(".")[0] for node in tree.body if isinstance(node, (ast.Import, ast.ImportFrom))
                for a in node.names if isinstance(node, ast.Import)}

@@ -63,7 +63,7 @@ def test_the_numbers_do_not_determine_the_components():
     p = load_params()
     c, s = np.cos(1.0), np.sin(1.0)
     R = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
-    q = params_from_dict({"dv0_mps": list(R @ p.dv0), "ba_mps2": list(R @ p.ba), "bg_radps": list(R @ p.bg),
+    q = params_from_dict({"dv0_mps": list(R @ p.dv0), "accel_bias_mps2": list(R @ p.ba), "gyro_bias_radps": list(R @ p.bg),
                           "g_mps2": p.g, "morpi_speed_mps": p.morpi_speed_mps})
     np.testing.assert_allclose(A.improvements(q), A.improvements(p), rtol=1e-12)  # a rotation about z only reorders sums: float rounding
     assert not np.allclose(q.ba, p.ba)  # the rotated vectors differ by far more than allclose's default 1e-5
@@ -75,7 +75,7 @@ def write(tmp_path, d, name="p.json"):
     return path
 
 
-FULL = {"dv0_mps": [0.04, -0.07, 0.02], "ba_mps2": [-0.05, 0.08, 0.03], "bg_radps": [0.004, -0.006, 0.005],
+FULL = {"dv0_mps": [0.04, -0.07, 0.02], "accel_bias_mps2": [-0.05, 0.08, 0.03], "gyro_bias_radps": [0.004, -0.006, 0.005],
         "g_mps2": 9.8, "dG": [0.05, 0.1, 0.2], "morpi_speed_mps": 0.7}
 
 
@@ -87,7 +87,7 @@ def test_cli_assess_gives_the_derived_errors(tmp_path, capsys):
     r = json.loads(js.read_text())
     t = np.array([float(x) for x in times])
     assert r["times"] == list(t) and r["convention"] == "z_up"
-    dv, ba, bg = (np.array(FULL[k]) for k in ("dv0_mps", "ba_mps2", "bg_radps"))
+    dv, ba, bg = (np.array(FULL[k]) for k in ("dv0_mps", "accel_bias_mps2", "gyro_bias_radps"))
     # 1e-9: closed form vs DOP853 at rtol 1e-12 (t = 0 is exactly 0 on both sides)
     np.testing.assert_allclose(r["e3d_m"], ode_horizontal(dv, ba, bg, 9.8, t), rtol=1e-9, atol=1e-15)
     np.testing.assert_allclose(r["e2d_m"], ode_horizontal(dv, ba, bg, 9.8, t, "INS-2D"), rtol=1e-9, atol=1e-15)
@@ -121,6 +121,9 @@ def test_report_default_parameters(tmp_path):
     assert len(r["e3d_m"]) == len(r["times"]) == len(r["morpi_m"]["0.1"])
     assert max(abs(i["ours_m"] - i["paper_m"]) for i in r["improvements"]) <= 0.01
     assert len(r["audit"]) == 9
+    # the parameter keys renamed in 0.2 are written beside the new ones for one release, with the same values
+    p = r["params"]
+    assert p["ba_mps2"] == p["accel_bias_mps2"] and p["bg_radps"] == p["gyro_bias_radps"] and len(p["bg_radps"]) == 3
     audit = (tmp_path / "audit.md").read_text()
     assert audit.startswith("# Audit of the printed equations")
 
@@ -128,8 +131,8 @@ def test_report_default_parameters(tmp_path):
 @pytest.mark.parametrize("patch, expect", [
     ({"g_mps2": None}, "g_mps2"),
     ({"g_mps2": -9.8}, "positive gravity"),
-    ({"ba_mps2": [0.1, 0.2]}, "expected a list of 3 numbers"),
-    ({"bg_radps": [0.1, "x", 0.2]}, "is not a finite number"),
+    ({"accel_bias_mps2": [0.1, 0.2]}, "expected a list of 3 numbers"),
+    ({"gyro_bias_radps": [0.1, "x", 0.2]}, "is not a finite number"),
 ])
 def test_cli_bad_parameter_file(tmp_path, capsys, patch, expect):
     d = {k: v for k, v in FULL.items()} | patch
@@ -165,8 +168,8 @@ def test_z_down_equals_z_up_with_tilt_biases_flipped():
     from morpi_filters import symbolic as S
 
     p = load_params()
-    q = params_from_dict({"dv0_mps": list(p.dv0), "ba_mps2": [p.ba[0], p.ba[1], -p.ba[2]],
-                          "bg_radps": [-p.bg[0], -p.bg[1], p.bg[2]], "g_mps2": p.g})
+    q = params_from_dict({"dv0_mps": list(p.dv0), "accel_bias_mps2": [p.ba[0], p.ba[1], -p.ba[2]],
+                          "gyro_bias_radps": [-p.bg[0], -p.bg[1], p.bg[2]], "g_mps2": p.g})
     t = np.arange(16.0)
     for kind in ("INS-3D", "INS-2D"):
         np.testing.assert_allclose(S.closed_form_errors(q, t, kind, "z_down"), S.closed_form_errors(p, t, kind),

@@ -59,7 +59,7 @@ def test_path_kernels_match_strapdown(path, noise, tol):
 def test_truth_through_the_kernels_follows_the_path():
     # the kernels on the error-free signals retrace the simulated path: what the study
     # subtracts is the path itself up to the integration rule (trapezoid, O(dt^2))
-    cfg = mc.StudyConfig(duration=20.0)
+    cfg = mc.StudyConfig(duration_s=20.0)
     sine = mce._paths(cfg)[1]
     keep = np.arange(0, sine.time.size, 100)
     _, ((x3, y3), (x2, y2)) = mce._ins_truth(sine, 1.0 / cfg.rate_hz, keep)

@@ -194,8 +194,8 @@ def test_custom_gravity():
                                [0, 0, 9.81], rtol=0, atol=1e-12)  # GAC subtracts the window mean: float rounding
 
 
-@pytest.mark.parametrize("kwargs, match", [(dict(mode="XYZ"), "mode='XYZ'"),
-                                           (dict(mode="GAC", g_local=-1.0), "g_local")])
+@pytest.mark.parametrize("kwargs, match", [(dict(calibration="XYZ"), "calibration='XYZ'"),
+                                           (dict(calibration="GAC", g_local=-1.0), "g_local")])
 def test_bad_parameters(kwargs, match):
     rng = np.random.default_rng(18)
     rec, _ = synthetic(rng)
@@ -304,7 +304,7 @@ def _driven(phone, *, speed, seed, rest_s=None, seconds=8.0):
     The recording, its IMU data (biases, truth) and the trajectory."""
     o = DATASET_OPTIONS
     spec = folder_imu(phone) if phone else DEFAULT_IMU
-    traj = simulate.straight(40.0, speed=speed, ramp=1.0, rest=(rest_s or 0.0, 2.0))
+    traj = simulate.straight(40.0, speed_mps=speed, ramp=1.0, rest=(rest_s or 0.0, 2.0))
     t_a = traj.start_time + 1.0 if rest_s is None else traj.time[0]      # after the 1 s ramp: at cruise speed
     data = simulate.imu(traj, spec, np.random.default_rng(seed), sampling=PHONE_CLOCKS[phone] if phone else "uniform",
                         bias_scale=0.3,
@@ -327,7 +327,7 @@ def test_a_robot_driving_from_its_first_sample_has_no_rest(phone):
         assert "\n" not in msg and msg.startswith("driven.csv: no initial rest found: motion starts 0.000 s"), msg
         assert isinstance(ei.value, DataError) and ei.value.exit_code == 1
         b = still_bound(rec)
-        assert f"{b.gyro:.3g} rad/s" in msg and b.source in msg
+        assert f"{b.gyro:.3g} rad/s" in msg and b.basis in msg
         for mode in ("GC", "GAC"):
             with pytest.raises(NoRestError):
                 calibrate(rec, mode)

@@ -42,9 +42,10 @@ def test_check_reports_each_bad_file(tmp_path):
     assert any("2.csv: line 7: column f_y" in s for s in lines)
     assert any("3.csv: empty file" in s for s in lines)
     assert "Traceback" not in r.stdout + r.stderr
-    # 2 bad files, then the layout: 3 of the 24 line_dataset runs, the other 10 folders absent
+    # 2 bad files, then the shipped manifest's counts: 3 of the 24 line_dataset runs, the other 10 folders absent
     assert lines[-1].startswith("1 recording(s) OK, 13 problem(s)")
-    assert any("line_dataset: 3 recording(s), expected 24" in s for s in lines)
+    assert any(f"imu.file: 's8/line_dataset/*.csv' matches 3 file(s) under {tmp_path / 'ds'}, expected 24 "
+               "(imu.count)" in s for s in lines)
 
 
 def test_check_names_a_recording_in_g_and_one_in_deg_per_s(tmp_path):
@@ -66,13 +67,16 @@ def test_check_names_a_recording_in_g_and_one_in_deg_per_s(tmp_path):
     r = run("check", "--data", str(tmp_path))
     assert r.returncode == 1 and "Traceback" not in r.stderr
     lines = r.stdout.strip().splitlines()
-    # (0.1, -0.1, 9.8) m/s^2 read in g is (0.0102, -0.0102, 0.9993); 0.03 rad/s read in deg/s is 1.72
+    # (0.1, -0.1, 9.8) m/s^2 read in g is (0.0102, -0.0102, 0.9993); 0.03 rad/s read in deg/s is 1.72; the
+    # bounds are the S8's IMU's (the LSM6DSL the shipped manifest names): three zero-g offsets, 1.52 m/s^2
     (g,) = [s for s in lines if s.startswith(str(d / "2.csv"))]
-    assert re.fullmatch(re.escape(f"{d / '2.csv'}: specific force at rest is 1.00 m/s^2 (f = (") + r"0\.010\d, "
-                        r"-0\.010\d, 0\.999\)\), expected \|f\| = 9\.81 \+- 2\.11 m/s\^2: looks like the "
-                        r"accelerometer is in g, not m/s\^2", g), g
+    assert re.fullmatch(re.escape(f"{d / '2.csv'}: [[recording]] 1 of ") + r".*morpi\.toml: imu\.accel_unit: the "
+                        r"median specific force at rest is \[0\.010\d, -0\.010\d, 0\.999\] m/s\^2, of magnitude "
+                        r"0\.999 m/s\^2 after conversion, expected 9\.81 \+- 1\.52 \(gravity, three zero-g offsets of "
+                        r"the IMU\): check accel_unit \(declared 'm/s\^2'\)", g), g
     (deg,) = [s for s in lines if s.startswith(str(d / "3.csv"))]
-    assert deg.endswith("looks like deg/s, not rad/s") and re.search(r"mean 1\.7\d rad/s on g_z", deg), deg
+    assert deg.endswith("check gyro_unit (declared 'rad/s')") and \
+        re.search(r"median angular rate at rest is 1\.7\d rad/s on g_z", deg), deg
     assert not any(s.startswith(str(d / "1.csv")) for s in lines)
     assert lines[-1].startswith("1 recording(s) OK")
 
@@ -84,8 +88,10 @@ def test_check_names_missing_folders(tmp_path):
     write_rows(d / "1.csv", good_rows())
     r = run("check", "--data", str(tmp_path))
     assert r.returncode == 1
-    assert "s8/short_distance/train: missing folder, expected 12 recording(s)" in r.stdout
-    assert "L_line: 1 recording(s), expected 10" in r.stdout and "Traceback" not in r.stderr
+    assert (f"imu.file: 's8/short_distance/train/*.csv' matches no file: missing folder "
+            f"{tmp_path / 's8/short_distance/train'}, expected 12 file(s) (imu.count)") in r.stdout
+    assert f"imu.file: 's6/L_line/*.csv' matches 1 file(s) under {tmp_path}, expected 10 (imu.count)" in r.stdout
+    assert "Traceback" not in r.stderr
 
 
 @pytest.mark.parametrize("make", ["empty", "stray", "clone"])
@@ -101,21 +107,94 @@ def test_check_without_recordings_fails(tmp_path, make):
     r = run("check", "--data", str(root))
     assert r.returncode == 1 and "Traceback" not in r.stderr
     if make == "clone":   # the clone root stands for its data/ folder, whose missing folders are named
-        assert f"{root / 'data' / 's8' / 'line_dataset'}: missing folder" in r.stdout
+        assert f"missing folder {root / 'data' / 's8' / 'line_dataset'}," in r.stdout
         return
-    assert "no recordings in the MoRPI layout" in r.stdout
+    assert f"{root}: no recordings: no file matches the imu.file patterns of " in r.stdout
     assert r.stdout.strip().splitlines()[-1].startswith("0 recording(s) OK")
-    if make == "stray":
-        assert "1 CSV file(s) outside the MoRPI layout" in r.stdout
+    if make == "stray":   # a file outside the manifest's patterns is not read; directly in the root, it is named
+        assert f"1 CSV file(s) directly in {root}, none where the manifest looks" in r.stdout
 
 
-def test_layout_problems_point_at_data_inside_a_clone(tmp_path):
-    from morpi_filters.dataset import layout_problems
+def test_check_points_at_data_inside_a_clone(tmp_path):
+    from morpi_filters.field import check_recordings, missing_recordings
 
     d = tmp_path / "data" / "s6" / "L_line"
     d.mkdir(parents=True)
     write_rows(d / "1.csv", good_rows())
-    assert any(f"pass --data {tmp_path / 'data'}" in s for s in layout_problems(tmp_path))
+    assert any(f"pass --data {tmp_path / 'data'}" in s for s in check_recordings(tmp_path)[0])
+    assert any(f"pass --data {tmp_path / 'data'}" in s for s in missing_recordings(tmp_path))
+
+
+def _copy_of_the_shipped_manifest(folder):
+    """The package's MoRPI manifest copied into `folder` (its files then relative to `folder`); its path."""
+    from morpi_filters.resources import morpi_manifest
+
+    copy = folder / "morpi.toml"
+    copy.write_text(morpi_manifest().read_text())
+    return copy
+
+
+def test_check_data_gives_the_lines_check_dataset_gives_for_the_shipped_manifest(tmp_path):
+    """`check --data DIR` is the shipped manifest applied to DIR: a malformed CSV and the files the manifest
+    expects but DIR lacks are the lines `check --dataset` prints for a copy of that manifest in DIR (its own path
+    in place of the shipped one's), with the same count of recordings OK."""
+    from morpi_filters.resources import morpi_manifest
+
+    d = tmp_path / "s6" / "L_line"
+    d.mkdir(parents=True)
+    for n in range(1, 10):                               # 9 of the 10 runs, one of them malformed
+        write_rows(d / f"{n}.csv", good_rows())
+    rows = good_rows()
+    rows[3] = "0.4,0,0,9.81,zero,0,0"
+    write_rows(d / "4.csv", rows)
+    by_data = run("check", "--data", str(tmp_path))
+    copy = _copy_of_the_shipped_manifest(tmp_path)
+    by_manifest = run("check", "--dataset", str(copy))
+    assert by_data.returncode == by_manifest.returncode == 1, (by_data.stderr, by_manifest.stderr)
+    *data_lines, data_summary = by_data.stdout.strip().splitlines()
+    *manifest_lines, manifest_summary = by_manifest.stdout.strip().splitlines()
+    assert [s.replace(str(morpi_manifest()), str(copy)) for s in data_lines] == manifest_lines
+    assert data_summary.startswith("8 recording(s) OK, 12 problem(s)")
+    assert manifest_summary.startswith("8 recording(s) OK, 12 problem(s)")
+    assert f"{d / '4.csv'}: line 5: column g_x: 'zero' is not a number" in by_data.stdout
+    assert (f"imu.file: 's6/L_line/*.csv' matches 9 file(s) under {tmp_path}, expected 10 (imu.count)"
+            in by_data.stdout)
+    missing = [s for s in data_lines if "missing folder" in s]
+    assert len(missing) == 10 and any(s.endswith(f"missing folder {tmp_path / 's8/line_dataset'}, expected 24 "
+                                                 "file(s) (imu.count)") for s in missing)
+
+
+def test_check_data_reads_no_file_outside_the_manifests_patterns(tmp_path, monkeypatch, capsys):
+    """Files the shipped manifest's patterns do not match (another folder, a deeper one, an unknown route, a
+    file not ending .csv) are neither read nor listed, however malformed: the check lists only the folders its
+    patterns name, and its lines are those of the same root without them."""
+    from morpi_filters.resources import morpi_manifest
+
+    d = tmp_path / "s6" / "L_line"
+    d.mkdir(parents=True)
+    write_rows(d / "1.csv", good_rows())
+    assert main(["check", "--data", str(tmp_path)]) == 1
+    clean = capsys.readouterr().out
+    strays = [tmp_path / "notes" / "x.csv", d / "sub" / "2.csv", tmp_path / "s8" / "L_line" / "1.csv", d / "3.txt"]
+    for p in strays:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        p.write_text("not,a,recording\n")
+    listed = []
+    real_scandir = os.scandir
+
+    def scandir(path="."):
+        listed.append(Path(os.fsdecode(path)).absolute())
+        return real_scandir(path)
+
+    monkeypatch.setattr(os, "scandir", scandir)
+    assert main(["check", "--data", str(tmp_path)]) == 1
+    out = capsys.readouterr().out
+    assert out == clean and not any(str(p) in out for p in strays)
+    below = {p for p in listed if p.is_relative_to(tmp_path)}
+    patterns = [r.split('"')[1] for r in morpi_manifest().read_text().splitlines() if r.startswith("imu = { file")]
+    allowed = {(tmp_path / pattern).parent for pattern in patterns}      # the folders of the manifest's globs
+    assert below and below <= allowed, sorted(below - allowed)
+    assert not any(p.is_relative_to(tmp_path / "notes") or p.is_relative_to(d / "sub") for p in below)
 
 
 def test_missing_dataset_is_one_line(tmp_path, monkeypatch):
@@ -330,7 +409,7 @@ REQUIRED = {("simulate",): ["--out", "unused"]}
 def test_the_number_options_are_found():
     # the enumeration below reads the parser: every subcommand with a number option is in it
     options = {(w, o) for w, o, _ in NUMERIC}
-    assert {(("montecarlo",), "--runs"), (("montecarlo",), "--duration"), (("assess",), "--times"),
+    assert {(("montecarlo",), "--runs"), (("montecarlo",), "--duration-s"), (("assess",), "--times"),
             (("curves",), "--times"), (("simulate",), "--seed"), (("aided",), "--workers"),
             (("report",), "--runs"), (("curves",), "--seed"), (("drift",), "--seed")} <= options
     # and the text options are not numbers
@@ -392,19 +471,19 @@ def test_a_montecarlo_run_beyond_the_budget_is_refused_with_its_estimate(no_sect
     from morpi_filters.montecarlo import page_cost
 
     # a million runs of the default 15 s fit the budget; of 600 s, they do not: the duration counts
-    assert page_cost(1_000_000).seconds < cli.MC_BUDGET_SECONDS < page_cost(1_000_000, duration=600.0).seconds
-    assert cli.main(["montecarlo", "--runs", "1000000", "--duration", "600"]) == 2
+    assert page_cost(1_000_000).seconds < cli.MC_BUDGET_SECONDS < page_cost(1_000_000, duration_s=600.0).seconds
+    assert cli.main(["montecarlo", "--runs", "1000000", "--duration-s", "600"]) == 2
     out, err = capsys.readouterr()
     assert no_sections == [] and out == ""
     assert err.count("\n") == 1 and "--allow-long" in err and "1000000 runs of 600 s" in err, err
-    hours = page_cost(1_000_000, duration=600.0).seconds / 3600
+    hours = page_cost(1_000_000, duration_s=600.0).seconds / 3600
     assert f"about {hours:.2g} h" in err and "GB" in err, err
 
 
 def test_allow_long_runs_it_and_states_the_estimate_first(no_sections, capsys):
     from morpi_filters import cli
 
-    assert cli.main(["montecarlo", "--runs", "1000000", "--duration", "600", "--allow-long"]) == 0
+    assert cli.main(["montecarlo", "--runs", "1000000", "--duration-s", "600", "--allow-long"]) == 0
     out = capsys.readouterr().out
     assert no_sections == ["montecarlo"] and "1000000 runs of 600 s, estimated at about" in out
 
@@ -421,7 +500,7 @@ def test_a_long_run_within_the_budget_states_its_estimate_and_a_short_one_does_n
 
 
 @pytest.mark.parametrize("argv, words", [
-    (["--speed", "0.01"], ("--speed", "631 s", "at most 600 s")),           # the 6.3 m path at 1 cm/s
+    (["--speed-mps", "0.01"], ("--speed-mps", "631 s", "at most 600 s")),           # the 6.3 m path at 1 cm/s
     (["--runs", "1000000", "--chunk", "1000000"], ("--chunk", "GB")),        # one chunk holding every run
 ])
 def test_montecarlo_shapes_beyond_their_bounds_are_refused(argv, words, no_sections, capsys):

@@ -16,7 +16,7 @@ from morpi_filters.errors import MorpiError, ParameterError
 from morpi_filters.params import params_from_dict
 from morpi_filters.report.curves import report_curves
 
-PARAMS = {"dv0_mps": [0.06, 0.03, 0.02], "ba_mps2": [0.08, 0.03, 0.03], "bg_radps": [0.002, 0.003, 0.004],
+PARAMS = {"dv0_mps": [0.06, 0.03, 0.02], "accel_bias_mps2": [0.08, 0.03, 0.03], "gyro_bias_radps": [0.002, 0.003, 0.004],
           "g_mps2": 9.81, "dG": [0.05, 0.10], "morpi_speed_mps": 0.5}
 
 
@@ -92,6 +92,7 @@ def test_report_contract(tmp_path):
         assert set(r[key]) == {"INS-3D", "INS-2D", "MoRPI-aided INS"}
         assert all(len(v) == 2 for v in r[key].values()), key
     assert r["times"] == [2.0, 6.0] and r["process_noise"] is True
+    assert r["seed"] == r["mc_seed"] and isinstance(r["seed"], int)    # mc_seed: the name before 0.2, for one release
     assert set(r["cases"]) == {"params", "mpu6500", "lsm6dsl"}
     assert s.name == "curves" and s.page == "README.md" and not s.synthetic
     for png in s.figures:
@@ -174,7 +175,7 @@ def test_synthetic_source_banner_and_empty_field(tmp_path):
     out.mkdir()
     (tmp_path / "empty").mkdir()                     # a dataset folder without recordings
     src = DataSource(tmp_path / "empty", synthetic=True, seed=0)
-    s = report_curves(out, curves_study(params_path=_write(tmp_path), times=[1.0], source=src), src)
+    s = report_curves(out, curves_study(params_path=_write(tmp_path), times=[1.0], data_source=src), src)
     text = (out / "README.md").read_text()
     assert text.startswith(SYNTHETIC_BANNER) and s.synthetic
     assert "no straight-line" in json.loads((out / "result.json").read_text())["field"]["note"]

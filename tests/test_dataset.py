@@ -9,8 +9,9 @@ import pytest
 from morpi_filters import MorpiError
 from morpi_filters.dataset import fastcsv as dsf, loader as dsl, plausibility as dsp
 from morpi_filters.dataset import (
-    COLUMNS, Recording, catalogue, check_tree, layout, load_csv, resolve_data_root, route, write_csv,
+    COLUMNS, Recording, catalogue, layout, load_csv, resolve_data_root, route, write_csv,
 )
+from morpi_filters.field import check_recordings
 from conftest import good_rows, write_rows
 
 
@@ -133,7 +134,7 @@ def test_field_dataset_loads_and_matches_layout(field_root):
         key = "/".join([e.phone, e.route] + ([e.split] if e.split else []))
         counts[key] = counts.get(key, 0) + 1
     assert counts == layout()
-    problems, n_ok = check_tree(field_root)
+    problems, n_ok, _ = check_recordings(field_root)
     assert problems == [] and n_ok == 143
     rec = entries[0].load()
     # A level phone at rest reads about +g on z (README): first 0.5 s.
@@ -204,12 +205,12 @@ def test_rejects_bom_only_and_blank_files(tmp_path, content):
     assert str(p) in str(ei.value) and "\n" not in str(ei.value)
 
 
-def test_check_tree_survives_a_bom_only_file(tmp_path):
+def test_check_survives_a_bom_only_file(tmp_path):
     d = tmp_path / "s8" / "line_dataset"
     d.mkdir(parents=True)
     (d / "1.csv").write_bytes(b"\xef\xbb\xbf")
     write_rows(d / "2.csv", good_rows())
-    problems, n_ok = check_tree(tmp_path)
+    problems, n_ok, _ = check_recordings(tmp_path)
     assert n_ok == 1 and any("1.csv: empty file" in p for p in problems)
 
 
@@ -530,7 +531,7 @@ def test_a_phone_at_rest_in_si_units_and_z_up_is_plausible(tmp_path):
     path = _written(tmp_path, rec)
     assert ds.plausibility_problems(load_csv(path)) == []
     assert catalogue(tmp_path)[0].load().n == rec.n
-    problems, n_ok = check_tree(tmp_path)
+    problems, n_ok, _ = check_recordings(tmp_path)
     assert n_ok == 1 and not any(str(path) in p for p in problems)
 
 
@@ -587,7 +588,8 @@ def _mutant(kind):
 ])
 def test_implausible_recordings_are_named_by_the_loader_and_by_check(tmp_path, kind, expect):
     """Each mutant keeps every documented limit (the plain reader takes it) and is refused by the catalogue's
-    loader and listed by check_tree, one line naming the file and what was expected."""
+    loader and listed by `morpi check --data` (the shipped manifest's check, which judges by the folder's IMU),
+    one line naming the file and the manifest key that would declare the reading right."""
     path = _written(tmp_path, _mutant(kind))
     load_csv(path)                                          # within the limits: the parser alone accepts it
     with pytest.raises(DataError, match=expect) as ei:
@@ -595,10 +597,19 @@ def test_implausible_recordings_are_named_by_the_loader_and_by_check(tmp_path, k
     assert str(ei.value).startswith(f"{path}: ") and "\n" not in str(ei.value)
     with pytest.raises(DataError, match=expect):
         ds.load_recording(path)
-    problems, n_ok = check_tree(tmp_path)
+    problems, n_ok, _ = check_recordings(tmp_path)
     mine = [p for p in problems if p.startswith(f"{path}: ")]
-    assert n_ok == 0 and mine and any(re.search(expect, p) for p in mine)
-    assert all("\n" not in p for p in mine)
+    assert n_ok == 0 and len(mine) == 1 and "\n" not in mine[0]
+    assert f": {_MANIFEST_KEY[kind]}: " in mine[0], mine
+
+
+#: The manifest key `morpi check --data` names for each mutant: a dead channel is the file's; the units, the
+#: columns and the axes are what a manifest would declare otherwise.
+_MANIFEST_KEY = {"dead gyro axis": "imu.file", "stuck accelerometer axis": "imu.file", "accelerometer in g": "imu.accel_unit",
+                 "gravity removed": "imu.accel_unit", "gyro in deg/s": "imu.gyro_unit",
+                 "gyro in deg/s, no offset": "imu.gyro_unit", "f_z and g_x swapped": "imu.columns",
+                 "f_x and g_y swapped on a tilted phone": "imu.gyro_unit", "f_x and f_z swapped": "imu.axes",
+                 "f_y and f_z swapped": "imu.axes", "z down": "imu.axes"}
 
 
 def test_a_handling_before_the_rest_is_skipped(tmp_path):

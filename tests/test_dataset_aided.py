@@ -24,7 +24,7 @@ AIDED = "MoRPI-aided INS"
 def _run(i, split, length, *, noise_free, moving=False, **labels):
     """A sine run (1 m periods) with its truth track at 10 Hz; `moving`: cut 1.5 s after the motion starts (at
     cruise speed), no rest, started from the truth."""
-    traj = simulate.sine(length, rest=(2.0, 1.5), period=1.0, amplitude=0.1)
+    traj = simulate.sine(length, rest=(2.0, 1.5), p2p_m=1.0, amplitude_m=0.1)
     scales = dict(bias_scale=0.0, noise_scale=0.0) if noise_free else dict(bias_scale=(0.25, 0.3))
     d = simulate.imu(traj, units.LSM6DSL, np.random.default_rng(100 + i), **scales)
     t, f, w = d.time, d.f, d.omega
@@ -98,13 +98,15 @@ def test_a_moving_start_is_followed_from_the_truth_velocity_and_lost_from_zero(n
     tt, err = before_first_step(fw)
     assert tt.size >= 10 and np.sqrt(np.mean(err ** 2)) < 0.02
 
-    orig = de._start
+    from morpi_filters.dataset_eval import pipeline
+
+    orig = pipeline._start
 
     def at_zero(dr, course_m):
         s = orig(dr, course_m)
         return dict(s, v0=np.zeros(3), v0_sigma=1e-3) if dr.id == "test-11" else s
 
-    monkeypatch.setattr(de, "_start", at_zero)
+    monkeypatch.setattr(pipeline, "_start", at_zero)
     zero = de.evaluate(ds, course_m=0.05)
     (zf,) = [p for p in _aided(zero, "test-11") if p.estimate == "forward"]
     tz, ez = before_first_step(zf)
@@ -247,3 +249,37 @@ def test_the_tuning_runs_each_input_and_tuning_once_and_chooses_as_when_every_ru
     rows = lambda r: [(p.id, p.calibration, p.estimate, p.xy.tobytes()) for p in r.paths  # noqa: E731
                       if p.method == AIDED]
     assert rows(shared) == rows(every)
+
+
+def test_the_trained_pipeline_gives_each_recordings_rows_and_runs_its_aided_filter(noisy):
+    """dataset_eval.train, then one recording at a time: Pipeline.estimates are the evaluation's rows of that
+    recording, bit for bit (the same calls on the same choices), and the aided filter run by hand from
+    Pipeline.aided_input with its trained tuning (aided.run_batch) ends where the row ends, turned into the
+    truth's frame by the start's course."""
+    from morpi_filters import aided
+
+    ds, result, _ = noisy
+    pipe = de.train(ds, course_m=0.05)
+    assert pipe.rules == result.pipeline.rules and pipe.choices == result.choices
+    for dr in ds.recordings:
+        paths, left, runs = pipe.estimates(dr.id)
+        rows = [p for p in result.paths if p.id == dr.id]
+        assert [(p.method, p.calibration, p.estimate) for p in paths] == \
+            [(p.method, p.calibration, p.estimate) for p in rows]
+        for a, b in zip(paths, rows):
+            assert a.metrics == b.metrics
+            np.testing.assert_array_equal(a.xy, b.xy)
+        assert runs == [] and left == [x for x in result.left_out if x["id"] == dr.id]
+    for rec_id in ("test-10", "test-11"):                     # from the rest window; from the truth, moving
+        inp, tuning, stop = pipe.aided_input(rec_id, "RD")
+        r = aided.run_batch([inp], [tuning], smooth=True)[0]
+        j = r.index_at(stop)
+        row = next(p for p in _aided(result, rec_id) if p.calibration == "RD" and p.estimate == "smoothed")
+        psi = pipe.prepare(rec_id).start["psi"]
+        turn = np.array([[math.cos(psi), -math.sin(psi)], [math.sin(psi), math.cos(psi)]])
+        np.testing.assert_allclose(turn @ (r.smoothed[j, :2] - r.smoothed[0, :2]), row.xy[-1] - row.xy[0],
+                                   rtol=0, atol=1e-9)
+    from morpi_filters.errors import ParameterError
+
+    with pytest.raises(ParameterError, match="'no-such-run' is not an id of the dataset 'sines'"):
+        pipe.estimates("no-such-run")

@@ -8,7 +8,7 @@ from morpi_filters import simulate, steps, symbolic, units
 
 
 def test_closed_form_errors_takes_the_documented_keys():
-    params = {"dv0_mps": [0.01] * 3, "ba_mps2": [0.02] * 3, "bg_radps": [1e-3] * 3, "g_mps2": 9.81}
+    params = {"dv0_mps": [0.01] * 3, "accel_bias_mps2": [0.02] * 3, "gyro_bias_radps": [1e-3] * 3, "g_mps2": 9.81}
     t = np.array([0.0, 1.0, 2.0])
     assert symbolic.closed_form_errors(params, t, "INS-3D").shape == (3,)
     assert symbolic.closed_form_errors(params, t, "INS-3D position").shape == (3, 3)
@@ -17,7 +17,7 @@ def test_closed_form_errors_takes_the_documented_keys():
 
 def test_train_gain_returns_a_flat_triple():
     rng = np.random.default_rng(0)
-    traj = simulate.sine(6.3, period=1.0, amplitude=0.1, rate_hz=100.0)
+    traj = simulate.sine(6.3, p2p_m=1.0, amplitude_m=0.1, rate_hz=100.0)
     data = simulate.imu(traj, units.LSM6DSL, rng, bias_scale=(0.0, 0.0))
     s = steps.extract_steps(data.recording(), "MoRPI-G", steps.DEFAULT_CONFIGS["MoRPI-G"])
     out = steps.train_gain([s, s], [6.3, 6.3])
@@ -72,7 +72,7 @@ def test_a_recording_by_path_knows_its_labels_and_truth(tmp_path):
 def test_a_track_measures_its_error_against_a_route():
     from morpi_filters import dataset as ds
 
-    traj = simulate.sine(6.3, period=1.0, amplitude=0.1, rate_hz=100.0)
+    traj = simulate.sine(6.3, p2p_m=1.0, amplitude_m=0.1, rate_hz=100.0)
     data = simulate.imu(traj, units.LSM6DSL, np.random.default_rng(1), bias_scale=(0.0, 0.0))
     s = steps.extract_steps(data.recording(), "MoRPI-G", steps.DEFAULT_CONFIGS["MoRPI-G"])
     track = steps.morpi_track(s, 1.0)
@@ -158,7 +158,7 @@ def test_array_returns_have_the_documented_shapes():
                            (eskf.initial_covariance, (0.1, 0.01, 0.001), (15, 15))):
         assert tuple(int(d) for d in _shape(fn)[-2:]) == want
         assert fn(*args).shape == want
-    assert "(length_m, speed_mps, duration)" in (mc.StudyConfig.motion.__doc__ or "")
+    assert "(length_m, speed_mps, duration_s)" in (mc.StudyConfig.motion.__doc__ or "")
     assert len(mc.StudyConfig().motion()) == 3
     lo, hi = eskf.chi2_band(2, 100)
     assert "(lo, hi)" in _returns(eskf.chi2_band) and lo < 2 < hi

@@ -152,7 +152,7 @@ def test_planar_model_is_the_heading_restriction_of_the_15_state_model():
 def test_bad_shapes_raise():
     with pytest.raises(MorpiError, match="C_b"):
         system_matrix(np.eye(2), [0, 0, 1])
-    with pytest.raises(MorpiError, match="dt"):
+    with pytest.raises(MorpiError, match="dt_s"):
         discretize(np.zeros((2, 2)), np.zeros((2, 1)), [[1.0]], -0.1)
     with pytest.raises(MorpiError, match="Q"):
         discretize(np.zeros((2, 2)), np.zeros((2, 1)), np.eye(2), 0.1)

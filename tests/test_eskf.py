@@ -49,7 +49,7 @@ def test_noise_off_variance_equals_the_closed_form_expectation():
     # second, independent route: the sympy-derived mean square of the same polynomials
     from morpi_filters.symbolic import closed_form_mean_square
 
-    sig = {"dv0_mps": SV.tolist(), "ba_mps2": SA.tolist(), "bg_radps": SG.tolist(), "g_mps2": G_MPS2}
+    sig = {"dv0_mps": SV.tolist(), "accel_bias_mps2": SA.tolist(), "gyro_bias_radps": SG.tolist(), "g_mps2": G_MPS2}
     sym = closed_form_mean_square(sig, t, "INS-3D", "z_up", linearized=True, keep_bgz=False)
     assert np.max(np.abs(got[1:] / sym[1:] - 1)) < 1e-9
 

@@ -324,11 +324,11 @@ def test_cli_fetch_exit_codes(server, tmp_path, tree, sums, monkeypatch, capsys)
     sums_file = write_checksums(tmp_path / "sums.txt", sums)
     monkeypatch.setattr(fetch, "CHECKSUMS_FILE", sums_file)
     dest = tmp_path / "D"
-    assert main(["data", "fetch", "--dest", str(dest), "--url", f"{base}/x.zip"]) == 0
+    assert main(["data", "fetch", "--out", str(dest), "--url", f"{base}/x.zip"]) == 0
     out = capsys.readouterr().out
     assert f"verified at {dest / 'data'}" in out
     bad = tmp_path / "E"
-    assert main(["data", "fetch", "--dest", str(bad), "--url", f"{base}/y.zip"]) == 2
+    assert main(["data", "fetch", "--out", str(bad), "--url", f"{base}/y.zip"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("morpi: error: ") and "HTTP 404" in err
     assert not bad.exists() and leftovers(tmp_path) == []

@@ -29,7 +29,7 @@ def _run(phone: str):
     (6.3 m), at rest again for 3 s; the recording and the samples where the motion starts and stops."""
     rng = np.random.default_rng(7)
     o = synthetic.DATASET_OPTIONS
-    traj = simulate.route_trajectory("short_distance", rest=(3.2, 3.0), t0=0.4, amplitude=0.05)
+    traj = simulate.route_trajectory("short_distance", rest=(3.2, 3.0), t0=0.4, amplitude_m=0.05)
     data = simulate.imu(traj, dataset.folder_imu(phone), rng, sampling=synthetic.PHONE_CLOCKS[phone],
                         bias_scale=synthetic.REALISTIC_BIAS_FRACTION[phone], misalignment=o["misalignment"],
                         vibration=o["vibration"], bias_instability=o["bias_instability"],
@@ -42,7 +42,7 @@ def _windows_s() -> dict:
     """Every window and threshold of the per-recording path [s], read from the code."""
     rest = inspect.signature(detect_rest).parameters
     act = inspect.signature(st.activity_span).parameters
-    epoch = inspect.signature(field_aided.rest_noise).parameters["epoch_s"].default
+    epoch = inspect.signature(field_aided.rest_noise).parameters["dt_s"].default
     _, _, pad = stp._butter(2, 1.0, st.GRID_HZ)                  # the low-pass's odd padding [grid samples]
     return {
         "rest: moving window, noise blocks": rest["window_s"].default,
@@ -57,7 +57,7 @@ def _windows_s() -> dict:
         "still spans: window, shortest": field_aided.STILL_WINDOW_S,
         "rest noise: epoch": epoch,
         "rest noise: four epochs": 4 * epoch,
-        "aided filter: epoch": inspect.signature(aided.run_batch).parameters["epoch_s"].default,
+        "aided filter: epoch": inspect.signature(aided.run_batch).parameters["dt_s"].default,
         "steps: peak distance": st.StepConfig().min_period_s,
         "steps: two peak distances": 2 * st.StepConfig().min_period_s,
         "low-pass: padding": pad / st.GRID_HZ,
@@ -194,7 +194,7 @@ def test_a_recording_moving_from_its_first_sample_is_evaluated_under_rd_only(tmp
     # motion window from the first sample to the stop.
     rng = np.random.default_rng(8)
     o = synthetic.DATASET_OPTIONS
-    traj = simulate.route_trajectory(route, speed=speed, rest=(0.0, 3.0), **({"amplitude": 0.05}
+    traj = simulate.route_trajectory(route, speed_mps=speed, rest=(0.0, 3.0), **({"amplitude_m": 0.05}
                                                                             if route == "long_distance" else {}))
     imu = simulate.imu(traj, units.LSM6DSL, rng, sampling="jittered", bias_scale=synthetic.REALISTIC_BIAS_FRACTION["s8"],
                        misalignment=o["misalignment"], vibration=o["vibration"],

@@ -557,6 +557,17 @@ MALFORMED = [
      "truth.columns: expected time (optional) and x, y, z"),
     ("offset", _sub("offset_s = -0.1", 'offset_s = "soon"'), "truth.offset_s: a string 'soon', expected a number"),
     ("truth file", _sub('file = "t.csv"', 'file = "nowhere.csv"'), "truth.file: ", "nowhere.csv: no such file"),
+    ("evaluation key", _sub("[defaults]", '[evaluation]\nheld_ot = "group"\n\n[defaults]'),
+     "[evaluation]: unknown key 'held_ot', the nearest known one is 'held_out'"),
+    ("evaluation value", _sub("[defaults]", '[evaluation]\nins_span = "all"\n\n[defaults]'),
+     "evaluation.ins_span: 'all', expected one of 'motion', 'full'"),
+    ("evaluation not a table", _sub('description = "two recordings"', 'description = "two recordings"\n'
+                                                                       "evaluation = 3"),
+     "evaluation: an integer 3, expected a table [evaluation]"),
+    ("train_group without train runs", _sub('id = "b"', 'id = "b"\ntrain_group = "elsewhere"'),
+     "recording 'b': train_group: 'elsewhere' has no train recording"),
+    ("train_group split in a group", _sub('id = "b"', 'id = "b"\ntrain_group = "bench"'),
+     "recording 'b': train_group: 'bench', but recording 'a' of the same group 'bench' says None"),
 ]
 
 
@@ -808,7 +819,8 @@ def test_the_morpi_manifest_applied_to_a_root_lists_the_catalogues_recordings(tm
         (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / rel).touch()
     index = index_dataset(morpi_manifest(), root=tmp_path)
-    cat = [e.relpath for e in mds.catalogue(tmp_path) if mds.folder_key(e.phone, e.route, e.split) in mds.layout()]
+    cat = [e.relpath for e in mds.catalogue(tmp_path)
+           if "/".join(p for p in (e.phone, e.route, e.split) if p) in mds.layout()]
     ids = [r.id for r in index.recordings]
     assert sorted(ids) == sorted(cat) and len(ids) == 3 * len(mds.layout())
     for folder in mds.layout():           # within each folder, the catalogue's order
@@ -821,3 +833,61 @@ def test_the_morpi_manifest_applied_to_a_root_lists_the_catalogues_recordings(tm
     train = [g for g, split, motion in index.declared if split == "train"]
     assert train == list(dict.fromkeys(f"{s.train[0]}/{s.train[1]}" for s in cell_specs() if s.table == "short_route"))
     assert index.latitude_deg == 32.8
+
+
+def test_a_glob_count_names_each_pattern_that_matches_another_number_of_files(tmp_path):
+    """imu.count: one DataError line per glob table that finds fewer or more files than declared (a missing folder
+    named as such), none for one that finds its count; loading ignores it; on a single file it is refused."""
+    from conftest import good_rows, write_rows
+    from morpi_filters.manifest import count_problems
+
+    for rel in ("a/1.csv", "a/2.csv", "b/1.csv", "c/1.csv", "c/2.csv", "c/3.csv"):
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        write_rows(tmp_path / rel, good_rows())
+    head = 'format_version = 1\nname = "counted"\n'
+    truth = 'truth = { kind = "route", distance_m = 1.0, end_point_m = [1.0, 0.0] }\n'
+    tables = [("a/*.csv", 2), ("b/*.csv", 3), ("c/*.csv", 1), ("gone/*.csv", 4)]
+    text = head + "".join(f'[[recording]]\nimu = {{ file = "{p}", count = {n} }}\n' + truth for p, n in tables)
+    man = tmp_path / "dataset.toml"
+    man.write_text(text)
+    problems, n_ok = check_dataset(man)
+    assert n_ok == 6 and all(isinstance(p, DataError) for p in problems)
+    assert [str(p) for p in problems] == [
+        f"{man}: [[recording]] 2: imu.file: 'b/*.csv' matches 1 file(s) under {tmp_path}, expected 3 (imu.count)",
+        f"{man}: [[recording]] 3: imu.file: 'c/*.csv' matches 3 file(s) under {tmp_path}, expected 1 (imu.count)",
+        f"{man}: [[recording]] 4: imu.file: 'gone/*.csv' matches no file: missing folder {tmp_path / 'gone'}, "
+        "expected 4 file(s) (imu.count)"]
+    assert [str(p) for p in count_problems(man)] == [str(p) for p in problems]
+    # counts given by the caller replace the manifest's: a pattern they leave out has none
+    assert [str(p) for p in count_problems(man, counts={"b/*.csv": 1, "gone/*.csv": 2})] == [
+        f"{man}: [[recording]] 4: imu.file: 'gone/*.csv' matches no file: missing folder {tmp_path / 'gone'}, "
+        "expected 2 file(s) (imu.count)"]
+    assert len(load_dataset(man)) == 6
+    # nothing matches: one line for the whole manifest, of the data (exit 1)
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    problems, n_ok = check_dataset(man, root=empty)
+    assert n_ok == 0 and len(problems) == 1 and isinstance(problems[0], DataError)
+    assert str(problems[0]) == (f"{empty}: no recordings: no file matches the imu.file patterns of {man}, expected "
+                                "10 recording(s) (imu.count)")
+    man.write_text(head + '[[recording]]\nimu = { file = "a/1.csv", count = 1 }\n' + truth)
+    with pytest.raises(ParameterError, match=r"\[\[recording\]\] 1: imu.count: not used without a glob imu.file"):
+        load_dataset(man)
+    man.write_text(head + '[[recording]]\nimu = { file = "a/*.csv", count = 0 }\n' + truth)
+    (p,), _ = check_dataset(man)
+    assert isinstance(p, ParameterError) and str(p) == f"{man}: [[recording]] 1: imu.count: 0 is below 1"
+
+
+def test_the_morpi_manifest_counts_the_runs_of_the_public_dataset():
+    """Each folder's table of data/morpi.toml declares the folder's runs (routes.json's layout): 143 in all."""
+    import tomllib
+
+    from morpi_filters import dataset as mds
+    from morpi_filters.manifest.schema import read_manifest
+    from morpi_filters.resources import morpi_manifest
+
+    doc = tomllib.loads(morpi_manifest().read_text())
+    counts = {r["imu"]["file"].rsplit("/", 1)[0]: r["imu"]["count"] for r in doc["recording"]}
+    assert counts == mds.layout() and sum(counts.values()) == 143
+    globs = read_manifest(morpi_manifest()).globs                        # every table is a glob with its count
+    assert [(pattern, n) for _, pattern, _, n in globs] == [(f"{k}/*.csv", n) for k, n in counts.items()]

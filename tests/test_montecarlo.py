@@ -73,7 +73,7 @@ def test_field_gain_figures_below_their_precision_leave_the_study_unchanged(tmp_
     for scale in (1.0, 1 + 3e-11):
         monkeypatch.setattr(evaluate, "training_gain_spread",
                             lambda source, tables=None, k=scale: (figures[0] * k, figures[1] * k))
-        pages.append(mc.gain_error_page(runs=12, seed=5, source=DataSource(root)))
+        pages.append(mc.gain_error_page(runs=12, seed=5, data_source=DataSource(root)))
     a, b = pages
     assert (a.spread, a.mismatch) == (b.spread, b.mismatch) == figures
     assert np.array_equal(a.calibrated.final, b.calibrated.final, equal_nan=True)
@@ -152,7 +152,7 @@ def test_studies_without_curves_keep_the_same_numbers():
 
 def test_one_pass_refuses_studies_with_other_draws():
     with pytest.raises(MorpiError, match="duration"):
-        mc.run_studies(3, 0, (FAST, replace(FAST, duration=16.0)))
+        mc.run_studies(3, 0, (FAST, replace(FAST, duration_s=16.0)))
 
 
 def test_series_reductions_agree_with_the_series():
@@ -206,7 +206,7 @@ def test_the_gain_error_page_is_reproducible_and_its_seed_reaches_the_training(m
 
 def test_the_drift_page_takes_its_seed(monkeypatch):
     real = mc.drift_map
-    monkeypatch.setattr(mcp, "drift_map", lambda levels, **kw: real(levels[::12], **{**kw, "draws": 3, "duration": 2.0}))
+    monkeypatch.setattr(mcp, "drift_map", lambda levels, **kw: real(levels[::12], **{**kw, "draws": 3, "duration_s": 2.0}))
     a, b, c = mc.drift_page(), mc.drift_page(seed=mc.DRIFT_SEED), mc.drift_page(seed=5)
     assert a.drift.seed == mc.DRIFT_SEED and c.drift.seed == 5
     assert np.array_equal(a.drift.final_3d, b.drift.final_3d)
@@ -240,7 +240,7 @@ def test_dask_local_cluster_gives_the_same_digest(reference_study):
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster:
         r = mc.run_study(13, 7, FAST, chunk=4, scheduler=cluster.scheduler_address)
-        d = mc.drift_map([0.1 * DEG_S, 1 * DEG_S], draws=3, seed=2, duration=2.0, chunk=2,
+        d = mc.drift_map([0.1 * DEG_S, 1 * DEG_S], draws=3, seed=2, duration_s=2.0, chunk=2,
                          scheduler=cluster.scheduler_address)
         # several studies of one pass, as the page runs them (curves kept for some): the workers return
         # reductions, and every number is the local one
@@ -258,7 +258,7 @@ def test_dask_local_cluster_gives_the_same_digest(reference_study):
             assert np.array_equal(a.rms, b.rms, equal_nan=True)
             assert np.array_equal(a.bands, b.bands, equal_nan=True) and np.array_equal(a.bands, c.bands, equal_nan=True)
     assert r.digest == reference_study.digest
-    local = mc.drift_map([0.1 * DEG_S, 1 * DEG_S], draws=3, seed=2, duration=2.0)
+    local = mc.drift_map([0.1 * DEG_S, 1 * DEG_S], draws=3, seed=2, duration_s=2.0)
     assert np.array_equal(d.rel_3d, local.rel_3d) and np.array_equal(d.rel_2d, local.rel_2d)
 
 
@@ -359,7 +359,7 @@ def test_drift_closed_form_over_runs_is_each_runs_own_evaluation():
     for kind in ("INS-3D", "INS-2D"):
         many = mcd._closed_form()[0](ba, bg, t, G0, kind)
         for r in range(4):
-            p = {"dv0_mps": [0.0] * 3, "ba_mps2": ba[r].tolist(), "bg_radps": bg[r].tolist(), "g_mps2": G0}
+            p = {"dv0_mps": [0.0] * 3, "accel_bias_mps2": ba[r].tolist(), "gyro_bias_radps": bg[r].tolist(), "g_mps2": G0}
             one = symbolic.closed_form_errors(p, t, kind + " position", "z_up", True)[:, :2]
             np.testing.assert_allclose(many[r], one, rtol=1e-14, atol=0)
 
@@ -385,10 +385,10 @@ def test_bad_arguments_raise_one_line(kw, word):
 
 
 @pytest.mark.parametrize("change, word", [
-    (dict(duration=5.0), "length_m"),                    # 1.9 m at the paper's speed: fewer than 3 periods
+    (dict(duration_s=5.0), "length_m"),                    # 1.9 m at the paper's speed: fewer than 3 periods
     (dict(length_m=2.0), "length_m"),
-    (dict(duration=1.5), "duration"),                    # shorter than the two 1 s ramps
-    (dict(duration=10.0, length_m=6.3, speed_mps=1.0), "disagree"),
+    (dict(duration_s=1.5), "duration_s"),                    # shorter than the two 1 s ramps
+    (dict(duration_s=10.0, length_m=6.3, speed_mps=1.0), "disagree"),
     (dict(speed_mps=-1.0), "speed_mps"),
     (dict(ins_path="circle"), "ins_path"),
     (dict(calibration="magic"), "calibration"),
@@ -421,6 +421,10 @@ def test_report_montecarlo_contract(tmp_path, monkeypatch):
                                                              for c in res["scenarios"]),
                                                calibration="GAC"))
     assert again.digest == res["digest"]
+    # the keys renamed in 0.2 are written beside the new ones for one release, with the same values
+    tr, cfg = res["training_runs"], res["config"]
+    assert tr["source"] == tr["spread_basis"] and tr["spread_basis"].startswith("assumed")
+    assert cfg["period_m"] == cfg["p2p_m"] == 1.0
     page = (tmp_path / "README.md").read_text()
     assert "ASSUMED" in page
     for f in s.figures:
@@ -493,7 +497,7 @@ def test_band_binning_equals_a_search_over_the_edges():
 def test_a_longer_duration_drives_a_longer_path(duration):
     # the motion fills the run: at the paper's speed for 1 m periods, 20 s drive
     # 0.4667 * (20 - 1) = 8.87 m (duration = length / speed + one ramp of 1 s)
-    cfg = mc.StudyConfig(duration=duration, period_m=1.0, training_runs=50)
+    cfg = mc.StudyConfig(duration_s=duration, p2p_m=1.0, training_runs=50)
     length, speed, T = cfg.motion()
     assert T == duration and speed == pytest.approx(6.3 / 13.5) and length == pytest.approx(speed * (duration - 1))
     ins_path, sine, _ = mce._paths(cfg)
@@ -513,7 +517,7 @@ def test_a_longer_duration_drives_a_longer_path(duration):
 def test_speed_and_length_fix_the_duration():
     cfg = mc.StudyConfig(length_m=10.0, speed_mps=0.5)
     assert cfg.motion() == pytest.approx((10.0, 0.5, 21.0))
-    assert mc.StudyConfig(duration=11.0, speed_mps=1.0).motion() == pytest.approx((10.0, 1.0, 11.0))
+    assert mc.StudyConfig(duration_s=11.0, speed_mps=1.0).motion() == pytest.approx((10.0, 1.0, 11.0))
     assert mc.StudyConfig().motion() == pytest.approx((6.3, 6.3 / 14.0, 15.0))
 
 
@@ -531,10 +535,10 @@ def test_ins_errors_are_those_of_the_sine_path():
     runs, seed, T = 3, 5, 20.0
     errs = {}
     for path in ("sine", "straight"):
-        r = mc.run_study(runs, seed, mc.StudyConfig(spec=spec, duration=T, training_runs=2, ins_path=path))
+        r = mc.run_study(runs, seed, mc.StudyConfig(spec=spec, duration_s=T, training_runs=2, ins_path=path))
         errs[path] = r.final_error("INS-2D")
-    length, speed, _ = mc.StudyConfig(duration=T).motion()
-    traj = simulate.sine(length, period=1.0, amplitude=0.1, speed=speed, rest=0.0)
+    length, speed, _ = mc.StudyConfig(duration_s=T).motion()
+    traj = simulate.sine(length, p2p_m=1.0, amplitude_m=0.1, speed_mps=speed, rest=0.0)
     t, psi = traj.time, traj.heading
     for i in range(runs):
         b = spec.accel_bias * np.random.Generator(np.random.PCG64(mc.child_seed(seed, i))).standard_normal(3)
@@ -583,23 +587,23 @@ def test_heading_error_by_blocks_is_the_trapezoid_integral():
 
 @pytest.mark.parametrize("duration, speed", [(None, None), (60.0, None), (30.0, 2.0), (None, 0.2), (40.0, 0.1)])
 def test_the_estimate_counts_the_samples_and_steps_of_the_path_the_study_drives(duration, speed):
-    cfg = mc.StudyConfig(duration=duration, speed_mps=speed).resolved()
+    cfg = mc.StudyConfig(duration_s=duration, speed_mps=speed).resolved()
     _, sine, _ = mce._paths(cfg)                         # the path the study builds
-    cost = mc.page_cost(10, duration=duration, speed_mps=speed)
-    assert cost.duration == cfg.duration and cost.samples == sine.time.size
+    cost = mc.page_cost(10, duration_s=duration, speed_mps=speed)
+    assert cost.duration_s == cfg.duration_s and cost.samples == sine.time.size
     assert abs(cost.steps - (sine.peaks.size - 1)) <= 1
 
 
 def test_the_estimate_is_affine_in_the_runs_and_grows_faster_than_the_duration():
-    c = [mc.page_cost(r, duration=60.0) for r in (1000, 2000, 3000)]
+    c = [mc.page_cost(r, duration_s=60.0) for r in (1000, 2000, 3000)]
     assert c[1].seconds - c[0].seconds == pytest.approx(c[2].seconds - c[1].seconds, rel=1e-12)
     assert c[1].bytes - c[0].bytes == pytest.approx(1000 * mc.RUN_BYTES, rel=1e-12)
-    per_run = {d: mc.page_cost(2, duration=d).seconds - mc.page_cost(1, duration=d).seconds
+    per_run = {d: mc.page_cost(2, duration_s=d).seconds - mc.page_cost(1, duration_s=d).seconds
                for d in (15.0, 60.0, 240.0, 600.0)}
     for short, long in ((15.0, 60.0), (60.0, 240.0), (240.0, 600.0)):
         assert per_run[long] > long / short * per_run[short] > 0
     # more steps in the same time cost more (the fast path of the same duration)
-    assert mc.page_cost(1000, duration=600.0, speed_mps=10.0).seconds > mc.page_cost(1000, duration=600.0).seconds
+    assert mc.page_cost(1000, duration_s=600.0, speed_mps=10.0).seconds > mc.page_cost(1000, duration_s=600.0).seconds
     # a configured dataset adds the field gain training
     assert mc.page_cost(10, field=True).seconds > mc.page_cost(10).seconds
 
@@ -608,9 +612,9 @@ def test_a_larger_chunk_costs_at_least_its_scratch_planes(monkeypatch):
     # the chunk kernel's scratch arrays, left in place after a study, against the estimate's bytes per sample
     monkeypatch.setattr(mce, "_release_scratch", lambda: None)
     mce._SCRATCH.arrays = {}
-    cfg = mc.StudyConfig(training_runs=20, duration=8.0)
+    cfg = mc.StudyConfig(training_runs=20, duration_s=8.0)
     mc.run_study(24, 0, cfg, chunk=24)
-    n = mce.sample_count(cfg.resolved().duration, cfg.rate_hz)
+    n = mce.sample_count(cfg.resolved().duration_s, cfg.rate_hz)
     planes = sum(a.nbytes for a in mce._SCRATCH.arrays.values())
     mce._SCRATCH.arrays = {}
     assert planes / (24 * n) >= 13 * 8                   # draws (6 n + 7), noise (6 n), heading (n) per run
@@ -621,7 +625,7 @@ def test_a_larger_chunk_costs_at_least_its_scratch_planes(monkeypatch):
     assert big.seconds == plain.seconds
 
 
-@pytest.mark.parametrize("kwargs", [{"runs": 0}, {"runs": 10, "duration": 2.0}, {"runs": 10, "chunk": 0},
+@pytest.mark.parametrize("kwargs", [{"runs": 0}, {"runs": 10, "duration_s": 2.0}, {"runs": 10, "chunk": 0},
                                     {"runs": 10, "speed_mps": -1.0}])
 def test_the_estimate_refuses_what_the_study_refuses(kwargs):
     runs = kwargs.pop("runs")
@@ -630,4 +634,4 @@ def test_the_estimate_refuses_what_the_study_refuses(kwargs):
 
 
 def test_a_speed_alone_sets_the_duration_of_the_paper_length():
-    assert mc.page_cost(1, speed_mps=0.01).duration == pytest.approx(mc.DEFAULT_LENGTH_M / 0.01 + mc.RAMP_S)
+    assert mc.page_cost(1, speed_mps=0.01).duration_s == pytest.approx(mc.DEFAULT_LENGTH_M / 0.01 + mc.RAMP_S)

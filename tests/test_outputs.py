@@ -636,7 +636,7 @@ def test_field_report_goes_to_reports(tmp_path, fake_sections, monkeypatch, caps
     monkeypatch.setattr(cli, "_report_source", lambda args: DataSource(tmp_path / "ds"))
     # the folder holds no recordings: the report stops on that (exit 1) unless --partial
     assert cli.main(["report", "--data", str(tmp_path / "ds")]) == 1
-    assert "no recordings in the MoRPI layout" in capsys.readouterr().err
+    assert f"{tmp_path / 'ds'}: no recordings: no file matches the imu.file patterns of" in capsys.readouterr().err
     assert cli.main(["report", "--data", str(tmp_path / "ds"), "--partial"]) == 0
     first = capsys.readouterr().out.splitlines()[0]
     assert "synthetic" not in first and "field dataset" in first

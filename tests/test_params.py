@@ -10,22 +10,22 @@ import pytest
 from morpi_filters import MorpiError
 from morpi_filters.params import load_params, params_from_dict
 
-GOOD = {"dv0_mps": [0.1, 0.2, 0.0], "ba_mps2": [0.01, 0.02, 0.03], "bg_radps": [1e-3, 2e-3, 3e-3], "g_mps2": 9.81}
+GOOD = {"dv0_mps": [0.1, 0.2, 0.0], "accel_bias_mps2": [0.01, 0.02, 0.03], "gyro_bias_radps": [1e-3, 2e-3, 3e-3], "g_mps2": 9.81}
 
 
 def test_good_file(tmp_path):
     p = tmp_path / "p.json"
     p.write_text(json.dumps(GOOD | {"dG": [0.1], "process_noise": True}))
     par = load_params(p)
-    np.testing.assert_array_equal(par.ba, GOOD["ba_mps2"])
+    np.testing.assert_array_equal(par.ba, GOOD["accel_bias_mps2"])
     assert par.dG == (0.1,) and par.process_noise is True and par.g == 9.81
 
 
 @pytest.mark.parametrize("patch, expect", [
     ({"g_mps2": None}, "key 'g_mps2'"),
     ({"g_mps2": -9.8}, "must be a positive gravity"),
-    ({"ba_mps2": [1, 2]}, "key 'ba_mps2': expected a list of 3 numbers, got length 2"),
-    ({"bg_radps": [1, "x", 2]}, r"key 'bg_radps\[1\]': 'x' is not a finite number"),
+    ({"accel_bias_mps2": [1, 2]}, "key 'accel_bias_mps2': expected a list of 3 numbers, got length 2"),
+    ({"gyro_bias_radps": [1, "x", 2]}, r"key 'gyro_bias_radps\[1\]': 'x' is not a finite number"),
     ({"dG": []}, "key 'dG'"),
     ({"process_noise": "yes"}, "key 'process_noise'"),
     ({"morpi_speed_mps": 0}, "must be positive"),
@@ -64,18 +64,18 @@ def test_bounds_have_their_stated_sources():
 
 
 @pytest.mark.parametrize("patch, key, expect", [
-    ({"ba_mps2": [1e300, 0, 0]}, r"ba_mps2\[0\]", r"beyond the physical bound \+-9.807 m/s\^2"),
-    ({"ba_mps2": [0, -10.0, 0]}, r"ba_mps2\[1\]", "beyond the physical bound"),
-    ({"bg_radps": [0, 0, 2.0]}, r"bg_radps\[2\]", r"beyond the physical bound \+-1.745 rad/s"),
+    ({"accel_bias_mps2": [1e300, 0, 0]}, r"accel_bias_mps2\[0\]", r"beyond the physical bound \+-9.807 m/s\^2"),
+    ({"accel_bias_mps2": [0, -10.0, 0]}, r"accel_bias_mps2\[1\]", "beyond the physical bound"),
+    ({"gyro_bias_radps": [0, 0, 2.0]}, r"gyro_bias_radps\[2\]", r"beyond the physical bound \+-1.745 rad/s"),
     ({"dv0_mps": [11.0, 0, 0]}, r"dv0_mps\[0\]", r"\+-10 m/s"),
     ({"dG": [0.05, 1.5]}, r"dG\[1\]", "beyond the physical bound"),
     ({"dG": [0.01] * 21}, "dG", "at most 20"),
     ({"g_mps2": 1e300}, "g_mps2", "between 9.7 and 9.9"),
     ({"g_mps2": 1.62}, "g_mps2", "between 9.7 and 9.9"),
     ({"morpi_speed_mps": 1e6}, "morpi_speed_mps", "at most 10 m/s"),
-    ({"ba_mps2": [10 ** 400, 0, 0]}, r"ba_mps2\[0\]", "an integer of 401 digits is not a finite number"),
-    ({"ba_mps2": [[0.1], 0, 0]}, r"ba_mps2\[0\]", "not a finite number"),
-    ({"ba_mps2": [True, 0, 0]}, r"ba_mps2\[0\]", "not a finite number"),
+    ({"accel_bias_mps2": [10 ** 400, 0, 0]}, r"accel_bias_mps2\[0\]", "an integer of 401 digits is not a finite number"),
+    ({"accel_bias_mps2": [[0.1], 0, 0]}, r"accel_bias_mps2\[0\]", "not a finite number"),
+    ({"accel_bias_mps2": [True, 0, 0]}, r"accel_bias_mps2\[0\]", "not a finite number"),
     ({"g_mps2": "9.81"}, "g_mps2", "not a finite number"),
     ({"note": 3}, "note", "expected a text string"),
     ({"bogus": 1}, None, r"unknown key\(s\) 'bogus'; expected only"),
@@ -130,8 +130,8 @@ def test_cli_assess_rejects_a_huge_bias_with_exit_2(tmp_path, capsys):
     from morpi_filters.cli import main
 
     p = tmp_path / "p.json"
-    p.write_text(json.dumps(GOOD | {"ba_mps2": [1e300, 0, 0]}))
+    p.write_text(json.dumps(GOOD | {"accel_bias_mps2": [1e300, 0, 0]}))
     out = tmp_path / "rep"
     assert main(["assess", "--params", str(p), "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "ba_mps2[0]" in err[0] and not out.exists()
+    assert len(err) == 1 and "accel_bias_mps2[0]" in err[0] and not out.exists()

@@ -36,10 +36,10 @@ def _vee_log(R):
 
 TRAJECTORIES = {
     "straight": lambda **kw: simulate.straight(6.3, rest=0.5, **kw),
-    "sine": lambda **kw: simulate.sine(6.3, period=1.0, amplitude=0.1, rest=0.5, **kw),
-    "sine_1.5": lambda **kw: simulate.sine(6.3, period=1.5, amplitude=0.2, rest=0.5, **kw),
-    "L_shape": lambda **kw: simulate.l_route((18.0, 10.0), turn_deg=-90, slope_deg=15, period=1.0,
-                                             amplitude=0.1, rest=0.5, **kw),
+    "sine": lambda **kw: simulate.sine(6.3, p2p_m=1.0, amplitude_m=0.1, rest=0.5, **kw),
+    "sine_1.5": lambda **kw: simulate.sine(6.3, p2p_m=1.5, amplitude_m=0.2, rest=0.5, **kw),
+    "L_shape": lambda **kw: simulate.l_route((18.0, 10.0), turn_deg=-90, slope_deg=15, p2p_m=1.0,
+                                             amplitude_m=0.1, rest=0.5, **kw),
     "L_line": lambda **kw: simulate.l_route((18.0, 10.0), turn_deg=90, slope_deg=15, rest=0.5, **kw),
 }
 
@@ -118,7 +118,7 @@ def test_noise_free_ins_recovers_route(name, sampling):
 
 def test_sine_peaks_at_known_times():
     h = 1e-3
-    tr = simulate.sine(6.3, period=1.0, amplitude=0.1, rate_hz=1 / h)
+    tr = simulate.sine(6.3, p2p_m=1.0, amplitude_m=0.1, rate_hz=1 / h)
     y = tr.position[:, 1]
     # lateral extremes found independently in the sampled path, refined by a parabola
     i = np.flatnonzero((np.diff(np.sign(np.diff(y))) != 0)) + 1
@@ -142,7 +142,7 @@ def test_sine_peaks_at_known_times():
 
 
 def test_white_noise_matches_density_with_chi_square():
-    tr = simulate.straight(1.0, speed=1.0, rest=0.2, ramp=0.5)
+    tr = simulate.straight(1.0, speed_mps=1.0, rest=0.2, ramp=0.5)
     spec = units.MPU6500
     d = simulate.imu(tr, spec, np.random.default_rng(11), runs=400, sampling="two-rate", bias_scale=0)
     dt = np.diff(d.time)
@@ -159,7 +159,7 @@ def test_white_noise_matches_density_with_chi_square():
 
 
 def test_turn_on_bias_statistics():
-    tr = simulate.straight(1.0, speed=1.0, rest=0.0, ramp=0.5, rate_hz=20)
+    tr = simulate.straight(1.0, speed_mps=1.0, rest=0.0, ramp=0.5, rate_hz=20)
     spec = units.LSM6DSL
     runs = 4000
     d = simulate.imu(tr, spec, np.random.default_rng(12), runs=runs, bias_scale=(0.5, 0.25))
@@ -254,8 +254,10 @@ def small_dataset(tmp_path_factory):
     return synthetic.write_dataset(root, seed=3, runs_per_folder=1)
 
 
-def test_write_dataset_layout_and_check_tree(small_dataset, tmp_path):
-    problems, n_ok = dataset.check_tree(small_dataset)
+def test_write_dataset_layout_and_check(small_dataset, tmp_path):
+    from morpi_filters.field import check_recordings
+
+    problems, n_ok, _ = check_recordings(small_dataset)
     layout = dataset.layout()
     assert problems == [] and n_ok == len(layout)
     entries = dataset.catalogue(small_dataset)
@@ -277,7 +279,10 @@ def test_write_dataset_layout_and_check_tree(small_dataset, tmp_path):
     assert (other / entries[0].relpath).read_bytes() != entries[0].path.read_bytes()
     # both phones recorded the long route at once: same trajectory draws
     m = json.loads((again / "manifest.json").read_text())["runs"]
-    assert m["s6/long_distance/test/1.csv"]["speed_m_s"] == m["s8/long_distance/test/1.csv"]["speed_m_s"]
+    assert m["s6/long_distance/test/1.csv"]["speed_mps"] == m["s8/long_distance/test/1.csv"]["speed_mps"]
+    # the run keys renamed in 0.2 stay for one release beside the new ones, with the same values
+    assert all(r["speed_m_s"] == r["speed_mps"] and r["period_m"] == r["p2p_m"] for r in m.values())
+    assert any(r["p2p_m"] is not None for r in m.values())
 
 
 def test_write_dataset_refuses_foreign_folder_and_cleans_up(tmp_path, monkeypatch):
@@ -342,22 +347,22 @@ def test_cli_simulate_end_to_end(tmp_path):
 
 
 @pytest.mark.parametrize("call, word", [
-    (lambda: simulate.straight(6.3, speed=-1.0), "speed"),
-    (lambda: simulate.straight(-2.0), "length"),
-    (lambda: simulate.straight(6.3, speed=10.0), "speed"),
-    (lambda: simulate.sine(6.3, period=0.0), "period"),
-    (lambda: simulate.sine(6.3, period=1.0, amplitude=0.5), "amplitude"),
-    (lambda: simulate.sine(6.3, amplitude=float("nan")), "amplitude"),
-    (lambda: simulate.sine(1.0, period=1.0), "taper"),
+    (lambda: simulate.straight(6.3, speed_mps=-1.0), "speed_mps"),
+    (lambda: simulate.straight(-2.0), "length_m"),
+    (lambda: simulate.straight(6.3, speed_mps=10.0), "speed_mps"),
+    (lambda: simulate.sine(6.3, p2p_m=0.0), "p2p_m"),
+    (lambda: simulate.sine(6.3, p2p_m=1.0, amplitude_m=0.5), "amplitude_m"),
+    (lambda: simulate.sine(6.3, amplitude_m=float("nan")), "amplitude_m"),
+    (lambda: simulate.sine(1.0, p2p_m=1.0), "taper"),
     (lambda: simulate.sine(6.3, rest=-1.0), "rest"),
     (lambda: simulate.straight(6.3, rate_hz=0), "rate_hz"),
     (lambda: simulate.l_route((18.0, 10.0), turn_deg=0.0), "turn_deg"),
     (lambda: simulate.l_route((18.0, 10.0), turn_radius=-1.0), "turn_radius"),
     (lambda: simulate.l_route((18.0, 10.0), turn_radius=30.0), "turn_radius"),
     (lambda: simulate.l_route((18.0,)), "legs"),
-    (lambda: simulate.l_route((18.0, 10.0), period=1.0), "period, amplitude"),
-    (lambda: simulate.l_route((18.0, 10.0), slope_deg=15, slope_length=17.0), "slope_length"),
-    (lambda: simulate.l_route((18.0, 10.0), period=1.0, amplitude=0.6), "amplitude"),
+    (lambda: simulate.l_route((18.0, 10.0), p2p_m=1.0), "p2p_m, amplitude_m"),
+    (lambda: simulate.l_route((18.0, 10.0), slope_deg=15, slope_length_m=17.0), "slope_length_m"),
+    (lambda: simulate.l_route((18.0, 10.0), p2p_m=1.0, amplitude_m=0.6), "amplitude_m"),
     (lambda: simulate.imu(simulate.straight(), units.MPU6500, np.random.default_rng(0), runs=0), "runs"),
     (lambda: simulate.imu(simulate.straight(), units.MPU6500, np.random.default_rng(0), sampling="s7"), "sampling"),
     (lambda: simulate.imu(simulate.straight(), units.MPU6500, np.random.default_rng(0), noise_scale=-1), "noise_scale"),

@@ -329,7 +329,7 @@ def test_noise_free_simulated_sine_distance_within_half_percent(method):
     """
     from morpi_filters import simulate, units
 
-    path = simulate.sine(6.3, period=1.0, amplitude=0.1, speed=0.45)
+    path = simulate.sine(6.3, p2p_m=1.0, amplitude_m=0.1, speed_mps=0.45)
 
     def run(pattern, seed):
         imu = simulate.imu(path, units.LSM6DSL, np.random.default_rng(seed), sampling=pattern,
@@ -409,8 +409,8 @@ def test_turns_reading_follows_the_simulated_l_route(method):
     """
     from morpi_filters import simulate
 
-    L = simulate.l_route(period=1.0, amplitude=0.1)
-    train = simulate.sine(10.0, period=1.0, amplitude=0.1, speed=simulate.L_ROUTE_SPEED)
+    L = simulate.l_route(p2p_m=1.0, amplitude_m=0.1)
+    train = simulate.sine(10.0, p2p_m=1.0, amplitude_m=0.1, speed_mps=simulate.L_ROUTE_SPEED)
     truth = L.position[-1, :2]
     change = _track(train, L, method, "change", bias_dps=0.1)
     turns = _track(train, L, method, "turns", bias_dps=0.1)
@@ -437,8 +437,8 @@ def test_turns_reading_drifts_less_than_absolute_on_a_biased_straight_sine(metho
     """
     from morpi_filters import simulate
 
-    straight = simulate.sine(13.0, period=1.0, amplitude=0.1, speed=simulate.L_ROUTE_SPEED)
-    train = simulate.sine(10.0, period=1.0, amplitude=0.1, speed=simulate.L_ROUTE_SPEED)
+    straight = simulate.sine(13.0, p2p_m=1.0, amplitude_m=0.1, speed_mps=simulate.L_ROUTE_SPEED)
+    train = simulate.sine(10.0, p2p_m=1.0, amplitude_m=0.1, speed_mps=simulate.L_ROUTE_SPEED)
     truth = straight.position[-1, :2]
     absolute = _track(train, straight, method, "absolute", bias_dps=0.3)
     turns = _track(train, straight, method, "turns", bias_dps=0.3)
@@ -456,7 +456,7 @@ def test_step_sums_are_the_steps_own_sums_for_every_reading_and_refuse_the_same_
 
     plain = plain_kernels(_loops)
     eps = np.finfo(float).eps
-    L = simulate.l_route(period=1.0, amplitude=0.1)
+    L = simulate.l_route(p2p_m=1.0, amplitude_m=0.1)
     rec = _simulated(L, 2, bias_dps=0.1, pattern="two-rate")
     turning = 0
     for method in st.METHODS:

@@ -152,7 +152,7 @@ def test_closed_form_dp_matches_solve_ivp(conv):
     times = np.array([0.5, 2.0, 5.0, 9.0, 15.0])
     for _ in range(4):
         dv, ba, bg = random_draw(rng)
-        p = params_from_dict({"dv0_mps": list(dv), "ba_mps2": list(ba), "bg_radps": list(bg), "g_mps2": 9.81})
+        p = params_from_dict({"dv0_mps": list(dv), "accel_bias_mps2": list(ba), "gyro_bias_radps": list(bg), "g_mps2": 9.81})
         got = S.closed_form_errors(p, times, "INS-3D position", conv, keep_bgz=True)
         ref = ode_dp(conv, dv, ba, bg, 9.81, times)
         rel = np.linalg.norm(got - ref, axis=1) / np.linalg.norm(ref, axis=1)
@@ -173,7 +173,7 @@ def test_closed_form_2d_matches_the_yaw_only_ode(conv):
     times = np.array([1.0, 5.0, 14.0])
     for _ in range(3):
         dv, ba, bg = random_draw(rng)
-        p = params_from_dict({"dv0_mps": list(dv), "ba_mps2": list(ba), "bg_radps": list(bg), "g_mps2": 9.81})
+        p = params_from_dict({"dv0_mps": list(dv), "accel_bias_mps2": list(ba), "gyro_bias_radps": list(bg), "g_mps2": 9.81})
         ref = ode_dp_2d(conv, dv, ba, bg[2], times)
         np.testing.assert_allclose(S.closed_form_errors(p, times, "INS-2D position", conv, keep_bgz=True), ref, rtol=1e-9)  # DOP853 at rtol 1e-12 over the span; 1e-9 leaves room for the accumulated solver error
         np.testing.assert_allclose(S.closed_form_errors(p, times, "INS-2D", conv, keep_bgz=True),
@@ -202,7 +202,7 @@ def test_z_up_closed_form_matches_a_nonlinear_strapdown_at_rest():
     times = np.array([2.0, 5.0, 10.0])
     sol = solve_ivp(rhs, (0, 10.0), np.concatenate([np.zeros(3), dv]), method="DOP853", t_eval=times,
                     rtol=1e-12, atol=1e-14)
-    p = params_from_dict({"dv0_mps": list(dv), "ba_mps2": list(ba), "bg_radps": list(bg), "g_mps2": g})
+    p = params_from_dict({"dv0_mps": list(dv), "accel_bias_mps2": list(ba), "gyro_bias_radps": list(bg), "g_mps2": g})
     ok = S.closed_form_errors(p, times, "INS-3D position", "z_up", keep_bgz=True)
     rel = np.linalg.norm(ok - sol.y[0:3].T, axis=1) / np.linalg.norm(sol.y[0:3].T, axis=1)
     # neglected: second order in the tilt, |b_g| t <= 5e-3 rad -> relative 1e-2 with margin
@@ -214,7 +214,7 @@ def test_z_up_closed_form_matches_a_nonlinear_strapdown_at_rest():
 
 # ----------------------------------------------------------------------------- mean square
 
-SIG = {"dv0_mps": [0.05, 0.08, 0.02], "ba_mps2": [0.04, 0.03, 0.06], "bg_radps": [2e-3, 3e-3, 4e-3],
+SIG = {"dv0_mps": [0.05, 0.08, 0.02], "accel_bias_mps2": [0.04, 0.03, 0.06], "gyro_bias_radps": [2e-3, 3e-3, 4e-3],
        "g_mps2": 9.81}
 
 
@@ -222,8 +222,8 @@ def test_linearized_mean_square_is_the_textbook_sum():
     t = np.array([0.0, 1.0, 5.0, 14.0])
     s = SIG
     g = 9.81
-    ex = sum(s["dv0_mps"][i] ** 2 * t**2 + s["ba_mps2"][i] ** 2 * t**4 / 4 for i in (0, 1))
-    ex3 = ex + g**2 * (s["bg_radps"][0] ** 2 + s["bg_radps"][1] ** 2) * t**6 / 36
+    ex = sum(s["dv0_mps"][i] ** 2 * t**2 + s["accel_bias_mps2"][i] ** 2 * t**4 / 4 for i in (0, 1))
+    ex3 = ex + g**2 * (s["gyro_bias_radps"][0] ** 2 + s["gyro_bias_radps"][1] ** 2) * t**6 / 36
     for conv in ("z_up", "z_down"):
         np.testing.assert_allclose(S.closed_form_mean_square(SIG, t, "INS-3D", conv), ex3, rtol=1e-12)  # the same polynomial expanded by hand: float rounding
         np.testing.assert_allclose(S.closed_form_mean_square(SIG, t, "INS-2D", conv), ex, rtol=1e-12)  # the same polynomial expanded by hand: float rounding
@@ -234,8 +234,8 @@ def test_full_mean_square_adds_the_product_terms():
     s = SIG
     lin = S.closed_form_mean_square(SIG, t, "INS-3D", "z_up", linearized=True)
     full = S.closed_form_mean_square(SIG, t, "INS-3D", "z_up", linearized=False, keep_bgz=True)
-    bax, bay, baz = s["ba_mps2"]
-    bgx, bgy, bgz = s["bg_radps"]
+    bax, bay, baz = s["accel_bias_mps2"]
+    bgx, bgy, bgz = s["gyro_bias_radps"]
     extra = (baz**2 * (bgx**2 + bgy**2) + (bax**2 + bay**2) * bgz**2) * t**6 / 36
     # compared as sums (not differences) so that rtol 1e-12 is float rounding only
     np.testing.assert_allclose(full, lin + extra, rtol=1e-12)
@@ -248,7 +248,7 @@ def test_full_mean_square_against_monte_carlo():
     rng = np.random.default_rng(4242)
     n = 200_000
     fn = S.lambdified("INS-3D", "z_up", True)
-    sd = np.array(SIG["dv0_mps"] + SIG["ba_mps2"] + SIG["bg_radps"])
+    sd = np.array(SIG["dv0_mps"] + SIG["accel_bias_mps2"] + SIG["gyro_bias_radps"])
     draws = rng.normal(size=(n, 9)) * sd
     t = 10.0
     e2 = fn(t, *draws.T, 9.81) ** 2

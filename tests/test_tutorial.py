@@ -66,7 +66,7 @@ def test_closed_form_study_gives_the_curves_json(tutorial, tmp_path, monkeypatch
 def test_monte_carlo_study_gives_the_montecarlo_json(tutorial, tmp_path, monkeypatch):
     monkeypatch.delenv("MORPI_DATA", raising=False)
     js = tmp_path / "mc.json"
-    argv = ["montecarlo", "--runs", "120", "--seed", "4", "--duration", "20", "--out", str(tmp_path / "mc"),
+    argv = ["montecarlo", "--runs", "120", "--seed", "4", "--duration-s", "20", "--out", str(tmp_path / "mc"),
             "--json", str(js)]
     assert main(argv) == 0
     cli = json.loads(js.read_text())

@@ -147,7 +147,7 @@ def layout() -> dict[str, int]:
     Returns
     -------
     dict of str -> int
-        Folder (``phone/route[/split]``, as :func:`folder_key` writes it) to
+        Folder (``phone/route[/split]``) to
         the number of recordings it holds in the public dataset.
 
     Examples

@@ -7,13 +7,15 @@ import functools
 import itertools
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from .. import dataset as ds
 from .. import steps as st
 from ..errors import DataError, MorpiError, ParameterError
-from ..field import MORPI_METHODS, RULES, FieldData, Gain, Selection, held_out_errors, select_config, trained_gain
+from ..field import (MORPI_METHODS, RULES, FieldData, Gain, Selection, held_out_errors, missing_recordings,
+                     select_config, trained_gain)
 from ..parallel import heap_frozen
 
 
@@ -591,9 +593,10 @@ def dataset_problems(data: FieldData) -> list[str]:
     """One line per recording the tables need that is bad or missing.
 
     Loads every recording of `data` (cached for the evaluation) and lists the
-    files that fail to load, then the differences from the expected layout
-    (:func:`morpi_filters.dataset.layout_problems`: absent folders, missing
-    runs, no recordings at all).
+    files that fail to load, then the files its root lacks
+    (:func:`morpi_filters.field.missing_recordings`: a glob of the MoRPI
+    manifest matching another number of files than expected, a missing
+    folder, no recordings at all).
 
     Parameters
     ----------
@@ -609,7 +612,7 @@ def dataset_problems(data: FieldData) -> list[str]:
     errors = []
     for phone, route, split in sorted(data.folders(), key=lambda k: (k[0], k[1], k[2] or "")):
         errors += data.load_errors(phone, route, split)
-    return errors + ds.layout_problems(data.root, data._entries)
+    return errors + (missing_recordings(data.root) if isinstance(data.root, Path) else [])
 
 
 def check_cells(result: TablesResult) -> None:

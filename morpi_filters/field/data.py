@@ -9,13 +9,13 @@ import numpy as np
 from .. import dataset as ds
 from .. import steps as st
 from ..calibration import NoRestError
+from ..deprecation import renamed_keywords
 from ..errors import DataError, MorpiError, ParameterError
+from ..manifest.settings import INS_SPANS
 from .entries import COURSE_M, TrainSet, entries_of, folder_of, given_rest_window, track_course
 from .thresholds import Thresholds, train_accel_floor, train_thresholds
 
 
-#: INS integration spans (see :class:`FieldData`).
-INS_SPANS = ("motion", "full")
 #: INS start that measures the tilt at rest instead of assuming a level phone (3D INS only).
 LEVELED = "GC+level"
 #: Where the MoRPI heading is integrated from: the motion onset (default) or the first sample.
@@ -26,11 +26,59 @@ HEADING_ORIGINS = ("motion", "start")
 HEADING_SOURCES = st.HEADING_SOURCES
 
 
+class RecordingWork:
+    """One recording's work for every method and study, done once and kept (:meth:`FieldData.work`).
+
+    The part that does not depend on where the heading starts is shared by
+    the instances that share a dataset's work (:meth:`FieldData.sharing`);
+    the headings, the prepared signals that carry them and the steps are
+    kept per heading origin (:attr:`by_heading`).
+
+    Attributes
+    ----------
+    recording : Recording
+        The samples.
+    rest : dict
+        Accelerometer floor [m/s^2] -> the initial rest window, or the
+        detection's MorpiError.
+    measures : object or None
+        What the rest detection measures (:func:`morpi_filters.calibration.rest_measures`).
+    problem : str or None or Ellipsis
+        Why the recording cannot be evaluated (:meth:`FieldData.problem`); Ellipsis until asked.
+    calibrated : dict
+        ``"RD"``, ``"GC"``, ``"GAC"`` -> (calibrated Recording, Calibration).
+    activity : tuple or None
+        The motion window (start, end) [s].
+    signals : dict
+        The step signals resampled and filtered, before a heading is given to them.
+    ins : dict
+        ``(calibration, method, span)`` -> InsResult.
+    by_heading : dict
+        Heading origin -> dict of the headings, prepared signals and steps.
+    """
+
+    __slots__ = ("recording", "rest", "measures", "problem", "calibrated", "activity", "signals", "ins",
+                 "by_heading")
+
+    def __init__(self, recording):
+        self.recording = recording
+        self.rest, self.calibrated, self.signals, self.ins, self.by_heading = {}, {}, {}, {}, {}
+        self.measures, self.problem, self.activity = None, ..., None
+
+    def heading_work(self, origin: str) -> dict:
+        """The work that depends on the heading's origin (``"motion"`` or ``"start"``)."""
+        out = self.by_heading.get(origin)
+        if out is None:
+            out = self.by_heading.setdefault(origin, {})
+        return out
+
+
 class FieldData:
     """Lazy, cached access to a dataset: recordings, calibrations, INS runs, step signals.
 
-    Every per-recording computation is done once and reused by all cells,
-    the gain training and the config search. The dataset is a manifest's:
+    Every per-recording computation is done once, kept in the recording's
+    :class:`RecordingWork` (:meth:`work`), and reused by all cells, the gain
+    training and the config search. The dataset is a manifest's:
     a :class:`~morpi_filters.manifest.Dataset`, or a root in the MoRPI layout,
     read through the package's MoRPI manifest
     (:func:`morpi_filters.resources.morpi_manifest` applied to the root, its
@@ -117,15 +165,11 @@ class FieldData:
             self._by_folder.setdefault((e.phone, e.route, e.split), []).append(e)
         self._folder_recs: dict = {}
         self._rec: dict = {}
-        self._cal: dict = {}
-        self._prep: dict = {}
-        self._signals: dict = {}
+        #: per recording source, its RecordingWork
+        self._work: dict = {}
         #: Per-recording results of the studies built on this data (keyed by the study), reused across cells.
         self.study_cache: dict = {}
-        self._ins: dict = {}
-        self._steps: dict = {}
         self._peaks: dict = {}
-        self._activity: dict = {}
         self._canon: dict = {}
         self._train_summaries: dict = {}
 
@@ -134,10 +178,11 @@ class FieldData:
                 ins_span: str | None = None) -> "FieldData":
         """The same root and thresholds read another way, reusing `other`'s loaded work.
 
-        The recordings, rest windows, calibrations, motion windows, step
-        signals (resampled and filtered), peaks and INS runs are shared with
-        `other` (none depends on the heading origin; INS runs are keyed by
-        their span); what depends on the heading is computed afresh.
+        The recordings and their :class:`RecordingWork` (rest windows,
+        calibrations, motion windows, step signals, INS runs keyed by their
+        span, and the headings and steps of each heading origin) and the
+        peaks are shared with `other`; the train summaries and the studies'
+        caches start afresh.
 
         Parameters
         ----------
@@ -159,8 +204,15 @@ class FieldData:
         new.heading_from = heading_from or other.heading_from
         new._thresholds = other.thresholds
         new._accel_floor = other.accel_floor()
-        new._prep, new._steps, new._train_summaries, new.study_cache = {}, {}, {}, {}
+        new._train_summaries, new.study_cache = {}, {}
         return new
+
+    def work(self, rec) -> RecordingWork:
+        """The recording's :class:`RecordingWork`, made on first use."""
+        out = self._work.get(rec.source)
+        if out is None:
+            out = self._work.setdefault(rec.source, RecordingWork(rec))
+        return out
 
     def entries(self, phone, route, split):
         return list(self._by_folder.get((phone, route, split), ()))
@@ -206,16 +258,16 @@ class FieldData:
         from its first samples has no rest (:meth:`no_rest`) but is no
         problem: it is evaluated under RD only.
         """
-        key = (rec.source, "problem")
-        if key not in self._cal:
+        w = self.work(rec)
+        if w.problem is ...:
             try:
                 self.rest_window(rec)
-                self._cal[key] = None
+                w.problem = None
             except NoRestError:
-                self._cal[key] = None
+                w.problem = None
             except MorpiError as exc:
-                self._cal[key] = str(exc)
-        return self._cal[key]
+                w.problem = str(exc)
+        return w.problem
 
     def no_rest(self, rec) -> str | None:
         """Why a recording has no initial rest (one line naming its file), or None when it has one.
@@ -386,10 +438,10 @@ class FieldData:
         """What the rest detection measures on the recording (calibration.rest_measures), once per recording."""
         from ..calibration import rest_measures
 
-        key = (rec.source, "rest measures")
-        if key not in self._cal:
-            self._cal[key] = rest_measures(rec)
-        return self._cal[key]
+        w = self.work(rec)
+        if w.measures is None:
+            w.measures = rest_measures(rec)
+        return w.measures
 
     def rest_window_at(self, rec, accel_floor: float):
         """The initial rest window with another accelerometer floor [m/s^2], found once per floor.
@@ -398,18 +450,18 @@ class FieldData:
         """
         from ..calibration import detect_rest
 
-        key = (rec.source, "rest", accel_floor)
-        if key not in self._cal:
+        cache = self.work(rec).rest
+        if accel_floor not in cache:
             # a recording of no entry (one built in memory and passed in) has its rest detected
             rest = self._labels[rec.source].rest if rec.source in self._labels else "auto"
             try:
                 if rest == "none":
                     raise NoRestError(f'{rec.source}: rest = "none": no rest window')
-                self._cal[key] = (detect_rest(rec, accel_floor=accel_floor, measures=self.rest_measures(rec))
-                                  if rest == "auto" else given_rest_window(rec, rest))
+                cache[accel_floor] = (detect_rest(rec, accel_floor=accel_floor, measures=self.rest_measures(rec))
+                                      if rest == "auto" else given_rest_window(rec, rest))
             except MorpiError as exc:
-                self._cal[key] = exc.with_traceback(None)
-        out = self._cal[key]
+                cache[accel_floor] = exc.with_traceback(None)
+        out = cache[accel_floor]
         if isinstance(out, MorpiError):
             raise out.with_traceback(None)
         return out
@@ -419,28 +471,30 @@ class FieldData:
         w = self.rest_window(rec)
         return rec.f[w.i0:w.i1].mean(axis=0)
 
-    def calibrated(self, rec, mode: str):
+    @renamed_keywords(mode="calibration")
+    def calibrated(self, rec, calibration: str):
         """(calibrated Recording, Calibration) for RD | GC | GAC."""
         from ..calibration import calibrate
 
-        key = (rec.source, mode)
-        if key not in self._cal:
-            if mode == "RD":
-                cal = calibrate(rec, mode)
-                self._cal[key] = (rec, cal)
+        cache = self.work(rec).calibrated
+        if calibration not in cache:
+            if calibration == "RD":
+                cal = calibrate(rec, calibration)
+                cache[calibration] = (rec, cal)
             else:
-                cal = calibrate(rec, mode, window=self.rest_window(rec), g_local=self._g_local)
-                self._cal[key] = (cal.apply(rec), cal)
-        return self._cal[key]
+                cal = calibrate(rec, calibration, window=self.rest_window(rec), g_local=self._g_local)
+                cache[calibration] = (cal.apply(rec), cal)
+        return cache[calibration]
 
     def rest_end(self, rec) -> float:
         """End time of the initial rest window [s]."""
         return float(self.rest_window(rec).end_s)
 
-    def prepared(self, rec, mode: str, method: str, cutoff_hz, source: str = "gyro", *,
+    @renamed_keywords(mode="calibration")
+    def prepared(self, rec, calibration: str, method: str, cutoff_hz, source: str = "gyro", *,
                  grid_hz: float | None = st.GRID_HZ, min_height: float | None = None):
         """The recording's MoRPI signal resampled on the rule's grid and filtered
-        (:func:`morpi_filters.steps.prepare_signal`), with the heading of `mode` and `source`, cached.
+        (:func:`morpi_filters.steps.prepare_signal`), with the heading of `calibration` and `source`, cached.
 
         RD and GC differ by a constant on omega_z and not at all on f_y. A
         constant offset changes neither the peaks, the prominence threshold
@@ -453,7 +507,7 @@ class FieldData:
         Parameters
         ----------
         rec : Recording
-        mode : {"RD", "GC", "GAC"}
+        calibration : {"RD", "GC", "GAC"}
         method : {"MoRPI-A", "MoRPI-G"}
         cutoff_hz : float or None
             The low-pass cut-off [Hz] (:attr:`morpi_filters.steps.StepConfig.cutoff_hz`).
@@ -470,32 +524,35 @@ class FieldData:
         PreparedSignal
         """
         offset_free = min_height is None
-        key = (rec.source, mode, method, cutoff_hz, source, grid_hz, offset_free)
-        if key not in self._prep:
-            shared_mode = "RD|GC" if mode in ("RD", "GC") and offset_free else mode
-            skey = (rec.source, shared_mode, method, cutoff_hz, grid_hz)
-            shared = self._signals.get(skey)
+        work = self.work(rec)
+        cache = work.heading_work(self.heading_from)
+        key = ("prepared", calibration, method, cutoff_hz, source, grid_hz, offset_free)
+        if key not in cache:
+            shared_mode = "RD|GC" if calibration in ("RD", "GC") and offset_free else calibration
+            skey = (shared_mode, method, cutoff_hz, grid_hz)
+            shared = work.signals.get(skey)
             if shared is not None:
                 from dataclasses import replace
 
-                p = replace(shared, heading=self.heading(rec, mode, source))
+                p = replace(shared, heading=self.heading(rec, calibration, source))
                 p.__dict__["motion_index"] = shared.motion_index       # the same grid and motion
             else:
-                crec, _ = self.calibrated(rec, mode)
-                p = self._signals[skey] = st.prepare_signal(
-                    crec, method, cutoff_hz, motion=self.activity(rec), heading=self.heading(rec, mode, source),
+                crec, _ = self.calibrated(rec, calibration)
+                p = work.signals[skey] = st.prepare_signal(
+                    crec, method, cutoff_hz, motion=self.activity(rec), heading=self.heading(rec, calibration, source),
                     grid_hz=grid_hz)
             # the heading's integral is the same for every method and cut-off: computed once, then given
             # to each signal as its cached property
-            ikey = (rec.source, mode, "heading integral", source)
-            if ikey in self._prep:
-                p.__dict__["heading_integral"] = self._prep[ikey]
+            ikey = ("heading integral", calibration, source)
+            if ikey in cache:
+                p.__dict__["heading_integral"] = cache[ikey]
             else:
-                self._prep[ikey] = p.heading_integral
-            self._prep[key] = p
-        return self._prep[key]
+                cache[ikey] = p.heading_integral
+            cache[key] = p
+        return cache[key]
 
-    def heading(self, rec, mode: str, source: str = "gyro") -> np.ndarray:
+    @renamed_keywords(mode="calibration")
+    def heading(self, rec, calibration: str, source: str = "gyro") -> np.ndarray:
         """The MoRPI heading on the recording's samples [rad], shape (n,), for RD or GC.
 
         Read from `source` (:data:`HEADING_SOURCES`: ``"gyro"``, the integrated
@@ -507,9 +564,10 @@ class FieldData:
         """
         if source not in HEADING_SOURCES:
             raise ParameterError(f"heading source {source!r}: expected one of {HEADING_SOURCES}")
-        key = (rec.source, mode, "heading", source)
-        if key not in self._prep:
-            crec, _ = self.calibrated(rec, mode)
+        cache = self.work(rec).heading_work(self.heading_from)
+        key = ("heading", calibration, source)
+        if key not in cache:
+            crec, _ = self.calibrated(rec, calibration)
             t = crec.time
             a, b = self.activity(rec) if self.heading_from == "motion" else (t[0], t[-1])
             i0 = int(np.searchsorted(t, a))
@@ -525,8 +583,8 @@ class FieldData:
                 part = attitude_heading(t[i0:i1], crec.f[i0:i1], crec.omega[i0:i1], self.rest_specific_force(rec))
             psi[i0:i1] = part
             psi[i1:] = part[-1]
-            self._prep[key] = psi
-        return self._prep[key]
+            cache[key] = psi
+        return cache[key]
 
     def _canonical(self, config):
         # one extraction serves every least swing (a check on the result) and, unless the heading follows
@@ -537,45 +595,49 @@ class FieldData:
                 min_swing_deg=0.0, turn_deg=config.turn_deg if config.heading == "turns" else st.StepConfig.turn_deg)
         return canon
 
-    def step_sums(self, rec, mode, method, config) -> st.StepSums:
+    @renamed_keywords(mode="calibration")
+    def step_sums(self, rec, calibration, method, config) -> st.StepSums:
         """:func:`morpi_filters.steps.step_sums` of a recording (:class:`~morpi_filters.steps.StepSums`), cached.
 
         What :meth:`steps` gives, reduced to what a gain and an end point need; raises as it does.
         """
-        key = ("sums", rec.source, mode, method, config)
-        out = self._steps.get(key)
+        cache = self.work(rec).heading_work(self.heading_from)
+        key = ("sums", calibration, method, config)
+        out = cache.get(key)
         if out is None:
             canon = self._canonical(config)                    # the rules that differ only in a check share it
-            ckey = ("sums", rec.source, mode, method, canon)
-            out = self._steps.get(ckey)
+            ckey = ("sums", calibration, method, canon)
+            out = cache.get(ckey)
             if out is None:
                 try:
-                    out = st.step_sums(self.prepared(rec, mode, method, config.cutoff_hz, config.heading_source,
+                    out = st.step_sums(self.prepared(rec, calibration, method, config.cutoff_hz, config.heading_source,
                                                      grid_hz=config.grid_hz, min_height=config.min_height),
                                        method, canon, peak_cache=self._peaks)
                 except MorpiError as exc:
                     out = exc
-                self._steps[ckey] = out
-            self._steps[key] = out
+                cache[ckey] = out
+            cache[key] = out
         if isinstance(out, MorpiError):
             raise out
         st.require_swing(rec.source, method, out[3], config.min_swing_deg)
         return out
 
-    def steps(self, rec, mode, method, config):
+    @renamed_keywords(mode="calibration")
+    def steps(self, rec, calibration, method, config):
         canon = self._canonical(config)
-        key = (rec.source, mode, method, canon)
-        if key not in self._steps:
+        cache = self.work(rec).heading_work(self.heading_from)
+        key = ("steps", calibration, method, canon)
+        if key not in cache:
             try:
-                self._steps[key] = st.extract_steps(None, method, canon,
-                                                    prepared=self.prepared(rec, mode, method, config.cutoff_hz,
+                cache[key] = st.extract_steps(None, method, canon,
+                                                    prepared=self.prepared(rec, calibration, method, config.cutoff_hz,
                                                                            config.heading_source,
                                                                            grid_hz=config.grid_hz,
                                                                            min_height=config.min_height),
                                                     peak_cache=self._peaks)
             except MorpiError as exc:
-                self._steps[key] = exc
-        out = self._steps[key]
+                cache[key] = exc
+        out = cache[key]
         if isinstance(out, MorpiError):
             raise out
         st.require_swing(rec.source, method, out.swing_deg, config.min_swing_deg)
@@ -593,7 +655,8 @@ class FieldData:
         the axes), and the window starts at the first sample when the robot
         moves there.
         """
-        if rec.source not in self._activity:
+        work = self.work(rec)
+        if work.activity is None:
             try:
                 w = self.rest_window(rec)
             except NoRestError:
@@ -604,23 +667,25 @@ class FieldData:
                 span = st.activity_span(rec.time, rec.omega, threshold=3.0 * still_bound(rec).gyro)
             else:
                 span = st.activity_span(rec.time, rec.omega, rest=(w.start_s, w.end_s))
-            self._activity[rec.source] = span
-        return self._activity[rec.source]
+            work.activity = span
+        return work.activity
 
-    def ins(self, rec, mode: str, method: str, span: str | None = None):
+    @renamed_keywords(mode="calibration")
+    def ins(self, rec, calibration: str, method: str, span: str | None = None):
         """INS solution (InsResult) of a recording, 3D or 2D, over `span` (default: the instance's).
 
-        `mode` is RD, GAC (the paper's: level phone assumed) or :data:`LEVELED`
+        `calibration` is RD, GAC (the paper's: level phone assumed) or :data:`LEVELED`
         (3D only: GC gyro, initial roll and pitch from the rest specific force).
         """
         span = span or self.ins_span
-        key = (rec.source, mode, method, span)
-        if key not in self._ins:
+        cache = self.work(rec).ins
+        key = (calibration, method, span)
+        if key not in cache:
             from ..strapdown import ins2d, ins3d
 
             # the gravity the calibration assumed at rest (GAC leaves (0, 0, g) there)
             C0, g = None, self._g_local
-            if mode == LEVELED:
+            if calibration == LEVELED:
                 # gyro zero-order calibration; the initial attitude from the rest specific force
                 # instead of the level assumption (the accelerometer bias stays in, read as tilt)
                 from ..strapdown import coarse_level
@@ -629,7 +694,7 @@ class FieldData:
                 f_rest = self.rest_specific_force(rec)
                 C0, g = coarse_level(f_rest), float(np.linalg.norm(f_rest))
             else:
-                crec, _ = self.calibrated(rec, mode)
+                crec, _ = self.calibrated(rec, calibration)
             if span == "motion":
                 a, b = self.activity(rec)
                 sl = slice(int(np.searchsorted(crec.time, a)), int(np.searchsorted(crec.time, b, side="right")))
@@ -639,15 +704,16 @@ class FieldData:
             if t.shape[0] < 2:
                 raise DataError(f"{rec.source}: no motion found for the INS")
             if method == "INS-3D":
-                self._ins[key] = ins3d(t, f, w, C0=C0, g=g)
-            elif mode == LEVELED:
+                cache[key] = ins3d(t, f, w, C0=C0, g=g)
+            elif calibration == LEVELED:
                 raise ParameterError(f"{rec.source}: the planar INS has no tilt to level; {LEVELED} is for INS-3D")
             else:
-                self._ins[key] = ins2d(t, f, w)
-        return self._ins[key]
+                cache[key] = ins2d(t, f, w)
+        return cache[key]
 
 
-    def tilt_leak(self, rec, mode: str) -> tuple[float, float]:
+    @renamed_keywords(mode="calibration")
+    def tilt_leak(self, rec, calibration: str) -> tuple[float, float]:
         """Gravity that leaks into f_x through the tilt the 3D INS tracks, as the planar INS sees it.
 
         The planar INS takes f_x as horizontal acceleration. The 3D solution's
@@ -662,7 +728,7 @@ class FieldData:
         leak_m : float
             Double integral of ``g C_bn[2, 0]`` over the motion [m].
         """
-        r3 = self.ins(rec, mode, "INS-3D")
+        r3 = self.ins(rec, calibration, "INS-3D")
         s = np.clip(np.asarray(r3.C_bn)[:, 2, 0], -1.0, 1.0)
         a = self._g_local * s
         dt = np.diff(r3.time)
@@ -671,14 +737,23 @@ class FieldData:
 
 
 def check_recordings(root) -> tuple[list[str], int, list[str]]:
-    """Validate every recording under a dataset root as the evaluation reads it (``morpi check``).
+    """Validate the recordings of a dataset root as the evaluation reads them (``morpi check --data``).
 
-    :func:`morpi_filters.dataset.check_tree` (each file, the layout), and for
-    each file that loads, :meth:`FieldData.problem`: a recording too short to
-    tell its motion from a disturbance is a problem too, so what passes is
-    what the commands evaluate. A recording that moves from its first samples
-    has no initial rest (:meth:`FieldData.no_rest`): it is evaluated under RD
-    only, and named apart from the problems.
+    The package's MoRPI manifest applied to the root, through
+    :func:`morpi_filters.manifest.check_dataset` (the check of ``morpi check
+    --dataset``, one line per problem, the same lines): each file its globs
+    match is loaded and checked, and each glob that matches another number of
+    files than its ``imu.count`` is named (a missing folder, missing runs; a
+    dataset written by :func:`morpi_filters.synthetic.write_dataset` is held
+    to the runs its ``manifest.json`` lists instead). Nothing else under the
+    root is read or listed: a file or folder outside the manifest's patterns
+    is ignored. For each file that loads, :meth:`FieldData.problem`: a
+    recording too short to tell its motion from a disturbance is a problem
+    too, so what passes is what the commands evaluate. A recording that moves
+    from its first samples has no initial rest (:meth:`FieldData.no_rest`):
+    it is evaluated under RD only, and named apart from the problems. A root
+    where no pattern matches is one line, with a hint: the ``data/`` folder
+    inside it when that holds the dataset, the CSV files directly in it.
 
     Parameters
     ----------
@@ -688,18 +763,24 @@ def check_recordings(root) -> tuple[list[str], int, list[str]]:
     Returns
     -------
     problems : list of str
-        One line per bad file and per difference from the expected layout.
+        One line per bad file and per pattern that matches another number of files than expected.
     n_ok : int
         Number of files that load and can be evaluated (with or without a
         rest).
     no_rest : list of str
         One line per recording among them without an initial rest: why.
 
+    Raises
+    ------
+    DataError
+        `root` is not a directory.
+
     Examples
     --------
     Three recordings of 4 s: at rest; at rest, then turning from 3 s on, so
     that it ends before the turn can be told from a disturbance; and
-    vibrating from its first sample (0.015 rad/s at 13 Hz), which has no rest.
+    vibrating from its first sample (0.008 rad/s at 13 Hz, within the LSM6DSL's gyro noise the manifest's
+    check allows), which has no rest.
 
     >>> import json, pathlib, tempfile
     >>> root = pathlib.Path(tempfile.mkdtemp())
@@ -711,7 +792,7 @@ def check_recordings(root) -> tuple[list[str], int, list[str]]:
     >>> f = [0.0, 0.0, 9.8] + 0.01 * rng.standard_normal((400, 3))
     >>> w = 0.002 * rng.standard_normal((400, 3))
     >>> ds.write_csv(root / "s8/line_dataset/1.csv", ds.Recording(time=t, f=f, omega=w))
-    >>> shake = 0.015 * np.sin(2 * np.pi * 13.0 * t)[:, None]
+    >>> shake = 0.008 * np.sin(2 * np.pi * 13.0 * t)[:, None]
     >>> ds.write_csv(root / "s8/line_dataset/3.csv", ds.Recording(time=t, f=f, omega=w + shake))
     >>> w[300:, 2] += 0.5 * np.sin(2 * np.pi * t[300:])
     >>> ds.write_csv(root / "s8/line_dataset/2.csv", ds.Recording(time=t, f=f, omega=w))
@@ -724,14 +805,72 @@ def check_recordings(root) -> tuple[list[str], int, list[str]]:
     ['ROOT/s8/line_dataset/3.csv: no initial rest found: motion starts 0.000 s after the first sample
     (0 samples at rest, expected at least 10)']
     """
+    from ..manifest import check_dataset
+    from ..resources import morpi_manifest
+    from ..synthetic import written_counts
+
     data = FieldData(root)
+    root = data.root
     usable = []
 
-    def problem(rec):
-        line = data.problem(rec)
+    def problem(item):
+        data._labels[item.recording.source] = item        # its manifest labels (its rest) for the detection
+        line = data.problem(item.recording)
         if line is None:
-            usable.append(rec)
+            usable.append(item.recording)
         return line
 
-    problems, n_ok = ds.check_tree(root, usable=problem)
+    found, n_ok = check_dataset(morpi_manifest(), root=root, counts=written_counts(root), usable=problem)
+    problems = [str(p) for p in found]
+    if not data.folders() and problems:                 # no recording: the line check_dataset gives, and a hint
+        problems[-1] += _hint(root)
     return problems, n_ok, [line for line in map(data.no_rest, usable) if line is not None]
+
+
+def missing_recordings(root) -> list[str]:
+    """What :func:`check_recordings` says of the files a root lacks, without reading one.
+
+    Parameters
+    ----------
+    root : str or Path
+        The dataset root.
+
+    Returns
+    -------
+    list of str
+        One line per glob of the package's MoRPI manifest that matches another
+        number of files under `root` than expected
+        (:func:`morpi_filters.manifest.count_problems`, with the counts of
+        :func:`check_recordings`); when none matches anything, the one line
+        saying so, with its hint. Empty when every expected file is there.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> (root / "s6" / "L_line").mkdir(parents=True)
+    >>> _ = (root / "s6" / "L_line" / "1.csv").write_text("")       # not read
+    >>> lines = [line.split(": imu.file: ")[1].replace(str(root), "ROOT") for line in missing_recordings(root)]
+    >>> len(lines), lines[0], lines[6]       # doctest: +NORMALIZE_WHITESPACE
+    (11, "'s8/line_dataset/*.csv' matches no file: missing folder ROOT/s8/line_dataset, expected 24 file(s)
+    (imu.count)", "'s6/L_line/*.csv' matches 1 file(s) under ROOT, expected 10 (imu.count)")
+    """
+    from ..manifest import check_dataset, count_problems
+    from ..resources import morpi_manifest
+    from ..synthetic import written_counts
+
+    root, counts = Path(root), written_counts(root)
+    if FieldData(root).folders():
+        return [str(p) for p in count_problems(morpi_manifest(), root=root, counts=counts)]
+    return [str(p) + _hint(root) for p in check_dataset(morpi_manifest(), root=root, counts=counts)[0]]
+
+
+def _hint(root: Path) -> str:
+    """Where the recordings may be, for a root where the manifest's patterns match no file: its ``data/``
+    folder when that holds them, else the CSV files directly in the root (no other folder is listed)."""
+    inner = root / "data"
+    if inner.is_dir() and FieldData(inner).folders():
+        return f"; {inner} looks like the dataset root, pass --data {inner}"
+    loose = [p for p in root.glob("*.csv") if p.is_file()]
+    return ((f"; {len(loose)} CSV file(s) directly in {root}, none where the manifest looks" if loose else "")
+            + f"; {ds.missing_data_message()}")

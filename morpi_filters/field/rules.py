@@ -11,6 +11,7 @@ import numpy as np
 from . import _loops
 from .. import steps as st
 from ..choice import choose
+from ..deprecation import renamed_keywords
 from ..errors import MorpiError, ParameterError
 from .data import FieldData
 from .thresholds import MORPI_METHODS, SEARCH_START, Thresholds, fold_thresholds
@@ -58,7 +59,8 @@ SOURCE_SE = 1.0
 TUNABLE_GRID = {"cutoff_hz": (1.0, 2.0, 3.0), "prominence": (0.2, 0.35, 0.5), "min_period_s": (0.5, 1.0)}
 
 
-def train_summary(data: FieldData, method, config, mode="GC"):
+@renamed_keywords(mode="calibration")
+def train_summary(data: FieldData, method, config, calibration="GC"):
     """Per train set (:meth:`FieldData.train_sets`), the train runs reduced to what a gain and an end point need.
 
     A tuple of ``(train_set, members, relpaths, g, u, loo, failed)`` per set:
@@ -78,7 +80,7 @@ def train_summary(data: FieldData, method, config, mode="GC"):
         MoRPI method.
     config : steps.StepConfig
         The step rule.
-    mode : {"RD", "GC", "GAC"}
+    calibration : {"RD", "GC", "GAC"}
         Calibration.
 
     Returns
@@ -86,7 +88,7 @@ def train_summary(data: FieldData, method, config, mode="GC"):
     tuple of tuple
         One ``(train_set, members, relpaths, g, u, loo, failed)`` per train set.
     """
-    key = (method, config, mode)
+    key = (method, config, calibration)
     out = data._train_summaries.get(key)
     if out is None:
         out = []
@@ -95,7 +97,7 @@ def train_summary(data: FieldData, method, config, mode="GC"):
             g, u, failed = np.full(len(recs), np.nan), np.full((len(recs), 2), np.nan), set()
             for i, r in enumerate(recs):
                 try:
-                    w, ux, uy = data.step_sums(r, mode, method, config)[:3]
+                    w, ux, uy = data.step_sums(r, calibration, method, config)[:3]
                 except MorpiError:
                     failed.add(rels[i])
                     continue
@@ -179,7 +181,8 @@ def _logo_errors(summary, keep_of) -> list:
     return out
 
 
-def held_out_errors(data: FieldData, method, config, mode="GC", exclude=frozenset(), held_out: str = "recording"
+@renamed_keywords(mode="calibration")
+def held_out_errors(data: FieldData, method, config, calibration="GC", exclude=frozenset(), held_out: str = "recording"
                 ) -> np.ndarray | None:
     """Per-run held-out end-point errors [%] of the train runs not in `exclude`.
 
@@ -193,7 +196,7 @@ def held_out_errors(data: FieldData, method, config, mode="GC", exclude=frozense
     ----------
     data : FieldData
         The dataset; only its train sets are read.
-    method, config, mode
+    method, config, calibration
         As for :func:`train_summary`.
     exclude : frozenset of str
         Train runs (relative paths or ids) to leave out.
@@ -207,7 +210,7 @@ def held_out_errors(data: FieldData, method, config, mode="GC", exclude=frozense
     """
     if held_out not in HELD_OUT:
         raise ParameterError(f"held_out={held_out!r}: expected one of {HELD_OUT}")
-    summary = train_summary(data, method, config, mode)
+    summary = train_summary(data, method, config, calibration)
     errs = []
     for tset, members, rels, g, u, loo, failed in summary:
         if failed - exclude:
@@ -239,7 +242,8 @@ def _held_out_error(data: FieldData, method, config, k: int, rel: str) -> float:
     return float(loo_errors(truth, g, u, keep)[ok.index(rel)])
 
 
-def held_out_score(data: FieldData, method, config, mode="GC", exclude=frozenset(), held_out: str = "recording"
+@renamed_keywords(mode="calibration")
+def held_out_score(data: FieldData, method, config, calibration="GC", exclude=frozenset(), held_out: str = "recording"
                ) -> tuple[float, int]:
     """Held-out mean end-point error [%] over the train runs not in `exclude` (:func:`held_out_errors`).
 
@@ -248,7 +252,7 @@ def held_out_score(data: FieldData, method, config, mode="GC", exclude=frozenset
 
     Parameters
     ----------
-    data, method, config, mode, exclude, held_out
+    data, method, config, calibration, exclude, held_out
         As for :func:`held_out_errors`.
 
     Returns
@@ -256,10 +260,10 @@ def held_out_score(data: FieldData, method, config, mode="GC", exclude=frozenset
     tuple of (float, int)
         The mean error [%] (infinite when no run scores) and the number of runs scored.
     """
-    key = ("loo score", method, config, mode, exclude, held_out)
+    key = ("loo score", method, config, calibration, exclude, held_out)
     out = data._train_summaries.get(key)
     if out is None:
-        errs = held_out_errors(data, method, config, mode, exclude, held_out)
+        errs = held_out_errors(data, method, config, calibration, exclude, held_out)
         # np.mean's bits: numpy's sum, divided by the count
         out = (float("inf"), 0) if errs is None or not errs.size else (float(errs.sum()) / errs.size, int(errs.size))
         data._train_summaries[key] = out

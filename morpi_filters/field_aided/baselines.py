@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import aided
+from ..deprecation import renamed_keywords
 from ..errors import MorpiError
 from .inputs import route_steps
 
@@ -22,7 +23,8 @@ READING_SE = 1.0
 LENGTHS = ("weinberg", "period count")
 
 
-def route_sums(data, rec, mode, method, config) -> tuple[float, np.ndarray]:
+@renamed_keywords(mode="calibration")
+def route_sums(data, rec, calibration, method, config) -> tuple[float, np.ndarray]:
     """MoRPI alone's distance and end point per unit gain with the route's heading (:func:`route_vectors`).
 
     The steps, their Weinberg weights and fractions are those of `config`
@@ -34,7 +36,7 @@ def route_sums(data, rec, mode, method, config) -> tuple[float, np.ndarray]:
     ----------
     data : field.FieldData
     rec : dataset.Recording
-    mode : {"RD", "GC", "GAC"}
+    calibration : {"RD", "GC", "GAC"}
     method : {"MoRPI-A", "MoRPI-G"}
     config : steps.StepConfig
 
@@ -50,9 +52,9 @@ def route_sums(data, rec, mode, method, config) -> tuple[float, np.ndarray]:
     DataError
         When no steps are found (as :meth:`~morpi_filters.field.FieldData.steps`).
     """
-    s = data.steps(rec, mode, method, config)
+    s = data.steps(rec, calibration, method, config)
     unit = np.asarray(s.weight, float) * np.asarray(s.fraction, float)
-    v = route_steps(data, rec, mode, config, s, unit)
+    v = route_steps(data, rec, calibration, config, s, unit)
     return float(unit.sum()), (v.sum(axis=0) if v.size else np.zeros(2))
 
 
@@ -116,13 +118,13 @@ def route_reading_pays(rule_errors, route_errors, *, se_factor: float = READING_
     return bool(d.mean() < -se_factor * (d.std(ddof=1) / np.sqrt(d.size)))
 
 
-def _route_loo(data, method, config, mode="GC"):
+def _route_loo(data, method, config, calibration="GC"):
     """Per short-route train run, the leave-one-out end-point errors [%] of the rule's reading and of the
     route's heading, the same gains (:func:`morpi_filters.field.train_summary`); None when a run fails."""
     from .. import field as fd
 
     rule, route = [], []
-    for truth, _, _, g, u, loo, failed in fd.train_summary(data, method, config, mode):
+    for truth, _, _, g, u, loo, failed in fd.train_summary(data, method, config, calibration):
         recs = truth.runs
         if failed:
             return None
@@ -131,7 +133,7 @@ def _route_loo(data, method, config, mode="GC"):
         ur = np.empty_like(u)
         for i, r in enumerate(recs):
             try:
-                ur[i] = route_sums(data, r, mode, method, config)[1]
+                ur[i] = route_sums(data, r, calibration, method, config)[1]
             except MorpiError:
                 return None
         rule.append(loo)
@@ -175,7 +177,8 @@ def choose_reading(data, method, config) -> ReadingChoice:
                          int(rule.size))
 
 
-def period_sums(data, rec, mode, method, config, reading) -> tuple[float, np.ndarray]:
+@renamed_keywords(mode="calibration")
+def period_sums(data, rec, calibration, method, config, reading) -> tuple[float, np.ndarray]:
     """MoRPI alone's half periods and end point per unit half-period length: the period count.
 
     Each step of `config` counts its half periods (two between maxima, one
@@ -187,7 +190,7 @@ def period_sums(data, rec, mode, method, config, reading) -> tuple[float, np.nda
     ----------
     data : field.FieldData
     rec : dataset.Recording
-    mode : {"RD", "GC", "GAC"}
+    calibration : {"RD", "GC", "GAC"}
     method : {"MoRPI-A", "MoRPI-G"}
     config : steps.StepConfig
     reading : str
@@ -205,23 +208,23 @@ def period_sums(data, rec, mode, method, config, reading) -> tuple[float, np.nda
     DataError
         When no steps are found.
     """
-    s = data.steps(rec, mode, method, config)
+    s = data.steps(rec, calibration, method, config)
     c = np.asarray(s.fraction, float) * (2.0 if config.segment == "maxima" else 1.0)
     if reading == "route":
-        v = route_steps(data, rec, mode, config, s, c)
+        v = route_steps(data, rec, calibration, config, s, c)
     else:
         h = np.asarray(s.heading, float)
         v = c[:, None] * np.stack([np.cos(h), np.sin(h)], axis=1)
     return float(c.sum()), (v.sum(axis=0) if v.size else np.zeros(2))
 
 
-def _unit_sums(data, rec, mode, method, config, reading, length):
+def _unit_sums(data, rec, calibration, method, config, reading, length):
     """Distance and end point per unit gain (Weinberg) or per unit half-period length (period count)."""
     if length == "period count":
-        return period_sums(data, rec, mode, method, config, reading)
+        return period_sums(data, rec, calibration, method, config, reading)
     if reading == "route":
-        return route_sums(data, rec, mode, method, config)
-    w, ux, uy = data.step_sums(rec, mode, method, config)[:3]
+        return route_sums(data, rec, calibration, method, config)
+    w, ux, uy = data.step_sums(rec, calibration, method, config)[:3]
     return float(w), np.array([ux, uy])
 
 
@@ -232,18 +235,19 @@ def _phone_sets(data, phone):
     return [(ds.route(tset.route), tset.runs) for tset in data.train_sets() if tset.phone == phone and tset.runs]
 
 
-def period_length(data, phone, mode, method, config, reading) -> float:
+@renamed_keywords(mode="calibration")
+def period_length(data, phone, calibration, method, config, reading) -> float:
     """The period count's half-period length [m]: total train distance over total train half periods.
 
     Over every train run of the phone's short-route training sets
     (:meth:`morpi_filters.field.FieldData.train_sets`), the method's steps under
-    `config` and `mode`. NaN when a train run has no steps or there are none.
+    `config` and `calibration`. NaN when a train run has no steps or there are none.
 
     Parameters
     ----------
     data : field.FieldData
     phone : str
-    mode : {"RD", "GC", "GAC"}
+    calibration : {"RD", "GC", "GAC"}
     method : {"MoRPI-A", "MoRPI-G"}
     config : steps.StepConfig
     reading : str
@@ -257,7 +261,7 @@ def period_length(data, phone, mode, method, config, reading) -> float:
     for truth, recs in _phone_sets(data, phone):
         for r in recs:
             try:
-                halves += period_sums(data, r, mode, method, config, reading)[0]
+                halves += period_sums(data, r, calibration, method, config, reading)[0]
             except MorpiError:
                 return float("nan")
             dist += truth.distance_m

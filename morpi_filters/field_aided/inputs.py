@@ -7,6 +7,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .. import aided
+from ..deprecation import renamed_keywords
 from ..errors import MorpiError
 
 
@@ -130,7 +131,8 @@ def gyro_drift(rec, window, rest) -> tuple:
     return (dm * dm, float(dt))
 
 
-def rest_noise(rec, window, epoch_s: float = 0.1) -> tuple[float, float, float]:
+@renamed_keywords(epoch_s="dt_s")
+def rest_noise(rec, window, dt_s: float = 0.1) -> tuple[float, float, float]:
     """Noise densities the initial rest window shows.
 
     Parameters
@@ -139,7 +141,7 @@ def rest_noise(rec, window, epoch_s: float = 0.1) -> tuple[float, float, float]:
         The raw recording.
     window : calibration.RestWindow
         Its initial rest window.
-    epoch_s : float
+    dt_s : float
         Length of the epochs whose gyro means give `gyro_epoch` [s].
 
     Returns
@@ -147,8 +149,8 @@ def rest_noise(rec, window, epoch_s: float = 0.1) -> tuple[float, float, float]:
     (accel, gyro, gyro_epoch)
         RMS over the axes of ``std * sqrt(dt)`` for the accelerometer
         [m/s^2/sqrt(Hz)] and the gyro [rad/s/sqrt(Hz)], and the gyro density
-        that the scatter of its `epoch_s` means implies (``std(mean) *
-        sqrt(epoch_s)``): the noise of a zero-rate update on one epoch, which
+        that the scatter of its `dt_s` means implies (``std(mean) *
+        sqrt(dt_s)``): the noise of a zero-rate update on one epoch, which
         the quantization and slow wander of a phone gyro put above the white
         part. `gyro_epoch` is at least `gyro`, and equals it when the window
         holds fewer than 4 epochs. ``dt`` is the median sample interval.
@@ -172,13 +174,13 @@ def rest_noise(rec, window, epoch_s: float = 0.1) -> tuple[float, float, float]:
     dt = float(np.median(np.diff(t))) if t.size > 2 else float(np.median(np.diff(rec.time)))
     a = float(np.sqrt(np.mean(np.var(rec.f[sl], axis=0))) * np.sqrt(dt))
     g = float(np.sqrt(np.mean(np.var(rec.omega[sl], axis=0))) * np.sqrt(dt))
-    block = np.floor((t - t[0]) / epoch_s).astype(int) if t.size else np.zeros(0, int)
+    block = np.floor((t - t[0]) / dt_s).astype(int) if t.size else np.zeros(0, int)
     nb = int(block.max()) + 1 if block.size else 0
     if nb >= 4:
         cnt = np.bincount(block, minlength=nb)
         means = np.stack([np.bincount(block, rec.omega[sl][:, j], minlength=nb) for j in range(3)], axis=1)
         means = means[cnt > 0] / cnt[cnt > 0, None]
-        ge = float(np.sqrt(np.mean(np.var(means, axis=0, ddof=1))) * np.sqrt(epoch_s))
+        ge = float(np.sqrt(np.mean(np.var(means, axis=0, ddof=1))) * np.sqrt(dt_s))
     else:
         ge = g
     return a, g, max(ge, g)
@@ -259,7 +261,8 @@ class Prepared:
         return r.position[j, :2], r.P_xy[j], (None if r.smoothed is None else r.smoothed[j, :2])
 
 
-def prepare(data, rec, mode, method, config, gain) -> Prepared:
+@renamed_keywords(mode="calibration")
+def prepare(data, rec, calibration, method, config, gain) -> Prepared:
     """The aided filter's input for one recording, calibration, method and gain.
 
     Needs a :class:`~morpi_filters.field.FieldData` (the dataset's cached
@@ -272,7 +275,7 @@ def prepare(data, rec, mode, method, config, gain) -> Prepared:
         The dataset's cached calibrations, rest windows, steps and motion windows.
     rec : dataset.Recording
         The raw recording.
-    mode : {"RD", "GC", "GAC"}
+    calibration : {"RD", "GC", "GAC"}
         Calibration.
     method : {"MoRPI-A", "MoRPI-G"}
         MoRPI method whose steps drive the step updates.
@@ -299,14 +302,14 @@ def prepare(data, rec, mode, method, config, gain) -> Prepared:
     from .. import steps as st
     from ..strapdown import coarse_level
 
-    key = (rec.source, mode, method, config, float(gain), "aided")
+    key = (rec.source, calibration, method, config, float(gain), "aided")
     cache = data.study_cache
     if key in cache:
         return cache[key]
-    crec, _ = data.calibrated(rec, mode)
+    crec, _ = data.calibrated(rec, calibration)
     w = data.rest_window(rec)
-    f_rest, rest, shift, drift, noise = rest_terms(data, rec, mode)
-    s = data.steps(rec, mode, method, config)
+    f_rest, rest, shift, drift, noise = rest_terms(data, rec, calibration)
+    s = data.steps(rec, calibration, method, config)
     track = st.morpi_track(s, gain)
     # between the rest window and the motion onset (the start of the motion window, where MoRPI's steps
     # begin) the robot stands, its motors may run: zero velocity up to the onset, so the path starts from
@@ -324,13 +327,14 @@ def prepare(data, rec, mode, method, config, gain) -> Prepared:
     # read where MoRPI's track ends: the gain is trained on MoRPI's step sum, which covers the motion up
     # to the last step boundary (the robot's creep after it is part of what the gain absorbs)
     stop = float(s.end_time[-1]) if s.end_time.size else data.activity(rec)[1]
-    along = route_steps(data, rec, mode, config, s, track.length)
+    along = route_steps(data, rec, calibration, config, s, track.length)
     cache[key] = Prepared(data.relpath(rec), inp, replace(inp, step_vector=along), track.position, noise, float(stop),
                           drift, shift, onset)
     return cache[key]
 
 
-def prepared_runs(data, phone, route, split, mode, method, config, gain, failed=None):
+@renamed_keywords(mode="calibration")
+def prepared_runs(data, phone, route, split, calibration, method, config, gain, failed=None):
     """The folder's recordings prepared for the filter (:func:`prepare`); those without steps go to `failed`.
 
     Parameters
@@ -338,7 +342,7 @@ def prepared_runs(data, phone, route, split, mode, method, config, gain, failed=
     data : field.FieldData
     phone, route, split : str
         The folder.
-    mode, method, config, gain
+    calibration, method, config, gain
         As for :func:`prepare`.
     failed : list, optional
         Receives one line per recording that cannot be prepared.
@@ -350,14 +354,15 @@ def prepared_runs(data, phone, route, split, mode, method, config, gain, failed=
     out = []
     for rec in data.recordings(phone, route, split):
         try:
-            out.append(prepare(data, rec, mode, method, config, gain))
+            out.append(prepare(data, rec, calibration, method, config, gain))
         except MorpiError as exc:
             if failed is not None:
                 failed.append(str(exc))
     return out
 
 
-def rest_terms(data, rec, mode):
+@renamed_keywords(mode="calibration")
+def rest_terms(data, rec, calibration):
     """What :func:`prepare` reads from one recording and calibration whatever the steps: the mean specific
     force of the rest window, the rest stretches, the specific force's shift under way, the gyro drift and the
     rest noise (cached in ``data.study_cache``).
@@ -368,7 +373,7 @@ def rest_terms(data, rec, mode):
         The dataset's cached per-recording work.
     rec : Recording
         The recording.
-    mode : {"RD", "GC", "GAC"}
+    calibration : {"RD", "GC", "GAC"}
         Calibration.
 
     Returns
@@ -376,11 +381,11 @@ def rest_terms(data, rec, mode):
     tuple
         The terms above, in that order.
     """
-    key = (rec.source, mode, "aided rest")
+    key = (rec.source, calibration, "aided rest")
     cache = data.study_cache
     if key in cache:
         return cache[key]
-    crec, _ = data.calibrated(rec, mode)
+    crec, _ = data.calibrated(rec, calibration)
     w = data.rest_window(rec)
     f_rest = crec.f[w.i0:w.i1].mean(axis=0)
     # rest updates: before the motion the calibration's own rest window (the stretch up to the onset may
@@ -442,7 +447,8 @@ def route_vectors(length, start, end, boundaries, time, psi, turn_deg, per_perio
     return np.asarray(length, float)[:, None] * np.stack([np.cos(h), np.sin(h)], axis=1)
 
 
-def route_steps(data, rec, mode, config, s, length) -> np.ndarray:
+@renamed_keywords(mode="calibration")
+def route_steps(data, rec, calibration, config, s, length) -> np.ndarray:
     """:func:`route_vectors` of a recording's steps `s` (found under `config`) with the step lengths `length`.
 
     Parameters
@@ -451,7 +457,7 @@ def route_steps(data, rec, mode, config, s, length) -> np.ndarray:
         The dataset's cached per-recording work.
     rec : Recording
         The recording.
-    mode : {"RD", "GC", "GAC"}
+    calibration : {"RD", "GC", "GAC"}
         Calibration.
     config : steps.StepConfig
         The rule `s` was found under.
@@ -465,8 +471,8 @@ def route_steps(data, rec, mode, config, s, length) -> np.ndarray:
     ndarray, shape (k, 2)
         The step vectors along the route's heading [m].
     """
-    crec, _ = data.calibrated(rec, mode)
+    crec, _ = data.calibrated(rec, calibration)
     bt = s.peaks.grid_time[s.peaks.grid_index]
     return route_vectors(length, s.start_time, s.end_time, bt, crec.time,
-                         data.heading(rec, mode, config.heading_source), config.turn_deg,
+                         data.heading(rec, calibration, config.heading_source), config.turn_deg,
                          2 if config.segment == "extrema" else 1)

@@ -234,7 +234,9 @@ def detectable_difference(sd: float, runs: int, *, alpha: float = ALPHA, power: 
 
     def gap(delta):
         nc = delta / se
-        return stats.nct.sf(tc, df, nc) + stats.nct.cdf(-tc, df, nc) - power
+        # the lower tail as the upper tail of the mirrored distribution: the same probability, where scipy's
+        # noncentral t cdf returns NaN far in its tail (two or three runs at a large shift)
+        return stats.nct.sf(tc, df, nc) + stats.nct.sf(tc, df, -nc) - power
 
     hi = (tc + stats.norm.ppf(power)) * se
     while gap(hi) <= 0:

@@ -9,6 +9,7 @@ import numpy as np
 
 from .. import _aided_kernel, aided
 from ..choice import choose
+from ..deprecation import renamed_keywords
 from ..errors import DataError, MorpiError
 from .inputs import prepare, prepared_runs
 
@@ -92,7 +93,8 @@ def _candidates():
     return [dict(zip(keys, vals)) for vals in product(*(GRID[k] for k in keys))]
 
 
-def choose_tunables(data, train, method, mode, config, gain):
+@renamed_keywords(mode="calibration")
+def choose_tunables(data, train, method, calibration, config, gain):
     """Tunables with the least mean end-point error on the ``train`` runs of `train` (phone, route).
 
     Every candidate of :data:`GRID` that takes the gain as exact runs on
@@ -121,7 +123,7 @@ def choose_tunables(data, train, method, mode, config, gain):
         each scored against its own end point and distance).
     method : {"MoRPI-A", "MoRPI-G"}
         MoRPI method.
-    mode : {"RD", "GC", "GAC"}
+    calibration : {"RD", "GC", "GAC"}
         Calibration.
     config : steps.StepConfig
         The method's step rule.
@@ -139,7 +141,7 @@ def choose_tunables(data, train, method, mode, config, gain):
         The training set has no train run with steps (:func:`choose_tunables_many`
         returns that error in its list; this single-request form raises it).
     """
-    choice = choose_tunables_many(data, [(train, method, mode, config, gain)])[0]
+    choice = choose_tunables_many(data, [(train, method, calibration, config, gain)])[0]
     if isinstance(choice, MorpiError):
         raise choice
     return choice

@@ -27,7 +27,9 @@ package's MoRPI manifest, :func:`morpi_filters.resources.morpi_manifest`); an
 matches, its id the file's relative path. :func:`index_dataset` lists the
 recordings with their labels without reading a file. ``latitude_deg`` sets
 the gravity the calibrations take; ``imu.spec`` may name an IMU the package
-knows.
+knows. An ``[evaluation]`` table (:class:`Settings`) says how the dataset is
+evaluated, and a recording's ``train_group`` which group's train recordings
+set its gains.
 
 Truth tracks are stored in a local ENU frame (x east, y north, z up: right
 handed and z up like the package's navigation frame, from which it differs
@@ -51,17 +53,21 @@ the MoRPI catalogue applies, with the IMU's error figures (``imu.spec``, else
 gravity up the body z axis, gyro offsets and noise at rest, the turns'
 rates; otherwise a ParameterError names the key to fix (``accel_unit``,
 ``axes``, ``gyro_unit`` or ``columns``), and a dead channel is a DataError
-naming ``imu.file``.
+naming ``imu.file``. :func:`check_dataset` also names, as a DataError, a
+glob ``imu.file`` that matches another number of files than its
+``imu.count`` (:func:`count_problems`).
 """
 from __future__ import annotations
 
 from .schema import ACCEL_UNITS, FORMAT_VERSION, GLOB_CHARS, GYRO_UNITS, RATE_TOLERANCE, SPEC_KEYS, TIME_UNITS
 from .read import DatasetRecording, RouteTruth, TruthTrack
-from .model import Dataset, DatasetIndex, IndexedRecording, check_dataset, index_dataset, load_dataset
+from .model import Dataset, DatasetIndex, IndexedRecording, check_dataset, count_problems, index_dataset, load_dataset
+from .settings import AIDED_METHODS, HELD_OUT_CHOICES, INS_SPANS, SETTING_CHOICES, Settings
 
 __all__ = [
     "FORMAT_VERSION", "TIME_UNITS", "ACCEL_UNITS", "GYRO_UNITS", "SPEC_KEYS", "RATE_TOLERANCE", "RouteTruth",
     "TruthTrack",
     "DatasetRecording", "Dataset", "IndexedRecording", "DatasetIndex", "index_dataset", "load_dataset", "check_dataset",
-    "GLOB_CHARS",
+    "count_problems",
+    "GLOB_CHARS", "Settings", "HELD_OUT_CHOICES", "INS_SPANS", "AIDED_METHODS", "SETTING_CHOICES",
 ]

@@ -7,9 +7,10 @@ from pathlib import Path
 import numpy as np
 
 from ..dataset import MEMS_SPEC, Recording, check_recording
-from ..errors import MorpiError, ParameterError
+from ..errors import DataError, MorpiError, ParameterError
 from .read import DatasetRecording, RouteTruth, TruthTrack, check_labels, check_physics, load_entry
-from .schema import (DEFAULTS, IMU_CHECKS, LABEL_CHECKS, BadValue, Context, ParsedManifest, check_latitude,
+from .settings import Settings
+from .schema import (DEFAULTS, GLOB_CHARS, IMU_CHECKS, LABEL_CHECKS, BadValue, Context, ParsedManifest, check_latitude,
                      check_text, read_manifest, unknown_key, value_of)
 
 
@@ -32,6 +33,8 @@ class Dataset:
         the normal gravity there
         (:func:`morpi_filters.calibration.normal_gravity`); None: standard
         gravity :data:`morpi_filters.units.G0`.
+    settings : Settings
+        How the dataset is evaluated (the manifest's ``[evaluation]``).
 
     Examples
     --------
@@ -48,6 +51,7 @@ class Dataset:
     source: str = "<memory>"
     description: str = ""
     latitude_deg: float | None = None
+    settings: Settings = Settings()
 
     def __post_init__(self):
         object.__setattr__(self, "recordings", tuple(self.recordings))
@@ -56,11 +60,14 @@ class Dataset:
                 object.__setattr__(self, "latitude_deg", check_latitude(self.latitude_deg))
             except BadValue as bad:
                 raise ParameterError(f"{self.source}: latitude_deg: {bad}") from None
+        if not isinstance(self.settings, Settings):
+            raise ParameterError(f"{self.source}: settings: {type(self.settings).__name__}, expected a Settings")
         seen = set()
         for r in self.recordings:
             if r.id in seen:
                 raise ParameterError(f"{self.source}: recording id {r.id!r} appears twice, expected unique ids")
             seen.add(r.id)
+        _check_train_groups(self.source, self.recordings)      # a group's recordings agree on it
 
     def __getitem__(self, rec_id: str) -> DatasetRecording:
         for r in self.recordings:
@@ -85,8 +92,8 @@ class Dataset:
         return {k: tuple(v) for k, v in out.items()}
 
     @classmethod
-    def from_arrays(cls, name: str, recordings, *, description: str = "", latitude_deg: float | None = None
-                    ) -> "Dataset":
+    def from_arrays(cls, name: str, recordings, *, description: str = "", latitude_deg: float | None = None,
+                    settings: Settings | None = None) -> "Dataset":
         """A dataset from arrays in memory, with the checks of a manifest's recordings.
 
         Parameters
@@ -98,13 +105,17 @@ class Dataset:
             [m/s^2] and ``omega`` [rad/s] in body axes x forward, y left,
             z up, ``truth`` (a :class:`RouteTruth` or :class:`TruthTrack`,
             the track on the same clock as ``time``), and optionally
-            ``split``, ``group``, ``motion``, ``rest``, ``initial`` and
-            ``notes`` with the meanings and defaults of the manifest keys.
+            ``split``, ``group``, ``motion``, ``rest``, ``initial``,
+            ``train_group`` and ``notes`` with the meanings and defaults of
+            the manifest keys.
         description : str, optional
             Free text.
         latitude_deg : float, optional
             The recordings' latitude [deg] (the manifest key ``latitude_deg``);
             default: standard gravity.
+        settings : Settings, optional
+            How the dataset is evaluated (the manifest's ``[evaluation]``);
+            default: :class:`Settings` ().
 
         Returns
         -------
@@ -157,7 +168,25 @@ class Dataset:
             check_physics(ctx, rec, labels["rest"], {"accel_unit": "m/s^2", "gyro_unit": "rad/s", "axes": "FLU"},
                           MEMS_SPEC)
             out.append(DatasetRecording(id=rec_id, recording=rec, truth=truth, **labels))
-        return cls(name=name, recordings=tuple(out), description=description, latitude_deg=latitude_deg)
+        _check_train_groups("<memory>", out, {r.group for r in out if r.split == "train"})
+        return cls(name=name, recordings=tuple(out), description=description, latitude_deg=latitude_deg,
+                   settings=Settings() if settings is None else settings)
+
+
+def _check_train_groups(source: str, recordings, trained=None) -> None:
+    """A group's recordings agree on their ``train_group``, and (with `trained`, the groups that have or declare
+    train recordings) each names one of those."""
+    said: dict = {}
+    for r in recordings:
+        if trained is not None and r.train_group is not None and r.train_group not in trained:
+            raise ParameterError(f"{source}: recording {r.id!r}: train_group: {r.train_group!r} has no train "
+                                 "recording, expected the group of recordings with split = 'train' "
+                                 f"({', '.join(repr(g) for g in sorted(trained)) or 'none in this dataset'})")
+        first = said.setdefault(r.group, r)
+        if first.train_group != r.train_group:
+            raise ParameterError(f"{source}: recording {r.id!r}: train_group: {r.train_group!r}, but recording "
+                                 f"{first.id!r} of the same group {r.group!r} says {first.train_group!r}, expected "
+                                 "one train group per group")
 
 
 # --------------------------------------------------------------------------- entry points
@@ -224,8 +253,10 @@ def load_dataset(path, *, root=None) -> Dataset:
         out.append(load_entry(ctx, values))
     if not out:
         raise _no_match(manifest)
+    _check_train_groups(str(manifest.path), out, _declared_train_groups(manifest))
     return Dataset(name=manifest.name, recordings=tuple(out), source=str(manifest.path),
-                   description=manifest.description, latitude_deg=manifest.latitude_deg)
+                   description=manifest.description, latitude_deg=manifest.latitude_deg,
+                   settings=manifest.settings)
 
 
 def _no_match(manifest: ParsedManifest) -> ParameterError:
@@ -362,8 +393,13 @@ def index_dataset(path, *, root=None) -> DatasetIndex:
                         declared=tuple(declared[k] for k in order))
 
 
-def check_dataset(path, *, root=None) -> tuple[list, int]:
+def check_dataset(path, *, root=None, counts=None, usable=None) -> tuple[list, int]:
     """Load every recording of a manifest in turn and collect the problems, one per recording.
+
+    Only the files the manifest names (and its glob patterns match) are read;
+    nothing else under the root is listed. A glob table with ``imu.count``
+    is one more problem when its pattern matches another number of files
+    (:func:`count_problems`).
 
     Parameters
     ----------
@@ -371,15 +407,21 @@ def check_dataset(path, *, root=None) -> tuple[list, int]:
         The manifest.
     root : str or Path, optional
         As for :func:`load_dataset`.
+    counts : dict of str -> int, optional
+        See :func:`count_problems`.
+    usable : callable, optional
+        A further check of each recording that loads: ``usable(dataset_recording)``
+        returns a one-line problem (a :class:`~morpi_filters.errors.DataError`
+        then) or None.
 
     Returns
     -------
     problems : list of MorpiError
         The first problem of each recording that does not load
         (:class:`ParameterError` for the manifest, :class:`DataError` for
-        the data), each a one-line message.
+        the data), then the glob tables' counts, each a one-line message.
     n_ok : int
-        Number of recordings that loaded cleanly.
+        Number of recordings that loaded cleanly (and passed `usable`).
 
     Raises
     ------
@@ -408,12 +450,140 @@ def check_dataset(path, *, root=None) -> tuple[list, int]:
     for ctx, values, problem in manifest.entries:
         if problem is None:
             try:
-                load_entry(ctx, values)
-                n_ok += 1
-                continue
+                item = load_entry(ctx, values)
+                line = None if usable is None else usable(item)
+                if line is None:
+                    n_ok += 1
+                    continue
+                problem = DataError(line)
             except MorpiError as exc:
                 problem = exc
         problems.append(problem)
     if not manifest.entries:
-        problems.append(_no_match(manifest))
-    return problems, n_ok
+        expected = _expected(manifest, counts)
+        problems.append(_no_match(manifest) if not expected else DataError(
+            f"{manifest.base}: no recordings: no file matches the imu.file patterns of {manifest.path}, expected "
+            f"{sum(expected.values())} recording(s) (imu.count)"))
+        return problems, n_ok
+    labelled = []
+    for ctx, values, problem in manifest.entries:
+        if problem is None:
+            try:
+                labelled.append(_Labels(ctx.id, *(value_of(ctx, values, "", k, LABEL_CHECKS, default=DEFAULTS[k])
+                                                  for k in ("group", "split", "train_group"))))
+            except MorpiError:
+                pass                            # already a problem of its recording
+    try:
+        _check_train_groups(str(manifest.path), labelled, _declared_train_groups(manifest))
+    except ParameterError as exc:
+        problems.append(exc)
+    return problems + _count_problems(manifest, counts), n_ok
+
+
+def _declared_train_groups(manifest: ParsedManifest) -> set:
+    """The groups of the manifest's tables with ``split = "train"``, whether or not their files are there."""
+    out = set()
+    tables = [(ctx, values) for ctx, values, problem in manifest.entries if problem is None] + list(manifest.empty)
+    for ctx, values in tables:
+        try:
+            group, split = (value_of(ctx, values, "", k, LABEL_CHECKS, default=DEFAULTS[k]) for k in ("group", "split"))
+        except MorpiError:
+            continue
+        if split == "train":
+            out.add(group)
+    return out
+
+
+@dataclass(frozen=True)
+class _Labels:
+    """The labels :func:`_check_train_groups` reads, of a recording not loaded."""
+
+    id: str
+    group: str
+    split: str
+    train_group: str | None
+
+
+def count_problems(path, *, root=None, counts=None) -> list:
+    """One line per glob ``imu.file`` of a manifest that matches another number of files than its ``imu.count``.
+
+    Nothing is read but the names of the files the patterns match.
+
+    Parameters
+    ----------
+    path : str or Path
+        The manifest.
+    root : str or Path, optional
+        As for :func:`load_dataset`.
+    counts : dict of str -> int, optional
+        The number of files each glob pattern (as written in ``imu.file``)
+        should match, in place of every ``imu.count`` of the manifest: a
+        pattern it leaves out has no expected count (a copy of a dataset that
+        holds fewer runs per folder, listed by whoever wrote it).
+
+    Returns
+    -------
+    list of DataError
+        One per glob table whose pattern matches a number of files other
+        than expected, naming the manifest, the table, the pattern and both
+        numbers (and the folder, when it is missing); empty when no pattern
+        matches anything (:func:`check_dataset` says that once).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> (root / "runs").mkdir()
+    >>> _ = (root / "runs" / "1.csv").write_text("")
+    >>> _ = (root / "dataset.toml").write_text('''
+    ... format_version = 1
+    ... name = "bench"
+    ... [[recording]]
+    ... imu = { file = "runs/*.csv", count = 2 }
+    ... truth = { kind = "route", distance_m = 1.0, end_point_m = [1.0, 0.0] }
+    ... [[recording]]
+    ... imu = { file = "more/*.csv", count = 3 }
+    ... truth = { kind = "route", distance_m = 1.0, end_point_m = [1.0, 0.0] }
+    ... ''')
+    >>> for p in count_problems(root / "dataset.toml"):    # doctest: +NORMALIZE_WHITESPACE
+    ...     print(str(p).replace(str(root), "ROOT"))
+    ROOT/dataset.toml: [[recording]] 1: imu.file: 'runs/*.csv' matches 1 file(s) under ROOT, expected 2 (imu.count)
+    ROOT/dataset.toml: [[recording]] 2: imu.file: 'more/*.csv' matches no file: missing folder ROOT/more,
+    expected 3 file(s) (imu.count)
+    """
+    manifest = read_manifest(path, root)
+    return _count_problems(manifest, counts) if manifest.entries else []
+
+
+def _expected(manifest: ParsedManifest, counts) -> dict:
+    """Pattern -> expected number of files: `counts`, else each glob table's ``imu.count``."""
+    if counts is not None:
+        return {pattern: int(n) for pattern, n in counts.items()}
+    return {pattern: n for _, pattern, _, n in manifest.globs if n is not None}
+
+
+def _count_problems(manifest: ParsedManifest, counts) -> list:
+    expected, out = _expected(manifest, counts), []
+    for ctx, pattern, found, _ in manifest.globs:
+        n = expected.get(pattern)
+        if n is None or found == n:
+            continue
+        lead = _leading(pattern)
+        folder = ctx.base / Path(*lead) if lead else None        # an absolute lead replaces the base
+        if found == 0 and folder is not None and not folder.is_dir():
+            line = f"{pattern!r} matches no file: missing folder {folder}, expected {n} file(s) (imu.count)"
+        else:
+            line = f"{pattern!r} matches {found or 'no'} file(s) under {ctx.base}, expected {n} (imu.count)"
+        out.append(ctx.bad("imu.file", line, DataError))
+    return out
+
+
+def _leading(pattern: str) -> list:
+    """The folders of a glob pattern before its first part holding a glob character."""
+    parts = Path(pattern).expanduser().parts[:-1]
+    out = []
+    for p in parts:
+        if any(c in p for c in GLOB_CHARS):
+            break
+        out.append(p)
+    return out

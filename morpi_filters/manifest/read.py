@@ -165,6 +165,10 @@ class DatasetRecording:
     initial : str
         ``"rest"``: starts standing, velocity zero; ``"truth"``: position,
         velocity and heading from the truth track at its start.
+    train_group : str or None
+        The group whose train recordings set this recording's gains and the
+        aided filter's tuning; None: its own group when that has train
+        recordings, else every train group together.
     notes : str
         Free text.
     """
@@ -177,6 +181,7 @@ class DatasetRecording:
     motion: str = "periodic"
     rest: str | tuple = "auto"
     initial: str = "rest"
+    train_group: str | None = None
     notes: str = ""
 
 # --------------------------------------------------------------------------- resolving one recording

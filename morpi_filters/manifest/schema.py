@@ -12,6 +12,7 @@ import numpy as np
 
 from ..dataset import MAX_GAP_S, MEMS_SPEC
 from ..errors import ParameterError
+from .settings import SETTING_CHOICES, Settings
 from ..units import DEG, DEG_S, DEG_S_SQRT_HZ, G0, IMUS, MG, UG_SQRT_HZ, SensorSpec
 
 #: The manifest format this module reads.
@@ -39,17 +40,18 @@ _INITIALS = ("rest", "truth")
 FRAMES = ("NED", "ENU")
 #: The column letters of each frame's axes.
 FRAME_LETTERS = {"NED": ("n", "e", "d"), "ENU": ("e", "n", "u")}
-_TOP_KEYS = ("format_version", "name", "description", "latitude_deg", "defaults", "recording")
-_RECORDING_KEYS = ("id", "split", "group", "motion", "rest", "initial", "notes", "imu", "truth")
+_TOP_KEYS = ("format_version", "name", "description", "latitude_deg", "evaluation", "defaults", "recording")
+_RECORDING_KEYS = ("id", "split", "group", "motion", "rest", "initial", "train_group", "notes", "imu", "truth")
 _IMU_KEYS = ("file", "format", "columns", "skip_rows", "rate_hz", "time_unit", "time_origin", "accel_unit",
-             "gyro_unit", "axes", "spec")
+             "gyro_unit", "axes", "spec", "count")
 #: The keys of a route truth.
 ROUTE_KEYS = ("kind", "distance_m", "end_point_m", "polyline_m")
 #: The keys of a truth track.
 TRACK_KEYS = ("kind", "file", "format", "columns", "skip_rows", "rate_hz", "time_unit", "frame", "offset_s")
 _TRUTH_KEYS = tuple(dict.fromkeys(ROUTE_KEYS + TRACK_KEYS))
 #: The labels a recording takes when neither it nor [defaults] sets them.
-DEFAULTS = {"split": "none", "group": "all", "motion": "periodic", "rest": "auto", "initial": "rest", "notes": ""}
+DEFAULTS = {"split": "none", "group": "all", "motion": "periodic", "rest": "auto", "initial": "rest",
+            "train_group": None, "notes": ""}
 
 
 # --------------------------------------------------------------------------- values
@@ -89,6 +91,11 @@ def _free_text(v) -> str:
     if not isinstance(v, str):
         raise BadValue(f"{_kind(v)} {v!r}, expected a string")
     return v
+
+
+def _train_group(v):
+    """The name of a group with train recordings, or None (the recording's own group, else every train group)."""
+    return None if v is None else check_text(v)
 
 
 def _choice(options):
@@ -228,12 +235,12 @@ def check_columns(v):
 
 #: The check of each label: the value to use, or BadValue.
 LABEL_CHECKS = {"split": _choice(_SPLITS), "group": check_text, "motion": _choice(_MOTIONS), "rest": _rest,
-                "initial": _choice(_INITIALS), "notes": _free_text}
+                "initial": _choice(_INITIALS), "train_group": _train_group, "notes": _free_text}
 #: The check of each ``imu`` key.
 IMU_CHECKS = {"file": check_text, "format": _choice(("csv", "npy")), "columns": check_columns,
               "skip_rows": _integer(0), "rate_hz": _rate, "time_unit": _choice(tuple(TIME_UNITS)),
               "time_origin": _choice(("clock", "first")), "accel_unit": _choice(tuple(ACCEL_UNITS)),
-              "gyro_unit": _choice(tuple(GYRO_UNITS)), "axes": _axes, "spec": _spec}
+              "gyro_unit": _choice(tuple(GYRO_UNITS)), "axes": _axes, "spec": _spec, "count": _integer(1)}
 #: The check of each ``truth`` key.
 TRUTH_CHECKS = {"kind": _choice(("route", "track")), "distance_m": lambda v: _number(v, above=0.0),
                 "end_point_m": _point, "polyline_m": _polyline, "file": check_text, "format": _choice(("csv", "npy")),
@@ -270,8 +277,23 @@ class ParsedManifest:
     description: str
     entries: tuple        # (context, merged values or None, problem or None)
     latitude_deg: float | None = None
+    settings: Settings = Settings()
     base: Path | None = None
     empty: tuple = ()     # (context, values) of each glob table that matches no file
+    globs: tuple = ()     # (context, pattern, files matched, imu.count or None) of each glob table
+
+
+def _settings(table, path: Path) -> Settings:
+    """The settings of a manifest's ``[evaluation]`` table (keys left out keep their defaults)."""
+    if not isinstance(table, dict):
+        raise ParameterError(f"{path}: evaluation: {_kind(table)} {table!r}, expected a table [evaluation]")
+    for key in table:
+        if key not in SETTING_CHOICES:
+            raise ParameterError(f"{path}: [evaluation]: {unknown_key(key, tuple(SETTING_CHOICES))}")
+    try:
+        return Settings(**table)
+    except ParameterError as exc:
+        raise ParameterError(f"{path}: {exc}") from None
 
 
 def _toml():
@@ -322,6 +344,7 @@ def read_manifest(path, root=None) -> ParsedManifest:
         latitude = check_latitude(doc["latitude_deg"]) if "latitude_deg" in doc else None
     except BadValue as bad:
         raise ParameterError(f"{path}: latitude_deg: {bad}") from None
+    settings = _settings(doc["evaluation"], path) if "evaluation" in doc else Settings()
     base = path.parent if root is None else Path(root).expanduser()
     if not base.is_dir():
         raise ParameterError(f"{base}: not a directory, expected the folder the manifest's file names start at")
@@ -336,7 +359,7 @@ def read_manifest(path, root=None) -> ParsedManifest:
         raise ParameterError(f"{path}: recording: one table [recording], expected [[recording]] tables (an array)")
     if not isinstance(tables, list) or not tables or not all(isinstance(t, dict) for t in tables):
         raise ParameterError(f"{path}: recording: {_kind(tables)}, expected [[recording]] tables")
-    entries, first_of, empty = [], {}, []
+    entries, first_of, empty, globs = [], {}, [], []
     for k, table in enumerate(tables, start=1):
         rec_id = table.get("id") if isinstance(table.get("id"), str) else None
         head = f"{path}: [[recording]] {k}" + (f" (id {rec_id!r})" if rec_id else "")
@@ -344,6 +367,9 @@ def read_manifest(path, root=None) -> ParsedManifest:
             values, origin = _merge(head, defaults, table)
             ctx = Context(head, origin, str(path), rec_id, base, k)
             expanded = _expand(ctx, values, k)
+            if _is_glob(values.get("imu", {}).get("file")):
+                globs.append((ctx, values["imu"]["file"], len(expanded),
+                              value_of(ctx, values["imu"], "imu", "count", IMU_CHECKS)))
             if not expanded:
                 empty.append((ctx, values))
             for ctx, values in expanded:
@@ -357,7 +383,7 @@ def read_manifest(path, root=None) -> ParsedManifest:
         except ParameterError as exc:
             entries.append((Context(head, {}, str(path), rec_id, base), None, exc))
     return ParsedManifest(path=path, name=name, description=description, entries=tuple(entries), latitude_deg=latitude,
-                          base=base, empty=tuple(empty))
+                          settings=settings, base=base, empty=tuple(empty), globs=tuple(globs))
 
 
 def _is_glob(name) -> bool:
@@ -375,6 +401,8 @@ def _expand(ctx: Context, values: dict, k: int) -> list:
     relative to the base folder), in the order of :func:`_natural`."""
     pattern = values.get("imu", {}).get("file") if isinstance(values.get("imu"), dict) else None
     if not _is_glob(pattern):
+        refuse_unused(ctx, values.get("imu", {}), "imu", ("count",), "without a glob imu.file (a file is one "
+                                                                       "recording)")
         return [(ctx, values)]
     if ctx.origin.get("id") == "recording":
         raise ctx.bad("id", "not used with a glob imu.file (each recording's id is the path of its file relative "

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..deprecation import renamed_attribute, renamed_keywords
 from ..errors import ParameterError
 from ..units import MPU6500, SensorSpec
 
@@ -89,9 +90,9 @@ class StudyConfig:
 
     The robot drives a sine path from rest to rest (1 s smooth ramps at both
     ends, cruise in between), and every method navigates that same path. Its
-    motion is fixed by any two of `duration`, `length_m` and `speed_mps`; the
-    third follows from ``duration = length_m / speed_mps + RAMP_S``. Left
-    unset: the paper's 6.3 m in 15 s; a `duration` or `length_m` alone keeps
+    motion is fixed by any two of `duration_s`, `length_m` and `speed_mps`; the
+    third follows from ``duration_s = length_m / speed_mps + RAMP_S``. Left
+    unset: the paper's 6.3 m in 15 s; a `duration_s` or `length_m` alone keeps
     the paper's cruise speed for the period (:func:`morpi_filters.simulate.paper_speed`).
     :meth:`motion` gives the three values; a study's result holds its config
     with all three filled in.
@@ -101,7 +102,7 @@ class StudyConfig:
     spec : SensorSpec
         IMU error figures (biases 1 sigma per axis, noise densities), for
         example :meth:`~morpi_filters.units.SensorSpec.from_datasheet`.
-    duration : float, optional
+    duration_s : float, optional
         Time from the start of the motion to the stop [s]: the run lasts this long.
     length_m : float, optional
         Start-to-end distance of the path along its centreline [m].
@@ -109,8 +110,8 @@ class StudyConfig:
         Cruise speed along the centreline [m/s].
     rate_hz : float
         Sampling rate [Hz]; the noise standard deviation is ``density * sqrt(rate_hz)``.
-    period_m : float
-        Sine-path period (peak-to-peak step) [m].
+    p2p_m : float
+        Peak-to-peak distance (period length) of the sine path [m].
     amplitude_m : float
         Sine-path lateral amplitude [m].
     ins_path : {"sine", "straight"}
@@ -127,43 +128,43 @@ class StudyConfig:
     calibration : {"RD", "GC", "GAC"}
         ``"RD"``: raw data, the datasheet turn-on biases act in full.
         ``"GC"`` (gyro calibration) or ``"GAC"`` (gyro and accelerometer): a
-        zero-order calibration on `cal_seconds` of rest leaves a residual bias
+        zero-order calibration on `cal_window_s` of rest leaves a residual bias
         equal to the mean of the white noise over that window,
-        ``density / sqrt(cal_seconds)`` per axis (drawn from the same per-run
+        ``density / sqrt(cal_window_s)`` per axis (drawn from the same per-run
         bias numbers).
-    cal_seconds : float
+    cal_window_s : float
         Length of the stationary calibration window [s].
 
     Examples
     --------
-    >>> cfg = StudyConfig(duration=20.0, period_m=1.0)
+    >>> cfg = StudyConfig(duration_s=20.0, p2p_m=1.0)
     >>> length, speed, duration = cfg.motion()
     >>> round(length, 3), round(speed, 4), duration
     (8.867, 0.4667, 20.0)
     """
 
     spec: SensorSpec = MPU6500
-    duration: float | None = None
+    duration_s: float | None = None
     rate_hz: float = 100.0
     length_m: float | None = None
-    period_m: float = 1.0
+    p2p_m: float = 1.0
     amplitude_m: float = 0.1
     gains: tuple = (GainError("dG = 5 %", 0.05), GainError("dG = 10 %", 0.10))
     keep_every: int = 10
     ins: bool = True
     training_runs: int = 4000
     calibration: str = "RD"
-    cal_seconds: float = 3.0
+    cal_window_s: float = 3.0
     speed_mps: float | None = None
     ins_path: str = "sine"
 
     def motion(self) -> tuple:
-        """(length_m, speed_mps, duration) of the path [m, m/s, s], from the two that fix it.
+        """(length_m, speed_mps, duration_s) of the path [m, m/s, s], from the two that fix it.
 
         Returns
         -------
         tuple of float
-            ``(length_m, speed_mps, duration)`` with ``duration = length_m /
+            ``(length_m, speed_mps, duration_s)`` with ``duration_s = length_m /
             speed_mps + RAMP_S``.
 
         Raises
@@ -172,12 +173,12 @@ class StudyConfig:
             When all three are given and disagree, or the motion is impossible
             (shorter than its two ramps).
         """
-        given = {k: getattr(self, k) for k in ("duration", "length_m", "speed_mps") if getattr(self, k) is not None}
+        given = {k: getattr(self, k) for k in ("duration_s", "length_m", "speed_mps") if getattr(self, k) is not None}
         for k, v in given.items():
             if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) \
                     or not (math.isfinite(v) and v > 0):
                 raise ParameterError(f"StudyConfig.{k}: {v!r}, expected a finite number > 0")
-        T, L, v = (None if given.get(k) is None else float(given[k]) for k in ("duration", "length_m", "speed_mps"))
+        T, L, v = (None if given.get(k) is None else float(given[k]) for k in ("duration_s", "length_m", "speed_mps"))
         if T is None and L is None:
             L = DEFAULT_LENGTH_M
             if v is None:
@@ -185,7 +186,7 @@ class StudyConfig:
         if v is None and (T is None or L is None):
             from ..simulate import paper_speed
 
-            v = paper_speed(self.period_m)
+            v = paper_speed(self.p2p_m)
         if T is None:
             T = L / v + RAMP_S
         elif L is None:
@@ -193,16 +194,16 @@ class StudyConfig:
         elif v is None:
             v = L / (T - RAMP_S) if T > RAMP_S else math.inf
         elif abs(L / v + RAMP_S - T) > 1e-9 * T:
-            raise ParameterError(f"StudyConfig: duration {T:g} s, length_m {L:g} m and speed_mps {v:g} m/s "
-                                 f"disagree (duration = length_m / speed_mps + {RAMP_S:g} s ramps); "
+            raise ParameterError(f"StudyConfig: duration_s {T:g} s, length_m {L:g} m and speed_mps {v:g} m/s "
+                                 f"disagree (duration_s = length_m / speed_mps + {RAMP_S:g} s ramps); "
                                  "expected at most two of them")
         if not (T >= 2 * RAMP_S and L / v >= RAMP_S):
-            raise ParameterError(f"StudyConfig.duration: {T:g} s for {L:g} m; expected at least {2 * RAMP_S:g} s "
+            raise ParameterError(f"StudyConfig.duration_s: {T:g} s for {L:g} m; expected at least {2 * RAMP_S:g} s "
                                  f"(the path starts and stops with {RAMP_S:g} s ramps)")
         return L, v, T
 
     def resolved(self) -> "StudyConfig":
-        """This config with `duration`, `length_m` and `speed_mps` all filled in (see :meth:`motion`).
+        """This config with `duration_s`, `length_m` and `speed_mps` all filled in (see :meth:`motion`).
 
         Returns
         -------
@@ -212,11 +213,11 @@ class StudyConfig:
         Examples
         --------
         >>> c = StudyConfig().resolved()                    # the paper's 6.3 m in 15 s
-        >>> c.length_m, round(c.speed_mps, 12), c.duration  # 6.3 m / (15 s - 1 s of ramps)
+        >>> c.length_m, round(c.speed_mps, 12), c.duration_s  # 6.3 m / (15 s - 1 s of ramps)
         (6.3, 0.45, 15.0)
         """
         L, v, T = self.motion()
-        return replace(self, length_m=L, speed_mps=v, duration=T)
+        return replace(self, length_m=L, speed_mps=v, duration_s=T)
 
     def bias_sigmas(self) -> tuple:
         """(accelerometer, gyro) bias 1 sigma per axis after calibration [m/s^2, rad/s].
@@ -225,17 +226,17 @@ class StudyConfig:
         -------
         tuple of float
             ``"RD"``: the datasheet turn-on biases; ``"GC"``: the gyro one
-            replaced by ``gyro_noise / sqrt(cal_seconds)``; ``"GAC"``: both
-            replaced by ``noise / sqrt(cal_seconds)``.
+            replaced by ``gyro_noise / sqrt(cal_window_s)``; ``"GAC"``: both
+            replaced by ``noise / sqrt(cal_window_s)``.
 
         Examples
         --------
-        >>> sa, sg = StudyConfig(calibration="GAC", cal_seconds=4.0).bias_sigmas()
+        >>> sa, sg = StudyConfig(calibration="GAC", cal_window_s=4.0).bias_sigmas()
         >>> sa == MPU6500.accel_noise / 2, sg == MPU6500.gyro_noise / 2
         (True, True)
         """
-        ra = self.spec.accel_noise / math.sqrt(self.cal_seconds)
-        rg = self.spec.gyro_noise / math.sqrt(self.cal_seconds)
+        ra = self.spec.accel_noise / math.sqrt(self.cal_window_s)
+        rg = self.spec.gyro_noise / math.sqrt(self.cal_window_s)
         return ({"RD": self.spec.accel_bias, "GC": self.spec.accel_bias, "GAC": ra}[self.calibration],
                 {"RD": self.spec.gyro_bias, "GC": rg, "GAC": rg}[self.calibration])
 
@@ -261,16 +262,16 @@ class StudyConfig:
         """
         if not isinstance(self.spec, SensorSpec):
             raise ParameterError(f"StudyConfig.spec: {self.spec!r}, expected a SensorSpec")
-        for name in ("rate_hz", "period_m", "amplitude_m"):
+        for name in ("rate_hz", "p2p_m", "amplitude_m"):
             v = getattr(self, name)
             if isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ParameterError(f"StudyConfig.{name}: {v!r}, expected a finite number > 0")
         length, _, duration = self.motion()
         if duration * self.rate_hz < 2:
-            raise ParameterError(f"StudyConfig.duration: {duration} s at {self.rate_hz} Hz gives fewer than 2 samples")
-        if 3 * self.period_m > length:
+            raise ParameterError(f"StudyConfig.duration_s: {duration} s at {self.rate_hz} Hz gives fewer than 2 samples")
+        if 3 * self.p2p_m > length:
             raise ParameterError(f"StudyConfig.length_m: {length:g} m holds fewer than 3 periods of "
-                                 f"{self.period_m} m (one tapered period at each end plus one step)")
+                                 f"{self.p2p_m} m (one tapered period at each end plus one step)")
         if self.ins_path not in INS_PATHS:
             raise ParameterError(f"StudyConfig.ins_path: {self.ins_path!r}, expected one of {INS_PATHS}")
         if not self.gains or not all(isinstance(g, GainError) for g in self.gains):
@@ -285,10 +286,17 @@ class StudyConfig:
             raise ParameterError(f"StudyConfig.keep_every: {self.keep_every!r}, expected a whole number >= 1")
         if self.calibration not in CALIBRATIONS:
             raise ParameterError(f"StudyConfig.calibration: {self.calibration!r}, expected one of {CALIBRATIONS}")
-        if not (math.isfinite(self.cal_seconds) and self.cal_seconds > 0):
-            raise ParameterError(f"StudyConfig.cal_seconds: {self.cal_seconds!r}, expected a finite number > 0")
+        if not (math.isfinite(self.cal_window_s) and self.cal_window_s > 0):
+            raise ParameterError(f"StudyConfig.cal_window_s: {self.cal_window_s!r}, expected a finite number > 0")
         if not (isinstance(self.training_runs, int) and self.training_runs >= 2):
             raise ParameterError(f"StudyConfig.training_runs: {self.training_runs!r}, expected a whole number >= 2")
+
+
+StudyConfig.__init__ = renamed_keywords(period_m="p2p_m", duration="duration_s", cal_seconds="cal_window_s")(
+    StudyConfig.__init__)
+StudyConfig.period_m = renamed_attribute("StudyConfig", "period_m", "p2p_m")
+StudyConfig.duration = renamed_attribute("StudyConfig", "duration", "duration_s")
+StudyConfig.cal_seconds = renamed_attribute("StudyConfig", "cal_seconds", "cal_window_s")
 
 
 @dataclass(frozen=True)

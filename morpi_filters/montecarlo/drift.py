@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..deprecation import renamed_keywords
 from ..errors import ParameterError
 from ..parallel import Progress, chunk_ranges, execute
 from ..units import DEG_S, G0, MPU6500, SensorSpec
@@ -136,7 +137,8 @@ def _drift_chunk(payload: _DriftPayload, a: int, b: int) -> dict:
     return out
 
 
-def drift_map(gyro_bias=None, *, spec: SensorSpec = MPU6500, duration: float = 15.0, rate_hz: float = 100.0,
+@renamed_keywords(duration="duration_s")
+def drift_map(gyro_bias=None, *, spec: SensorSpec = MPU6500, duration_s: float = 15.0, rate_hz: float = 100.0,
               draws: int = 32, seed: int = DRIFT_SEED, keep_every: int = 10, chunk: int | None = None,
               scheduler=None, progress: bool | None = None) -> DriftMap:
     """Compare the closed-form and the strapdown position error of a stationary INS.
@@ -156,7 +158,7 @@ def drift_map(gyro_bias=None, *, spec: SensorSpec = MPU6500, duration: float = 1
         0.01 to 10 deg/s, log spaced.
     spec : SensorSpec
         Source of the accelerometer bias sigma.
-    duration, rate_hz : float
+    duration_s, rate_hz : float
         Length [s] and sampling rate [Hz].
     draws : int
         Bias draws per level.
@@ -183,7 +185,7 @@ def drift_map(gyro_bias=None, *, spec: SensorSpec = MPU6500, duration: float = 1
     --------
     Over 2 s the two models agree to well below 1 % at 0.1 and 1 deg/s:
 
-    >>> d = drift_map([0.1 * DEG_S, 1.0 * DEG_S], draws=4, duration=2.0)
+    >>> d = drift_map([0.1 * DEG_S, 1.0 * DEG_S], draws=4, duration_s=2.0)
     >>> d.rel_3d.shape, bool((d.rel_3d[:, -1] < 0.01).all()), d.onset("INS-3D").tolist()
     ((2, 20), True, [nan, nan])
     >>> bool(np.allclose(d.final_3d[:, 0], d.final_3d[:, 1], rtol=0.01))
@@ -192,8 +194,9 @@ def drift_map(gyro_bias=None, *, spec: SensorSpec = MPU6500, duration: float = 1
     levels = np.logspace(-2, 1, 25) * DEG_S if gyro_bias is None else np.asarray(gyro_bias, float)
     if levels.ndim != 1 or levels.size == 0 or not np.all(np.isfinite(levels)) or (levels <= 0).any():
         raise ParameterError("gyro_bias: expected a 1-D list of finite levels > 0 [rad/s]")
+    duration = duration_s
     if not (math.isfinite(duration) and duration > 0 and math.isfinite(rate_hz) and duration * rate_hz >= 2):
-        raise ParameterError(f"duration/rate_hz: {duration!r} s at {rate_hz!r} Hz, expected at least 2 samples")
+        raise ParameterError(f"duration_s/rate_hz: {duration!r} s at {rate_hz!r} Hz, expected at least 2 samples")
     seed = study_seed(seed)
     check_runs(draws, seed, chunk)
     n = int(round(duration * rate_hz)) + 1

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _batch_ins as bi
+from ..deprecation import renamed_keywords
 from ..errors import ParameterError
 from ..parallel import Progress, chunk_ranges, execute
 from ..steps import weinberg_length
@@ -36,12 +37,13 @@ def _time_grid(cfg: StudyConfig) -> np.ndarray:
     return np.arange(n) / cfg.rate_hz
 
 
-def sample_count(duration: float, rate_hz: float) -> int:
-    """Samples of a run from t = 0 until the first sample at or after `duration`.
+@renamed_keywords(duration="duration_s")
+def sample_count(duration_s: float, rate_hz: float) -> int:
+    """Samples of a run from t = 0 until the first sample at or after `duration_s`.
 
     Parameters
     ----------
-    duration : float
+    duration_s : float
         The run's length [s].
     rate_hz : float
         The sample rate [Hz].
@@ -49,9 +51,9 @@ def sample_count(duration: float, rate_hz: float) -> int:
     Returns
     -------
     int
-        ``ceil(duration * rate_hz) + 1`` (a product within 1e-9 of a whole number counts as it).
+        ``ceil(duration_s * rate_hz) + 1`` (a product within 1e-9 of a whole number counts as it).
     """
-    return int(math.ceil(duration * rate_hz - 1e-9)) + 1
+    return int(math.ceil(duration_s * rate_hz - 1e-9)) + 1
 
 
 def _as_path(traj, t: np.ndarray, peaks: np.ndarray) -> _Path:
@@ -63,7 +65,7 @@ def _paths_cached(length, speed, period, amplitude, duration, rate_hz, ins_path)
     from .. import simulate
 
     t = np.arange(sample_count(duration, rate_hz)) / rate_hz
-    sn = simulate.sine(length, period=period, amplitude=amplitude, speed=speed, rest=0.0, rate_hz=rate_hz)
+    sn = simulate.sine(length, p2p_m=period, amplitude_m=amplitude, speed_mps=speed, rest=0.0, rate_hz=rate_hz)
     if abs(sn.end_time - duration) > 1e-9 * duration:
         raise ParameterError(f"StudyConfig: the sine path lasts {sn.end_time:.6g} s, expected {duration:.6g} s")
     sine = sn.at(t)
@@ -76,14 +78,14 @@ def _paths_cached(length, speed, period, amplitude, duration, rate_hz, ins_path)
     sine = _as_path(sine, t, peaks)
     if ins_path == "sine":
         return sine, sine
-    st = simulate.straight(length, speed=speed, rest=0.0, rate_hz=rate_hz).at(t)
+    st = simulate.straight(length, speed_mps=speed, rest=0.0, rate_hz=rate_hz).at(t)
     return _as_path(st, t, np.array([0, t.size - 1])), sine
 
 
 def _paths(cfg: StudyConfig):
     """(path of the INS, sine path of MoRPI, backend name) sampled on the study's time grid."""
     L, v, T = cfg.motion()
-    ins, sn = _paths_cached(L, v, cfg.period_m, cfg.amplitude_m, T, cfg.rate_hz, cfg.ins_path)
+    ins, sn = _paths_cached(L, v, cfg.p2p_m, cfg.amplitude_m, T, cfg.rate_hz, cfg.ins_path)
     return ins, sn, f"simulate.sine / simulate.{cfg.ins_path} (rest 0 s, sampled on the study grid)"
 
 
@@ -158,12 +160,12 @@ def reference_gains(cfg: StudyConfig, seed: int):
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ParameterError(f"seed: {seed!r}, expected a whole number >= 0")
     L, v, _ = cfg.motion()
-    return _reference_gains(cfg.spec, L, v, cfg.period_m, cfg.amplitude_m, cfg.rate_hz, cfg.training_runs, int(seed))
+    return _reference_gains(cfg.spec, L, v, cfg.p2p_m, cfg.amplitude_m, cfg.rate_hz, cfg.training_runs, int(seed))
 
 
 @functools.lru_cache(maxsize=16)
-def _reference_gains(spec, length_m, speed_mps, period_m, amplitude_m, rate_hz, training_runs, seed):
-    cfg = StudyConfig(spec=spec, length_m=length_m, speed_mps=speed_mps, period_m=period_m, amplitude_m=amplitude_m,
+def _reference_gains(spec, length_m, speed_mps, p2p_m, amplitude_m, rate_hz, training_runs, seed):
+    cfg = StudyConfig(spec=spec, length_m=length_m, speed_mps=speed_mps, p2p_m=p2p_m, amplitude_m=amplitude_m,
                       rate_hz=rate_hz, training_runs=training_runs)
     _, sine, _ = _paths(cfg)
     rng = np.random.Generator(np.random.PCG64(training_seed(seed)))
@@ -653,8 +655,8 @@ def check_runs(runs, seed, chunk) -> None:
 
 #: StudyConfig fields that fix the draws and the paths: the studies of one
 #: :func:`run_studies` call must agree on them.
-_SHARED_FIELDS = ("spec", "duration", "rate_hz", "length_m", "speed_mps", "period_m", "amplitude_m", "ins_path",
-                  "keep_every", "training_runs", "cal_seconds")
+_SHARED_FIELDS = ("spec", "duration_s", "rate_hz", "length_m", "speed_mps", "p2p_m", "amplitude_m", "ins_path",
+                  "keep_every", "training_runs", "cal_window_s")
 
 
 def run_study(runs: int, seed: int, config: StudyConfig | None = None, *, chunk: int | None = None,

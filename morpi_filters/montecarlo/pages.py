@@ -7,6 +7,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..choice import choose
+from ..deprecation import renamed_attribute, renamed_keywords
 from ..results import round_significant
 from ..units import DEG_S, MPU6500, SensorSpec
 from .config import DRIFT_SEED, METHODS, GainError, StudyConfig, StudyResult
@@ -144,13 +145,15 @@ def study_config_json(cfg: StudyConfig) -> dict:
     Returns
     -------
     dict
-        JSON values; sigmas in SI units (noise as the per-sample sigma at the study's rate).
+        JSON values; sigmas in SI units (noise as the per-sample sigma at the study's rate). ``period_m``
+        repeats ``p2p_m`` and ``cal_seconds`` ``cal_window_s``, their names before 0.2, for one
+        release.
     """
     sa, sg = cfg.bias_sigmas()
     length, speed, duration = cfg.motion()
     return {"sensor": cfg.spec.name, "duration_s": duration, "rate_hz": cfg.rate_hz, "length_m": length,
-            "speed_mps": speed, "ins_path": cfg.ins_path, "period_m": cfg.period_m, "amplitude_m": cfg.amplitude_m, "calibration": cfg.calibration,
-            "cal_seconds": cfg.cal_seconds, "accel_bias_sigma_mps2": sa, "gyro_bias_sigma_radps": sg,
+            "speed_mps": speed, "ins_path": cfg.ins_path, "p2p_m": cfg.p2p_m, "period_m": cfg.p2p_m, "amplitude_m": cfg.amplitude_m, "calibration": cfg.calibration,
+            "cal_window_s": cfg.cal_window_s, "cal_seconds": cfg.cal_window_s, "accel_bias_sigma_mps2": sa, "gyro_bias_sigma_radps": sg,
             "accel_noise_sigma_mps2": cfg.spec.accel_noise * math.sqrt(cfg.rate_hz),
             "gyro_noise_sigma_radps": cfg.spec.gyro_noise * math.sqrt(cfg.rate_hz),
             "gains": [{"label": g.label, "mean": g.mean, "std": g.std} for g in cfg.gains]}
@@ -197,7 +200,7 @@ class PageCost:
     ----------
     runs : int
         Monte Carlo runs.
-    duration : float
+    duration_s : float
         Time of one run [s].
     samples : int
         Samples of one run.
@@ -210,14 +213,19 @@ class PageCost:
     """
 
     runs: int
-    duration: float
+    duration_s: float
     samples: int
     steps: int
     seconds: float
     bytes: float
 
 
-def page_cost(runs: int, *, duration: float | None = None, speed_mps: float | None = None, chunk: int | None = None,
+PageCost.__init__ = renamed_keywords(duration="duration_s")(PageCost.__init__)
+PageCost.duration = renamed_attribute("PageCost", "duration", "duration_s")
+
+
+@renamed_keywords(duration="duration_s")
+def page_cost(runs: int, *, duration_s: float | None = None, speed_mps: float | None = None, chunk: int | None = None,
               field: bool = False) -> PageCost:
     """Estimate the time and memory of ``morpi montecarlo`` before running it.
 
@@ -231,7 +239,7 @@ def page_cost(runs: int, *, duration: float | None = None, speed_mps: float | No
     ----------
     runs : int
         Monte Carlo runs (>= 1).
-    duration, speed_mps : float, optional
+    duration_s, speed_mps : float, optional
         The path's shape, as in :func:`gain_error_page`.
     chunk : int, optional
         Runs per batch (default: as many as fit a 32 MiB noise block); a larger one takes more memory.
@@ -251,16 +259,16 @@ def page_cost(runs: int, *, duration: float | None = None, speed_mps: float | No
     --------
     The cost grows with the runs and, faster than linearly, with their duration:
 
-    >>> short, long = page_cost(100_000), page_cost(100_000, duration=60.0)
+    >>> short, long = page_cost(100_000), page_cost(100_000, duration_s=60.0)
     >>> short.samples, long.samples, bool(long.seconds > 4 * short.seconds > 0)
     (1501, 6001, True)
     """
     check_runs(runs, 0, chunk)
-    cfg = StudyConfig(duration=duration, speed_mps=speed_mps)
+    cfg = StudyConfig(duration_s=duration_s, speed_mps=speed_mps)
     cfg.validate()
     length, _, T = cfg.motion()
     n = sample_count(T, cfg.rate_hz)
-    k = max(1, math.ceil(length / cfg.period_m) - 1)
+    k = max(1, math.ceil(length / cfg.p2p_m) - 1)
     terms = (1.0, float(n), float(n) * n, float(k))
     seconds = runs * sum(c * t for c, t in zip(RUN_SECONDS, (float(n), float(n) * n, float(k) * n)))
     seconds += sum(c * t for c, t in zip(FIXED_SECONDS, terms))
@@ -270,7 +278,7 @@ def page_cost(runs: int, *, duration: float | None = None, speed_mps: float | No
         nbytes += (min(chunk, runs) - default) * n * CHUNK_SAMPLE_BYTES
     if field:
         seconds, nbytes = seconds + FIELD_SECONDS, nbytes + FIELD_BYTES
-    return PageCost(runs=int(runs), duration=T, samples=n, steps=k, seconds=seconds, bytes=nbytes)
+    return PageCost(runs=int(runs), duration_s=T, samples=n, steps=k, seconds=seconds, bytes=nbytes)
 
 
 @dataclass(frozen=True)
@@ -312,8 +320,9 @@ class GainErrorPage:
     synthetic: bool = False
 
 
-def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, source=None, tables=None,
-                    duration: float | None = None, speed_mps: float | None = None) -> GainErrorPage:
+@renamed_keywords(source="data_source", duration="duration_s")
+def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, data_source=None, tables=None,
+                    duration_s: float | None = None, speed_mps: float | None = None) -> GainErrorPage:
     """Compute the gain-error Monte Carlo section.
 
     Two studies with the same seed: the primary one after a zero-order
@@ -323,8 +332,8 @@ def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, source=
     gains (from the dataset when the field gain training is available,
     otherwise an assumed value, stated on the page). Then the gain-training
     study over k training runs. `tables` (an ``evaluate.TablesResult`` of
-    ``source.root``) gives the trained gains when already computed;
-    `duration` and `speed_mps` shape the sine path as in :class:`StudyConfig`.
+    ``data_source.root``) gives the trained gains when already computed;
+    `duration_s` and `speed_mps` shape the sine path as in :class:`StudyConfig`.
 
     Parameters
     ----------
@@ -334,12 +343,12 @@ def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, source=
         Study seed, as in :func:`run_study`.
     chunk, scheduler
         As in :func:`run_study`.
-    source : results.DataSource, optional
+    data_source : results.DataSource, optional
         The dataset whose per-run training gains give the spread scenario
         (None: the assumed spread and mismatch).
     tables : evaluate.TablesResult, optional
-        Already computed tables of ``source.root``.
-    duration : float, optional
+        Already computed tables of ``data_source.root``.
+    duration_s : float, optional
         Motion time [s].
     speed_mps : float, optional
         Cruise speed [m/s].
@@ -363,13 +372,13 @@ def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, source=
     """
     seed = study_seed(seed)
     check_runs(runs, seed, chunk)
-    spread, mismatch, spread_note = _field_gain_spread(source, tables)
+    spread, mismatch, spread_note = _field_gain_spread(data_source, tables)
     assumed = spread is None
     if assumed:
         spread, mismatch = ASSUMED_SPREAD, ASSUMED_MISMATCH
     gains = (GainError("dG = 5 %", 0.05), GainError("dG = 10 %", 0.10),
              GainError("training spread", mismatch, spread))
-    cal = StudyConfig(gains=gains, calibration="GAC", duration=duration, speed_mps=speed_mps)
+    cal = StudyConfig(gains=gains, calibration="GAC", duration_s=duration_s, speed_mps=speed_mps)
     cal.validate()
     raw = replace(cal, calibration="RD")
     # one pass over the random numbers: every study of the page is a set of columns of the same draws
@@ -381,7 +390,7 @@ def gain_error_page(*, runs: int, seed: int, chunk=None, scheduler=None, source=
     tr = training_summary(TRAINING_KS, tres, mismatch=mismatch, spread=spread)
     return GainErrorPage(runs=runs, seed=seed, calibrated=r, raw=rr, training=tr, checks=distance_law_check(r),
                          spread=spread, mismatch=mismatch, spread_note=spread_note, assumed=assumed,
-                         synthetic=bool(getattr(source, "synthetic", False)))
+                         synthetic=bool(getattr(data_source, "synthetic", False)))
 
 
 def _loglog_slope(x, y):

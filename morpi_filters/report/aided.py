@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..deprecation import renamed_keywords
 from ..outputs import write_json, write_text
 from ..results import SectionSummary
 from . import plots
@@ -578,7 +579,8 @@ def _page(study, source, figures) -> str:
         + "".join(f"\n![{f}]({f})\n" for f in figures))
 
 
-def report_aided(out, study, source=None) -> SectionSummary:
+@renamed_keywords(source="data_source")
+def report_aided(out, study, data_source=None) -> SectionSummary:
     """Write the aided section (README.md, result.json, figures) into `out`.
 
     Parameters
@@ -587,7 +589,7 @@ def report_aided(out, study, source=None) -> SectionSummary:
         Section folder.
     study : field_aided.AidedStudy
         What :func:`morpi_filters.field_aided.aided_study` computed.
-    source : results.DataSource, optional
+    data_source : results.DataSource, optional
         The recordings of the study (for the synthetic-data banner).
 
     Returns
@@ -611,7 +613,7 @@ def report_aided(out, study, source=None) -> SectionSummary:
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / "result.json", study_json(study))
     figures = _figures(study, out)
-    write_text(out / "README.md", _page(study, source, figures))
+    write_text(out / "README.md", _page(study, data_source, figures))
     sig = study.significance or {}
     summary = (f"The MoRPI-aided filter (smoothed) against MoRPI alone on the GC cells, run by run: better in "
                f"{sig.get('wins_uncorrected', '-')} of {sig.get('cells', 0)} at 5 %, "
@@ -619,4 +621,4 @@ def report_aided(out, study, source=None) -> SectionSummary:
                f"{sig.get('vs_steps_alone', {}).get('wins_corrected', '-')} after Holm; 95 % ellipse coverage "
                f"{fmt(study.coverage_95 * 100)} % (smoothed, each GC run and method once).")
     return SectionSummary(name="aided", title="The MoRPI-aided inertial filter", page="README.md",
-                          figures=tuple(figures), summary=summary, synthetic=bool(source is not None and source.synthetic))
+                          figures=tuple(figures), summary=summary, synthetic=bool(data_source is not None and data_source.synthetic))

@@ -6,7 +6,9 @@ from pathlib import Path
 import numpy as np
 
 from ..assessment import PAPER_IMPROVEMENTS, AssessmentStudy
+from ..deprecation import with_aliases
 from ..outputs import write_json, write_text
+from ..params import RENAMED_KEYS
 from ..results import SectionSummary
 from . import plots
 from .common import fmt, md_table, save_figure
@@ -111,8 +113,9 @@ def report_assessment(out, study: AssessmentStudy) -> SectionSummary:
         "convention": curves.convention,
         "keep_bgz": False,
         "e3d_bgz_m": curves.e3d_bgz, "e2d_bgz_m": curves.e2d_bgz,
-        "params": {"source": shown, "dv0_mps": params.dv0, "ba_mps2": params.ba, "bg_radps": params.bg,
-                   "g_mps2": params.g, "dG": list(params.dG), "morpi_speed_mps": params.morpi_speed_mps},
+        "params": with_aliases({"source": shown, "dv0_mps": params.dv0, "accel_bias_mps2": params.ba,
+                                "gyro_bias_radps": params.bg, "g_mps2": params.g, "dG": list(params.dG),
+                                "morpi_speed_mps": params.morpi_speed_mps}, RENAMED_KEYS),
         "improvements": [{"ins": n.ins, "dG": n.dG, "t_ins_s": n.t_ins, "t_morpi_s": n.t_morpi,
                           "paper_m": n.paper_m, "ours_m": float(o)} for n, o in zip(PAPER_IMPROVEMENTS, ours)],
         "audit": [{"equation": lab, "monomial": tc.monomial, "printed": tc.printed,

@@ -7,6 +7,7 @@ import gc
 import math
 from pathlib import Path
 
+from ..deprecation import renamed_keywords
 from ..outputs import atomic_path
 
 __all__ = ["SYNTHETIC_BANNER", "banner", "fmt", "md_table", "save_figure", "collector_paused"]
@@ -15,23 +16,24 @@ __all__ = ["SYNTHETIC_BANNER", "banner", "fmt", "md_table", "save_figure", "coll
 SYNTHETIC_BANNER = (
     "> **Synthetic data.** No field dataset was configured, so this page was computed on a seeded "
     "synthetic dataset made by `morpi simulate` with the paper's two IMU specifications. "
-    "To run it on the MoRPI field recordings: `morpi data fetch --dest DIR` (or clone the public "
+    "To run it on the MoRPI field recordings: `morpi data fetch --out DIR` (or clone the public "
     "repository ansfl/MoRPI), then `morpi report --data DIR/data` or set `MORPI_DATA`."
 )
 
 
-def banner(source) -> str:
-    """The synthetic-data notice for a page on `source` (a ``results.DataSource`` or None), else ``""``.
+@renamed_keywords(source="data_source")
+def banner(data_source) -> str:
+    """The synthetic-data notice for a page on `data_source` (a ``results.DataSource`` or None), else ``""``.
 
     Parameters
     ----------
-    source : results.DataSource or None
+    data_source : results.DataSource or None
         Where the page's recordings come from.
 
     Returns
     -------
     str
-        :data:`SYNTHETIC_BANNER` and a blank line when ``source.synthetic``,
+        :data:`SYNTHETIC_BANNER` and a blank line when ``data_source.synthetic``,
         else the empty string.
 
     Examples
@@ -45,7 +47,7 @@ def banner(source) -> str:
     >>> text.rstrip() == SYNTHETIC_BANNER
     True
     """
-    return SYNTHETIC_BANNER + "\n\n" if source is not None and source.synthetic else ""
+    return SYNTHETIC_BANNER + "\n\n" if data_source is not None and data_source.synthetic else ""
 
 
 def fmt(x, digits: int = 2) -> str:

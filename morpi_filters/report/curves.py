@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 
 from ..curves import CURVE_METHODS, MC_RUNS, NL_MAX_T, NL_RUNS, STEP_LENGTH_M, CurvesStudy
+from ..deprecation import renamed_keywords, with_aliases
 from ..outputs import write_json, write_text
 from ..results import SectionSummary
 from . import plots
@@ -19,7 +20,8 @@ AIDED_NOTE = ("The MoRPI-aided filter on the field recordings (forward and smoot
               "[../aided/README.md](../aided/README.md), `morpi aided`.")
 
 
-def report_curves(out, study: CurvesStudy, source=None) -> SectionSummary:
+@renamed_keywords(source="data_source")
+def report_curves(out, study: CurvesStudy, data_source=None) -> SectionSummary:
     """Write the ``curves`` section (README.md, result.json, PNGs) into `out`.
 
     Parameters
@@ -28,7 +30,7 @@ def report_curves(out, study: CurvesStudy, source=None) -> SectionSummary:
         Staging folder to write into.
     study : curves.CurvesStudy
         What :func:`morpi_filters.curves.curves_study` computed.
-    source : results.DataSource or None
+    data_source : results.DataSource or None
         The recordings of the study (for the synthetic-data banner).
 
     Returns
@@ -69,14 +71,14 @@ def report_curves(out, study: CurvesStudy, source=None) -> SectionSummary:
         "params_file": params.label,
         "step_length_m": STEP_LENGTH_M,
         "mc_runs": MC_RUNS,
-        "mc_seed": study.seed,
+        "seed": study.seed,
         "nonlinear_mc_runs": NL_RUNS,
         "cases": per_case,
         "field": {"note": field_note, "points_duration_s_error_m": field_pts},
         "field_aided": {"note": AIDED_NOTE, "section": "aided"},
     }
-    write_json(out / "result.json", result)
-    banner_md = banner(source)
+    write_json(out / "result.json", with_aliases(result, {"mc_seed": "seed"}))
+    banner_md = banner(data_source)
     cases = [cc.case for cc in study.cases]
     head = ["case", "t [s]", "3D sigma", "3D closed RMS", "3D MC RMS", "3D strapdown MC", "2D sigma", "2D closed RMS",
             "2D MC RMS", "2D strapdown MC", "MoRPI sigma", "MoRPI-A closed RMS", "MoRPI-aided MC RMS"]
@@ -94,7 +96,7 @@ def report_curves(out, study: CurvesStudy, source=None) -> SectionSummary:
         f"no longer holds (large tilt from the gyro bias).\n\n"
         f"At the last requested time:\n\n" + md_table(head, rows) + "\n"
         + "".join(f"![{c.title}]({png})\n\n" for c, png in zip(cases, figures))
-        + f"{'Synthetic' if source is not None and source.synthetic else 'Field'} recordings: {field_note}.\n\n"
+        + f"{'Synthetic' if data_source is not None and data_source.synthetic else 'Field'} recordings: {field_note}.\n\n"
         + (md_table(["case", "method", "runs", "mean duration [s]", "mean end error [m]", "RMS end error [m]",
                      "filter 1 sigma at the mean duration [m]"], field_rows) if field_rows else "")
         + "\n## MoRPI-aided INS on the field recordings\n\n" + AIDED_NOTE + "\n"
@@ -105,4 +107,4 @@ def report_curves(out, study: CurvesStudy, source=None) -> SectionSummary:
                f"2D {fmt(main['sigma_m']['INS-2D'][-1])} m, MoRPI-aided {fmt(main['sigma_m']['MoRPI-aided INS'][-1])} "
                "m (1 sigma).")
     return SectionSummary(name="curves", title="Covariance curves", page="README.md", figures=tuple(figures),
-                          summary=summary, synthetic=bool(source is not None and source.synthetic))
+                          summary=summary, synthetic=bool(data_source is not None and data_source.synthetic))

@@ -9,7 +9,8 @@ from itertools import chain
 from pathlib import Path
 from urllib.parse import quote
 
-from ..dataset_eval import ABLATION_METRICS, AIDED, CALIBRATIONS, ESTIMATES, METHODS, METRICS, DatasetEvaluation
+from ..dataset_eval import (ABLATION_METRICS, AIDED, CALIBRATIONS, ESTIMATES, METHODS, METRICS, DatasetEvaluation,
+                            is_aided)
 from ..outputs import write_json, write_text
 from ..parallel import available_cores
 from ..results import SectionSummary
@@ -46,7 +47,8 @@ def track_file_name(rec_id: str, method: str, calibration: str, estimate: str | 
     return f"tracks/{safe}/{method}_{calibration}{'' if estimate is None else '_' + estimate}.csv"
 
 
-def ablation_file_name(rec_id: str, calibration: str, removed: str, estimate: str, which: str) -> str:
+def ablation_file_name(rec_id: str, calibration: str, removed: str, estimate: str, which: str,
+                       method: str = AIDED) -> str:
     """Where a filter of the aided filter's ablation is written when no other track file holds it.
 
     Parameters
@@ -59,11 +61,16 @@ def ablation_file_name(rec_id: str, calibration: str, removed: str, estimate: st
         The read-out, ``"forward"`` or ``"smoothed"``.
     which : str
         ``"full"`` or ``"ablated"``.
+    method : str
+        The aided filter's method name; one other than
+        :data:`~morpi_filters.dataset_eval.AIDED` (a filter per MoRPI
+        method) starts the file name.
 
     Returns
     -------
     str
-        ``tracks/<id>/ablation/<calibration>_<removed>_<estimate>_<which>.csv``.
+        ``tracks/<id>/ablation/<calibration>_<removed>_<estimate>_<which>.csv``
+        (``<method>_<calibration>...`` for a filter per MoRPI method).
 
     Examples
     --------
@@ -71,7 +78,8 @@ def ablation_file_name(rec_id: str, calibration: str, removed: str, estimate: st
     'tracks/run_1/ablation/GC_rest_updates_smoothed_ablated.csv'
     """
     folder = track_file_name(rec_id, "x", "x").rsplit("/", 1)[0]
-    name = re.sub(r"[^A-Za-z0-9._-]", "_", f"{calibration}_{removed}_{estimate}_{which}")
+    head = "" if method == AIDED else f"{method}_"
+    name = re.sub(r"[^A-Za-z0-9._-]", "_", f"{head}{calibration}_{removed}_{estimate}_{which}")
     return f"{folder}/ablation/{name}.csv"
 
 
@@ -174,13 +182,14 @@ def _ablation_section(result: DatasetEvaluation, group: str) -> list:
         return []
     names = {"end_error_percent": "end error [%]", "path_rmse_m": "path RMSE [m]",
              "cross_track_rmse_m": "cross-track RMSE [m]"}
-    heads = ["calibration", "removed", "used", "start", "n"] + [
+    each = any(r["method"] != AIDED for r in rows)
+    heads = ["method"] * each + ["calibration", "removed", "used", "start", "n"] + [
         f"{names[m]}, {e}: full -> without" for m in ABLATION_METRICS for e in ("smoothed", "forward")]
     table = []
-    for key in dict.fromkeys((r["calibration"], r["removed"]) for r in rows):
-        by = {r["estimate"]: r for r in rows if (r["calibration"], r["removed"]) == key}
+    for key in dict.fromkeys((r["method"], r["calibration"], r["removed"]) for r in rows):
+        by = {r["estimate"]: r for r in rows if (r["method"], r["calibration"], r["removed"]) == key}
         first = by.get("smoothed") or by["forward"]
-        table.append([*key, "yes" if first["used"] else "no (exactly 0)", first["start"], first["n"],
+        table.append([*key[1 - each:], "yes" if first["used"] else "no (exactly 0)", first["start"], first["n"],
                       *(_change(by[e]["full"][m], by[e]["ablated"][m]) if e in by else "-"
                         for m in ABLATION_METRICS for e in ("smoothed", "forward"))])
     return [f"### {AIDED} ablation, group {group}", "",
@@ -245,9 +254,9 @@ def report_dataset_evaluation(out, result: DatasetEvaluation, workers: int | Non
     for a in result.ablation_runs:
         for which, p in (("full", a.full), ("ablated", a.ablated)):
             if id(p) not in written:
-                written[id(p)] = ablation_file_name(a.id, a.calibration, a.removed, a.estimate, which)
+                written[id(p)] = ablation_file_name(a.id, a.calibration, a.removed, a.estimate, which, a.method)
                 jobs.append((out / written[id(p)], p, written[id(p)].split("/")[1]))
-            files["ablation", a.id, a.calibration, a.removed, a.estimate, which] = written[id(p)]
+            files["ablation", a.id, a.method, a.calibration, a.removed, a.estimate, which] = written[id(p)]
     if workers is None:
         workers = available_cores()
     _write_tracks(jobs, workers, meanwhile=lambda: write_json(out / "result.json", result.to_json(files)))
@@ -275,16 +284,17 @@ def report_dataset_evaluation(out, result: DatasetEvaluation, workers: int | Non
               md_table(heads, [[_label(g["method"], g.get("estimate")), g["calibration"], g["n"],
                                 *(_metric(g[k]) for k in METRICS)] for g in rows]),
               *_ablation_section(result, group)]
-    aided_rows = [p for p in result.paths if p.method == AIDED]
+    aided_rows = [p for p in result.paths if is_aided(p.method)]
     if aided_rows:
         L += [f"## {AIDED}: consistency", "",
               "The forward filter's normalized innovation squared per measurement and degree of freedom, with its "
               "95 % chi-square band, and the share of the truth inside the 95 % horizontal ellipse (`coverage_95`: "
               "the truth track's samples, the forward or smoothed covariance as the row; a route: its end point). "
               "Tunables and the MoRPI steps the filter takes are chosen on the train recordings (below).", "",
-              md_table(["id", "split", "group", "calibration", "estimate", "coverage 95 %", "NIS per dof [band]"],
-                       [[p.id, p.split, p.group, p.calibration, p.estimate, _metric(p.coverage_95), _nis_cell(p.nis)]
-                        for p in aided_rows])]
+              md_table(["id", "split", "group", "method", "calibration", "estimate", "coverage 95 %",
+                        "NIS per dof [band]"],
+                       [[p.id, p.split, p.group, p.method, p.calibration, p.estimate, _metric(p.coverage_95),
+                         _nis_cell(p.nis)] for p in aided_rows])]
     L += ["## Every recording", "",
           md_table(["id", "split", "group", "method", "calibration", *heads[3:], "track"],
                    [[p.id, p.split, p.group, _label(p.method, p.estimate), p.calibration,

@@ -1,20 +1,22 @@
 """The report's front page (``index.md``): every section's title, summary and figures."""
 from __future__ import annotations
 
+from ..deprecation import renamed_keywords
 from ..fetch import dataset_identity
 from .common import SYNTHETIC_BANNER
 
 __all__ = ["index_page"]
 
 
-def index_page(summaries, source) -> str:
+@renamed_keywords(source="data_source")
+def index_page(summaries, data_source) -> str:
     """The markdown of ``index.md``.
 
     Parameters
     ----------
     summaries : sequence of results.SectionSummary
         One per section, in the report's order.
-    source : results.DataSource or None
+    data_source : results.DataSource or None
         The dataset the report was computed on.
 
     Returns
@@ -46,10 +48,10 @@ def index_page(summaries, source) -> str:
     <BLANKLINE>
     """
     lines = ["# morpi_filters report", ""]
-    if source is not None and source.synthetic:
+    if data_source is not None and data_source.synthetic:
         lines += [SYNTHETIC_BANNER, ""]
-    elif source is not None and source.root is not None:
-        lines += [f"Dataset: {dataset_identity(source.root, seed=source.seed).text}.", ""]
+    elif data_source is not None and data_source.root is not None:
+        lines += [f"Dataset: {dataset_identity(data_source.root, seed=data_source.seed).text}.", ""]
     for s in summaries:
         lines += [f"## [{s.title}]({s.name}/{s.page})", ""]
         if s.synthetic:

@@ -5,6 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..deprecation import renamed_keywords, with_aliases
 from ..montecarlo import DIGEST_BITS, Z99, DriftPage, GainErrorPage, study_config_json, final_statistics, summarize
 from ..outputs import write_json, write_text
 from ..results import SectionSummary
@@ -15,7 +16,8 @@ from .common import collector_paused, banner, fmt, md_table, save_figure
 __all__ = ["report_montecarlo", "report_drift"]
 
 
-def report_montecarlo(out, study: GainErrorPage, source=None) -> SectionSummary:
+@renamed_keywords(source="data_source")
+def report_montecarlo(out, study: GainErrorPage, data_source=None) -> SectionSummary:
     """Write the gain-error Monte Carlo section (README.md, result.json, PNGs) into folder `out`.
 
     Parameters
@@ -24,7 +26,7 @@ def report_montecarlo(out, study: GainErrorPage, source=None) -> SectionSummary:
         Staging folder of the section.
     study : montecarlo.GainErrorPage
         What :func:`morpi_filters.montecarlo.gain_error_page` computed.
-    source : results.DataSource or None
+    data_source : results.DataSource or None
         The dataset of the trained gains (for the synthetic-data banner).
 
     Returns
@@ -43,7 +45,7 @@ def report_montecarlo(out, study: GainErrorPage, source=None) -> SectionSummary:
     figs = []
     with collector_paused():
         figs.append(save_figure(plots.montecarlo_final_errors(
-            r.columns, r.final, title=f"{cal.spec.name}, {cal.duration:g} s, {runs} runs, GAC-calibrated biases"),
+            r.columns, r.final, title=f"{cal.spec.name}, {cal.duration_s:g} s, {runs} runs, GAC-calibrated biases"),
             out / "final_errors.png").name)
         figs.append(save_figure(plots.montecarlo_error_curves(
             r.time, r.bands, ["INS-3D", "INS-2D", "MoRPI-A (dG 5 %)", "MoRPI-G (dG 5 %)"],
@@ -68,20 +70,21 @@ def report_montecarlo(out, study: GainErrorPage, source=None) -> SectionSummary:
                       for c in checks],
         "confidence": {"z": Z99, "bound": "mean +/- z * std / sqrt(runs)"},
         "raw_biases": {"digest": rr.digest, "config": study_config_json(raw), **final_statistics(rr)},
-        "training_runs": {"k": tr.k, "mismatch": tr.mismatch, "spread": tr.spread, "assumed": assumed,
-                          "source": spread_note if not assumed else f"assumed ({spread_note})",
-                          "rms_distance": {"MoRPI-A": tr.rms_distance[:, 0], "MoRPI-G": tr.rms_distance[:, 1]},
-                          "rms_expected": tr.rms_expected, "digests": list(tr.digests)},
+        "training_runs": with_aliases({
+            "k": tr.k, "mismatch": tr.mismatch, "spread": tr.spread, "assumed": assumed,
+            "spread_basis": spread_note if not assumed else f"assumed ({spread_note})",
+            "rms_distance": {"MoRPI-A": tr.rms_distance[:, 0], "MoRPI-G": tr.rms_distance[:, 1]},
+            "rms_expected": tr.rms_expected, "digests": list(tr.digests)}, {"source": "spread_basis"}),
         "backends": r.backends,
     }
     write_json(out / "result.json", result)
 
     synthetic = study.synthetic
-    lines = [banner(source) + "# Monte Carlo gain-error study\n"]
+    lines = [banner(data_source) + "# Monte Carlo gain-error study\n"]
     lines.append(
-        f"{runs} seeded runs (seed {seed}) of {cal.spec.name} errors over {cal.duration:g} s at "
+        f"{runs} seeded runs (seed {seed}) of {cal.spec.name} errors over {cal.duration_s:g} s at "
         f"{cal.rate_hz:g} Hz. The robot drives a sine path of {cal.length_m:g} m (simulate.sine: period "
-        f"{cal.period_m:g} m, amplitude {cal.amplitude_m:g} m, tapered over the first and last period; "
+        f"{cal.p2p_m:g} m, amplitude {cal.amplitude_m:g} m, tapered over the first and last period; "
         f"1 s ramps from and to rest, cruise at {cal.speed_mps:.3g} m/s). "
         + ("INS-3D and INS-2D navigate that same path; " if cal.ins_path == "sine" else
            f"INS-3D and INS-2D drive a straight line of the same length and speed; ")
@@ -94,7 +97,7 @@ def report_montecarlo(out, study: GainErrorPage, source=None) -> SectionSummary:
     lines.append(
         f"Biases: *raw* uses the datasheet turn-on biases ({cal.spec.accel_bias:.3g} m/s^2, "
         f"{cal.spec.gyro_bias:.3g} rad/s, 1 sigma per axis); *GAC-calibrated* assumes the paper's zero-order "
-        f"gyro and accelerometer calibration on {cal.cal_seconds:g} s of rest, which leaves the mean of the white "
+        f"gyro and accelerometer calibration on {cal.cal_window_s:g} s of rest, which leaves the mean of the white "
         f"noise over that window ({ca:.3g} m/s^2, {cg:.3g} rad/s). The MoRPI position starts at the first f_y "
         "peak (known there) and moves at each later peak; its heading is the true heading plus the integrated "
         "gyro-z error.\n")
@@ -139,7 +142,7 @@ def report_montecarlo(out, study: GainErrorPage, source=None) -> SectionSummary:
     write_text(out / "README.md", "\n".join(lines))
 
     st = final_statistics(r)
-    summary = (f"{runs} runs, {cal.spec.name}, {cal.duration:g} s (GAC-calibrated): mean final error INS-3D "
+    summary = (f"{runs} runs, {cal.spec.name}, {cal.duration_s:g} s (GAC-calibrated): mean final error INS-3D "
                f"{fmt(st['INS-3D']['mean'])} m, INS-2D {fmt(st['INS-2D']['mean'])} m, MoRPI-A (dG 5 %) "
                f"{fmt(st['MoRPI-A']['mean'])} m, MoRPI-G {fmt(st['MoRPI-G']['mean'])} m. "
                f"MoRPI distance error vs ds = dG D: "

@@ -8,6 +8,7 @@ import numpy as np
 from ..evaluate import (
     INS_METHODS, DEVIATION_PP, TABLES, Cell, TablesStudy, rule_json,
 )
+from ..deprecation import renamed_keywords, with_aliases
 from ..fetch import dataset_identity
 from ..field import MORPI_METHODS
 from ..outputs import write_json, write_text
@@ -18,7 +19,8 @@ from .common import collector_paused, banner, fmt, md_table, save_figure
 __all__ = ["report_tables", "result_json", "TRAIN_SE_BAND"]
 
 
-def report_tables(out, study: TablesStudy, source) -> SectionSummary:
+@renamed_keywords(source="data_source")
+def report_tables(out, study: TablesStudy, data_source) -> SectionSummary:
     """Write the tables section: README.md, result.json and figures in `out`.
 
     Parameters
@@ -26,8 +28,8 @@ def report_tables(out, study: TablesStudy, source) -> SectionSummary:
     out : path
         Section folder (a staging folder from the CLI).
     study : evaluate.TablesStudy
-        What :func:`morpi_filters.evaluate.tables_study` computed on ``source.root``.
-    source : results.DataSource
+        What :func:`morpi_filters.evaluate.tables_study` computed on ``data_source.root``.
+    data_source : results.DataSource
         The dataset root; when synthetic, every page starts with its banner.
 
     Returns
@@ -39,19 +41,19 @@ def report_tables(out, study: TablesStudy, source) -> SectionSummary:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     res, left_out = study.result, list(study.left_out)
-    payload = result_json(study, source)
+    payload = result_json(study, data_source)
     payload["partial"] = study.partial
     payload["left_out"] = left_out
     payload["no_rest"] = list(study.no_rest)
     figures = _figures(study, out)
     write_json(out / "result.json", payload)
-    page = _page(study, payload, source, figures)
+    page = _page(study, payload, data_source, figures)
     write_text(out / "README.md", page)
     n_ok = sum(1 for c in res.cells if c.runs)
     gc6 = [c for c in res.cells if c.spec.table == "short_route" and c.spec.calibration == "GC" and c.runs]
     within = sum(1 for c in gc6 if abs(c.deviation_pp) <= DEVIATION_PP)
     summary = (f"{n_ok} of {len(res.cells)} table cells computed on "
-               f"{'synthetic data' if source.synthetic else 'the field recordings'}; "
+               f"{'synthetic data' if data_source.synthetic else 'the field recordings'}; "
                f"{within} of {len(gc6)} short-route GC MoRPI cells within {DEVIATION_PP} pp of the paper.")
     if res.missing:
         summary += f" Missing folders: {', '.join(res.missing)}."
@@ -60,7 +62,7 @@ def report_tables(out, study: TablesStudy, source) -> SectionSummary:
     if study.no_rest:
         summary += f" {len(study.no_rest)} recording(s) without an initial rest: RD only (see the page)."
     return SectionSummary(name="tables", title="The paper's tables on the recordings", page="README.md",
-                          figures=tuple(figures), summary=summary, synthetic=bool(source.synthetic))
+                          figures=tuple(figures), summary=summary, synthetic=bool(data_source.synthetic))
 
 
 def _figures(study: TablesStudy, out: Path) -> list[str]:
@@ -466,7 +468,8 @@ def _cell_json(c: Cell) -> dict:
     }
 
 
-def result_json(study: TablesStudy, source=None) -> dict:
+@renamed_keywords(source="data_source")
+def result_json(study: TablesStudy, data_source=None) -> dict:
     """The section's JSON contract (cells, gains, selection, comparison, alternatives), read from `study`.
 
     Needs a :class:`morpi_filters.evaluate.TablesStudy` of a dataset, so there is no example.
@@ -475,7 +478,7 @@ def result_json(study: TablesStudy, source=None) -> dict:
     ----------
     study : evaluate.TablesStudy
         What :func:`morpi_filters.evaluate.tables_study` computed.
-    source : results.DataSource, optional
+    data_source : results.DataSource, optional
         The dataset (its root and whether it is synthetic).
 
     Returns
@@ -483,7 +486,7 @@ def result_json(study: TablesStudy, source=None) -> dict:
     dict
         ``dataset`` (what the recordings are, never where they lie:
         :meth:`morpi_filters.fetch.DatasetIdentity.as_json`; None without a
-        source), ``synthetic``, ``missing_folders``, ``cells``,
+        data_source), ``synthetic``, ``missing_folders``, ``cells``,
         ``gains`` (per training set: ``train_set``, ``phone``, ``route``,
         ``method``, ``calibration``, ``mean``, ``std``, ``per_run``, ``files``,
         ``skipped``, ``unit``), ``step_rule``, ``comparison``, ``readings``,
@@ -493,9 +496,9 @@ def result_json(study: TablesStudy, source=None) -> dict:
     """
     result = study.result
     return {
-        "dataset": None if source is None or source.root is None else dataset_identity(
-            source.root, synthetic=source.synthetic, seed=source.seed).as_json(),
-        "synthetic": bool(source.synthetic) if source is not None else False,
+        "dataset": None if data_source is None or data_source.root is None else dataset_identity(
+            data_source.root, synthetic=data_source.synthetic, seed=data_source.seed).as_json(),
+        "synthetic": bool(data_source.synthetic) if data_source is not None else False,
         "missing_folders": list(result.missing),
         "cells": [_cell_json(c) for c in result.cells],
         "gains": [{"train_set": f"{g.phone}/{g.route}/train", "phone": g.phone, "route": g.route,
@@ -510,7 +513,7 @@ def result_json(study: TablesStudy, source=None) -> dict:
         "readings": list(result.readings),
         "ins_full_span": study.ins_full_span,
         "other_rule": study.other_rule,
-        "step_rule_nested": study.nested,
+        "step_rule_nested": _nested_json(study.nested),
         "rule_sensitivity": study.rule_sensitivity,
         "ins_leveled": study.ins_leveled,
         "claims": list(study.claims),
@@ -518,6 +521,19 @@ def result_json(study: TablesStudy, source=None) -> dict:
         "heading_readings": study.heading_readings,
         "turn_reading": study.turn_reading,
     }
+
+
+#: Keys of the nested check's folds renamed in 0.2 (old -> new); the old key follows the new one for one release.
+_FOLD_ALIASES = {"accel_floor": "accel_floor_mps2"}
+
+
+def _nested_json(nested):
+    """The nested train-only check as the JSON shows it: each fold's threshold keys with their units."""
+    if not isinstance(nested, dict) or not isinstance(nested.get("folds"), list):
+        return nested
+    folds = [with_aliases({_FOLD_ALIASES.get(k, k): v for k, v in f.items()}, _FOLD_ALIASES) if isinstance(f, dict)
+             else f for f in nested["folds"]]
+    return {**nested, "folds": folds}
 
 
 def _thresholds_json(result) -> dict | None:

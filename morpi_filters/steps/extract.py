@@ -65,7 +65,7 @@ def extract_steps(rec, method: str, config: StepConfig | None = None, *, rest_en
     Examples
     --------
     >>> from morpi_filters import simulate, units
-    >>> traj = simulate.sine(6.3, period=1.0, amplitude=0.1)
+    >>> traj = simulate.sine(6.3, p2p_m=1.0, amplitude_m=0.1)
     >>> rec = simulate.imu(traj, units.LSM6DSL, np.random.default_rng(0), bias_scale=(0.0, 0.0)).recording()
     >>> s = extract_steps(rec, "MoRPI-G")
     >>> s.start_time.shape == s.end_time.shape == s.weight.shape == s.heading.shape, bool(s.n > 2)
@@ -141,7 +141,7 @@ def step_sums(prepared: PreparedSignal, method: str, config: StepConfig, *, peak
     --------
     >>> from morpi_filters import simulate, units
     >>> from morpi_filters.steps import extract_steps, morpi_track
-    >>> traj = simulate.sine(6.3, period=1.0, amplitude=0.1)
+    >>> traj = simulate.sine(6.3, p2p_m=1.0, amplitude_m=0.1)
     >>> rec = simulate.imu(traj, units.LSM6DSL, np.random.default_rng(0), bias_scale=(0.0, 0.0)).recording()
     >>> cfg = DEFAULT_CONFIGS["MoRPI-G"]
     >>> w, ux, uy, _, n = step_sums(prepare_signal(rec, "MoRPI-G", cfg.cutoff_hz), "MoRPI-G", cfg)

@@ -435,7 +435,7 @@ def prepare_signal(rec, method: str, cutoff_hz: float | None, *, rest_end_time: 
     Examples
     --------
     >>> from morpi_filters import simulate, units
-    >>> traj = simulate.sine(6.3, period=1.0, amplitude=0.1)
+    >>> traj = simulate.sine(6.3, p2p_m=1.0, amplitude_m=0.1)
     >>> rec = simulate.imu(traj, units.LSM6DSL, np.random.default_rng(0), bias_scale=(0.0, 0.0)).recording()
     >>> p = prepare_signal(rec, "MoRPI-G", 1.0)
     >>> p.grid.shape == p.raw.shape == p.filtered.shape, p.heading.shape == rec.time.shape

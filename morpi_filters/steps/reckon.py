@@ -59,7 +59,7 @@ def train_gain(steps_list, distances):
     Examples
     --------
     >>> from morpi_filters import simulate, units
-    >>> traj = simulate.sine(6.3, period=1.0, amplitude=0.1)
+    >>> traj = simulate.sine(6.3, p2p_m=1.0, amplitude_m=0.1)
     >>> rec = simulate.imu(traj, units.LSM6DSL, np.random.default_rng(0), bias_scale=(0.0, 0.0)).recording()
     >>> from morpi_filters.steps import extract_steps
     >>> s = extract_steps(rec, "MoRPI-G")
@@ -130,7 +130,7 @@ def morpi_track(steps: Steps, gain: float) -> MorpiTrack:
     Examples
     --------
     >>> from morpi_filters import simulate, units
-    >>> traj = simulate.sine(6.3, period=1.0, amplitude=0.1)
+    >>> traj = simulate.sine(6.3, p2p_m=1.0, amplitude_m=0.1)
     >>> rec = simulate.imu(traj, units.LSM6DSL, np.random.default_rng(0), bias_scale=(0.0, 0.0)).recording()
     >>> from morpi_filters.steps import DEFAULT_CONFIGS, extract_steps
     >>> track = morpi_track(extract_steps(rec, "MoRPI-G", DEFAULT_CONFIGS["MoRPI-G"]), gain=1.0)
