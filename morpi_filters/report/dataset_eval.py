@@ -5,6 +5,7 @@ import os
 import re
 import signal
 import sys
+import threading
 from itertools import chain
 from pathlib import Path
 from urllib.parse import quote
@@ -115,8 +116,11 @@ def _write_tracks(jobs, workers: int, meanwhile=None) -> None:
     would not share it. A forked child writes the folders of about half the rows (a recording's tracks
     stay together, in their order: they share their time column's text) while this process calls `meanwhile`
     (if given, on one process too) and writes the others; a child that does not finish (killed, a failed
-    write) leaves its share to this process, which writes it again."""
-    if workers < 2 or len(jobs) < 2 or not sys.platform.startswith("linux") or not hasattr(os, "fork"):
+    write) leaves its share to this process, which writes it again. Only a process that runs no other thread
+    forks (the command's, once its thread pools are done); otherwise one process writes everything."""
+    # a fork while other threads run could copy a lock one of them holds: only from a single-threaded process
+    if (workers < 2 or len(jobs) < 2 or not sys.platform.startswith("linux") or not hasattr(os, "fork")
+            or threading.active_count() > 1):
         times = {}
         for path, p, _ in jobs:
             _write_track(path, p, times)
