@@ -283,3 +283,19 @@ def test_the_trained_pipeline_gives_each_recordings_rows_and_runs_its_aided_filt
 
     with pytest.raises(ParameterError, match="'no-such-run' is not an id of the dataset 'sines'"):
         pipe.estimates("no-such-run")
+
+
+def test_the_page_draws_each_groups_paths_and_errors_against_the_truth(noisy):
+    """The evaluation's page shows, after a group's means, its recordings' paths against the truth and, for
+    truth tracks, the error against time: PNG files the page links, one panel per recording the means read
+    (the group's test recordings here)."""
+    from PIL import Image
+
+    ds, result, out = noisy
+    page = (out / "README.md").read_text()
+    for kind in ("paths", "errors"):
+        f = out / "figures" / f"g_{kind}.png"
+        assert f.read_bytes()[1:4] == b"PNG" and f"](figures/g_{kind}.png)" in page
+        assert Image.open(f).size[0] > 400
+    tests = [dr.id for dr in ds.recordings if dr.split == "test"]
+    assert f"Paths against the truth ({len(tests)} of the {len(tests)} recording(s) the means read" in page

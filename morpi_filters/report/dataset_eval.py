@@ -172,6 +172,76 @@ def _write_tracks(jobs, workers: int, meanwhile=None) -> None:
             _write_track(path, p, times)
 
 
+#: Recordings drawn per group on the page: the first of those its means read.
+FIGURE_RECORDINGS = 6
+
+
+def _truth_line(truth):
+    """The truth's horizontal line [m]: a route's polyline (start to end point without one), a track's positions."""
+    import numpy as np
+
+    from ..manifest import RouteTruth
+
+    if isinstance(truth, RouteTruth):
+        line = truth.polyline_m if truth.polyline_m is not None else [[0.0, 0.0], truth.end_point_m]
+        return np.asarray(line, dtype=float)
+    return np.asarray(truth.position, dtype=float)[:, :2]
+
+
+def _shown(paths) -> list:
+    """The estimates a figure draws, one per method: under GC where the recording has it (else RD), the aided
+    filter smoothed."""
+    have = {p.calibration for p in paths}
+    cal = "GC" if "GC" in have else "RD"
+    return [p for p in paths if p.calibration == cal and p.estimate in (None, "smoothed")]
+
+
+def _group_figures(out: Path, result: DatasetEvaluation, group: str) -> list:
+    """The group's figures (paths against the truth; for truth tracks, the error against time) and their lines
+    on the page; none without the evaluation's dataset (:attr:`DatasetEvaluation.pipeline`)."""
+    import numpy as np
+
+    from ..manifest import TruthTrack
+    from . import plots
+    from .common import collector_paused, save_figure
+
+    if result.pipeline is None:
+        return []
+    dataset = result.pipeline.dataset
+    tested = any(p.group == group and p.split == "test" for p in result.paths)
+    read = [dr.id for dr in dataset.recordings if dr.group == group
+            and (dr.split == "test" if tested else dr.split != "train" or result.groups_over == "all")]
+    read = [i for i in read if any(p.id == i for p in result.paths)]
+    if not read:
+        return []
+    ids = read[:FIGURE_RECORDINGS]
+    paths_panels, error_panels = [], []
+    for rec_id in ids:
+        truth = dataset[rec_id].truth
+        shown = _shown([p for p in result.paths if p.id == rec_id])
+        paths_panels.append({"title": rec_id, "truth": _truth_line(truth),
+                             "paths": {f"{p.method} {p.calibration}": [p.xy] for p in shown}})
+        if isinstance(truth, TruthTrack):
+            error_panels.append({"title": rec_id, "curves": {
+                f"{p.method} {p.calibration}": (p.time, np.hypot(*(p.xy - truth.at(p.time)[:, :2]).T))
+                for p in shown}})
+    safe = re.sub(r"[^A-Za-z0-9._-]", "_", group)
+    lines = [f"Paths against the truth ({len(ids)} of the {len(read)} recording(s) the means read; each method "
+             "under GC where the recording has it, else RD, the aided filter smoothed; the axes show the truth "
+             "and half its extent around it):", "", f"![paths of group {group}](figures/{quote(safe)}_paths.png)", ""]
+    with collector_paused():
+        save_figure(plots.plot_path_sets(paths_panels, around_truth=0.5), out / "figures" / f"{safe}_paths.png",
+                    dpi=90)
+        if error_panels:
+            save_figure(plots.plot_error_sets(error_panels), out / "figures" / f"{safe}_errors.png", dpi=90)
+    if error_panels:
+        lines += ["Horizontal error against the truth track over time, the same estimates:", "",
+                  f"![errors of group {group}](figures/{quote(safe)}_errors.png)", ""]
+    else:
+        lines += ["A route's truth is its end point and line: there is no error over time to draw.", ""]
+    return lines
+
+
 def _change(full, ablated) -> str:
     """``full -> ablated (+difference)``, or ``-`` without values."""
     if full is None or ablated is None:
@@ -229,8 +299,11 @@ def report_dataset_evaluation(out, result: DatasetEvaluation, workers: int | Non
     the aided filter's ``tracks/<id>/MoRPI-aided INS_<calibration>_<estimate>.csv``
     add its horizontal covariance in that frame, ``p_xx,p_xy,p_yy`` [m^2]; the
     ablation's filters that no such file holds:
-    :func:`ablation_file_name`). Per group, after its means, the aided
-    filter's ablation table.
+    :func:`ablation_file_name`). Per group, after its means, its figures
+    (``figures/<group>_paths.png``: the paths against the truth of up to
+    :data:`FIGURE_RECORDINGS` recordings; ``figures/<group>_errors.png``: for
+    truth tracks, the error against time) and the aided filter's ablation
+    table.
 
     Parameters
     ----------
@@ -287,6 +360,7 @@ def report_dataset_evaluation(out, result: DatasetEvaluation, workers: int | Non
         L += [f"## Group {group}", "",
               md_table(heads, [[_label(g["method"], g.get("estimate")), g["calibration"], g["n"],
                                 *(_metric(g[k]) for k in METRICS)] for g in rows]),
+              *_group_figures(out, result, group),
               *_ablation_section(result, group)]
     aided_rows = [p for p in result.paths if is_aided(p.method)]
     if aided_rows:

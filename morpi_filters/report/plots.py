@@ -15,7 +15,7 @@ from __future__ import annotations
 import functools
 
 __all__ = [
-    "new_figure", "new_axes", "plot_recording", "plot_tracks", "plot_path_sets", "assessment_figure", "plot_curves",
+    "new_figure", "new_axes", "plot_recording", "plot_tracks", "plot_path_sets", "plot_error_sets", "assessment_figure", "plot_curves",
     "plot_aided_cells", "plot_aided_paths", "plot_aided_ellipses", "simulation_run", "montecarlo_final_errors", "montecarlo_error_curves",
     "montecarlo_gain_vs_error", "montecarlo_training_runs", "drift_disagreement_map",
 ]
@@ -401,7 +401,7 @@ def plot_tracks(tracks, truth, *, title="", equal=True, ax=None):
     return ax
 
 
-def plot_path_sets(panels, *, ncols=3):
+def plot_path_sets(panels, *, ncols=3, around_truth: float | None = None):
     """MoRPI paths of several test sets, one panel per set.
 
     Parameters
@@ -411,6 +411,9 @@ def plot_path_sets(panels, *, ncols=3):
         (one colour per label, one line per run).
     ncols : int
         Panels per row (at most).
+    around_truth : float, optional
+        Show each panel's truth and this fraction of its extent around it
+        (at least 1 m), whatever the paths reach; default: everything drawn.
 
     Returns
     -------
@@ -445,11 +448,59 @@ def plot_path_sets(panels, *, ncols=3):
                 ax.plot(p[:, 0], p[:, 1], color=color, lw=0.8, alpha=0.7, label=label if j == 0 else None)
                 ax.plot(p[-1, 0], p[-1, 1], ".", color=color, ms=5)
         ax.set_title(pnl["title"], fontsize=9)
-        ax.set_aspect("equal", adjustable="datalim")
+        if around_truth is not None:
+            lo, hi = tr.min(axis=0), tr.max(axis=0)
+            pad = np.maximum(around_truth * float(np.max(hi - lo)), 1.0)
+            ax.set_xlim(lo[0] - pad, hi[0] + pad)
+            ax.set_ylim(lo[1] - pad, hi[1] + pad)
+        ax.set_aspect("equal", adjustable="box" if around_truth is not None else "datalim")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
+    _fixed_layout(fig, list(axes.ravel()[:n]), nrows, ncols)
+    return fig
+
+
+def plot_error_sets(panels, *, ncols=3):
+    """Horizontal error against time, one panel per recording.
+
+    Parameters
+    ----------
+    panels : list of dict
+        Each with ``title`` and ``curves``: dict label -> (time [s], error [m]) arrays.
+    ncols : int
+        Panels per row (at most).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One visible Axes per panel; unused grid cells are switched off.
+
+    Examples
+    --------
+    >>> t = [0.0, 1.0, 2.0]
+    >>> fig = plot_error_sets([{"title": "run 1", "curves": {"INS-2D": (t, [0.0, 0.1, 0.4])}}])
+    >>> [ax.get_title() for ax in fig.axes], [ln.get_label() for ln in fig.axes[0].get_lines()]
+    (['run 1'], ['INS-2D'])
+    """
+    import numpy as np
+
+    n = max(1, len(panels))
+    ncols = min(ncols, n)
+    nrows = (n + ncols - 1) // ncols
+    fig = new_figure(figsize=(4.6 * ncols, 3.2 * nrows))
+    axes = fig.subplots(nrows, ncols, squeeze=False)
+    for ax in axes.ravel()[n:]:
+        ax.axis("off")
+    for ax, pnl in zip(axes.ravel(), panels):
+        for i, (label, (t, e)) in enumerate(pnl["curves"].items()):
+            ax.plot(np.asarray(t), np.asarray(e), color=f"C{i}", lw=1.0, label=label)
+        ax.set_title(pnl["title"], fontsize=9)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel("horizontal error [m]")
     _fixed_layout(fig, list(axes.ravel()[:n]), nrows, ncols)
     return fig
 
