@@ -110,14 +110,16 @@ def _write_track(path: Path, p, times: dict) -> None:
     path.write_text("\n".join(chain((head,), rows, ("",))))
 
 
-def _write_tracks(jobs, workers: int, meanwhile=None) -> None:
+def _write_tracks(jobs, workers: int, meanwhile=None, meanwhile_cost: float | None = None) -> None:
     """Write the tracks `jobs` (``(path, estimate, folder)``, :func:`_write_track`), with two workers or more
     on two processes where the system forks (Linux): formatting floats holds the interpreter, so a thread
     would not share it. A forked child writes the folders of about half the rows (a recording's tracks
     stay together, in their order: they share their time column's text) while this process calls `meanwhile`
     (if given, on one process too) and writes the others; a child that does not finish (killed, a failed
     write) leaves its share to this process, which writes it again. Only a process that runs no other thread
-    forks (the command's, once its thread pools are done); otherwise one process writes everything."""
+    forks (the command's, once its thread pools are done); otherwise one process writes everything.
+    `meanwhile_cost` is what `meanwhile` costs in the units of a track's cost (values formatted); default:
+    the JSON's, about a sixth of the tracks' on the field data."""
     # a fork while other threads run could copy a lock one of them holds: only from a single-threaded process
     if (workers < 2 or len(jobs) < 2 or not sys.platform.startswith("linux") or not hasattr(os, "fork")
             or threading.active_count() > 1):
@@ -131,9 +133,10 @@ def _write_tracks(jobs, workers: int, meanwhile=None) -> None:
     for path, p, rec in jobs:
         folders.setdefault(rec, []).append((path, p))
     cost = {k: sum(len(p.time) * (3 if p.P_xy is None else 6) for _, p in v) for k, v in folders.items()}
-    # the child takes somewhat more than half the rows: this process also runs `meanwhile` (the JSON, about a
-    # fifth of the tracks' cost on the field data)
-    share = sum(cost.values()) * (0.58 if meanwhile is not None else 0.5)
+    # the child takes more than half the rows: this process also runs `meanwhile`
+    total = sum(cost.values())
+    extra = 0.0 if meanwhile is None else 0.16 * total if meanwhile_cost is None else float(meanwhile_cost)
+    share = min(total, 0.5 * (total + extra))
     theirs, mine, held = [], [], 0.0
     for k in sorted(folders, key=cost.get, reverse=True):
         if held + cost[k] <= share or not theirs:
@@ -174,6 +177,9 @@ def _write_tracks(jobs, workers: int, meanwhile=None) -> None:
 
 #: Recordings drawn per group on the page: the first of those its means read.
 FIGURE_RECORDINGS = 6
+#: What one panel of the page's figures costs to draw, in the track writer's units (values formatted): about
+#: 0.05 s, as formatting 80,000 values, on the field data (:func:`_write_tracks` shares the work by it).
+PANEL_COST = 80_000
 
 
 def _truth_line(truth):
@@ -196,6 +202,17 @@ def _shown(paths) -> list:
     return [p for p in paths if p.calibration == cal and p.estimate in (None, "smoothed")]
 
 
+def _figure_ids(result: DatasetEvaluation, group: str) -> tuple[list, list]:
+    """The recordings a group's figures draw, and those its means read (none without the dataset)."""
+    if result.pipeline is None:
+        return [], []
+    tested = any(p.group == group and p.split == "test" for p in result.paths)
+    have = {p.id for p in result.paths}
+    read = [dr.id for dr in result.pipeline.dataset.recordings if dr.group == group and dr.id in have
+            and (dr.split == "test" if tested else dr.split != "train" or result.groups_over == "all")]
+    return read[:FIGURE_RECORDINGS], read
+
+
 def _group_figures(out: Path, result: DatasetEvaluation, group: str) -> list:
     """The group's figures (paths against the truth; for truth tracks, the error against time) and their lines
     on the page; none without the evaluation's dataset (:attr:`DatasetEvaluation.pipeline`)."""
@@ -205,16 +222,10 @@ def _group_figures(out: Path, result: DatasetEvaluation, group: str) -> list:
     from . import plots
     from .common import collector_paused, save_figure
 
-    if result.pipeline is None:
+    ids, read = _figure_ids(result, group)
+    if not ids:
         return []
     dataset = result.pipeline.dataset
-    tested = any(p.group == group and p.split == "test" for p in result.paths)
-    read = [dr.id for dr in dataset.recordings if dr.group == group
-            and (dr.split == "test" if tested else dr.split != "train" or result.groups_over == "all")]
-    read = [i for i in read if any(p.id == i for p in result.paths)]
-    if not read:
-        return []
-    ids = read[:FIGURE_RECORDINGS]
     paths_panels, error_panels = [], []
     for rec_id in ids:
         truth = dataset[rec_id].truth
@@ -230,10 +241,10 @@ def _group_figures(out: Path, result: DatasetEvaluation, group: str) -> list:
              "under GC where the recording has it, else RD, the aided filter smoothed; the axes show the truth "
              "and half its extent around it):", "", f"![paths of group {group}](figures/{quote(safe)}_paths.png)", ""]
     with collector_paused():
-        save_figure(plots.plot_path_sets(paths_panels, around_truth=0.5), out / "figures" / f"{safe}_paths.png",
+        save_figure(plots.plot_path_sets(paths_panels, around_truth=0.5, legend="first"), out / "figures" / f"{safe}_paths.png",
                     dpi=90)
         if error_panels:
-            save_figure(plots.plot_error_sets(error_panels), out / "figures" / f"{safe}_errors.png", dpi=90)
+            save_figure(plots.plot_error_sets(error_panels, legend="first"), out / "figures" / f"{safe}_errors.png", dpi=90)
     if error_panels:
         lines += ["Horizontal error against the truth track over time, the same estimates:", "",
                   f"![errors of group {group}](figures/{quote(safe)}_errors.png)", ""]
@@ -336,7 +347,17 @@ def report_dataset_evaluation(out, result: DatasetEvaluation, workers: int | Non
             files["ablation", a.id, a.method, a.calibration, a.removed, a.estimate, which] = written[id(p)]
     if workers is None:
         workers = available_cores()
-    _write_tracks(jobs, workers, meanwhile=lambda: write_json(out / "result.json", result.to_json(files)))
+    groups = list(dict.fromkeys(g["group"] for g in result.groups))
+    figures = {}
+
+    def meanwhile():                            # the JSON and the figures, while a second process writes tracks
+        write_json(out / "result.json", result.to_json(files))
+        for group in groups:
+            figures[group] = _group_figures(out, result, group)
+
+    panels = sum(len(_figure_ids(result, g)[0]) * 2 for g in groups)       # paths, and at most as many errors
+    total = sum(len(p.time) * (3 if p.P_xy is None else 6) for _, p, _ in jobs)
+    _write_tracks(jobs, workers, meanwhile=meanwhile, meanwhile_cost=0.16 * total + PANEL_COST * panels)
 
     over = ("the test recordings" if result.groups_over == "test"
             else "all recordings (the dataset has no test split)")
@@ -349,7 +370,6 @@ def report_dataset_evaluation(out, result: DatasetEvaluation, workers: int | Non
          "on each side of the first sample).", "",
          f"Group means over {over}. Errors in metres and in percent of the route's distance or the truth "
          "track's horizontal path length; `path RMSE` only for truth tracks.", ""]
-    groups = list(dict.fromkeys(g["group"] for g in result.groups))
     heads = ["method", "calibration", "n", "end error [m]", "end error [%]", "path RMSE [m]",
              "cross-track RMSE [m]", "distance error [%]"]
     order = {(m, c): i for i, (m, c) in enumerate((m, c) for m in METHODS for c in CALIBRATIONS)}
@@ -360,7 +380,7 @@ def report_dataset_evaluation(out, result: DatasetEvaluation, workers: int | Non
         L += [f"## Group {group}", "",
               md_table(heads, [[_label(g["method"], g.get("estimate")), g["calibration"], g["n"],
                                 *(_metric(g[k]) for k in METRICS)] for g in rows]),
-              *_group_figures(out, result, group),
+              *figures[group],
               *_ablation_section(result, group)]
     aided_rows = [p for p in result.paths if is_aided(p.method)]
     if aided_rows:

@@ -401,7 +401,7 @@ def plot_tracks(tracks, truth, *, title="", equal=True, ax=None):
     return ax
 
 
-def plot_path_sets(panels, *, ncols=3, around_truth: float | None = None):
+def plot_path_sets(panels, *, ncols=3, around_truth: float | None = None, legend: str = "each"):
     """MoRPI paths of several test sets, one panel per set.
 
     Parameters
@@ -414,6 +414,8 @@ def plot_path_sets(panels, *, ncols=3, around_truth: float | None = None):
     around_truth : float, optional
         Show each panel's truth and this fraction of its extent around it
         (at least 1 m), whatever the paths reach; default: everything drawn.
+    legend : {"each", "first"}
+        A legend in every panel, or in the first only (panels that share their labels).
 
     Returns
     -------
@@ -455,14 +457,15 @@ def plot_path_sets(panels, *, ncols=3, around_truth: float | None = None):
             ax.set_ylim(lo[1] - pad, hi[1] + pad)
         ax.set_aspect("equal", adjustable="box" if around_truth is not None else "datalim")
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
+        if legend == "each" or ax is axes.ravel()[0]:
+            ax.legend(fontsize=7)
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
     _fixed_layout(fig, list(axes.ravel()[:n]), nrows, ncols)
     return fig
 
 
-def plot_error_sets(panels, *, ncols=3):
+def plot_error_sets(panels, *, ncols=3, legend: str = "each"):
     """Horizontal error against time, one panel per recording.
 
     Parameters
@@ -471,6 +474,8 @@ def plot_error_sets(panels, *, ncols=3):
         Each with ``title`` and ``curves``: dict label -> (time [s], error [m]) arrays.
     ncols : int
         Panels per row (at most).
+    legend : {"each", "first"}
+        A legend in every panel, or in the first only.
 
     Returns
     -------
@@ -498,7 +503,8 @@ def plot_error_sets(panels, *, ncols=3):
             ax.plot(np.asarray(t), np.asarray(e), color=f"C{i}", lw=1.0, label=label)
         ax.set_title(pnl["title"], fontsize=9)
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
+        if legend == "each" or ax is axes.ravel()[0]:
+            ax.legend(fontsize=7)
         ax.set_xlabel("time [s]")
         ax.set_ylabel("horizontal error [m]")
     _fixed_layout(fig, list(axes.ravel()[:n]), nrows, ncols)
