@@ -401,6 +401,19 @@ def plot_tracks(tracks, truth, *, title="", equal=True, ax=None):
     return ax
 
 
+def _panel_grid(count: int, ncols: int, height: float):
+    """A figure of `count` panels (at least one), `ncols` per row at most, each 4.6 in wide and `height` in
+    high, the grid's unused cells switched off: (figure, axes grid, panels, rows, columns)."""
+    n = max(1, count)
+    ncols = min(ncols, n)
+    nrows = (n + ncols - 1) // ncols
+    fig = new_figure(figsize=(4.6 * ncols, height * nrows))
+    axes = fig.subplots(nrows, ncols, squeeze=False)
+    for ax in axes.ravel()[n:]:
+        ax.axis("off")
+    return fig, axes, n, nrows, ncols
+
+
 def plot_path_sets(panels, *, ncols=3, around_truth: float | None = None, legend: str = "each"):
     """MoRPI paths of several test sets, one panel per set.
 
@@ -432,13 +445,7 @@ def plot_path_sets(panels, *, ncols=3, around_truth: float | None = None, legend
     """
     import numpy as np
 
-    n = max(1, len(panels))
-    ncols = min(ncols, n)
-    nrows = (n + ncols - 1) // ncols
-    fig = new_figure(figsize=(4.6 * ncols, 3.8 * nrows))
-    axes = fig.subplots(nrows, ncols, squeeze=False)
-    for ax in axes.ravel()[n:]:
-        ax.axis("off")
+    fig, axes, n, nrows, ncols = _panel_grid(len(panels), ncols, 3.8)
     for ax, pnl in zip(axes.ravel(), panels):
         tr = np.asarray(pnl["truth"])
         ax.plot(tr[:, 0], tr[:, 1], "k-", lw=3, alpha=0.35)
@@ -491,13 +498,7 @@ def plot_error_sets(panels, *, ncols=3, legend: str = "each"):
     """
     import numpy as np
 
-    n = max(1, len(panels))
-    ncols = min(ncols, n)
-    nrows = (n + ncols - 1) // ncols
-    fig = new_figure(figsize=(4.6 * ncols, 3.2 * nrows))
-    axes = fig.subplots(nrows, ncols, squeeze=False)
-    for ax in axes.ravel()[n:]:
-        ax.axis("off")
+    fig, axes, n, nrows, ncols = _panel_grid(len(panels), ncols, 3.2)
     for ax, pnl in zip(axes.ravel(), panels):
         for i, (label, (t, e)) in enumerate(pnl["curves"].items()):
             ax.plot(np.asarray(t), np.asarray(e), color=f"C{i}", lw=1.0, label=label)
