@@ -69,7 +69,7 @@ def _imu_of(phone, route, split):
     return folder_imu("/".join(p for p in (phone, route, split) if p))
 
 _HOW_TO_GET = (
-    "get the field recordings with `morpi data fetch --dest DIR` (or clone the public "
+    "get the field recordings with `morpi data fetch --out DIR` (or clone the public "
     "repository ansfl/MoRPI and use its data/ folder), then pass --data DIR or set "
     f"{DATA_ENV}=DIR"
 )
