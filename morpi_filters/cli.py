@@ -603,9 +603,11 @@ def _cmd_evaluate(args):
             else:
                 write_json(target, result.to_json())
                 stamp_json(target, "morpi evaluate", "evaluate")
-    over = "test recording(s)" if result.groups_over == "test" else "recording(s); no test split"
+    tested = {p.group for p in result.paths if p.split == "test"}
     for g in result.groups:
         end = g["end_error_percent"]
+        over = ("recording(s); no test split" if result.groups_over != "test" else "test recording(s)"
+                if g["group"] in tested else "recording(s) outside the train split")
         print(f"{g['group']}: {g['method']} {g['calibration']}: end error "
               f"{'-' if end is None else f'{end:.3g}'} % (mean over {g['n']} {over})")
     for x in result.left_out:

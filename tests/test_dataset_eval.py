@@ -328,7 +328,11 @@ def test_evaluate_data_reads_a_morpi_root_through_the_shipped_manifest(tmp_path,
     for a, b in zip(got["recordings"], want["recordings"]):
         for k in ("end_error_m", "end_error_percent"):
             assert (a[k] is None) == (b[k] is None) and (a[k] is None or a[k] == pytest.approx(b[k], rel=1e-12))
-    capsys.readouterr()
+    # a group with test recordings is averaged over them; the straight-line group (split "none") over its own
+    printed = capsys.readouterr().out.splitlines()
+    assert any(s.startswith("s8/short_distance: MoRPI-G GC:") and s.endswith("test recording(s))") for s in printed)
+    assert any(s.startswith("s8/line_dataset: INS-3D RD:") and s.endswith("outside the train split)")
+               for s in printed), printed
     for argv in (["evaluate", "--data", str(root), "--dataset", str(morpi_manifest())], ["evaluate"]):
         with pytest.raises(SystemExit) as exc:
             cli.main(argv)

@@ -359,8 +359,8 @@ def report_dataset_evaluation(out, result: DatasetEvaluation, workers: int | Non
     total = sum(len(p.time) * (3 if p.P_xy is None else 6) for _, p, _ in jobs)
     _write_tracks(jobs, workers, meanwhile=meanwhile, meanwhile_cost=0.16 * total + PANEL_COST * panels)
 
-    over = ("the test recordings" if result.groups_over == "test"
-            else "all recordings (the dataset has no test split)")
+    over = ("the test recordings (a group without test recordings: its recordings outside the train split)"
+            if result.groups_over == "test" else "all recordings (the dataset has no test split)")
     L = [f"# Evaluation of the dataset {result.name!r}", "",
          f"Manifest `{Path(result.source).name}`, {result.count} recording(s). Every estimate is compared in the "
          "truth's frame: a route's frame, or the truth track's local ENU frame with the estimate turned by the "
