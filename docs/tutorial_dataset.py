@@ -57,7 +57,7 @@ def write_recordings(folder, seed=0):
     rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(len(RUNS))]
     for (rec_id, _, length, heading_deg, (n0, e0)), rng in zip(RUNS, rngs):
         # a robot moving along a sine (1 m periods, 0.1 m to each side), standing 2 s before and 1.5 s after
-        traj = simulate.sine(length, p2p_m=1.0, amplitude_m=0.1, rest=(2.0, 1.5))
+        traj = simulate.sine(length, p2p_m=1.0, amplitude_m=0.1, rest_s=(2.0, 1.5))
         t = np.arange(int(traj.end_time * IMU_RATE_HZ) + 1) / IMU_RATE_HZ
         data = simulate.imu(traj, units.LSM6DSL, rng, sampling=t,      # a MEMS IMU with its biases and noise
                             bias_scale=synthetic.REALISTIC_BIAS_FRACTION["s8"])

@@ -523,7 +523,7 @@ def _nonlinear_monte_carlo(case, times, runs, rng):
     from .strapdown import ins2d, ins3d
 
     T = float(np.max(times))
-    traj = straight(rest=(T + 1.0, 1.0), g=case.g, rate_hz=1.0 / FILTER_DT)
+    traj = straight(rest_s=(T + 1.0, 1.0), g=case.g, rate_hz=1.0 / FILTER_DT)
     r_imu, r_v0 = rng.spawn(2)
     data = imu(traj, case.spec, r_imu, runs=runs, time_span=(0.0, T),
                noise_scale=1.0 if case.noise is not None else 0.0)

@@ -264,7 +264,7 @@ def _simulate(layout: ForeignLayout, motion: str, kw: dict, rng, noise_free: boo
     """A run's readings on the loader's times, the file's clock readings, the trajectory and the
     trajectory's time at the first sample."""
     rest = (2.0, 1.5)
-    traj = sine(3.0, rest=rest, **kw) if motion == "periodic" else straight(3.0, rest=rest)
+    traj = sine(3.0, rest_s=rest, **kw) if motion == "periodic" else straight(3.0, rest_s=rest)
     if layout.start == "moving":
         begin = traj.start_time + 1.5                          # past the 1 s ramp: at cruise speed
     else:

@@ -433,10 +433,10 @@ def _kinematics(path: _Path, law: _SpeedLaw, g: float, time: np.ndarray) -> dict
 
 def _build(kind, path: _Path, *, speed, ramp, rest, rate_hz, t0, g, period=None, amplitude=None) -> Trajectory:
     speed = _positive("speed_mps", speed)
-    ramp = _positive("ramp", ramp)
+    ramp = _positive("ramp_s", ramp)
     rate_hz = _positive("rate_hz", rate_hz)
     rest0, rest1 = (rest, rest) if np.ndim(rest) == 0 else tuple(rest)
-    rest0, rest1 = _positive("rest", rest0, allow_zero=True), _positive("rest", rest1, allow_zero=True)
+    rest0, rest1 = _positive("rest_s", rest0, allow_zero=True), _positive("rest_s", rest1, allow_zero=True)
     t0 = float(t0)
     if not math.isfinite(t0):
         raise ParameterError(f"t0: expected a finite start time, got {t0!r}")
@@ -470,8 +470,8 @@ def _build(kind, path: _Path, *, speed, ramp, rest, rate_hz, t0, g, period=None,
                       peak_times=peak_t, peak_side=side, period_times=bounds, _model=(path, law, g))
 
 
-@renamed_keywords(length="length_m", speed="speed_mps")
-def straight(length_m: float = 6.3, *, speed_mps: float = _SPEED["straight"], ramp: float = 1.0, rest=3.0,
+@renamed_keywords(length="length_m", speed="speed_mps", ramp="ramp_s", rest="rest_s")
+def straight(length_m: float = 6.3, *, speed_mps: float = _SPEED["straight"], ramp_s: float = 1.0, rest_s=3.0,
              rate_hz: float = 100.0, t0: float = 0.0, g: float = units.G0) -> Trajectory:
     """Straight line along x, from rest to rest.
 
@@ -481,9 +481,9 @@ def straight(length_m: float = 6.3, *, speed_mps: float = _SPEED["straight"], ra
         Distance [m].
     speed_mps : float
         Cruise speed [m/s] (default: 6.3 m in about 5 s, the paper's average).
-    ramp : float
+    ramp_s : float
         Duration of the smooth start and of the smooth stop [s].
-    rest : float or (float, float)
+    rest_s : float or (float, float)
         Rest before and after the motion [s].
     rate_hz : float
         Sampling rate of the returned samples [Hz] (use :meth:`Trajectory.at` for other times).
@@ -513,7 +513,7 @@ def straight(length_m: float = 6.3, *, speed_mps: float = _SPEED["straight"], ra
     """
     length = _positive("length_m", length_m)
     return _build("straight", _Path((length, 0.0), 0.0, 1.0, 0.0, 0.0, None, None, None),
-                  speed=speed_mps, ramp=ramp, rest=rest, rate_hz=rate_hz, t0=t0, g=g)
+                  speed=speed_mps, ramp=ramp_s, rest=rest_s, rate_hz=rate_hz, t0=t0, g=g)
 
 
 def _check_sine(period, amplitude, taper, length):
@@ -522,16 +522,17 @@ def _check_sine(period, amplitude, taper, length):
     if amplitude * 2 * math.pi / period > 1.5:
         raise ParameterError(f"amplitude_m: {amplitude!r} m is too large for {period!r} m periods; expected at most "
                              f"{1.5 * period / (2 * math.pi):.3g} m (path slope 2 pi A / P <= 1.5)")
-    taper = period if taper is None else _positive("taper", taper)
+    taper = period if taper is None else _positive("taper_m", taper)
     if 2 * taper > length:
-        raise ParameterError(f"taper: {taper!r} m at both ends does not fit in {length:.3g} m; "
+        raise ParameterError(f"taper_m: {taper!r} m at both ends does not fit in {length:.3g} m; "
                              "expected a shorter taper or period")
     return period, amplitude, taper
 
 
-@renamed_keywords(length="length_m", period="p2p_m", amplitude="amplitude_m", speed="speed_mps")
+@renamed_keywords(length="length_m", period="p2p_m", amplitude="amplitude_m", speed="speed_mps", ramp="ramp_s",
+                  rest="rest_s", taper="taper_m")
 def sine(length_m: float = 6.3, *, p2p_m: float = 1.0, amplitude_m: float = 0.1, speed_mps: float | None = None,
-         ramp: float = 1.0, rest=3.0, taper: float | None = None, rate_hz: float = 100.0, t0: float = 0.0,
+         ramp_s: float = 1.0, rest_s=3.0, taper_m: float | None = None, rate_hz: float = 100.0, t0: float = 0.0,
          g: float = units.G0) -> Trajectory:
     """Periodic (sine) motion along x: ``y = A W(x) sin(2 pi x / P)``, from rest to rest.
 
@@ -546,9 +547,9 @@ def sine(length_m: float = 6.3, *, p2p_m: float = 1.0, amplitude_m: float = 0.1,
     speed_mps : float, optional
         Cruise speed along x [m/s]; default from the paper's average durations
         (6.3 m in about 14.5 s with 1 m periods, 11 s with 1.5 m periods).
-    ramp, rest, rate_hz, t0, g
+    ramp_s, rest_s, rate_hz, t0, g
         As in :func:`straight`.
-    taper : float, optional
+    taper_m : float, optional
         Length over which the amplitude fades in and out at both ends [m]
         (default P), so the body starts and stops heading along x. A half
         period taper works too but turns 50 % faster than the steady sine.
@@ -575,16 +576,17 @@ def sine(length_m: float = 6.3, *, p2p_m: float = 1.0, amplitude_m: float = 0.1,
     (13, [1.0, -1.0])
     """
     length = _positive("length_m", length_m)
-    period, amplitude, taper = _check_sine(p2p_m, amplitude_m, taper, length)
+    period, amplitude, taper = _check_sine(p2p_m, amplitude_m, taper_m, length)
     speed = paper_speed(period) if speed_mps is None else speed_mps
     return _build("sine", _Path((length, 0.0), 0.0, 1.0, 0.0, 0.0, period, amplitude, taper),
-                  speed=speed, ramp=ramp, rest=rest, rate_hz=rate_hz, t0=t0, g=g, period=period, amplitude=amplitude)
+                  speed=speed, ramp=ramp_s, rest=rest_s, rate_hz=rate_hz, t0=t0, g=g, period=period, amplitude=amplitude)
 
 
-@renamed_keywords(slope_length="slope_length_m", period="p2p_m", amplitude="amplitude_m", speed="speed_mps")
-def l_route(legs=(18.0, 10.0), *, turn_deg: float = 90.0, turn_radius: float = 1.0, slope_deg: float = 0.0,
+@renamed_keywords(slope_length="slope_length_m", period="p2p_m", amplitude="amplitude_m", speed="speed_mps",
+                  turn_radius="turn_radius_m", ramp="ramp_s", rest="rest_s", taper="taper_m")
+def l_route(legs=(18.0, 10.0), *, turn_deg: float = 90.0, turn_radius_m: float = 1.0, slope_deg: float = 0.0,
             slope_length_m: float = 5.0, p2p_m: float | None = None, amplitude_m: float | None = None,
-            speed_mps: float = L_ROUTE_SPEED, ramp: float = 1.0, rest=3.0, taper: float | None = None,
+            speed_mps: float = L_ROUTE_SPEED, ramp_s: float = 1.0, rest_s=3.0, taper_m: float | None = None,
             rate_hz: float = 100.0, t0: float = 0.0, g: float = units.G0) -> Trajectory:
     """L-shaped route: a leg along x, a smooth turn, a second leg; optional slope and sine.
 
@@ -597,7 +599,7 @@ def l_route(legs=(18.0, 10.0), *, turn_deg: float = 90.0, turn_radius: float = 1
         Leg lengths [m] (the field route: 18 m then 10 m).
     turn_deg : float
         Heading change [deg], positive to the left, 0 < abs(turn_deg) < 180.
-    turn_radius : float
+    turn_radius_m : float
         Radius of the turn's constant-curvature part [m]; curvature ramps in
         and out over a third of the turn's arc length each side.
     slope_deg : float
@@ -606,7 +608,7 @@ def l_route(legs=(18.0, 10.0), *, turn_deg: float = 90.0, turn_radius: float = 1
         Horizontal length of the slope [m]; it eases into level ground over 1 m.
     p2p_m, amplitude_m : float, optional
         Periodic motion on top of the centreline (both or neither).
-    speed_mps, ramp, rest, taper, rate_hz, t0, g
+    speed_mps, ramp_s, rest_s, taper_m, rate_hz, t0, g
         As in :func:`sine`.
 
     Returns
@@ -642,7 +644,8 @@ def l_route(legs=(18.0, 10.0), *, turn_deg: float = 90.0, turn_radius: float = 1
     turn_deg = float(turn_deg)
     if not (0 < abs(turn_deg) < 180):
         raise ParameterError(f"turn_deg: expected 0 < |turn_deg| < 180, got {turn_deg!r}")
-    turn_radius = _positive("turn_radius", turn_radius)
+    turn_radius = _positive("turn_radius_m", turn_radius_m)
+    taper = taper_m
     slope_deg = float(slope_deg)
     if not (0 <= abs(slope_deg) < 45):
         raise ParameterError(f"slope_deg: expected a downhill slope of 0 to 45 deg, got {slope_deg!r}")
@@ -661,7 +664,7 @@ def l_route(legs=(18.0, 10.0), *, turn_deg: float = 90.0, turn_radius: float = 1
     M = np.array([[1.0, math.cos(turn)], [0.0, math.sin(turn)]])
     a1, a2 = np.linalg.solve(M, target - d)
     if a1 <= 0 or a2 <= 0:
-        raise ParameterError(f"turn_radius: {turn_radius!r} m does not fit legs {legs!r}; expected a smaller radius")
+        raise ParameterError(f"turn_radius_m: {turn_radius!r} m does not fit legs {legs!r}; expected a smaller radius")
     if slope_deg and slope_length + 0.5 > a1:
         raise ParameterError(f"slope_length_m: {slope_length!r} m does not fit in the first leg ({a1:.3g} m straight)")
     if period is not None:
@@ -671,7 +674,7 @@ def l_route(legs=(18.0, 10.0), *, turn_deg: float = 90.0, turn_radius: float = 1
                                  "expected less than half the radius")
     path = _Path((float(a1), float(a2)), turn, turn_radius, abs(slope_deg) * units.DEG, slope_length,
                  period, amplitude, taper)
-    return _build("l_route", path, speed=speed_mps, ramp=ramp, rest=rest, rate_hz=rate_hz, t0=t0, g=g,
+    return _build("l_route", path, speed=speed_mps, ramp=ramp_s, rest=rest_s, rate_hz=rate_hz, t0=t0, g=g,
                   period=period, amplitude=amplitude)
 
 

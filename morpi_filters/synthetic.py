@@ -109,7 +109,7 @@ def _synthetic_run(seed: int, folder: str, run: int) -> tuple[dataset.Recording,
     else:
         base = paper_speed()
     speed = base * math.exp(o["speed_spread"] * jitter[0])
-    kw = dict(speed_mps=speed, rest=tuple(trng.uniform(3.0, 4.5, 2)), t0=float(trng.uniform(0.3, 0.5)))
+    kw = dict(speed_mps=speed, rest_s=tuple(trng.uniform(3.0, 4.5, 2)), t0=float(trng.uniform(0.3, 0.5)))
     if r.kind == "periodic":
         kw["p2p_m"] = r.p2p_m * (1.0 + o["period_spread"] * float(np.clip(jitter[1], -2.5, 2.5)))
         kw["amplitude_m"] = (r.amplitude_m * o["amplitude_factor"]

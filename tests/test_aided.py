@@ -1317,7 +1317,7 @@ def test_a_simulated_drive_cut_under_way_is_followed_from_its_true_velocity():
     uncertainties above the simulated biases); from zero velocity it is meters off and far outside."""
     from dataclasses import replace
 
-    traj = simulate.straight(12.0, speed_mps=1.0, ramp=1.0, rest=1.0, rate_hz=100.0)
+    traj = simulate.straight(12.0, speed_mps=1.0, ramp_s=1.0, rest_s=1.0, rate_hz=100.0)
     t, pos = traj.time, traj.position
     b = t[::50]
     pa = np.array([np.interp(b[:-1], t, pos[:, j]) for j in range(2)]).T

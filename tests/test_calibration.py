@@ -304,7 +304,7 @@ def _driven(phone, *, speed, seed, rest_s=None, seconds=8.0):
     The recording, its IMU data (biases, truth) and the trajectory."""
     o = DATASET_OPTIONS
     spec = folder_imu(phone) if phone else DEFAULT_IMU
-    traj = simulate.straight(40.0, speed_mps=speed, ramp=1.0, rest=(rest_s or 0.0, 2.0))
+    traj = simulate.straight(40.0, speed_mps=speed, ramp_s=1.0, rest_s=(rest_s or 0.0, 2.0))
     t_a = traj.start_time + 1.0 if rest_s is None else traj.time[0]      # after the 1 s ramp: at cruise speed
     data = simulate.imu(traj, spec, np.random.default_rng(seed), sampling=PHONE_CLOCKS[phone] if phone else "uniform",
                         bias_scale=0.3,

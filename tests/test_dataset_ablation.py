@@ -22,7 +22,7 @@ REST = [0.1, 1.8]
 def _run(i, split, length, *, moving=False):
     """A sine run (1 m periods, biased and noisy IMU) with its truth track at 10 Hz; `moving`: cut 1.5 s after
     the motion starts (at cruise speed), no rest, started from the truth."""
-    traj = simulate.sine(length, rest=(2.0, 1.5), p2p_m=1.0, amplitude_m=0.1)
+    traj = simulate.sine(length, rest_s=(2.0, 1.5), p2p_m=1.0, amplitude_m=0.1)
     d = simulate.imu(traj, units.LSM6DSL, np.random.default_rng(300 + i), bias_scale=(0.25, 0.3))
     t, f, w = d.time, d.f, d.omega
     out = {"id": f"{split}-{i}", "split": split, "group": "g", "motion": "periodic", "rest": list(REST)}

@@ -24,7 +24,7 @@ AIDED = "MoRPI-aided INS"
 def _run(i, split, length, *, noise_free, moving=False, **labels):
     """A sine run (1 m periods) with its truth track at 10 Hz; `moving`: cut 1.5 s after the motion starts (at
     cruise speed), no rest, started from the truth."""
-    traj = simulate.sine(length, rest=(2.0, 1.5), p2p_m=1.0, amplitude_m=0.1)
+    traj = simulate.sine(length, rest_s=(2.0, 1.5), p2p_m=1.0, amplitude_m=0.1)
     scales = dict(bias_scale=0.0, noise_scale=0.0) if noise_free else dict(bias_scale=(0.25, 0.3))
     d = simulate.imu(traj, units.LSM6DSL, np.random.default_rng(100 + i), **scales)
     t, f, w = d.time, d.f, d.omega

@@ -155,7 +155,7 @@ def _sine_recording(seed, split, group, **kw):
     from morpi_filters import simulate, units
     from morpi_filters.manifest import RouteTruth
 
-    traj = simulate.sine(4.0, rest=(2.0, 1.5), **kw)
+    traj = simulate.sine(4.0, rest_s=(2.0, 1.5), **kw)
     d = simulate.imu(traj, units.LSM6DSL, np.random.default_rng(seed), bias_scale=(0.25, 0.3))
     return {"id": f"{group}-{split}-{seed}", "time": d.time, "f": d.f, "omega": d.omega, "split": split,
             "group": group, "motion": "periodic", "rest": [0.1, 1.8],

@@ -68,6 +68,14 @@ def _same_trajectory(a, b):
     ("route_trajectory", ("short_distance",), "speed", "speed_mps", 0.5),
     ("route_trajectory", ("short_distance",), "period", "p2p_m", 1.5),
     ("route_trajectory", ("short_distance",), "amplitude", "amplitude_m", 0.15),
+    ("straight", (6.3,), "ramp", "ramp_s", 0.8),
+    ("straight", (6.3,), "rest", "rest_s", 1.5),
+    ("sine", (6.3,), "ramp", "ramp_s", 0.8),
+    ("sine", (6.3,), "rest", "rest_s", (1.0, 2.0)),
+    ("sine", (6.3,), "taper", "taper_m", 1.5),
+    ("l_route", (), "turn_radius", "turn_radius_m", 1.5),
+    ("l_route", (), "rest", "rest_s", 1.0),
+    ("route_trajectory", ("short_distance",), "ramp", "ramp_s", 0.8),
 ])
 def test_the_simulators_take_their_old_keywords_with_a_warning(func, args, old, new, value):
     from morpi_filters import simulate

@@ -29,7 +29,7 @@ def _run(phone: str):
     (6.3 m), at rest again for 3 s; the recording and the samples where the motion starts and stops."""
     rng = np.random.default_rng(7)
     o = synthetic.DATASET_OPTIONS
-    traj = simulate.route_trajectory("short_distance", rest=(3.2, 3.0), t0=0.4, amplitude_m=0.05)
+    traj = simulate.route_trajectory("short_distance", rest_s=(3.2, 3.0), t0=0.4, amplitude_m=0.05)
     data = simulate.imu(traj, dataset.folder_imu(phone), rng, sampling=synthetic.PHONE_CLOCKS[phone],
                         bias_scale=synthetic.REALISTIC_BIAS_FRACTION[phone], misalignment=o["misalignment"],
                         vibration=o["vibration"], bias_instability=o["bias_instability"],
@@ -194,7 +194,7 @@ def test_a_recording_moving_from_its_first_sample_is_evaluated_under_rd_only(tmp
     # motion window from the first sample to the stop.
     rng = np.random.default_rng(8)
     o = synthetic.DATASET_OPTIONS
-    traj = simulate.route_trajectory(route, speed_mps=speed, rest=(0.0, 3.0), **({"amplitude_m": 0.05}
+    traj = simulate.route_trajectory(route, speed_mps=speed, rest_s=(0.0, 3.0), **({"amplitude_m": 0.05}
                                                                             if route == "long_distance" else {}))
     imu = simulate.imu(traj, units.LSM6DSL, rng, sampling="jittered", bias_scale=synthetic.REALISTIC_BIAS_FRACTION["s8"],
                        misalignment=o["misalignment"], vibration=o["vibration"],

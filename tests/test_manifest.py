@@ -661,7 +661,7 @@ def test_the_csv_example_of_the_reference_page_loads(tmp_path):
     (tmp_path / "imu").mkdir()
     sims = {}
     for k, name in enumerate(("run-01", "run-02")):
-        traj = sine(3.0, rest=(4.5, 1.0))
+        traj = sine(3.0, rest_s=(4.5, 1.0))
         n = int(traj.end_time * 200) + 1
         clock_us = 1_697_040_000_000_000 + 5000 * np.arange(n, dtype=np.int64)       # Unix time, 200 Hz
         data = imu(traj, units.LSM6DSL, np.random.default_rng(k), sampling=(clock_us - clock_us[0]) / 1e6,
@@ -693,7 +693,7 @@ def test_the_npy_example_of_the_reference_page_loads(tmp_path):
     (tmp_path / "mocap").mkdir()
     sims = {}
     for k, (name, offset) in enumerate((("lab-01", -0.4), ("lab-02", -0.25))):
-        traj = straight(3.0, rest=(0.0, 1.0))
+        traj = straight(3.0, rest_s=(0.0, 1.0))
         begin = traj.start_time + 1.5                                   # moving from the first sample
         n = int((traj.end_time - begin) * 120)
         data = imu(traj, units.LSM6DSL, np.random.default_rng(k), sampling=begin + np.arange(n) / 120.0)

@@ -538,7 +538,7 @@ def test_ins_errors_are_those_of_the_sine_path():
         r = mc.run_study(runs, seed, mc.StudyConfig(spec=spec, duration_s=T, training_runs=2, ins_path=path))
         errs[path] = r.final_error("INS-2D")
     length, speed, _ = mc.StudyConfig(duration_s=T).motion()
-    traj = simulate.sine(length, p2p_m=1.0, amplitude_m=0.1, speed_mps=speed, rest=0.0)
+    traj = simulate.sine(length, p2p_m=1.0, amplitude_m=0.1, speed_mps=speed, rest_s=0.0)
     t, psi = traj.time, traj.heading
     for i in range(runs):
         b = spec.accel_bias * np.random.Generator(np.random.PCG64(mc.child_seed(seed, i))).standard_normal(3)

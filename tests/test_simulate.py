@@ -35,12 +35,12 @@ def _vee_log(R):
 
 
 TRAJECTORIES = {
-    "straight": lambda **kw: simulate.straight(6.3, rest=0.5, **kw),
-    "sine": lambda **kw: simulate.sine(6.3, p2p_m=1.0, amplitude_m=0.1, rest=0.5, **kw),
-    "sine_1.5": lambda **kw: simulate.sine(6.3, p2p_m=1.5, amplitude_m=0.2, rest=0.5, **kw),
+    "straight": lambda **kw: simulate.straight(6.3, rest_s=0.5, **kw),
+    "sine": lambda **kw: simulate.sine(6.3, p2p_m=1.0, amplitude_m=0.1, rest_s=0.5, **kw),
+    "sine_1.5": lambda **kw: simulate.sine(6.3, p2p_m=1.5, amplitude_m=0.2, rest_s=0.5, **kw),
     "L_shape": lambda **kw: simulate.l_route((18.0, 10.0), turn_deg=-90, slope_deg=15, p2p_m=1.0,
-                                             amplitude_m=0.1, rest=0.5, **kw),
-    "L_line": lambda **kw: simulate.l_route((18.0, 10.0), turn_deg=90, slope_deg=15, rest=0.5, **kw),
+                                             amplitude_m=0.1, rest_s=0.5, **kw),
+    "L_line": lambda **kw: simulate.l_route((18.0, 10.0), turn_deg=90, slope_deg=15, rest_s=0.5, **kw),
 }
 
 
@@ -142,7 +142,7 @@ def test_sine_peaks_at_known_times():
 
 
 def test_white_noise_matches_density_with_chi_square():
-    tr = simulate.straight(1.0, speed_mps=1.0, rest=0.2, ramp=0.5)
+    tr = simulate.straight(1.0, speed_mps=1.0, rest_s=0.2, ramp_s=0.5)
     spec = units.MPU6500
     d = simulate.imu(tr, spec, np.random.default_rng(11), runs=400, sampling="two-rate", bias_scale=0)
     dt = np.diff(d.time)
@@ -159,7 +159,7 @@ def test_white_noise_matches_density_with_chi_square():
 
 
 def test_turn_on_bias_statistics():
-    tr = simulate.straight(1.0, speed_mps=1.0, rest=0.0, ramp=0.5, rate_hz=20)
+    tr = simulate.straight(1.0, speed_mps=1.0, rest_s=0.0, ramp_s=0.5, rate_hz=20)
     spec = units.LSM6DSL
     runs = 4000
     d = simulate.imu(tr, spec, np.random.default_rng(12), runs=runs, bias_scale=(0.5, 0.25))
@@ -174,7 +174,7 @@ def test_turn_on_bias_statistics():
 
 
 def test_scale_factor_misalignment_and_bias_random_walk():
-    tr = simulate.sine(6.3, rest=0.5)
+    tr = simulate.sine(6.3, rest_s=0.5)
     rng = np.random.default_rng(13)
     d = simulate.imu(tr, units.LSM6DSL, rng, runs=3, sampling=tr.time, bias_scale=0, noise_scale=0,
                      scale_factor=0.01, misalignment=0.02, gyro_bias_rw=1e-3)
@@ -191,7 +191,7 @@ def test_scale_factor_misalignment_and_bias_random_walk():
 
 
 def test_gauss_markov_bias_instability_statistics():
-    tr = simulate.straight(2.0, rest=2.0, rate_hz=50)
+    tr = simulate.straight(2.0, rest_s=2.0, rate_hz=50)
     sigma, tau = 0.01, 0.5
     d = simulate.imu(tr, units.LSM6DSL, np.random.default_rng(14), runs=300, sampling="two-rate", bias_scale=0,
                      noise_scale=0, bias_instability=(0.0, sigma), correlation_time=tau)
@@ -223,7 +223,7 @@ def test_gauss_markov_bias_instability_statistics():
 
 
 def test_per_run_generators_make_batching_irrelevant():
-    tr = simulate.straight(2.0, rest=0.3)
+    tr = simulate.straight(2.0, rest_s=0.3)
     seeds = np.random.SeedSequence(7).spawn(4)
     a = simulate.imu(tr, units.MPU6500, [np.random.default_rng(s) for s in seeds], runs=4, sampling=tr.time,
                      scale_factor=0.01, misalignment=0.01)
@@ -354,11 +354,11 @@ def test_cli_simulate_end_to_end(tmp_path):
     (lambda: simulate.sine(6.3, p2p_m=1.0, amplitude_m=0.5), "amplitude_m"),
     (lambda: simulate.sine(6.3, amplitude_m=float("nan")), "amplitude_m"),
     (lambda: simulate.sine(1.0, p2p_m=1.0), "taper"),
-    (lambda: simulate.sine(6.3, rest=-1.0), "rest"),
+    (lambda: simulate.sine(6.3, rest_s=-1.0), "rest"),
     (lambda: simulate.straight(6.3, rate_hz=0), "rate_hz"),
     (lambda: simulate.l_route((18.0, 10.0), turn_deg=0.0), "turn_deg"),
-    (lambda: simulate.l_route((18.0, 10.0), turn_radius=-1.0), "turn_radius"),
-    (lambda: simulate.l_route((18.0, 10.0), turn_radius=30.0), "turn_radius"),
+    (lambda: simulate.l_route((18.0, 10.0), turn_radius_m=-1.0), "turn_radius"),
+    (lambda: simulate.l_route((18.0, 10.0), turn_radius_m=30.0), "turn_radius"),
     (lambda: simulate.l_route((18.0,)), "legs"),
     (lambda: simulate.l_route((18.0, 10.0), p2p_m=1.0), "p2p_m, amplitude_m"),
     (lambda: simulate.l_route((18.0, 10.0), slope_deg=15, slope_length_m=17.0), "slope_length_m"),

@@ -62,7 +62,7 @@ def test_the_truth_files_hold_the_runs_the_page_states(tutorial, page):
     for rec_id, split, length, heading_deg, (n0, e0) in tutorial.RUNS:
         dr = ds[rec_id]
         assert dr.split == split and dr.motion == "periodic" and dr.truth.source_frame == "NED"
-        traj = simulate.sine(length, p2p_m=1.0, amplitude_m=0.1, rest=(2.0, 1.5))
+        traj = simulate.sine(length, p2p_m=1.0, amplitude_m=0.1, rest_s=(2.0, 1.5))
         # the truth's clock: its first sample 0.4 s before the IMU's, one sample every 0.1 s
         np.testing.assert_allclose(dr.truth.time, -0.4 + np.arange(dr.truth.time.size) / 10.0, rtol=0, atol=1e-12)
         assert dr.truth.time[-1] >= dr.recording.time[-1] > dr.truth.time[-2]
@@ -80,7 +80,7 @@ def test_the_imu_files_read_the_robots_motion_in_the_package_frame(tutorial, pag
     for rec_id, _, length, _, _ in tutorial.RUNS:
         rec = r["load"]["dataset"][rec_id].recording
         assert rec.n == math.floor(rec.time[-1] * 120.0 + 0.5) + 1 and rec.time[1] == pytest.approx(1 / 120.0)
-        true = simulate.sine(length, p2p_m=1.0, amplitude_m=0.1, rest=(2.0, 1.5)).at(rec.time)
+        true = simulate.sine(length, p2p_m=1.0, amplitude_m=0.1, rest_s=(2.0, 1.5)).at(rec.time)
         rms_f = np.sqrt(np.mean((rec.f - true.f_b) ** 2, axis=0))
         rms_w = np.sqrt(np.mean((rec.omega - true.omega_b) ** 2, axis=0))
         assert rms_f.max() < 0.5 and rms_w.max() < 0.05, (rec_id, rms_f, rms_w)
@@ -205,7 +205,7 @@ def test_the_readmes_manifest_loads_checks_and_evaluates_as_it_says(tmp_path, ca
     (root / "imu").mkdir(parents=True)
     (root / "dataset.toml").write_text(toml)
     # the run it describes: 12 m straight ahead, written as the text says (FRD axes, g, deg/s, the default header)
-    traj = simulate.straight(12.0, rest=(2.0, 1.5))
+    traj = simulate.straight(12.0, rest_s=(2.0, 1.5))
     t = 100.0 + np.arange(int(traj.end_time * 200.0) + 1) / 200.0
     data = simulate.imu(traj, units.LSM6DSL, np.random.default_rng(3), sampling=t - 100.0, bias_scale=(0.25, 0.3))
     frd = np.array([1.0, -1.0, -1.0])

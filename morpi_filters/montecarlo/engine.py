@@ -65,7 +65,7 @@ def _paths_cached(length, speed, period, amplitude, duration, rate_hz, ins_path)
     from .. import simulate
 
     t = np.arange(sample_count(duration, rate_hz)) / rate_hz
-    sn = simulate.sine(length, p2p_m=period, amplitude_m=amplitude, speed_mps=speed, rest=0.0, rate_hz=rate_hz)
+    sn = simulate.sine(length, p2p_m=period, amplitude_m=amplitude, speed_mps=speed, rest_s=0.0, rate_hz=rate_hz)
     if abs(sn.end_time - duration) > 1e-9 * duration:
         raise ParameterError(f"StudyConfig: the sine path lasts {sn.end_time:.6g} s, expected {duration:.6g} s")
     sine = sn.at(t)
@@ -78,7 +78,7 @@ def _paths_cached(length, speed, period, amplitude, duration, rate_hz, ins_path)
     sine = _as_path(sine, t, peaks)
     if ins_path == "sine":
         return sine, sine
-    st = simulate.straight(length, speed_mps=speed, rest=0.0, rate_hz=rate_hz).at(t)
+    st = simulate.straight(length, speed_mps=speed, rest_s=0.0, rate_hz=rate_hz).at(t)
     return _as_path(st, t, np.array([0, t.size - 1])), sine
 
 
