@@ -86,7 +86,7 @@ def test_cli_assess_gives_the_derived_errors(tmp_path, capsys):
     assert main(["assess", "--params", str(pf), "--times", *times, "--json", str(js), "--out", str(out)]) == 0
     r = json.loads(js.read_text())
     t = np.array([float(x) for x in times])
-    assert r["times"] == list(t) and r["convention"] == "z_up"
+    assert r["time_s"] == list(t) and r["times"] == r["time_s"] and r["convention"] == "z_up"   # and its old key
     dv, ba, bg = (np.array(FULL[k]) for k in ("dv0_mps", "accel_bias_mps2", "gyro_bias_radps"))
     # 1e-9: closed form vs DOP853 at rtol 1e-12 (t = 0 is exactly 0 on both sides)
     np.testing.assert_allclose(r["e3d_m"], ode_horizontal(dv, ba, bg, 9.8, t), rtol=1e-9, atol=1e-15)
@@ -117,8 +117,8 @@ def test_report_default_parameters(tmp_path):
     s = report_assessment(tmp_path, A.assessment_study())
     assert s.name == "assessment" and s.figures == ("assessment.png",) and not s.synthetic
     r = json.loads((tmp_path / "result.json").read_text())
-    assert r["times"][0] == 0.0 and r["times"][-1] == 15.0
-    assert len(r["e3d_m"]) == len(r["times"]) == len(r["morpi_m"]["0.1"])
+    assert r["time_s"][0] == 0.0 and r["time_s"][-1] == 15.0
+    assert len(r["e3d_m"]) == len(r["time_s"]) == len(r["morpi_m"]["0.1"])
     assert max(abs(i["ours_m"] - i["paper_m"]) for i in r["improvements"]) <= 0.01
     assert len(r["audit"]) == 9
     # the parameter keys renamed in 0.2 are written beside the new ones for one release, with the same values

@@ -87,11 +87,11 @@ def test_report_contract(tmp_path):
     out.mkdir()
     s = report_curves(out, curves_study(params_path=_write(tmp_path, process_noise=True), times=[2.0, 6.0]))
     r = json.loads((out / "result.json").read_text())
-    assert len(r["times"]) == 2
+    assert len(r["time_s"]) == 2 and r["times"] == r["time_s"]      # the old key beside the new one
     for key in ("sigma_m", "rms_closed_form_m"):
         assert set(r[key]) == {"INS-3D", "INS-2D", "MoRPI-aided INS"}
         assert all(len(v) == 2 for v in r[key].values()), key
-    assert r["times"] == [2.0, 6.0] and r["process_noise"] is True
+    assert r["time_s"] == [2.0, 6.0] and r["process_noise"] is True
     assert r["seed"] == r["mc_seed"] and isinstance(r["seed"], int)    # mc_seed: the name before 0.2, for one release
     assert set(r["cases"]) == {"params", "mpu6500", "lsm6dsl"}
     assert s.name == "curves" and s.page == "README.md" and not s.synthetic
@@ -107,7 +107,7 @@ def test_default_times_and_cli(tmp_path, monkeypatch):
     rc = main(["curves", "--params", str(_write(tmp_path)), "--out", str(tmp_path / "c"), "--json", str(js)])
     assert rc == 0
     r = json.loads(js.read_text())
-    assert r["times"] == list(DEFAULT_TIMES) and r["process_noise"] is False
+    assert r["time_s"] == list(DEFAULT_TIMES) and r["process_noise"] is False
     assert r["sigma_m"]["INS-3D"][0] == 0.0
 
 

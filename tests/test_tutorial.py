@@ -51,7 +51,7 @@ def test_closed_form_study_gives_the_curves_json(tutorial, tmp_path, monkeypatch
     assert main(["curves", "--out", str(tmp_path / "curves"), "--json", str(js)]) == 0
     cli = json.loads(js.read_text())
     times = [0.0, 5.0, 10.0, 15.0]
-    idx = [cli["times"].index(t) for t in times]
+    idx = [cli["time_s"].index(t) for t in times]
     ours = tutorial.closed_form_vs_filter(tuple(times))
     for method, v in ours.items():
         # the same filter and the same polynomials on the same grid: equal to the last bits

@@ -107,7 +107,7 @@ def report_assessment(out, study: AssessmentStudy) -> SectionSummary:
     write_text(out / "README.md", "\n".join(L))
     write_text(out / "audit.md", audit_md)
     result = {
-        "times": t,
+        "time_s": t,
         "e3d_m": curves.e3d, "e2d_m": curves.e2d,
         "morpi_m": {f"{dG:g}": curves.morpi[dG] for dG in params.dG},
         "convention": curves.convention,
@@ -122,7 +122,7 @@ def report_assessment(out, study: AssessmentStudy) -> SectionSummary:
                    "derived": tc.derived[audit.reference], "reproduced_by": list(tc.matches)}
                   for lab, tc in audit.discrepancies()],
     }
-    write_json(out / "result.json", result)
+    write_json(out / "result.json", with_aliases(result, {"times": "time_s"}))
     summary = (f"e_3D(5 s) = {e3_5:.2f} m and e_2D(5 s) = {e2_5:.2f} m from the symbolic derivation "
                f"(`{curves.convention}`, b_gz dropped) vs MoRPI-A at dG = "
                + ", ".join(f"{d:g}" for d in params.dG)

@@ -64,7 +64,7 @@ def report_curves(out, study: CurvesStudy, data_source=None) -> SectionSummary:
                                                                                       else 3]])
     main = per_case["params"]
     result = {
-        "times": times,
+        "time_s": times,
         "sigma_m": main["sigma_m"],
         "rms_closed_form_m": main["rms_closed_form_m"],
         "process_noise": bool(params.process_noise),
@@ -77,7 +77,7 @@ def report_curves(out, study: CurvesStudy, data_source=None) -> SectionSummary:
         "field": {"note": field_note, "points_duration_s_error_m": field_pts},
         "field_aided": {"note": AIDED_NOTE, "section": "aided"},
     }
-    write_json(out / "result.json", with_aliases(result, {"mc_seed": "seed"}))
+    write_json(out / "result.json", with_aliases(result, {"mc_seed": "seed", "times": "time_s"}))
     banner_md = banner(data_source)
     cases = [cc.case for cc in study.cases]
     head = ["case", "t [s]", "3D sigma", "3D closed RMS", "3D MC RMS", "3D strapdown MC", "2D sigma", "2D closed RMS",
