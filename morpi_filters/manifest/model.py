@@ -115,7 +115,7 @@ class Dataset:
             default: standard gravity.
         settings : Settings, optional
             How the dataset is evaluated (the manifest's ``[evaluation]``);
-            default: :class:`Settings` ().
+            default: the defaults of :class:`Settings`.
 
         Returns
         -------
@@ -180,7 +180,7 @@ def _check_train_groups(source: str, recordings, trained=None) -> None:
     for r in recordings:
         if trained is not None and r.train_group is not None and r.train_group not in trained:
             raise ParameterError(f"{source}: recording {r.id!r}: train_group: {r.train_group!r} has no train "
-                                 "recording, expected the group of recordings with split = 'train' "
+                                 "recording, expected a group with recordings of split = 'train' "
                                  f"({', '.join(repr(g) for g in sorted(trained)) or 'none in this dataset'})")
         first = said.setdefault(r.group, r)
         if first.train_group != r.train_group:
