@@ -299,3 +299,27 @@ def test_the_page_draws_each_groups_paths_and_errors_against_the_truth(noisy):
         assert Image.open(f).size[0] > 400
     tests = [dr.id for dr in ds.recordings if dr.split == "test"]
     assert f"Paths against the truth ({len(tests)} of the {len(tests)} recording(s) the means read" in page
+
+
+def test_the_aided_studys_train_side_reads_each_runs_truth_from_the_dataset(noisy):
+    """The period count's length and the tuning of a train set named by (phone, route) take each train run's
+    end point and distance from the dataset (its truth tracks here), not from a route catalogue: a group named
+    "g" is no MoRPI route."""
+    from morpi_filters import field_aided as fa
+    from morpi_filters import steps as st
+    from morpi_filters.errors import ParameterError
+    from morpi_filters.field import FieldData, set_gain
+
+    ds, _, _ = noisy
+    data = FieldData(ds, course_m=0.05)
+    (tset,) = [t for t in data.train_sets() if t.runs]
+    config = st.DEFAULT_CONFIGS["MoRPI-A"]
+    halves = sum(fa.period_sums(data, r, "GC", "MoRPI-A", config, config.heading)[0] for r in tset.runs)
+    assert fa.period_length(data, tset.phone, "GC", "MoRPI-A", config, config.heading) == \
+        pytest.approx(float(np.sum(tset.distance_m)) / halves, rel=1e-12)
+    gain = set_gain(data, tset, "GC", "MoRPI-A", config)
+    by_name = fa.choose_tunables(data, (tset.phone, tset.route), "MoRPI-A", "GC", config, gain)
+    by_set = fa.choose_tunables(data, tset, "MoRPI-A", "GC", config, gain)
+    assert by_name.info == by_set.info and by_name.score_percent == by_set.score_percent
+    with pytest.raises(ParameterError, match="names no train set"):
+        fa.choose_tunables(data, ("s8", "short_distance"), "MoRPI-A", "GC", config, gain)

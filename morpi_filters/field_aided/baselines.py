@@ -119,7 +119,7 @@ def route_reading_pays(rule_errors, route_errors, *, se_factor: float = READING_
 
 
 def _route_loo(data, method, config, calibration="GC"):
-    """Per short-route train run, the leave-one-out end-point errors [%] of the rule's reading and of the
+    """Per train run, the leave-one-out end-point errors [%] of the rule's reading and of the
     route's heading, the same gains (:func:`morpi_filters.field.train_summary`); None when a run fails."""
     from .. import field as fd
 
@@ -150,7 +150,7 @@ def choose_reading(data, method, config) -> ReadingChoice:
     best of MoRPI alone's own readings; the route's heading
     (:func:`route_sums`, the filter's ``"route"`` step direction) is offered
     beside it and scored by the same criterion: the leave-one-out end-point
-    error of the short-route train runs under GC (each run dead-reckoned with
+    error of the train runs under GC (each run dead-reckoned with
     the mean gain of its set's other runs). It is chosen only when it beats
     the rule beyond the tie tolerance (:func:`route_reading_pays`). Nothing of
     a ``test`` folder is read.
@@ -229,17 +229,16 @@ def _unit_sums(data, rec, calibration, method, config, reading, length):
 
 
 def _phone_sets(data, phone):
-    """The phone's short-route training sets: (truth, train recordings) of those holding train runs."""
-    from .. import dataset as ds
-
-    return [(ds.route(tset.route), tset.runs) for tset in data.train_sets() if tset.phone == phone and tset.runs]
+    """The phone's training sets that hold train runs (:class:`~morpi_filters.field.TrainSet`: each run with its
+    own end point and distance)."""
+    return [tset for tset in data.train_sets() if tset.phone == phone and tset.runs]
 
 
 @renamed_keywords(mode="calibration")
 def period_length(data, phone, calibration, method, config, reading) -> float:
     """The period count's half-period length [m]: total train distance over total train half periods.
 
-    Over every train run of the phone's short-route training sets
+    Over every train run of the phone's training sets
     (:meth:`morpi_filters.field.FieldData.train_sets`), the method's steps under
     `config` and `calibration`. NaN when a train run has no steps or there are none.
 
@@ -258,13 +257,13 @@ def period_length(data, phone, calibration, method, config, reading) -> float:
     float
     """
     dist = halves = 0.0
-    for truth, recs in _phone_sets(data, phone):
-        for r in recs:
+    for tset in _phone_sets(data, phone):
+        for r, d in zip(tset.runs, tset.distance_m):
             try:
                 halves += period_sums(data, r, calibration, method, config, reading)[0]
             except MorpiError:
                 return float("nan")
-            dist += truth.distance_m
+            dist += float(d)
     return dist / halves if halves > 0 else float("nan")
 
 
@@ -298,7 +297,7 @@ class LengthChoice:
 def choose_length(data, phone, method, config, reading) -> LengthChoice:
     """The Weinberg length or the period count for MoRPI alone, chosen on the phone's train runs.
 
-    Each length is learnt on held-out data: with several short-route
+    Each length is learnt on held-out data: with several
     training sets for the phone, each set is held out in turn and scored with
     the length learnt on the others (the Weinberg gain: the mean of the runs'
     own gains; the period count: their total distance over their total half
@@ -321,16 +320,15 @@ def choose_length(data, phone, method, config, reading) -> LengthChoice:
     LengthChoice
     """
     sets = []
-    for truth, recs in _phone_sets(data, phone):
+    for tset in _phone_sets(data, phone):
         rows = []
-        for r in recs:
+        for r in tset.runs:
             try:
                 rows.append([_unit_sums(data, r, "GC", method, config, reading, k) for k in LENGTHS])
             except MorpiError:
                 return LengthChoice(phone, method, "weinberg", float("inf"), float("inf"), "-", 0)
-        end = np.asarray(truth.end_point_m, float)
-        d = truth.distance_m
-        sets.append((d, end, np.array([[q[0] for q in row] for row in rows]),
+        sets.append((np.asarray(tset.distance_m, float), np.asarray(tset.end_point_m, float),
+                     np.array([[q[0] for q in row] for row in rows]),
                      np.array([[q[1] for q in row] for row in rows])))
     err = {k: [] for k in LENGTHS}
     by_set = len(sets) > 1
@@ -340,13 +338,13 @@ def choose_length(data, phone, method, config, reading) -> LengthChoice:
                 other = [x for j, x in enumerate(sets) if j != k]
             else:
                 keep = np.arange(n.shape[0]) != i
-                other = [(d, end, n[keep], u[keep])] if keep.sum() else []
+                other = [(d[keep], end[keep], n[keep], u[keep])] if keep.sum() else []
             if not other:
                 continue
             gain = np.mean(np.concatenate([dd / nn[:, 0] for dd, _, nn, _ in other]))
-            half = sum(dd * nn.shape[0] for dd, _, nn, _ in other) / sum(nn[:, 1].sum() for _, _, nn, _ in other)
-            err["weinberg"].append(np.linalg.norm(gain * u[i, 0] - end) / d * 100)
-            err["period count"].append(np.linalg.norm(half * u[i, 1] - end) / d * 100)
+            half = sum(dd.sum() for dd, _, _, _ in other) / sum(nn[:, 1].sum() for _, _, nn, _ in other)
+            err["weinberg"].append(np.linalg.norm(gain * u[i, 0] - end[i]) / d[i] * 100)
+            err["period count"].append(np.linalg.norm(half * u[i, 1] - end[i]) / d[i] * 100)
     a, b = np.array(err["weinberg"]), np.array(err["period count"])
     if not a.size:
         return LengthChoice(phone, method, "weinberg", float("inf"), float("inf"), "-", 0)

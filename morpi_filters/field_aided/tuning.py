@@ -10,8 +10,8 @@ import numpy as np
 from .. import _aided_kernel, aided
 from ..choice import choose
 from ..deprecation import renamed_keywords
-from ..errors import DataError, MorpiError
-from .inputs import prepare, prepared_runs
+from ..errors import DataError, MorpiError, ParameterError
+from .inputs import prepare
 
 
 #: Train-only grid: factor on the rest-window noise densities (the moving robot vibrates far above
@@ -116,11 +116,10 @@ def choose_tunables(data, train, method, calibration, config, gain):
     ----------
     data : field.FieldData
         The dataset's cached per-recording work.
-    train : (str, str) or field.TrainSet
-        Phone and route of the training set (its ``train`` folder is read,
-        every run scored against the route), or a train set of a manifest
-        dataset (:meth:`~morpi_filters.field.FieldData.train_sets`: its runs,
-        each scored against its own end point and distance).
+    train : field.TrainSet or (str, str)
+        A train set of the dataset (:meth:`~morpi_filters.field.FieldData.train_sets`:
+        its runs, each scored against its own end point and distance), or the
+        phone and route of one (the train set of that group).
     method : {"MoRPI-A", "MoRPI-G"}
         MoRPI method.
     calibration : {"RD", "GC", "GAC"}
@@ -170,32 +169,31 @@ def choose_tunables_many(data, requests, *, workers: int | None = None) -> list:
     list of TunableChoice or MorpiError
         One per request, in order.
     """
-    from .. import dataset as ds
     from ..field import TrainSet
 
+    sets = {(t.phone, t.route): t for t in data.train_sets()}
     # stage 1: every grid point with the trained gain taken as exact (its spread considered), with and without
     # the non-holonomic updates (their NIS is judged like the others': a point without them may be the
     # consistent one)
     cands = [c for c in _candidates() if c["gain_state"] == "considered"]
     plans, groups = [], {}                        # training set -> (inputs, tunings)
     for train, method, mode, config, gain in requests:
-        if isinstance(train, TrainSet):
-            # a manifest group's train runs, each with its own truth (those the filter cannot run are left out)
-            runs, ends, dist = [], [], []
-            for rec, end, d in zip(train.runs, train.end_point_m, train.distance_m):
-                try:
-                    runs.append(prepare(data, rec, mode, method, config, gain.mean))
-                except MorpiError:
-                    continue
-                ends.append(end)
-                dist.append(d)
-            where = train.name
-            ends, dist = np.array(ends, float).reshape(-1, 2), np.array(dist, float)
-        else:
-            runs = prepared_runs(data, train[0], train[1], "train", mode, method, config, gain.mean)
-            truth, where = ds.route(train[1]), f"{train[0]}/{train[1]}/train"
-            ends = np.tile(np.asarray(truth.end_point_m, float), (len(runs), 1))
-            dist = np.full(len(runs), float(truth.distance_m))
+        if not isinstance(train, TrainSet):
+            if tuple(train) not in sets:
+                raise ParameterError(f"train: {train!r} names no train set of the dataset, expected one of "
+                                     f"{sorted(sets)}")
+            train = sets[tuple(train)]
+        # the group's train runs, each with its own truth (those the filter cannot run are left out)
+        runs, ends, dist = [], [], []
+        for rec, end, d in zip(train.runs, train.end_point_m, train.distance_m):
+            try:
+                runs.append(prepare(data, rec, mode, method, config, gain.mean))
+            except MorpiError:
+                continue
+            ends.append(end)
+            dist.append(d)
+        where = train.name
+        ends, dist = np.array(ends, float).reshape(-1, 2), np.array(dist, float)
         if not runs:
             plans.append(DataError(f"{where}: no train run with steps for the aided filter"))
             continue
