@@ -14,8 +14,8 @@ its IMU the phone's (:data:`PHONE_IMUS`), its number of runs in the
 public dataset (``imu.count``, which ``morpi check --data`` compares with the files found), its truth
 the route's distance, end point and centre line (:attr:`morpi_filters.dataset.Route.polyline`).
 The recordings' latitude is the experiment site's
-(:data:`morpi_filters.calibration.SITE_LATITUDE_DEG`), so the calibrations take the same
-normal gravity as :data:`morpi_filters.calibration.LOCAL_GRAVITY`; its ``[evaluation]`` settings are
+(:data:`SITE_LATITUDE_DEG`), so the calibrations take normal gravity there
+(:func:`morpi_filters.calibration.normal_gravity`); its ``[evaluation]`` settings are
 the tables' (runs held out of their own group, the INS over the motion window) and the aided study's (a
 filter per MoRPI method). No recording is read.
 
@@ -28,10 +28,11 @@ import sys
 from pathlib import Path
 
 from morpi_filters import dataset as ds
-from morpi_filters.calibration import SITE_LATITUDE_DEG
 from morpi_filters.resources import morpi_manifest
 from morpi_filters.units import LSM6DSL, MPU6500
 
+#: Latitude of the experiment site, University of Haifa [deg N]: the recordings' normal gravity.
+SITE_LATITUDE_DEG = 32.8
 #: The phones in the manifest's order.
 PHONES = ("s8", "s6")
 #: Each phone's IMU (the paper's table of sensors: the Galaxy S6 carries the MPU-6500, the S8 the LSM6DSL),

@@ -66,9 +66,12 @@ computes GC and GAC only over a rest window. Raw data (RD) needs none.
 
 Gravity
 -------
-:data:`LOCAL_GRAVITY` is normal gravity on the WGS84 ellipsoid at the
-experiment site (University of Haifa, latitude 32.8 deg N), from Somigliana's
-closed formula [2], computed by :func:`normal_gravity`.
+:func:`normal_gravity` is normal gravity on the WGS84 ellipsoid at a
+latitude, from Somigliana's closed formula [2]. A dataset's calibrations take
+it at the manifest's ``latitude_deg`` (:attr:`morpi_filters.field.FieldData.gravity`;
+the shipped MoRPI manifest gives its experiment site's); a direct call of
+:func:`calibrate` without ``g_local`` takes standard gravity,
+:data:`morpi_filters.units.G0`.
 
 References
 ----------
@@ -92,10 +95,10 @@ from .choice import tie_margin
 from .dataset import Recording
 from .deprecation import renamed_attribute, renamed_keywords
 from .errors import DataError, MorpiError, ParameterError
-from .units import MPU6500, SensorSpec
+from .units import G0, MPU6500, SensorSpec
 
 __all__ = [
-    "CALIBRATIONS", "SITE_LATITUDE_DEG", "LOCAL_GRAVITY", "normal_gravity", "RestWindow", "Calibration",
+    "CALIBRATIONS", "normal_gravity", "RestWindow", "Calibration",
     "RestMeasures", "rest_measures", "detect_rest", "calibrate", "calibrated", "rest_windows_summary", "RestRow",
     "RestSummary", "noise_sigma", "NoRestError", "StillBound", "still_bound", "STILL_NOISE_FACTOR", "DEFAULT_IMU",
 ]
@@ -107,9 +110,6 @@ CALIBRATIONS = ("RD", "GC", "GAC")
 # rounding of running sums, for noise-free simulated recordings [rad/s], [m/s^2].
 _GYRO_SIGMA_MIN = 1e-6
 _ACCEL_SIGMA_MIN = 1e-5
-
-#: Latitude of the experiment site, University of Haifa [deg N].
-SITE_LATITUDE_DEG = 32.8
 
 # WGS84 constants, NIMA TR8350.2 Table 3.1 and 3.4.
 _WGS84_A = 6378137.0                      # semi-major axis [m]
@@ -168,9 +168,6 @@ def normal_gravity(latitude_deg: float, height_m: float = 0.0) -> float:
     return gamma * (1.0 - 2.0 / a * (1.0 + f + m - 2.0 * f * s2) * height_m + 3.0 * height_m ** 2 / a ** 2)
 
 
-#: Normal gravity at the experiment site (latitude 32.8 deg N, at the
-#: ellipsoid), about 9.7953 m/s^2. Each 100 m of height lowers it by ~3.1e-4 m/s^2.
-LOCAL_GRAVITY = normal_gravity(SITE_LATITUDE_DEG)
 
 
 #: How far above its IMU's white noise a still robot's readings may spread, per axis: the bound of
@@ -407,6 +404,11 @@ def __getattr__(name):
     if name == "MODES":                      # the name of CALIBRATIONS before 0.2, kept for one release
         warnings.warn("calibration.MODES is deprecated; use calibration.CALIBRATIONS", DeprecationWarning, stacklevel=2)
         return CALIBRATIONS
+    # the MoRPI site's latitude and gravity, named here before the shipped manifest held them: one release more
+    if name in ("SITE_LATITUDE_DEG", "LOCAL_GRAVITY"):
+        warnings.warn(f"calibration.{name} is deprecated; use the MoRPI manifest's latitude_deg "
+                      "(morpi_filters.resources.morpi_manifest) and normal_gravity", DeprecationWarning, stacklevel=2)
+        return 32.8 if name == "SITE_LATITUDE_DEG" else normal_gravity(32.8)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
@@ -822,7 +824,7 @@ def _runs(flags: np.ndarray, t: np.ndarray, gap_s: float) -> list[tuple[int, int
 
 @renamed_keywords(mode="calibration")
 def calibrate(rec: Recording, calibration: str, *, window: RestWindow | None = None,
-              g_local: float = LOCAL_GRAVITY) -> Calibration:
+              g_local: float = G0) -> Calibration:
     """Zero-order calibration over the initial rest window.
 
     Parameters
@@ -838,7 +840,9 @@ def calibrate(rec: Recording, calibration: str, *, window: RestWindow | None = N
         The window to average over; found with :func:`detect_rest` when None
         (not used for RD).
     g_local : float, optional
-        Local gravity magnitude [m/s^2] (default :data:`LOCAL_GRAVITY`).
+        Local gravity magnitude [m/s^2] (default: standard gravity,
+        :data:`morpi_filters.units.G0`; a dataset's is normal gravity at its
+        latitude, :func:`normal_gravity`).
 
     Returns
     -------
@@ -891,7 +895,7 @@ def calibrate(rec: Recording, calibration: str, *, window: RestWindow | None = N
 
 @renamed_keywords(mode="calibration")
 def calibrated(rec: Recording, calibration: str, *, window: RestWindow | None = None,
-               g_local: float = LOCAL_GRAVITY) -> tuple[Recording, Calibration]:
+               g_local: float = G0) -> tuple[Recording, Calibration]:
     """A recording with its biases removed, in one call: :func:`calibrate`, then :meth:`Calibration.apply`.
 
     Parameters

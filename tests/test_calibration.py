@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from morpi_filters import _calibration_loops, simulate, units
-from morpi_filters.calibration import (DEFAULT_IMU, LOCAL_GRAVITY, STILL_NOISE_FACTOR, Calibration, NoRestError,
+from morpi_filters.calibration import (DEFAULT_IMU, STILL_NOISE_FACTOR, Calibration, NoRestError,
                                        RestWindow, StillBound, calibrate, detect_rest, normal_gravity,
                                        rest_measures, rest_windows_summary, still_bound)
 from morpi_filters.choice import choose
@@ -25,7 +25,7 @@ SIG_G = 6e-4                                    # rad/s, white gyro noise per sa
 SIG_A = 9e-3                                    # m/s^2, white accel noise per sample (S8 datasheet x sqrt(50 Hz))
 
 
-def synthetic(rng, *, rest_s=3.5, total_s=8.0, tap=None, g=LOCAL_GRAVITY):
+def synthetic(rng, *, rest_s=3.5, total_s=8.0, tap=None, g=units.G0):
     """Level phone at rest (f = (0, 0, g) + bias + noise), then a sine yaw/forward motion.
 
     Time steps are non-uniform (0.0095 to 0.0125 s). Returns the recording and
@@ -178,7 +178,7 @@ def test_rd_changes_nothing_and_gac_levels_the_rest():
     fixed = gac.apply(rec)
     sl = slice(gac.window.i0, gac.window.i1)
     # Exact by construction up to float rounding of a mean of ~300 values near 9.8 (1e-12 m/s^2).
-    np.testing.assert_allclose(fixed.f[sl].mean(axis=0), [0.0, 0.0, LOCAL_GRAVITY], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(fixed.f[sl].mean(axis=0), [0.0, 0.0, units.G0], rtol=0, atol=1e-12)   # the default g
     np.testing.assert_allclose(fixed.omega[sl].mean(axis=0), 0.0, rtol=0, atol=1e-15)
     gc = calibrate(rec, "GC")
     np.testing.assert_array_equal(gc.accel_bias, 0.0)
@@ -235,7 +235,7 @@ def test_normal_gravity_reference_values():
     # Free-air gradient about -3.086e-6 s^-2 at mid latitudes (first-order term of eq. 4-3).
     dg = normal_gravity(32.8, 100.0) - normal_gravity(32.8)
     assert dg == pytest.approx(-3.086e-4, rel=0.01)
-    assert 9.795 < LOCAL_GRAVITY < 9.796
+    assert 9.795 < normal_gravity(32.8) < 9.796                   # the MoRPI site (its manifest's latitude_deg)
     with pytest.raises(MorpiError, match="latitude"):
         normal_gravity(91.0)
 

@@ -348,3 +348,12 @@ def test_fetch_takes_its_old_destination_keyword():
 
     with pytest.raises(ParameterError, match="both dest= and out="):
         fetch_dataset(dest="a", out="a")
+
+
+def test_the_morpi_sites_latitude_and_gravity_still_read_from_calibration_with_a_warning():
+    from morpi_filters import calibration
+
+    with pytest.warns(DeprecationWarning, match="MoRPI manifest's latitude_deg"):
+        assert calibration.SITE_LATITUDE_DEG == 32.8
+    with pytest.warns(DeprecationWarning, match="MoRPI manifest's latitude_deg"):
+        assert calibration.LOCAL_GRAVITY == calibration.normal_gravity(32.8)

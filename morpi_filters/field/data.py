@@ -90,7 +90,7 @@ class FieldData:
     manifest's ``rest`` (``[t0, t1]`` as given, ``"none"`` none:
     :class:`~morpi_filters.calibration.NoRestError`, ``"auto"`` detected);
     its calibrations and 3D INS assume the normal gravity at the manifest's
-    ``latitude_deg`` (:data:`morpi_filters.calibration.LOCAL_GRAVITY` for the
+    ``latitude_deg`` (:func:`morpi_filters.calibration.normal_gravity`; the site's for the
     MoRPI manifest), else :data:`morpi_filters.units.G0`; the train sets are
     its groups (:meth:`train_sets`).
 
