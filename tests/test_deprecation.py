@@ -357,3 +357,14 @@ def test_the_morpi_sites_latitude_and_gravity_still_read_from_calibration_with_a
         assert calibration.SITE_LATITUDE_DEG == 32.8
     with pytest.warns(DeprecationWarning, match="MoRPI manifest's latitude_deg"):
         assert calibration.LOCAL_GRAVITY == calibration.normal_gravity(32.8)
+
+
+def test_a_recordings_route_truth_still_reads_with_a_warning():
+    import numpy as np
+
+    from morpi_filters.dataset import Recording, route
+
+    t = np.arange(200) * 0.01
+    rec = Recording(time=t, f=np.tile([0.0, 0.0, 9.8], (200, 1)), omega=np.zeros((200, 3)), route="L_shape")
+    with pytest.warns(DeprecationWarning, match="DatasetRecording.truth"):
+        assert rec.ground_truth is route("L_shape")

@@ -53,8 +53,8 @@ class Recording:
     >>> t = 10.0 + np.arange(201) * 0.01
     >>> rec = Recording(time=t, f=np.tile([0.0, 0.0, 9.8], (201, 1)), omega=np.zeros((201, 3)),
     ...                 source="/data/s8/L_shape/test/3.csv", phone="s8", route="L_shape", split="test")
-    >>> rec.n, round(rec.duration, 9), round(rec.rate_hz, 6), rec.name, rec.ground_truth.distance_m
-    (201, 2.0, 100.0, 's8/L_shape/test/3.csv', 28.0)
+    >>> rec.n, round(rec.duration, 9), round(rec.rate_hz, 6), rec.name
+    (201, 2.0, 100.0, 's8/L_shape/test/3.csv')
     """
 
     time: np.ndarray
@@ -107,7 +107,12 @@ class Recording:
 
     @property
     def ground_truth(self) -> Route | None:
-        """The route's ground truth, when the route is known."""
+        """Deprecated: the route catalogue's truth of :attr:`route`. A recording's truth is its dataset's
+        (:attr:`morpi_filters.manifest.DatasetRecording.truth`); kept for one release."""
+        import warnings
+
+        warnings.warn("Recording.ground_truth is deprecated; use the dataset's truth (DatasetRecording.truth) "
+                      "or dataset.route(name)", DeprecationWarning, stacklevel=2)
         return route(self.route) if self.route is not None else None
 
     @property
